@@ -1,0 +1,252 @@
+"""The node contract, after Gaffer's ComputeNode.
+
+A node type is a class that declares
+
+* its inputs (``Input``), each an upstream plate,
+* its parameters (``Param``): typed, with a default, bounds or choices, and whether
+  they change the result (``hashed``),
+* a ``version`` to bump when its output changes for the same inputs,
+* ``compute(ctx) -> Plate``.
+
+The engine, not the node, builds each output's cache key (see ``proxyshade.graph.keys``)
+from the node type, version, a hash of its implementation source (its module and the
+``proxyshade.kernels`` modules it uses), its canonical hashed parameters, its upstream
+keys, the frame when the node depends on time, the content of the files it reads
+(``Param(Path, ...)``) and whatever ``key_extra`` adds. Keys never touch pixels.
+
+Node types register themselves by class name in ``REGISTRY`` when their module is
+imported (``proxyshade.nodes`` imports them all).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, ClassVar
+
+from proxyshade.errors import NodeInputError, ParamError
+from proxyshade.graph.plate import Plate
+
+REGISTRY: dict[str, type["Node"]] = {}
+
+_UNSET = object()
+
+
+@dataclass
+class Input:
+    """An upstream plate. ``optional`` inputs may be unconnected (or fall before the
+    first frame when connected at a negative frame offset) and arrive as ``None``."""
+
+    doc: str = ""
+    optional: bool = False
+    name: str = ""
+
+
+class Param:
+    """A typed node parameter.
+
+    ``type`` is one of int, float, bool, str, list, dict or ``pathlib.Path``. A Path
+    parameter is resolved against the graph file's folder, may hold ``####`` frame
+    padding, and the content of the file it names is part of the node's key.
+    ``hashed=False`` marks parameters that do not change the result (threads, verbosity).
+    """
+
+    def __init__(self, type, default=_UNSET, *, min=None, max=None, choices=None,
+                 hashed: bool = True, doc: str = "", length: int | None = None,
+                 optional: bool = False):
+        self.type = type
+        self.default = default
+        self.min = min
+        self.max = max
+        self.choices = tuple(choices) if choices is not None else None
+        self.hashed = hashed
+        self.doc = doc
+        self.length = length
+        self.optional = optional  # None is accepted
+        self.name = ""
+
+    @property
+    def required(self) -> bool:
+        return self.default is _UNSET
+
+    def describe(self) -> str:
+        t = "path" if self.type is Path else getattr(self.type, "__name__", str(self.type))
+        bits = [t]
+        if self.choices:
+            bits.append("one of " + ", ".join(map(repr, self.choices)))
+        if self.min is not None:
+            bits.append(f">= {self.min}")
+        if self.max is not None:
+            bits.append(f"<= {self.max}")
+        if self.length is not None:
+            bits.append(f"of length {self.length}")
+        return " ".join(bits)
+
+    def validate(self, value: Any) -> Any:
+        """Coerce and check ``value``; raise ParamError('expected ..., got ...')."""
+        if value is None and (self.optional or self.default is None):
+            return None
+        expected = f"expected {self.describe()}, got {value!r}"
+        t = self.type
+        if t is bool:
+            if not isinstance(value, bool):
+                raise ParamError(expected)
+        elif t is int:
+            if isinstance(value, bool) or not isinstance(value, int):
+                if isinstance(value, float) and value.is_integer():
+                    value = int(value)
+                else:
+                    raise ParamError(expected)
+        elif t is float:
+            if isinstance(value, bool) or not isinstance(value, (int, float)):
+                raise ParamError(expected)
+            value = float(value)
+            if not math.isfinite(value):
+                raise ParamError(expected)
+        elif t is str or t is Path:
+            if not isinstance(value, str) or (t is Path and not value):
+                raise ParamError(expected)
+        elif t is list:
+            if not isinstance(value, (list, tuple)):
+                raise ParamError(expected)
+            value = list(value)
+            if self.length is not None and len(value) != self.length:
+                raise ParamError(expected)
+        elif t is dict:
+            if not isinstance(value, dict):
+                raise ParamError(expected)
+        if self.choices is not None and value not in self.choices:
+            raise ParamError(expected)
+        if self.min is not None and value < self.min:
+            raise ParamError(expected)
+        if self.max is not None and value > self.max:
+            raise ParamError(expected)
+        return value
+
+
+class Context:
+    """What ``compute`` sees: input plates, parameter values, the frame and the run."""
+
+    def __init__(self, node: "Node", frame: int, first_frame: int, inputs: dict[str, Plate | None],
+                 params: dict[str, Any], graph_dir: Path, threads: int, notes: list[str]):
+        self.node = node
+        self.frame = frame
+        self.first_frame = first_frame
+        self.inputs = inputs
+        self.p = _Namespace(params)
+        self.params = params
+        self.graph_dir = graph_dir
+        self.threads = threads
+        self._notes = notes
+
+    def __getattr__(self, item):
+        inputs = self.__dict__.get("inputs", {})
+        if item in inputs:
+            return inputs[item]
+        raise AttributeError(item)
+
+    def path(self, value: str) -> Path:
+        """Resolve a Path parameter value (``####`` replaced by this frame)."""
+        return resolve_path(value, self.graph_dir, self.frame)
+
+    def note(self, message: str) -> None:
+        """Add a line to the run report for this node and frame."""
+        self._notes.append(message)
+
+    def error(self, message: str) -> NodeInputError:
+        """A one-line bad-input error naming this node: ``raise ctx.error('...')``."""
+        return NodeInputError(f"{self.node.name}: {message}")
+
+
+class _Namespace:
+    def __init__(self, d: dict):
+        self.__dict__.update(d)
+
+
+def frame_pad(value: str, frame: int) -> str:
+    """Replace each run of '#' by the zero-padded frame number ('out.####.exr')."""
+    import re
+
+    return re.sub(r"#+", lambda m: f"{frame:0{len(m.group(0))}d}", value)
+
+
+def resolve_path(value: str, graph_dir: Path, frame: int | None = None) -> Path:
+    if frame is not None:
+        value = frame_pad(value, frame)
+    p = Path(value).expanduser()
+    return p if p.is_absolute() else (graph_dir / p)
+
+
+class Node:
+    """Base class of every node type. Subclasses declare Inputs, Params and compute()."""
+
+    version: ClassVar[int] = 1
+    time_dependent: ClassVar[bool] = False  # output depends on the frame number
+    sink: ClassVar[bool] = False  # writes files outside the cache (ExrWrite, Preview)
+    inputs_spec: ClassVar[dict[str, Input]]
+    params_spec: ClassVar[dict[str, Param]]
+
+    def __init_subclass__(cls, register: bool = True, **kw):
+        super().__init_subclass__(**kw)
+        inputs, params = {}, {}
+        for base in reversed(cls.__mro__):
+            for k, v in vars(base).items():
+                if isinstance(v, Input):
+                    v.name = k
+                    inputs[k] = v
+                elif isinstance(v, Param):
+                    v.name = k
+                    params[k] = v
+        cls.inputs_spec = inputs
+        cls.params_spec = params
+        if register and not cls.__name__.startswith("_"):
+            REGISTRY[cls.__name__] = cls
+
+    def __init__(self, name: str, params: dict[str, Any] | None = None):
+        self.name = name
+        self.params = self.validate_params(params or {})
+
+    @classmethod
+    def validate_params(cls, params: dict[str, Any], where: str = "") -> dict[str, Any]:
+        """Checked parameter values with defaults filled in. Errors name ``where.param``."""
+        out = {}
+        for k in params:
+            if k not in cls.params_spec:
+                known = ", ".join(cls.params_spec) or "none"
+                raise ParamError(f"{where}{k}: {cls.__name__} has no parameter {k!r}; its parameters are {known}")
+        for k, spec in cls.params_spec.items():
+            if k in params:
+                try:
+                    out[k] = spec.validate(params[k])
+                except ParamError as e:
+                    raise ParamError(f"{where}{k}: {e}") from None
+            elif spec.required:
+                raise ParamError(f"{where}{k}: {cls.__name__} needs this parameter ({spec.describe()})")
+            else:
+                out[k] = spec.default
+        return out
+
+    # -- what the engine asks ----------------------------------------------
+    def depends_on_frame(self) -> bool:
+        """Whether the output changes with the frame (then the frame is in the key)."""
+        if self.time_dependent:
+            return True
+        return any(
+            spec.type is Path and isinstance(self.params.get(k), str) and "#" in self.params[k]
+            for k, spec in self.params_spec.items()
+        )
+
+    def key_extra(self, frame: int, graph_dir: Path) -> str | None:
+        """Extra content for the key (e.g. the USD data seen at this frame). Default none."""
+        return None
+
+    def passthrough_input(self) -> str | None:
+        """The input a disabled node passes through (default: its first input)."""
+        return next(iter(self.inputs_spec), None)
+
+    def compute(self, ctx: Context) -> Plate:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    @classmethod
+    def doc(cls) -> str:
+        return (cls.__doc__ or "").strip()
