@@ -1,0 +1,22 @@
+"""Helpers for tests: run one node's compute on plates, without a graph or a cache."""
+from __future__ import annotations
+
+from pathlib import Path
+
+from proxyshade.graph.node import REGISTRY, Context, Node
+from proxyshade.graph.plate import Plate
+
+
+def run_node(node_type: str | type[Node], params: dict | None = None, inputs: dict[str, Plate | None] | None = None,
+             *, frame: int = 1, first_frame: int = 1, graph_dir: str | Path = ".", threads: int = 0,
+             name: str = "node") -> Plate:
+    """Validate ``params``, build the node and return ``compute``'s plate for ``frame``."""
+    import proxyshade.nodes  # noqa: F401  (registers node types)
+
+    cls = REGISTRY[node_type] if isinstance(node_type, str) else node_type
+    node = cls(name, params or {})
+    ins = {k: None for k in cls.inputs_spec}
+    ins.update(inputs or {})
+    notes: list[str] = []
+    ctx = Context(node, frame, first_frame, ins, node.params, Path(graph_dir), threads, notes)
+    return node.compute(ctx)

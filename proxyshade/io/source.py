@@ -1,0 +1,145 @@
+"""Annotated sources: a photo, its label map and a YAML label table.
+
+The label table (``source.yaml``) names the photo, the label map and each label's id and
+colour. Loading decodes the 8-bit sRGB photo to linear light with colour-science and
+snaps every label-map pixel to the nearest table colour, counting how many were snapped
+and failing when too many are far from every table colour.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import warnings
+
+warnings.filterwarnings("ignore", message='.*"Matplotlib" related API features.*')
+import colour  # noqa: E402
+import numpy as np
+import yaml
+
+from proxyshade.errors import UserError
+from proxyshade.graph.plate import Plate
+from proxyshade.io.images import read_u8
+
+
+def parse_colour(text: str, where: str) -> tuple[int, int, int]:
+    s = str(text).strip().lstrip("#")
+    if len(s) != 6:
+        raise UserError(f"{where}: colour {text!r} is not '#rrggbb'; write it like \"#00ff00\"")
+    try:
+        return tuple(int(s[i:i + 2], 16) for i in (0, 2, 4))  # type: ignore[return-value]
+    except ValueError:
+        raise UserError(f"{where}: colour {text!r} is not '#rrggbb'; write it like \"#00ff00\"") from None
+
+
+def load_table(path: Path) -> dict:
+    """Read and check a label table; returns the plain dict with absolute paths."""
+    if not path.is_file():
+        raise UserError(f"{path}: no such label table; point 'source' at a source.yaml")
+    try:
+        data = yaml.safe_load(path.read_text())
+    except yaml.YAMLError as e:
+        line = getattr(getattr(e, "problem_mark", None), "line", -1) + 1
+        raise UserError(f"{path}:{line}: not valid YAML: {getattr(e, 'problem', e)}") from None
+    if not isinstance(data, dict):
+        raise UserError(f"{path}: expected a mapping with image, labels_map and labels")
+    for field in ("image", "labels_map", "labels"):
+        if field not in data:
+            raise UserError(f"{path}: {field}: missing; a source table needs image, labels_map and labels")
+    labels = data["labels"]
+    if not isinstance(labels, dict) or not labels:
+        raise UserError(f"{path}: labels: expected a mapping name -> {{id, color}}")
+    table = []
+    for i, (name, entry) in enumerate(labels.items()):
+        where = f"{path}: labels.{name}"
+        if not isinstance(entry, dict) or "color" not in entry:
+            raise UserError(f"{where}: expected {{id: N, color: '#rrggbb'}}")
+        lid = entry.get("id", i + 1)
+        if not isinstance(lid, int) or isinstance(lid, bool) or lid < 1:
+            raise UserError(f"{where}.id: expected int >= 1 (0 means unlabelled), got {lid!r}")
+        table.append({"name": str(name), "id": lid, "color": "#%02x%02x%02x" % parse_colour(entry["color"], where + ".color")})
+    ids = [t["id"] for t in table]
+    if len(set(ids)) != len(ids):
+        raise UserError(f"{path}: labels: ids must be unique, got {ids}")
+    base = path.parent
+    out = dict(data)
+    out["labels"] = table
+    for field in ("image", "labels_map", "layout"):
+        if field in data and data[field]:
+            out[field] = str((base / data[field]).resolve())
+    return out
+
+
+def srgb_to_linear(rgb8: np.ndarray) -> np.ndarray:
+    """(H, W, 3) uint8 sRGB -> float32 linear, with colour-science's sRGB decoding."""
+    return np.asarray(colour.cctf_decoding(rgb8.astype(np.float64) / 255.0, function="sRGB"), dtype=np.float32)
+
+
+def snap_labels(rgb8: np.ndarray, table: list[dict], *, far_distance: float = 100.0):
+    """Snap each pixel of a label map to the nearest table colour.
+
+    Returns ``(ids (H, W) uint32, snapped count, far count)``: snapped pixels were not
+    exactly a table colour; far ones were more than ``far_distance`` (8-bit RGB units)
+    from every table colour.
+    """
+    pal = np.array([parse_colour(t["color"], "table") for t in table], dtype=np.int32)
+    ids = np.array([t["id"] for t in table], dtype=np.uint32)
+    flat = rgb8.reshape(-1, 3).astype(np.int32)
+    # Few distinct colours in a label map: work on the unique colours only.
+    uniq, inverse = np.unique(flat, axis=0, return_inverse=True)
+    d2 = ((uniq[:, None, :] - pal[None, :, :]) ** 2).sum(-1)
+    nearest = d2.argmin(1)
+    best = d2[np.arange(len(uniq)), nearest]
+    inverse = inverse.reshape(-1)
+    out = ids[nearest][inverse].reshape(rgb8.shape[:2])
+    snapped = int((best[inverse] > 0).sum())
+    far = int((best[inverse] > far_distance ** 2).sum())
+    return out, snapped, far
+
+
+def labels_from_map(path: Path, table: list[dict], *, far_distance: float, max_far_fraction: float,
+                    where: str) -> tuple[np.ndarray, dict]:
+    """Read a label-map image and snap it to ``table``; returns ids and snap statistics."""
+    rgb8 = read_u8(path)
+    ids, snapped, far = snap_labels(rgb8, table, far_distance=far_distance)
+    n = ids.size
+    if far > max_far_fraction * n:
+        raise UserError(
+            f"{where}: {path.name}: {far / n:.1%} of pixels are further than {far_distance:g} from every "
+            f"label colour (limit {max_far_fraction:.1%}); add the missing colours to the label table "
+            "or raise max_far_fraction"
+        )
+    return ids, {"snapped": snapped, "far": far, "pixels": n}
+
+
+def load_source(table_path: str | Path, *, far_distance: float = 100.0, max_far_fraction: float = 0.02,
+                where: str = "source") -> Plate:
+    """An annotated source as a plate: linear ``R,G,B`` (float32) and ``label.id`` (uint32).
+
+    Metadata: ``labels`` (list of {name, id, color}), ``source`` (paths), ``snap`` (counts).
+    """
+    table_path = Path(table_path)
+    t = load_table(table_path)
+    rgb8 = read_u8(t["image"])
+    ids, stats = labels_from_map(Path(t["labels_map"]), t["labels"], far_distance=far_distance,
+                                 max_far_fraction=max_far_fraction, where=where)
+    if ids.shape != rgb8.shape[:2]:
+        raise UserError(
+            f"{table_path}: labels_map is {ids.shape[1]}x{ids.shape[0]} but image is "
+            f"{rgb8.shape[1]}x{rgb8.shape[0]}; they must be the same size"
+        )
+    lin = srgb_to_linear(rgb8)
+    ch = {"R": lin[..., 0].copy(), "G": lin[..., 1].copy(), "B": lin[..., 2].copy(), "label.id": ids}
+    meta = {
+        "labels": t["labels"],
+        "source": {"table": str(table_path.resolve()), "image": t["image"], "labels_map": t["labels_map"],
+                   "credit": t.get("credit", "")},
+        "snap": stats,
+    }
+    if t.get("layout"):
+        meta["source"]["layout"] = t["layout"]
+    return Plate(ch, meta)
+
+
+def label_names(plate: Plate) -> dict[int, str]:
+    """id -> name from a plate's ``labels`` metadata."""
+    return {int(t["id"]): t["name"] for t in plate.meta.get("labels", [])}
