@@ -244,6 +244,11 @@ class Node:
         """The input a disabled node passes through (default: its first input)."""
         return next(iter(self.inputs_spec), None)
 
+    def written_files(self, ctx: Context) -> list[Path]:
+        """For sink nodes: the files ``compute`` wrote (the engine records them in the cache so
+        a re-run is a hit only while they still exist). Default: the ``path`` parameter."""
+        return [ctx.path(self.params["path"])]
+
     def compute(self, ctx: Context) -> Plate:  # pragma: no cover - abstract
         raise NotImplementedError
 

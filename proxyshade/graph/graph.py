@@ -1,0 +1,434 @@
+"""The engine: a graph of nodes over a frame range, run incrementally against a cache.
+
+A run unrolls the graph over the requested frames into a DAG of (node, frame)
+instances (inputs may name a node at a frame offset or at the first frame), rejects
+cycles, computes every instance's key top-down without touching pixels, then computes
+exactly the keys the cache lacks, on an executor, loading cached inputs only when a
+computed node needs them. Instances whose keys coincide (a time-independent node at
+several frames) are computed once.
+
+    g = Graph.load("graphs/demo.yaml")
+    g.set("guide.k", 3)
+    report = g.run(frames=[1], jobs=2)
+    plate = g.value("guide", frame=1)
+"""
+from __future__ import annotations
+
+import os
+import resource
+import threading
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable
+
+import networkx as nx
+
+from proxyshade.errors import CycleError, GraphFileError, ParamError, UserError
+from proxyshade.graph import keys as K
+from proxyshade.graph.cache import Cache
+from proxyshade.graph.executor import make_executor
+from proxyshade.graph.node import REGISTRY, Context, Node, resolve_path
+from proxyshade.graph.plate import Plate
+
+
+@dataclass(frozen=True)
+class InputRef:
+    """An input connection: ``node`` at this frame, at ``offset`` frames, or at the first frame."""
+
+    node: str
+    offset: int = 0
+    first: bool = False
+
+    def frame(self, frame: int, first_frame: int) -> int:
+        return first_frame if self.first else frame + self.offset
+
+
+@dataclass
+class NodeRun:
+    node: str
+    frame: int
+    key: str
+    status: str  # computed | reused | passthrough
+    reason: str
+    seconds: float = 0.0
+    notes: list[str] = field(default_factory=list)
+
+
+@dataclass
+class RunReport:
+    """What a run did: one row per (node, frame), wall time and peak memory."""
+
+    runs: list[NodeRun]
+    wall: float
+    peak_rss_mb: float
+
+    @property
+    def computed(self) -> set[str]:
+        return {r.node for r in self.runs if r.status == "computed"}
+
+    @property
+    def reused(self) -> set[str]:
+        return {r.node for r in self.runs if r.status == "reused"}
+
+    def rows(self, node: str | None = None) -> list[NodeRun]:
+        return [r for r in self.runs if node is None or r.node == node]
+
+    @property
+    def notes(self) -> list[str]:
+        return [f"{r.node}@{r.frame}: {n}" for r in self.runs for n in r.notes]
+
+
+class NodeError(RuntimeError):
+    """A node's compute failed for a reason that is not bad input (an internal error)."""
+
+
+def default_cache_dir(graph_dir: Path) -> Path:
+    env = os.environ.get("PROXYSHADE_CACHE")
+    return Path(env) if env else graph_dir / ".proxyshade" / "cache"
+
+
+class Graph:
+    """Nodes, their connections and a frame range; runs against a Cache."""
+
+    def __init__(self, *, graph_dir: str | Path = ".", frames: tuple[int, int] = (1, 1),
+                 cache: str | Path | Cache | None = None, name: str = "graph", source: str | None = None):
+        self.graph_dir = Path(graph_dir).resolve()
+        self.frames = (int(frames[0]), int(frames[1]))
+        self.name = name
+        self.source = source  # the graph file, for messages
+        self.nodes: dict[str, Node] = {}
+        self.connections: dict[str, dict[str, InputRef]] = {}
+        self.enabled: dict[str, bool] = {}
+        if isinstance(cache, Cache):
+            self.cache = cache
+        else:
+            self.cache = Cache(Path(cache) if cache else default_cache_dir(self.graph_dir))
+        self._locks: dict[str, threading.Lock] = {}
+        self._locks_guard = threading.Lock()
+
+    # -- building ----------------------------------------------------------
+    @classmethod
+    def load(cls, path: str | Path, *, cache: str | Path | None = None, overrides: list[str] = (),
+             variables: dict[str, str] | None = None) -> "Graph":
+        """Load a YAML graph file (see ``proxyshade.io.graphfile``); ``overrides`` are 'node.param=value'."""
+        from proxyshade.io.graphfile import load_graph
+
+        return load_graph(path, cache=cache, overrides=overrides, variables=variables)
+
+    def add(self, name: str, node_type: str | type[Node], params: dict | None = None,
+            inputs: dict[str, str | InputRef] | None = None, enabled: bool = True) -> Node:
+        import proxyshade.nodes  # noqa: F401  (register node types)
+
+        if isinstance(node_type, str):
+            if node_type not in REGISTRY:
+                raise GraphFileError(f"unknown node type {node_type!r}; known types: {', '.join(sorted(REGISTRY))}")
+            node_type = REGISTRY[node_type]
+        node = node_type(name, params or {})
+        self.nodes[name] = node
+        conns = {}
+        for k, v in (inputs or {}).items():
+            if k not in node_type.inputs_spec:
+                raise GraphFileError(f"{name}: {node_type.__name__} has no input {k!r}; its inputs are "
+                                     f"{', '.join(node_type.inputs_spec) or 'none'}")
+            conns[k] = v if isinstance(v, InputRef) else InputRef(v)
+        self.connections[name] = conns
+        self.enabled[name] = enabled
+        return node
+
+    def set(self, dotted: str, value: Any) -> None:
+        """Set a parameter, ``graph.set("guide.k", 3)`` (validated); ``node.enabled`` toggles a node."""
+        name, _, param = dotted.partition(".")
+        if name not in self.nodes:
+            raise ParamError(f"{dotted}: no node {name!r}; nodes are {', '.join(self.nodes)}")
+        if param == "enabled":
+            if not isinstance(value, bool):
+                raise ParamError(f"{dotted}: expected true or false, got {value!r}")
+            self.enabled[name] = value
+            return
+        node = self.nodes[name]
+        params = dict(node.params)
+        params[param] = value
+        node.params = node.validate_params(params, where=f"{name}.")
+
+    # -- unrolling ---------------------------------------------------------
+    def _check_frame(self, frame: int) -> None:
+        lo, hi = self.frames
+        if not lo <= frame <= hi:
+            raise UserError(f"{self.source or self.name}: frame {frame} is outside the graph's frames {lo}-{hi}; "
+                            "pick frames inside the range or widen 'frames'")
+
+    def instances(self, frames: list[int]) -> nx.DiGraph:
+        """The unrolled DAG of (node, frame) for ``frames``; edges carry the input name."""
+        dag = nx.DiGraph()
+        first = self.frames[0]
+        stack = [(n, f) for f in frames for n in self.nodes]
+        for f in frames:
+            self._check_frame(f)
+        seen = set()
+        while stack:
+            inst = stack.pop()
+            if inst in seen:
+                continue
+            seen.add(inst)
+            dag.add_node(inst)
+            name, frame = inst
+            for inp, ref in self.connections[name].items():
+                if ref.node not in self.nodes:
+                    raise GraphFileError(f"{name}.{inp}: no node {ref.node!r}; nodes are {', '.join(self.nodes)}")
+                f2 = ref.frame(frame, first)
+                if f2 < first or f2 > self.frames[1]:
+                    continue  # before the first frame: the input arrives as None
+                dag.add_edge((ref.node, f2), inst, inputs=dag.get_edge_data((ref.node, f2), inst, {}).get("inputs", ()) + (inp,))
+                stack.append((ref.node, f2))
+        try:
+            cycle = nx.find_cycle(dag)
+        except nx.NetworkXNoCycle:
+            return dag
+        path = " -> ".join(f"{a}@{fa}" for (a, fa), _ in cycle) + f" -> {cycle[0][0][0]}@{cycle[0][0][1]}"
+        raise CycleError(f"{self.source or self.name}: cycle {path}; break it with a frame offset "
+                         "(e.g. prev: {node: X, frame: -1})")
+
+    # -- keys --------------------------------------------------------------
+    def _components(self, name: str, frame: int, input_keys: dict[str, str | None]) -> dict:
+        node = self.nodes[name]
+        cls = type(node)
+        hashed = {k: v for k, v in node.params.items() if cls.params_spec[k].hashed}
+        files = {}
+        if not node.sink:
+            for k, spec in cls.params_spec.items():
+                if spec.type is Path and node.params.get(k):
+                    files[k] = K.file_hash(resolve_path(node.params[k], self.graph_dir, frame))
+        else:
+            for k, spec in cls.params_spec.items():
+                if spec.type is Path and node.params.get(k):
+                    hashed[k] = str(resolve_path(node.params[k], self.graph_dir, frame))
+        time_dep = node.depends_on_frame()
+        return {
+            "type": cls.__name__,
+            "version": cls.version,
+            "code": K.code_hash(cls),
+            "params": hashed,
+            "inputs": input_keys,
+            "frame": frame if time_dep else None,
+            "files": files,
+            "extra": node.key_extra(frame, self.graph_dir),
+        }
+
+    def plan(self, frames: list[int] | None = None, force: tuple[str, ...] = ()) -> "Plan":
+        """Keys and what would be computed, without computing anything."""
+        import proxyshade.nodes  # noqa: F401
+
+        frames = list(frames) if frames else list(range(self.frames[0], self.frames[1] + 1))
+        for f in force:
+            if f not in self.nodes:
+                raise ParamError(f"--force {f}: no node {f!r}; nodes are {', '.join(self.nodes)}")
+        dag = self.instances(frames)
+        first = self.frames[0]
+        inst_key: dict[tuple[str, int], str] = {}
+        comps: dict[tuple[str, int], dict] = {}
+        passthrough: dict[tuple[str, int], tuple[str, int] | None] = {}
+        for inst in nx.lexicographical_topological_sort(dag, key=str):
+            name, frame = inst
+            node = self.nodes[name]
+            input_keys: dict[str, str | None] = {}
+            for inp, spec in type(node).inputs_spec.items():
+                ref = self.connections[name].get(inp)
+                if ref is None:
+                    if not spec.optional:
+                        raise GraphFileError(f"{self.source or self.name}: nodes.{name}.inputs.{inp}: not connected; "
+                                             f"connect it to a node ({type(node).__name__} needs it)")
+                    input_keys[inp] = None
+                    continue
+                f2 = ref.frame(frame, first)
+                if (ref.node, f2) not in inst_key:
+                    if not spec.optional:
+                        raise UserError(f"{name}@{frame}: input {inp} at frame {f2} is outside the graph's frames; "
+                                        "make the input optional or start later")
+                    input_keys[inp] = None
+                else:
+                    input_keys[inp] = inst_key[(ref.node, f2)]
+            if not self.enabled[name]:
+                pin = node.passthrough_input()
+                if pin is None or input_keys.get(pin) is None:
+                    raise GraphFileError(f"{name}: disabled but has no connected input to pass through; "
+                                         "enable it or remove it")
+                ref = self.connections[name][pin]
+                passthrough[inst] = (ref.node, ref.frame(frame, first))
+                inst_key[inst] = input_keys[pin]
+                continue
+            c = self._components(name, frame, input_keys)
+            comps[inst] = c
+            inst_key[inst] = K.make_key(c)
+        return Plan(self, dag, frames, inst_key, comps, passthrough, set(force))
+
+    # -- running -----------------------------------------------------------
+    def _lock(self, key: str) -> threading.Lock:
+        with self._locks_guard:
+            return self._locks.setdefault(key, threading.Lock())
+
+    def run(self, frames: list[int] | None = None, *, jobs: int = 1, force: tuple[str, ...] = (),
+            hooks: "Hooks | None" = None, threads: int = 0) -> RunReport:
+        """Compute what the cache lacks for ``frames`` (default: all); returns the report."""
+        t0 = time.perf_counter()
+        plan = self.plan(frames, force)
+        plan.threads = threads
+        hooks = hooks or Hooks()
+        hooks.plan(plan)
+        runs: dict[tuple[str, int], NodeRun] = {}
+        key_owner: dict[str, tuple[str, int]] = {}
+        todo = nx.DiGraph()
+        last = self.cache.last_run(self._graph_id())
+        for inst in nx.lexicographical_topological_sort(plan.dag, key=str):
+            key = plan.keys[inst]
+            name, frame = inst
+            if inst in plan.passthrough:
+                runs[inst] = NodeRun(name, frame, key, "passthrough", "disabled: passes its input through")
+                continue
+            if key in key_owner:
+                o = key_owner[key]
+                runs[inst] = NodeRun(name, frame, key, "reused", f"same key as {o[0]}@{o[1]}")
+                continue
+            key_owner[key] = inst
+            ok, why = (False, "forced") if name in plan.force else self.cache.has(key)
+            if ok:
+                runs[inst] = NodeRun(name, frame, key, "reused", why)
+            else:
+                reason = why if why not in ("not in cache",) else K.diff_components(last.get(f"{name}@{frame}"), plan.components[inst])
+                runs[inst] = NodeRun(name, frame, key, "computed", reason)
+                todo.add_node(inst)
+        # edges between instances to compute, through reused/passthrough ones
+        for inst in todo:
+            for pred in plan.dag.predecessors(inst):
+                p = key_owner.get(plan.keys[pred], pred)
+                if p in todo:
+                    todo.add_edge(p, inst)
+        consumers: dict[str, int] = {}
+        for inst in todo:
+            for k in set(plan.input_keys(inst).values()):
+                if k:
+                    consumers[k] = consumers.get(k, 0) + 1
+        guard = threading.Lock()
+
+        def work(inst):
+            nr = runs[inst]
+            hooks.start(nr)
+            t = time.perf_counter()
+            self._compute(plan, inst, nr)
+            nr.seconds = time.perf_counter() - t
+            with guard:
+                for k in set(plan.input_keys(inst).values()):
+                    if k:
+                        consumers[k] -= 1
+                        if consumers[k] == 0 and k not in plan.keep:
+                            self.cache.forget(k)
+                if consumers.get(nr.key, 0) == 0 and nr.key not in plan.keep:
+                    self.cache.forget(nr.key)
+            hooks.done(nr)
+
+        make_executor(jobs).run(todo, work)
+        for inst, nr in runs.items():
+            if nr.status != "computed":
+                hooks.done(nr)
+        self.cache.save_run(self._graph_id(), {f"{n}@{f}": c for (n, f), c in plan.components.items()})
+        order = {inst: i for i, inst in enumerate(nx.lexicographical_topological_sort(plan.dag, key=str))}
+        rows = sorted(runs.values(), key=lambda r: (r.frame, order[(r.node, r.frame)]))
+        peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+        return RunReport(rows, time.perf_counter() - t0, peak)
+
+    def _graph_id(self) -> str:
+        return K.digest([str(self.source or self.name), str(self.graph_dir)])[:16]
+
+    def _value(self, plan: "Plan", inst: tuple[str, int]) -> Plate:
+        """The plate of an instance: memory, disk, or computed now (corrupt entries are recomputed)."""
+        key = plan.keys[inst]
+        if inst in plan.passthrough:
+            return self._value(plan, plan.passthrough[inst])
+        with self._lock(key):
+            plate = self.cache.load(key) if not self.nodes[inst[0]].sink else None
+            if plate is not None:
+                return plate
+            nr = NodeRun(inst[0], inst[1], key, "computed", "corrupt cache entry")
+            return self._compute_locked(plan, inst, nr)
+
+    def _compute(self, plan: "Plan", inst, nr: NodeRun) -> Plate:
+        with self._lock(nr.key):
+            if nr.key in self.cache.memory:
+                return self.cache.memory[nr.key]
+            return self._compute_locked(plan, inst, nr)
+
+    def _compute_locked(self, plan: "Plan", inst, nr: NodeRun) -> Plate:
+        name, frame = inst
+        node = self.nodes[name]
+        inputs: dict[str, Plate | None] = {}
+        first = self.frames[0]
+        for inp in type(node).inputs_spec:
+            ref = self.connections[name].get(inp)
+            src = (ref.node, ref.frame(frame, first)) if ref else None
+            inputs[inp] = self._value(plan, src) if src in plan.keys else None
+        ctx = Context(node, frame, first, inputs, dict(node.params), self.graph_dir, plan.threads, nr.notes)
+        t = time.perf_counter()
+        try:
+            plate = node.compute(ctx)
+        except UserError as e:
+            msg = str(e)
+            raise type(e)(msg if msg.startswith(name) else f"{name}@{frame}: {msg}") from None
+        except Exception as e:
+            summary = ", ".join(f"{k}={v.width}x{v.height}[{','.join(v.names()[:6])}]" if v is not None else f"{k}=None"
+                                for k, v in inputs.items())
+            raise NodeError(f"node {name!r} ({type(node).__name__}) failed at frame {frame} with inputs "
+                            f"{summary or 'none'}: {type(e).__name__}: {e}") from e
+        if not isinstance(plate, Plate):
+            raise NodeError(f"node {name!r} ({type(node).__name__}) returned {type(plate).__name__}, not a Plate")
+        record = {"node": name, "type": type(node).__name__, "frame": frame, "params": node.params,
+                  "inputs": plan.input_keys(inst), "compute_s": time.perf_counter() - t}
+        if node.sink:
+            self.cache.store_sink(nr.key, node.written_files(ctx), record)
+            self.cache.memory[nr.key] = plate
+        else:
+            self.cache.store(nr.key, plate, record)
+        return plate
+
+    def value(self, name: str, frame: int | None = None, *, jobs: int = 1) -> Plate:
+        """The plate a node produces at ``frame`` (running what is missing first)."""
+        frame = self.frames[0] if frame is None else frame
+        plan = self.plan([frame])
+        if (name, frame) not in plan.keys:
+            raise ParamError(f"no node {name!r}; nodes are {', '.join(self.nodes)}")
+        plan.keep.add(plan.keys[(name, frame)])
+        return self._value(plan, (name, frame))
+
+
+@dataclass
+class Plan:
+    graph: Graph
+    dag: nx.DiGraph
+    frames: list[int]
+    keys: dict[tuple[str, int], str]
+    components: dict[tuple[str, int], dict]
+    passthrough: dict[tuple[str, int], tuple[str, int]]
+    force: set[str]
+    threads: int = 0
+    keep: set[str] = field(default_factory=set)
+
+    def input_keys(self, inst) -> dict[str, str | None]:
+        c = self.components.get(inst)
+        return dict(c["inputs"]) if c else {}
+
+
+class Hooks:
+    """Progress callbacks (the CLI's progress bars implement them); all optional."""
+
+    def plan(self, plan: Plan) -> None: ...
+
+    def start(self, run: NodeRun) -> None: ...
+
+    def done(self, run: NodeRun) -> None: ...
+
+
+class CallbackHooks(Hooks):
+    def __init__(self, on_done: Callable[[NodeRun], None]):
+        self._on_done = on_done
+
+    def done(self, run: NodeRun) -> None:
+        self._on_done(run)

@@ -1,0 +1,117 @@
+"""Plates as multichannel EXR files.
+
+Plates are written with the OpenEXR bindings, which store each channel in its own pixel
+type exactly (float16, float32 and uint32: ID channels round-trip bit for bit; writing
+uint channels from float buffers through OpenImageIO would scale them). Foreign EXRs and
+``inspect`` go through OpenImageIO, whose errors come back as return values and are
+turned into exceptions naming the file here.
+
+Metadata: ``proxyshade/meta`` holds the plate's metadata as JSON; string values whose key
+contains '/' (``proxyshade/node``, ``cryptomatte/<key>/name``, ...) are also written as
+header attributes of their own, so other tools see them. Compression is ZIP by default.
+Files are written to a temporary name beside the target and renamed into place.
+"""
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+import OpenEXR
+import OpenImageIO as oiio
+
+from proxyshade.errors import UserError
+from proxyshade.graph.plate import Plate
+
+COMPRESSIONS = {
+    "zip": OpenEXR.ZIP_COMPRESSION,
+    "zips": OpenEXR.ZIPS_COMPRESSION,
+    "piz": OpenEXR.PIZ_COMPRESSION,
+    "none": OpenEXR.NO_COMPRESSION,
+    "dwaa": OpenEXR.DWAA_COMPRESSION,
+}
+_META = "proxyshade/meta"
+
+
+class ExrError(UserError):
+    """An EXR could not be read or written; the message names the file."""
+
+
+def _header(plate: Plate, compression: str, extra: dict | None) -> dict:
+    if compression not in COMPRESSIONS:
+        raise ExrError(f"compression {compression!r} is not valid; valid ones are {', '.join(COMPRESSIONS)}")
+    header = {"compression": COMPRESSIONS[compression], "type": OpenEXR.scanlineimage}
+    meta = plate.meta
+    header[_META] = json.dumps(meta, sort_keys=True, default=str)
+    for k, v in list(meta.items()) + list((extra or {}).items()):
+        if "/" in k and isinstance(v, str):
+            header[k] = v
+    return header
+
+
+def write_plate(path: str | Path, plate: Plate, *, compression: str = "zip", extra: dict | None = None) -> Path:
+    """Write ``plate`` to ``path`` atomically. ``extra`` adds metadata (node, key, frame)."""
+    path = Path(path)
+    if not plate.channels:
+        raise ExrError(f"{path}: the plate has no channels to write")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.{id(plate)}.tmp.exr")
+    channels = {n: np.ascontiguousarray(a) for n, a in plate.channels.items()}
+    try:
+        with OpenEXR.File(_header(plate, compression, extra), channels) as f:
+            f.write(str(tmp))
+        os.replace(tmp, path)
+    except ExrError:
+        raise
+    except Exception as e:  # the bindings raise plain exceptions
+        raise ExrError(f"{path}: cannot write EXR: {e}") from None
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+    return path
+
+
+def read_plate(path: str | Path) -> Plate:
+    """Read a single-part EXR as a plate, each channel in its stored pixel type."""
+    path = Path(path)
+    if not path.is_file():
+        raise ExrError(f"{path}: no such EXR file; check the path")
+    try:
+        with OpenEXR.File(str(path), separate_channels=True) as f:
+            chans = {name: np.array(ch.pixels) for name, ch in f.channels().items()}
+            header = dict(f.header())  # after channels(): reading them resets the header view
+    except Exception as e:
+        raise ExrError(f"{path}: not a readable EXR ({e}); re-render it or delete it") from None
+    meta = {}
+    if _META in header:
+        try:
+            meta = json.loads(header[_META])
+        except (TypeError, ValueError):
+            raise ExrError(f"{path}: header {_META} is not JSON; the file is damaged") from None
+    fixed = {}
+    for n, a in chans.items():
+        if a.dtype not in (np.float16, np.float32, np.uint32):
+            a = a.astype(np.float32)
+        fixed[n] = a
+    return Plate(fixed, meta)
+
+
+def read_header(path: str | Path) -> dict:
+    """Header attributes of an EXR (OpenImageIO), plus its channels and their types."""
+    path = Path(path)
+    inp = oiio.ImageInput.open(str(path))
+    if inp is None:
+        raise ExrError(f"{path}: cannot open: {oiio.geterror().strip()}")
+    try:
+        spec = inp.spec()
+        fmts = spec.channelformats or [spec.format] * spec.nchannels
+        info = {
+            "width": spec.width,
+            "height": spec.height,
+            "channels": [(spec.channel_name(i), str(fmts[i])) for i in range(spec.nchannels)],
+            "attributes": {a.name: a.value for a in spec.extra_attribs},
+        }
+    finally:
+        inp.close()
+    return info

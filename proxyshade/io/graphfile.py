@@ -1,0 +1,240 @@
+"""YAML graph files: plain data first, validated against the node registry, then built.
+
+    format: proxyshade/1          # required header
+    frames: 1-48                  # the sequence's frame range (default 1)
+    vars: {sample: ../samples/renoir}
+    nodes:
+      src:   {type: SourceRead, params: {table: "${sample}/source.yaml"}}
+      guide: {type: GuideSynth, inputs: {source: src, proxy: proxy}, params: {k: 5}}
+      final: {type: Poisson, inputs: {prev: {node: final, frame: -1}, ref: {node: guide, frame: first}}}
+      write: {type: ExrWrite, inputs: {image: final}, params: {path: out/lake.####.exr}, enabled: true}
+
+Relative paths resolve against the graph file's folder; ``${name}`` is replaced by a
+variable; ``####`` in a path is the zero-padded frame. Every error names the file, the
+line, the key path and the fix:
+``graphs/lake.yaml:12: nodes.guide.params.k: expected int >= 1, got 0``.
+"""
+from __future__ import annotations
+
+import re
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from proxyshade.errors import GraphFileError, ParamError
+from proxyshade.graph.graph import Graph, InputRef
+from proxyshade.graph.node import REGISTRY
+
+FORMAT = "proxyshade/1"
+_NODE_KEYS = ("type", "inputs", "params", "enabled", "doc")
+_VAR = re.compile(r"\$\{([A-Za-z_][A-Za-z0-9_]*)\}")
+
+
+class _LineMap(dict):
+    """A dict that remembers the line of each key (1-based)."""
+
+    lines: dict
+
+
+class _Loader(yaml.SafeLoader):
+    pass
+
+
+def _construct_mapping(loader, node):
+    loader.flatten_mapping(node)
+    out = _LineMap()
+    out.lines = {}
+    out.line = node.start_mark.line + 1
+    for knode, vnode in node.value:
+        k = loader.construct_object(knode, deep=True)
+        out[k] = loader.construct_object(vnode, deep=True)
+        out.lines[k] = knode.start_mark.line + 1
+    return out
+
+
+_Loader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _construct_mapping)
+
+
+def _line(d: Any, key: Any = None) -> int:
+    if isinstance(d, _LineMap):
+        return d.lines.get(key, d.line) if key is not None else d.line
+    return 0
+
+
+def parse_frames(value: Any, where: str) -> tuple[int, int]:
+    """'1-48', 12 or [1, 48] -> (first, last)."""
+    if isinstance(value, bool):
+        raise GraphFileError(f"{where}: expected a frame range like 1-48, got {value!r}")
+    if isinstance(value, int):
+        return value, value
+    if isinstance(value, (list, tuple)) and len(value) == 2 and all(isinstance(v, int) for v in value):
+        lo, hi = value
+    elif isinstance(value, str) and re.fullmatch(r"\s*-?\d+\s*(-\s*-?\d+\s*)?", value):
+        m = re.fullmatch(r"\s*(-?\d+)\s*(?:-\s*(-?\d+)\s*)?", value)
+        lo = int(m.group(1))
+        hi = int(m.group(2)) if m.group(2) is not None else lo
+    else:
+        raise GraphFileError(f"{where}: expected a frame range like 1-48, got {value!r}")
+    if hi < lo:
+        raise GraphFileError(f"{where}: frame range {value!r} ends before it starts; write first-last")
+    return lo, hi
+
+
+def parse_frame_list(text: str, where: str = "--frames") -> list[int]:
+    """'1-48', '30', '1,5,9-12' -> sorted frames."""
+    out: set[int] = set()
+    for part in str(text).split(","):
+        lo, hi = parse_frames(part.strip(), where)
+        out.update(range(lo, hi + 1))
+    return sorted(out)
+
+
+def _subst(value: Any, variables: dict[str, str], where: str) -> Any:
+    if isinstance(value, str):
+        def rep(m):
+            if m.group(1) not in variables:
+                raise GraphFileError(f"{where}: unknown variable ${{{m.group(1)}}}; defined: "
+                                     f"{', '.join(sorted(variables)) or 'none'} (add it under vars)")
+            return str(variables[m.group(1)])
+
+        return _VAR.sub(rep, value)
+    if isinstance(value, list):
+        return [_subst(v, variables, where) for v in value]
+    if isinstance(value, dict):
+        return {k: _subst(v, variables, where) for k, v in value.items()}
+    return value
+
+
+def read_yaml(path: Path) -> Any:
+    try:
+        text = path.read_text()
+    except OSError as e:
+        raise GraphFileError(f"{path}: cannot read graph file ({e.strerror}); check the path") from None
+    try:
+        return yaml.load(text, Loader=_Loader)
+    except yaml.YAMLError as e:
+        mark = getattr(e, "problem_mark", None)
+        line = mark.line + 1 if mark else 0
+        problem = getattr(e, "problem", None) or str(e).splitlines()[0]
+        raise GraphFileError(f"{path}:{line}: not valid YAML ({problem}); fix the syntax") from None
+
+
+def _input_ref(value: Any, where: str) -> InputRef:
+    if isinstance(value, str):
+        return InputRef(value)
+    if isinstance(value, dict):
+        extra = set(value) - {"node", "frame"}
+        if extra or "node" not in value or not isinstance(value["node"], str):
+            raise GraphFileError(f"{where}: expected a node name or {{node: NAME, frame: -1|first}}, got {dict(value)!r}")
+        frame = value.get("frame", 0)
+        if frame == "first":
+            return InputRef(value["node"], first=True)
+        if isinstance(frame, bool) or not isinstance(frame, int):
+            raise GraphFileError(f"{where}.frame: expected an integer offset (e.g. -1) or 'first', got {frame!r}")
+        return InputRef(value["node"], offset=frame)
+    raise GraphFileError(f"{where}: expected a node name or {{node: NAME, frame: -1|first}}, got {value!r}")
+
+
+def build_graph(data: Any, path: Path, *, cache=None, overrides: list[str] = (),
+                variables: dict[str, str] | None = None) -> Graph:
+    """Validate plain graph data (as loaded from ``path``) and build the Graph."""
+    import proxyshade.nodes  # noqa: F401  (register node types)
+
+    f = str(path)
+
+    def err(line: int, keypath: str, msg: str) -> GraphFileError:
+        return GraphFileError(f"{f}:{line}: {keypath}: {msg}")
+
+    if not isinstance(data, dict):
+        raise GraphFileError(f"{f}:1: expected a mapping with 'format: {FORMAT}' and 'nodes'")
+    unknown = set(data) - {"format", "frames", "vars", "nodes", "doc"}
+    if unknown:
+        k = sorted(unknown)[0]
+        raise err(_line(data, k), k, "unknown top-level key; valid keys are format, frames, vars, nodes, doc")
+    if data.get("format") != FORMAT:
+        raise err(_line(data, "format"), "format", f"expected {FORMAT!r}, got {data.get('format')!r}; "
+                  f"put 'format: {FORMAT}' at the top")
+    frames = parse_frames(data.get("frames", 1), f"{f}:{_line(data, 'frames')}: frames")
+    vars_ = data.get("vars") or {}
+    if not isinstance(vars_, dict):
+        raise err(_line(data, "vars"), "vars", "expected a mapping name -> value")
+    variables = {**{k: str(v) for k, v in vars_.items()}, **(variables or {})}
+    nodes = data.get("nodes")
+    if not isinstance(nodes, dict) or not nodes:
+        raise err(_line(data, "nodes"), "nodes", "expected a mapping of node name -> {type, inputs, params}")
+
+    g = Graph(graph_dir=path.parent, frames=frames, cache=cache, name=path.stem, source=f)
+    pending_inputs = {}
+    for name, spec in nodes.items():
+        kp = f"nodes.{name}"
+        line = _line(nodes, name)
+        if not isinstance(name, str) or not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", name):
+            raise err(line, kp, "node names are letters, digits and underscores")
+        if not isinstance(spec, dict):
+            raise err(line, kp, "expected {type: NodeType, inputs: {...}, params: {...}}")
+        for k in spec:
+            if k not in _NODE_KEYS:
+                raise err(_line(spec, k), f"{kp}.{k}", f"unknown key; valid keys are {', '.join(_NODE_KEYS)}")
+        t = spec.get("type")
+        if t not in REGISTRY:
+            raise err(_line(spec, "type"), f"{kp}.type",
+                      f"unknown node type {t!r}; known types: {', '.join(sorted(REGISTRY))}")
+        cls = REGISTRY[t]
+        params = spec.get("params") or {}
+        if not isinstance(params, dict):
+            raise err(_line(spec, "params"), f"{kp}.params", "expected a mapping param -> value")
+        checked = {}
+        for k, v in params.items():
+            if k not in cls.params_spec:
+                raise err(_line(params, k), f"{kp}.params.{k}",
+                          f"{t} has no parameter {k!r}; its parameters are {', '.join(cls.params_spec) or 'none'}")
+            try:
+                checked[k] = cls.params_spec[k].validate(_subst(v, variables, f"{f}:{_line(params, k)}: {kp}.params.{k}"))
+            except ParamError as e:
+                raise err(_line(params, k), f"{kp}.params.{k}", str(e)) from None
+        missing = [k for k, s in cls.params_spec.items() if s.required and k not in checked]
+        if missing:
+            k = missing[0]
+            raise err(_line(spec, "params") or line, f"{kp}.params.{k}",
+                      f"required ({cls.params_spec[k].describe()}); add it under params")
+        enabled = spec.get("enabled", True)
+        if not isinstance(enabled, bool):
+            raise err(_line(spec, "enabled"), f"{kp}.enabled", f"expected true or false, got {enabled!r}")
+        inputs = spec.get("inputs") or {}
+        if not isinstance(inputs, dict):
+            raise err(_line(spec, "inputs"), f"{kp}.inputs", "expected a mapping input -> node")
+        refs = {}
+        for k, v in inputs.items():
+            if k not in cls.inputs_spec:
+                raise err(_line(inputs, k), f"{kp}.inputs.{k}",
+                          f"{t} has no input {k!r}; its inputs are {', '.join(cls.inputs_spec) or 'none'}")
+            refs[k] = (_input_ref(v, f"{f}:{_line(inputs, k)}: {kp}.inputs.{k}"), _line(inputs, k))
+        for k, s in cls.inputs_spec.items():
+            if not s.optional and k not in refs:
+                raise err(_line(spec, "inputs") or line, f"{kp}.inputs.{k}", f"not connected; {t} needs it: connect it to a node")
+        g.add(name, cls, checked, {}, enabled)
+        pending_inputs[name] = refs
+    for name, refs in pending_inputs.items():
+        for k, (ref, line) in refs.items():
+            if ref.node not in g.nodes:
+                raise err(line, f"nodes.{name}.inputs.{k}", f"no node {ref.node!r}; nodes are {', '.join(g.nodes)}")
+            g.connections[name][k] = ref
+    for o in overrides:
+        target, eq, raw = o.partition("=")
+        if not eq or "." not in target:
+            raise GraphFileError(f"--set {o}: expected node.param=value")
+        try:
+            value = yaml.safe_load(raw)
+        except yaml.YAMLError:
+            value = raw
+        try:
+            g.set(target.strip(), value)
+        except ParamError as e:
+            raise GraphFileError(f"--set {o}: {e}") from None
+    return g
+
+
+def load_graph(path: str | Path, *, cache=None, overrides: list[str] = (), variables=None) -> Graph:
+    path = Path(path)
+    return build_graph(read_yaml(path), path, cache=cache, overrides=overrides, variables=variables)

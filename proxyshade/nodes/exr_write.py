@@ -1,0 +1,33 @@
+"""ExrWrite: write the input plate as a multichannel EXR (``####`` frame padding)."""
+from __future__ import annotations
+
+from pathlib import Path
+
+from proxyshade.graph.node import Input, Node, Param
+from proxyshade.graph.plate import Plate
+from proxyshade.io.exr import COMPRESSIONS, write_plate
+
+
+class ExrWrite(Node):
+    """Write ``image`` to ``path`` (temporary name, then renamed into place).
+
+    The header carries ``proxyshade/node``, ``proxyshade/frame`` and the plate's metadata.
+    """
+
+    version = 1
+    sink = True
+    image = Input("the plate to write")
+    path = Param(Path, doc="output EXR; '####' is replaced by the frame number")
+    channels = Param(list, None, doc="channels to write (default: all)")
+    compression = Param(str, "zip", choices=tuple(COMPRESSIONS), doc="EXR compression")
+
+    def compute(self, ctx) -> Plate:
+        plate = ctx.image
+        if ctx.p.channels:
+            missing = [c for c in ctx.p.channels if c not in plate]
+            if missing:
+                raise ctx.error(f"channels {missing} are not in the input; it has {', '.join(plate.names())}")
+            plate = plate.select(ctx.p.channels)
+        write_plate(ctx.path(ctx.p.path), plate, compression=ctx.p.compression,
+                    extra={"proxyshade/node": self.name, "proxyshade/frame": str(ctx.frame)})
+        return plate
