@@ -93,3 +93,31 @@ def test_samples_size_must_be_a_multiple():
     rng = np.random.default_rng(4)
     with pytest.raises(NodeInputError, match="integer multiple"):
         run_node("Cryptomatte", {}, {"image": scene(rng, 6, 8), "samples": scene(rng, 13, 16)})
+
+
+def test_exr_opens_in_oiiotool_with_every_aov_and_decodes_after_round_trip(tmp_path):
+    import shutil
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    from proxyshade.io.exr import read_plate, write_plate
+
+    oiiotool = Path(sys.executable).parent / "oiiotool"
+    if not oiiotool.exists():
+        oiiotool = shutil.which("oiiotool")
+    assert oiiotool, "oiiotool is not installed beside the interpreter"
+    p = scene(np.random.default_rng(5))
+    p = p.with_channels({"Z": np.ones(p.shape, np.float16)})
+    out = run_node("Cryptomatte", {}, {"image": p})
+    path = write_plate(tmp_path / "crypto.exr", out)
+    info = subprocess.run([str(oiiotool), "--info", "-v", str(path)], capture_output=True, text=True, check=True).stdout
+    listed = dict(re.findall(r"([A-Za-z0-9_.]+) \((float|half|uint)\)", info.split("channel list:")[1].splitlines()[0]))
+    want = {"float32": "float", "float16": "half", "uint32": "uint"}
+    assert listed == {n: want[str(a.dtype)] for n, a in out.channels.items()}
+    for k, v in out.meta.items():
+        if k.startswith("cryptomatte/"):
+            assert f'{k}: "{v}"' in info
+    back = read_plate(path)
+    for t in LABELS:
+        assert np.array_equal(decode(back, "CryptoLabel", t["name"]), (p["label.id"] == t["id"]).astype(float))
