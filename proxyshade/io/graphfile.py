@@ -90,8 +90,12 @@ def parse_frame_list(text: str, where: str = "--frames") -> list[int]:
     return sorted(out)
 
 
-def _subst(value: Any, variables: dict[str, str], where: str) -> Any:
+def _subst(value: Any, variables: dict[str, Any], where: str) -> Any:
     if isinstance(value, str):
+        whole = _VAR.fullmatch(value)
+        if whole and whole.group(1) in variables:
+            return variables[whole.group(1)]  # "${v}" alone keeps the variable's type
+
         def rep(m):
             if m.group(1) not in variables:
                 raise GraphFileError(f"{where}: unknown variable ${{{m.group(1)}}}; defined: "
@@ -159,7 +163,7 @@ def build_graph(data: Any, path: Path, *, cache=None, overrides: list[str] = (),
     vars_ = data.get("vars") or {}
     if not isinstance(vars_, dict):
         raise err(_line(data, "vars"), "vars", "expected a mapping name -> value")
-    variables = {**{k: str(v) for k, v in vars_.items()}, **(variables or {})}
+    variables = {**dict(vars_), **(variables or {})}
     nodes = data.get("nodes")
     if not isinstance(nodes, dict) or not nodes:
         raise err(_line(data, "nodes"), "nodes", "expected a mapping of node name -> {type, inputs, params}")

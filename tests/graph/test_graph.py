@@ -1,0 +1,222 @@
+"""The engine: incremental runs, keys, cache robustness, time, cycles, determinism."""
+from __future__ import annotations
+
+import os
+import sys
+import types
+
+import numpy as np
+import pytest
+
+from proxyshade.errors import CycleError
+from proxyshade.graph import keys
+from proxyshade.graph.graph import Graph, InputRef
+from proxyshade.io.exr import read_plate
+
+from tests.conftest import _TAdd, _TConst, _TFrame
+
+
+def chain(tmp_path, frames=(1, 1)):
+    g = Graph(graph_dir=tmp_path, frames=frames, cache=tmp_path / "cache")
+    g.add("a", _TConst, {"value": 1.0})
+    g.add("b", _TConst, {"value": 2.0})
+    g.add("sum", _TAdd, {}, {"a": "a", "b": "b"})
+    g.add("out", _TAdd, {"gain": 2.0}, {"a": "sum"})
+    return g
+
+
+def test_unchanged_second_run_computes_nothing(tmp_path, computes):
+    g = chain(tmp_path)
+    r1 = g.run()
+    assert r1.computed == {"a", "b", "sum", "out"}
+    computes.clear()
+    r2 = chain(tmp_path).run()  # a fresh Graph object: only the disk cache is shared
+    assert r2.computed == set()
+    assert r2.reused == {"a", "b", "sum", "out"}
+    assert sum(computes.values()) == 0
+
+
+def test_param_edit_recomputes_only_downstream_closure(tmp_path, computes):
+    g = chain(tmp_path)
+    g.run()
+    computes.clear()
+    g.set("b.value", 5.0)
+    r = g.run()
+    assert r.computed == {"b", "sum", "out"}
+    assert "a" in r.reused
+    assert computes == {"b": 1, "sum": 1, "out": 1}
+    assert "new params (value: 2.0 -> 5.0)" in r.rows("b")[0].reason
+    assert "new input (b)" in r.rows("sum")[0].reason
+    np.testing.assert_array_equal(g.value("out")["R"], np.full((8, 8), 12.0, np.float32))
+
+
+def test_unhashed_param_does_not_invalidate(tmp_path, computes):
+    g = chain(tmp_path)
+    g.run()
+    g.set("a.threads", 2)
+    assert g.run().computed == set()
+
+
+def test_code_version_bump_invalidates(tmp_path, monkeypatch):
+    g = chain(tmp_path)
+    g.run()
+    monkeypatch.setattr(_TAdd, "version", 2)
+    r = g.run()
+    assert r.computed == {"sum", "out"}
+    assert r.rows("sum")[0].reason == "new code"
+
+
+def test_code_hash_follows_source_and_kernels(monkeypatch):
+    mod = types.ModuleType("proxyshade.kernels._fake")
+    sys.modules["proxyshade.kernels._fake"] = mod
+    try:
+        def kern():
+            return 1
+        kern.__module__ = "proxyshade.kernels._fake"
+        node_mod = sys.modules[_TAdd.__module__]
+        before = keys.code_hash(_TAdd)
+        monkeypatch.setattr(node_mod, "kern", kern, raising=False)
+        monkeypatch.setattr(keys, "module_hash", lambda name: "edited" if name.endswith("_fake") else "same")
+        with_kernel = keys.code_hash(_TAdd)
+        monkeypatch.setattr(keys, "module_hash", lambda name: "edited2" if name.endswith("_fake") else "same")
+        assert keys.code_hash(_TAdd) != with_kernel  # editing the kernel module changes the node's key
+        assert before != with_kernel
+    finally:
+        del sys.modules["proxyshade.kernels._fake"]
+
+
+def test_corrupted_cache_entry_is_recomputed(tmp_path, computes):
+    g = chain(tmp_path)
+    g.run()
+    key = g.plan().keys[("sum", 1)]
+    exr = tmp_path / "cache" / key[:2] / f"{key}.exr"
+    data = bytearray(exr.read_bytes())
+    data[-20:] = b"\x00" * 20  # same size, damaged content
+    exr.write_bytes(bytes(data))
+    computes.clear()
+    g2 = chain(tmp_path)
+    g2.set("out.gain", 3.0)  # out must read sum: the damaged entry is detected on read
+    with pytest.warns(UserWarning, match="corrupt"):
+        r = g2.run()
+    assert computes["sum"] == 1 and computes["out"] == 1
+    np.testing.assert_array_equal(g2.value("out")["R"], np.full((8, 8), 9.0, np.float32))
+    assert r.computed == {"out"}
+
+
+def test_truncated_cache_entry_is_recomputed(tmp_path, computes):
+    g = chain(tmp_path)
+    g.run()
+    key = g.plan().keys[("out", 1)]
+    exr = tmp_path / "cache" / key[:2] / f"{key}.exr"
+    exr.write_bytes(exr.read_bytes()[:50])
+    with pytest.warns(UserWarning, match="corrupt"):
+        r = chain(tmp_path).run()
+    assert r.computed == {"out"}
+    assert r.rows("out")[0].reason == "corrupt cache entry"
+
+
+def test_killed_write_leaves_no_entry(tmp_path, monkeypatch):
+    import proxyshade.io.exr as exr_mod
+
+    g = chain(tmp_path)
+    real = exr_mod.OpenEXR.File
+
+    class Dying:
+        def __init__(self, *a, **k):
+            self.f = real(*a, **k)
+
+        def __enter__(self):
+            return self
+
+        def __exit__(self, *a):
+            return False
+
+        def write(self, path):
+            with open(path, "wb") as fh:
+                fh.write(b"partial")
+            raise KeyboardInterrupt  # killed mid-write
+
+    monkeypatch.setattr(exr_mod.OpenEXR, "File", Dying)
+    with pytest.raises(KeyboardInterrupt):
+        g.run()
+    monkeypatch.setattr(exr_mod.OpenEXR, "File", real)
+    leftovers = [p for p in (tmp_path / "cache").rglob("*") if p.is_file() and "runs" not in p.parts]
+    assert leftovers == []  # neither a half EXR nor a record
+    assert chain(tmp_path).run().computed == {"a", "b", "sum", "out"}
+
+
+def test_disabled_node_passes_through_and_shares_key(tmp_path):
+    g = chain(tmp_path)
+    g.enabled["out"] = False
+    plan = g.plan()
+    assert plan.keys[("out", 1)] == plan.keys[("sum", 1)]
+    r = g.run()
+    assert r.rows("out")[0].status == "passthrough"
+    np.testing.assert_array_equal(g.value("out")["R"], g.value("sum")["R"])
+
+
+def test_frame_offsets_and_first_frame(tmp_path, computes):
+    g = Graph(graph_dir=tmp_path, frames=(1, 4), cache=tmp_path / "cache")
+    g.add("f", _TFrame)
+    g.add("acc", _TAdd, {}, {"a": "f", "prev": InputRef("acc", offset=-1)})
+    g.add("ref", _TAdd, {"gain": 3.0}, {"a": InputRef("f", first=True)})
+    r = g.run()
+    assert computes["f"] == 4 and computes["acc"] == 4
+    assert computes["ref"] == 1  # same key at every frame: computed once
+    assert g.value("acc", 4)["R"][0, 0] == 1 + 2 + 3 + 4
+    assert g.value("ref", 3)["R"][0, 0] == 3
+    assert {x.status for x in r.rows("ref")} == {"computed", "reused"}
+
+
+def test_single_late_frame_reuses_or_computes_history(tmp_path, computes):
+    g = Graph(graph_dir=tmp_path, frames=(1, 48), cache=tmp_path / "cache")
+    g.add("f", _TFrame)
+    g.add("acc", _TAdd, {}, {"a": "f", "prev": InputRef("acc", offset=-1)})
+    r = g.run([30])
+    assert computes["acc"] == 30  # frames 1..29 computed because they were missing
+    computes.clear()
+    g.run([1, 2])
+    r = g.run([31])
+    assert computes["acc"] == 1  # 1..30 cached
+    assert g.value("acc", 31)["R"][0, 0] == sum(range(1, 32))
+
+
+def test_cycle_is_rejected_with_its_path(tmp_path):
+    g = Graph(graph_dir=tmp_path, cache=tmp_path / "cache")
+    g.add("x", _TAdd, {}, {"a": "y"})
+    g.add("y", _TAdd, {}, {"a": "x"})
+    with pytest.raises(CycleError, match=r"cycle (x@1 -> y@1 -> x@1|y@1 -> x@1 -> y@1)"):
+        g.run()
+
+
+def test_same_seed_gives_identical_files_also_with_threads(tmp_path):
+    outs = []
+    for i, jobs in enumerate([1, 2, 2]):
+        g = Graph(graph_dir=tmp_path, cache=tmp_path / f"cache{i}")
+        g.add("n1", _TConst, {"seed": 7})
+        g.add("n2", _TConst, {"seed": 8})
+        g.add("s", _TAdd, {}, {"a": "n1", "b": "n2"})
+        g.add("w", "ExrWrite", {"path": f"out{i}.exr"}, {"image": "s"})
+        g.run(jobs=jobs)
+        outs.append((tmp_path / f"out{i}.exr").read_bytes())
+    assert outs[0] == outs[1] == outs[2]
+
+
+def test_sink_rewrites_a_deleted_output(tmp_path):
+    g = chain(tmp_path)
+    g.add("w", "ExrWrite", {"path": "o/x.####.exr"}, {"image": "out"})
+    g.run()
+    f = tmp_path / "o" / "x.0001.exr"
+    assert f.is_file()
+    assert g.run().computed == set()
+    f.unlink()
+    r = g.run()
+    assert r.computed == {"w"} and f.is_file()
+    assert read_plate(f)["R"][0, 0] == 6.0
+
+
+def test_report_has_times_and_memory(tmp_path):
+    r = chain(tmp_path).run(jobs=2)
+    assert r.peak_rss_mb > 0 and r.wall > 0
+    assert all(x.seconds >= 0 for x in r.runs)
+    assert [x.node for x in r.runs if x.node in ("sum", "out")] == ["sum", "out"]  # topological order

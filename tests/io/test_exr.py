@@ -1,0 +1,66 @@
+"""EXR round trips: uint32 IDs and float32 exact, half within half precision, metadata kept."""
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, settings, strategies as st
+
+from proxyshade.errors import UserError
+from proxyshade.graph.plate import Plate
+from proxyshade.io.exr import read_header, read_plate, write_plate
+
+
+@settings(max_examples=20, deadline=None)
+@given(h=st.integers(1, 17), w=st.integers(1, 17), seed=st.integers(0, 2**31))
+def test_round_trip_exact_for_uint32_and_float32(tmp_path_factory, h, w, seed):
+    rng = np.random.default_rng(seed)
+    ids = rng.integers(0, 2**32, (h, w), dtype=np.uint32)
+    ids.flat[0] = 2**32 - 1  # the largest id survives (no float scaling)
+    f32 = rng.standard_normal((h, w)).astype(np.float32) * 1e6
+    f32.flat[-1] = np.inf
+    p = Plate({"label.id": ids, "Z": f32}, {"labels": [{"name": "sky", "id": 1, "color": "#ffffff"}]})
+    path = tmp_path_factory.mktemp("exr") / "p.exr"
+    write_plate(path, p)
+    assert read_plate(path).equals(p)
+
+
+def test_half_within_half_precision(tmp_path):
+    a = np.random.default_rng(1).random((9, 11)).astype(np.float32) * 100
+    p = Plate({"R": a.astype(np.float16)})
+    write_plate(tmp_path / "h.exr", p)
+    back = read_plate(tmp_path / "h.exr")["R"]
+    assert back.dtype == np.float16
+    np.testing.assert_allclose(back.astype(np.float32), a, rtol=2**-10)
+
+
+def test_header_lists_types_and_metadata(tmp_path):
+    p = Plate({"R": np.zeros((2, 3), np.float32), "label.id": np.zeros((2, 3), np.uint32)},
+              {"cryptomatte/abc/name": "CryptoLabel"})
+    write_plate(tmp_path / "m.exr", p, extra={"proxyshade/node": "src"})
+    info = read_header(tmp_path / "m.exr")
+    assert dict(info["channels"]) == {"R": "float", "label.id": "uint"}
+    assert info["attributes"]["proxyshade/node"] == "src"
+    assert info["attributes"]["cryptomatte/abc/name"] == "CryptoLabel"
+    assert info["attributes"]["compression"] == "zip"
+    oiiotool = Path(sys.executable).parent / "oiiotool"
+    if oiiotool.exists():
+        text = subprocess.run([str(oiiotool), "--info", "-v", str(tmp_path / "m.exr")], capture_output=True, text=True).stdout
+        assert "label.id (uint)" in text and "R (float)" in text
+
+
+def test_unreadable_file_names_the_file(tmp_path):
+    bad = tmp_path / "bad.exr"
+    bad.write_bytes(b"not an exr")
+    with pytest.raises(UserError, match="bad.exr"):
+        read_plate(bad)
+    with pytest.raises(UserError, match="missing.exr"):
+        read_plate(tmp_path / "missing.exr")
+
+
+def test_failed_write_leaves_nothing(tmp_path):
+    p = Plate({"R": np.zeros((2, 2), np.float32)})
+    with pytest.raises(UserError):
+        write_plate(tmp_path / "x.exr", p, compression="bogus")
+    assert list(tmp_path.iterdir()) == []
