@@ -1,0 +1,97 @@
+"""Temporal kernels against slow references and hand-made cases."""
+import numpy as np
+import pytest
+
+from proxyshade.kernels import temporal as T
+
+
+def test_translation_has_unit_determinant():
+    i, j = np.mgrid[0:20, 0:30].astype(np.float64)
+    det = T.jacobian_det(j + 3.25, i - 1.5, np.ones((20, 30), bool))
+    np.testing.assert_allclose(det, 1.0, atol=1e-12)
+
+
+def test_zoom_determinant_is_scale_squared():
+    i, j = np.mgrid[0:16, 0:16].astype(np.float64)
+    s = 0.8  # the previous frame sees the same content 0.8 times as large
+    det = T.jacobian_det(8 + (j - 8) * s, 8 + (i - 8) * s, np.ones((16, 16), bool))
+    np.testing.assert_allclose(det, s * s, atol=1e-12)
+
+
+def test_determinant_matches_reference_with_invalid_pixels():
+    rng = np.random.default_rng(3)
+    u, v = rng.random((2, 9, 11)) * 10
+    valid = rng.random((9, 11)) > 0.2
+    got = T.jacobian_det(u, v, valid)
+    h, w = u.shape
+    for i in range(h):
+        for j in range(w):
+            if not valid[i, j]:
+                assert got[i, j] == 1
+                continue
+            jl = j - 1 if j > 0 and valid[i, j - 1] else j
+            jr = j + 1 if j < w - 1 and valid[i, j + 1] else j
+            iu = i - 1 if i > 0 and valid[i - 1, j] else i
+            idn = i + 1 if i < h - 1 and valid[i + 1, j] else i
+            if jr == jl or idn == iu:
+                assert got[i, j] == 1
+                continue
+            J = np.array([[(u[i, jr] - u[i, jl]) / (jr - jl), (u[idn, j] - u[iu, j]) / (idn - iu)],
+                          [(v[i, jr] - v[i, jl]) / (jr - jl), (v[idn, j] - v[iu, j]) / (idn - iu)]])
+            assert got[i, j] == pytest.approx(np.linalg.det(J), abs=1e-9)
+
+
+def test_distortion_accumulates_resets_and_flags():
+    det = np.full((4, 4), 1.1)
+    valid = np.ones((4, 4), bool)
+    d = np.zeros((4, 4), np.float32)
+    flags_seen = []
+    for _ in range(6):
+        d, f = T.accumulate_distortion(d, det, valid, 0.45, 0.0, 0)
+        flags_seen.append(bool(f.all()))
+    assert flags_seen == [False, False, False, False, True, False]  # 0.1 per frame, > 0.45 at the 5th
+    assert np.all(d == np.float32(0.1))  # reset at the 5th, then one more frame
+
+
+def test_noise_is_deterministic_and_bounded():
+    det = np.ones((30, 30))
+    valid = np.ones((30, 30), bool)
+    d1, _ = T.accumulate_distortion(np.zeros((30, 30), np.float32), det, valid, 10.0, 0.5, 42)
+    d2, _ = T.accumulate_distortion(np.zeros((30, 30), np.float32), det, valid, 10.0, 0.5, 42)
+    d3, _ = T.accumulate_distortion(np.zeros((30, 30), np.float32), det, valid, 10.0, 0.5, 43)
+    assert np.array_equal(d1, d2) and not np.array_equal(d1, d3)
+    assert d1.min() >= 0 and d1.max() < 0.5 and d1.std() > 0.1
+
+
+def ref_remove_isolated(f, r, k):
+    out = np.zeros_like(f)
+    for i, j in zip(*np.nonzero(f)):
+        win = f[max(0, i - r):i + r + 1, max(0, j - r):j + r + 1]
+        out[i, j] = win.sum() - 1 >= k
+    return out
+
+
+def ref_dilate(f, r):
+    out = np.zeros_like(f)
+    for i, j in zip(*np.nonzero(f)):
+        out[max(0, i - r):i + r + 1, max(0, j - r):j + r + 1] = True
+    return out
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_cleanup_matches_references(seed):
+    f = np.random.default_rng(seed).random((23, 17)) > 0.85
+    assert np.array_equal(T.remove_isolated(f, 2, 1), ref_remove_isolated(f, 2, 1))
+    assert np.array_equal(T.remove_isolated(f, 2, 3), ref_remove_isolated(f, 2, 3))
+    for r in (0, 1, 3):
+        assert np.array_equal(T.dilate(f, r), ref_dilate(f, r))
+
+
+def test_isolated_single_flags_removed_regions_kept():
+    f = np.zeros((20, 20), bool)
+    f[2, 2] = True  # alone
+    f[10:14, 10:14] = True  # a region
+    g = T.remove_isolated(f, 2, 1)
+    assert not g[2, 2] and g[10:14, 10:14].all()
+    d = T.dilate(g, 2)
+    assert d[8:16, 8:16].all() and d.sum() == 64
