@@ -1,0 +1,647 @@
+"""Gradient-domain transfer of synthesized colour: a multigrid Poisson solver.
+
+The final step of fast guided synthesis (Bonneel et al. 2010, §5 step 3 and §7) solves,
+for each of the three colour channels,
+
+    Δu = Δ(f∘s)   in Ω,
+    ∇u = 0        across Γ1 (boundaries between patches),
+    u  = f∘s      on Γ2 (boundaries between different label ids),
+
+where f∘s is the synthesized image (the source looked up through the coordinate map).
+Discretely, on the 4-connected pixel graph: for every pixel p that is not fixed,
+
+    Σ_{q ∈ N(p)} (u_p − u_q) = Σ_{q ∈ N(p)} g_pq,
+    g_pq = (f∘s)_p − (f∘s)_q  if p and q are in the same patch, else 0,
+
+so inside a patch the source's gradients are kept, across a patch seam the target
+gradient is zero (the seam is blended away), and fixed pixels (label contours, plus an
+optional caller mask, e.g. everything outside newly synthesized areas) keep their
+values. Neighbours outside the image are absent (natural Neumann condition). A connected
+set of free pixels that touches no fixed pixel is determined up to a constant; its mean
+is set to the mean of f∘s over it.
+
+The solver works on the correction v = u − f∘s (zero almost everywhere but along seams)
+with conjugate gradients preconditioned by a multigrid V-cycle: red-black Gauss-Seidel
+smoothing and Galerkin coarse operators of 2×2 aggregation (every level is again a
+5-point stencil, so irregular fixed pixels need no special cases). All three channels
+are swept together.
+
+References
+----------
+P. Pérez, M. Gangnet, A. Blake. Poisson image editing. SIGGRAPH 2003.
+A. McAdams, E. Sifakis, J. Teran. A parallel multigrid Poisson solver for fluids
+simulation on large grids. SCA 2010.
+D. Braess. Towards algebraic multigrid for elliptic problems of second order.
+Computing 55, 1995 (over-correction of aggregation coarse grids).
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, prange
+
+from proxyshade.kernels._config import JIT, PJIT
+from proxyshade.kernels.distance import contour_mask
+
+# ---------------------------------------------------------------------------
+# operators: level = (diag, wE, wS); (A x)_p = diag_p x_p - sum_q w_pq x_q.
+# diag == 0 marks a cell with no unknown (fixed).
+
+
+@njit(**PJIT)
+def _fine_operator(fixed):
+    h, w = fixed.shape
+    diag = np.zeros((h, w), np.float32)
+    we = np.zeros((h, w), np.float32)
+    ws = np.zeros((h, w), np.float32)
+    for i in prange(h):
+        for j in range(w):
+            if fixed[i, j]:
+                continue
+            n = 0
+            if i > 0:
+                n += 1
+            if i + 1 < h:
+                n += 1
+                if not fixed[i + 1, j]:
+                    ws[i, j] = 1.0
+            if j > 0:
+                n += 1
+            if j + 1 < w:
+                n += 1
+                if not fixed[i, j + 1]:
+                    we[i, j] = 1.0
+            diag[i, j] = n
+    return diag, we, ws
+
+
+@njit(**PJIT)
+def _coarsen(diag, we, ws):
+    """Galerkin operator P^T A P for 2x2 piecewise-constant aggregation."""
+    h, w = diag.shape
+    hc = (h + 1) // 2
+    wc = (w + 1) // 2
+    dc = np.zeros((hc, wc), np.float32)
+    ec = np.zeros((hc, wc), np.float32)
+    sc = np.zeros((hc, wc), np.float32)
+    for I in prange(hc):
+        for J in range(wc):
+            d = 0.0
+            i0 = 2 * I
+            j0 = 2 * J
+            for di in range(2):
+                i = i0 + di
+                if i >= h:
+                    continue
+                for dj in range(2):
+                    j = j0 + dj
+                    if j >= w:
+                        continue
+                    d += diag[i, j]
+            # internal edges count twice (both off-diagonal entries)
+            if i0 < h and j0 + 1 < w:
+                d -= 2.0 * we[i0, j0]
+            if i0 + 1 < h and j0 + 1 < w:
+                d -= 2.0 * we[i0 + 1, j0]
+            if i0 + 1 < h:
+                d -= 2.0 * ws[i0, j0]
+                if j0 + 1 < w:
+                    d -= 2.0 * ws[i0, j0 + 1]
+            dc[I, J] = d
+            # east: fine edges from column j0+1 to j0+2
+            if j0 + 2 < w:
+                e = we[i0, j0 + 1]
+                if i0 + 1 < h:
+                    e += we[i0 + 1, j0 + 1]
+                ec[I, J] = e
+            if i0 + 2 < h:
+                s = ws[i0 + 1, j0]
+                if j0 + 1 < w:
+                    s += ws[i0 + 1, j0 + 1]
+                sc[I, J] = s
+    return dc, ec, sc
+
+
+@njit(**PJIT)
+def _smooth(diag, we, ws, x, b, color):
+    """One Gauss-Seidel half sweep on cells with (i + j) % 2 == color, 3 channels."""
+    h, w = diag.shape
+    for i in prange(h):
+        j0 = (color + i) % 2
+        for j in range(j0, w, 2):
+            d = diag[i, j]
+            if d == 0.0:
+                continue
+            s0 = b[i, j, 0]
+            s1 = b[i, j, 1]
+            s2 = b[i, j, 2]
+            if j + 1 < w:
+                c = we[i, j]
+                s0 += c * x[i, j + 1, 0]
+                s1 += c * x[i, j + 1, 1]
+                s2 += c * x[i, j + 1, 2]
+            if j > 0:
+                c = we[i, j - 1]
+                s0 += c * x[i, j - 1, 0]
+                s1 += c * x[i, j - 1, 1]
+                s2 += c * x[i, j - 1, 2]
+            if i + 1 < h:
+                c = ws[i, j]
+                s0 += c * x[i + 1, j, 0]
+                s1 += c * x[i + 1, j, 1]
+                s2 += c * x[i + 1, j, 2]
+            if i > 0:
+                c = ws[i - 1, j]
+                s0 += c * x[i - 1, j, 0]
+                s1 += c * x[i - 1, j, 1]
+                s2 += c * x[i - 1, j, 2]
+            inv = 1.0 / d
+            x[i, j, 0] = s0 * inv
+            x[i, j, 1] = s1 * inv
+            x[i, j, 2] = s2 * inv
+
+
+@njit(**PJIT)
+def _residual(diag, we, ws, x, b, r):
+    h, w = diag.shape
+    for i in prange(h):
+        for j in range(w):
+            d = diag[i, j]
+            if d == 0.0:
+                r[i, j, 0] = 0.0
+                r[i, j, 1] = 0.0
+                r[i, j, 2] = 0.0
+                continue
+            s0 = b[i, j, 0] - d * x[i, j, 0]
+            s1 = b[i, j, 1] - d * x[i, j, 1]
+            s2 = b[i, j, 2] - d * x[i, j, 2]
+            if j + 1 < w:
+                c = we[i, j]
+                s0 += c * x[i, j + 1, 0]
+                s1 += c * x[i, j + 1, 1]
+                s2 += c * x[i, j + 1, 2]
+            if j > 0:
+                c = we[i, j - 1]
+                s0 += c * x[i, j - 1, 0]
+                s1 += c * x[i, j - 1, 1]
+                s2 += c * x[i, j - 1, 2]
+            if i + 1 < h:
+                c = ws[i, j]
+                s0 += c * x[i + 1, j, 0]
+                s1 += c * x[i + 1, j, 1]
+                s2 += c * x[i + 1, j, 2]
+            if i > 0:
+                c = ws[i - 1, j]
+                s0 += c * x[i - 1, j, 0]
+                s1 += c * x[i - 1, j, 1]
+                s2 += c * x[i - 1, j, 2]
+            r[i, j, 0] = s0
+            r[i, j, 1] = s1
+            r[i, j, 2] = s2
+
+
+@njit(**PJIT)
+def _jacobi_start(diag, x, b, color):
+    """x = 0 except cells of ``color``: b / diag (a red half-sweep from zero)."""
+    h, w = diag.shape
+    for i in prange(h):
+        for j in range(w):
+            d = diag[i, j]
+            if (i + j) % 2 == color and d != 0.0:
+                inv = 1.0 / d
+                x[i, j, 0] = b[i, j, 0] * inv
+                x[i, j, 1] = b[i, j, 1] * inv
+                x[i, j, 2] = b[i, j, 2] * inv
+            else:
+                x[i, j, 0] = 0.0
+                x[i, j, 1] = 0.0
+                x[i, j, 2] = 0.0
+
+
+@njit(inline="always", **JIT)
+def _apply_at(diag, we, ws, x, i, j):
+    """(A x)_(i, j) for the three channels."""
+    h, w = diag.shape
+    d = diag[i, j]
+    s0 = d * x[i, j, 0]
+    s1 = d * x[i, j, 1]
+    s2 = d * x[i, j, 2]
+    if j + 1 < w:
+        c = we[i, j]
+        s0 -= c * x[i, j + 1, 0]
+        s1 -= c * x[i, j + 1, 1]
+        s2 -= c * x[i, j + 1, 2]
+    if j > 0:
+        c = we[i, j - 1]
+        s0 -= c * x[i, j - 1, 0]
+        s1 -= c * x[i, j - 1, 1]
+        s2 -= c * x[i, j - 1, 2]
+    if i + 1 < h:
+        c = ws[i, j]
+        s0 -= c * x[i + 1, j, 0]
+        s1 -= c * x[i + 1, j, 1]
+        s2 -= c * x[i + 1, j, 2]
+    if i > 0:
+        c = ws[i - 1, j]
+        s0 -= c * x[i - 1, j, 0]
+        s1 -= c * x[i - 1, j, 1]
+        s2 -= c * x[i - 1, j, 2]
+    return s0, s1, s2
+
+
+@njit(**PJIT)
+def _residual_restrict(diag, we, ws, x, b, rc):
+    """rc = P^T (b - A x): the residual summed over each 2x2 aggregate."""
+    h, w = diag.shape
+    hc, wc = rc.shape[0], rc.shape[1]
+    for I in prange(hc):
+        for J in range(wc):
+            rc[I, J, 0] = 0.0
+            rc[I, J, 1] = 0.0
+            rc[I, J, 2] = 0.0
+        for i in range(2 * I, min(2 * I + 2, h)):
+            for j in range(w):
+                if diag[i, j] == 0.0:
+                    continue
+                a0, a1, a2 = _apply_at(diag, we, ws, x, i, j)
+                J = j >> 1
+                rc[I, J, 0] += b[i, j, 0] - a0
+                rc[I, J, 1] += b[i, j, 1] - a1
+                rc[I, J, 2] += b[i, j, 2] - a2
+
+
+@njit(**PJIT)
+def _matvec_dot(diag, we, ws, p, q, pq):
+    """q = A p and pq[c] = <p, q> per channel (fixed summation order)."""
+    h, w = diag.shape
+    part = np.zeros((h, 3), np.float64)
+    for i in prange(h):
+        t0 = 0.0
+        t1 = 0.0
+        t2 = 0.0
+        for j in range(w):
+            if diag[i, j] == 0.0:
+                q[i, j, 0] = 0.0
+                q[i, j, 1] = 0.0
+                q[i, j, 2] = 0.0
+                continue
+            a0, a1, a2 = _apply_at(diag, we, ws, p, i, j)
+            q[i, j, 0] = a0
+            q[i, j, 1] = a1
+            q[i, j, 2] = a2
+            t0 += np.float64(p[i, j, 0]) * a0
+            t1 += np.float64(p[i, j, 1]) * a1
+            t2 += np.float64(p[i, j, 2]) * a2
+        part[i, 0] = t0
+        part[i, 1] = t1
+        part[i, 2] = t2
+    for c in range(3):
+        pq[c] = 0.0
+    for i in range(h):
+        for c in range(3):
+            pq[c] += part[i, c]
+
+
+@njit(**PJIT)
+def _cg_update(v, r, p, q, a, rr):
+    """v += a p; r -= a q; rr = <r, r> per channel (fixed summation order)."""
+    h, w = v.shape[0], v.shape[1]
+    a32 = np.empty(3, np.float32)
+    for c in range(3):
+        a32[c] = a[c]
+    part = np.zeros((h, 3), np.float64)
+    for i in prange(h):
+        for j in range(w):
+            for c in range(3):
+                v[i, j, c] += a32[c] * p[i, j, c]
+                rv = r[i, j, c] - a32[c] * q[i, j, c]
+                r[i, j, c] = rv
+                part[i, c] += np.float64(rv) * np.float64(rv)
+    for c in range(3):
+        rr[c] = 0.0
+    for i in range(h):
+        for c in range(3):
+            rr[c] += part[i, c]
+
+
+@njit(**PJIT)
+def _prolong_add(xc, x, diag, alpha):
+    h, w = diag.shape
+    for i in prange(h):
+        I = i // 2
+        for j in range(w):
+            if diag[i, j] == 0.0:
+                continue
+            J = j // 2
+            x[i, j, 0] += alpha * xc[I, J, 0]
+            x[i, j, 1] += alpha * xc[I, J, 1]
+            x[i, j, 2] += alpha * xc[I, J, 2]
+
+
+# ---------------------------------------------------------------------------
+# problem set-up
+
+
+@njit(**PJIT)
+def _rhs(f, patch, fixed, vfix, b):
+    """b_p = sum over neighbours q in another patch of (f_q - f_p), plus fixed v_q."""
+    h, w = patch.shape
+    _DI = np.array((-1, 1, 0, 0))
+    _DJ = np.array((0, 0, -1, 1))
+    for i in prange(h):
+        for j in range(w):
+            if fixed[i, j]:
+                for c in range(3):
+                    b[i, j, c] = 0.0
+                continue
+            for c in range(3):
+                b[i, j, c] = 0.0
+            pid = patch[i, j]
+            for k in range(4):
+                ii = i + _DI[k]
+                jj = j + _DJ[k]
+                if ii < 0 or ii >= h or jj < 0 or jj >= w:
+                    continue
+                if fixed[ii, jj]:
+                    for c in range(3):
+                        b[i, j, c] += vfix[ii, jj, c]
+                    # the guidance term on this edge is still part of the equation
+                if patch[ii, jj] != pid:
+                    for c in range(3):
+                        b[i, j, c] += f[ii, jj, c] - f[i, j, c]
+
+
+@njit(**JIT)
+def _floating_components(fixed, comp_first):
+    """Label 4-connected components of free pixels; return for each component the
+    flat index of its first pixel and whether it touches a fixed pixel.
+
+    ``comp_first`` (H*W int64) receives the component index of each free pixel (-1 for
+    fixed). Returns (first_pixel[ncomp], anchored[ncomp]).
+    """
+    h, w = fixed.shape
+    n = h * w
+    for p in range(n):
+        comp_first[p] = -1
+    _DI = np.array((-1, 1, 0, 0))
+    _DJ = np.array((0, 0, -1, 1))
+    stack = np.empty(n, np.int64)
+    firsts = np.empty(n, np.int64)
+    anchored = np.zeros(n, np.bool_)
+    nc = 0
+    for p0 in range(n):
+        if fixed[p0 // w, p0 % w] or comp_first[p0] >= 0:
+            continue
+        comp_first[p0] = nc
+        firsts[nc] = p0
+        top = 0
+        stack[0] = p0
+        top = 1
+        while top > 0:
+            top -= 1
+            p = stack[top]
+            i = p // w
+            j = p % w
+            for k in range(4):
+                ii = i + _DI[k]
+                jj = j + _DJ[k]
+                if ii < 0 or ii >= h or jj < 0 or jj >= w:
+                    continue
+                if fixed[ii, jj]:
+                    anchored[nc] = True
+                    continue
+                q = ii * w + jj
+                if comp_first[q] < 0:
+                    comp_first[q] = nc
+                    stack[top] = q
+                    top += 1
+        nc += 1
+    return firsts[:nc].copy(), anchored[:nc].copy()
+
+
+@njit(**JIT)
+def _recentre(v, comp, ncomp, which):
+    """Shift each component listed in ``which`` so its mean correction is zero."""
+    h, w = v.shape[0], v.shape[1]
+    sums = np.zeros((ncomp, 3), np.float64)
+    cnt = np.zeros(ncomp, np.int64)
+    for p in range(h * w):
+        c = comp[p]
+        if c >= 0 and which[c]:
+            cnt[c] += 1
+            for k in range(3):
+                sums[c, k] += v[p // w, p % w, k]
+    for p in range(h * w):
+        c = comp[p]
+        if c >= 0 and which[c]:
+            for k in range(3):
+                v[p // w, p % w, k] -= sums[c, k] / cnt[c]
+
+
+@njit(**PJIT)
+def _dot3(a, b, out):
+    h, w = a.shape[0], a.shape[1]
+    part = np.zeros((h, 3), np.float64)
+    for i in prange(h):
+        for j in range(w):
+            for c in range(3):
+                part[i, c] += np.float64(a[i, j, c]) * np.float64(b[i, j, c])
+    for c in range(3):
+        out[c] = 0.0
+    for i in range(h):  # fixed summation order: same result for any thread count
+        for c in range(3):
+            out[c] += part[i, c]
+
+
+@njit(**PJIT)
+def _xpby3(z, beta, p):
+    """p = z + beta[c] * p."""
+    h, w = z.shape[0], z.shape[1]
+    b0 = np.float32(beta[0])
+    b1 = np.float32(beta[1])
+    b2 = np.float32(beta[2])
+    for i in prange(h):
+        for j in range(w):
+            p[i, j, 0] = z[i, j, 0] + b0 * p[i, j, 0]
+            p[i, j, 1] = z[i, j, 1] + b1 * p[i, j, 1]
+            p[i, j, 2] = z[i, j, 2] + b2 * p[i, j, 2]
+
+
+# ---------------------------------------------------------------------------
+# multigrid-preconditioned conjugate gradients
+
+
+class _Hierarchy:
+    """Operators and work arrays of every level, finest first.
+
+    ``alpha`` over-corrects the coarse-grid correction: with piecewise-constant
+    aggregation the Galerkin coarse operator is about twice the rediscretized one in
+    free regions, so a factor near 2 restores the scale (Braess 1995).
+    """
+
+    def __init__(self, fixed: np.ndarray, *, coarsest: int = 4, alpha: float = 1.9):
+        self.alpha = alpha
+        ops = [_fine_operator(fixed)]
+        while min(ops[-1][0].shape) > coarsest:
+            ops.append(_coarsen(*ops[-1]))
+        self.ops = ops
+        self.x = [np.zeros(op[0].shape + (3,), np.float32) for op in ops]
+        self.b = [np.zeros(op[0].shape + (3,), np.float32) for op in ops]
+
+    def vcycle(self, b: np.ndarray, x: np.ndarray, *, sweeps: int = 1, coarse_sweeps: int = 30,
+               level: int = 0) -> None:
+        """Approximately solve A x = b from x = 0; symmetric (red-black before, black-red
+        after), so it can precondition conjugate gradients."""
+        diag, we, ws = self.ops[level]
+        if level == len(self.ops) - 1:
+            x[...] = 0.0
+            for _ in range(coarse_sweeps):
+                _smooth(diag, we, ws, x, b, 0)
+                _smooth(diag, we, ws, x, b, 1)
+            for _ in range(coarse_sweeps):
+                _smooth(diag, we, ws, x, b, 1)
+                _smooth(diag, we, ws, x, b, 0)
+            return
+        _jacobi_start(diag, x, b, 0)  # the first red half-sweep, from x = 0
+        _smooth(diag, we, ws, x, b, 1)
+        for _ in range(sweeps - 1):
+            _smooth(diag, we, ws, x, b, 0)
+            _smooth(diag, we, ws, x, b, 1)
+        bc = self.b[level + 1]
+        xc = self.x[level + 1]
+        _residual_restrict(diag, we, ws, x, b, bc)
+        self.vcycle(bc, xc, sweeps=sweeps, coarse_sweeps=coarse_sweeps, level=level + 1)
+        _prolong_add(xc, x, diag, self.alpha)
+        for _ in range(sweeps):
+            _smooth(diag, we, ws, x, b, 1)
+            _smooth(diag, we, ws, x, b, 0)
+
+
+def solve_system(fixed: np.ndarray, b: np.ndarray, *, tol: float = 1e-5, max_iter: int = 100,
+                 sweeps: int = 1, alpha: float = 1.9) -> tuple[np.ndarray, dict]:
+    """Solve A v = b for three channels with multigrid-preconditioned conjugate gradients.
+
+    A is the graph Laplacian of the 4-connected grid restricted to the free (not
+    ``fixed``) pixels: diagonal = number of in-image neighbours, -1 per free neighbour.
+    Every connected set of free pixels must touch a fixed pixel (A is then SPD).
+
+    Stops when every channel's residual norm is at most ``tol`` times its initial norm.
+    Returns v (M, N, 3) float32 (zero on fixed pixels) and {"iterations", "residual"}.
+    """
+    hier = _Hierarchy(np.ascontiguousarray(fixed, dtype=np.bool_), alpha=alpha)
+    diag, we, ws = hier.ops[0]
+    b = np.ascontiguousarray(b, dtype=np.float32)
+    shape = b.shape
+    v = np.zeros(shape, np.float32)
+    r = np.empty(shape, np.float32)
+    _residual(diag, we, ws, v, b, r)  # r = b with the fixed entries zeroed
+    rr = np.zeros(3)
+    _dot3(r, r, rr)
+    r0 = np.sqrt(rr)
+    if np.all(r0 == 0.0):
+        return v, {"iterations": 0, "residual": 0.0}
+    target = tol * r0
+    z = np.empty(shape, np.float32)
+    q = np.empty(shape, np.float32)
+    hier.vcycle(r, z, sweeps=sweeps)
+    p = z.copy()
+    rz = np.zeros(3)
+    _dot3(r, z, rz)
+    pq = np.zeros(3)
+    it = 0
+    res = r0
+    while it < max_iter:
+        it += 1
+        _matvec_dot(diag, we, ws, p, q, pq)
+        a = np.where(pq > 0, rz / np.where(pq > 0, pq, 1.0), 0.0)
+        _cg_update(v, r, p, q, a, rr)
+        res = np.sqrt(rr)
+        if np.all(res <= target):
+            break
+        hier.vcycle(r, z, sweeps=sweeps)
+        rz_new = np.zeros(3)
+        _dot3(r, z, rz_new)
+        beta = np.where(rz > 0, rz_new / np.where(rz > 0, rz, 1.0), 0.0)
+        rz = rz_new
+        _xpby3(z, beta, p)
+    rel = float(np.max(np.where(r0 > 0, res / np.where(r0 > 0, r0, 1.0), 0.0)))
+    return v, {"iterations": it, "residual": rel}
+
+
+def poisson_transfer(colors: np.ndarray, patch: np.ndarray, labels: np.ndarray | None = None, *,
+                     fixed: np.ndarray | None = None, values: np.ndarray | None = None,
+                     label_dirichlet: bool = True, tol: float = 1e-5, max_iter: int = 100) -> tuple[np.ndarray, dict]:
+    """Gradient transfer of a synthesized image (Bonneel et al. 2010, §5 step 3).
+
+    Parameters
+    ----------
+    colors : (M, N, 3) float ndarray
+        f∘s: the source looked up through the coordinate map.
+    patch : (M, N) uint32 ndarray
+        Patch ids; the source gradient is kept between pixels of one patch, the target
+        gradient across patch seams is zero.
+    labels : (M, N) uint32 ndarray, optional
+        Label ids; with ``label_dirichlet`` pixels on a boundary between two labels keep
+        their colour (Dirichlet condition on Γ2).
+    fixed : (M, N) bool ndarray, optional
+        More pixels whose value is prescribed (e.g. everything outside newly synthesized
+        areas when updating a frame).
+    values : (M, N, 3) float ndarray, optional
+        Values at ``fixed`` pixels (default: ``colors``). Label-boundary pixels always
+        take ``colors``.
+    tol : float
+        Relative residual at which conjugate gradients stops.
+
+    Returns
+    -------
+    u : (M, N, 3) float32 ndarray
+    info : dict
+        iterations, relative residual, number of fixed pixels and floating components.
+    """
+    colors = np.ascontiguousarray(colors, dtype=np.float32)
+    if colors.ndim != 3 or colors.shape[2] != 3:
+        raise ValueError(f"colors must be (M, N, 3), got shape {colors.shape}")
+    h, w = colors.shape[:2]
+    patch = np.ascontiguousarray(patch, dtype=np.uint32)
+    if patch.shape != (h, w):
+        raise ValueError(f"patch is {patch.shape}, colors {colors.shape[:2]}")
+    fx = np.zeros((h, w), np.bool_)
+    vfix = np.zeros((h, w, 3), np.float32)  # fixed value of the correction v = u - f
+    if fixed is not None:
+        fixed = np.asarray(fixed, dtype=np.bool_)
+        if fixed.shape != (h, w):
+            raise ValueError(f"fixed is {fixed.shape}, colors {colors.shape[:2]}")
+        fx |= fixed
+        if values is not None:
+            values = np.asarray(values, dtype=np.float32)
+            if values.shape != (h, w, 3):
+                raise ValueError(f"values must be {(h, w, 3)}, got {values.shape}")
+            vfix[fixed] = values[fixed] - colors[fixed]
+    if labels is not None and label_dirichlet:
+        labels = np.ascontiguousarray(labels)
+        if labels.shape != (h, w):
+            raise ValueError(f"labels is {labels.shape}, colors {colors.shape[:2]}")
+        edge = contour_mask(labels)
+        fx |= edge
+        vfix[edge] = 0.0
+    # components of free pixels with no fixed neighbour: pin their first pixel, recentre
+    comp = np.empty(h * w, np.int64)
+    firsts, anchored = _floating_components(fx, comp)
+    floating = ~anchored
+    if floating.any():
+        pins = firsts[floating]
+        fx = fx.copy()
+        fx.reshape(-1)[pins] = True
+        vfix.reshape(-1, 3)[pins] = 0.0
+    b = np.empty((h, w, 3), np.float32)
+    _rhs(colors, patch, fx, vfix, b)
+    v, info = solve_system(fx, b, tol=tol, max_iter=max_iter)
+    v[fx] = vfix[fx]
+    if floating.any():
+        _recentre(v, comp, len(firsts), floating)
+    info.update(fixed=int(fx.sum()), floating=int(floating.sum()))
+    u = colors + v
+    if fixed is not None and values is not None:  # exact values, not f + (values - f)
+        keep = fixed if labels is None or not label_dirichlet else fixed & ~edge
+        u[keep] = values[keep]
+    return u, info
+
