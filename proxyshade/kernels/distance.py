@@ -162,3 +162,86 @@ def contour_distance(labels: np.ndarray, *, max_distance: float | None = None) -
     cap = np.inf if max_distance is None else float(max_distance)
     _sqrt_clamped(d2, cap, out)
     return out
+
+
+@njit(**JIT)
+def _envelope_1d_arg(f, n, out, arg, v, z):
+    """As ``_envelope_1d``, also returning the minimizing site (the first on ties)."""
+    k = -1
+    for q in range(n):
+        if f[q] >= _BIG:
+            continue
+        fq = f[q] + q * q
+        while k >= 0:
+            p = v[k]
+            num = fq - (f[p] + p * p)
+            den = 2 * (q - p)
+            if num * z[2 * k + 1] <= z[2 * k] * den:
+                k -= 1
+            else:
+                break
+        k += 1
+        v[k] = q
+        if k == 0:
+            z[0] = -1
+            z[1] = 0
+        else:
+            p = v[k - 1]
+            z[2 * k] = fq - (f[p] + p * p)
+            z[2 * k + 1] = 2 * (q - p)
+    if k < 0:
+        for q in range(n):
+            out[q] = _BIG
+            arg[q] = -1
+        return
+    j = 0
+    for q in range(n):
+        while j < k and z[2 * (j + 1)] <= q * z[2 * (j + 1) + 1]:
+            j += 1
+        p = v[j]
+        out[q] = (q - p) * (q - p) + f[p]
+        arg[q] = p
+
+
+@njit(**PJIT)
+def _nearest_site(sites):
+    h, w = sites.shape
+    g = np.empty((h, w), np.int64)
+    gi = np.empty((h, w), np.int64)
+    for j in prange(w):
+        f = np.empty(h, np.int64)
+        out = np.empty(h, np.int64)
+        arg = np.empty(h, np.int64)
+        v = np.empty(h, np.int64)
+        z = np.empty(2 * h + 2, np.int64)
+        for i in range(h):
+            f[i] = 0 if sites[i, j] else _BIG
+        _envelope_1d_arg(f, h, out, arg, v, z)
+        for i in range(h):
+            g[i, j] = out[i]
+            gi[i, j] = arg[i]
+    res = np.empty((h, w, 2), np.int32)
+    for i in prange(h):
+        f = np.empty(w, np.int64)
+        out = np.empty(w, np.int64)
+        arg = np.empty(w, np.int64)
+        v = np.empty(w, np.int64)
+        z = np.empty(2 * w + 2, np.int64)
+        for j in range(w):
+            f[j] = g[i, j]
+        _envelope_1d_arg(f, w, out, arg, v, z)
+        for j in range(w):
+            c = arg[j]
+            if c < 0:
+                res[i, j, 0] = -1
+                res[i, j, 1] = -1
+            else:
+                res[i, j, 0] = gi[i, c]
+                res[i, j, 1] = c
+    return res
+
+
+def nearest_site(sites: np.ndarray) -> np.ndarray:
+    """(M, N, 2) int32 (row, column) of a nearest True pixel of ``sites`` (Euclidean,
+    exact; among equally near sites, one of them), -1 where there is none."""
+    return _nearest_site(np.ascontiguousarray(sites, dtype=np.bool_))

@@ -48,7 +48,7 @@ from proxyshade.kernels.distance import contour_mask
 
 
 @njit(**PJIT)
-def _fine_operator(fixed):
+def _fine_operator(fixed, screen):
     h, w = fixed.shape
     diag = np.zeros((h, w), np.float32)
     we = np.zeros((h, w), np.float32)
@@ -70,7 +70,7 @@ def _fine_operator(fixed):
                 n += 1
                 if not fixed[i, j + 1]:
                     we[i, j] = 1.0
-            diag[i, j] = n
+            diag[i, j] = n + screen
     return diag, we, ws
 
 
@@ -342,32 +342,41 @@ def _prolong_add(xc, x, diag, alpha):
 
 
 @njit(**PJIT)
-def _rhs(f, patch, fixed, vfix, b):
-    """b_p = sum over neighbours q in another patch of (f_q - f_p), plus fixed v_q."""
+def _rhs(f, patch, fixed, vfix, gx, gy, b):
+    """Right-hand side of the correction equation A v = b at free pixels:
+
+    b_p = sum over neighbours q of (g_pq - (f_p - f_q)) + sum over fixed q of v_q,
+
+    where g_pq (the wanted u_p - u_q) is f_p - f_q inside a patch (the term vanishes)
+    and, across a seam, -gx[p] / gx[q] (east / west) and -gy[p] / gy[q] (south / north).
+    """
     h, w = patch.shape
-    _DI = np.array((-1, 1, 0, 0))
-    _DJ = np.array((0, 0, -1, 1))
     for i in prange(h):
         for j in range(w):
-            if fixed[i, j]:
-                for c in range(3):
-                    b[i, j, c] = 0.0
-                continue
             for c in range(3):
                 b[i, j, c] = 0.0
+            if fixed[i, j]:
+                continue
             pid = patch[i, j]
             for k in range(4):
-                ii = i + _DI[k]
-                jj = j + _DJ[k]
+                ii = i + (k == 1) - (k == 0)
+                jj = j + (k == 3) - (k == 2)
                 if ii < 0 or ii >= h or jj < 0 or jj >= w:
                     continue
                 if fixed[ii, jj]:
                     for c in range(3):
                         b[i, j, c] += vfix[ii, jj, c]
-                    # the guidance term on this edge is still part of the equation
                 if patch[ii, jj] != pid:
                     for c in range(3):
-                        b[i, j, c] += f[ii, jj, c] - f[i, j, c]
+                        if k == 0:
+                            g = gy[ii, jj, c]   # u_p - u_north
+                        elif k == 1:
+                            g = -gy[i, j, c]    # u_p - u_south
+                        elif k == 2:
+                            g = gx[ii, jj, c]   # u_p - u_west
+                        else:
+                            g = -gx[i, j, c]    # u_p - u_east
+                        b[i, j, c] += g - (f[i, j, c] - f[ii, jj, c])
 
 
 @njit(**JIT)
@@ -478,9 +487,9 @@ class _Hierarchy:
     free regions, so a factor near 2 restores the scale (Braess 1995).
     """
 
-    def __init__(self, fixed: np.ndarray, *, coarsest: int = 4, alpha: float = 1.9):
+    def __init__(self, fixed: np.ndarray, *, screen: float = 0.0, coarsest: int = 4, alpha: float = 1.9):
         self.alpha = alpha
-        ops = [_fine_operator(fixed)]
+        ops = [_fine_operator(fixed, np.float32(screen))]
         while min(ops[-1][0].shape) > coarsest:
             ops.append(_coarsen(*ops[-1]))
         self.ops = ops
@@ -516,18 +525,19 @@ class _Hierarchy:
             _smooth(diag, we, ws, x, b, 0)
 
 
-def solve_system(fixed: np.ndarray, b: np.ndarray, *, tol: float = 1e-5, max_iter: int = 100,
+def solve_system(fixed: np.ndarray, b: np.ndarray, *, screen: float = 0.0, tol: float = 1e-5, max_iter: int = 100,
                  sweeps: int = 1, alpha: float = 1.9) -> tuple[np.ndarray, dict]:
     """Solve A v = b for three channels with multigrid-preconditioned conjugate gradients.
 
     A is the graph Laplacian of the 4-connected grid restricted to the free (not
     ``fixed``) pixels: diagonal = number of in-image neighbours, -1 per free neighbour.
-    Every connected set of free pixels must touch a fixed pixel (A is then SPD).
+    ``screen`` is added to the diagonal (screened Poisson). Unless it is positive, every
+    connected set of free pixels must touch a fixed pixel (A is then SPD).
 
     Stops when every channel's residual norm is at most ``tol`` times its initial norm.
     Returns v (M, N, 3) float32 (zero on fixed pixels) and {"iterations", "residual"}.
     """
-    hier = _Hierarchy(np.ascontiguousarray(fixed, dtype=np.bool_), alpha=alpha)
+    hier = _Hierarchy(np.ascontiguousarray(fixed, dtype=np.bool_), screen=screen, alpha=alpha)
     diag, we, ws = hier.ops[0]
     b = np.ascontiguousarray(b, dtype=np.float32)
     shape = b.shape
@@ -569,7 +579,9 @@ def solve_system(fixed: np.ndarray, b: np.ndarray, *, tol: float = 1e-5, max_ite
 
 def poisson_transfer(colors: np.ndarray, patch: np.ndarray, labels: np.ndarray | None = None, *,
                      fixed: np.ndarray | None = None, values: np.ndarray | None = None,
-                     label_dirichlet: bool = True, tol: float = 1e-5, max_iter: int = 100) -> tuple[np.ndarray, dict]:
+                     label_dirichlet: bool = True, seam_gx: np.ndarray | None = None,
+                     seam_gy: np.ndarray | None = None, screen: float = 0.0, tol: float = 1e-5,
+                     max_iter: int = 100) -> tuple[np.ndarray, dict]:
     """Gradient transfer of a synthesized image (Bonneel et al. 2010, §5 step 3).
 
     Parameters
@@ -588,6 +600,16 @@ def poisson_transfer(colors: np.ndarray, patch: np.ndarray, labels: np.ndarray |
     values : (M, N, 3) float ndarray, optional
         Values at ``fixed`` pixels (default: ``colors``). Label-boundary pixels always
         take ``colors``.
+    seam_gx, seam_gy : (M, N, 3) float ndarray, optional
+        Wanted differences u[i, j + 1] - u[i, j] and u[i + 1, j] - u[i, j] used on
+        edges that cross a patch seam (read only there). Default zero: ∇u = 0 across
+        seams (the paper's Γ1 condition). ``seam_gradients`` computes the source's own
+        gradients there instead.
+    screen : float
+        Weight λ of a data term λ (u − f∘s)² (screened Poisson). 0 is the paper's pure
+        Poisson problem; a small λ keeps each region's low frequencies (far from any
+        fixed pixel the removed seam jumps otherwise add up to a colour drift) while
+        seams are still blended over about 1/sqrt(λ) pixels.
     tol : float
         Relative residual at which conjugate gradients stops.
 
@@ -626,15 +648,23 @@ def poisson_transfer(colors: np.ndarray, patch: np.ndarray, labels: np.ndarray |
     # components of free pixels with no fixed neighbour: pin their first pixel, recentre
     comp = np.empty(h * w, np.int64)
     firsts, anchored = _floating_components(fx, comp)
-    floating = ~anchored
+    floating = ~anchored if screen <= 0 else np.zeros(len(firsts), bool)
     if floating.any():
         pins = firsts[floating]
         fx = fx.copy()
         fx.reshape(-1)[pins] = True
         vfix.reshape(-1, 3)[pins] = 0.0
+    grads = []
+    for g, name in ((seam_gx, "seam_gx"), (seam_gy, "seam_gy")):
+        if g is None:
+            g = np.zeros((h, w, 3), np.float32)
+        elif g.shape != (h, w, 3):
+            raise ValueError(f"{name} must be {(h, w, 3)}, got {g.shape}")
+        grads.append(np.ascontiguousarray(g, dtype=np.float32))
+    gx, gy = grads
     b = np.empty((h, w, 3), np.float32)
-    _rhs(colors, patch, fx, vfix, b)
-    v, info = solve_system(fx, b, tol=tol, max_iter=max_iter)
+    _rhs(colors, patch, fx, vfix, gx, gy, b)
+    v, info = solve_system(fx, b, screen=screen, tol=tol, max_iter=max_iter)
     v[fx] = vfix[fx]
     if floating.any():
         _recentre(v, comp, len(firsts), floating)
@@ -645,3 +675,31 @@ def poisson_transfer(colors: np.ndarray, patch: np.ndarray, labels: np.ndarray |
         u[keep] = values[keep]
     return u, info
 
+
+
+def seam_gradients(source: np.ndarray, sx: np.ndarray, sy: np.ndarray, step: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
+    """Source gradients through a coordinate map, for the edges across patch seams.
+
+    For output pixel p and its east neighbour q, the wanted u_q - u_p is the mean of the
+    source's gradient read from either side: (f(s_p + e) - f(s_p) + f(s_q) - f(s_q - e)) / 2
+    with e one output pixel (``step`` source pixels) along x; the same along y. Inside a
+    patch this equals f∘s(q) - f∘s(p); across a seam it keeps the texture's contrast
+    instead of the jump.
+
+    Returns gx, gy (M, N, 3) float32 (the last column / row of gx / gy is unused).
+    """
+    from proxyshade.kernels.lookup import lookup
+
+    sx = np.asarray(sx, np.float32)
+    sy = np.asarray(sy, np.float32)
+    e = np.float32(step)
+    f0 = lookup(source, sx, sy)
+    gx = np.zeros(f0.shape, np.float32)
+    gy = np.zeros(f0.shape, np.float32)
+    fe = lookup(source, sx + e, sy)[:, :-1]
+    fw = lookup(source, sx[:, 1:] - e, sy[:, 1:])
+    gx[:, :-1] = 0.5 * ((fe - f0[:, :-1]) + (f0[:, 1:] - fw))
+    fs = lookup(source, sx, sy + e)[:-1]
+    fn = lookup(source, sx[1:], sy[1:] - e)
+    gy[:-1] = 0.5 * ((fs - f0[:-1]) + (f0[1:] - fn))
+    return gx, gy

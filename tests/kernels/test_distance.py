@@ -83,3 +83,20 @@ def test_parallel_equals_serial():
     finally:
         numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
     assert np.array_equal(a, b)
+
+
+def test_nearest_site_is_a_nearest():
+    rng = np.random.default_rng(9)
+    for _ in range(20):
+        h, w = rng.integers(1, 40, 2)
+        sites = rng.random((h, w)) < rng.choice([0.005, 0.05, 0.3])
+        got = distance.nearest_site(sites)
+        if not sites.any():
+            assert (got == -1).all()
+            continue
+        ci, cj = np.nonzero(sites)
+        ii, jj = np.mgrid[0:h, 0:w]
+        want = ((ii[..., None] - ci) ** 2 + (jj[..., None] - cj) ** 2).min(-1)
+        assert sites[got[..., 0], got[..., 1]].all()
+        d2 = (got[..., 0] - ii) ** 2 + (got[..., 1] - jj) ** 2
+        assert np.array_equal(d2, want)

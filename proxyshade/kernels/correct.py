@@ -1,0 +1,518 @@
+"""k-coherent pixel correction with repetition rejection (Bonneel et al. 2010, §5 step 2).
+
+After patch growth, the coordinate map is refined coarse to fine, after Lefebvre and
+Hoppe 2005: at each level the map is upsampled (children inherit their parent's exemplar
+position plus their offset) and corrected. A correction pass visits the pixels in four
+interleaved sub-sets (row and column parity); within one sub-set all pixels are updated
+in parallel from the state before it, so results do not depend on the thread count.
+
+For a pixel p the candidates are k-coherent: for each pixel q of p's 3×3 neighbourhood,
+the exemplar position S[q] shifted back by h (q − p), and the same shift applied to the
+k most similar exemplar pixels of S[q] (its similarity set, found once per level by a
+k-nearest-neighbour PatchMatch over the exemplar). A candidate must lie in the exemplar
+and carry the guide's label at p, and is rejected when
+
+* it is already used in the 9×9 window around p, or
+* a non-coherent pixel of that window uses an exemplar pixel within ``radius`` of it
+  (the paper: 2^(l−1) at level l, l = 1 the coarsest) — a near copy.
+
+The survivor closest to p's neighbourhood under eq. 1 augmented with colour
+
+    d = ||(N_D, N_RGB)(A) − (N_D, N_RGB)(B)||_2 + w C(A, B)
+
+replaces S[p]; when every candidate is rejected S[p] stays.
+
+References
+----------
+S. Lefebvre, H. Hoppe. Parallel controllable texture synthesis. SIGGRAPH 2005.
+M. Ashikhmin. Synthesizing natural textures. I3D 2001 (coherence).
+C. Barnes et al. The generalized PatchMatch correspondence algorithm. ECCV 2010 (k-NN).
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, prange
+
+from proxyshade.kernels._config import JIT, PJIT
+from proxyshade.kernels.features import NB2, chamfer_masks, dist_sq_D, dist_sq_rgb, gather_target
+
+WINDOW = 4  # half side of the 9x9 repetition window
+
+
+# ---------------------------------------------------------------------------
+# hashing: explicit randomness, one stream per (seed, level, pixel, draw)
+
+
+@njit(**JIT)
+def _mix(x):
+    x = (x ^ (x >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
+    x = (x ^ (x >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
+    return x ^ (x >> np.uint64(31))
+
+
+@njit(**JIT)
+def _rand(seed, a, b, c):
+    """Uniform integer in [0, 2^53) from four keys."""
+    x = _mix(np.uint64(seed) + np.uint64(0x9E3779B97F4A7C15))
+    x = _mix(x ^ np.uint64(a))
+    x = _mix(x ^ np.uint64(b))
+    x = _mix(x ^ np.uint64(c))
+    return np.int64(x >> np.uint64(11))
+
+
+# ---------------------------------------------------------------------------
+# exemplar self-similarity: k-NN lists
+
+
+@njit(**JIT)
+def _ex_dist(src_dist, src_rgb, src_masks, h, y, x, yy, xx, w, bound):
+    """Distance between exemplar windows (y, x) and (yy, xx) (spacing h), eq. 1 + colour."""
+    H, W = src_dist.shape
+    s = 0.0
+    b2 = bound * bound
+    for di in range(-2, 3):
+        a0 = min(max(y + di * h, 0), H - 1)
+        b0 = min(max(yy + di * h, 0), H - 1)
+        for dj in range(-2, 3):
+            a1 = min(max(x + dj * h, 0), W - 1)
+            b1 = min(max(xx + dj * h, 0), W - 1)
+            d = src_dist[a0, a1] - src_dist[b0, b1]
+            s += d * d
+            for c in range(3):
+                e = src_rgb[a0, a1, c] - src_rgb[b0, b1, c]
+                s += e * e
+        if s > b2:
+            return np.sqrt(s)
+    r = np.sqrt(s)
+    if r > bound:
+        return r
+    return r + w * chamfer_masks(src_masks[y, x], src_masks[yy, xx])
+
+
+@njit(**JIT)
+def _insert(ly, lx, ld, k, cy, cx, d):
+    """Insert (cy, cx, d) into the sorted k-list if better than its worst and new."""
+    if d >= ld[k - 1]:
+        return
+    for t in range(k):
+        if ly[t] == cy and lx[t] == cx:
+            return
+    t = k - 1
+    while t > 0 and ld[t - 1] > d:
+        ly[t] = ly[t - 1]
+        lx[t] = lx[t - 1]
+        ld[t] = ld[t - 1]
+        t -= 1
+    ly[t] = cy
+    lx[t] = cx
+    ld[t] = d
+
+
+@njit(**PJIT)
+def _knn_init(src_lab, src_dist, src_rgb, src_masks, h, k, excl, w, seed, starts, lists, ky, kx, kd):
+    H, W = src_lab.shape
+    for y in prange(H):
+        for x in range(W):
+            for t in range(k):
+                ky[y, x, t] = y
+                kx[y, x, t] = x
+                kd[y, x, t] = np.inf
+            l = src_lab[y, x]
+            n = starts[l + 1] - starts[l]
+            for t in range(2 * k):
+                c = lists[starts[l] + _rand(seed, y * W + x, 0x1000 + t, h) % n]
+                cy = c // W
+                cx = c % W
+                if max(abs(cy - y), abs(cx - x)) <= excl:
+                    continue
+                d = _ex_dist(src_dist, src_rgb, src_masks, h, y, x, cy, cx, w, kd[y, x, k - 1])
+                _insert(ky[y, x], kx[y, x], kd[y, x], k, cy, cx, d)
+
+
+@njit(**PJIT)
+def _knn_iter(src_lab, src_dist, src_rgb, src_masks, h, k, excl, w, seed, it, oy, ox, od, ny, nx, nd):
+    """One PatchMatch k-NN iteration (reads o*, writes n*): propagation from the 4
+    neighbours' lists, then random search around each entry with halving radius."""
+    H, W = src_lab.shape
+    for y in prange(H):
+        for x in range(W):
+            ly = ny[y, x]
+            lx = nx[y, x]
+            ld = nd[y, x]
+            for t in range(k):
+                ly[t] = oy[y, x, t]
+                lx[t] = ox[y, x, t]
+                ld[t] = od[y, x, t]
+            l = src_lab[y, x]
+            for q in range(4):
+                dy = (q == 1) - (q == 0)
+                dx = (q == 3) - (q == 2)
+                yy = y + dy
+                xx = x + dx
+                if yy < 0 or yy >= H or xx < 0 or xx >= W:
+                    continue
+                for t in range(k):
+                    cy = oy[yy, xx, t] - dy
+                    cx = ox[yy, xx, t] - dx
+                    if cy < 0 or cy >= H or cx < 0 or cx >= W:
+                        continue
+                    if src_lab[cy, cx] != l or max(abs(cy - y), abs(cx - x)) <= excl:
+                        continue
+                    d = _ex_dist(src_dist, src_rgb, src_masks, h, y, x, cy, cx, w, ld[k - 1])
+                    _insert(ly, lx, ld, k, cy, cx, d)
+            draw = 0
+            for t in range(k):
+                by = ly[t]
+                bx = lx[t]
+                R = max(H, W) // 2
+                while R >= 1:
+                    cy = by + _rand(seed, y * W + x, it * 4096 + draw, h) % (2 * R + 1) - R
+                    draw += 1
+                    cx = bx + _rand(seed, y * W + x, it * 4096 + draw, h) % (2 * R + 1) - R
+                    draw += 1
+                    R //= 2
+                    if cy < 0 or cy >= H or cx < 0 or cx >= W:
+                        continue
+                    if src_lab[cy, cx] != l or max(abs(cy - y), abs(cx - x)) <= excl:
+                        continue
+                    d = _ex_dist(src_dist, src_rgb, src_masks, h, y, x, cy, cx, w, ld[k - 1])
+                    _insert(ly, lx, ld, k, cy, cx, d)
+
+
+def similarity_sets(level, k: int, *, seed: int = 0, iterations: int = 2, w: float = 90.0,
+                    init: np.ndarray | None = None) -> np.ndarray:
+    """(He, We, k, 2) int32: for each exemplar pixel, k similar exemplar pixels of the
+    same label, more than ``2 h`` away (approximate k-NN by PatchMatch).
+
+    ``init`` (a finer level's lists) seeds the search instead of random draws.
+    """
+    from proxyshade.kernels.patch import _label_lists
+
+    lab = level.src_lab
+    H, W = lab.shape
+    n = level.src_masks.shape[2]
+    excl = 2 * level.h
+    ky = np.empty((H, W, k), np.int32)
+    kx = np.empty((H, W, k), np.int32)
+    kd = np.empty((H, W, k), np.float64)
+    if init is None:
+        starts, lists = _label_lists(lab, n)
+        _knn_init(lab, level.src_dist, level.src_rgb, level.src_masks, level.h, k, excl, float(w), seed, starts,
+                  lists, ky, kx, kd)
+    else:
+        ky[...] = init[..., 0]
+        kx[...] = init[..., 1]
+        kd[...] = np.inf
+        _knn_rescore(lab, level.src_dist, level.src_rgb, level.src_masks, level.h, k, excl, float(w), ky, kx, kd)
+    ny = np.empty_like(ky)
+    nx = np.empty_like(kx)
+    nd = np.empty_like(kd)
+    for it in range(iterations):
+        _knn_iter(lab, level.src_dist, level.src_rgb, level.src_masks, level.h, k, excl, float(w), seed, it + 1,
+                  ky, kx, kd, ny, nx, nd)
+        ky, ny = ny, ky
+        kx, nx = nx, kx
+        kd, nd = nd, kd
+    return np.stack([ky, kx], axis=-1)
+
+
+@njit(**PJIT)
+def _knn_rescore(src_lab, src_dist, src_rgb, src_masks, h, k, excl, w, ky, kx, kd):
+    """Re-evaluate given lists at this level (entries breaking the rules become self with inf)."""
+    H, W = src_lab.shape
+    for y in prange(H):
+        for x in range(W):
+            ly = ky[y, x].copy()
+            lx = kx[y, x].copy()
+            for t in range(k):
+                ky[y, x, t] = y
+                kx[y, x, t] = x
+                kd[y, x, t] = np.inf
+            for t in range(k):
+                cy = ly[t]
+                cx = lx[t]
+                if src_lab[cy, cx] != src_lab[y, x] or max(abs(cy - y), abs(cx - x)) <= excl:
+                    continue
+                d = _ex_dist(src_dist, src_rgb, src_masks, h, y, x, cy, cx, w, kd[y, x, k - 1])
+                _insert(ky[y, x], kx[y, x], kd[y, x], k, cy, cx, d)
+
+
+# ---------------------------------------------------------------------------
+# correction
+
+
+@njit(**JIT)
+def rejected(S, i, j, cy, cx, h, radius):
+    """Whether candidate (cy, cx) for pixel (i, j) repeats a use in the 9x9 window.
+
+    A window pixel q != p using exactly (cy, cx), or a non-coherent one (S[q] !=
+    candidate + h (q - p)) using an exemplar pixel within ``radius`` (L-inf), rejects it.
+    """
+    Ht, Wt = S.shape[0], S.shape[1]
+    for di in range(-WINDOW, WINDOW + 1):
+        ii = i + di
+        if ii < 0 or ii >= Ht:
+            continue
+        for dj in range(-WINDOW, WINDOW + 1):
+            jj = j + dj
+            if jj < 0 or jj >= Wt or (di == 0 and dj == 0):
+                continue
+            dy = S[ii, jj, 0] - cy
+            dx = S[ii, jj, 1] - cx
+            if dy == h * di and dx == h * dj:
+                continue  # coherent neighbour
+            if abs(dy) <= radius and abs(dx) <= radius:
+                return True
+    return False
+
+
+@njit(**JIT)
+def _cand_dist(src_dist, src_rgb, src_masks, tgt_masks, i, j, cy, cx, h, tD, tRGB, w, use_rgb, best):
+    """Eq. 1 with colour for candidate (cy, cx) at target (i, j); early exit above best."""
+    b2 = best * best
+    s = dist_sq_D(src_dist, h, cy, cx, tD, b2)
+    if use_rgb and s <= b2:
+        s += dist_sq_rgb(src_rgb, h, cy, cx, tRGB, b2 - s)
+    d = np.sqrt(s)
+    if d >= best:
+        return d
+    return d + w * chamfer_masks(src_masks[cy, cx], tgt_masks[i, j])
+
+
+@njit(**PJIT)
+def _subpass(src_lab, src_dist, src_rgb, src_masks, tgt_lab, tgt_dist, tgt_masks, knn, S_old, S_new, active,
+             pi, pj, h, radius, w, use_rgb, kappa, counts):
+    """Correct pixels with (i % 2, j % 2) == (pi, pj), reading S_old, writing S_new.
+
+    Candidates from similarity sets (not a neighbour's coherent continuation) have their
+    distance multiplied by 1 + kappa.
+
+    counts[i] accumulates (changed, all rejected) per row for reporting.
+    """
+    Ht, Wt = tgt_lab.shape
+    He, We = src_lab.shape
+    k = knn.shape[2]
+    ncand = 9 * (k + 1)
+    for r in prange((Ht - pi + 1) // 2):
+        i = pi + 2 * r
+        tD = np.empty(NB2, np.float32)
+        tRGB = np.empty((NB2, 3), np.float32)
+        cyl = np.empty(ncand, np.int64)
+        cxl = np.empty(ncand, np.int64)
+        coh = np.empty(ncand, np.bool_)
+        for j in range(pj, Wt, 2):
+            if not active[i, j]:
+                continue
+            lab = tgt_lab[i, j]
+            gather_target(tgt_dist, i, j, tD)
+            if use_rgb:
+                t = 0
+                for di in range(-2, 3):
+                    ii = min(max(i + di, 0), Ht - 1)
+                    for dj in range(-2, 3):
+                        jj = min(max(j + dj, 0), Wt - 1)
+                        sy = S_old[ii, jj, 0]
+                        sx = S_old[ii, jj, 1]
+                        for c in range(3):
+                            tRGB[t, c] = src_rgb[sy, sx, c]
+                        t += 1
+            # candidate list (deduplicated, deterministic order)
+            nc = 0
+            for di in range(-1, 2):
+                ii = i + di
+                if ii < 0 or ii >= Ht:
+                    continue
+                for dj in range(-1, 2):
+                    jj = j + dj
+                    if jj < 0 or jj >= Wt:
+                        continue
+                    qy = S_old[ii, jj, 0]
+                    qx = S_old[ii, jj, 1]
+                    for t in range(k + 1):
+                        if t == 0:
+                            cy = qy - h * di
+                            cx = qx - h * dj
+                        else:
+                            cy = knn[qy, qx, t - 1, 0] - h * di
+                            cx = knn[qy, qx, t - 1, 1] - h * dj
+                        if cy < 0 or cy >= He or cx < 0 or cx >= We or src_lab[cy, cx] != lab:
+                            continue
+                        dup = False
+                        for u in range(nc):
+                            if cyl[u] == cy and cxl[u] == cx:
+                                dup = True
+                                coh[u] = coh[u] or t == 0
+                                break
+                        if not dup:
+                            cyl[nc] = cy
+                            cxl[nc] = cx
+                            coh[nc] = t == 0
+                            nc += 1
+            best = np.inf
+            by = S_old[i, j, 0]
+            bx = S_old[i, j, 1]
+            for u in range(nc):
+                cy = cyl[u]
+                cx = cxl[u]
+                if rejected(S_old, i, j, cy, cx, h, radius):
+                    continue
+                m = 1.0 if coh[u] else 1.0 + kappa
+                d = m * _cand_dist(src_dist, src_rgb, src_masks, tgt_masks, i, j, cy, cx, h, tD, tRGB, w, use_rgb,
+                                   best / m)
+                if d < best:
+                    best = d
+                    by = cy
+                    bx = cx
+            if best == np.inf and src_lab[by, bx] != lab:
+                # every candidate was rejected and the current position has the wrong
+                # label: label fidelity wins over repetition
+                for u in range(nc):
+                    m = 1.0 if coh[u] else 1.0 + kappa
+                    d = m * _cand_dist(src_dist, src_rgb, src_masks, tgt_masks, i, j, cyl[u], cxl[u], h, tD, tRGB,
+                                       w, use_rgb, best / m)
+                    if d < best:
+                        best = d
+                        by = cyl[u]
+                        bx = cxl[u]
+                counts[i, 1] += 1
+            elif best == np.inf:
+                counts[i, 1] += 1
+            if by != S_old[i, j, 0] or bx != S_old[i, j, 1]:
+                counts[i, 0] += 1
+            S_new[i, j, 0] = by
+            S_new[i, j, 1] = bx
+
+
+def correct_level(level, S: np.ndarray, knn: np.ndarray, *, passes: int, radius: int, w: float = 90.0,
+                  use_rgb: bool = True, kappa: float = 0.0,
+                  active: np.ndarray | None = None) -> tuple[np.ndarray, dict]:
+    """``passes`` correction passes (4 parity sub-passes each) at one level."""
+    Ht, Wt = level.tgt_lab.shape
+    if active is None:
+        active = np.ones((Ht, Wt), np.bool_)
+    S_old = np.ascontiguousarray(S, np.int32).copy()
+    S_new = S_old.copy()
+    counts = np.zeros((Ht, 2), np.int64)
+    for _ in range(passes):
+        for pi, pj in ((0, 0), (1, 1), (0, 1), (1, 0)):
+            _subpass(level.src_lab, level.src_dist, level.src_rgb, level.src_masks, level.tgt_lab, level.tgt_dist,
+                     level.tgt_masks, knn, S_old, S_new, active, pi, pj, level.h, radius, float(w), use_rgb,
+                     float(kappa), counts)
+            S_old[...] = S_new  # only this sub-set changed
+    c = counts.sum(0)
+    return S_old, {"changed": int(c[0]), "all_rejected": int(c[1])}
+
+
+# ---------------------------------------------------------------------------
+# moving the state between levels
+
+
+@njit(**PJIT)
+def _downsample(S, h, Hl, Wl, He, We, out):
+    """S_l[P] = S[h P + h // 2] (the anchor fine pixel), clamped into the exemplar."""
+    Ht, Wt = S.shape[0], S.shape[1]
+    for I in prange(Hl):
+        for J in range(Wl):
+            ai = h * I + h // 2
+            aj = h * J + h // 2
+            fi = min(ai, Ht - 1)
+            fj = min(aj, Wt - 1)
+            y = S[fi, fj, 0] + (ai - fi)
+            x = S[fi, fj, 1] + (aj - fj)
+            out[I, J, 0] = min(max(y, 0), He - 1)
+            out[I, J, 1] = min(max(x, 0), We - 1)
+
+
+@njit(**PJIT)
+def _upsample(Sp, h, Hl, Wl, He, We, out):
+    """From the level with spacing 2h to spacing h: child 2P + D of parent P takes
+    S_p[P] + h D - (h - h // 2), clamped into the exemplar."""
+    Hp, Wp = Sp.shape[0], Sp.shape[1]
+    off = h - h // 2
+    for i in prange(Hl):
+        I = min(i // 2, Hp - 1)
+        di = i - 2 * I
+        for j in range(Wl):
+            J = min(j // 2, Wp - 1)
+            dj = j - 2 * J
+            out[i, j, 0] = min(max(Sp[I, J, 0] + h * di - off, 0), He - 1)
+            out[i, j, 1] = min(max(Sp[I, J, 1] + h * dj - off, 0), We - 1)
+
+
+def downsample_state(S: np.ndarray, h: int, shape: tuple[int, int], ex_shape: tuple[int, int]) -> np.ndarray:
+    out = np.empty(shape + (2,), np.int32)
+    _downsample(np.ascontiguousarray(S, np.int32), h, shape[0], shape[1], ex_shape[0], ex_shape[1], out)
+    return out
+
+
+def upsample_state(S: np.ndarray, h: int, shape: tuple[int, int], ex_shape: tuple[int, int]) -> np.ndarray:
+    out = np.empty(shape + (2,), np.int32)
+    _upsample(np.ascontiguousarray(S, np.int32), h, shape[0], shape[1], ex_shape[0], ex_shape[1], out)
+    return out
+
+
+def downsample_mask(mask: np.ndarray, h: int, shape: tuple[int, int]) -> np.ndarray:
+    """A level pixel is active when any of its h x h fine pixels is."""
+    Ht, Wt = mask.shape
+    pad = np.zeros((shape[0] * h, shape[1] * h), bool)
+    pad[:Ht, :Wt] = mask
+    return pad.reshape(shape[0], h, shape[1], h).any(axis=(1, 3))
+
+
+def synthesize(levels: list, S_init: np.ndarray, *, passes: int = 5, passes_finest: int = 3, k: int = 2,
+               w: float = 90.0, seed: int = 0, knn_iterations: int = 2, use_rgb: bool = True,
+               kappa: float = 0.0, mask: np.ndarray | None = None, timings: dict | None = None,
+               radius_rule: str = "spacing") -> tuple[np.ndarray, list[dict]]:
+    """Coarse-to-fine correction of an initial coordinate map.
+
+    Parameters
+    ----------
+    levels : list of ``features.Level``, coarsest first (the last at the synthesis size).
+    S_init : (Ht, Wt, 2) int32 exemplar (row, column) per guide pixel, e.g. from
+        ``patch.flood_fill``.
+    passes, passes_finest : correction passes per level and at the finest level.
+    k : size of the similarity sets (k-coherence).
+    mask : (Ht, Wt) bool, optional; only these pixels change, the rest keep ``S_init``.
+
+    Returns the corrected map and per-level statistics.
+    """
+    import time
+
+    L = len(levels)
+    ex_shape = levels[-1].src_lab.shape
+    S_init = np.ascontiguousarray(S_init, np.int32)
+    knns = [None] * L
+    t0 = time.perf_counter()
+    for l in range(L - 1, -1, -1):  # finest first: coarser lists start from finer ones
+        init = knns[l + 1] if l + 1 < L else None
+        knns[l] = similarity_sets(levels[l], k, seed=seed + 7919 * l, iterations=knn_iterations if init is None else 1,
+                                  w=w, init=init) if k > 0 else np.zeros(ex_shape + (0, 2), np.int32)
+    t1 = time.perf_counter()
+    stats = []
+    S = None
+    for l, lv in enumerate(levels):
+        shape = lv.tgt_lab.shape
+        h = lv.h
+        start = downsample_state(S_init, h, shape, ex_shape)
+        if S is None:
+            S = start
+        else:
+            up = upsample_state(S, h, shape, ex_shape)
+            if mask is not None:
+                act = downsample_mask(mask, h, shape)
+                S = np.where(act[..., None], up, start)
+            else:
+                S = up
+        active = downsample_mask(mask, h, shape) if mask is not None else None
+        radius = h if radius_rule == "spacing" else 2 ** l
+        n = passes_finest if l == L - 1 else passes
+        S, st = correct_level(lv, S, knns[l], passes=n, radius=radius, w=w, use_rgb=use_rgb, kappa=kappa,
+                              active=active)
+        st.update(level=l, h=h, shape=shape, passes=n, radius=radius)
+        stats.append(st)
+    if mask is not None:
+        S = np.where(np.asarray(mask)[..., None], S, S_init)
+    if timings is not None:
+        timings["similarity"] = t1 - t0
+        timings["corrections"] = time.perf_counter() - t1
+    return S, stats

@@ -1,0 +1,434 @@
+"""Neighbourhood features of fast guided synthesis (Bonneel et al. 2010, §5).
+
+A pixel is described by its 5×5 neighbourhood of
+
+* distances to the closest label contour (``kernels.distance``, after Lefebvre and Hoppe
+  2006), compared with the L2 norm,
+* label ids, compared with the symmetric Chamfer distance (``kernels.chamfer``),
+* colours (correction passes only), compared with the L2 norm.
+
+The source side is an *exemplar*: the source photo resampled so that one exemplar pixel
+is one synthesis pixel, with, per synthesis level, a stack (full exemplar resolution,
+blurred colours, voted labels, neighbourhoods sampled every ``h`` pixels; Lefebvre and
+Hoppe 2005). The target side (the guide) is a pyramid: level ``l`` has the guide's
+labels voted down by ``h``. Coordinates of the synthesis state are always exemplar
+pixels of the finest level, at every level.
+
+Labels are dense indices 0..n-1 here (the plates' ids map through the source's label
+table); colours are features ``255 * sRGB(linear)``, so that the paper's Chamfer weight
+(w = 90, one L∞ pixel) weighs like a third of a full 8-bit colour step on one pixel.
+
+References
+----------
+C. Bonneel, M. van de Panne, S. Lefebvre, G. Drettakis. Proxy-guided texture synthesis
+for rendering natural scenes. VMV 2010.
+S. Lefebvre, H. Hoppe. Parallel controllable texture synthesis. SIGGRAPH 2005.
+S. Lefebvre, H. Hoppe. Appearance-space texture synthesis. SIGGRAPH 2006.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit, prange
+
+from proxyshade.kernels._config import JIT, PJIT
+from proxyshade.kernels.distance import contour_distance
+
+NB = 5  # neighbourhood side
+NB2 = NB * NB
+
+
+# ---------------------------------------------------------------------------
+# INTERIM (issue 4 owns kernels/chamfer.py and kernels/voting.py): minimal stand-ins
+# with the same results, used until those modules land; then these names are bound to
+# theirs and this section is deleted.
+
+def _ring_table():
+    ring = np.zeros((NB2, NB), np.uint32)  # ring[k, r]: bits of positions at L-inf distance <= r of k
+    for k in range(NB2):
+        ky, kx = divmod(k, NB)
+        for r in range(NB):
+            m = 0
+            for q in range(NB2):
+                qy, qx = divmod(q, NB)
+                if max(abs(qy - ky), abs(qx - kx)) <= r:
+                    m |= 1 << q
+            ring[k, r] = m
+    return ring
+
+
+_RING = _ring_table()
+_MISSING = 2 * NB  # "twice the neighbourhood size"
+
+
+@njit(**JIT)
+def _one_way(ma, mb, n):
+    s = 0
+    for l in range(n):
+        a = ma[l]
+        if a == 0:
+            continue
+        b = mb[l]
+        if b == 0:
+            c = 0
+            while a:
+                a &= a - np.uint32(1)
+                c += 1
+            s += c * _MISSING
+            continue
+        for k in range(NB2):
+            if (a >> np.uint32(k)) & np.uint32(1):
+                r = 0
+                while (b & _RING[k, r]) == 0:
+                    r += 1
+                s += r
+    return s
+
+
+@njit(**JIT)
+def chamfer_masks(ma, mb):
+    """Symmetric Chamfer distance of two 5x5 windows given as per-label bit masks."""
+    n = ma.shape[0]
+    same = True
+    for l in range(n):
+        if ma[l] != mb[l]:
+            same = False
+            break
+    if same:
+        return 0
+    return _one_way(ma, mb, n) + _one_way(mb, ma, n)
+
+
+@njit(**PJIT)
+def _masks_from_windows(win, n, out):
+    H, W, K = win.shape
+    for i in prange(H):
+        for j in range(W):
+            for l in range(n):
+                out[i, j, l] = 0
+            for k in range(K):
+                out[i, j, win[i, j, k]] |= np.uint32(1) << np.uint32(k)
+
+
+def _window_masks_interim(win, n):
+    out = np.empty(win.shape[:2] + (n,), np.uint32)
+    _masks_from_windows(win, n, out)
+    return out
+
+
+@njit(**PJIT)
+def _vote(lab, k, n, out):
+    H, W = lab.shape
+    lo = k // 2
+    for i in prange(H):
+        cnt = np.zeros(n, np.int64)
+        for j in range(W):
+            cnt[:] = 0
+            for y in range(max(i - lo, 0), min(i - lo + k, H)):
+                for x in range(max(j - lo, 0), min(j - lo + k, W)):
+                    cnt[lab[y, x]] += 1
+            best = 0
+            for l in range(1, n):
+                if cnt[l] > cnt[best]:
+                    best = l
+            out[i, j] = best
+
+
+def _vote_stack_interim(lab, nlevels, n):
+    """Stack levels, coarsest first: level with spacing h votes over an h x h kernel."""
+    out = []
+    for l in range(nlevels):
+        h = 2 ** (nlevels - 1 - l)
+        if h == 1:
+            out.append(np.ascontiguousarray(lab, np.int32))
+            continue
+        o = np.empty(lab.shape, np.int32)
+        _vote(np.ascontiguousarray(lab, np.int32), h, n, o)
+        out.append(o)
+    return out
+
+
+def _vote_pyramid_interim(lab, nlevels, n):
+    st = _vote_stack_interim(lab, nlevels, n)
+    out = []
+    for l in range(nlevels):
+        h = 2 ** (nlevels - 1 - l)
+        out.append(np.ascontiguousarray(st[l][h // 2::h, h // 2::h]) if h > 1 else st[l])
+    return out
+
+
+def _chamfer_window_masks(win, n):
+    return _window_masks_interim(win, n)
+
+
+def vote_stack(lab, nlevels, n):
+    return _vote_stack_interim(lab, nlevels, n)
+
+
+def vote_pyramid(lab, nlevels, n):
+    return _vote_pyramid_interim(lab, nlevels, n)
+
+
+# ---------------------------------------------------------------------------
+# resampling the source to the exemplar
+
+
+@njit(**PJIT)
+def _area_resample(img, oh, ow, f, out):
+    """Box-filter ``img`` (H, W, C) by the (possibly fractional) factor f to (oh, ow, C):
+    exemplar pixel (i, j) averages the source area [i f, (i + 1) f) x [j f, (j + 1) f)."""
+    h, w, c = img.shape
+    for i in prange(oh):
+        y0 = i * f
+        y1 = (i + 1) * f
+        acc = np.zeros(c)
+        for j in range(ow):
+            x0 = j * f
+            x1 = (j + 1) * f
+            for k in range(c):
+                acc[k] = 0.0
+            tot = 0.0
+            for y in range(int(np.floor(y0)), min(int(np.ceil(y1)), h)):
+                wy = min(y + 1.0, y1) - max(float(y), y0)
+                if wy <= 0:
+                    continue
+                for x in range(int(np.floor(x0)), min(int(np.ceil(x1)), w)):
+                    wx = min(x + 1.0, x1) - max(float(x), x0)
+                    if wx <= 0:
+                        continue
+                    wgt = wy * wx
+                    tot += wgt
+                    for k in range(c):
+                        acc[k] += wgt * img[y, x, k]
+            for k in range(c):
+                out[i, j, k] = acc[k] / tot
+
+
+@njit(**PJIT)
+def _mode_resample(lab, oh, ow, f, n, out):
+    """Majority label over the source pixels whose centres fall in each exemplar pixel's
+    area (ties: the smaller index); the nearest pixel when no centre falls inside."""
+    h, w = lab.shape
+    for i in prange(oh):
+        cnt = np.zeros(n, np.int64)
+        for j in range(ow):
+            cnt[:] = 0
+            ya = int(np.ceil(i * f - 0.5))
+            yb = int(np.ceil((i + 1) * f - 0.5))
+            xa = int(np.ceil(j * f - 0.5))
+            xb = int(np.ceil((j + 1) * f - 0.5))
+            tot = 0
+            for y in range(max(ya, 0), min(yb, h)):
+                for x in range(max(xa, 0), min(xb, w)):
+                    cnt[lab[y, x]] += 1
+                    tot += 1
+            if tot == 0:
+                y = min(max(int(np.floor((i + 0.5) * f)), 0), h - 1)
+                x = min(max(int(np.floor((j + 0.5) * f)), 0), w - 1)
+                out[i, j] = lab[y, x]
+                continue
+            best = 0
+            for k in range(1, n):
+                if cnt[k] > cnt[best]:
+                    best = k
+            out[i, j] = best
+
+
+@njit(**PJIT)
+def _box_blur_centred(img, h, out):
+    """Mean over the h x h block anchored so that its centre is at the pixel (h even:
+    offsets -h/2 .. h/2 - 1), clamped at the borders; separable."""
+    H, W, C = img.shape
+    lo = h // 2
+    tmp = np.empty_like(img)
+    for i in prange(H):
+        for j in range(W):
+            for k in range(C):
+                s = 0.0
+                for d in range(-lo, h - lo):
+                    jj = min(max(j + d, 0), W - 1)
+                    s += img[i, jj, k]
+                tmp[i, j, k] = s / h
+    for i in prange(H):
+        for j in range(W):
+            for k in range(C):
+                s = 0.0
+                for d in range(-lo, h - lo):
+                    ii = min(max(i + d, 0), H - 1)
+                    s += tmp[ii, j, k]
+                out[i, j, k] = s / h
+
+
+def srgb_features(rgb_linear: np.ndarray) -> np.ndarray:
+    """(…, 3) linear colour -> float32 feature colour 255 * sRGB-encoded."""
+    x = np.clip(np.asarray(rgb_linear, np.float64), 0.0, None)
+    enc = np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1.0 / 2.4) - 0.055)
+    return (255.0 * enc).astype(np.float32)
+
+
+def dense_labels(ids: np.ndarray, table_ids: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Map label ids to dense indices 0..n-1 of ``table_ids``; also returns a bool mask
+    of pixels whose id is not in the table."""
+    table_ids = np.asarray(table_ids, dtype=np.int64)
+    order = np.argsort(table_ids)
+    sorted_ids = table_ids[order]
+    flat = np.asarray(ids, dtype=np.int64)
+    pos = np.searchsorted(sorted_ids, flat)
+    pos_c = np.clip(pos, 0, len(sorted_ids) - 1)
+    missing = sorted_ids[pos_c] != flat
+    dense = order[pos_c].astype(np.int32)
+    dense[missing] = 0
+    return dense, missing
+
+
+# ---------------------------------------------------------------------------
+# levels
+
+
+@dataclass
+class Level:
+    """One synthesis level: exemplar stack level and guide pyramid level.
+
+    h : stack spacing (exemplar pixels per level pixel).
+    src_lab, src_dist, src_rgb : (He, We) int32, (He, We) float32, (He, We, 3) float32.
+    src_masks : (He, We, n) uint32 Chamfer label masks of the 5x5 window, spacing h.
+    tgt_lab, tgt_dist : (Ht, Wt) guide pyramid level; tgt_masks (Ht, Wt, n).
+    """
+
+    h: int
+    src_lab: np.ndarray
+    src_dist: np.ndarray
+    src_rgb: np.ndarray
+    src_masks: np.ndarray
+    tgt_lab: np.ndarray
+    tgt_dist: np.ndarray
+    tgt_masks: np.ndarray
+
+
+@njit(**PJIT)
+def _windows(lab, h, out):
+    """(H, W, 25) int32: the labels of each pixel's 5x5 window with spacing h, clamped."""
+    H, W = lab.shape
+    for i in prange(H):
+        for j in range(W):
+            k = 0
+            for di in range(-2, 3):
+                ii = min(max(i + di * h, 0), H - 1)
+                for dj in range(-2, 3):
+                    jj = min(max(j + dj * h, 0), W - 1)
+                    out[i, j, k] = lab[ii, jj]
+                    k += 1
+
+
+def window_masks(lab: np.ndarray, h: int, n: int) -> np.ndarray:
+    """(H, W, n) uint32 per-label bit masks of each pixel's 5x5 window (spacing h)."""
+    win = np.empty(lab.shape + (NB2,), np.int32)
+    _windows(np.ascontiguousarray(lab, dtype=np.int32), h, win)
+    return _chamfer_window_masks(win, n)
+
+
+def build_exemplar(rgb: np.ndarray, lab: np.ndarray, f: float, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Source (M, N, 3) linear colour and (M, N) dense labels -> exemplar at 1/f."""
+    hs, ws = lab.shape
+    oh, ow = int(np.floor(hs / f + 1e-9)), int(np.floor(ws / f + 1e-9))
+    ex_rgb = np.empty((oh, ow, 3), np.float32)
+    ex_lab = np.empty((oh, ow), np.int32)
+    if f == 1.0:
+        ex_rgb[...] = rgb
+        ex_lab[...] = lab
+    else:
+        _area_resample(np.ascontiguousarray(rgb, np.float32), oh, ow, float(f), ex_rgb)
+        _mode_resample(np.ascontiguousarray(lab, np.int32), oh, ow, float(f), n, ex_lab)
+    return ex_rgb, ex_lab
+
+
+def build_levels(ex_rgb: np.ndarray, ex_lab: np.ndarray, tgt_lab: np.ndarray, n: int, nlevels: int, *,
+                 max_distance: float | None = None, with_rgb: bool = True, finest_only: bool = False) -> list[Level]:
+    """Exemplar stack and guide pyramid, coarsest level first (only the finest with
+    ``finest_only``: then the list has one level).
+
+    ``tgt_lab`` is the guide at the finest synthesis size (dense labels). Level ``l``
+    (0 = coarsest) has spacing ``h = 2 ** (nlevels - 1 - l)``; distances are in level
+    pixels (exemplar distances divided by h) and clamped at ``max_distance``.
+    """
+    feat = srgb_features(ex_rgb) if with_rgb else np.zeros(ex_lab.shape + (3,), np.float32)
+    if finest_only:
+        src_stack = [None] * (nlevels - 1) + [np.ascontiguousarray(ex_lab, np.int32)]
+        tgt_pyr = [None] * (nlevels - 1) + [np.ascontiguousarray(tgt_lab, np.int32)]
+    else:
+        src_stack = vote_stack(ex_lab, nlevels, n)
+        tgt_pyr = vote_pyramid(tgt_lab, nlevels, n)
+    levels = []
+    for l in range(nlevels - 1 if finest_only else 0, nlevels):
+        h = 2 ** (nlevels - 1 - l)
+        s_lab = np.ascontiguousarray(src_stack[l], np.int32)
+        t_lab = np.ascontiguousarray(tgt_pyr[l], np.int32)
+        s_dist = contour_distance(s_lab, max_distance=None) / np.float32(h)
+        t_dist = contour_distance(t_lab, max_distance=None)
+        cap = np.float32(max_distance) if max_distance is not None else np.float32(1e6)
+        s_dist = np.minimum(s_dist, cap).astype(np.float32)
+        t_dist = np.minimum(t_dist, cap).astype(np.float32)
+        if h == 1 or not with_rgb:
+            s_rgb = feat
+        else:
+            s_rgb = np.empty_like(feat)
+            _box_blur_centred(feat, h, s_rgb)
+        levels.append(Level(h, s_lab, s_dist, s_rgb, window_masks(s_lab, h, n), t_lab, t_dist,
+                            window_masks(t_lab, 1, n)))
+    return levels
+
+
+# ---------------------------------------------------------------------------
+# distances between a target pixel and an exemplar pixel
+
+
+@njit(**JIT)
+def gather_target(tgt_dist, i, j, outD):
+    """The 25 contour distances of target pixel (i, j)'s window (clamped)."""
+    H, W = tgt_dist.shape
+    k = 0
+    for di in range(-2, 3):
+        ii = min(max(i + di, 0), H - 1)
+        for dj in range(-2, 3):
+            jj = min(max(j + dj, 0), W - 1)
+            outD[k] = tgt_dist[ii, jj]
+            k += 1
+
+
+@njit(**JIT)
+def dist_sq_D(src_dist, h, y, x, tD, bound):
+    """Sum of squared differences of contour distances between exemplar window at
+    (y, x) (spacing h, clamped) and ``tD``; stops early once above ``bound``."""
+    H, W = src_dist.shape
+    s = 0.0
+    k = 0
+    for di in range(-2, 3):
+        yy = min(max(y + di * h, 0), H - 1)
+        for dj in range(-2, 3):
+            xx = min(max(x + dj * h, 0), W - 1)
+            d = src_dist[yy, xx] - tD[k]
+            s += d * d
+            k += 1
+        if s > bound:
+            return s
+    return s
+
+
+@njit(**JIT)
+def dist_sq_rgb(src_rgb, h, y, x, tRGB, bound):
+    """Sum of squared feature-colour differences (exemplar window vs ``tRGB`` (25, 3))."""
+    H, W, _ = src_rgb.shape
+    s = 0.0
+    k = 0
+    for di in range(-2, 3):
+        yy = min(max(y + di * h, 0), H - 1)
+        for dj in range(-2, 3):
+            xx = min(max(x + dj * h, 0), W - 1)
+            for c in range(3):
+                d = src_rgb[yy, xx, c] - tRGB[k, c]
+                s += d * d
+            k += 1
+        if s > bound:
+            return s
+    return s
