@@ -1,0 +1,161 @@
+"""Slow, obvious references for the synthesis kernels (used by the tests only)."""
+import numpy as np
+
+NB = 5
+
+
+def window(lab, i, j, h=1):
+    H, W = lab.shape
+    return np.array([[lab[min(max(i + di * h, 0), H - 1), min(max(j + dj * h, 0), W - 1)]
+                      for dj in range(-2, 3)] for di in range(-2, 3)])
+
+
+def chamfer_one_way(a, b):
+    s = 0
+    for p in np.ndindex(NB, NB):
+        same = np.argwhere(b == a[p])
+        if len(same) == 0:
+            s += 2 * NB
+        else:
+            s += int(np.abs(same - np.array(p)).max(1).min())
+    return s
+
+
+def chamfer(a, b):
+    """The paper's symmetric Chamfer distance of two 5x5 label windows."""
+    return chamfer_one_way(a, b) + chamfer_one_way(b, a)
+
+
+def dist_window(d, i, j, h=1):
+    return window(d, i, j, h).astype(np.float32)
+
+
+def eq1(src_lab, src_dist, tgt_lab, tgt_dist, y, x, i, j, w):
+    """eq. 1 as the kernels compute it: float32 differences, float64 row-major sum."""
+    a = dist_window(src_dist, y, x)
+    b = dist_window(tgt_dist, i, j)
+    s = 0.0
+    for t in range(25):
+        d = np.float32(a.flat[t] - b.flat[t])
+        s += float(np.float32(d * d))
+    return np.sqrt(s) + w * chamfer(window(src_lab, y, x), window(tgt_lab, i, j))
+
+
+def flood_fill(src_lab, src_dist, tgt_lab, tgt_dist, order, w, ts, to):
+    He, We = src_lab.shape
+    Ht, Wt = tgt_lab.shape
+    S = np.zeros((Ht, Wt, 2), int)
+    patch = np.zeros((Ht, Wt), int)
+    pid = 0
+    for p in order:
+        i, j = divmod(int(p), Wt)
+        if patch[i, j]:
+            continue
+        pid += 1
+        best, bc = np.inf, None
+        for y in range(He):
+            for x in range(We):
+                if src_lab[y, x] != tgt_lab[i, j]:
+                    continue
+                d = eq1(src_lab, src_dist, tgt_lab, tgt_dist, y, x, i, j, w)
+                if d < best:
+                    best, bc = d, (y, x)
+        oy, ox = bc[0] - i, bc[1] - j
+        thr = ts * best + to
+        queue = [(i, j)]
+        seen = {(i, j)}
+        first = True
+        while queue:
+            a, b = queue.pop(0)
+            y, x = a + oy, b + ox
+            if not first:
+                if not (0 <= y < He and 0 <= x < We) or src_lab[y, x] != tgt_lab[a, b]:
+                    continue
+                if eq1(src_lab, src_dist, tgt_lab, tgt_dist, y, x, a, b, w) > thr:
+                    continue
+            first = False
+            patch[a, b] = pid
+            S[a, b] = (y, x)
+            for da, db in ((-1, 0), (1, 0), (0, -1), (0, 1)):
+                q = (a + da, b + db)
+                if 0 <= q[0] < Ht and 0 <= q[1] < Wt and not patch[q] and q not in seen:
+                    seen.add(q)
+                    queue.append(q)
+    return S, patch
+
+
+def rejected(S, i, j, cy, cx, h, radius, half=4):
+    Ht, Wt = S.shape[:2]
+    for di in range(-half, half + 1):
+        for dj in range(-half, half + 1):
+            ii, jj = i + di, j + dj
+            if (di, dj) == (0, 0) or not (0 <= ii < Ht and 0 <= jj < Wt):
+                continue
+            dy, dx = S[ii, jj, 0] - cy, S[ii, jj, 1] - cx
+            if (dy, dx) == (h * di, h * dj):
+                continue
+            if abs(dy) <= radius and abs(dx) <= radius:
+                return True
+    return False
+
+
+def correct_pixel(lv, knn, S, i, j, radius, w, kappa):
+    """One pixel of a correction sub-pass, written out."""
+    h = lv.h
+    He, We = lv.src_lab.shape
+    Ht, Wt = lv.tgt_lab.shape
+    lab = lv.tgt_lab[i, j]
+    k = knn.shape[2]
+    cands = []  # [(cy, cx, coherent)] in kernel order, deduplicated
+    for di in (-1, 0, 1):
+        for dj in (-1, 0, 1):
+            ii, jj = i + di, j + dj
+            if not (0 <= ii < Ht and 0 <= jj < Wt):
+                continue
+            qy, qx = S[ii, jj]
+            for t in range(k + 1):
+                if t == 0:
+                    cy, cx = qy - h * di, qx - h * dj
+                else:
+                    cy, cx = knn[qy, qx, t - 1, 0] - h * di, knn[qy, qx, t - 1, 1] - h * dj
+                if not (0 <= cy < He and 0 <= cx < We) or lv.src_lab[cy, cx] != lab:
+                    continue
+                for u, c in enumerate(cands):
+                    if c[:2] == (cy, cx):
+                        cands[u] = (cy, cx, c[2] or t == 0)
+                        break
+                else:
+                    cands.append((cy, cx, t == 0))
+    tD = dist_window(lv.tgt_dist, i, j)
+    tRGB = np.array([[lv.src_rgb[tuple(S[min(max(i + di, 0), Ht - 1), min(max(j + dj, 0), Wt - 1)])]
+                      for dj in range(-2, 3)] for di in range(-2, 3)], np.float32)
+    tW = window(lv.tgt_lab, i, j)
+
+    def dist(cy, cx):
+        a = dist_window(lv.src_dist, cy, cx, h)
+        sd = 0.0
+        for t in range(25):
+            d = np.float32(a.flat[t] - tD.flat[t])
+            sd += float(np.float32(d * d))
+        sr = 0.0
+        for t, (di, dj) in enumerate(np.ndindex(5, 5)):
+            yy = min(max(cy + (di - 2) * h, 0), He - 1)
+            xx = min(max(cx + (dj - 2) * h, 0), We - 1)
+            for c in range(3):
+                e = np.float32(lv.src_rgb[yy, xx, c] - tRGB[di, dj, c])
+                sr += float(np.float32(e * e))
+        return np.sqrt(sd + sr) + w * chamfer(window(lv.src_lab, cy, cx, h), tW)
+
+    best, by = np.inf, tuple(S[i, j])
+    for cy, cx, coh in cands:
+        if rejected(S, i, j, cy, cx, h, radius):
+            continue
+        d = (1.0 if coh else 1.0 + kappa) * dist(cy, cx)
+        if d < best:
+            best, by = d, (cy, cx)
+    if best == np.inf and lv.src_lab[by] != lab:
+        for cy, cx, coh in cands:
+            d = (1.0 if coh else 1.0 + kappa) * dist(cy, cx)
+            if d < best:
+                best, by = d, (cy, cx)
+    return by

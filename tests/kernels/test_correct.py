@@ -1,0 +1,163 @@
+"""k-coherent correction: sub-pass against a written-out reference, repetition rejection,
+similarity sets against brute force, level moves, determinism."""
+import numba
+import numpy as np
+import pytest
+
+from proxyshade.kernels import correct as kc
+from proxyshade.kernels import features as kf
+
+from tests.kernels import naive_synthesis as naive
+
+
+def blobs(rng, h, w, n, k=5):
+    ci, cj = rng.uniform(0, h, k), rng.uniform(0, w, k)
+    ii, jj = np.mgrid[0:h, 0:w]
+    return (((ii[..., None] - ci) ** 2 + (jj[..., None] - cj) ** 2).argmin(-1) % n).astype(np.int32)
+
+
+def small_case(seed, n=3, ex=(20, 24), tgt=(16, 16), nlev=2):
+    rng = np.random.default_rng(seed)
+    ex_lab = blobs(rng, *ex, n)
+    ex_lab.flat[:n] = np.arange(n)
+    ex_rgb = (rng.random(ex + (3,)) * 0.5 + ex_lab[..., None] * 0.15).astype(np.float32)
+    t = blobs(rng, *tgt, n)
+    levels = kf.build_levels(ex_rgb, ex_lab, t, n, nlev, max_distance=5.0)
+    return rng, levels
+
+
+def random_state(rng, lv):
+    """Patches of random translations with the right labels where possible."""
+    Ht, Wt = lv.tgt_lab.shape
+    He, We = lv.src_lab.shape
+    S = np.stack([rng.integers(0, He, (Ht, Wt)), rng.integers(0, We, (Ht, Wt))], -1).astype(np.int32)
+    S[: Ht // 2, : Wt // 2] = (np.mgrid[0:Ht // 2, 0:Wt // 2].transpose(1, 2, 0) + 2).clip(0, min(He, We) - 1)
+    return S
+
+
+def test_rejected_matches_reference():
+    rng = np.random.default_rng(0)
+    S = rng.integers(0, 12, (14, 15, 2)).astype(np.int32)
+    for _ in range(400):
+        i, j = rng.integers(0, 14), rng.integers(0, 15)
+        cy, cx = rng.integers(0, 12, 2)
+        h, r = int(rng.choice([1, 2, 4])), int(rng.choice([0, 1, 2, 4]))
+        assert kc.rejected(S, i, j, cy, cx, h, r) == naive.rejected(S, i, j, cy, cx, h, r)
+
+
+@pytest.mark.parametrize("seed,kappa,use_level", [(0, 0.0, -1), (1, 0.5, -1), (2, 0.0, 0)])
+def test_subpass_matches_reference(seed, kappa, use_level):
+    rng, levels = small_case(seed)
+    lv = levels[use_level]
+    knn = kc.similarity_sets(lv, 2, seed=seed)
+    S = random_state(rng, lv)
+    radius = lv.h
+    for pi, pj in ((0, 0), (1, 0)):
+        S_new = S.copy()
+        active = np.ones(lv.tgt_lab.shape, bool)
+        counts = np.zeros((S.shape[0], 2), np.int64)
+        kc._subpass(lv.src_lab, lv.src_dist, lv.src_rgb, lv.src_masks, lv.tgt_lab, lv.tgt_dist, lv.tgt_masks, knn,
+                    S, S_new, active, pi, pj, lv.h, radius, 90.0, True, kappa, counts)
+        for i in range(pi, S.shape[0], 2):
+            for j in range(pj, S.shape[1], 2):
+                assert tuple(S_new[i, j]) == naive.correct_pixel(lv, knn, S, i, j, radius, 90.0, kappa), (i, j)
+        # pixels outside the sub-set are untouched
+        other = np.ones(S.shape[:2], bool)
+        other[pi::2, pj::2] = False
+        assert np.array_equal(S_new[other], S[other])
+        S = S_new
+
+
+def test_no_accepted_candidate_already_in_the_window():
+    """After each sub-pass, a pixel that changed does not use an exemplar pixel already
+    used elsewhere in its 9x9 window before the sub-pass (unless label fidelity forced it)."""
+    rng, levels = small_case(5, ex=(30, 36), tgt=(24, 24))
+    lv = levels[-1]
+    knn = kc.similarity_sets(lv, 2, seed=5)
+    Ht, Wt = lv.tgt_lab.shape
+    # a state full of repeats: two copies of the same exemplar area side by side
+    ii, jj = np.mgrid[0:Ht, 0:Wt]
+    S = np.stack([ii % 12 + 3, jj % 12 + 3], -1).astype(np.int32)
+    changed = forced = 0
+    for _ in range(2):
+        for pi, pj in ((0, 0), (1, 1), (0, 1), (1, 0)):
+            S_new = S.copy()
+            counts = np.zeros((Ht, 2), np.int64)
+            kc._subpass(lv.src_lab, lv.src_dist, lv.src_rgb, lv.src_masks, lv.tgt_lab, lv.tgt_dist, lv.tgt_masks,
+                        knn, S, S_new, np.ones((Ht, Wt), bool), pi, pj, 1, 1, 90.0, True, 0.0, counts)
+            for i, j in zip(*np.nonzero((S_new != S).any(-1))):
+                win = S[max(i - 4, 0):i + 5, max(j - 4, 0):j + 5].reshape(-1, 2).tolist()
+                win.remove(S[i, j].tolist())
+                if S_new[i, j].tolist() in win:
+                    forced += 1
+                    assert lv.src_lab[tuple(S[i, j])] != lv.tgt_lab[i, j]
+                changed += 1
+            S = S_new
+    assert changed > 100
+
+
+def test_similarity_sets_are_valid_and_close_to_brute_force():
+    rng, levels = small_case(6, ex=(18, 20))
+    lv = levels[-1]
+    k = 3
+    knn = kc.similarity_sets(lv, k, seed=1, iterations=3)
+    He, We = lv.src_lab.shape
+    ratios = []
+    for y in range(He):
+        for x in range(We):
+            d_all = []
+            for yy in range(He):
+                for xx in range(We):
+                    if lv.src_lab[yy, xx] != lv.src_lab[y, x] or max(abs(yy - y), abs(xx - x)) <= 2 * lv.h:
+                        continue
+                    d_all.append(kc._ex_dist(lv.src_dist, lv.src_rgb, lv.src_masks, lv.h, y, x, yy, xx, 90.0, np.inf))
+            got = [kc._ex_dist(lv.src_dist, lv.src_rgb, lv.src_masks, lv.h, y, x, cy, cx, 90.0, np.inf)
+                   for cy, cx in knn[y, x] if (cy, cx) != (y, x)]
+            for cy, cx in knn[y, x]:
+                if (cy, cx) != (y, x):
+                    assert lv.src_lab[cy, cx] == lv.src_lab[y, x] and max(abs(cy - y), abs(cx - x)) > 2 * lv.h
+            if len(d_all) >= k and got:
+                assert got == sorted(got)
+                ratios.append(np.mean(sorted(d_all)[:k]) / max(np.mean(got), 1e-9))
+    # PatchMatch is approximate: its lists hold, on average, at least 80% of the best quality
+    assert np.mean(ratios) >= 0.8, np.mean(ratios)
+
+
+def test_translation_survives_down_and_up():
+    Ht, Wt, He, We = 32, 32, 60, 60
+    ii, jj = np.mgrid[0:Ht, 0:Wt]
+    S = np.stack([ii + 7, jj + 11], -1).astype(np.int32)
+    for h in (2, 4, 8):
+        shape = (Ht // h, Wt // h)
+        down = kc.downsample_state(S, h, shape, (He, We))
+        assert np.array_equal(down[0, 0], S[h // 2, h // 2])
+        up = down
+        hh = h
+        while hh > 1:
+            hh //= 2
+            up = kc.upsample_state(up, hh, (Ht // hh, Wt // hh), (He, We))
+        assert np.array_equal(up, S)
+
+
+def test_synthesis_is_deterministic_across_thread_counts():
+    rng, levels = small_case(9, ex=(40, 48), tgt=(32, 32), nlev=3)
+    S0 = random_state(rng, levels[-1])
+    a, _ = kc.synthesize(levels, S0, k=2, seed=3)
+    numba.set_num_threads(1)
+    try:
+        b, _ = kc.synthesize(levels, S0, k=2, seed=3)
+    finally:
+        numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
+    assert np.array_equal(a, b)
+    # labels are respected
+    assert (levels[-1].src_lab[a[..., 0], a[..., 1]] == levels[-1].tgt_lab).mean() > 0.99
+
+
+def test_mask_limits_changes():
+    rng, levels = small_case(10, ex=(40, 48), tgt=(32, 32), nlev=3)
+    S0 = random_state(rng, levels[-1])
+    mask = np.zeros((32, 32), bool)
+    mask[8:20, 4:28] = True
+    S, _ = kc.synthesize(levels, S0, k=2, mask=mask)
+    assert np.array_equal(S[~mask], S0[~mask])
+    assert (S[mask] != S0[mask]).any()

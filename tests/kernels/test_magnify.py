@@ -1,0 +1,49 @@
+"""Magnification of a coordinate map and label repair."""
+import numpy as np
+
+from proxyshade.kernels import magnify as km
+
+
+def test_magnify_formula():
+    rng = np.random.default_rng(0)
+    S = rng.integers(0, 50, (5, 7, 2)).astype(np.int32)
+    out = km.magnify(S, 4, (18, 27))
+    for i in range(18):
+        for j in range(27):
+            assert tuple(out[i, j]) == (4 * S[i // 4, j // 4, 0] + i % 4, 4 * S[i // 4, j // 4, 1] + j % 4)
+
+
+def test_repair_continues_neighbour_translation():
+    src = np.zeros((20, 20), np.int32)
+    src[:, 10:] = 1
+    # identity map, but the guide wants label 1 from column 8 on: columns 8, 9 land on 0
+    ii, jj = np.mgrid[0:12, 0:12]
+    S = np.stack([ii, jj], -1).astype(np.int32)
+    guide = np.zeros((12, 12), np.int32)
+    guide[:, 8:] = 1
+    # pixels right of the wrong band come from a patch shifted by +4 columns
+    S[:, 10:, 1] += 4
+    out, rep = km.repair_labels(S, guide, src)
+    assert rep["wrong"] == 24 and rep["extended"] == 24 and rep["left"] == 0
+    assert (src[out[..., 0], out[..., 1]] == guide).all()
+    # the band continues the right-hand patch's translation (column + 4)
+    assert np.array_equal(out[:, 8:10, 1], jj[:, 8:10] + 4)
+
+
+def test_repair_falls_back_to_nearest_right_label():
+    src = np.zeros((30, 30), np.int32)
+    src[25:, 25:] = 2
+    S = np.zeros((4, 4, 2), np.int32) + 5
+    guide = np.full((4, 4), 2, np.int32)  # nothing around has label 2: every pixel is wrong
+    out, rep = km.repair_labels(S, guide, src)
+    assert rep["nearest"] == 16 and rep["left"] == 0
+    assert (out == 25).all()  # nearest label-2 pixel of (5, 5) is (25, 25)
+
+
+def test_labels_all_right_is_identity():
+    rng = np.random.default_rng(1)
+    src = rng.integers(0, 3, (20, 20)).astype(np.int32)
+    S = rng.integers(0, 20, (9, 9, 2)).astype(np.int32)
+    guide = src[S[..., 0], S[..., 1]]
+    out, rep = km.repair_labels(S, guide, src)
+    assert rep["wrong"] == 0 and np.array_equal(out, S)

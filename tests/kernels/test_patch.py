@@ -1,0 +1,102 @@
+"""Flood-fill patch growth against a slow reference; patch ids of a coordinate map."""
+import numpy as np
+import pytest
+from scipy import ndimage
+
+from proxyshade.kernels import features as kf
+from proxyshade.kernels import patch as kpatch
+from proxyshade.kernels.distance import contour_distance
+
+from tests.kernels import naive_synthesis as naive
+
+
+def blobs(rng, h, w, n, k=4):
+    ci, cj = rng.uniform(0, h, k), rng.uniform(0, w, k)
+    ii, jj = np.mgrid[0:h, 0:w]
+    return (((ii[..., None] - ci) ** 2 + (jj[..., None] - cj) ** 2).argmin(-1) % n).astype(np.int32)
+
+
+def case(seed, n=3):
+    rng = np.random.default_rng(seed)
+    src = blobs(rng, 11, 13, n)
+    src.flat[: n] = np.arange(n)  # every label present
+    tgt = blobs(rng, 9, 10, n)
+    return src, tgt
+
+
+def run_kernel(src, tgt, n, seed, mask=None, S=None, patch=None, w=90.0, ts=1.25, to=5.0):
+    sd = np.minimum(contour_distance(src), 4.0).astype(np.float32)
+    td = np.minimum(contour_distance(tgt), 4.0).astype(np.float32)
+    return sd, td, kpatch.flood_fill(src, sd, kf.window_masks(src, 1, n), tgt, td, kf.window_masks(tgt, 1, n),
+                                     seed=seed, w=w, threshold_scale=ts, threshold_offset=to, mask=mask, S=S,
+                                     patch=patch)
+
+
+def test_chamfer_masks_match_paper_definition():
+    rng = np.random.default_rng(3)
+    for _ in range(300):
+        n = rng.integers(1, 5)
+        a = rng.integers(0, n, (5, 5)).astype(np.int32)
+        b = rng.integers(0, n, (5, 5)).astype(np.int32)
+        ma = kf.window_masks(a, 1, n)[2, 2]
+        mb = kf.window_masks(b, 1, n)[2, 2]
+        assert kf.chamfer_masks(ma, mb) == naive.chamfer(a, b)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_flood_fill_matches_reference(seed):
+    src, tgt = case(seed)
+    sd, td, (S, patch, npatch) = run_kernel(src, tgt, 3, seed)
+    order = np.random.default_rng(seed).permutation(tgt.size)
+    S_ref, patch_ref = naive.flood_fill(src, sd, tgt, td, order, 90.0, 1.25, 5.0)
+    assert np.array_equal(patch, patch_ref)
+    assert np.array_equal(S, S_ref)
+    assert npatch == patch.max()
+
+
+def test_patches_are_connected_translations_with_the_guide_labels():
+    src, tgt = case(7)
+    _, _, (S, patch, npatch) = run_kernel(src, tgt, 3, 7)
+    assert (patch > 0).all()
+    assert (src[S[..., 0], S[..., 1]] == tgt).all()  # label fidelity is exact
+    ii, jj = np.mgrid[0:tgt.shape[0], 0:tgt.shape[1]]
+    for p in range(1, npatch + 1):
+        m = patch == p
+        assert ndimage.label(m)[1] == 1
+        assert len({(int(a), int(b)) for a, b in zip((S[..., 0] - ii)[m], (S[..., 1] - jj)[m])}) == 1
+
+
+def test_mask_only_recovers_masked_pixels():
+    src, tgt = case(8)
+    _, _, (S, patch, n0) = run_kernel(src, tgt, 3, 8)
+    mask = np.zeros(tgt.shape, bool)
+    mask[2:6, 3:8] = True
+    _, _, (S2, patch2, n1) = run_kernel(src, tgt, 3, 99, mask=mask, S=S, patch=patch)
+    assert np.array_equal(S2[~mask], S[~mask]) and np.array_equal(patch2[~mask], patch[~mask])
+    assert (patch2[mask] > n0).all() and n1 >= 1
+    assert (src[S2[..., 0], S2[..., 1]] == tgt).all()
+
+
+def test_missing_label_raises():
+    src = np.zeros((10, 10), np.int32)
+    tgt = np.zeros((6, 6), np.int32)
+    tgt[0, 0] = 1
+    with pytest.raises(ValueError, match="label index 1"):
+        run_kernel(src, tgt, 2, 0)
+
+
+def test_offset_components_match_scipy():
+    rng = np.random.default_rng(4)
+    S = rng.integers(0, 3, (30, 40, 2)).astype(np.int32)
+    ii, jj = np.mgrid[0:30, 0:40]
+    S[..., 0] += ii
+    S[..., 1] += jj
+    ids, n = kpatch.offset_components(S)
+    code = (S[..., 0] - ii) * 10 + (S[..., 1] - jj)
+    total = 0
+    for c in np.unique(code):
+        lab, k = ndimage.label(code == c)
+        total += k
+        for r in range(1, k + 1):
+            assert len(np.unique(ids[lab == r])) == 1
+    assert n == total == len(np.unique(ids))
