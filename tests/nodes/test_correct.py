@@ -1,0 +1,72 @@
+"""Correct: label fidelity, patches, repetition, determinism."""
+import numba
+import numpy as np
+import pytest
+
+from proxyshade.graph.testing import run_node
+from proxyshade.kernels.patch import offset_components
+
+from tests.nodes import _synthesis as T
+
+
+def exemplar_coords(p):
+    F = p.meta["synthesis"]["exemplar_factor"]
+    return (np.rint((p["source.y"] + 0.5) / F - 0.5).astype(int), np.rint((p["source.x"] + 0.5) / F - 0.5).astype(int))
+
+
+def repeats_in_window(p, half=4):
+    """Share of pixels whose exemplar position is used by another pixel of their 9x9 window."""
+    y, x = exemplar_coords(p)
+    code = y * 100000 + x
+    H, W = code.shape
+    pad = np.pad(code, half, constant_values=-1)
+    hit = np.zeros((H, W), bool)
+    for di in range(-half, half + 1):
+        for dj in range(-half, half + 1):
+            if di or dj:
+                hit |= pad[half + di:half + di + H, half + dj:half + dj + W] == code
+    return hit.mean()
+
+
+@pytest.mark.parametrize("sample", T.SAMPLES)
+def test_fidelity_patches_and_repetition(sample):
+    c = T.chain(sample)
+    init, cor, src = c["init"], c["correct"], c["source"]
+    assert cor.shape == init.shape
+    assert T.label_fidelity(src, cor) >= 0.99
+    y, x = exemplar_coords(cor)
+    ids, n = offset_components(np.stack([y, x], -1))
+    assert np.array_equal(cor["patch.id"], ids) and cor.meta["synthesis"]["patches"] == n
+    # the 9x9 rejection leaves (almost) no exemplar pixel twice in a window
+    assert repeats_in_window(cor) <= 0.01
+    # usage: no exemplar pixel serves more than 8x its fair share, nor 0.2% of the map
+    _, cnt = np.unique(y * 100000 + x, return_counts=True)
+    assert cnt.max() <= 8 * cnt.mean() and cnt.max() <= 0.002 * y.size
+
+
+def test_same_result_with_one_or_two_threads():
+    src, g = T.source("renoir"), T.guide("renoir", (256, 256))
+    init = run_node("PatchInit", {}, {"guide": g, "source": src})
+    a = run_node("Correct", {}, {"init": init, "source": src})
+    numba.set_num_threads(1)
+    try:
+        b = run_node("Correct", {}, {"init": init, "source": src})
+    finally:
+        numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
+    assert a.equals(b)
+
+
+def test_zero_passes_at_one_level_keeps_the_patch_map():
+    src, g = T.source("monet"), T.guide("monet", (256, 256))
+    init = run_node("PatchInit", {}, {"guide": g, "source": src})
+    out = run_node("Correct", {"passes": 0, "passes_finest": 0, "coarse_size": 64}, {"init": init, "source": src})
+    assert np.array_equal(out["source.x"], init["source.x"]) and np.array_equal(out["source.y"], init["source.y"])
+
+
+def test_missing_synthesis_metadata():
+    from proxyshade.errors import NodeInputError
+    c = T.chain("renoir")
+    bare = c["init"].with_channels()
+    bare.meta.pop("synthesis")
+    with pytest.raises(NodeInputError, match=r"^correct: input 'init' has no synthesis metadata"):
+        run_node("Correct", {}, {"init": bare, "source": c["source"]}, name="correct")

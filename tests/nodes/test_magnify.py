@@ -1,0 +1,68 @@
+"""Magnify: output size, label fidelity on every sample, depth and provenance."""
+import numpy as np
+import pytest
+
+from proxyshade.errors import NodeInputError
+from proxyshade.graph.plate import Plate
+from proxyshade.graph.testing import run_node
+from proxyshade.kernels.lookup import lookup
+
+from tests.nodes import _synthesis as T
+
+
+@pytest.mark.parametrize("sample", T.SAMPLES)
+def test_label_fidelity_on_every_sample(sample):
+    c = T.chain(sample)
+    mag, src = c["magnify"], c["source"]
+    assert mag.shape == (512, 512)
+    assert np.array_equal(mag["label.id"], c["guide"]["label.id"])
+    # >= 99.5 % of output pixels read a source pixel of their guide label
+    assert T.label_fidelity(src, mag) >= 0.995
+
+
+def test_patches_are_magnified_and_colours_looked_up():
+    c = T.chain("renoir")
+    cor, mag, src = c["correct"], c["magnify"], c["source"]
+    # inside a synthesis pixel the source position advances one source pixel per output pixel
+    sx, sy = mag["source.x"], mag["source.y"]
+    blocks_x = sx.reshape(128, 4, 128, 4)
+    assert (np.diff(blocks_x, axis=3) == 1).mean() > 0.98
+    assert np.allclose(mag.rgb(), lookup(src.rgb(), sx, sy))
+    # source.x/y are whole source pixels at scale 1
+    assert np.all(sx == np.rint(sx)) and np.all(sy == np.rint(sy))
+    # a magnified synthesis pixel starts at 4 x its exemplar position
+    F = cor.meta["synthesis"]["exemplar_factor"]
+    ex = np.rint((cor["source.x"] + 0.5) / F - 0.5)
+    same = sx[::4, ::4] == 4 * ex
+    assert same.mean() > 0.98
+    assert mag.meta["source"] == src.meta["source"] and mag.meta["labels"] == src.meta["labels"]
+
+
+def test_depth_is_carried_and_checked():
+    c = T.chain("renoir")
+    z = np.linspace(1, 50, 512 * 512, dtype=np.float32).reshape(512, 512)
+    z[:10] = np.inf  # sky: allowed
+    depth = Plate({"Z": z, "P.Y": z * 0.5})
+    out = run_node("Magnify", {}, {"synth": c["correct"], "source": c["source"], "guide": c["guide"], "depth": depth})
+    assert np.array_equal(out["Z"], z) and np.array_equal(out["P.Y"], z * 0.5)
+    z2 = z.copy()
+    z2[100, 3] = np.nan
+    with pytest.raises(NodeInputError, match=r"^mag: input 'depth' channel Z has 1 NaN pixel"):
+        run_node("Magnify", {}, {"synth": c["correct"], "source": c["source"], "guide": c["guide"],
+                                 "depth": Plate({"Z": z2})}, name="mag")
+
+
+def test_guide_of_another_size_is_refused():
+    c = T.chain("renoir")
+    g = T.guide("renoir", (256, 256))
+    with pytest.raises(NodeInputError, match=r"^mag: guide is 256x256 but synth is 128x128 at factor 4"):
+        run_node("Magnify", {}, {"synth": c["correct"], "source": c["source"], "guide": g}, name="mag")
+
+
+def test_scale_reads_the_source_between_pixels():
+    """With scale 0.5 the texture is twice as large: source.x advances half a pixel."""
+    src, g = T.source("creek"), T.guide("creek", (256, 256))
+    init = run_node("PatchInit", {"scale": 0.5, "factor": 2}, {"guide": g, "source": src})
+    mag = run_node("Magnify", {}, {"synth": init, "source": src, "guide": g})
+    assert np.median(np.diff(mag["source.x"], axis=1)) == 0.5
+    assert T.label_fidelity(src, mag) >= 0.995
