@@ -354,12 +354,11 @@ def _subpass(src_lab, src_dist, src_rgb, src_masks, tgt_lab, tgt_dist, tgt_masks
             for u in range(nc):
                 cy = cyl[u]
                 cx = cxl[u]
-                if rejected(S_old, i, j, cy, cx, h, radius):
-                    continue
                 m = 1.0 if coh[u] else 1.0 + kappa
                 d = m * _cand_dist(src_dist, src_rgb, src_masks, tgt_masks, i, j, cy, cx, h, tD, tRGB, w, use_rgb,
                                    best / m)
-                if d < best:
+                # rejection is only tested for a candidate that would win (same result, cheaper)
+                if d < best and not rejected(S_old, i, j, cy, cx, h, radius):
                     best = d
                     by = cy
                     bx = cx

@@ -75,17 +75,22 @@ def _fine_operator(fixed, screen):
 
 
 @njit(**PJIT)
-def _coarsen(diag, we, ws):
-    """Galerkin operator P^T A P for 2x2 piecewise-constant aggregation."""
+def _coarsen(diag, we, ws, mass, alpha):
+    """Coarse operator for 2x2 piecewise-constant aggregation: the Galerkin product
+    P^T A P, its Laplacian part (edge weights, and the diagonal less the screening mass)
+    divided by ``alpha``, its mass part (the screening term) kept exact."""
     h, w = diag.shape
     hc = (h + 1) // 2
     wc = (w + 1) // 2
     dc = np.zeros((hc, wc), np.float32)
     ec = np.zeros((hc, wc), np.float32)
     sc = np.zeros((hc, wc), np.float32)
+    mc = np.zeros((hc, wc), np.float32)
+    inv = 1.0 / alpha
     for I in prange(hc):
         for J in range(wc):
             d = 0.0
+            m = 0.0
             i0 = 2 * I
             j0 = 2 * J
             for di in range(2):
@@ -96,7 +101,8 @@ def _coarsen(diag, we, ws):
                     j = j0 + dj
                     if j >= w:
                         continue
-                    d += diag[i, j]
+                    d += diag[i, j] - mass[i, j]
+                    m += mass[i, j]
             # internal edges count twice (both off-diagonal entries)
             if i0 < h and j0 + 1 < w:
                 d -= 2.0 * we[i0, j0]
@@ -106,19 +112,20 @@ def _coarsen(diag, we, ws):
                 d -= 2.0 * ws[i0, j0]
                 if j0 + 1 < w:
                     d -= 2.0 * ws[i0, j0 + 1]
-            dc[I, J] = d
+            dc[I, J] = d * inv + m
+            mc[I, J] = m
             # east: fine edges from column j0+1 to j0+2
             if j0 + 2 < w:
                 e = we[i0, j0 + 1]
                 if i0 + 1 < h:
                     e += we[i0 + 1, j0 + 1]
-                ec[I, J] = e
+                ec[I, J] = e * inv
             if i0 + 2 < h:
                 s = ws[i0 + 1, j0]
                 if j0 + 1 < w:
                     s += ws[i0 + 1, j0 + 1]
-                sc[I, J] = s
-    return dc, ec, sc
+                sc[I, J] = s * inv
+    return dc, ec, sc, mc
 
 
 @njit(**PJIT)
@@ -482,16 +489,18 @@ def _xpby3(z, beta, p):
 class _Hierarchy:
     """Operators and work arrays of every level, finest first.
 
-    ``alpha`` over-corrects the coarse-grid correction: with piecewise-constant
-    aggregation the Galerkin coarse operator is about twice the rediscretized one in
-    free regions, so a factor near 2 restores the scale (Braess 1995).
+    With piecewise-constant aggregation the Galerkin coarse Laplacian is about twice the
+    rediscretized one in free regions; dividing it by ``alpha`` near 2 restores the scale
+    (the over-correction of Braess 1995), while a screening term's mass is exact.
     """
 
     def __init__(self, fixed: np.ndarray, *, screen: float = 0.0, coarsest: int = 4, alpha: float = 1.9):
-        self.alpha = alpha
-        ops = [_fine_operator(fixed, np.float32(screen))]
+        diag, we, ws = _fine_operator(fixed, np.float32(screen))
+        mass = np.where(diag > 0, np.float32(screen), np.float32(0.0)).astype(np.float32)
+        ops = [(diag, we, ws)]
         while min(ops[-1][0].shape) > coarsest:
-            ops.append(_coarsen(*ops[-1]))
+            diag, we, ws, mass = _coarsen(diag, we, ws, mass, np.float32(alpha))
+            ops.append((diag, we, ws))
         self.ops = ops
         self.x = [np.zeros(op[0].shape + (3,), np.float32) for op in ops]
         self.b = [np.zeros(op[0].shape + (3,), np.float32) for op in ops]
@@ -519,7 +528,7 @@ class _Hierarchy:
         xc = self.x[level + 1]
         _residual_restrict(diag, we, ws, x, b, bc)
         self.vcycle(bc, xc, sweeps=sweeps, coarse_sweeps=coarse_sweeps, level=level + 1)
-        _prolong_add(xc, x, diag, self.alpha)
+        _prolong_add(xc, x, diag, 1.0)
         for _ in range(sweeps):
             _smooth(diag, we, ws, x, b, 1)
             _smooth(diag, we, ws, x, b, 0)
