@@ -171,8 +171,14 @@ def guide_at_synthesis(ctx, guide_dense: np.ndarray, factor: int, n: int) -> np.
         raise ctx.error(f"factor {factor} is not a power of two; use 1, 2, 4 or 8")
     if factor == 1:
         return guide_dense
+    H, W = guide_dense.shape
+    Hp, Wp = -(-H // factor) * factor, -(-W // factor) * factor
+    if (Hp, Wp) != (H, W):  # replicate the last rows/columns up to a multiple of factor
+        guide_dense = np.pad(guide_dense, ((0, Hp - H), (0, Wp - W)), mode="edge")
     nlev = int(round(math.log2(factor))) + 1
-    return kf.vote_pyramid(guide_dense, nlev, n)[0]
+    out = kf.vote_pyramid(guide_dense, nlev, n)[0]
+    assert out.shape == (Hp // factor, Wp // factor), out.shape
+    return np.ascontiguousarray(out)
 
 
 class PatchInit(Node):

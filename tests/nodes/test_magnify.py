@@ -66,3 +66,15 @@ def test_scale_reads_the_source_between_pixels():
     mag = run_node("Magnify", {}, {"synth": init, "source": src, "guide": g})
     assert np.median(np.diff(mag["source.x"], axis=1)) == 0.5
     assert T.label_fidelity(src, mag) >= 0.995
+
+
+def test_odd_non_square_output_size():
+    """A guide whose sides are not multiples of the factor: synthesis rounds up, the
+    output is cropped back to the guide."""
+    src, g = T.source("renoir"), T.guide("renoir", (301, 517))
+    init = run_node("PatchInit", {}, {"guide": g, "source": src})
+    assert init.shape == (76, 130)
+    cor = run_node("Correct", {}, {"init": init, "source": src})
+    mag = run_node("Magnify", {}, {"synth": cor, "source": src, "guide": g})
+    assert mag.shape == (301, 517)
+    assert T.label_fidelity(src, mag) >= 0.995
