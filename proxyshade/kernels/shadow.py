@@ -106,24 +106,40 @@ def light_frame(direction) -> np.ndarray:
     return np.stack([u, v, l])
 
 
-def ortho_world_to_map(direction, points: np.ndarray, size: int, *, margin: float = 0.02):
-    """An orthographic light projection that frames ``points`` in a ``size`` x ``size`` map.
+def ortho_light_projection(direction, points: np.ndarray, size: int, *, margin: float = 0.02) -> dict:
+    """An orthographic light view that frames ``points`` in a ``size`` x ``size`` map.
 
-    Returns ``(M, texel)``: the (3, 4) world->(column, row, depth) matrix (depth is the
-    distance along the light direction) and the texel size in world units.
+    The light camera looks along ``direction`` (x = u, y = v, z = -l of ``light_frame``,
+    origin at the points' centre in u, v and one unit before the nearest point along l),
+    in the conventions of ``proxyshade.kernels.raster.rasterize(..., ortho=True)``.
+
+    Returns a dict with
+    ``world_to_cam`` (3, 4): world -> light-camera space, to feed the rasterizer;
+    ``fx``, ``fy``, ``cx``, ``cy``: its intrinsics (pixels per world unit, centre);
+    ``world_to_map`` (3, 4): world -> (column, row, depth) with pixel centres at integers
+    and depth = the rasterizer's depth (distance along l past the origin), for ``pcf_shadow``;
+    ``texel``: the texel size in world units.
     """
     frame = light_frame(direction)
     pts = np.asarray(points, np.float64).reshape(-1, 3)
-    uv = pts @ frame[:2].T
-    lo, hi = uv.min(0), uv.max(0)
+    if not len(pts):
+        raise ValueError("no points to frame")
+    uvl = pts @ frame.T
+    lo, hi = uvl.min(0), uvl.max(0)
     extent = float(max(hi[0] - lo[0], hi[1] - lo[1], 1e-9)) * (1 + 2 * margin)
-    centre = 0.5 * (lo + hi)
+    uc, vc = 0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1])
+    d0 = lo[2] - 1.0
     texel = extent / size
-    origin = centre - 0.5 * extent  # world (u, v) of the map's corner
-    m = np.zeros((3, 4))
-    m[0, :3] = frame[0] / texel
-    m[0, 3] = -origin[0] / texel - 0.5
-    m[1, :3] = frame[1] / texel
-    m[1, 3] = -origin[1] / texel - 0.5
-    m[2, :3] = frame[2]
-    return m, texel
+    w2c = np.zeros((3, 4))
+    w2c[0, :3], w2c[0, 3] = frame[0], -uc
+    w2c[1, :3], w2c[1, 3] = frame[1], -vc
+    w2c[2, :3], w2c[2, 3] = -frame[2], d0
+    f = 1.0 / texel
+    c = size / 2.0
+    w2m = np.zeros((3, 4))
+    w2m[0] = f * w2c[0]
+    w2m[0, 3] += c - 0.5
+    w2m[1] = -f * w2c[1]
+    w2m[1, 3] += c - 0.5
+    w2m[2] = -w2c[2]
+    return {"world_to_cam": w2c, "fx": f, "fy": f, "cx": c, "cy": c, "world_to_map": w2m, "texel": texel}

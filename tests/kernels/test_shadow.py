@@ -65,17 +65,24 @@ def test_light_frame_is_orthonormal_right_handed(direction):
     np.testing.assert_allclose(f[2], np.asarray(direction) / np.linalg.norm(direction))
 
 
-def test_ortho_framing_puts_points_inside_map():
+def test_ortho_projection_frames_points_and_matches_rasterizer_convention():
     rng = np.random.default_rng(3)
     pts = rng.uniform(-5, 5, (50, 3))
-    m, texel = shadow.ortho_world_to_map((0.2, -1, 0.1), pts, 64)
-    cr = np.c_[pts, np.ones(50)] @ m.T
+    d = np.array([0.2, -1, 0.1])
+    pr = shadow.ortho_light_projection(d, pts, 64)
+    h = np.c_[pts, np.ones(50)]
+    cr = h @ pr["world_to_map"].T
     assert cr[:, :2].min() > -0.5 and cr[:, :2].max() < 63.5
-    # depth is the distance along the light direction
-    l = np.array([0.2, -1, 0.1]) / np.linalg.norm([0.2, -1, 0.1])
-    np.testing.assert_allclose(cr[:, 2], pts @ l)
-    # one texel in map units is `texel` world units
-    np.testing.assert_allclose(np.linalg.norm(m[0, :3]) * texel, 1.0)
+    l = d / np.linalg.norm(d)
+    # depth grows along the light direction, one unit per world unit, and is >= 1
+    np.testing.assert_allclose(np.diff(cr[:, 2]), np.diff(pts @ l))
+    assert cr[:, 2].min() == pytest.approx(1.0)
+    # the rasterizer's projection of light-camera points (centres at +0.5) is world_to_map
+    cam = h @ pr["world_to_cam"].T
+    col = pr["cx"] + pr["fx"] * cam[:, 0] - 0.5
+    row = pr["cy"] - pr["fy"] * cam[:, 1] - 0.5
+    np.testing.assert_allclose(np.c_[col, row, -cam[:, 2]], cr, atol=1e-9)
+    np.testing.assert_allclose(np.linalg.norm(pr["world_to_map"][0, :3]) * pr["texel"], 1.0)
 
 
 def test_flat_occluder_shadows_its_footprint():
