@@ -52,6 +52,8 @@ def _best_match(cands, src_dist, src_masks, tD, tmask, w, nchunks):
             if d < bd:
                 bd = d
                 bi = c
+                if bd == 0.0:  # nothing later in this chunk can win a tie
+                    break
         best_d[ch] = bd
         best_i[ch] = bi
     bd = np.inf
