@@ -33,19 +33,13 @@ import numpy as np
 from numba import njit, prange
 
 from proxyshade.kernels._config import JIT, PJIT
+from proxyshade.kernels.chamfer import chamfer_masks  # noqa: F401  (re-exported for the synthesis kernels)
+from proxyshade.kernels.chamfer import masks_from_windows
 from proxyshade.kernels.distance import contour_distance
+from proxyshade.kernels.voting import vote_pyramid, vote_stack  # noqa: F401  (vote_pyramid re-exported)
 
 NB = 5  # neighbourhood side
 NB2 = NB * NB
-
-
-# ---------------------------------------------------------------------------
-# label windows: the Chamfer distance and the voting stack/pyramid live in their own
-# modules (issue 4); re-exported here for the synthesis kernels.
-
-from proxyshade.kernels.chamfer import chamfer_masks  # noqa: E402,F401
-from proxyshade.kernels.chamfer import masks_from_windows as _chamfer_window_masks  # noqa: E402
-from proxyshade.kernels.voting import vote_pyramid, vote_stack  # noqa: E402,F401
 
 
 # ---------------------------------------------------------------------------
@@ -203,7 +197,7 @@ def window_masks(lab: np.ndarray, h: int, n: int) -> np.ndarray:
     """(H, W, n) uint32 per-label bit masks of each pixel's 5x5 window (spacing h)."""
     win = np.empty(lab.shape + (NB2,), np.int32)
     _windows(np.ascontiguousarray(lab, dtype=np.int32), h, win)
-    return _chamfer_window_masks(win, n)
+    return masks_from_windows(win, n)
 
 
 def build_exemplar(rgb: np.ndarray, lab: np.ndarray, f: float, n: int) -> tuple[np.ndarray, np.ndarray]:
