@@ -65,6 +65,7 @@ def lookup(image: np.ndarray, sx: np.ndarray, sy: np.ndarray) -> np.ndarray:
         (label or object ids) at the nearest pixel.
     sx, sy : (P, Q) float ndarray
         Column and row in ``image`` pixels (centres at integers); clamped to the image.
+        Read as float32 (exact for integers below 2**24).
 
     Returns
     -------
@@ -72,8 +73,8 @@ def lookup(image: np.ndarray, sx: np.ndarray, sy: np.ndarray) -> np.ndarray:
         float32 for float images, the image's dtype for integer images.
     """
     image = np.asarray(image)
-    sx = np.asarray(sx)
-    sy = np.asarray(sy)
+    sx = np.ascontiguousarray(sx, dtype=np.float32)  # one compiled signature for every caller
+    sy = np.ascontiguousarray(sy, dtype=np.float32)
     if sx.shape != sy.shape or sx.ndim != 2:
         raise ValueError(f"sx and sy must be 2-D and the same shape, got {sx.shape} and {sy.shape}")
     if image.ndim not in (2, 3):
