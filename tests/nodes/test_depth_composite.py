@@ -96,3 +96,52 @@ def test_size_mismatch_is_one_line_error():
     with pytest.raises(NodeInputError, match="cg plate is 4x4 but scene is 10x8") as e:
         run_node("DepthComposite", {}, {"scene": scene, "cg": cg})
     assert "\n" not in str(e.value)
+
+
+def test_pipeline_cg_render_shadow_composite_fog_cryptomatte_exr(tmp_path):
+    """CgRender + ShadowMap + DepthComposite + LabelGrade + Fog + Cryptomatte on a ground plane
+    'synthesized' through the same camera, written to EXR and listed by oiiotool."""
+    import json
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    from proxyshade.io import usd
+    from proxyshade.io.exr import write_plate
+    from tests.nodes.test_cg_render import make_stage
+    from tests.nodes.test_cryptomatte import decode
+
+    scene = make_stage(tmp_path / "s.usda", light_dir=(0.5, -1.0, -0.3), quad=False,
+                       cube={"translate": (0.0, -1.0, 0.0), "scale": (0.5, 0.5, 0.5)})
+    cam = usd.camera_at(usd.open_stage(scene), None, 1, 64, 48)
+    col, row = cam.pixel_grid()
+    dy = -(row - cam.cy) / cam.fy  # ray direction (x, dy, -1) in camera space = world here
+    ground = dy < 0
+    t = np.where(ground, -2.0 / np.where(ground, dy, -1), np.inf)  # ground plane y = -2
+    P = cam.unproject(col, row, np.where(ground, t, 1.0))
+    P[~ground] = np.inf
+    rgb = np.full(cam.height * cam.width, 0.5, np.float32).reshape(cam.height, cam.width)
+    synth = Plate({"R": rgb, "G": rgb, "B": rgb, "Z": t.astype(np.float32),
+                   "label.id": np.where(ground, 1, 2).astype(np.uint32),
+                   **{f"P.{a}": P[..., i].astype(np.float32) for i, a in enumerate("XYZ")}},
+                  {"labels": [{"name": "grass", "id": 1, "color": "#00ff00"}, {"name": "sky", "id": 2, "color": "#0000ff"}],
+                   "camera": cam.to_meta()})
+    cg = run_node("CgRender", {"scene": str(scene)}, {"proxy": synth})
+    shadowed = run_node("ShadowMap", {"scene": str(scene), "size": 256, "factor": 0.3}, {"image": synth})
+    assert (shadowed["shadow"][ground] > 0.5).sum() > 5 and not shadowed["shadow"][~ground].any()
+    comp = run_node("DepthComposite", {}, {"scene": shadowed, "cg": cg})
+    box = cg["A"] > 0
+    assert box.sum() > 20 and np.array_equal(comp["object.id"] > 0, box)  # cube in front of the ground
+    np.testing.assert_array_equal(comp["R"][box], cg["R"][box])
+    graded = run_node("LabelGrade", {"label": "sky", "temperature": 9000.0}, {"image": comp})
+    fogged = run_node("Fog", {"density": 0.01}, {"image": graded})
+    final = run_node("Cryptomatte", {}, {"image": fogged})
+    assert np.array_equal(decode(final, "CryptoObject", "/World/Cube"), box.astype(float))
+    assert np.array_equal(decode(final, "CryptoLabel", "grass"), (ground & ~box).astype(float))
+    path = write_plate(tmp_path / "comp.exr", final)
+    oiiotool = Path(sys.executable).parent / "oiiotool"
+    info = subprocess.run([str(oiiotool), "--info", "-v", str(path)], capture_output=True, text=True, check=True).stdout
+    for n, a in final.channels.items():
+        assert f"{n} ({ {'float32': 'float', 'uint32': 'uint', 'float16': 'half'}[str(a.dtype)] })" in info
+    assert info.count("cryptomatte/") >= 8
+    json.loads(final.meta[[k for k in final.meta if k.endswith("/manifest")][0]])
