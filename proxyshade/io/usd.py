@@ -1,0 +1,339 @@
+"""USD scenes: stages, cameras, proxy and CG prims with their labels, the distant light.
+
+Conventions: numpy matrices here act on column vectors (``p_cam = V @ [p, 1]``); USD's
+Gf matrices act on row vectors and are transposed on the way in. Camera space is USD's:
+x right, y up, the camera looks down −z. Pixel (row i, column j) has its centre at
+(j + 0.5, i + 0.5); a camera-space point projects to column ``cx + fx·x/d`` and row
+``cy − fy·y/d`` with d = −z. The aperture is conformed to the output aspect by keeping
+the horizontal aperture (the vertical one follows), as Maya's horizontal gate fit does.
+
+Texture labels use USD's own schema, ``UsdSemantics.LabelsAPI`` applied with the
+instance name ``texture`` (``semantics:labels:texture = ["water"]``), inherited by
+descendants. CG prims (composited, not synthesized) carry ``bool proxyshade:cg = true``.
+"""
+from __future__ import annotations
+
+import hashlib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdSemantics
+
+from proxyshade.errors import UserError
+
+LABEL_INSTANCE = "texture"
+CG_ATTR = "proxyshade:cg"
+
+
+def open_stage(path: str | Path) -> Usd.Stage:
+    path = Path(path)
+    if not path.is_file():
+        raise UserError(f"{path}: no such USD file; check the scene path")
+    try:
+        loaded = Sdf.Layer.Find(str(path))
+        if loaded:  # USD keeps layers it has opened: re-read what is on disk now
+            loaded.Reload(force=True)
+        stage = Usd.Stage.Open(str(path))
+    except Exception as e:  # noqa: BLE001 - pxr raises Tf errors
+        raise UserError(f"{path}: cannot open USD stage: {str(e).strip().splitlines()[-1]}") from None
+    if stage is None:
+        raise UserError(f"{path}: cannot open USD stage")
+    return stage
+
+
+def stage_name(stage: Usd.Stage) -> str:
+    return stage.GetRootLayer().identifier
+
+
+def check_frame(stage: Usd.Stage, frame: int) -> None:
+    """A frame outside the stage's authored time range is bad input (a static stage has frame 1)."""
+    if not stage.HasAuthoredTimeCodeRange():
+        if frame != 1:
+            raise UserError(f"{stage_name(stage)}: the stage has no time samples (no startTimeCode/endTimeCode) "
+                            f"but frame {frame} was asked; author a time range or render frame 1")
+        return
+    lo, hi = stage.GetStartTimeCode(), stage.GetEndTimeCode()
+    if not lo <= frame <= hi:
+        raise UserError(f"{stage_name(stage)}: frame {frame} is outside the stage's time range "
+                        f"{lo:g}-{hi:g}; render a frame inside it or extend endTimeCode")
+
+
+def _np(m: Gf.Matrix4d) -> np.ndarray:
+    return np.array(m, dtype=np.float64).T  # Gf is row-vector; ours are column-vector
+
+
+@dataclass
+class CameraInfo:
+    """A pinhole camera at one frame, in pixels."""
+
+    path: str
+    frame: int
+    width: int
+    height: int
+    fx: float
+    fy: float
+    cx: float
+    cy: float
+    near: float
+    far: float
+    camera_to_world: np.ndarray  # (4, 4)
+
+    @property
+    def world_to_camera(self) -> np.ndarray:
+        return np.linalg.inv(self.camera_to_world)
+
+    @property
+    def position(self) -> np.ndarray:
+        return self.camera_to_world[:3, 3].copy()
+
+    def to_camera(self, p: np.ndarray) -> np.ndarray:
+        """World points (..., 3) -> camera space."""
+        V = self.world_to_camera
+        return p @ V[:3, :3].T + V[:3, 3]
+
+    def project(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """World points (..., 3) -> (column, row, depth) in pixels (continuous coordinates)."""
+        c = self.to_camera(np.asarray(p, np.float64))
+        d = -c[..., 2]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return self.cx + self.fx * c[..., 0] / d, self.cy - self.fy * c[..., 1] / d, d
+
+    def unproject(self, col: np.ndarray, row: np.ndarray, depth: np.ndarray) -> np.ndarray:
+        """(column, row, depth) -> world points (..., 3); the inverse of ``project``."""
+        x = (col - self.cx) / self.fx * depth
+        y = -(row - self.cy) / self.fy * depth
+        c = np.stack([x, y, -np.asarray(depth, np.float64)], axis=-1)
+        M = self.camera_to_world
+        return c @ M[:3, :3].T + M[:3, 3]
+
+    def pixel_grid(self) -> tuple[np.ndarray, np.ndarray]:
+        """(column, row) of every pixel centre, each (H, W)."""
+        rows, cols = np.mgrid[0:self.height, 0:self.width].astype(np.float64)
+        return cols + 0.5, rows + 0.5
+
+    def to_meta(self) -> dict:
+        return {"path": self.path, "frame": self.frame, "resolution": [self.width, self.height],
+                "fx": self.fx, "fy": self.fy, "cx": self.cx, "cy": self.cy, "near": self.near, "far": self.far,
+                "camera_to_world": self.camera_to_world.tolist()}
+
+    @classmethod
+    def from_meta(cls, m: dict) -> "CameraInfo":
+        return cls(m["path"], int(m["frame"]), int(m["resolution"][0]), int(m["resolution"][1]), float(m["fx"]),
+                   float(m["fy"]), float(m["cx"]), float(m["cy"]), float(m["near"]), float(m["far"]),
+                   np.array(m["camera_to_world"], np.float64))
+
+
+def cameras(stage: Usd.Stage) -> list[str]:
+    return [str(p.GetPath()) for p in stage.Traverse() if p.IsA(UsdGeom.Camera)]
+
+
+def camera_at(stage: Usd.Stage, path: str | None, frame: int, width: int, height: int) -> CameraInfo:
+    """The camera at ``frame`` (the first camera when ``path`` is None), conformed to W×H."""
+    known = cameras(stage)
+    if path is None:
+        if not known:
+            raise UserError(f"{stage_name(stage)}: the stage has no camera; add a UsdGeom.Camera prim")
+        path = known[0]
+    prim = stage.GetPrimAtPath(path) if Sdf.Path.IsValidPathString(path) else None
+    if prim is None or not prim.IsValid() or not prim.IsA(UsdGeom.Camera):
+        raise UserError(f"{stage_name(stage)}: no camera at {path}; cameras in the stage: {', '.join(known) or 'none'}")
+    check_frame(stage, frame)
+    gcam = UsdGeom.Camera(prim).GetCamera(Usd.TimeCode(frame))
+    ha = gcam.horizontalAperture
+    va = ha * height / width  # keep the horizontal aperture
+    fx = width * gcam.focalLength / ha
+    fy = height * gcam.focalLength / va
+    cx = width / 2.0 - width * gcam.horizontalApertureOffset / ha  # the window moves, the image moves back
+    cy = height / 2.0 + height * gcam.verticalApertureOffset / va
+    near, far = gcam.clippingRange.min, gcam.clippingRange.max
+    return CameraInfo(str(path), frame, width, height, fx, fy, cx, cy, near, far, _np(gcam.transform))
+
+
+def gf_frustum(cam: CameraInfo, stage: Usd.Stage) -> Gf.Frustum:
+    """USD's own frustum for the camera (tests compare projections against it)."""
+    prim = stage.GetPrimAtPath(cam.path)
+    gcam = UsdGeom.Camera(prim).GetCamera(Usd.TimeCode(cam.frame))
+    gcam.verticalAperture = gcam.horizontalAperture * cam.height / cam.width
+    return gcam.frustum
+
+
+# -- prims ------------------------------------------------------------------
+def texture_label(prim: Usd.Prim, time: Usd.TimeCode) -> str | None:
+    """The prim's texture label, inherited from the nearest labelled ancestor."""
+    p = prim
+    while p and p.IsValid() and not p.IsPseudoRoot():
+        if p.HasAPI(UsdSemantics.LabelsAPI, LABEL_INSTANCE):
+            vals = UsdSemantics.LabelsAPI(p, LABEL_INSTANCE).GetLabelsAttr().Get(time)
+            if vals:
+                return str(vals[0])
+        p = p.GetParent()
+    return None
+
+
+def is_cg(prim: Usd.Prim) -> bool:
+    p = prim
+    while p and p.IsValid() and not p.IsPseudoRoot():
+        a = p.GetAttribute(CG_ATTR)
+        if a and a.HasAuthoredValue() and a.Get():
+            return True
+        p = p.GetParent()
+    return False
+
+
+@dataclass
+class ScenePrim:
+    """A renderable prim at one frame: a triangle mesh in local space or a sphere."""
+
+    path: str
+    kind: str  # "mesh" | "sphere"
+    label: str | None
+    cg: bool
+    local_to_world: np.ndarray
+    points: np.ndarray | None = None  # (V, 3) local, meshes
+    tris: np.ndarray | None = None  # (T, 3)
+    radius: float = 0.0  # spheres
+    color: tuple[float, float, float] = (0.5, 0.5, 0.5)
+    digest: str = field(default="", repr=False)
+
+
+def triangulate(counts: np.ndarray, indices: np.ndarray) -> np.ndarray:
+    """Fan-triangulate polygons given by face vertex counts and indices -> (T, 3)."""
+    counts = np.asarray(counts, np.int64)
+    indices = np.asarray(indices, np.int64)
+    out = []
+    start = 0
+    for c in counts:
+        for k in range(1, c - 1):
+            out.append((indices[start], indices[start + k], indices[start + k + 1]))
+        start += c
+    return np.array(out, np.int64).reshape(-1, 3)
+
+
+def scene_prims(stage: Usd.Stage, frame: int) -> list[ScenePrim]:
+    """Every mesh and sphere of the stage at ``frame`` with labels, CG flag and transforms."""
+    t = Usd.TimeCode(frame)
+    cache = UsdGeom.XformCache(t)
+    out = []
+    for prim in stage.Traverse():
+        if not prim.IsA(UsdGeom.Gprim):
+            continue
+        img = UsdGeom.Imageable(prim)
+        if img.ComputeVisibility(t) == UsdGeom.Tokens.invisible:
+            continue
+        m = _np(cache.GetLocalToWorldTransform(prim))
+        color = (0.5, 0.5, 0.5)
+        dc = UsdGeom.Gprim(prim).GetDisplayColorAttr().Get(t)
+        if dc:
+            color = tuple(float(v) for v in dc[0])
+        rec = ScenePrim(str(prim.GetPath()), "", texture_label(prim, t), is_cg(prim), m, color=color)
+        h = hashlib.sha256(m.tobytes())
+        if prim.IsA(UsdGeom.Mesh):
+            mesh = UsdGeom.Mesh(prim)
+            pts = mesh.GetPointsAttr().Get(t)
+            counts = mesh.GetFaceVertexCountsAttr().Get(t)
+            idx = mesh.GetFaceVertexIndicesAttr().Get(t)
+            if pts is None or counts is None or idx is None:
+                continue
+            rec.kind = "mesh"
+            rec.points = np.array(pts, np.float64).reshape(-1, 3)
+            rec.tris = triangulate(np.array(counts), np.array(idx))
+            h.update(rec.points.tobytes())
+            h.update(rec.tris.tobytes())
+        elif prim.IsA(UsdGeom.Sphere):
+            rec.kind = "sphere"
+            rec.radius = float(UsdGeom.Sphere(prim).GetRadiusAttr().Get(t))
+            h.update(np.float64(rec.radius).tobytes())
+        else:
+            continue
+        h.update(repr((rec.label, rec.cg, rec.color)).encode())
+        rec.digest = h.hexdigest()
+        out.append(rec)
+    return out
+
+
+def sphere_mesh(segments: int) -> tuple[np.ndarray, np.ndarray]:
+    """A unit UV sphere: ``segments`` around, segments/2 from pole to pole -> (points, tris)."""
+    n = max(8, int(segments))
+    rings = max(4, n // 2)
+    th = np.linspace(0, np.pi, rings + 1)[1:-1]
+    ph = np.linspace(0, 2 * np.pi, n, endpoint=False)
+    T, P = np.meshgrid(th, ph, indexing="ij")
+    body = np.column_stack([(np.sin(T) * np.cos(P)).ravel(), np.cos(T).ravel(), (np.sin(T) * np.sin(P)).ravel()])
+    pts = np.vstack([[0, 1, 0], body, [0, -1, 0]])
+    tris = []
+    r = lambda i, j: 1 + i * n + (j % n)  # noqa: E731
+    for j in range(n):
+        tris.append((0, r(0, j + 1), r(0, j)))
+        tris.append((len(pts) - 1, r(rings - 2, j), r(rings - 2, j + 1)))
+    for i in range(rings - 2):
+        for j in range(n):
+            tris.append((r(i, j), r(i, j + 1), r(i + 1, j + 1)))
+            tris.append((r(i, j), r(i + 1, j + 1), r(i + 1, j)))
+    return pts, np.array(tris, np.int64)
+
+
+def sphere_segments(radius_px: float, max_error_px: float = 0.25, cap: int = 512) -> int:
+    """Segments so the polygon's sagitta r·(1 − cos(π/n)) stays under ``max_error_px``."""
+    if radius_px <= max_error_px:
+        return 8
+    n = int(np.ceil(np.pi / np.arccos(max(1.0 - max_error_px / radius_px, -1.0))))
+    return int(min(max(n + (n % 2), 8), cap))
+
+
+def world_mesh(prim: ScenePrim, cam: CameraInfo | None = None, max_error_px: float = 0.25
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """World-space (points, tris, vertex normals) of a prim; spheres are tessellated for
+    ``cam`` so the silhouette error stays under ``max_error_px``."""
+    M = prim.local_to_world
+    if prim.kind == "sphere":
+        scale = float(np.cbrt(abs(np.linalg.det(M[:3, :3]))))
+        centre = M[:3, 3]
+        r_world = prim.radius * scale
+        if cam is not None:
+            d = max(float(-cam.to_camera(centre)[2]) - r_world, cam.near)
+            n = sphere_segments(max(cam.fx, cam.fy) * r_world / d, max_error_px)
+        else:
+            n = 64
+        unit, tris = sphere_mesh(n)
+        pts = unit * prim.radius
+        normals = unit @ np.linalg.inv(M[:3, :3])  # inverse-transpose, row-vector form
+    else:
+        pts, tris = prim.points, prim.tris
+        a, b, c = pts[tris[:, 0]], pts[tris[:, 1]], pts[tris[:, 2]]
+        fn = np.cross(b - a, c - a)
+        normals = np.zeros_like(pts)
+        for k in range(3):
+            np.add.at(normals, tris[:, k], fn)
+        normals = normals @ np.linalg.inv(M[:3, :3])
+    wp = pts @ M[:3, :3].T + M[:3, 3]
+    nn = np.linalg.norm(normals, axis=1, keepdims=True)
+    normals = normals / np.where(nn > 0, nn, 1.0)
+    return wp, tris, normals
+
+
+def distant_light(stage: Usd.Stage, frame: int) -> dict | None:
+    """The first UsdLux.DistantLight: its path, world direction of travel (unit), colour,
+    intensity and angle; None when the stage has none."""
+    t = Usd.TimeCode(frame)
+    for prim in stage.Traverse():
+        if prim.IsA(UsdLux.DistantLight):
+            light = UsdLux.DistantLight(prim)
+            M = _np(UsdGeom.Xformable(prim).ComputeLocalToWorldTransform(t))
+            d = M[:3, :3] @ np.array([0.0, 0.0, -1.0])  # lights shine down their −z
+            d /= np.linalg.norm(d)
+            return {"path": str(prim.GetPath()), "direction": d.tolist(),
+                    "color": list(light.GetColorAttr().Get(t) or (1, 1, 1)),
+                    "intensity": float(light.GetIntensityAttr().Get(t) or 1.0),
+                    "angle": float(light.GetAngleAttr().Get(t) or 0.53)}
+    return None
+
+
+def validate(stage: Usd.Stage) -> list[str]:
+    """UsdValidation errors of the stage (all registered validators), as strings."""
+    from pxr import UsdValidation
+
+    reg = UsdValidation.ValidationRegistry()
+    ctx = UsdValidation.ValidationContext(reg.GetOrLoadAllValidators())
+    return [f"{e.GetName()}: {e.GetMessage()}" for e in ctx.Validate(stage)
+            if e.GetType() == UsdValidation.ValidationErrorType.Error]

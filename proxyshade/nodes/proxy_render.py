@@ -1,0 +1,145 @@
+"""ProxyRender: the proxy guide and proxy depth of a USD scene through its camera.
+
+"An image of texture category labels is obtained by rendering the 3D proxy geometry into
+a proxy guide, with no lighting computation and with the appropriate texture label
+associated with each component of the proxy ... A proxy depth map is created at the same
+time." (Bonneel et al. 2010, §3.)
+"""
+from __future__ import annotations
+
+import functools
+import hashlib
+from pathlib import Path
+
+import numpy as np
+
+from proxyshade.graph import keys
+from proxyshade.graph.node import Input, Node, Param, resolve_path
+from proxyshade.graph.plate import Plate
+from proxyshade.io import usd
+from proxyshade.kernels.raster import interpolate, rasterize
+
+
+@functools.lru_cache(maxsize=8)
+def _stage(path: str, content: str):
+    return usd.open_stage(path)
+
+
+def open_cached(path: Path):
+    """The stage at ``path``, reopened only when the file's content changes."""
+    if not path.is_file():
+        return usd.open_stage(path)  # raises the one-line error
+    return _stage(str(path), hashlib.sha256(path.read_bytes()).hexdigest())
+
+
+def gather(prims: list, cam, *, max_error_px: float = 0.25):
+    """Concatenate prims into one world-space triangle list: points, tris, normals and the
+    index of the prim each triangle came from."""
+    P, T, N, owner = [], [], [], []
+    base = 0
+    for k, p in enumerate(prims):
+        wp, tris, nrm = usd.world_mesh(p, cam, max_error_px)
+        P.append(wp)
+        N.append(nrm)
+        T.append(tris + base)
+        owner.append(np.full(len(tris), k, np.int32))
+        base += len(wp)
+    if not P:
+        return np.zeros((0, 3)), np.zeros((0, 3), np.int64), np.zeros((0, 3)), np.zeros(0, np.int32)
+    return np.vstack(P), np.vstack(T), np.vstack(N), np.concatenate(owner)
+
+
+def render_prims(prims: list, cam, *, max_error_px: float = 0.25):
+    """Rasterize prims through ``cam``: (depth, prim index (−1 empty), P, N) per pixel."""
+    P, T, N, owner = gather(prims, cam, max_error_px=max_error_px)
+    pc = cam.to_camera(P)
+    depth, tri, bary, _ = rasterize(pc, T, width=cam.width, height=cam.height, fx=cam.fx, fy=cam.fy,
+                                    cx=cam.cx, cy=cam.cy, near=cam.near)
+    hit = tri >= 0
+    prim_idx = np.where(hit, owner[np.maximum(tri, 0)] if len(owner) else -1, -1).astype(np.int32)
+    wpos = interpolate(P, T, tri, bary)
+    nrm = interpolate(N, T, tri, bary)
+    ln = np.linalg.norm(nrm, axis=-1, keepdims=True)
+    nrm = np.where(ln > 0, nrm / np.where(ln > 0, ln, 1), 0).astype(np.float32)
+    return depth, prim_idx, wpos, nrm
+
+
+class ProxyRender(Node):
+    """Rasterize the scene's proxy prims (not the CG ones) at the frame through the camera.
+
+    Outputs ``label.id`` (the source table's ids; empty pixels get the background label),
+    ``Z`` (camera depth, inf where empty), ``P.X/Y/Z`` (world position), ``N.X/Y/Z``
+    (world normal), ``object.id`` (1 + prim index; names in metadata ``objects``), and
+    metadata ``labels``, ``camera`` (see ``proxyshade.io.usd.CameraInfo.to_meta``), ``scene``.
+    """
+
+    version = 1
+    time_dependent = True
+    source = Input("the annotated source (its label table names the labels)")
+    scene = Param(str, doc="USD scene (.usda/.usd); relative to the graph file")
+    camera = Param(str, None, doc="camera prim path (default: the first camera)")
+    resolution = Param(list, [1024, 1024], length=2, doc="[width, height] in pixels")
+    background = Param(str, None, doc="label of empty pixels (default: the scene's, else 'sky')")
+    max_error_px = Param(float, 0.25, min=0.01, doc="sphere silhouette error bound in pixels")
+
+    def _scene_path(self, graph_dir: Path) -> Path:
+        return resolve_path(self.params["scene"], graph_dir)
+
+    def key_extra(self, frame, graph_dir):
+        """What the render sees at this frame: camera, and each proxy prim's data."""
+        path = self._scene_path(graph_dir)
+        if not path.is_file():
+            return "missing"
+        try:
+            stage = open_cached(path)
+            w, h = self.params["resolution"]
+            cam = usd.camera_at(stage, self.params["camera"], frame, int(w), int(h))
+            prims = [(p.path, p.digest) for p in usd.scene_prims(stage, frame) if not p.cg]
+            bg = stage.GetDefaultPrim().GetCustomDataByKey("proxyshade:background") if stage.GetDefaultPrim() else None
+        except Exception as e:  # noqa: BLE001 - compute reports it properly
+            return f"error: {e}"
+        return keys.digest([cam.to_meta(), prims, bg])
+
+    def compute(self, ctx) -> Plate:
+        w, h = ctx.p.resolution
+        if not (isinstance(w, int) and isinstance(h, int) and w > 0 and h > 0):
+            raise ctx.error(f"resolution {ctx.p.resolution} must be two positive integers [width, height]")
+        path = self._scene_path(ctx.graph_dir)
+        stage = open_cached(path)
+        cam = usd.camera_at(stage, ctx.p.camera, ctx.frame, w, h)
+        prims = [p for p in usd.scene_prims(stage, ctx.frame) if not p.cg]
+        table = {t["name"]: int(t["id"]) for t in ctx.source.meta.get("labels", [])}
+        if not table:
+            raise ctx.error("the source plate has no label table (meta 'labels'); connect a SourceRead")
+        bg = ctx.p.background
+        if bg is None:
+            dp = stage.GetDefaultPrim()
+            bg = (dp.GetCustomDataByKey("proxyshade:background") if dp else None) or "sky"
+        scene_labels = sorted({p.label for p in prims if p.label} | {bg})
+        unlabelled = [p.path for p in prims if not p.label]
+        if unlabelled:
+            raise ctx.error(f"{path.name}: prim {unlabelled[0]} has no texture label; apply "
+                            f"UsdSemantics.LabelsAPI:texture (labels: {', '.join(sorted(table))})")
+        missing = [lab for lab in scene_labels if lab not in table]
+        if missing:
+            raise ctx.error(f"{path.name}: scene label(s) {', '.join(missing)} not in the source's table; "
+                            f"scene labels: {', '.join(scene_labels)}; source labels: {', '.join(sorted(table))}")
+        depth, prim_idx, wpos, nrm = render_prims(prims, cam, max_error_px=ctx.p.max_error_px)
+        lab_of_prim = np.array([table[p.label] for p in prims] + [table[bg]], np.uint32)
+        label = lab_of_prim[np.where(prim_idx >= 0, prim_idx, len(prims))]
+        ch = {
+            "label.id": label,
+            "Z": depth,
+            "object.id": (prim_idx + 1).astype(np.uint32),
+        }
+        for k, a in enumerate("XYZ"):
+            ch[f"P.{a}"] = np.ascontiguousarray(wpos[..., k])
+            ch[f"N.{a}"] = np.ascontiguousarray(nrm[..., k])
+        meta = {
+            "labels": ctx.source.meta["labels"],
+            "camera": cam.to_meta(),
+            "scene": str(path),
+            "background": bg,
+            "objects": [{"id": i + 1, "name": p.path, "label": p.label} for i, p in enumerate(prims)],
+        }
+        return Plate(ch, meta)

@@ -1,0 +1,88 @@
+"""USD reading: cameras against Gf.Frustum, labels, frames, errors."""
+import numpy as np
+import pytest
+from pxr import Gf, Usd, UsdGeom, UsdSemantics, Vt
+
+from proxyshade.errors import UserError
+from proxyshade.io import usd as U
+
+
+def stage_with_camera(offsets=(0.0, 0.0), timed=True):
+    s = Usd.Stage.CreateInMemory()
+    UsdGeom.SetStageUpAxis(s, UsdGeom.Tokens.y)
+    if timed:
+        s.SetStartTimeCode(1)
+        s.SetEndTimeCode(24)
+    c = UsdGeom.Camera.Define(s, "/Cam")
+    c.CreateFocalLengthAttr(35)
+    c.CreateHorizontalApertureAttr(36)
+    c.CreateVerticalApertureAttr(24)
+    c.CreateHorizontalApertureOffsetAttr(offsets[0])
+    c.CreateVerticalApertureOffsetAttr(offsets[1])
+    x = UsdGeom.Xformable(c)
+    x.AddTranslateOp().Set(Gf.Vec3d(1, 2, 10))
+    x.AddRotateXYZOp().Set(Gf.Vec3f(-10, 20, 5))
+    return s
+
+
+@pytest.mark.parametrize("offsets", [(0.0, 0.0), (3.0, -2.0)])
+def test_projection_matches_gf_frustum(offsets):
+    s = stage_with_camera(offsets)
+    cam = U.camera_at(s, "/Cam", 1, 320, 200)
+    fr = U.gf_frustum(cam, s)
+    V, P = fr.ComputeViewMatrix(), fr.ComputeProjectionMatrix()
+    pts = np.random.default_rng(0).uniform(-3, 3, (20, 3))
+    col, row, d = cam.project(pts)
+    for p, c, r in zip(pts, col, row):
+        q = P.Transform(V.Transform(Gf.Vec3d(*p)))
+        assert c == pytest.approx((q[0] + 1) / 2 * 320, abs=1e-6)
+        assert r == pytest.approx((1 - q[1]) / 2 * 200, abs=1e-6)
+    back = cam.unproject(col, row, d)
+    np.testing.assert_allclose(back, pts, atol=1e-9)
+    assert CameraRoundTrip(cam)
+
+
+def CameraRoundTrip(cam):
+    c2 = U.CameraInfo.from_meta(cam.to_meta())
+    return np.allclose(c2.camera_to_world, cam.camera_to_world) and c2.fx == cam.fx and c2.cy == cam.cy
+
+
+def test_missing_camera_names_the_cameras():
+    with pytest.raises(UserError, match=r"no camera at /Nope; cameras in the stage: /Cam"):
+        U.camera_at(stage_with_camera(), "/Nope", 1, 10, 10)
+
+
+def test_frames_outside_time_range_are_errors():
+    with pytest.raises(UserError, match="frame 30 is outside the stage's time range 1-24"):
+        U.camera_at(stage_with_camera(), "/Cam", 30, 10, 10)
+    static = stage_with_camera(timed=False)
+    U.camera_at(static, "/Cam", 1, 10, 10)
+    with pytest.raises(UserError, match="the stage has no time samples .* frame 10 was asked"):
+        U.camera_at(static, "/Cam", 10, 10, 10)
+
+
+def test_labels_are_inherited_and_cg_marked():
+    s = Usd.Stage.CreateInMemory()
+    g = UsdGeom.Xform.Define(s, "/G")
+    UsdSemantics.LabelsAPI.Apply(g.GetPrim(), "texture").CreateLabelsAttr().Set(Vt.TokenArray(["tree"]))
+    UsdGeom.Sphere.Define(s, "/G/S").CreateRadiusAttr(2.0)
+    m = UsdGeom.Sphere.Define(s, "/CG/Ball")
+    m.GetPrim().GetParent().CreateAttribute(U.CG_ATTR, __import__("pxr").Sdf.ValueTypeNames.Bool, custom=True).Set(True)
+    prims = {p.path: p for p in U.scene_prims(s, 1)}
+    assert prims["/G/S"].label == "tree" and not prims["/G/S"].cg
+    assert prims["/CG/Ball"].cg and prims["/CG/Ball"].label is None
+
+
+def test_sphere_tessellation_bound():
+    for r in (3.0, 40.0, 300.0):
+        n = U.sphere_segments(r, 0.25)
+        assert r * (1 - np.cos(np.pi / n)) <= 0.25
+
+
+def test_unreadable_stage(tmp_path):
+    bad = tmp_path / "bad.usda"
+    bad.write_text("#usda 1.0\n(\n garbage")
+    with pytest.raises(UserError, match="bad.usda: cannot open USD stage"):
+        U.open_stage(bad)
+    with pytest.raises(UserError, match="none.usda: no such USD file"):
+        U.open_stage(tmp_path / "none.usda")

@@ -1,0 +1,124 @@
+"""ProxyRender: depth, areas, labels by name, errors, keys."""
+from pathlib import Path
+
+import numpy as np
+import pytest
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdSemantics, Vt
+
+from proxyshade.errors import UserError
+from proxyshade.graph.graph import Graph
+from proxyshade.graph.plate import Plate
+from proxyshade.graph.testing import run_node
+
+TABLE = [{"name": "sky", "id": 2, "color": "#ffffff"}, {"name": "water", "id": 3, "color": "#0000ff"},
+         {"name": "tree", "id": 4, "color": "#ff331f"}]
+SRC = Plate({"label.id": np.zeros((2, 2), np.uint32)}, {"labels": TABLE})
+
+
+def make_stage(path: Path, *, plane_z=None, sphere=None, label="water", timed=True, focal=50.0):
+    s = Usd.Stage.CreateNew(str(path))
+    UsdGeom.SetStageUpAxis(s, UsdGeom.Tokens.y)
+    UsdGeom.SetStageMetersPerUnit(s, 1.0)
+    if timed:
+        s.SetStartTimeCode(1)
+        s.SetEndTimeCode(10)
+    w = UsdGeom.Xform.Define(s, "/World")
+    s.SetDefaultPrim(w.GetPrim())
+    c = UsdGeom.Camera.Define(s, "/World/Cam")
+    c.CreateFocalLengthAttr(focal)
+    c.CreateHorizontalApertureAttr(36)
+    c.CreateVerticalApertureAttr(36)
+    c.CreateClippingRangeAttr(Gf.Vec2f(0.1, 1000))
+    if plane_z is not None:
+        m = UsdGeom.Mesh.Define(s, "/World/Plane")
+        m.CreatePointsAttr([(-100, -100, -plane_z), (100, -100, -plane_z), (100, 100, -plane_z), (-100, 100, -plane_z)])
+        m.CreateFaceVertexCountsAttr([4])
+        m.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
+        UsdSemantics.LabelsAPI.Apply(m.GetPrim(), "texture").CreateLabelsAttr().Set(Vt.TokenArray([label]))
+    if sphere is not None:
+        sp = UsdGeom.Sphere.Define(s, "/World/Ball")
+        sp.CreateRadiusAttr(sphere[1])
+        sp.AddTranslateOp().Set(Gf.Vec3d(0, 0, -sphere[0]))
+        UsdSemantics.LabelsAPI.Apply(sp.GetPrim(), "texture").CreateLabelsAttr().Set(Vt.TokenArray(["tree"]))
+    s.Save()
+    return path
+
+
+def test_plane_depth_exact(tmp_path):
+    scene = make_stage(tmp_path / "p.usda", plane_z=12.5)
+    p = run_node("ProxyRender", {"scene": str(scene), "resolution": [64, 48]}, {"source": SRC})
+    assert np.all(np.abs(p["Z"] - 12.5) / 12.5 < 1e-4)
+    assert np.all(p["label.id"] == 3) and p["label.id"].dtype == np.uint32
+    np.testing.assert_allclose(p["P.Z"], -12.5, atol=1e-4)
+    np.testing.assert_allclose(p["N.Z"], 1.0, atol=1e-6)
+
+
+def test_sphere_area_matches_projected_disc(tmp_path):
+    d, r, f = 20.0, 3.0, 50.0
+    scene = make_stage(tmp_path / "s.usda", sphere=(d, r), focal=f)
+    W = 400
+    p = run_node("ProxyRender", {"scene": str(scene), "resolution": [W, W]}, {"source": SRC})
+    fpx = W * f / 36.0
+    disc = np.pi * (fpx * r / np.sqrt(d * d - r * r)) ** 2  # on-axis sphere: a disc of radius f·r/sqrt(d²−r²)
+    area = (p["label.id"] == 4).sum()
+    assert abs(area - disc) / disc < 0.01
+    assert (p["label.id"][p["Z"] == np.inf] == 2).all()  # background is the sky label
+    assert p.meta["objects"] == [{"id": 1, "name": "/World/Ball", "label": "tree"}]
+    assert set(np.unique(p["object.id"])) == {0, 1}
+
+
+def test_unknown_label_lists_both_sets(tmp_path):
+    scene = make_stage(tmp_path / "u.usda", plane_z=5, label="lava")
+    with pytest.raises(UserError, match=r"scene label\(s\) lava not in the source's table; scene labels: lava, sky; source labels: sky, tree, water"):
+        run_node("ProxyRender", {"scene": str(scene), "resolution": [8, 8]}, {"source": SRC}, name="proxy")
+
+
+def test_missing_camera_and_untimed_stage(tmp_path):
+    scene = make_stage(tmp_path / "c.usda", plane_z=5)
+    with pytest.raises(UserError, match="no camera at /World/Other; cameras in the stage: /World/Cam"):
+        run_node("ProxyRender", {"scene": str(scene), "camera": "/World/Other", "resolution": [8, 8]}, {"source": SRC})
+    static = make_stage(tmp_path / "st.usda", plane_z=5, timed=False)
+    with pytest.raises(UserError, match="no time samples .* frame 10 was asked"):
+        run_node("ProxyRender", {"scene": str(static), "resolution": [8, 8]}, {"source": SRC}, frame=10)
+
+
+def graph_for(tmp_path, scene):
+    g = Graph(graph_dir=tmp_path, frames=(1, 3), cache=tmp_path / "cache")
+    src = tmp_path / "src.exr"
+    from proxyshade.io.exr import write_plate
+    write_plate(src, SRC)
+    g.add("src", "ExrRead", {"path": str(src)})
+    g.add("proxy", "ProxyRender", {"scene": str(scene), "resolution": [16, 16]}, {"source": "src"})
+    return g
+
+
+def test_key_follows_scene_content_not_file_touches(tmp_path):
+    scene = make_stage(tmp_path / "k.usda", plane_z=5)
+    g = graph_for(tmp_path, scene)
+    g.run([1])
+    import os
+    os.utime(scene)  # a touch changes nothing
+    assert graph_for(tmp_path, scene).run([1]).computed == set()
+    text = scene.read_text().replace("(-100, -100, -5)", "(-100, -100, -6)")
+    scene.write_text(text)
+    r = graph_for(tmp_path, scene).run([1])
+    assert r.computed == {"proxy"} and "new scene content" in r.rows("proxy")[0].reason
+    s = Usd.Stage.Open(str(scene))
+    s.GetPrimAtPath("/World").SetDocumentation("an unrelated edit")
+    s.Save()
+    assert graph_for(tmp_path, scene).run([1]).computed == set()
+
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+@pytest.mark.parametrize("scene,source", [("lake", "renoir"), ("cliffs", "monet"), ("farm", "creek")])
+def test_sample_scenes_render_their_labels(scene, source):
+    src = run_node("SourceRead", {"table": f"samples/{source}/source.yaml"}, graph_dir=ROOT)
+    p = run_node("ProxyRender", {"scene": f"samples/scenes/{scene}.usda", "resolution": [96, 96]}, {"source": src},
+                 graph_dir=ROOT, frame=24)
+    names = {t["id"]: t["name"] for t in src.meta["labels"]}
+    present = {names[i] for i in np.unique(p["label.id"])}
+    expected = {"lake": {"sky", "vegetation", "water", "tree"}, "cliffs": {"sky", "cliff", "sea", "grass", "rock"},
+                "farm": {"sky", "vegetation", "water", "tree"}}[scene]
+    assert present == expected
