@@ -66,16 +66,17 @@ def warn_no_light(ctx, prims: list, what: str) -> None:
     warnings.warn(msg, stacklevel=2)
 
 
-def lambert(albedo: np.ndarray, normal: np.ndarray, light: dict | None, ambient: float) -> np.ndarray:
-    """``albedo * (ambient + E * max(0, N . -L))`` per pixel; (..., 3) arrays.
+def lambert(albedo: np.ndarray, normal: np.ndarray, light: dict, ambient: float) -> np.ndarray:
+    """``albedo * (ambient + E * max(0, N . -L) / pi)`` per pixel; (..., 3) arrays.
 
-    ``E`` is the light's colour times its intensity; ``L`` the direction it travels.
-    Without a light, a unit headlight is assumed by the caller (``light['direction']``).
+    The Lambertian BRDF ``albedo / pi`` under a distant light of irradiance ``E`` (its
+    colour times its intensity) travelling along ``L = light['direction']``, plus an
+    ambient term as a fraction of the albedo.
     """
     d = np.asarray(light["direction"], np.float64)
     e = np.asarray(light.get("color", (1, 1, 1)), np.float64) * float(light.get("intensity", 1.0))
     cos = np.clip(-(normal @ d), 0.0, None)
-    return albedo * (ambient + cos[..., None] * e)
+    return albedo * (ambient + cos[..., None] * e / np.pi)
 
 
 def stage_and_camera(ctx):
@@ -102,10 +103,11 @@ class CgRender(Node):
 
     The camera is the one in the ``proxy`` plate's metadata when connected (so the CG
     lines up with the synthesized frame), else ``camera``/``resolution``. Shading is Lambert
-    with each prim's displayColor: ``displayColor * (ambient + light_colour * intensity *
-    max(0, N . -L))`` with ``L`` the DistantLight's direction of travel; normals face the
-    camera (meshes of either winding shade the same). Without a DistantLight a headlight
-    along the view direction is used and a warning is given.
+    with each prim's displayColor: ``2**exposure * displayColor * (ambient + E * max(0,
+    N . -L) / pi)`` with ``E`` the DistantLight's colour times intensity and ``L`` its
+    direction of travel (its -Z axis); normals face the camera (meshes of either winding
+    shade the same). Without a DistantLight a headlight along the view direction with
+    ``E = pi`` (a surface facing it shows its displayColor) is used, with a warning.
 
     Output: premultiplied ``R,G,B`` and ``A`` (1 where a CG prim covers the pixel centre),
     ``Z`` (camera depth, inf where empty), ``N.X/N.Y/N.Z``, ``P.X/P.Y/P.Z`` (world),
@@ -120,6 +122,7 @@ class CgRender(Node):
     camera = Param(str, None, optional=True, doc="camera prim path (default: the first) when no proxy input")
     resolution = Param(list, [960, 540], length=2, doc="width, height when no proxy input")
     ambient = Param(float, 0.15, min=0.0, doc="ambient term (fraction of displayColor)")
+    exposure = Param(float, 0.0, min=-16.0, max=16.0, doc="stops, to balance the CG against the plate")
 
     def key_extra(self, frame, graph_dir):
         return usd_digest(resolve_path(self.params["scene"], graph_dir, frame), frame)
@@ -132,10 +135,10 @@ class CgRender(Node):
             ctx.note("the scene has no CG prims (bool proxyshade:cg = true); the CG plate is empty")
         elif light is None:
             warn_no_light(ctx, prims, "CG prims are lit by a headlight")
-        return render_cg(prims, cam, light, ambient=ctx.p.ambient)
+        return render_cg(prims, cam, light, ambient=ctx.p.ambient, exposure=ctx.p.exposure)
 
 
-def render_cg(prims: list, cam, light: dict | None, *, ambient: float) -> Plate:
+def render_cg(prims: list, cam, light: dict | None, *, ambient: float, exposure: float = 0.0) -> Plate:
     """The CG plate of ``prims`` seen by ``cam`` (a ``usd.CameraInfo``); see ``CgRender``."""
     h, w = cam.height, cam.width
     wp, tris, nrm, owner = cg_meshes(prims, cam)
@@ -155,10 +158,10 @@ def render_cg(prims: list, cam, light: dict | None, *, ambient: float) -> Plate:
     albedo[cover] = colors[oid[cover] - 1]
     if light is None:
         vd = cam.camera_to_world[:3, :3] @ np.array([0.0, 0.0, -1.0])
-        light_used = {"direction": vd.tolist(), "color": [1.0, 1.0, 1.0], "intensity": 1.0}
+        light_used = {"direction": vd.tolist(), "color": [1.0, 1.0, 1.0], "intensity": np.pi}
     else:
         light_used = light
-    rgb = np.where(cover[..., None], lambert(albedo, N, light_used, ambient), 0.0)
+    rgb = np.where(cover[..., None], lambert(albedo, N, light_used, ambient) * 2.0 ** exposure, 0.0)
     ch = {c: rgb[..., i].astype(np.float32) for i, c in enumerate("RGB")}
     ch["A"] = cover.astype(np.float32)
     ch["Z"] = depth.astype(np.float32)

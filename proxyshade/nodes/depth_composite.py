@@ -28,9 +28,11 @@ class DepthComposite(Node):
     ``Z_cg <= Z_scene + bias`` and it has coverage). Colour and alpha are the
     premultiplied over; ``Z``, ``object.id``, ``label.id`` and every channel both plates
     carry (P, N, ...) come from the layer that covers the pixel (the front one when its
-    alpha is at least 0.5, else the back one): ``label.id`` is 0 where CG covers,
-    ``object.id`` 0 where the scene does. Metadata: the scene's, plus the CG plate's
-    ``objects`` table.
+    alpha is at least 0.5, else the back one): ``label.id`` is 0 where CG covers.
+    ``object.id``: where the scene covers, the scene's own (its proxy prims, 0 when it has
+    no ``object.id``); where CG covers, the CG id shifted past the scene's largest id.
+    Metadata: the scene's, with ``objects`` = the scene's table followed by the CG's
+    (shifted ids, ``"cg": true``).
     """
 
     version = 1
@@ -65,8 +67,13 @@ class DepthComposite(Node):
         out = {c: rgb[..., i].astype(np.float32) for i, c in enumerate(_COLOUR)}
         out["A"] = alpha.astype(np.float32)
         out["Z"] = np.where(cg_owns, cg["Z"], scene["Z"]).astype(np.float32)
-        oid = cg["object.id"] if "object.id" in cg else np.zeros(scene.shape, np.uint32)
-        out["object.id"] = np.where(cg_owns, oid, 0).astype(np.uint32)
+        # object ids: the scene's (proxy prims, when it carries them), then CG ids past them
+        scene_objs = list(scene.meta.get("objects") or []) if "object.id" in scene else []
+        s_oid = scene["object.id"] if "object.id" in scene else np.zeros(scene.shape, np.uint32)
+        offset = max([int(o["id"]) for o in scene_objs] + [int(s_oid.max()) if s_oid.size else 0])
+        c_oid = cg["object.id"].astype(np.uint32) if "object.id" in cg else np.zeros(scene.shape, np.uint32)
+        c_oid = np.where(c_oid > 0, c_oid + np.uint32(offset), 0).astype(np.uint32)
+        out["object.id"] = np.where(cg_owns, c_oid, s_oid).astype(np.uint32)
         if "label.id" in scene:
             out["label.id"] = np.where(cg_owns, 0, scene["label.id"]).astype(np.uint32)
         for n in scene.names():
@@ -74,7 +81,5 @@ class DepthComposite(Node):
                 continue
             a = scene[n]
             out[n] = np.where(cg_owns, cg[n].astype(a.dtype, copy=False), a)
-        meta = {}
-        if "objects" in cg.meta:
-            meta["objects"] = cg.meta["objects"]
-        return scene.with_channels(out, meta)
+        cg_objs = [dict(o, id=int(o["id"]) + offset, cg=True) for o in cg.meta.get("objects") or []]
+        return scene.with_channels(out, {"objects": scene_objs + cg_objs})

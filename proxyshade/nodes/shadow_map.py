@@ -39,7 +39,7 @@ class ShadowMap(Node):
     the fraction of PCF taps in shadow (``(2 radius + 1)^2`` taps one texel apart, each
     bilinearly weighted: soft edges about ``2 radius + 1`` texels wide). The shadow map is
     ``size`` x ``size`` texels framing the CG prims as seen from the light. Pixels with no
-    finite ``P`` (sky) are never shadowed. Adds the AOV ``shadow`` (= ``s``) and
+    finite ``P`` or ``Z`` (sky) are never shadowed. Adds the AOV ``shadow`` (= ``s``) and
     ``meta['light']``. CG prims but no DistantLight: shadows are skipped with a warning
     naming the missing prim; no CG prims: the plate passes through (``shadow`` = 0).
     """
@@ -81,6 +81,8 @@ class ShadowMap(Node):
             return img.with_channels({"shadow": none}, {"light": None})
         depth, proj = light_depth_map(prims, light["direction"], p.size)
         P = img.layer(["P.X", "P.Y", "P.Z"], np.float64)
+        if "Z" in img:  # renders leave P at 0 where nothing is (Z = inf): never a receiver
+            P[~np.isfinite(img["Z"])] = np.nan
         s = shadow.pcf_shadow(P, proj["world_to_map"], depth, radius=p.radius, bias=p.bias)
         mult = (1.0 - (1.0 - p.factor) * s.astype(np.float64))
         out = {c: (img[c].astype(np.float64) * mult).astype(np.float32) for c in ("R", "G", "B")}

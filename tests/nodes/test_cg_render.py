@@ -78,13 +78,15 @@ def test_quad_depth_coverage_ids_and_lambert(tmp_path):
     inside = (np.abs(cols - 48) < fx / 10) & (np.abs(rows - 32) < fx / 10)
     assert np.array_equal(cover, inside)
     # Lambert: the face normal is +z, the light travels along (0, -0.6, -0.8): cos = 0.8
-    shade = 0.1 + 2.0 * 0.8
+    shade = 0.1 + 2.0 * 0.8 / np.pi
     for c, alb in zip("RGB", (0.8, 0.4, 0.2)):
         np.testing.assert_allclose(out[c][cover], alb * shade, rtol=1e-6)
         assert np.all(out[c][~cover] == 0)
     np.testing.assert_allclose(out["N.Z"][cover], 1.0, atol=1e-6)
     np.testing.assert_allclose(out["P.Z"][cover], 0.0, atol=1e-6)
     assert out.meta["light"]["path"] == "/World/Sun"
+    brighter = run_node("CgRender", {"scene": str(scene), "resolution": [96, 64], "ambient": 0.1, "exposure": 1.0})
+    np.testing.assert_allclose(brighter["G"], 2 * out["G"], rtol=1e-6)
 
 
 def test_camera_from_proxy_plate_meta(tmp_path):

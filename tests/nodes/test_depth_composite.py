@@ -48,8 +48,25 @@ def test_cg_between_rock_and_ground_is_hidden_by_rock_silhouette():
     np.testing.assert_array_equal(out["label.id"], np.where(visible, 0, scene["label.id"]))
     np.testing.assert_array_equal(out["P.X"], np.where(visible, -1.0, 7.0).astype(np.float32))
     assert np.all(out["A"] == 1)
-    assert out.meta["objects"] == [{"name": "/World/Car", "id": 4}]
+    assert out.meta["objects"] == [{"name": "/World/Car", "id": 4, "cg": True}]
     assert out.meta["labels"] == scene.meta["labels"]
+
+
+def test_scene_object_ids_kept_and_cg_ids_shifted_past_them():
+    scene, rock = scene_plate()
+    scene = scene.with_channels({"object.id": np.where(rock, 2, 1).astype(np.uint32)},
+                                {"objects": [{"name": "/World/Ground", "id": 1, "label": "ground"},
+                                             {"name": "/World/Rock", "id": 2, "label": "rock"}]})
+    cg, box = cg_plate(5.0)
+    out = run_node("DepthComposite", {}, {"scene": scene, "cg": cg})
+    visible = box & ~rock
+    np.testing.assert_array_equal(out["object.id"], np.where(visible, 6, scene["object.id"]))
+    assert [o["name"] for o in out.meta["objects"]] == ["/World/Ground", "/World/Rock", "/World/Car"]
+    assert out.meta["objects"][2]["id"] == 6
+    crypto = run_node("Cryptomatte", {}, {"image": out})
+    from tests.nodes.test_cryptomatte import decode
+    assert np.array_equal(decode(crypto, "CryptoObject", "/World/Car"), visible.astype(float))
+    assert np.array_equal(decode(crypto, "CryptoObject", "/World/Rock"), rock.astype(float))
 
 
 def test_cg_in_front_of_everything_covers_rock():

@@ -19,9 +19,12 @@ def ground_plate(n=200, half=5.0, shift=(0.0, 0.0)):
     X, Z = np.meshgrid(xs, zs)
     px, py, pz = X.astype(np.float32), np.zeros_like(X, np.float32), Z.astype(np.float32)
     py[0] = np.inf
+    z = np.full((n, n), 10, np.float32)
+    z[-1] = np.inf  # sky with a stale P inside the footprint: Z = inf says nothing is there
+    px[-1], py[-1], pz[-1] = 1.3, 0.0, 0.2
     rgb = np.full((n, n), 0.6, np.float32)
     lab = np.ones((n, n), np.uint32)
-    return Plate({"R": rgb, "G": rgb * 0.5, "B": rgb * 0.25, "Z": np.full((n, n), 10, np.float32),
+    return Plate({"R": rgb, "G": rgb * 0.5, "B": rgb * 0.25, "Z": z,
                   "P.X": px, "P.Y": py, "P.Z": pz, "label.id": lab}, {"labels": [{"name": "grass", "id": 1}]})
 
 
@@ -31,7 +34,8 @@ def analytic_footprint(plate):
     proj = corners - (corners[:, 1:2] / l[1]) * l  # along the light onto y = 0
     hull = Delaunay(proj[:, [0, 2]])
     pts = np.stack([plate["P.X"].ravel(), plate["P.Z"].ravel()], -1)
-    return (hull.find_simplex(pts) >= 0).reshape(plate.shape)
+    surface = np.isfinite(plate["Z"]) & np.isfinite(plate["P.Y"])
+    return (hull.find_simplex(pts) >= 0).reshape(plate.shape) & surface
 
 
 @pytest.fixture(scope="module")
@@ -56,7 +60,7 @@ def test_cube_shadow_matches_analytic_projection(scene, radius):
     np.testing.assert_allclose(out["R"][full], 0.6 * 0.3, rtol=1e-6)
     lit = out["shadow"] == 0
     assert np.array_equal(out["G"][lit], plate["G"][lit])
-    assert not out["shadow"][0].any()  # sky
+    assert not out["shadow"][0].any() and not out["shadow"][-1].any()  # sky
     assert out.meta["light"]["path"] == "/World/Sun"
 
 
@@ -73,6 +77,7 @@ def test_shadow_stays_on_the_ground_when_the_view_moves(scene):
     a = ground_plate()
     sh = np.roll(a.layer(["P.X", "P.Y", "P.Z"]), (7, -11), axis=(0, 1))
     b = a.with_channels({f"P.{c}": np.ascontiguousarray(sh[..., i]) for i, c in enumerate("XYZ")})
+    b.channels["Z"] = np.roll(a["Z"], (7, -11), axis=(0, 1))
     sa = run_node("ShadowMap", {"scene": str(scene), "size": 256}, {"image": a})["shadow"]
     sb = run_node("ShadowMap", {"scene": str(scene), "size": 256}, {"image": b})["shadow"]
     assert np.array_equal(np.roll(sa, (7, -11), axis=(0, 1)), sb)
