@@ -105,7 +105,8 @@ class CgRender(Node):
     lines up with the synthesized frame), else ``camera``/``resolution``. Shading is Lambert
     with each prim's displayColor: ``2**exposure * displayColor * (ambient + E * max(0,
     N . -L) / pi)`` with ``E`` the DistantLight's colour times intensity and ``L`` its
-    direction of travel (its -Z axis); normals face the camera (meshes of either winding
+    direction of travel (its -Z axis); polygon meshes shade flat (face normals), spheres
+    smooth; normals face the camera (meshes of either winding
     shade the same). Without a DistantLight a headlight along the view direction with
     ``E = pi`` (a surface facing it shows its displayColor) is used, with a warning.
 
@@ -146,7 +147,12 @@ def render_cg(prims: list, cam, light: dict | None, *, ambient: float, exposure:
                                            cx=cam.cx, cy=cam.cy, near=cam.near)
     cover = tri >= 0
     P = raster.interpolate(wp, tris, tri, bary).astype(np.float64)
+    # spheres shade smooth (interpolated vertex normals); polygon meshes flat (face normals)
+    smooth_tri = np.array([prims[k].kind == "sphere" for k in owner], bool) if len(owner) else np.zeros(0, bool)
+    face_n = np.cross(wp[tris[:, 1]] - wp[tris[:, 0]], wp[tris[:, 2]] - wp[tris[:, 0]]) if len(tris) else nrm[:0]
     N = raster.interpolate(nrm, tris, tri, bary).astype(np.float64)
+    flat = cover & ~smooth_tri[np.maximum(tri, 0)] if len(tris) else cover
+    N[flat] = face_n[tri[flat]]
     nn = np.linalg.norm(N, axis=-1, keepdims=True)
     N = np.where(nn > 0, N / np.where(nn > 0, nn, 1), 0.0)
     view = P - cam.position

@@ -126,3 +126,13 @@ def test_bad_camera_is_one_line_error(tmp_path):
     with pytest.raises(NodeInputError, match="no camera at /World/Nope; cameras in the stage: /World/Camera") as e:
         run_node("CgRender", {"scene": str(scene), "camera": "/World/Nope", "resolution": [8, 8]})
     assert "\n" not in str(e.value)
+
+
+def test_polygon_meshes_shade_flat(tmp_path):
+    """A cube with shared vertices: its front face has one colour (face normal +z)."""
+    scene = make_stage(tmp_path / "s.usda", quad=False, cube={"translate": (0, 0, 0)})
+    out = run_node("CgRender", {"scene": str(scene), "resolution": [64, 48], "ambient": 0.1})
+    cover = out["A"] > 0
+    assert cover.sum() > 100
+    np.testing.assert_allclose(out["B"][cover], 0.9 * (0.1 + 2.0 * 0.8 / np.pi), rtol=1e-5)
+    np.testing.assert_allclose(out["N.Z"][cover], 1.0, atol=1e-6)
