@@ -13,6 +13,7 @@ descendants. CG prims (composited, not synthesized) carry ``bool proxyshade:cg =
 """
 from __future__ import annotations
 
+import functools
 import hashlib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -201,6 +202,10 @@ def triangulate(counts: np.ndarray, indices: np.ndarray) -> np.ndarray:
     """Fan-triangulate polygons given by face vertex counts and indices -> (T, 3)."""
     counts = np.asarray(counts, np.int64)
     indices = np.asarray(indices, np.int64)
+    if len(counts) and (counts == counts[0]).all() and counts[0] >= 3:  # all n-gons: vectorised fan
+        n = int(counts[0])
+        f = indices.reshape(-1, n)
+        return np.stack([np.column_stack([f[:, 0], f[:, k], f[:, k + 1]]) for k in range(1, n - 1)], 1).reshape(-1, 3)
     out = []
     start = 0
     for c in counts:
@@ -252,6 +257,7 @@ def scene_prims(stage: Usd.Stage, frame: int) -> list[ScenePrim]:
     return out
 
 
+@functools.lru_cache(maxsize=64)
 def sphere_mesh(segments: int) -> tuple[np.ndarray, np.ndarray]:
     """A unit UV sphere: ``segments`` around, segments/2 from pole to pole -> (points, tris)."""
     n = max(8, int(segments))
@@ -270,7 +276,10 @@ def sphere_mesh(segments: int) -> tuple[np.ndarray, np.ndarray]:
         for j in range(n):
             tris.append((r(i, j), r(i, j + 1), r(i + 1, j + 1)))
             tris.append((r(i, j), r(i + 1, j + 1), r(i + 1, j)))
-    return pts, np.array(tris, np.int64)
+    pts, tris = pts.astype(np.float64), np.array(tris, np.int64)
+    pts.flags.writeable = False  # shared by the cache
+    tris.flags.writeable = False
+    return pts, tris
 
 
 def sphere_segments(radius_px: float, max_error_px: float = 0.25, cap: int = 512) -> int:

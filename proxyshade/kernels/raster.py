@@ -17,6 +17,7 @@ x, y map linearly to pixels and depth is −z).
 """
 from __future__ import annotations
 
+import numba
 import numpy as np
 from numba import njit, prange
 
@@ -105,12 +106,13 @@ def _clip(cam, planes, poly, bary, tmp, tbar):
     return n
 
 
-@njit(**JIT)
-def _setup(points, tris, fx, fy, cx, cy, near, ortho, width, height):
+@njit(**PJIT)
+def _setup(points, tris, fx, fy, cx, cy, near, ortho, width, height, nthreads):
     """Clip and project every triangle; fan the clipped polygons into screen triangles.
 
-    Returns per screen triangle: fixed-point vertices (S, 3, 2) int64, depths (S, 3),
-    barycentrics w.r.t. the source triangle (S, 3, 3), source id (S,), and bounding rows.
+    Triangle ``ti`` writes only its own slots 6·ti ... 6·ti+5 (race-free in parallel);
+    ``keep`` marks the slots in use. Per slot: fixed-point vertices (3, 2), depths (3,),
+    barycentrics w.r.t. the source triangle (3, 3), source id and the rows it may cover.
     """
     t = tris.shape[0]
     cap = 6 * t
@@ -120,55 +122,74 @@ def _setup(points, tris, fx, fy, cx, cy, near, ortho, width, height):
     src = np.empty(cap, np.int64)
     r0 = np.empty(cap, np.int64)
     r1 = np.empty(cap, np.int64)
-    cam = np.empty((3, 3), np.float64)
-    poly = np.empty((9, 3), np.float64)
-    pbar = np.empty((9, 3), np.float64)
-    tmp = np.empty((9, 3), np.float64)
-    tbar = np.empty((9, 3), np.float64)
-    sx = np.empty(9, np.int64)
-    sy = np.empty(9, np.int64)
-    sd = np.empty(9, np.float64)
+    keep = np.zeros(cap, np.bool_)
     planes = _planes(fx, fy, cx, cy, near, ortho, width, height)
-    s = 0
-    for ti in range(t):
+    chunk = (t + nthreads - 1) // nthreads
+    for th in prange(nthreads):  # scratch buffers once per thread, not per triangle
+        cam = np.empty((3, 3), np.float64)
+        poly = np.empty((9, 3), np.float64)
+        pbar = np.empty((9, 3), np.float64)
+        tmp = np.empty((9, 3), np.float64)
+        tbar = np.empty((9, 3), np.float64)
+        sx = np.empty(9, np.int64)
+        sy = np.empty(9, np.int64)
+        sd = np.empty(9, np.float64)
+        for ti in range(th * chunk, min(t, (th + 1) * chunk)):
+            _setup_one(points, tris, ti, planes, fx, fy, cx, cy, ortho, width, height, cam, poly, pbar, tmp, tbar,
+                       sx, sy, sd, xy, dep, bar, src, r0, r1, keep)
+    return xy, dep, bar, src, r0, r1, keep
+
+
+@njit(**JIT)
+def _setup_one(points, tris, ti, planes, fx, fy, cx, cy, ortho, width, height, cam, poly, pbar, tmp, tbar,
+               sx, sy, sd, xy, dep, bar, src, r0, r1, keep):
+    for k in range(3):
+        cam[k, :] = points[tris[ti, k]]
+    inside = True  # the common case: no plane cuts the triangle, no clipping needed
+    for q in range(planes.shape[0]):
         for k in range(3):
-            cam[k, :] = points[tris[ti, k]]
+            if planes[q, 0] * cam[k, 0] + planes[q, 1] * cam[k, 1] + planes[q, 2] * cam[k, 2] + planes[q, 3] < 0:
+                inside = False
+    if inside:
+        n = 3
+        for k in range(3):
+            poly[k, :] = cam[k]
+            pbar[k, :] = 0.0
+            pbar[k, k] = 1.0
+    else:
         n = _clip(cam, planes, poly, pbar, tmp, tbar)
-        if n < 3:
+    for k in range(n):
+        c, r, d = _project(poly[k], fx, fy, cx, cy, ortho)
+        sx[k] = np.int64(np.floor(c * SUB + 0.5))
+        sy[k] = np.int64(np.floor(r * SUB + 0.5))
+        sd[k] = d
+    for f in range(1, n - 1):
+        s = 6 * ti + f - 1
+        lo = sy[0]
+        hi = sy[0]
+        clo = sx[0]
+        chi = sx[0]
+        for q in range(3):
+            v = 0 if q == 0 else f + q - 1
+            xy[s, q, 0] = sx[v]
+            xy[s, q, 1] = sy[v]
+            dep[s, q] = sd[v]
+            bar[s, q, :] = pbar[v]
+            lo = min(lo, sy[v])
+            hi = max(hi, sy[v])
+            clo = min(clo, sx[v])
+            chi = max(chi, sx[v])
+        # rows whose centres (i + 0.5) may lie inside: (i*SUB + SUB/2) in [lo, hi]
+        a = (lo - SUB // 2 + SUB - 1) // SUB
+        b = (hi - SUB // 2) // SUB
+        ca = (clo - SUB // 2 + SUB - 1) // SUB
+        cb = (chi - SUB // 2) // SUB
+        if b < 0 or a > height - 1 or cb < 0 or ca > width - 1 or a > b or ca > cb:
             continue
-        for k in range(n):
-            c, r, d = _project(poly[k], fx, fy, cx, cy, ortho)
-            sx[k] = np.int64(np.floor(c * SUB + 0.5))
-            sy[k] = np.int64(np.floor(r * SUB + 0.5))
-            sd[k] = d
-        for f in range(1, n - 1):
-            idx = (0, f, f + 1)
-            lo = sy[0]
-            hi = sy[0]
-            clo = sx[0]
-            chi = sx[0]
-            for q in range(3):
-                v = idx[q]
-                xy[s, q, 0] = sx[v]
-                xy[s, q, 1] = sy[v]
-                dep[s, q] = sd[v]
-                bar[s, q, :] = pbar[v]
-                lo = min(lo, sy[v])
-                hi = max(hi, sy[v])
-                clo = min(clo, sx[v])
-                chi = max(chi, sx[v])
-            # rows whose centres (i + 0.5) may lie inside: (i*SUB + SUB/2) in [lo, hi]
-            a = (lo - SUB // 2 + SUB - 1) // SUB
-            b = (hi - SUB // 2) // SUB
-            ca = (clo - SUB // 2 + SUB - 1) // SUB
-            cb = (chi - SUB // 2) // SUB
-            if b < 0 or a > height - 1 or cb < 0 or ca > width - 1 or a > b or ca > cb:
-                continue
-            src[s] = ti
-            r0[s] = max(a, 0)
-            r1[s] = min(b, height - 1)
-            s += 1
-    return xy[:s], dep[:s], bar[:s], src[:s], r0[:s], r1[:s]
+        src[s] = ti
+        r0[s] = max(a, 0)
+        r1[s] = min(b, height - 1)
+        keep[s] = True
 
 
 @njit(**JIT)
@@ -268,17 +289,18 @@ def rasterize(points: np.ndarray, tris: np.ndarray, *, width: int, height: int, 
     if tris.size and (tris.min() < 0 or tris.max() >= len(points)):
         raise ValueError("triangle indices out of range")
     depth = np.full((height, width), np.inf, np.float64)
-    tid = np.full((height, width), -1, np.int64)
-    bary = np.zeros((height, width, 3), np.float64)
+    tid = np.full((height, width), -1, np.int32)
+    bary = np.zeros((height, width, 3), np.float32)
     count = np.zeros((height, width), np.int32)
     if tris.shape[0] == 0:
-        return depth.astype(np.float32), tid.astype(np.int32), bary.astype(np.float32), count
-    xy, dep, bar, src, r0, r1 = _setup(points, tris, float(fx), float(fy), float(cx), float(cy), float(near),
-                                       bool(ortho), int(width), int(height))
+        return depth.astype(np.float32), tid, bary, count
+    xy, dep, bar, src, r0, r1, keep = _setup(points, tris, float(fx), float(fy), float(cx), float(cy), float(near),
+                                             bool(ortho), int(width), int(height), numba.get_num_threads())
+    xy, dep, bar, src, r0, r1 = (a[keep] for a in (xy, dep, bar, src, r0, r1))  # in slot (= id) order
     nb = (height + BAND - 1) // BAND
     band_start, band_list = _bin(r0, r1, nb)
     _raster_bands(xy, dep, bar, src, r0, r1, width, height, depth, tid, bary, count, band_start, band_list)
-    return depth.astype(np.float32), tid.astype(np.int32), bary.astype(np.float32), count
+    return depth.astype(np.float32), tid, bary, count
 
 
 @njit(**JIT)
@@ -299,12 +321,28 @@ def _bin(r0, r1, nb):
     return cnt, out
 
 
-def interpolate(attr: np.ndarray, tris: np.ndarray, tri: np.ndarray, bary: np.ndarray, empty=0.0) -> np.ndarray:
-    """Per-pixel value of a per-vertex attribute (V, C) from ``rasterize``'s tri and bary."""
-    attr = np.asarray(attr)
-    out = np.full(tri.shape + attr.shape[1:], empty, dtype=np.float32)
-    m = tri >= 0
-    t = tris[tri[m]]
-    b = bary[m].astype(np.float64)
-    out[m] = (attr[t[:, 0]] * b[:, :1] + attr[t[:, 1]] * b[:, 1:2] + attr[t[:, 2]] * b[:, 2:3]).astype(np.float32)
+@njit(**PJIT)
+def _interpolate(attr, tris, tri, bary, empty, out):
+    h, w = tri.shape
+    c = attr.shape[1]
+    for i in prange(h):
+        for j in range(w):
+            t = tri[i, j]
+            if t < 0:
+                for m in range(c):
+                    out[i, j, m] = empty
+                continue
+            a, b, d = tris[t, 0], tris[t, 1], tris[t, 2]
+            for m in range(c):
+                out[i, j, m] = attr[a, m] * bary[i, j, 0] + attr[b, m] * bary[i, j, 1] + attr[d, m] * bary[i, j, 2]
+
+
+def interpolate(attr: np.ndarray, tris: np.ndarray, tri: np.ndarray, bary: np.ndarray, empty: float = 0.0) -> np.ndarray:
+    """Per-pixel value (H, W, C) float32 of a per-vertex attribute (V, C), from
+    ``rasterize``'s ``tri`` and ``bary``; ``empty`` where no triangle covers the pixel."""
+    attr = np.ascontiguousarray(attr, dtype=np.float64)
+    if attr.ndim == 1:
+        attr = attr[:, None]
+    out = np.empty(tri.shape + (attr.shape[1],), np.float32)
+    _interpolate(attr, np.ascontiguousarray(tris, dtype=np.int64), tri, bary, float(empty), out)
     return out
