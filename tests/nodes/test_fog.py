@@ -105,3 +105,15 @@ def test_height_falloff_without_p_is_one_line_error():
 def test_missing_depth_is_error():
     with pytest.raises(NodeInputError, match="no 'Z' channel"):
         run_node("Fog", {}, {"image": Plate({c: np.zeros((1, 1), np.float32) for c in "RGB"})})
+
+
+def test_camera_position_from_camera_info_meta():
+    """The proxy's meta camera (CameraInfo.to_meta: column-vector camera_to_world)."""
+    from proxyshade.nodes.fog import camera_position
+
+    m = np.eye(4)
+    m[:3, :3] = [[0, 0, 1], [0, 1, 0], [-1, 0, 0]]
+    m[:3, 3] = [4.0, 9.0, -2.0]
+    assert camera_position({"camera": {"camera_to_world": m.tolist()}}).tolist() == [4.0, 9.0, -2.0]
+    assert camera_position({"camera": {"camera_to_world": m.T.tolist()}}).tolist() == [4.0, 9.0, -2.0]
+    assert camera_position({}) is None
