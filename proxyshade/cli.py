@@ -59,6 +59,7 @@ def run(
     graph: Path = typer.Argument(..., help="YAML graph file"),
     frames: Optional[str] = typer.Option(None, "--frames", help="frames to compute: 1-48, 30 or 1,5,9-12 (default: the graph's range)"),
     set_: List[str] = typer.Option([], "--set", help="override a parameter: node.param=value (repeatable)"),
+    var: List[str] = typer.Option([], "--var", help="set a graph variable: name=value (repeatable), used as ${name}"),
     cache: Optional[Path] = typer.Option(None, "--cache", help="cache folder (default .proxyshade/cache beside the graph, or $PROXYSHADE_CACHE)"),
     explain: bool = typer.Option(False, "--explain", help="print per node whether it was computed or reused, and why"),
     jobs: int = typer.Option(1, "--jobs", min=1, help="nodes run concurrently"),
@@ -70,7 +71,7 @@ def run(
     from proxyshade.graph.graph import Graph
     from proxyshade.io.graphfile import parse_frame_list
 
-    g = Graph.load(graph, cache=cache, overrides=list(set_))
+    g = Graph.load(graph, cache=cache, overrides=list(set_), variables=_vars(var))
     fl = parse_frame_list(frames) if frames else None
     with Progress(TextColumn("{task.description:<14}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
                   console=err, disable=quiet or not err.is_terminal, transient=True) as progress:
@@ -96,6 +97,16 @@ def run(
     out.print(f"{computed} computed, {reused} reused in {report.wall:.3f} s, peak memory {report.peak_rss_mb:.0f} MiB")
 
 
+def _vars(items: List[str]) -> dict:
+    out = {}
+    for item in items:
+        name, eq, value = item.partition("=")
+        if not eq or not name:
+            raise UserError(f"--var {item}: expected name=value")
+        out[name.strip()] = value
+    return out
+
+
 @app.command()
 def nodes():
     """Every node type with its inputs, parameters and docs."""
@@ -117,12 +128,13 @@ def nodes():
 
 @app.command("graph")
 def show_graph(graph: Path = typer.Argument(..., help="YAML graph file"),
-               frames: Optional[str] = typer.Option(None, "--frames", help="frames to unroll (default: the first)")):
+               frames: Optional[str] = typer.Option(None, "--frames", help="frames to unroll (default: the first)"),
+               var: List[str] = typer.Option([], "--var", help="set a graph variable: name=value")):
     """Print the graph's DAG: each node, its type and where its inputs come from."""
     from proxyshade.graph.graph import Graph
     from proxyshade.io.graphfile import parse_frame_list
 
-    g = Graph.load(graph)
+    g = Graph.load(graph, variables=_vars(var))
     fl = parse_frame_list(frames) if frames else [g.frames[0]]
     g.instances(fl)  # rejects cycles
     out.print(f"{graph}: frames {g.frames[0]}-{g.frames[1]}")
