@@ -31,8 +31,8 @@ class _TConst(Node, register=False):
 class _TAdd(Node, register=False):
     """a + b (+ prev when connected), optional ``prev`` at a frame offset."""
 
-    a = Input()
-    b = Input(optional=True)
+    a = Input(channels=("R",))
+    b = Input(optional=True, channels=("R",))
     prev = Input(optional=True)
     gain = Param(float, 1.0)
 

@@ -369,6 +369,7 @@ class Graph:
         ctx = Context(node, frame, first, inputs, dict(node.params), self.graph_dir, plan.threads, nr.notes)
         t = time.perf_counter()
         try:
+            node.check_inputs(inputs)
             plate = node.compute(ctx)
         except UserError as e:
             msg = str(e)

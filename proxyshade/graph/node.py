@@ -40,6 +40,7 @@ class Input:
     doc: str = ""
     optional: bool = False
     name: str = ""
+    channels: tuple[str, ...] = ()  # channels the node reads: checked by the engine before compute
 
 
 class Param:
@@ -239,6 +240,20 @@ class Node:
     def key_extra(self, frame: int, graph_dir: Path) -> str | None:
         """Extra content for the key (e.g. the USD data seen at this frame). Default none."""
         return None
+
+    def check_inputs(self, inputs: dict[str, Plate | None]) -> None:
+        """One-line errors for unconnected required inputs and missing declared channels."""
+        for k, spec in self.inputs_spec.items():
+            plate = inputs.get(k)
+            if plate is None:
+                if not spec.optional:
+                    raise NodeInputError(f"{self.name}: input {k!r} is not connected; connect a node to it")
+                continue
+            missing = [c for c in spec.channels if c not in plate]
+            if missing:
+                raise NodeInputError(
+                    f"{self.name}: input {k!r} has no channel {', '.join(missing)}; {type(self).__name__} needs "
+                    f"{', '.join(spec.channels)} there, it has {', '.join(plate.names()) or 'none'}")
 
     def passthrough_input(self) -> str | None:
         """The input a disabled node passes through (default: its first input)."""

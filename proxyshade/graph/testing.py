@@ -19,4 +19,5 @@ def run_node(node_type: str | type[Node], params: dict | None = None, inputs: di
     ins.update(inputs or {})
     notes: list[str] = []
     ctx = Context(node, frame, first_frame, ins, node.params, Path(graph_dir), threads, notes)
+    node.check_inputs(ins)
     return node.compute(ctx)

@@ -11,6 +11,7 @@ import pytest
 from proxyshade.errors import CycleError
 from proxyshade.graph import keys
 from proxyshade.graph.graph import Graph, InputRef
+from proxyshade.graph.plate import Plate
 from proxyshade.io.exr import read_plate
 
 from tests.conftest import _TAdd, _TConst, _TFrame
@@ -220,3 +221,12 @@ def test_report_has_times_and_memory(tmp_path):
     assert r.peak_rss_mb > 0 and r.wall > 0
     assert all(x.seconds >= 0 for x in r.runs)
     assert [x.node for x in r.runs if x.node in ("sum", "out")] == ["sum", "out"]  # topological order
+
+
+def test_declared_input_channels_are_checked_before_compute(tmp_path, computes):
+    from proxyshade.errors import NodeInputError
+    from proxyshade.graph.testing import run_node
+
+    with pytest.raises(NodeInputError, match=r"^s: input 'a' has no channel R; _TAdd needs R there, it has Z$"):
+        run_node(_TAdd, {}, {"a": Plate({"Z": np.zeros((2, 2), np.float32)})}, name="s")
+    assert computes["s"] == 0
