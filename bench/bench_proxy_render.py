@@ -27,7 +27,7 @@ SRC = Plate({"label.id": np.zeros((1, 1), np.uint32)},
 def main():
     from proxyshade.kernels.raster import rasterize
     from proxyshade.io.usd import CameraInfo
-    from proxyshade.nodes.proxy_render import gather, open_cached
+    from proxyshade.nodes.proxy_render import open_cached
     from proxyshade.io import usd
 
     with tempfile.TemporaryDirectory() as d:
@@ -40,7 +40,7 @@ def main():
         st = open_cached(path)
         cam = usd.camera_at(st, None, 10, 1024, 1024)
         prims = [p for p in usd.scene_prims(st, 10) if not p.cg]
-        P, T, N, owner = gather(prims, cam)
+        P, T, N, owner = usd.world_meshes(prims, cam)
         pc = cam.to_camera(P)
         ras = measure(lambda: rasterize(pc, T, width=1024, height=1024, fx=cam.fx, fy=cam.fy, cx=cam.cx, cy=cam.cy,
                                         near=cam.near), repeat=7)

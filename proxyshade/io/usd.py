@@ -321,6 +321,24 @@ def world_mesh(prim: ScenePrim, cam: CameraInfo | None = None, max_error_px: flo
     return wp, tris, normals
 
 
+def world_meshes(prims: list, cam: CameraInfo | None = None, max_error_px: float = 0.25
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """All ``prims`` as one world-space triangle list: (points, tris, vertex normals, the
+    index into ``prims`` of each triangle's prim). Spheres are tessellated for ``cam``."""
+    pts, tris, nrm, owner = [], [], [], []
+    base = 0
+    for k, prim in enumerate(prims):
+        p, t, n = world_mesh(prim, cam, max_error_px)
+        pts.append(p)
+        tris.append(t + base)
+        nrm.append(n)
+        owner.append(np.full(len(t), k, np.int64))
+        base += len(p)
+    if not pts:
+        return np.zeros((0, 3)), np.zeros((0, 3), np.int64), np.zeros((0, 3)), np.zeros(0, np.int64)
+    return np.vstack(pts), np.vstack(tris), np.vstack(nrm), np.concatenate(owner)
+
+
 def distant_light(stage: Usd.Stage, frame: int) -> dict | None:
     """The first UsdLux.DistantLight: its path, world direction of travel (unit), colour,
     intensity and angle; None when the stage has none."""

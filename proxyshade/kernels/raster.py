@@ -322,7 +322,7 @@ def _bin(r0, r1, nb):
 
 
 @njit(**PJIT)
-def _interpolate(attr, tris, tri, bary, empty, out):
+def _interpolate(attr, tris, tri, bary, empty, normalize, out):
     h, w = tri.shape
     c = attr.shape[1]
     for i in prange(h):
@@ -333,16 +333,25 @@ def _interpolate(attr, tris, tri, bary, empty, out):
                     out[i, j, m] = empty
                 continue
             a, b, d = tris[t, 0], tris[t, 1], tris[t, 2]
+            n2 = 0.0
             for m in range(c):
-                out[i, j, m] = attr[a, m] * bary[i, j, 0] + attr[b, m] * bary[i, j, 1] + attr[d, m] * bary[i, j, 2]
+                v = attr[a, m] * bary[i, j, 0] + attr[b, m] * bary[i, j, 1] + attr[d, m] * bary[i, j, 2]
+                out[i, j, m] = v
+                n2 += v * v
+            if normalize and n2 > 0.0:
+                inv = 1.0 / np.sqrt(n2)
+                for m in range(c):
+                    out[i, j, m] *= inv
 
 
-def interpolate(attr: np.ndarray, tris: np.ndarray, tri: np.ndarray, bary: np.ndarray, empty: float = 0.0) -> np.ndarray:
+def interpolate(attr: np.ndarray, tris: np.ndarray, tri: np.ndarray, bary: np.ndarray, empty: float = 0.0,
+                normalize: bool = False) -> np.ndarray:
     """Per-pixel value (H, W, C) float32 of a per-vertex attribute (V, C), from
-    ``rasterize``'s ``tri`` and ``bary``; ``empty`` where no triangle covers the pixel."""
+    ``rasterize``'s ``tri`` and ``bary``; ``empty`` where no triangle covers the pixel.
+    ``normalize`` makes each interpolated vector unit length (normals)."""
     attr = np.ascontiguousarray(attr, dtype=np.float64)
     if attr.ndim == 1:
         attr = attr[:, None]
     out = np.empty(tri.shape + (attr.shape[1],), np.float32)
-    _interpolate(attr, np.ascontiguousarray(tris, dtype=np.int64), tri, bary, float(empty), out)
+    _interpolate(attr, np.ascontiguousarray(tris, dtype=np.int64), tri, bary, float(empty), bool(normalize), out)
     return out

@@ -21,22 +21,6 @@ from proxyshade.io import usd
 from proxyshade.kernels import raster
 
 
-def cg_meshes(prims: list, cam=None):
-    """World-space (points, tris, normals, triangle object index) of ``prims`` concatenated."""
-    pts, tris, nrm, owner = [], [], [], []
-    base = 0
-    for k, prim in enumerate(prims):
-        p, t, n = usd.world_mesh(prim, cam)
-        pts.append(p)
-        tris.append(t + base)
-        nrm.append(n)
-        owner.append(np.full(len(t), k, np.int64))
-        base += len(p)
-    if not pts:
-        return np.zeros((0, 3)), np.zeros((0, 3), np.int64), np.zeros((0, 3)), np.zeros(0, np.int64)
-    return np.vstack(pts), np.vstack(tris), np.vstack(nrm), np.concatenate(owner)
-
-
 def usd_digest(path: Path, frame: int, *, cg_only: bool = True) -> str | None:
     """A digest of what a CG render or shadow sees at ``frame``: CG prims, light, cameras."""
     try:
@@ -142,7 +126,7 @@ class CgRender(Node):
 def render_cg(prims: list, cam, light: dict | None, *, ambient: float, exposure: float = 0.0) -> Plate:
     """The CG plate of ``prims`` seen by ``cam`` (a ``usd.CameraInfo``); see ``CgRender``."""
     h, w = cam.height, cam.width
-    wp, tris, nrm, owner = cg_meshes(prims, cam)
+    wp, tris, nrm, owner = usd.world_meshes(prims, cam)
     depth, tri, bary, _ = raster.rasterize(cam.to_camera(wp), tris, width=w, height=h, fx=cam.fx, fy=cam.fy,
                                            cx=cam.cx, cy=cam.cy, near=cam.near)
     cover = tri >= 0

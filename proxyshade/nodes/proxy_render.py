@@ -32,35 +32,16 @@ def open_cached(path: Path):
     return _stage(str(path), hashlib.sha256(path.read_bytes()).hexdigest())
 
 
-def gather(prims: list, cam, *, max_error_px: float = 0.25):
-    """Concatenate prims into one world-space triangle list: points, tris, normals and the
-    index of the prim each triangle came from."""
-    P, T, N, owner = [], [], [], []
-    base = 0
-    for k, p in enumerate(prims):
-        wp, tris, nrm = usd.world_mesh(p, cam, max_error_px)
-        P.append(wp)
-        N.append(nrm)
-        T.append(tris + base)
-        owner.append(np.full(len(tris), k, np.int32))
-        base += len(wp)
-    if not P:
-        return np.zeros((0, 3)), np.zeros((0, 3), np.int64), np.zeros((0, 3)), np.zeros(0, np.int32)
-    return np.vstack(P), np.vstack(T), np.vstack(N), np.concatenate(owner)
-
-
 def render_prims(prims: list, cam, *, max_error_px: float = 0.25):
     """Rasterize prims through ``cam``: (depth, prim index (−1 empty), P, N) per pixel."""
-    P, T, N, owner = gather(prims, cam, max_error_px=max_error_px)
+    P, T, N, owner = usd.world_meshes(prims, cam, max_error_px)
     pc = cam.to_camera(P)
     depth, tri, bary, _ = rasterize(pc, T, width=cam.width, height=cam.height, fx=cam.fx, fy=cam.fy,
                                     cx=cam.cx, cy=cam.cy, near=cam.near)
     hit = tri >= 0
     prim_idx = np.where(hit, owner[np.maximum(tri, 0)] if len(owner) else -1, -1).astype(np.int32)
     wpos = interpolate(P, T, tri, bary)
-    nrm = interpolate(N, T, tri, bary)
-    ln = np.linalg.norm(nrm, axis=-1, keepdims=True)
-    nrm = np.where(ln > 0, nrm / np.where(ln > 0, ln, 1), 0).astype(np.float32)
+    nrm = interpolate(N, T, tri, bary, normalize=True)
     return depth, prim_idx, wpos, nrm
 
 

@@ -17,13 +17,13 @@ from proxyshade.graph.node import Input, Node, Param, resolve_path
 from proxyshade.graph.plate import Plate
 from proxyshade.io import usd
 from proxyshade.kernels import raster, shadow
-from proxyshade.nodes.cg_render import cg_meshes, usd_digest, warn_no_light
+from proxyshade.nodes.cg_render import usd_digest, warn_no_light
 
 
 def light_depth_map(prims: list, direction, size: int) -> tuple[np.ndarray, dict]:
     """(size, size) occluder depth of ``prims`` seen from a distant light, and its projection
     (see ``shadow.ortho_light_projection``)."""
-    wp, tris, _, _ = cg_meshes(prims)
+    wp, tris, _, _ = usd.world_meshes(prims)
     proj = shadow.ortho_light_projection(direction, wp, size)
     m = proj["world_to_cam"]
     cam_pts = wp @ m[:, :3].T + m[:, 3]
