@@ -130,3 +130,14 @@ def dilate(flags, radius):
             if nxt - i <= radius:
                 out[i, j] = True
     return out
+
+
+@njit(**PJIT)
+def uniform_field(seed, h, w):
+    """(h, w) float32 of ``hash_uniform(seed, i, j)``: the same numbers the distortion
+    noise uses, for seeding per-pixel start values."""
+    out = np.empty((h, w), np.float32)
+    for i in prange(h):
+        for j in range(w):
+            out[i, j] = hash_uniform(seed, i, j)
+    return out

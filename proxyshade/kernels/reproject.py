@@ -1,0 +1,530 @@
+"""Reprojection kernels for temporal coherence (Bonneel et al. 2010, §6.1–6.2).
+
+Pixels are moved between two pinhole cameras in *inverse depth*: a pixel centre
+(col, row) with depth Z is the homogeneous camera-space point X = (x, y, −1, w) with
+x = (col − cx)/fx, y = −(row − cy)/fy and w = 1/Z. Points at infinity (the sky, Z = inf)
+are w = 0 and move by the rotation alone, so they need no special case. ``M`` is the
+4×4 rigid transform from the first camera's space to the second's
+(``relative_matrix``); then X' = M X lands at column cx' + fx'·X'x/(−X'z), row
+cy' − fy'·X'y/(−X'z) with inverse depth X'w/(−X'z) (perspective-correct: inverse depth
+is affine in screen space on a plane). Pixel (row i, column j) has its centre at
+(j + 0.5, i + 0.5), as in ``kernels.raster``.
+
+* ``grid_corners`` / ``splat_grid``: the frame-0 grid of §6.1, each pixel a small quad,
+  edges cut at label boundaries and depth jumps, rasterized into another camera with a
+  z-buffer (serial, so ties always go to the lower frame-0 pixel index).
+* ``transfer``: where each pixel of one camera lands in another.
+* ``gather_prev``: the previous frame's state at those positions (depth/label test,
+  coordinates bilinear inside one patch, nearest across seams).
+* ``surface_jacobian_det``: det J of the reprojected coordinates with differences taken
+  only on one surface (same label, continuous depth).
+* ``fill_from_neighbours``: pixels left without a previous value continue a neighbour's
+  patch translation.
+
+Pure functions of arrays; no I/O; deterministic for any thread count.
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, prange
+
+from proxyshade.kernels._config import JIT, PJIT
+
+
+def intrinsics(cam) -> np.ndarray:
+    """(fx, fy, cx, cy) of a ``proxyshade.io.usd.CameraInfo`` as float64."""
+    return np.array([cam.fx, cam.fy, cam.cx, cam.cy], np.float64)
+
+
+def relative_matrix(cam_from, cam_to) -> np.ndarray:
+    """4×4 transform from ``cam_from``'s camera space to ``cam_to``'s."""
+    return np.ascontiguousarray(np.linalg.inv(cam_to.camera_to_world) @ cam_from.camera_to_world, np.float64)
+
+
+def inverse_depth(Z: np.ndarray) -> np.ndarray:
+    """1/Z as float64 (0 where Z is inf); NaN stays NaN."""
+    Z = np.asarray(Z, np.float64)
+    with np.errstate(divide="ignore"):
+        return np.where(np.isinf(Z), 0.0, 1.0 / Z)
+
+
+@njit(**JIT)
+def _xfer(col, row, w, M, k0, k1, near):
+    """(col, row, inverse depth) in camera 0 -> (col, row, inverse depth, ok) in camera 1."""
+    x = (col - k0[2]) / k0[0]
+    y = -(row - k0[3]) / k0[1]
+    X = M[0, 0] * x + M[0, 1] * y - M[0, 2] + M[0, 3] * w
+    Y = M[1, 0] * x + M[1, 1] * y - M[1, 2] + M[1, 3] * w
+    Zc = M[2, 0] * x + M[2, 1] * y - M[2, 2] + M[2, 3] * w
+    d = -Zc
+    if d <= 0.0 or d <= near * w:
+        return 0.0, 0.0, 0.0, False
+    return k1[2] + k1[0] * X / d, k1[3] - k1[1] * Y / d, w / d, True
+
+
+@njit(**PJIT)
+def transfer(w, M, k0, k1, near):
+    """Where every pixel centre of camera 0 (inverse depth ``w``, (H, W)) lands in camera 1.
+
+    Returns u (column), v (row), inverse depth in camera 1, all (H, W) float64, and ok
+    (bool: finite input, in front of camera 1's near plane)."""
+    h, wd = w.shape
+    u = np.zeros((h, wd), np.float64)
+    v = np.zeros((h, wd), np.float64)
+    q = np.zeros((h, wd), np.float64)
+    ok = np.zeros((h, wd), np.bool_)
+    for i in prange(h):
+        for j in range(wd):
+            if not np.isfinite(w[i, j]):
+                continue
+            a, b, c, good = _xfer(j + 0.5, i + 0.5, w[i, j], M, k0, k1, near)
+            u[i, j] = a
+            v[i, j] = b
+            q[i, j] = c
+            ok[i, j] = good
+    return u, v, q, ok
+
+
+@njit(**JIT)
+def same_surface(wa, wb, tol):
+    """Two inverse depths on one surface: |wa − wb| ≤ tol · max (both 0: the sky)."""
+    m = wa if wa > wb else wb
+    return abs(wa - wb) <= tol * m
+
+
+@njit(**JIT)
+def _connected(w, lab, i, j, a, b, tol):
+    h, wd = w.shape
+    if a < 0 or b < 0 or a >= h or b >= wd:
+        return False
+    if not np.isfinite(w[a, b]) or lab[a, b] != lab[i, j]:
+        return False
+    return same_surface(w[i, j], w[a, b], tol)
+
+
+@njit(**PJIT)
+def grid_corners(w, lab, tol):
+    """Inverse depth at the four corners of every pixel's quad, (H, W, 4) float64 in the
+    order top-left, top-right, bottom-left, bottom-right (NaN where ``w`` is NaN).
+
+    Two 4-neighbours (or diagonal neighbours) are *connected* when they share a label
+    and ``same_surface`` holds: otherwise the grid edge between them is cut. Each pixel
+    extrapolates its inverse depth to a corner with its own gradient (central
+    differences over connected neighbours, one-sided or zero without them); a corner's
+    value is the mean of the extrapolations of the pixels around it connected to the
+    pixel, so uncut quads share their corners exactly (watertight; exact on planes).
+    """
+    h, wd = w.shape
+    gx = np.zeros((h, wd), np.float64)
+    gy = np.zeros((h, wd), np.float64)
+    for i0 in prange(h):
+        i = np.int64(i0)  # prange indices are unsigned: keep index arithmetic signed
+        for j in range(wd):
+            if not np.isfinite(w[i, j]):
+                continue
+            l = _connected(w, lab, i, j, i, j - 1, tol)
+            r = _connected(w, lab, i, j, i, j + 1, tol)
+            if l and r:
+                gx[i, j] = (w[i, j + 1] - w[i, j - 1]) * 0.5
+            elif l:
+                gx[i, j] = w[i, j] - w[i, j - 1]
+            elif r:
+                gx[i, j] = w[i, j + 1] - w[i, j]
+            t = _connected(w, lab, i, j, i - 1, j, tol)
+            bo = _connected(w, lab, i, j, i + 1, j, tol)
+            if t and bo:
+                gy[i, j] = (w[i + 1, j] - w[i - 1, j]) * 0.5
+            elif t:
+                gy[i, j] = w[i, j] - w[i - 1, j]
+            elif bo:
+                gy[i, j] = w[i + 1, j] - w[i, j]
+    out = np.full((h, wd, 4), np.nan, np.float64)
+    # corner (ci, cj) sits between pixels (ci-1, cj-1) (k=0), (ci-1, cj) (1), (ci, cj-1) (2), (ci, cj) (3)
+    for ci0 in prange(h + 1):
+        ci = np.int64(ci0)
+        e = np.zeros(4, np.float64)
+        inside = np.zeros(4, np.bool_)
+        con = np.zeros((4, 4), np.bool_)
+        for cj in range(wd + 1):
+            for k in range(4):
+                a = ci - 1 + k // 2
+                b = cj - 1 + k % 2
+                inside[k] = a >= 0 and b >= 0 and a < h and b < wd and np.isfinite(w[a, b])
+                if inside[k]:
+                    e[k] = w[a, b] + (cj - (b + 0.5)) * gx[a, b] + (ci - (a + 0.5)) * gy[a, b]
+            for k in range(4):
+                con[k, k] = inside[k]
+                for m in range(k + 1, 4):
+                    c = False
+                    if inside[k] and inside[m]:
+                        a = ci - 1 + k // 2
+                        b = cj - 1 + k % 2
+                        a2 = ci - 1 + m // 2
+                        b2 = cj - 1 + m % 2
+                        c = lab[a, b] == lab[a2, b2] and same_surface(w[a, b], w[a2, b2], tol)
+                    con[k, m] = c
+                    con[m, k] = c
+            for k in range(4):
+                if not inside[k]:
+                    continue
+                s = 0.0
+                n = 0
+                for m in range(4):
+                    if con[k, m]:
+                        s += e[m]
+                        n += 1
+                val = s / n
+                # the corner is corner 3 - k of pixel k
+                out[ci - 1 + k // 2, cj - 1 + k % 2, 3 - k] = val if val > 0.0 else 0.0
+    return out
+
+
+@njit(**JIT)
+def _edge(ax, ay, bx, by, px, py):
+    return (bx - ax) * (py - ay) - (by - ay) * (px - ax)
+
+
+@njit(**JIT)
+def _tri(P, a, b, c, px, py):
+    """Barycentrics of (px, py) in triangle a, b, c of P ((4, 3): col, row, w), or -1."""
+    area = _edge(P[a, 0], P[a, 1], P[b, 0], P[b, 1], P[c, 0], P[c, 1])
+    if area == 0.0:
+        return -1.0, 0.0, 0.0
+    l0 = _edge(P[b, 0], P[b, 1], P[c, 0], P[c, 1], px, py) / area
+    l1 = _edge(P[c, 0], P[c, 1], P[a, 0], P[a, 1], px, py) / area
+    l2 = _edge(P[a, 0], P[a, 1], P[b, 0], P[b, 1], px, py) / area
+    if l0 < 0.0 or l1 < 0.0 or l2 < 0.0:
+        return -1.0, 0.0, 0.0
+    return l0, l1, l2
+
+
+@njit(**JIT)
+def _quad(cw, i, j, M, k0, k1, near, P):
+    """Project quad (i, j)'s corners into P (4, 3); False when a corner is unusable."""
+    for k in range(4):
+        wk = cw[i, j, k]
+        if not np.isfinite(wk):
+            return False
+        col = j + (1.0 if k % 2 == 1 else 0.0)
+        row = i + (1.0 if k >= 2 else 0.0)
+        a, b, c, ok = _xfer(col, row, wk, M, k0, k1, near)
+        if not ok:
+            return False
+        P[k, 0] = a
+        P[k, 1] = b
+        P[k, 2] = c
+    return True
+
+
+@njit(**PJIT)
+def _quad_rows(cw, keep, M, k0, k1, near, height, width, max_extent):
+    """Pixel-row range each quad covers in camera 1 (r0 > r1 when it draws nothing)."""
+    h0, w0 = keep.shape
+    r0 = np.zeros((h0, w0), np.int32)
+    r1 = np.full((h0, w0), -1, np.int32)
+    for i in prange(h0):
+        P = np.zeros((4, 3), np.float64)
+        for j in range(w0):
+            if not keep[i, j] or not _quad(cw, i, j, M, k0, k1, near, P):
+                continue
+            xmin = min(min(P[0, 0], P[1, 0]), min(P[2, 0], P[3, 0]))
+            xmax = max(max(P[0, 0], P[1, 0]), max(P[2, 0], P[3, 0]))
+            ymin = min(min(P[0, 1], P[1, 1]), min(P[2, 1], P[3, 1]))
+            ymax = max(max(P[0, 1], P[1, 1]), max(P[2, 1], P[3, 1]))
+            if xmax - xmin > max_extent or ymax - ymin > max_extent:
+                continue
+            if xmax < 0.0 or xmin > width or ymax < 0.0 or ymin > height:
+                continue
+            a = max(0, int(np.ceil(ymin - 0.5)))
+            b = min(height - 1, int(np.floor(ymax - 0.5)))
+            if a <= b:
+                r0[i, j] = a
+                r1[i, j] = b
+    return r0.ravel(), r1.ravel()
+
+
+@njit(**JIT)
+def _bin_rows(r0, r1, nb, band):
+    """Quads listed per band of ``band`` rows, in increasing index order."""
+    cnt = np.zeros(nb + 1, np.int64)
+    for s in range(r0.shape[0]):
+        if r0[s] <= r1[s]:
+            for b in range(r0[s] // band, r1[s] // band + 1):
+                cnt[b + 1] += 1
+    for b in range(nb):
+        cnt[b + 1] += cnt[b]
+    fill = cnt[:-1].copy()
+    out = np.empty(cnt[nb], np.int64)
+    for s in range(r0.shape[0]):
+        if r0[s] <= r1[s]:
+            for b in range(r0[s] // band, r1[s] // band + 1):
+                out[fill[b]] = s
+                fill[b] += 1
+    return cnt, out
+
+
+@njit(**PJIT)
+def _splat_bands(cw, M, k0, k1, near, height, width, band, start, lst, zbuf, src):
+    h0, w0 = cw.shape[0], cw.shape[1]
+    nb = start.shape[0] - 1
+    for bi in prange(nb):
+        P = np.zeros((4, 3), np.float64)
+        y0 = bi * band
+        y1 = min(height, y0 + band) - 1
+        for t in range(start[bi], start[bi + 1]):
+            s = lst[t]
+            i = s // w0
+            j = s - i * w0
+            _quad(cw, i, j, M, k0, k1, near, P)
+            xmin = min(min(P[0, 0], P[1, 0]), min(P[2, 0], P[3, 0]))
+            xmax = max(max(P[0, 0], P[1, 0]), max(P[2, 0], P[3, 0]))
+            ymin = min(min(P[0, 1], P[1, 1]), min(P[2, 1], P[3, 1]))
+            ymax = max(max(P[0, 1], P[1, 1]), max(P[2, 1], P[3, 1]))
+            c0 = max(0, int(np.ceil(xmin - 0.5)))
+            c1 = min(width - 1, int(np.floor(xmax - 0.5)))
+            r0 = max(y0, int(np.ceil(ymin - 0.5)))
+            r1 = min(y1, int(np.floor(ymax - 0.5)))
+            for r in range(r0, r1 + 1):
+                py = r + 0.5
+                for c in range(c0, c1 + 1):
+                    px = c + 0.5
+                    l0, l1, l2 = _tri(P, 0, 1, 3, px, py)
+                    if l0 >= 0.0:
+                        q = l0 * P[0, 2] + l1 * P[1, 2] + l2 * P[3, 2]
+                    else:
+                        l0, l1, l2 = _tri(P, 0, 3, 2, px, py)
+                        if l0 < 0.0:
+                            continue
+                        q = l0 * P[0, 2] + l1 * P[3, 2] + l2 * P[2, 2]
+                    if q > zbuf[r, c]:
+                        zbuf[r, c] = q
+                        src[r, c] = s
+
+
+SPLAT_BAND = 8  # output rows per parallel work unit of splat_grid
+
+
+def splat_grid(cw, keep, M, k0, k1, near, height, width, max_extent):
+    """Rasterize the frame-0 grid into camera 1.
+
+    cw : (H0, W0, 4) corner inverse depths (``grid_corners``); keep : (H0, W0) bool, the
+    quads to draw; M : camera 0 -> camera 1 (``relative_matrix``); k0, k1 : intrinsics
+    (fx, fy, cx, cy); quads wider or taller than ``max_extent`` pixels in camera 1 are
+    skipped (grazing or behind the near plane).
+
+    Each quad is two triangles (TL, TR, BR) and (TL, BR, BL); a pixel centre inside one
+    (edges inclusive) takes the interpolated inverse depth; the nearest wins, ties keep
+    the lower frame-0 index (each band of output rows draws its quads in index order, so
+    the result does not depend on the thread count). Returns (inverse depth (H, W)
+    float64, −1 where uncovered; source index (H, W) int64 = row·W0 + column of the
+    frame-0 pixel, −1 where uncovered).
+    """
+    cw = np.ascontiguousarray(cw, np.float64)
+    keep = np.ascontiguousarray(keep, np.bool_)
+    M = np.ascontiguousarray(M, np.float64)
+    k0 = np.ascontiguousarray(k0, np.float64)
+    k1 = np.ascontiguousarray(k1, np.float64)
+    r0, r1 = _quad_rows(cw, keep, M, k0, k1, float(near), int(height), int(width), float(max_extent))
+    nb = (int(height) + SPLAT_BAND - 1) // SPLAT_BAND
+    start, lst = _bin_rows(r0, r1, nb, SPLAT_BAND)
+    zbuf = np.full((int(height), int(width)), -1.0, np.float64)
+    src = np.full((int(height), int(width)), -1, np.int64)
+    _splat_bands(cw, M, k0, k1, float(near), int(height), int(width), SPLAT_BAND, start, lst, zbuf, src)
+    return zbuf, src
+
+
+@njit(**PJIT)
+def stale_points(w0, on_proxy, M, k0, k1, near, wp1, tol):
+    """Frame-0 pixels that lay on the proxy then but float in front of it now (the object
+    under them moved): their centre lands in camera 1 nearer than every proxy pixel of
+    the 3×3 window around it by more than ``tol``. (H0, W0) bool."""
+    h0, wd0 = w0.shape
+    h, wd = wp1.shape
+    out = np.zeros((h0, wd0), np.bool_)
+    for i in prange(h0):
+        for j in range(wd0):
+            if not on_proxy[i, j] or not np.isfinite(w0[i, j]):
+                continue
+            u, v, q, ok = _xfer(j + 0.5, i + 0.5, w0[i, j], M, k0, k1, near)
+            if not ok:
+                continue
+            c = int(np.floor(u))
+            r = int(np.floor(v))
+            if c < 0 or r < 0 or c >= wd or r >= h:
+                continue
+            m = 0.0
+            for a in range(max(0, r - 1), min(h, r + 2)):
+                for b in range(max(0, c - 1), min(wd, c + 2)):
+                    if wp1[a, b] > m:
+                        m = wp1[a, b]
+            out[i, j] = q > m * (1.0 + tol) and q > 0.0
+    return out
+
+
+@njit(**PJIT)
+def gather_prev(u, v, q, ok, lab, prev_w, prev_lab, prev_patch, prev_sx, prev_sy, prev_res, prev_d, tol):
+    """The previous frame's state where each current pixel lands.
+
+    u, v, q, ok : ``transfer`` of the current pixels into the previous camera; lab : current
+    labels. A pixel is *valid* when it lands inside the previous image on a pixel of its
+    label whose inverse depth agrees (``same_surface``). Then: source coordinates bilinear
+    when the 2×2 previous pixels around the position are all valid and in one patch,
+    else the nearest pixel's; patch id nearest; residual (H, W, 3) and distortion
+    bilinear over the valid ones among the 2×2 (weights renormalised).
+
+    Returns valid (bool), sx, sy (float32), patch (uint32), residual (float32 ×3),
+    distortion (float32), all (H, W)."""
+    h, wd = u.shape
+    hp, wp = prev_w.shape
+    valid = np.zeros((h, wd), np.bool_)
+    sx = np.zeros((h, wd), np.float32)
+    sy = np.zeros((h, wd), np.float32)
+    patch = np.zeros((h, wd), np.uint32)
+    res = np.zeros((h, wd, 3), np.float32)
+    dist = np.zeros((h, wd), np.float32)
+    for i in prange(h):
+        for j in range(wd):
+            if not ok[i, j]:
+                continue
+            x = u[i, j]
+            y = v[i, j]
+            if not (x >= 0.0 and y >= 0.0 and x < wp and y < hp):
+                continue
+            cn = min(wp - 1, int(np.floor(x)))
+            rn = min(hp - 1, int(np.floor(y)))
+            L = lab[i, j]
+            if prev_lab[rn, cn] != L or not same_surface(q[i, j], prev_w[rn, cn], tol):
+                continue
+            valid[i, j] = True
+            pn = prev_patch[rn, cn]
+            patch[i, j] = pn
+            fx = x - 0.5
+            fy = y - 0.5
+            c0 = int(np.floor(fx))
+            r0 = int(np.floor(fy))
+            ax = fx - c0
+            ay = fy - r0
+            wsum = 0.0
+            same = True
+            bsx = 0.0
+            bsy = 0.0
+            r0_ = 0.0
+            r1_ = 0.0
+            r2_ = 0.0
+            dd = 0.0
+            for t in range(4):
+                rr = r0 + (1 if t >= 2 else 0)
+                cc = c0 + (1 if t % 2 == 1 else 0)
+                wt = (ay if t >= 2 else 1.0 - ay) * (ax if t % 2 == 1 else 1.0 - ax)
+                rr = min(max(rr, 0), hp - 1)
+                cc = min(max(cc, 0), wp - 1)
+                if prev_lab[rr, cc] != L or not same_surface(q[i, j], prev_w[rr, cc], tol):
+                    same = False
+                    continue
+                if prev_patch[rr, cc] != pn:
+                    same = False
+                bsx += wt * prev_sx[rr, cc]
+                bsy += wt * prev_sy[rr, cc]
+                r0_ += wt * prev_res[rr, cc, 0]
+                r1_ += wt * prev_res[rr, cc, 1]
+                r2_ += wt * prev_res[rr, cc, 2]
+                dd += wt * prev_d[rr, cc]
+                wsum += wt
+            if same:
+                sx[i, j] = bsx
+                sy[i, j] = bsy
+            else:
+                sx[i, j] = prev_sx[rn, cn]
+                sy[i, j] = prev_sy[rn, cn]
+            if wsum > 0.0:
+                res[i, j, 0] = r0_ / wsum
+                res[i, j, 1] = r1_ / wsum
+                res[i, j, 2] = r2_ / wsum
+                dist[i, j] = dd / wsum
+            else:
+                res[i, j, 0] = prev_res[rn, cn, 0]
+                res[i, j, 1] = prev_res[rn, cn, 1]
+                res[i, j, 2] = prev_res[rn, cn, 2]
+                dist[i, j] = prev_d[rn, cn]
+    return valid, sx, sy, patch, res, dist
+
+
+@njit(**PJIT)
+def surface_jacobian_det(u, v, w, lab, valid, tol):
+    """det J of the map (row, col) -> (u, v) by central differences, using a neighbour
+    only when it is valid, has the pixel's label and lies on its surface (``same_surface``
+    on the inverse depths ``w``): one-sided differences next to silhouettes and label
+    borders, 1 where a pixel has no usable neighbour along an axis or is invalid.
+    J = [[du/dx, du/dy], [dv/dx, dv/dy]], x = column, y = row. (H, W) float64."""
+    h, wd = u.shape
+    out = np.ones((h, wd), np.float64)
+    for i0 in prange(h):
+        i = np.int64(i0)
+        for j in range(wd):
+            if not valid[i, j]:
+                continue
+            jl = j
+            jr = j
+            iu = i
+            idn = i
+            if j > 0 and valid[i, j - 1] and lab[i, j - 1] == lab[i, j] and same_surface(w[i, j - 1], w[i, j], tol):
+                jl = j - 1
+            if j < wd - 1 and valid[i, j + 1] and lab[i, j + 1] == lab[i, j] and same_surface(w[i, j + 1], w[i, j], tol):
+                jr = j + 1
+            if i > 0 and valid[i - 1, j] and lab[i - 1, j] == lab[i, j] and same_surface(w[i - 1, j], w[i, j], tol):
+                iu = i - 1
+            if i < h - 1 and valid[i + 1, j] and lab[i + 1, j] == lab[i, j] and same_surface(w[i + 1, j], w[i, j], tol):
+                idn = i + 1
+            if jr == jl or idn == iu:
+                continue
+            dux = (u[i, jr] - u[i, jl]) / (jr - jl)
+            dvx = (v[i, jr] - v[i, jl]) / (jr - jl)
+            duy = (u[idn, j] - u[iu, j]) / (idn - iu)
+            dvy = (v[idn, j] - v[iu, j]) / (idn - iu)
+            out[i, j] = dux * dvy - duy * dvx
+    return out
+
+
+@njit(**PJIT)
+def fill_from_neighbours(need, have, lab, sx, sy, patch, res, dist, radius, scale):
+    """Give pixels in ``need`` the state of the nearest pixel in ``have`` with their label
+    (square rings up to ``radius``, first found in scan order of the ring), continuing its
+    patch translation (source coordinates moved by the offset × ``scale``). Reads only
+    ``have`` pixels, so the result does not depend on the order. Returns new arrays and
+    the mask of pixels filled."""
+    h, wd = need.shape
+    osx = sx.copy()
+    osy = sy.copy()
+    opatch = patch.copy()
+    ores = res.copy()
+    odist = dist.copy()
+    filled = np.zeros((h, wd), np.bool_)
+    for i0 in prange(h):
+        i = np.int64(i0)
+        for j in range(wd):
+            if not need[i, j]:
+                continue
+            done = False
+            for r in range(1, radius + 1):
+                for a in range(i - r, i + r + 1):
+                    if a < 0 or a >= h:
+                        continue
+                    step = 1 if a == i - r or a == i + r else 2 * r
+                    for b in range(j - r, j + r + 1, step):
+                        if b < 0 or b >= wd or not have[a, b] or lab[a, b] != lab[i, j]:
+                            continue
+                        osx[i, j] = sx[a, b] + (j - b) * scale
+                        osy[i, j] = sy[a, b] + (i - a) * scale
+                        opatch[i, j] = patch[a, b]
+                        ores[i, j, 0] = res[a, b, 0]
+                        ores[i, j, 1] = res[a, b, 1]
+                        ores[i, j, 2] = res[a, b, 2]
+                        odist[i, j] = dist[a, b]
+                        filled[i, j] = True
+                        done = True
+                        break
+                    if done:
+                        break
+                if done:
+                    break
+    return osx, osy, opatch, ores, odist, filled

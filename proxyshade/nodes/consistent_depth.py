@@ -1,0 +1,138 @@
+"""ConsistentDepth: the frame-0 detailed guide and extended depth carried to frame N.
+
+Bonneel et al. 2010, §6.1: "We first create a mesh, which consists of a grid with each
+pixel of the initial frame as a separate small quad. We cut the edges of the grid at
+label boundaries or when a large depth gradient is detected ... We project this grid into
+the screen space coordinate system of current frame N. Note that the proxy is also
+present in the scene, and can occlude the grid." Pixels are then of four kinds:
+
+====  =====  ================================================  =====================
+code  paper  pixel                                             label and depth from
+====  =====  ================================================  =====================
+1     A      covered by the grid, not occluded by the proxy    the grid
+2     B      grid occluded by the proxy, occluded at frame 0   the grid
+3     C      grid occluded by the proxy, visible at frame 0    the proxy (frame N)
+4     D      not covered by the grid                           the proxy (frame N)
+====  =====  ================================================  =====================
+
+"Occluded at frame 0" means the detailed guide showed a surface behind the frame-0 proxy
+there (the guide's detail overrides the proxy, e.g. sky or mountain between tree
+spheres); those pixels keep the guide's decision. Kernels: ``proxyshade.kernels.reproject``.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from proxyshade.graph.node import Input, Node, Param
+from proxyshade.graph.plate import Plate
+from proxyshade.io.usd import CameraInfo
+from proxyshade.kernels import reproject as kr
+from proxyshade.nodes.patch_init import require
+
+CATEGORY = {"A": 1, "B": 2, "C": 3, "D": 4}
+
+
+def camera_of(ctx, name: str, *plates) -> CameraInfo:
+    """The camera in the first plate's metadata that has one (a ProxyRender's)."""
+    for p in plates:
+        if p is not None and isinstance(p.meta.get("camera"), dict):
+            return CameraInfo.from_meta(p.meta["camera"])
+    raise ctx.error(f"input '{name}' has no camera in its metadata (meta['camera']); connect a plate derived from "
+                    "ProxyRender (GuideSynth, DepthExtend and Magnify pass it on)")
+
+
+class ConsistentDepth(Node):
+    """Project the frame-0 grid (detailed labels + extended depth) into this frame's camera.
+
+    Output at the proxy's size: ``label.id``, ``Z`` (inf where nothing), ``P.X/Y/Z``
+    (world position), ``category`` (uint32: 1 A, 2 B, 3 C, 4 D; see the module doc),
+    ``N.X/Y/Z`` and ``object.id`` passed through from the proxy; metadata from the proxy
+    (camera of this frame, labels) plus ``consistent_depth`` (category counts).
+    """
+
+    version = 1
+    proxy = Input("this frame's ProxyRender: label.id, Z, camera")
+    guide = Input("the detailed guide at the first frame (GuideSynth at frame: first): label.id; its Z, if any, "
+                  "is the frame-0 proxy depth unless ref_proxy is connected")
+    depth = Input("extended depth at the first frame (DepthExtend at frame: first): Z; default the guide's Z",
+                  optional=True)
+    ref_proxy = Input("the ProxyRender at the first frame (frame: first), for 'occluded at frame 0'", optional=True)
+    depth_tolerance = Param(float, 0.02, min=0.0, max=1.0,
+                            doc="relative inverse-depth difference under which two depths are one surface")
+    cut_tolerance = Param(float, 0.1, min=0.0, max=10.0,
+                          doc="cut the grid between neighbours whose inverse depths differ by more (relative)")
+    max_extent = Param(float, 64.0, min=1.0, doc="skip grid quads larger than this many pixels in frame N")
+    stale = Param(bool, True, doc="drop grid pixels that lay on the proxy at frame 0 and float in front of it now "
+                                  "(moving proxy objects)")
+
+    def compute(self, ctx) -> Plate:
+        p = ctx.p
+        proxy = require(ctx, ctx.proxy, "proxy", ["label.id", "Z"], "this frame's ProxyRender")
+        guide = require(ctx, ctx.guide, "guide", ["label.id"], "GuideSynth at frame: first")
+        depth = ctx.depth if ctx.depth is not None else guide
+        depth = require(ctx, depth, "depth", ["Z"], "DepthExtend at frame: first (or a guide with Z)")
+        if depth.shape != guide.shape:
+            raise ctx.error(f"depth is {depth.width}x{depth.height}, guide {guide.width}x{guide.height}; connect the "
+                            "DepthExtend of this guide")
+        if np.isnan(depth["Z"]).any() or np.isnan(proxy["Z"]).any():
+            raise ctx.error("Z has NaN pixels; fix the upstream render (inf marks empty pixels)")
+        cam1 = camera_of(ctx, "proxy", proxy)
+        cam0 = camera_of(ctx, "depth", ctx.depth, guide, ctx.ref_proxy)
+        if (cam1.width, cam1.height) != (proxy.width, proxy.height):
+            raise ctx.error(f"proxy's camera is {cam1.width}x{cam1.height} but the plate {proxy.width}x{proxy.height}")
+        if (cam0.width, cam0.height) != (guide.width, guide.height):
+            raise ctx.error(f"the first frame's camera is {cam0.width}x{cam0.height} but the guide "
+                            f"{guide.width}x{guide.height}; connect plates of one render")
+        tol = p.depth_tolerance
+        w0 = kr.inverse_depth(depth["Z"])
+        lab0 = np.ascontiguousarray(guide["label.id"], np.uint32)
+        rp = ctx.ref_proxy if ctx.ref_proxy is not None else (guide if "Z" in guide and guide is not depth else None)
+        if rp is not None:
+            if rp.shape != guide.shape:
+                raise ctx.error("ref_proxy and guide differ in size; connect the first frame's ProxyRender")
+            wp0 = kr.inverse_depth(rp["Z"])
+            occluded0 = wp0 > w0 * (1.0 + tol)  # the proxy was in front of the guide's surface
+            on_proxy0 = np.abs(wp0 - w0) <= tol * np.maximum(wp0, w0)
+        else:
+            occluded0 = np.zeros(guide.shape, bool)
+            on_proxy0 = np.ones(guide.shape, bool)
+        k0, k1 = kr.intrinsics(cam0), kr.intrinsics(cam1)
+        M = kr.relative_matrix(cam0, cam1)
+        wp1 = kr.inverse_depth(proxy["Z"])
+        cw = kr.grid_corners(w0, lab0, p.cut_tolerance)
+        keep = np.isfinite(w0)
+        if p.stale:
+            stale = kr.stale_points(w0, on_proxy0, M, k0, k1, cam1.near, wp1, max(tol, 0.05))
+            keep &= ~stale
+            if stale.any():
+                ctx.note(f"{int(stale.sum())} grid pixels dropped: on the proxy at the first frame, in front of it now")
+        wg, src = kr.splat_grid(cw, keep, M, k0, k1, cam1.near, cam1.height, cam1.width, p.max_extent)
+        covered = src >= 0
+        s = np.where(covered, src, 0)
+        occl = covered & (wp1 > wg * (1.0 + tol))
+        prev = occluded0.ravel()[s]
+        cat = np.full(proxy.shape, CATEGORY["D"], np.uint32)
+        cat[covered & ~occl] = CATEGORY["A"]
+        cat[occl & prev] = CATEGORY["B"]
+        cat[occl & ~prev] = CATEGORY["C"]
+        grid = (cat == CATEGORY["A"]) | (cat == CATEGORY["B"])
+        label = np.where(grid, lab0.ravel()[s], proxy["label.id"]).astype(np.uint32)
+        with np.errstate(divide="ignore"):
+            zg = np.where(wg > 0, 1.0 / np.where(wg > 0, wg, 1.0), np.inf)
+        Z = np.where(grid, zg, proxy["Z"]).astype(np.float32)
+        col, row = cam1.pixel_grid()
+        fin = np.isfinite(Z)
+        P = cam1.unproject(col, row, np.where(fin, Z, 1.0).astype(np.float64))
+        ch = {"label.id": label, "Z": Z, "category": cat}
+        for k, a in enumerate("XYZ"):
+            pp = "P." + a
+            base = proxy[pp] if pp in proxy else np.zeros(proxy.shape, np.float32)
+            ch[pp] = np.where(fin & grid, P[..., k], base).astype(np.float32)
+        for c in ("N.X", "N.Y", "N.Z", "object.id"):
+            if c in proxy:
+                ch[c] = proxy[c]
+        counts = {k: int((cat == v).sum()) for k, v in CATEGORY.items()}
+        ctx.note("categories " + ", ".join(f"{k} {100.0 * n / cat.size:.1f}%" for k, n in counts.items()))
+        meta = dict(proxy.meta)
+        meta["consistent_depth"] = {"categories": counts, "first_frame": cam0.frame}
+        return Plate(ch, meta)

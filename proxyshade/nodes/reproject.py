@@ -1,0 +1,224 @@
+"""Reproject: carry the previous frame's synthesis into this frame and flag what must be
+resynthesized (Bonneel et al. 2010, §6.2).
+
+"We project the 3D coordinates of a given pixel in the current frame (N) to the camera
+position of the previous frame (N − 1); we copy this color ... pixels which became
+disoccluded ... are flagged for resynthesis. ... We compute the determinant of the
+Jacobian J of the reprojected pixel coordinates ... D = ||det(J) − 1|| which we
+accumulate across frames. If D becomes greater than a given threshold, D is reset to 0
+and the pixel is flagged for resynthesis. We perturb D with random noise to avoid a
+coherent wave ... pixels previously visible and now occluded by objects (category C) are
+also tagged ... We remove these isolated pixels in 5×5 neighborhoods. We dilate remaining
+flagged regions."
+
+What is carried is the synthesis state, the coordinate map: ``source.x/y`` (bilinear
+inside one patch, nearest across seams) and ``patch.id`` (nearest). With ``colour: map``
+(default) the colour is looked up again through the carried map and the previous
+frame's smooth Poisson correction (its colour minus the source through its map) is
+added back, bilinearly reprojected: re-sampling the colour itself every frame would blur
+the texture a little more each frame. ``colour: bilinear`` copies the previous colour
+bilinearly (the paper's literal reading).
+
+Flags (uint32 ``flag``): 0 kept, 1 disoccluded (no previous pixel of this label on this
+surface: outside the previous image, depth test failed, label changed), 2 newly occluded
+(category C of ConsistentDepth whose previous pixel showed something else), 3 distorted
+(accumulated D over the threshold). Isolated flags (fewer than ``min_neighbours`` other
+flagged pixels in the 5×5 window) are dropped, the rest dilated by ``dilate`` pixels
+(dilated pixels take the reason of a flag they grew from, in the order 2, 1, 3). When more
+than ``cut_threshold`` of the frame is flagged the frame is treated as a camera cut:
+everything is flagged for a full synthesis (noted in the run report).
+
+Kernels: ``proxyshade.kernels.reproject``, ``proxyshade.kernels.temporal``.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from proxyshade.graph.node import Input, Node, Param
+from proxyshade.graph.plate import Plate
+from proxyshade.kernels import reproject as kr
+from proxyshade.kernels import temporal as kt
+from proxyshade.kernels.lookup import lookup
+from proxyshade.nodes.consistent_depth import camera_of
+from proxyshade.nodes.patch_init import check_finite, require
+
+FLAG = {"none": 0, "disoccluded": 1, "newly_occluded": 2, "distorted": 3}
+CATEGORY_C = 3
+STATE = ("R", "G", "B", "source.x", "source.y", "patch.id", "label.id")
+
+
+def frame_seed(seed: int, frame: int) -> int:
+    """The noise seed of one frame (non-negative, differs frame to frame)."""
+    return (int(seed) * 1_000_003 + int(frame) * 7919 + 17) % (1 << 62)
+
+
+def start_distortion(h: int, w: int, amount: float, seed: int, frame: int) -> np.ndarray:
+    """Initial D of freshly synthesized pixels: uniform in [0, amount), hashed per pixel and frame."""
+    if amount <= 0:
+        return np.zeros((h, w), np.float32)
+    return (np.float32(amount) * kt.uniform_field(frame_seed(seed + 1, frame), h, w)).astype(np.float32)
+
+
+def clean_flags(raw: np.ndarray, *, radius: int, min_neighbours: int, dilate: int) -> np.ndarray:
+    """Remove isolated flags (``kt.remove_isolated``), dilate the rest (``kt.dilate``);
+    dilated pixels take the reason of a flag they grew from, reasons 2, 1, 3 first."""
+    anyf = raw > 0
+    kept = kt.remove_isolated(anyf, radius, min_neighbours) if min_neighbours > 0 else anyf
+    out = np.where(kept, raw, 0).astype(np.uint32)
+    if dilate <= 0:
+        return out
+    grown = kt.dilate(kept, dilate)
+    todo = grown & ~kept
+    for reason in (FLAG["newly_occluded"], FLAG["disoccluded"], FLAG["distorted"]):
+        if not todo.any():
+            break
+        m = kt.dilate(out == reason, dilate) & todo
+        out[m] = reason
+        todo &= ~m
+    return out
+
+
+class Reproject(Node):
+    """The previous final frame warped into this frame's camera, with flags.
+
+    Output at the ConsistentDepth's size: ``R,G,B``, ``source.x/y``, ``patch.id`` (the
+    carried synthesis; zeros where flagged without a previous pixel), ``label.id``, ``Z``,
+    ``P.X/Y/Z``, ``category`` (from ConsistentDepth), ``distortion`` (float32, the
+    accumulated D), ``flag`` (uint32, see the module doc); metadata: the previous frame's
+    (labels, source, synthesis) with this frame's camera and ``temporal`` (flag shares,
+    ``cut``).
+
+    At the first frame (``prev`` not there yet) the ``first`` plate (the full first-frame
+    synthesis) passes through with no flags; without ``first`` the whole frame is flagged.
+    """
+
+    version = 1
+    time_dependent = True  # the noise is seeded per frame
+    depth = Input("this frame's ConsistentDepth: label.id, Z, category, camera")
+    prev = Input("the previous final frame (Poisson at frame: -1): R,G,B, source.x/y, patch.id, label.id, Z",
+                 optional=True)
+    first = Input("the full first-frame synthesis (Poisson at frame: first), used at the first frame",
+                  optional=True)
+    source = Input("annotated source (SourceRead): colours are looked up through the carried map")
+    colour = Param(str, "map", choices=("map", "bilinear"),
+                   doc="look colours up through the carried map (+ reprojected Poisson correction), or copy them")
+    depth_tolerance = Param(float, 0.02, min=0.0, max=1.0,
+                            doc="relative inverse-depth difference under which a previous pixel is the same surface")
+    threshold = Param(float, 0.5, min=0.0, doc="accumulated distortion D above which a pixel is resynthesized")
+    noise = Param(float, 0.01, min=0.0, doc="uniform noise in [0, noise) added to D each frame")
+    reset_spread = Param(float, 0.5, min=0.0, max=1.0,
+                         doc="where D starts (first frame, after a resynthesis): uniform in [0, spread x threshold), "
+                             "so regions resynthesized together are not flagged together again (no coherent wave)")
+    seed = Param(int, 0, doc="seed of the per-frame noise")
+    isolated_radius = Param(int, 2, min=0, max=8, doc="window radius of the isolated-flag test (2: 5x5)")
+    min_neighbours = Param(int, 3, min=0, doc="flags with fewer other flags in the window are dropped")
+    dilate = Param(int, 2, min=0, max=64, doc="dilation radius of the remaining flagged regions (pixels)")
+    fill_radius = Param(int, 3, min=0, max=16,
+                        doc="unflagged pixels without a previous value continue a neighbour's patch this close")
+    cut_threshold = Param(float, 0.5, min=0.0, max=1.0,
+                          doc="share of flagged pixels above which the frame is a camera cut (full synthesis)")
+
+    def compute(self, ctx) -> Plate:
+        p = ctx.p
+        cd = require(ctx, ctx.depth, "depth", ["label.id", "Z"], "this frame's ConsistentDepth")
+        source = require(ctx, ctx.source, "source", ["R", "G", "B", "label.id"], "a SourceRead node")
+        H, W = cd.shape
+        cat = cd["category"] if "category" in cd else np.zeros((H, W), np.uint32)
+        geo = {c: cd[c] for c in ("label.id", "Z", "P.X", "P.Y", "P.Z") if c in cd}
+        geo["category"] = cat.astype(np.uint32)
+        prev = ctx.prev
+        if prev is None:
+            return self._first(ctx, cd, geo)
+        prev = require(ctx, prev, "prev", list(STATE) + ["Z"], "the previous frame's final Poisson (frame: -1)")
+        check_finite(ctx, prev, "prev", ["R", "G", "B", "source.x", "source.y"])
+        cam1 = camera_of(ctx, "depth", cd)
+        cam0 = camera_of(ctx, "prev", prev)
+        if (cam0.width, cam0.height) != (prev.width, prev.height):
+            raise ctx.error(f"prev's camera is {cam0.width}x{cam0.height}, the plate {prev.width}x{prev.height}")
+        scale = float(prev.meta.get("synthesis", {}).get("scale", 1.0))
+        tol = p.depth_tolerance
+        w1 = kr.inverse_depth(cd["Z"])
+        lab = np.ascontiguousarray(cd["label.id"], np.uint32)
+        u, v, q, ok = kr.transfer(w1, kr.relative_matrix(cam1, cam0), kr.intrinsics(cam1), kr.intrinsics(cam0),
+                                  cam0.near)
+        src_rgb = source.rgb()
+        prev_rgb = prev.rgb()
+        if p.colour == "map":
+            prev_res = prev_rgb - lookup(src_rgb, prev["source.x"], prev["source.y"])
+        else:
+            prev_res = prev_rgb
+        prev_d = prev["distortion"].astype(np.float32) if "distortion" in prev else np.zeros(prev.shape, np.float32)
+        valid, sx, sy, patch, res, dprev = kr.gather_prev(
+            u, v, q, ok, lab, kr.inverse_depth(prev["Z"]), np.ascontiguousarray(prev["label.id"], np.uint32),
+            np.ascontiguousarray(prev["patch.id"], np.uint32), prev["source.x"].astype(np.float32),
+            prev["source.y"].astype(np.float32), np.ascontiguousarray(prev_res, np.float32), prev_d, tol)
+        det = kr.surface_jacobian_det(u, v, w1, lab, valid, tol)
+        D, distorted = kt.accumulate_distortion(dprev, det, valid, p.threshold, p.noise, frame_seed(p.seed, ctx.frame))
+        raw = np.zeros((H, W), np.uint32)
+        raw[distorted] = FLAG["distorted"]
+        raw[~valid] = FLAG["disoccluded"]
+        raw[~valid & (cat == CATEGORY_C)] = FLAG["newly_occluded"]
+        flag = clean_flags(raw, radius=p.isolated_radius, min_neighbours=p.min_neighbours, dilate=p.dilate)
+        # invalid pixels whose flag was dropped as isolated continue a neighbour's patch
+        need = ~valid & (flag == 0)
+        if need.any():
+            sx, sy, patch, res, D, filled = kr.fill_from_neighbours(need, valid, lab, sx, sy, patch, res, D,
+                                                                     p.fill_radius, scale)
+            flag[need & ~filled] = FLAG["disoccluded"]
+        share = float((flag > 0).mean())
+        cut = share > p.cut_threshold
+        if cut:
+            ctx.note(f"camera cut: {100 * share:.1f}% of the frame flagged (> {100 * p.cut_threshold:.0f}%); "
+                     "full synthesis of this frame")
+            flag[:] = FLAG["disoccluded"]
+        keep = flag == 0
+        D = np.where(keep, D, start_distortion(H, W, p.threshold * p.reset_spread, p.seed, ctx.frame))
+        if p.colour == "map":
+            rgb = lookup(src_rgb, sx, sy) + res
+        else:
+            rgb = res
+        rgb = np.where(keep[..., None], rgb, 0.0).astype(np.float32)
+        sx = np.where(keep, sx, 0.0).astype(np.float32)
+        sy = np.where(keep, sy, 0.0).astype(np.float32)
+        patch = np.where(keep, patch, 0).astype(np.uint32)
+        counts = {k: float((flag == v).mean()) for k, v in FLAG.items() if v}
+        ctx.note(f"flagged {100 * share:.2f}%: " + ", ".join(f"{k} {100 * s:.2f}%" for k, s in counts.items()))
+        ch = {"R": rgb[..., 0].copy(), "G": rgb[..., 1].copy(), "B": rgb[..., 2].copy(), "source.x": sx,
+              "source.y": sy, "patch.id": patch, "distortion": D, "flag": flag}
+        ch.update(geo)
+        meta = self._meta(prev, cd)
+        meta["temporal"] = dict(counts, flagged=float((flag > 0).mean()), cut=bool(cut), frame=int(ctx.frame))
+        return Plate(ch, meta)
+
+    @staticmethod
+    def _meta(state: Plate, cd: Plate) -> dict:
+        meta = dict(state.meta)
+        for k in ("camera", "up_axis", "objects", "scene", "background"):
+            if k in cd.meta:
+                meta[k] = cd.meta[k]
+        return meta
+
+    def _first(self, ctx, cd: Plate, geo: dict) -> Plate:
+        H, W = cd.shape
+        first = ctx.first
+        if first is None:
+            if ctx.frame != ctx.first_frame:
+                ctx.note("no previous frame and no 'first' plate: full synthesis of this frame")
+            z = np.zeros((H, W), np.float32)
+            ch = {"R": z, "G": z, "B": z, "source.x": z, "source.y": z, "patch.id": np.zeros((H, W), np.uint32),
+                  "distortion": z, "flag": np.full((H, W), FLAG["disoccluded"], np.uint32)}
+            ch.update(geo)
+            meta = dict(cd.meta)
+            meta["temporal"] = dict(flagged=1.0, cut=True, frame=int(ctx.frame))
+            return Plate(ch, meta)
+        first = require(ctx, first, "first", STATE, "the first frame's final Poisson (frame: first)")
+        if first.shape != (H, W):
+            raise ctx.error(f"first is {first.width}x{first.height}, depth {W}x{H}; connect plates of one resolution")
+        ch = {c: first[c] for c in STATE}
+        ch["distortion"] = start_distortion(H, W, ctx.p.threshold * ctx.p.reset_spread, ctx.p.seed, ctx.frame)
+        ch["flag"] = np.zeros((H, W), np.uint32)
+        ch.update({k: v for k, v in geo.items() if k != "label.id"})
+        ch.update({c: first[c] for c in ("label.id", "Z", "P.X", "P.Y", "P.Z") if c in first})
+        meta = self._meta(first, cd)
+        meta["temporal"] = dict(flagged=0.0, cut=False, frame=int(ctx.frame))
+        return Plate(ch, meta)
