@@ -103,6 +103,23 @@ def _connected(w, lab, i, j, a, b, tol):
 
 
 @njit(**PJIT)
+def _links(w, lab, tol):
+    """Grid edges kept (not cut), uint8 (H, W, 4): to the right, down, down-right, and
+    from (i, j+1) down-left to (i+1, j)."""
+    h, wd = w.shape
+    out = np.zeros((h, wd, 4), np.uint8)
+    for i0 in prange(h):
+        i = np.int64(i0)
+        for j in range(wd):
+            out[i, j, 0] = _connected(w, lab, i, j, i, j + 1, tol)
+            out[i, j, 1] = _connected(w, lab, i, j, i + 1, j, tol)
+            out[i, j, 2] = _connected(w, lab, i, j, i + 1, j + 1, tol)
+            if j + 1 < wd and np.isfinite(w[i, j + 1]):
+                out[i, j, 3] = _connected(w, lab, i, j + 1, i + 1, j, tol)
+    return out
+
+
+@njit(**PJIT)
 def grid_corners(w, lab, tol):
     """Inverse depth at the four corners of every pixel's quad, (H, W, 4) float64 in the
     order top-left, top-right, bottom-left, bottom-right (NaN where ``w`` is NaN).
@@ -115,6 +132,7 @@ def grid_corners(w, lab, tol):
     pixel, so uncut quads share their corners exactly (watertight; exact on planes).
     """
     h, wd = w.shape
+    L = _links(w, lab, tol)
     gx = np.zeros((h, wd), np.float64)
     gy = np.zeros((h, wd), np.float64)
     for i0 in prange(h):
@@ -122,16 +140,16 @@ def grid_corners(w, lab, tol):
         for j in range(wd):
             if not np.isfinite(w[i, j]):
                 continue
-            l = _connected(w, lab, i, j, i, j - 1, tol)
-            r = _connected(w, lab, i, j, i, j + 1, tol)
+            l = j > 0 and L[i, j - 1, 0] == 1
+            r = L[i, j, 0] == 1
             if l and r:
                 gx[i, j] = (w[i, j + 1] - w[i, j - 1]) * 0.5
             elif l:
                 gx[i, j] = w[i, j] - w[i, j - 1]
             elif r:
                 gx[i, j] = w[i, j + 1] - w[i, j]
-            t = _connected(w, lab, i, j, i - 1, j, tol)
-            bo = _connected(w, lab, i, j, i + 1, j, tol)
+            t = i > 0 and L[i - 1, j, 1] == 1
+            bo = L[i, j, 1] == 1
             if t and bo:
                 gy[i, j] = (w[i + 1, j] - w[i - 1, j]) * 0.5
             elif t:
@@ -153,17 +171,20 @@ def grid_corners(w, lab, tol):
                 if inside[k]:
                     e[k] = w[a, b] + (cj - (b + 0.5)) * gx[a, b] + (ci - (a + 0.5)) * gy[a, b]
             for k in range(4):
-                con[k, k] = inside[k]
+                for m in range(4):
+                    con[k, m] = k == m and inside[k]
+            if inside[0]:
+                con[0, 1] = inside[1] and L[ci - 1, cj - 1, 0] == 1
+                con[0, 2] = inside[2] and L[ci - 1, cj - 1, 1] == 1
+                con[0, 3] = inside[3] and L[ci - 1, cj - 1, 2] == 1
+            if inside[1]:
+                con[1, 3] = inside[3] and L[ci - 1, cj, 1] == 1
+                con[1, 2] = inside[2] and L[ci - 1, cj - 1, 3] == 1
+            if inside[2]:
+                con[2, 3] = inside[3] and L[ci, cj - 1, 0] == 1
+            for k in range(4):
                 for m in range(k + 1, 4):
-                    c = False
-                    if inside[k] and inside[m]:
-                        a = ci - 1 + k // 2
-                        b = cj - 1 + k % 2
-                        a2 = ci - 1 + m // 2
-                        b2 = cj - 1 + m % 2
-                        c = lab[a, b] == lab[a2, b2] and same_surface(w[a, b], w[a2, b2], tol)
-                    con[k, m] = c
-                    con[m, k] = c
+                    con[m, k] = con[k, m]
             for k in range(4):
                 if not inside[k]:
                     continue
@@ -198,8 +219,21 @@ def _tri(P, a, b, c, px, py):
     return l0, l1, l2
 
 
+def affine_transfer(M, k0) -> np.ndarray:
+    """(3, 4) A with camera-1 homogeneous X = A · (col, row, 1, w) for a camera-0 pixel
+    position (col, row) at inverse depth w (``_xfer`` without the divisions)."""
+    fx, fy, cx, cy = (float(v) for v in k0)
+    R = np.asarray(M, np.float64)[:3]
+    A = np.empty((3, 4), np.float64)
+    A[:, 0] = R[:, 0] / fx
+    A[:, 1] = -R[:, 1] / fy
+    A[:, 2] = -R[:, 0] * cx / fx + R[:, 1] * cy / fy - R[:, 2]
+    A[:, 3] = R[:, 3]
+    return A
+
+
 @njit(**JIT)
-def _quad(cw, i, j, M, k0, k1, near, P):
+def _quad(cw, i, j, A, k1, near, P):
     """Project quad (i, j)'s corners into P (4, 3); False when a corner is unusable."""
     for k in range(4):
         wk = cw[i, j, k]
@@ -207,17 +241,20 @@ def _quad(cw, i, j, M, k0, k1, near, P):
             return False
         col = j + (1.0 if k % 2 == 1 else 0.0)
         row = i + (1.0 if k >= 2 else 0.0)
-        a, b, c, ok = _xfer(col, row, wk, M, k0, k1, near)
-        if not ok:
+        X = A[0, 0] * col + A[0, 1] * row + A[0, 2] + A[0, 3] * wk
+        Y = A[1, 0] * col + A[1, 1] * row + A[1, 2] + A[1, 3] * wk
+        d = -(A[2, 0] * col + A[2, 1] * row + A[2, 2] + A[2, 3] * wk)
+        if d <= 0.0 or d <= near * wk:
             return False
-        P[k, 0] = a
-        P[k, 1] = b
-        P[k, 2] = c
+        r = 1.0 / d
+        P[k, 0] = k1[2] + k1[0] * X * r
+        P[k, 1] = k1[3] - k1[1] * Y * r
+        P[k, 2] = wk * r
     return True
 
 
 @njit(**PJIT)
-def _quad_rows(cw, keep, M, k0, k1, near, height, width, max_extent):
+def _quad_rows(cw, keep, A, k1, near, height, width, max_extent):
     """Pixel-row range each quad covers in camera 1 (r0 > r1 when it draws nothing)."""
     h0, w0 = keep.shape
     r0 = np.zeros((h0, w0), np.int32)
@@ -225,7 +262,7 @@ def _quad_rows(cw, keep, M, k0, k1, near, height, width, max_extent):
     for i in prange(h0):
         P = np.zeros((4, 3), np.float64)
         for j in range(w0):
-            if not keep[i, j] or not _quad(cw, i, j, M, k0, k1, near, P):
+            if not keep[i, j] or not _quad(cw, i, j, A, k1, near, P):
                 continue
             xmin = min(min(P[0, 0], P[1, 0]), min(P[2, 0], P[3, 0]))
             xmax = max(max(P[0, 0], P[1, 0]), max(P[2, 0], P[3, 0]))
@@ -264,7 +301,7 @@ def _bin_rows(r0, r1, nb, band):
 
 
 @njit(**PJIT)
-def _splat_bands(cw, M, k0, k1, near, height, width, band, start, lst, zbuf, src):
+def _splat_bands(cw, A, k1, near, height, width, band, start, lst, zbuf, src):
     h0, w0 = cw.shape[0], cw.shape[1]
     nb = start.shape[0] - 1
     for bi in prange(nb):
@@ -275,7 +312,7 @@ def _splat_bands(cw, M, k0, k1, near, height, width, band, start, lst, zbuf, src
             s = lst[t]
             i = s // w0
             j = s - i * w0
-            _quad(cw, i, j, M, k0, k1, near, P)
+            _quad(cw, i, j, A, k1, near, P)
             xmin = min(min(P[0, 0], P[1, 0]), min(P[2, 0], P[3, 0]))
             xmax = max(max(P[0, 0], P[1, 0]), max(P[2, 0], P[3, 0]))
             ymin = min(min(P[0, 1], P[1, 1]), min(P[2, 1], P[3, 1]))
@@ -324,41 +361,45 @@ def splat_grid(cw, keep, M, k0, k1, near, height, width, max_extent):
     M = np.ascontiguousarray(M, np.float64)
     k0 = np.ascontiguousarray(k0, np.float64)
     k1 = np.ascontiguousarray(k1, np.float64)
-    r0, r1 = _quad_rows(cw, keep, M, k0, k1, float(near), int(height), int(width), float(max_extent))
+    A = affine_transfer(M, k0)
+    r0, r1 = _quad_rows(cw, keep, A, k1, float(near), int(height), int(width), float(max_extent))
     nb = (int(height) + SPLAT_BAND - 1) // SPLAT_BAND
     start, lst = _bin_rows(r0, r1, nb, SPLAT_BAND)
     zbuf = np.full((int(height), int(width)), -1.0, np.float64)
     src = np.full((int(height), int(width)), -1, np.int64)
-    _splat_bands(cw, M, k0, k1, float(near), int(height), int(width), SPLAT_BAND, start, lst, zbuf, src)
+    _splat_bands(cw, A, k1, float(near), int(height), int(width), SPLAT_BAND, start, lst, zbuf, src)
     return zbuf, src
 
 
 @njit(**PJIT)
-def stale_points(w0, on_proxy, M, k0, k1, near, wp1, tol):
-    """Frame-0 pixels that lay on the proxy then but float in front of it now (the object
-    under them moved): their centre lands in camera 1 nearer than every proxy pixel of
-    the 3×3 window around it by more than ``tol``. (H0, W0) bool."""
-    h0, wd0 = w0.shape
-    h, wd = wp1.shape
-    out = np.zeros((h0, wd0), np.bool_)
-    for i in prange(h0):
-        for j in range(wd0):
-            if not on_proxy[i, j] or not np.isfinite(w0[i, j]):
+def _stale(wg, src, wp1, on_proxy, tol, w0, out):
+    h, wd = wg.shape
+    for i in prange(h):
+        for j in range(wd):
+            s = src[i, j]
+            if s < 0:
                 continue
-            u, v, q, ok = _xfer(j + 0.5, i + 0.5, w0[i, j], M, k0, k1, near)
-            if not ok:
-                continue
-            c = int(np.floor(u))
-            r = int(np.floor(v))
-            if c < 0 or r < 0 or c >= wd or r >= h:
+            a = s // w0
+            b = s - a * w0
+            if not on_proxy[a, b]:
                 continue
             m = 0.0
-            for a in range(max(0, r - 1), min(h, r + 2)):
-                for b in range(max(0, c - 1), min(wd, c + 2)):
-                    if wp1[a, b] > m:
-                        m = wp1[a, b]
-            out[i, j] = q > m * (1.0 + tol) and q > 0.0
-    return out
+            for r in range(max(0, i - 1), min(h, i + 2)):
+                for c in range(max(0, j - 1), min(wd, j + 2)):
+                    if wp1[r, c] > m:
+                        m = wp1[r, c]
+            if wg[i, j] > m * (1.0 + tol) and wg[i, j] > 0.0:
+                out[a, b] = True
+
+
+def stale_winners(wg, src, wp1, on_proxy, keep, tol):
+    """Frame-0 pixels drawn in camera 1 (``splat_grid``'s wg, src) that lay on the proxy at
+    frame 0 (``on_proxy``) but now float in front of every proxy pixel of the 3×3 window
+    around where they are drawn, by more than ``tol`` (the object under them moved).
+    In a static scene there are none. (H0, W0) bool."""
+    out = np.zeros(on_proxy.shape, np.bool_)
+    _stale(wg, src, wp1, np.ascontiguousarray(on_proxy, np.bool_), float(tol), on_proxy.shape[1], out)
+    return out & keep
 
 
 @njit(**PJIT)
@@ -528,3 +569,21 @@ def fill_from_neighbours(need, have, lab, sx, sy, patch, res, dist, radius, scal
                 if done:
                     break
     return osx, osy, opatch, ores, odist, filled
+
+
+@njit(**PJIT)
+def unproject(Z, C, k):
+    """World position (H, W, 3) float32 of each pixel centre at camera depth ``Z`` (0 where
+    Z is not finite); C : camera-to-world 4×4, k : intrinsics (fx, fy, cx, cy)."""
+    h, wd = Z.shape
+    out = np.zeros((h, wd, 3), np.float32)
+    for i in prange(h):
+        for j in range(wd):
+            z = Z[i, j]
+            if not np.isfinite(z):
+                continue
+            x = (j + 0.5 - k[2]) / k[0] * z
+            y = -(i + 0.5 - k[3]) / k[1] * z
+            for m in range(3):
+                out[i, j, m] = C[m, 0] * x + C[m, 1] * y - C[m, 2] * z + C[m, 3]
+    return out

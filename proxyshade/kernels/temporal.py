@@ -141,3 +141,119 @@ def uniform_field(seed, h, w):
         for j in range(w):
             out[i, j] = hash_uniform(seed, i, j)
     return out
+
+
+@njit(**JIT)
+def components4(mask):
+    """4-connected components of ``mask``: (labels (H, W) int64, 0 outside, 1.. in scan
+    order of each component's first pixel; bounding boxes (n, 4) int64 as row0, row1,
+    col0, col1 inclusive)."""
+    h, w = mask.shape
+    lab = np.zeros((h, w), np.int64)
+    boxes = np.zeros((16, 4), np.int64)
+    stack = np.empty(h * w, np.int64)
+    n = 0
+    for i0 in range(h):
+        for j0 in range(w):
+            if not mask[i0, j0] or lab[i0, j0] != 0:
+                continue
+            n += 1
+            if n > boxes.shape[0]:
+                nb = np.zeros((boxes.shape[0] * 2, 4), np.int64)
+                nb[:boxes.shape[0]] = boxes
+                boxes = nb
+            boxes[n - 1, 0] = i0
+            boxes[n - 1, 1] = i0
+            boxes[n - 1, 2] = j0
+            boxes[n - 1, 3] = j0
+            lab[i0, j0] = n
+            top = 0
+            stack[top] = i0 * w + j0
+            top += 1
+            while top > 0:
+                top -= 1
+                s = stack[top]
+                i = s // w
+                j = s - i * w
+                boxes[n - 1, 0] = min(boxes[n - 1, 0], i)
+                boxes[n - 1, 1] = max(boxes[n - 1, 1], i)
+                boxes[n - 1, 2] = min(boxes[n - 1, 2], j)
+                boxes[n - 1, 3] = max(boxes[n - 1, 3], j)
+                for d in range(4):
+                    a = i + (1 if d == 0 else (-1 if d == 1 else 0))
+                    b = j + (1 if d == 2 else (-1 if d == 3 else 0))
+                    if a >= 0 and b >= 0 and a < h and b < w and mask[a, b] and lab[a, b] == 0:
+                        lab[a, b] = n
+                        stack[top] = a * w + b
+                        top += 1
+    return lab, boxes[:n].copy()
+
+
+def group_boxes(boxes: np.ndarray, shape: tuple[int, int], *, margin: int = 1, slack: int = 4096) -> list[tuple]:
+    """Merge component boxes (``components4``) into solve windows: each box grown by
+    ``margin`` and clipped to ``shape``; two windows merge when they overlap or when their
+    union's area is at most the sum of their areas + ``slack`` (fewer, cheaper solves).
+    Returns [(row0, row1, col0, col1 exclusive ends, [component ids 1..])]."""
+    h, w = shape
+    wins = [[max(0, b[0] - margin), min(h, b[1] + 1 + margin), max(0, b[2] - margin), min(w, b[3] + 1 + margin),
+             [k + 1]] for k, b in enumerate(np.asarray(boxes).tolist())]
+    changed = True
+    while changed and len(wins) > 1:
+        changed = False
+        out: list = []
+        for win in wins:
+            for o in out:
+                r0, r1 = min(o[0], win[0]), max(o[1], win[1])
+                c0, c1 = min(o[2], win[2]), max(o[3], win[3])
+                overlap = o[0] < win[1] and win[0] < o[1] and o[2] < win[3] and win[2] < o[3]
+                area = (o[1] - o[0]) * (o[3] - o[2]) + (win[1] - win[0]) * (win[3] - win[2])
+                if overlap or (r1 - r0) * (c1 - c0) <= area + slack:
+                    o[:4] = [r0, r1, c0, c1]
+                    o[4] = o[4] + win[4]
+                    changed = True
+                    break
+            else:
+                out.append(win)
+        wins = out
+    return [(a, b, c, d, sorted(ids)) for a, b, c, d, ids in wins]
+
+
+def poisson_regions(colors: np.ndarray, patch: np.ndarray, labels: np.ndarray | None, free: np.ndarray, *,
+                    source: np.ndarray | None = None, sx: np.ndarray | None = None, sy: np.ndarray | None = None,
+                    step: float = 1.0, label_dirichlet: bool = True, screen: float = 0.0, tol: float = 1e-5,
+                    max_iter: int = 100, slack: int = 4096) -> tuple[np.ndarray, dict]:
+    """``kernels.poisson.poisson_transfer`` restricted to the ``free`` pixels (Dirichlet
+    ``colors`` everywhere else), solved window by window.
+
+    With every other pixel fixed, each 4-connected component of ``free`` is an
+    independent problem whose only data outside it is its one-pixel ring of fixed
+    neighbours: a window around it (``group_boxes``) gives the same linear system as the
+    whole frame, at the cost of its area. Pixels of other components inside a window are
+    fixed there (they are never 4-neighbours of the component). With ``source``, ``sx``,
+    ``sy`` the seam gradients are the source's (``poisson.seam_gradients``), else zero.
+
+    Returns (u (H, W, 3) float32, info: windows, solved pixels, window pixels, most
+    iterations, largest residual).
+    """
+    from proxyshade.kernels import poisson as kpoisson
+
+    colors = np.ascontiguousarray(colors, np.float32)
+    u = colors.copy()
+    comp, boxes = components4(np.ascontiguousarray(free, np.bool_))
+    info = {"windows": 0, "free": int(free.sum()), "window_pixels": 0, "iterations": 0, "residual": 0.0}
+    for r0, r1, c0, c1, ids in group_boxes(boxes, free.shape, slack=slack):
+        sub = comp[r0:r1, c0:c1]
+        mine = np.isin(sub, ids) if len(ids) > 1 else sub == ids[0]
+        gx = gy = None
+        if source is not None:
+            gx, gy = kpoisson.seam_gradients(source, sx[r0:r1, c0:c1], sy[r0:r1, c0:c1], step)
+        lab = labels[r0:r1, c0:c1] if labels is not None else None
+        out, inf = kpoisson.poisson_transfer(colors[r0:r1, c0:c1], patch[r0:r1, c0:c1], lab, fixed=~mine,
+                                             values=colors[r0:r1, c0:c1], label_dirichlet=label_dirichlet,
+                                             seam_gx=gx, seam_gy=gy, screen=screen, tol=tol, max_iter=max_iter)
+        u[r0:r1, c0:c1][mine] = out[mine]
+        info["windows"] += 1
+        info["window_pixels"] += (r1 - r0) * (c1 - c0)
+        info["iterations"] = max(info["iterations"], int(inf["iterations"]))
+        info["residual"] = max(info["residual"], float(inf["residual"]))
+    return u, info

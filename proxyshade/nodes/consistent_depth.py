@@ -21,6 +21,8 @@ spheres); those pixels keep the guide's decision. Kernels: ``proxyshade.kernels.
 """
 from __future__ import annotations
 
+import weakref
+
 import numpy as np
 
 from proxyshade.graph.node import Input, Node, Param
@@ -30,6 +32,26 @@ from proxyshade.kernels import reproject as kr
 from proxyshade.nodes.patch_init import require
 
 CATEGORY = {"A": 1, "B": 2, "C": 3, "D": 4}
+
+_GRID: list = []  # [(weakrefs to the frame-0 arrays, tolerance, corners)], newest last
+
+
+def frame0_grid(Z0: np.ndarray, lab0: np.ndarray, tol: float) -> tuple[np.ndarray, np.ndarray]:
+    """(inverse depth, grid corners) of the frame-0 plates. The corners depend on the first
+    frame only: within one run every later frame passes the same arrays, so they are kept
+    (by identity of the arrays, two entries) instead of being rebuilt each frame."""
+    for refs, t, w0, cw in _GRID:
+        if t == tol and refs[0]() is Z0 and refs[1]() is lab0:
+            return w0, cw
+    w0 = kr.inverse_depth(Z0)
+    cw = kr.grid_corners(w0, np.ascontiguousarray(lab0, np.uint32), tol)
+    try:
+        refs = (weakref.ref(Z0), weakref.ref(lab0))
+    except TypeError:
+        return w0, cw
+    _GRID.append((refs, tol, w0, cw))
+    del _GRID[:-2]
+    return w0, cw
 
 
 def camera_of(ctx, name: str, *plates) -> CameraInfo:
@@ -64,6 +86,9 @@ class ConsistentDepth(Node):
     max_extent = Param(float, 64.0, min=1.0, doc="skip grid quads larger than this many pixels in frame N")
     stale = Param(bool, True, doc="drop grid pixels that lay on the proxy at frame 0 and float in front of it now "
                                   "(moving proxy objects)")
+    stale_tolerance = Param(float, 0.25, min=0.0,
+                            doc="relative inverse depth by which a grid pixel must be in front of the proxy to be stale "
+                                "(quads at grazing silhouettes are drawn up to ~10% off)")
 
     def compute(self, ctx) -> Plate:
         p = ctx.p
@@ -84,7 +109,7 @@ class ConsistentDepth(Node):
             raise ctx.error(f"the first frame's camera is {cam0.width}x{cam0.height} but the guide "
                             f"{guide.width}x{guide.height}; connect plates of one render")
         tol = p.depth_tolerance
-        w0 = kr.inverse_depth(depth["Z"])
+        w0, cw = frame0_grid(depth["Z"], guide["label.id"], p.cut_tolerance)
         lab0 = np.ascontiguousarray(guide["label.id"], np.uint32)
         rp = ctx.ref_proxy if ctx.ref_proxy is not None else (guide if "Z" in guide and guide is not depth else None)
         if rp is not None:
@@ -99,14 +124,19 @@ class ConsistentDepth(Node):
         k0, k1 = kr.intrinsics(cam0), kr.intrinsics(cam1)
         M = kr.relative_matrix(cam0, cam1)
         wp1 = kr.inverse_depth(proxy["Z"])
-        cw = kr.grid_corners(w0, lab0, p.cut_tolerance)
         keep = np.isfinite(w0)
-        if p.stale:
-            stale = kr.stale_points(w0, on_proxy0, M, k0, k1, cam1.near, wp1, max(tol, 0.05))
-            keep &= ~stale
-            if stale.any():
-                ctx.note(f"{int(stale.sum())} grid pixels dropped: on the proxy at the first frame, in front of it now")
         wg, src = kr.splat_grid(cw, keep, M, k0, k1, cam1.near, cam1.height, cam1.width, p.max_extent)
+        if p.stale:  # grid pixels that lay on the proxy at frame 0 and float in front of it now: drop, redraw
+            dropped = 0
+            for _ in range(3):
+                stale = kr.stale_winners(wg, src, wp1, on_proxy0, keep, p.stale_tolerance)
+                if not stale.any():
+                    break
+                dropped += int(stale.sum())
+                keep &= ~stale
+                wg, src = kr.splat_grid(cw, keep, M, k0, k1, cam1.near, cam1.height, cam1.width, p.max_extent)
+            if dropped:
+                ctx.note(f"{dropped} grid pixels dropped: on the proxy at the first frame, in front of it now")
         covered = src >= 0
         s = np.where(covered, src, 0)
         occl = covered & (wp1 > wg * (1.0 + tol))
@@ -120,14 +150,12 @@ class ConsistentDepth(Node):
         with np.errstate(divide="ignore"):
             zg = np.where(wg > 0, 1.0 / np.where(wg > 0, wg, 1.0), np.inf)
         Z = np.where(grid, zg, proxy["Z"]).astype(np.float32)
-        col, row = cam1.pixel_grid()
-        fin = np.isfinite(Z)
-        P = cam1.unproject(col, row, np.where(fin, Z, 1.0).astype(np.float64))
+        P = kr.unproject(np.where(grid, Z, np.inf).astype(np.float32), np.ascontiguousarray(cam1.camera_to_world), k1)
         ch = {"label.id": label, "Z": Z, "category": cat}
         for k, a in enumerate("XYZ"):
             pp = "P." + a
             base = proxy[pp] if pp in proxy else np.zeros(proxy.shape, np.float32)
-            ch[pp] = np.where(fin & grid, P[..., k], base).astype(np.float32)
+            ch[pp] = np.where(grid & np.isfinite(Z), P[..., k], base).astype(np.float32)
         for c in ("N.X", "N.Y", "N.Z", "object.id"):
             if c in proxy:
                 ch[c] = proxy[c]

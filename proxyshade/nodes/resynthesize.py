@@ -26,6 +26,7 @@ from proxyshade.kernels import correct as kcorrect
 from proxyshade.kernels import features as kf
 from proxyshade.kernels import magnify as kmag
 from proxyshade.kernels import patch as kpatch
+from proxyshade.kernels import temporal as kt
 from proxyshade.kernels.lookup import lookup
 from proxyshade.nodes.magnify import working_labels
 from proxyshade.nodes.patch_init import (check_finite, dense_guide, guide_at_synthesis, require, setup,
@@ -67,6 +68,13 @@ class Resynthesize(Node):
     use_rgb = Param(bool, True, doc="colour neighbourhoods in the correction metric")
     radius = Param(str, "spacing", choices=("spacing", "level"), doc="near-copy rejection radius rule")
     seed = Param(int, 0, doc="seed (combined with the frame number)")
+    solve = Param(bool, True, doc="finish with the restricted Poisson solve (Dirichlet outside the flagged pixels); "
+                                  "false leaves it to a Poisson node with keep")
+    seams = Param(str, "source", choices=("source", "zero"), doc="Poisson: target gradient across patch seams")
+    screen = Param(float, 0.01, min=0.0, doc="Poisson: weight of the data term")
+    label_dirichlet = Param(bool, True, doc="Poisson: keep pixels on label boundaries")
+    tol = Param(float, 1e-5, min=1e-12, max=1.0, doc="Poisson: relative residual at which CG stops")
+    max_iter = Param(int, 100, min=1, doc="Poisson: most CG iterations")
 
     def compute(self, ctx) -> Plate:
         p = ctx.p
@@ -122,6 +130,13 @@ class Resynthesize(Node):
         patch = np.where(flagged, new_patch + base, img["patch.id"]).astype(np.uint32)
         rgb_new = lookup(source.rgb(), sx, sy)
         rgb = np.where(flagged[..., None], rgb_new, img.rgb()).astype(np.float32)
+        if p.solve:
+            src_rgb = source.rgb() if p.seams == "source" else None
+            rgb, pinfo = kt.poisson_regions(rgb, patch, img["label.id"], flagged, source=src_rgb, sx=sx, sy=sy,
+                                            step=scale, label_dirichlet=p.label_dirichlet, screen=p.screen,
+                                            tol=p.tol, max_iter=p.max_iter)
+            ctx.note(f"Poisson on {pinfo['windows']} windows ({pinfo['window_pixels']} px), at most "
+                     f"{pinfo['iterations']} iterations, residual {pinfo['residual']:.1e}")
         info = {"pixels": nflag, "share": nflag / flagged.size, "synthesis_pixels": int(active.sum()),
                 "flood_filled": int(fresh.sum()), "patches": int(npatch), "repaired": int(rep["wrong"])}
         ctx.note(f"resynthesized {100 * info['share']:.2f}% ({nflag} px; {info['synthesis_pixels']} synthesis px, "

@@ -95,3 +95,67 @@ def test_isolated_single_flags_removed_regions_kept():
     assert not g[2, 2] and g[10:14, 10:14].all()
     d = T.dilate(g, 2)
     assert d[8:16, 8:16].all() and d.sum() == 64
+
+
+# -- additions for the temporal nodes (issue 6) --------------------------------
+def test_uniform_field_is_the_noise_hash():
+    f = T.uniform_field(9, 5, 7)
+    assert f.dtype == np.float32
+    assert all(f[i, j] == np.float32(T.hash_uniform(9, i, j)) for i in range(5) for j in range(7))
+
+
+def test_components4_match_scipy():
+    from scipy import ndimage
+
+    rng = np.random.default_rng(11)
+    mask = rng.random((40, 50)) > 0.55
+    lab, boxes = T.components4(mask)
+    ref, n = ndimage.label(mask)  # 4-connectivity, numbered in scan order too
+    np.testing.assert_array_equal(lab, ref)
+    assert len(boxes) == n
+    for k, sl in enumerate(ndimage.find_objects(ref)):
+        assert tuple(boxes[k]) == (sl[0].start, sl[0].stop - 1, sl[1].start, sl[1].stop - 1)
+
+
+def test_group_boxes_cover_every_component_with_a_margin():
+    mask = np.zeros((60, 80), bool)
+    mask[5:8, 5:9] = True
+    mask[10:12, 6:10] = True  # near the first: merged (cheap)
+    mask[40:55, 60:75] = True
+    mask[0:60, 79] = True  # a border strip: clipped at the image
+    _, boxes = T.components4(mask)
+    groups = T.group_boxes(boxes, mask.shape, slack=64)
+    seen = sorted(k for g in groups for k in g[4])
+    assert seen == [1, 2, 3, 4]
+    for r0, r1, c0, c1, ids in groups:
+        for k in ids:
+            b = boxes[k - 1]
+            assert r0 <= max(0, b[0] - 1) and r1 >= min(60, b[1] + 2) and c0 <= max(0, b[2] - 1) and c1 >= min(80, b[3] + 2)
+    assert len(groups) < 4
+
+
+@pytest.mark.parametrize("screen", [0.0, 0.01])
+def test_poisson_regions_equal_the_whole_frame_solve(screen):
+    from proxyshade.kernels import poisson as P
+
+    rng = np.random.default_rng(12)
+    h, w = 48, 56
+    colors = rng.random((h, w, 3)).astype(np.float32)
+    patch = (np.arange(h)[:, None] // 7 * 10 + np.arange(w)[None, :] // 9).astype(np.uint32)
+    labels = np.ones((h, w), np.uint32)
+    labels[:, 30:] = 2
+    free = np.zeros((h, w), bool)
+    free[4:15, 3:20] = True
+    free[30:45, 25:50] = True  # crosses the label border
+    free[20:22, 50:56] = True  # touches the image border
+    src = rng.random((32, 32, 3)).astype(np.float32)
+    sx = np.clip(np.arange(w)[None, :] * 0.5 + 0 * np.arange(h)[:, None], 0, 31).astype(np.float32)
+    sy = np.clip(np.arange(h)[:, None] * 0.5 + 0 * np.arange(w)[None, :], 0, 31).astype(np.float32)
+    gx, gy = P.seam_gradients(src, sx, sy, 0.5)
+    ref, _ = P.poisson_transfer(colors, patch, labels, fixed=~free, values=colors, seam_gx=gx, seam_gy=gy,
+                                screen=screen, tol=1e-7, max_iter=500)
+    got, info = T.poisson_regions(colors, patch, labels, free, source=src, sx=sx, sy=sy, step=0.5, screen=screen,
+                                  tol=1e-7, max_iter=500, slack=0)
+    assert info["windows"] == 3 and info["window_pixels"] < h * w
+    np.testing.assert_array_equal(got[~free], colors[~free])
+    np.testing.assert_allclose(got, ref, atol=2e-4)

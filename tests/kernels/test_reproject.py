@@ -1,0 +1,361 @@
+"""Reprojection kernels against slow references and hand-made camera cases."""
+import numpy as np
+import pytest
+
+from proxyshade.io.usd import CameraInfo
+from proxyshade.kernels import reproject as K
+from proxyshade.kernels.lookup import lookup
+
+
+def cam(width=24, height=20, f=30.0, pos=(0.0, 0.0, 0.0), yaw=0.0, pitch=0.0, cx=None, cy=None):
+    c, s = np.cos(yaw), np.sin(yaw)
+    Ry = np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]])
+    c, s = np.cos(pitch), np.sin(pitch)
+    Rx = np.array([[1, 0, 0], [0, c, -s], [0, s, c]])
+    M = np.eye(4)
+    M[:3, :3] = Ry @ Rx
+    M[:3, 3] = pos
+    return CameraInfo("/cam", 1, width, height, f, f, width / 2 if cx is None else cx, height / 2 if cy is None else cy,
+                      0.1, 1000.0, M)
+
+
+def random_cams(rng):
+    a = cam(pos=rng.normal(size=3) * 0.3, yaw=rng.normal() * 0.1, pitch=rng.normal() * 0.1)
+    b = cam(pos=rng.normal(size=3) * 0.3, yaw=rng.normal() * 0.1, pitch=rng.normal() * 0.1, f=33.0)
+    return a, b
+
+
+# -- transfer ---------------------------------------------------------------
+def test_transfer_matches_camera_project_unproject():
+    rng = np.random.default_rng(0)
+    for _ in range(3):
+        c0, c1 = random_cams(rng)
+        Z = rng.uniform(5, 50, (c0.height, c0.width))
+        Z[0, :5] = np.inf  # sky: a direction
+        col, row = c0.pixel_grid()
+        w = K.inverse_depth(Z)
+        u, v, q, ok = K.transfer(w, K.relative_matrix(c0, c1), K.intrinsics(c0), K.intrinsics(c1), c1.near)
+        Zf = np.where(np.isinf(Z), 1e9, Z)
+        eu, ev, ed = c1.project(c0.unproject(col, row, Zf))
+        assert ok.all()
+        np.testing.assert_allclose(u, eu, atol=1e-5)
+        np.testing.assert_allclose(v, ev, atol=1e-5)
+        np.testing.assert_allclose(q, np.where(np.isinf(Z), 0, 1 / ed), rtol=1e-9, atol=1e-12)
+
+
+def test_transfer_identity_and_behind_camera():
+    c0 = cam()
+    Z = np.full((c0.height, c0.width), 10.0)
+    u, v, q, ok = K.transfer(K.inverse_depth(Z), np.eye(4), K.intrinsics(c0), K.intrinsics(c0), 0.1)
+    col, row = c0.pixel_grid()
+    np.testing.assert_allclose(u, col, atol=1e-12)
+    np.testing.assert_allclose(v, row, atol=1e-12)
+    c1 = cam(yaw=np.pi)  # looking the other way: everything behind
+    _, _, _, ok = K.transfer(K.inverse_depth(Z), K.relative_matrix(c0, c1), K.intrinsics(c0), K.intrinsics(c1), 0.1)
+    assert not ok.any()
+
+
+# -- the grid -----------------------------------------------------------------
+def corners_reference(w, lab, tol):
+    h, wd = w.shape
+
+    def con(i, j, a, b):
+        if not (0 <= a < h and 0 <= b < wd) or not np.isfinite(w[a, b]) or lab[a, b] != lab[i, j]:
+            return False
+        return abs(w[i, j] - w[a, b]) <= tol * max(w[i, j], w[a, b])
+
+    gx = np.zeros((h, wd))
+    gy = np.zeros((h, wd))
+    for i in range(h):
+        for j in range(wd):
+            if not np.isfinite(w[i, j]):
+                continue
+            l, r = con(i, j, i, j - 1), con(i, j, i, j + 1)
+            gx[i, j] = (w[i, j + 1] - w[i, j - 1]) / 2 if l and r else (w[i, j] - w[i, j - 1] if l else (
+                w[i, j + 1] - w[i, j] if r else 0.0))
+            t, b = con(i, j, i - 1, j), con(i, j, i + 1, j)
+            gy[i, j] = (w[i + 1, j] - w[i - 1, j]) / 2 if t and b else (w[i, j] - w[i - 1, j] if t else (
+                w[i + 1, j] - w[i, j] if b else 0.0))
+    out = np.full((h, wd, 4), np.nan)
+    for i in range(h):
+        for j in range(wd):
+            if not np.isfinite(w[i, j]):
+                continue
+            for k, (dy, dx) in enumerate(((-1, -1), (-1, 1), (1, -1), (1, 1))):
+                cy, cx = i + 0.5 + dy / 2, j + 0.5 + dx / 2
+                vals = [w[a, b] + (cx - b - 0.5) * gx[a, b] + (cy - a - 0.5) * gy[a, b]
+                        for a, b in ((i, j), (i, j + dx), (i + dy, j), (i + dy, j + dx))
+                        if (a, b) == (i, j) or con(i, j, a, b)]
+                out[i, j, k] = max(0.0, float(np.mean(vals)))
+    return out
+
+
+def test_grid_corners_match_reference():
+    rng = np.random.default_rng(1)
+    w = rng.uniform(0.1, 0.12, (9, 11))
+    w[2:5, 3:6] = 0.3  # a depth jump
+    w[7, 1] = np.nan
+    lab = np.ones((9, 11), np.uint32)
+    lab[:, 8:] = 2
+    got = K.grid_corners(w, lab, 0.1)
+    np.testing.assert_allclose(got, corners_reference(w, lab, 0.1), rtol=1e-12, equal_nan=True)
+
+
+def test_grid_corners_exact_on_a_plane_and_shared():
+    i, j = np.mgrid[0:8, 0:10].astype(np.float64)
+    w = 0.1 + 0.003 * (j + 0.5) - 0.002 * (i + 0.5)  # inverse depth of a plane is affine on screen
+    got = K.grid_corners(w, np.ones((8, 10), np.uint32), 0.5)
+    for k, (dy, dx) in enumerate(((0, 0), (0, 1), (1, 0), (1, 1))):
+        np.testing.assert_allclose(got[..., k], 0.1 + 0.003 * (j + dx) - 0.002 * (i + dy), atol=1e-14)
+    np.testing.assert_array_equal(got[:, :-1, 1], got[:, 1:, 0])  # neighbours share corners exactly
+    np.testing.assert_array_equal(got[:-1, :, 2], got[1:, :, 0])
+
+
+def splat_reference(cw, keep, M, k0, k1, near, h, w):
+    zb = np.full((h, w), -1.0)
+    src = np.full((h, w), -1, np.int64)
+    h0, w0 = keep.shape
+    for i in range(h0):
+        for j in range(w0):
+            if not keep[i, j]:
+                continue
+            P = []
+            for k in range(4):
+                col, row = j + k % 2, i + k // 2
+                a, b, c, ok = K._xfer(float(col), float(row), cw[i, j, k], M, k0, k1, near)
+                if not ok:
+                    break
+                P.append((a, b, c))
+            if len(P) < 4:
+                continue
+            P = np.array(P)
+            for r in range(h):
+                for c in range(w):
+                    for tri in ((0, 1, 3), (0, 3, 2)):
+                        A, B, C = P[list(tri)]
+                        area = (B[0] - A[0]) * (C[1] - A[1]) - (B[1] - A[1]) * (C[0] - A[0])
+                        if area == 0:
+                            continue
+                        px, py = c + 0.5, r + 0.5
+                        l0 = ((C[0] - B[0]) * (py - B[1]) - (C[1] - B[1]) * (px - B[0])) / area
+                        l1 = ((A[0] - C[0]) * (py - C[1]) - (A[1] - C[1]) * (px - C[0])) / area
+                        l2 = ((B[0] - A[0]) * (py - A[1]) - (B[1] - A[1]) * (px - A[0])) / area
+                        if min(l0, l1, l2) < 0:
+                            continue
+                        q = l0 * A[2] + l1 * B[2] + l2 * C[2]
+                        if q > zb[r, c]:
+                            zb[r, c] = q
+                            src[r, c] = i * w0 + j
+                        break
+    return zb, src
+
+
+def test_splat_matches_reference():
+    rng = np.random.default_rng(2)
+    c0, c1 = random_cams(rng)
+    c0 = cam(12, 10, 15.0)
+    c1 = cam(13, 11, 16.0, pos=(0.4, 0.1, -0.3), yaw=0.05)
+    Z = rng.uniform(8, 12, (10, 12))
+    Z[3:6, 4:8] = 4.0
+    lab = np.ones((10, 12), np.uint32)
+    w = K.inverse_depth(Z)
+    cw = K.grid_corners(w, lab, 0.1)
+    keep = rng.random((10, 12)) > 0.1
+    args = (cw, keep, K.relative_matrix(c0, c1), K.intrinsics(c0), K.intrinsics(c1), 0.1, 11, 13)
+    zb, src = K.splat_grid(*args, 64.0)
+    rz, rs = splat_reference(*args)
+    np.testing.assert_array_equal(src, rs)
+    np.testing.assert_allclose(zb, rz, rtol=1e-12)
+
+
+def test_splat_identity_covers_each_pixel_with_itself_and_translation_shifts():
+    c0 = cam(16, 12, 20.0)
+    Z = np.full((12, 16), 10.0)
+    w = K.inverse_depth(Z)
+    cw = K.grid_corners(w, np.ones((12, 16), np.uint32), 0.1)
+    keep = np.ones((12, 16), bool)
+    zb, src = K.splat_grid(cw, keep, np.eye(4), K.intrinsics(c0), K.intrinsics(c0), 0.1, 12, 16, 64.0)
+    np.testing.assert_array_equal(src, np.arange(12 * 16).reshape(12, 16))
+    np.testing.assert_allclose(zb, 0.1)
+    c1 = cam(16, 12, 20.0, pos=(1.0, 0.0, 0.0))  # 1 unit at depth 10 with f = 20: 2 pixels
+    zb, src = K.splat_grid(cw, keep, K.relative_matrix(c0, c1), K.intrinsics(c0), K.intrinsics(c1), 0.1, 12, 16, 64.)
+    np.testing.assert_array_equal(src[:, :14], np.arange(12 * 16).reshape(12, 16)[:, 2:])
+    assert (src[:, 14:] == -1).all()
+
+
+def test_splat_thread_independent():
+    import numba
+
+    rng = np.random.default_rng(5)
+    c0 = cam(40, 36, 40.0)
+    c1 = cam(40, 36, 42.0, pos=(0.5, 0.2, 0.3), yaw=0.04)
+    Z = rng.uniform(5, 6, (36, 40))
+    cw = K.grid_corners(K.inverse_depth(Z), np.ones((36, 40), np.uint32), 0.05)
+    args = (cw, np.ones((36, 40), bool), K.relative_matrix(c0, c1), K.intrinsics(c0), K.intrinsics(c1), 0.1, 36, 40,
+            64.0)
+    a = K.splat_grid(*args)
+    n = numba.get_num_threads()
+    numba.set_num_threads(1)
+    try:
+        b = K.splat_grid(*args)
+    finally:
+        numba.set_num_threads(n)
+    np.testing.assert_array_equal(a[0], b[0])
+    np.testing.assert_array_equal(a[1], b[1])
+
+
+def test_stale_winners():
+    # frame-0 pixel 0 lay on the proxy and is drawn at (0, 0), in front of the proxy there; a proxy pixel
+    # as near in its 3x3 window (a silhouette one pixel off) keeps it
+    on = np.array([[True, True]])
+    wg = np.array([[0.5, 0.1, 0.1]])
+    src = np.array([[0, -1, 1]])
+    wp1 = np.array([[0.1, 0.5, 0.1]])
+    got = K.stale_winners(wg, src, wp1, on, np.ones((1, 2), bool), 0.25)
+    assert not got.any()
+    wp1 = np.array([[0.1, 0.1, 0.1]])
+    wg = np.array([[0.5, 0.1, 0.1]])
+    src = np.array([[0, -1, 1]])
+    got = K.stale_winners(wg, src, wp1, on, np.ones((1, 2), bool), 0.25)
+    np.testing.assert_array_equal(got, [[True, False]])
+    got = K.stale_winners(wg, src, wp1, np.array([[False, True]]), np.ones((1, 2), bool), 0.25)
+    assert not got.any()  # off the proxy at frame 0 (an extension of the guide): kept
+
+
+# -- gathering the previous frame ----------------------------------------------
+def gather_reference(u, v, q, ok, lab, pw, plab, ppatch, psx, psy, pres, pd, tol):
+    h, w = u.shape
+    hp, wp = pw.shape
+    out = {k: np.zeros((h, w)) for k in ("sx", "sy", "patch", "d")}
+    out["valid"] = np.zeros((h, w), bool)
+    out["res"] = np.zeros((h, w, 3))
+
+    def same(a, b):
+        return abs(a - b) <= tol * max(a, b)
+
+    for i in range(h):
+        for j in range(w):
+            x, y = u[i, j], v[i, j]
+            if not ok[i, j] or not (0 <= x < wp and 0 <= y < hp):
+                continue
+            rn, cn = int(y), int(x)
+            if plab[rn, cn] != lab[i, j] or not same(q[i, j], pw[rn, cn]):
+                continue
+            out["valid"][i, j] = True
+            out["patch"][i, j] = ppatch[rn, cn]
+            c0, r0 = int(np.floor(x - 0.5)), int(np.floor(y - 0.5))
+            ax, ay = x - 0.5 - c0, y - 0.5 - r0
+            taps = []
+            for dr in (0, 1):
+                for dc in (0, 1):
+                    rr, cc = min(max(r0 + dr, 0), hp - 1), min(max(c0 + dc, 0), wp - 1)
+                    wt = (ay if dr else 1 - ay) * (ax if dc else 1 - ax)
+                    taps.append((rr, cc, wt, plab[rr, cc] == lab[i, j] and same(q[i, j], pw[rr, cc])))
+            good = [t for t in taps if t[3]]
+            if len(good) == 4 and all(ppatch[r, c] == ppatch[rn, cn] for r, c, _, _ in good):
+                out["sx"][i, j] = sum(wt * psx[r, c] for r, c, wt, _ in good)
+                out["sy"][i, j] = sum(wt * psy[r, c] for r, c, wt, _ in good)
+            else:
+                out["sx"][i, j], out["sy"][i, j] = psx[rn, cn], psy[rn, cn]
+            W = sum(t[2] for t in good)
+            if W > 0:
+                out["res"][i, j] = sum(wt * pres[r, c] for r, c, wt, _ in good) / W
+                out["d"][i, j] = sum(wt * pd[r, c] for r, c, wt, _ in good) / W
+            else:
+                out["res"][i, j], out["d"][i, j] = pres[rn, cn], pd[rn, cn]
+    return out
+
+
+def test_gather_prev_matches_reference():
+    rng = np.random.default_rng(4)
+    h, w = 9, 10
+    u = rng.uniform(-1, w + 1, (h, w))
+    v = rng.uniform(-1, h + 1, (h, w))
+    q = rng.choice([0.1, 0.2], (h, w))
+    ok = rng.random((h, w)) > 0.1
+    lab = rng.integers(1, 3, (h, w)).astype(np.uint32)
+    pw = rng.choice([0.1, 0.2, 0.101], (h, w))
+    plab = rng.integers(1, 3, (h, w)).astype(np.uint32)
+    ppatch = rng.integers(1, 3, (h, w)).astype(np.uint32)
+    psx, psy = (rng.random((h, w)).astype(np.float32) * 50 for _ in range(2))
+    pres = rng.random((h, w, 3)).astype(np.float32)
+    pd = rng.random((h, w)).astype(np.float32)
+    got = K.gather_prev(u, v, q, ok, lab, pw, plab, ppatch, psx, psy, pres, pd, 0.02)
+    ref = gather_reference(u, v, q, ok, lab, pw, plab, ppatch, psx, psy, pres, pd, 0.02)
+    valid, sx, sy, patch, res, d = got
+    assert valid.any() and not valid.all()
+    np.testing.assert_array_equal(valid, ref["valid"])
+    np.testing.assert_allclose(sx, ref["sx"], rtol=1e-5)
+    np.testing.assert_allclose(sy, ref["sy"], rtol=1e-5)
+    np.testing.assert_array_equal(patch, ref["patch"])
+    np.testing.assert_allclose(res, ref["res"], rtol=1e-5, atol=1e-6)
+    np.testing.assert_allclose(d, ref["d"], rtol=1e-5, atol=1e-6)
+
+
+def test_gather_integer_shift_copies_exactly():
+    h, w = 8, 12
+    i, j = np.mgrid[0:h, 0:w].astype(np.float64)
+    u, v = j + 0.5 + 3, i + 0.5  # every pixel lands on the centre of the pixel 3 to the right
+    ones = np.ones((h, w), bool)
+    lab = np.ones((h, w), np.uint32)
+    q = np.full((h, w), 0.1)
+    rng = np.random.default_rng(0)
+    psx = (j * 1.0).astype(np.float32)
+    psy = (i * 1.0).astype(np.float32)
+    pres = rng.random((h, w, 3)).astype(np.float32)
+    valid, sx, sy, patch, res, d = K.gather_prev(u, v, q, ones, lab, q, lab, lab, psx, psy, pres,
+                                                 np.zeros((h, w), np.float32), 0.02)
+    np.testing.assert_array_equal(valid, j < w - 3)
+    np.testing.assert_array_equal(sx[:, :w - 3], psx[:, 3:])
+    np.testing.assert_array_equal(res[:, :w - 3], pres[:, 3:])
+
+
+# -- det J and filling ---------------------------------------------------------
+def test_surface_jacobian_matches_plain_jacobian_on_one_surface_and_stops_at_silhouettes():
+    from proxyshade.kernels.temporal import jacobian_det
+
+    rng = np.random.default_rng(6)
+    u, v = rng.random((2, 10, 12)) * 20
+    valid = rng.random((10, 12)) > 0.2
+    w = np.full((10, 12), 0.1)
+    lab = np.ones((10, 12), np.uint32)
+    np.testing.assert_allclose(K.surface_jacobian_det(u, v, w, lab, valid, 0.02), jacobian_det(u, v, valid))
+    # a silhouette: the right half is a nearer surface; differences never cross it
+    w[:, 6:] = 0.2
+    valid[:] = True
+    got = K.surface_jacobian_det(u, v, w, lab, valid, 0.02)
+    left = jacobian_det(u[:, :6].copy(), v[:, :6].copy(), valid[:, :6].copy())
+    np.testing.assert_allclose(got[:, :6], left)
+
+
+def test_fill_from_neighbours_continues_the_patch():
+    h, w = 7, 9
+    need = np.zeros((h, w), bool)
+    need[3, 4] = True
+    have = ~need
+    have[3, 3] = False  # the nearest in scan order of ring 1 is (2, 3)
+    lab = np.ones((h, w), np.uint32)
+    i, j = np.mgrid[0:h, 0:w].astype(np.float32)
+    sx, sy = j * 2 + 5, i * 2 + 1  # scale 2
+    patch = np.arange(h * w, dtype=np.uint32).reshape(h, w)
+    res = np.zeros((h, w, 3), np.float32)
+    d = np.zeros((h, w), np.float32)
+    osx, osy, op, _, _, filled = K.fill_from_neighbours(need, have, lab, sx, sy, patch, res, d, 2, 2.0)
+    assert filled[3, 4] and filled.sum() == 1
+    assert (osx[3, 4], osy[3, 4]) == (sx[3, 4], sy[3, 4])  # a translation continued exactly
+    assert op[3, 4] == patch[2, 3]
+    lab[:, :] = 2
+    lab[3, 4] = 1  # no neighbour of its label: not filled
+    *_, filled = K.fill_from_neighbours(need, have, lab, sx, sy, patch, res, d, 2, 2.0)
+    assert not filled.any()
+
+
+def test_unproject_inverts_transfer_geometry():
+    c0 = cam(pos=(1.0, 2.0, 3.0), yaw=0.3, pitch=-0.2)
+    Z = np.random.default_rng(7).uniform(2, 9, (c0.height, c0.width)).astype(np.float32)
+    Z[0, 0] = np.inf
+    got = K.unproject(Z, np.ascontiguousarray(c0.camera_to_world), K.intrinsics(c0))
+    col, row = c0.pixel_grid()
+    ref = c0.unproject(col, row, np.where(np.isinf(Z), 1.0, Z).astype(np.float64))
+    np.testing.assert_allclose(got[1:], ref[1:], rtol=1e-5, atol=1e-5)
+    assert (got[0, 0] == 0).all()
