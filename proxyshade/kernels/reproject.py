@@ -372,7 +372,7 @@ def splat_grid(cw, keep, M, k0, k1, near, height, width, max_extent):
 
 
 @njit(**PJIT)
-def _stale(wg, src, wp1, on_proxy, tol, w0, out):
+def _stale(wg, src, wp1, on_proxy, tol, w0, radius, out):
     h, wd = wg.shape
     for i in prange(h):
         for j in range(wd):
@@ -384,21 +384,22 @@ def _stale(wg, src, wp1, on_proxy, tol, w0, out):
             if not on_proxy[a, b]:
                 continue
             m = 0.0
-            for r in range(max(0, i - 1), min(h, i + 2)):
-                for c in range(max(0, j - 1), min(wd, j + 2)):
+            for r in range(max(0, i - radius), min(h, i + radius + 1)):
+                for c in range(max(0, j - radius), min(wd, j + radius + 1)):
                     if wp1[r, c] > m:
                         m = wp1[r, c]
             if wg[i, j] > m * (1.0 + tol) and wg[i, j] > 0.0:
                 out[a, b] = True
 
 
-def stale_winners(wg, src, wp1, on_proxy, keep, tol):
+def stale_winners(wg, src, wp1, on_proxy, keep, tol, radius=0):
     """Frame-0 pixels drawn in camera 1 (``splat_grid``'s wg, src) that lay on the proxy at
-    frame 0 (``on_proxy``) but now float in front of every proxy pixel of the 3×3 window
-    around where they are drawn, by more than ``tol`` (the object under them moved).
-    In a static scene there are none. (H0, W0) bool."""
+    frame 0 (``on_proxy``) but now float in front of every proxy pixel of the
+    (2·radius+1)² window around where they are drawn, by more than ``tol`` (the object
+    under them moved). In a static scene there are none but for quads drawn a little past
+    a silhouette (radius 1 tolerates those). (H0, W0) bool."""
     out = np.zeros(on_proxy.shape, np.bool_)
-    _stale(wg, src, wp1, np.ascontiguousarray(on_proxy, np.bool_), float(tol), on_proxy.shape[1], out)
+    _stale(wg, src, wp1, np.ascontiguousarray(on_proxy, np.bool_), float(tol), on_proxy.shape[1], int(radius), out)
     return out & keep
 
 

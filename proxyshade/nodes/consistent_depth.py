@@ -84,8 +84,8 @@ class ConsistentDepth(Node):
     cut_tolerance = Param(float, 0.1, min=0.0, max=10.0,
                           doc="cut the grid between neighbours whose inverse depths differ by more (relative)")
     max_extent = Param(float, 64.0, min=1.0, doc="skip grid quads larger than this many pixels in frame N")
-    stale = Param(bool, True, doc="drop grid pixels that lay on the proxy at frame 0 and float in front of it now "
-                                  "(moving proxy objects)")
+    stale = Param(bool, True, doc="leave to the proxy the pixels where the grid drawn lay on the proxy at frame 0 "
+                                  "and floats in front of it now (moving proxy objects)")
     stale_tolerance = Param(float, 0.25, min=0.0,
                             doc="relative inverse depth by which a grid pixel must be in front of the proxy to be stale "
                                 "(quads at grazing silhouettes are drawn up to ~10% off)")
@@ -126,18 +126,14 @@ class ConsistentDepth(Node):
         wp1 = kr.inverse_depth(proxy["Z"])
         keep = np.isfinite(w0)
         wg, src = kr.splat_grid(cw, keep, M, k0, k1, cam1.near, cam1.height, cam1.width, p.max_extent)
-        if p.stale:  # grid pixels that lay on the proxy at frame 0 and float in front of it now: drop, redraw
-            dropped = 0
-            for _ in range(3):
-                stale = kr.stale_winners(wg, src, wp1, on_proxy0, keep, p.stale_tolerance)
-                if not stale.any():
-                    break
-                dropped += int(stale.sum())
-                keep &= ~stale
-                wg, src = kr.splat_grid(cw, keep, M, k0, k1, cam1.near, cam1.height, cam1.width, p.max_extent)
-            if dropped:
-                ctx.note(f"{dropped} grid pixels dropped: on the proxy at the first frame, in front of it now")
         covered = src >= 0
+        if p.stale:  # grid pixels that lay on the proxy at frame 0 and float in front of it now: not covered
+            stale = kr.stale_winners(wg, src, wp1, on_proxy0, keep, p.stale_tolerance)
+            if stale.any():
+                gone = covered & stale.ravel()[np.where(covered, src, 0)]
+                covered &= ~gone
+                ctx.note(f"{int(gone.sum())} pixels of stale grid (on the proxy at the first frame, in front of it "
+                         "now: a moving object) left to the proxy")
         s = np.where(covered, src, 0)
         occl = covered & (wp1 > wg * (1.0 + tol))
         prev = occluded0.ravel()[s]

@@ -21,7 +21,8 @@ bilinearly (the paper's literal reading).
 
 Flags (uint32 ``flag``): 0 kept, 1 disoccluded (no previous pixel of this label on this
 surface: outside the previous image, depth test failed, label changed), 2 newly occluded
-(category C of ConsistentDepth whose previous pixel showed something else), 3 distorted
+(category C of ConsistentDepth whose previous pixel had another label: the object now in
+front hides what was seen there), 3 distorted
 (accumulated D over the threshold). Isolated flags (fewer than ``min_neighbours`` other
 flagged pixels in the 5×5 window) are dropped, the rest dilated by ``dilate`` pixels
 (dilated pixels take the reason of a flag they grew from, in the order 2, 1, 3). When more
@@ -50,6 +51,22 @@ STATE = ("R", "G", "B", "source.x", "source.y", "patch.id", "label.id")
 def frame_seed(seed: int, frame: int) -> int:
     """The noise seed of one frame (non-negative, differs frame to frame)."""
     return (int(seed) * 1_000_003 + int(frame) * 7919 + 17) % (1 << 62)
+
+
+def newly_occluded(cat, u, v, ok, lab, prev_lab) -> np.ndarray:
+    """Category-C pixels (ConsistentDepth: the proxy now hides what the first frame saw)
+    that land on a pixel of another label in the previous frame: what was visible there
+    is now occluded by an object."""
+    out = (cat == CATEGORY_C) & ok
+    ii, jj = np.nonzero(out)
+    hp, wp = prev_lab.shape
+    c = np.floor(u[ii, jj]).astype(np.int64)
+    r = np.floor(v[ii, jj]).astype(np.int64)
+    inside = (c >= 0) & (r >= 0) & (c < wp) & (r < hp)
+    other = np.ones(len(ii), bool)
+    other[inside] = prev_lab[r[inside], c[inside]] != lab[ii[inside], jj[inside]]
+    out[ii, jj] = other
+    return out
 
 
 def start_distortion(h: int, w: int, amount: float, seed: int, frame: int) -> np.ndarray:
@@ -157,7 +174,7 @@ class Reproject(Node):
         raw = np.zeros((H, W), np.uint32)
         raw[distorted] = FLAG["distorted"]
         raw[~valid] = FLAG["disoccluded"]
-        raw[~valid & (cat == CATEGORY_C)] = FLAG["newly_occluded"]
+        raw[newly_occluded(cat, u, v, ok, lab, prev["label.id"])] = FLAG["newly_occluded"]
         flag = clean_flags(raw, radius=p.isolated_radius, min_neighbours=p.min_neighbours, dilate=p.dilate)
         # invalid pixels whose flag was dropped as isolated continue a neighbour's patch
         need = ~valid & (flag == 0)

@@ -59,3 +59,87 @@ def run_move(scene: str, frames, size: int = 128, reproject: dict | None = None,
         out.append({"frame": fr, "proxy": pN, "cd": cd, "reproject": rp, "resynth": rs, "final": fin})
         prev = fin
     return out
+
+
+# -- an analytic scene: a wall (label 1) at z = -wall, a sphere (label 2), sky (label 3) ---
+LABELS = [{"name": "wall", "id": 1, "color": [120, 120, 120]}, {"name": "ball", "id": 2, "color": [200, 60, 60]},
+          {"name": "sky", "id": 3, "color": [90, 140, 230]}]
+
+
+def camera(size=64, f=40.0, pos=(0.0, 0.0, 0.0), frame=1, yaw=0.0):
+    from proxyshade.io.usd import CameraInfo
+
+    M = np.eye(4)
+    c, s = np.cos(yaw), np.sin(yaw)
+    M[:3, :3] = [[c, 0, s], [0, 1, 0], [-s, 0, c]]
+    M[:3, 3] = pos
+    return CameraInfo("/cam", frame, size, size, f, f, size / 2, size / 2, 0.1, 1000.0, M)
+
+
+def render(cam, sphere=(0.0, 0.0, -10.0), radius=2.0, wall=20.0, wall_half=None) -> Plate:
+    """A ProxyRender-like plate of the analytic scene through ``cam`` (CameraInfo)."""
+    col, row = cam.pixel_grid()
+    d_cam = np.stack([(col - cam.cx) / cam.fx, -(row - cam.cy) / cam.fy, -np.ones_like(col)], -1)
+    R = cam.camera_to_world[:3, :3]
+    o = cam.camera_to_world[:3, 3]
+    d = d_cam @ R.T
+    Z = np.full(col.shape, np.inf)
+    lab = np.full(col.shape, 3, np.uint32)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = (-wall - o[2]) / d[..., 2]
+    P = o + t[..., None] * d
+    hit = t > 0
+    if wall_half is not None:
+        hit &= (np.abs(P[..., 0]) <= wall_half) & (np.abs(P[..., 1]) <= wall_half)
+    Z[hit] = t[hit]  # d has camera-space z = -1: t is the depth
+    lab[hit] = 1
+    if sphere is not None:
+        oc = o - np.asarray(sphere)
+        a = (d * d).sum(-1)
+        b = 2 * (d * oc).sum(-1)
+        c = (oc * oc).sum() - radius * radius
+        disc = b * b - 4 * a * c
+        ts = (-b - np.sqrt(np.maximum(disc, 0))) / (2 * a)
+        on = (disc > 0) & (ts > 0) & (ts < Z)
+        Z[on] = ts[on]
+        lab[on] = 2
+    fin = np.isfinite(Z)
+    P = o + np.where(fin, Z, 0)[..., None] * d
+    ch = {"label.id": lab, "Z": Z.astype(np.float32), "object.id": lab.copy()}
+    for k, a in enumerate("XYZ"):
+        ch[f"P.{a}"] = np.where(fin, P[..., k], 0).astype(np.float32)
+    return Plate(ch, {"labels": LABELS, "camera": cam.to_meta()})
+
+
+@functools.lru_cache(maxsize=None)
+def toy_source(size: int = 96) -> Plate:
+    """A source photo for the analytic scene: three label bands with smooth random texture."""
+    rng = np.random.default_rng(5)
+    lab = np.ones((size, size), np.uint32)
+    lab[:, size // 3:] = 2
+    lab[:, 2 * size // 3:] = 3
+    noise = rng.random((size // 4 + 1, size // 4 + 1, 3)).astype(np.float32)
+    tex = np.kron(noise, np.ones((4, 4, 1), np.float32))[:size, :size]
+    tex = 0.2 + 0.6 * tex + 0.1 * lab[..., None]
+    return Plate({"R": tex[..., 0].copy(), "G": tex[..., 1].copy(), "B": tex[..., 2].copy(), "label.id": lab},
+                 {"labels": LABELS, "source": {}})
+
+
+def state_plate(proxy_plate: Plate, seed: int = 0, scale: float = 1.0) -> Plate:
+    """A 'previous final frame' over a proxy plate: identity map into the toy source
+    shifted per label, random colours, one patch per label."""
+    from proxyshade.kernels.lookup import lookup
+
+    H, W = proxy_plate.shape
+    i, j = np.mgrid[0:H, 0:W].astype(np.float32)
+    lab = proxy_plate["label.id"]
+    sx = (j % 30 + 32 * (lab.astype(np.float32) - 1)).astype(np.float32)
+    sy = (i % 90).astype(np.float32)
+    rgb = lookup(toy_source().rgb(), sx, sy)
+    ch = {"R": rgb[..., 0].copy(), "G": rgb[..., 1].copy(), "B": rgb[..., 2].copy(), "source.x": sx, "source.y": sy,
+          "patch.id": (lab * 100 + (j // 30).astype(np.uint32)).astype(np.uint32), "label.id": lab,
+          "Z": proxy_plate["Z"]}
+    meta = dict(proxy_plate.meta)
+    meta["synthesis"] = {"factor": 4, "scale": scale, "exemplar_factor": 4.0 * scale}
+    meta["source"] = {}
+    return Plate(ch, meta)
