@@ -1,0 +1,145 @@
+"""Reproject on hand-made camera moves over the analytic wall/ball scene."""
+import numpy as np
+import pytest
+
+from proxyshade.errors import NodeInputError
+from proxyshade.graph.plate import Plate
+from proxyshade.graph.testing import run_node
+from proxyshade.kernels.lookup import lookup
+from proxyshade.nodes.reproject import FLAG, clean_flags
+from tests.nodes._temporal import camera, render, state_plate, toy_source
+
+EXACT = {"noise": 0.0, "reset_spread": 0.0}
+
+
+def step(proxy_n, proxy_0, prev, frame=2, **params):
+    cd = run_node("ConsistentDepth", {}, {"proxy": proxy_n, "guide": proxy_0, "ref_proxy": proxy_0}, frame=frame)
+    return run_node("Reproject", params, {"depth": cd, "prev": prev, "source": toy_source()}, frame=frame)
+
+
+def with_distortion(plate: Plate, d: np.ndarray) -> Plate:
+    return plate.with_channels({"distortion": d.astype(np.float32), "flag": np.zeros(plate.shape, np.uint32)})
+
+
+@pytest.mark.parametrize("colour", ["map", "bilinear"])
+def test_translation_over_a_plane_copies_pixels_and_has_no_distortion(colour):
+    # a wall facing the camera, the camera sliding along it: 40 px focal * 0.5 / 20 = exactly 1 px per frame
+    cams = [camera(pos=(0.5 * k, 0, 0), frame=k + 1) for k in range(5)]
+    renders = [render(c, sphere=None) for c in cams]
+    prev = with_distortion(state_plate(renders[0]), np.zeros((64, 64)))
+    first = prev
+    for k in range(1, 5):
+        out = step(renders[k], renders[0], prev, frame=k + 1, colour=colour, threshold=0.05, **EXACT)
+        flag = out["flag"]
+        assert not (flag == FLAG["distorted"]).any()
+        assert np.abs(out["distortion"]).max() < 1e-5  # det J = 1 exactly, D stays 0
+        # the column that entered on the right is disoccluded (dilated by 2), nothing else
+        assert (flag[:, -1] == FLAG["disoccluded"]).all() and not flag[:, :-3].any()
+        # kept pixels: the previous frame one pixel to the right, exactly (map: through the map)
+        keep = flag == 0
+        np.testing.assert_allclose(out.rgb()[:, :-3], prev.rgb()[:, 1:-2], atol=1e-6)
+        np.testing.assert_array_equal(out["source.x"][keep], np.roll(prev["source.x"], -1, axis=1)[keep])
+        np.testing.assert_array_equal(out["patch.id"][keep], np.roll(prev["patch.id"], -1, axis=1)[keep])
+        # what a later stage would resynthesize stands in for it here: shift the first frame
+        prev = out.with_channels({c: np.roll(first[c], -k, axis=1) for c in ("R", "G", "B", "source.x", "source.y",
+                                                                               "patch.id")})
+        prev = prev.with_channels({"flag": np.zeros((64, 64), np.uint32)})
+
+
+def test_zoom_gives_the_expected_determinant():
+    p0 = render(camera(f=40.0), sphere=None)
+    p1 = render(camera(f=44.0, frame=2), sphere=None)
+    prev = with_distortion(state_plate(p0), np.zeros((64, 64)))
+    out = step(p1, p0, prev, threshold=10.0, **EXACT)
+    expected = abs((40.0 / 44.0) ** 2 - 1)  # the previous frame sees the same content 40/44 as large
+    inner = (slice(4, -4), slice(4, -4))
+    np.testing.assert_allclose(out["distortion"][inner], expected, rtol=1e-4)
+    assert not out["flag"].any()
+    # accumulated over frames, reset and flagged past the threshold (cut detection off)
+    out = step(p1, p0, with_distortion(prev, np.full((64, 64), 0.9)), threshold=1.0, cut_threshold=1.0, **EXACT)
+    assert (out["flag"][inner] == FLAG["distorted"]).all() and (out["distortion"][inner] == 0).all()
+
+
+def test_moving_ball_flags_exactly_the_newly_occluded_ring():
+    cam0, cam1 = camera(), camera(frame=2)
+    p0 = render(cam0, sphere=(0.0, 0.0, -10.0))
+    p1 = render(cam1, sphere=(1.5, 0.0, -10.0))
+    prev = with_distortion(state_plate(p0), np.zeros((64, 64)))
+    out = step(p1, p0, prev, dilate=0, min_neighbours=0, **EXACT)
+    ring = (p1["label.id"] == 2) & (p0["label.id"] == 1)
+    np.testing.assert_array_equal(out["flag"] == FLAG["newly_occluded"], ring)
+    # the wall the ball uncovered has no previous pixel: disoccluded
+    uncovered = (p1["label.id"] == 1) & (p0["label.id"] == 2)
+    assert (out["flag"][uncovered] == FLAG["disoccluded"]).all()
+    # the rest of the wall is kept
+    assert not out["flag"][(p1["label.id"] == 1) & (p0["label.id"] == 1)].any()
+
+
+def test_clean_flags_removes_isolated_and_dilates_regions():
+    raw = np.zeros((20, 24), np.uint32)
+    raw[3, 3] = FLAG["distorted"]  # alone in its 5x5 window
+    raw[10:13, 10:13] = FLAG["disoccluded"]  # a region
+    raw[11, 13] = FLAG["newly_occluded"]
+    out = clean_flags(raw, radius=2, min_neighbours=3, dilate=2)
+    assert out[3, 3] == 0 and not out[:6, :6].any()
+    grown = np.zeros((20, 24), bool)
+    for i, j in zip(*np.nonzero(raw[6:, 6:])):  # squares of radius 2 around the kept flags
+        grown[i + 6 - 2:i + 6 + 3, j + 6 - 2:j + 6 + 3] = True
+    np.testing.assert_array_equal(out > 0, grown)
+    assert out[11, 15] == FLAG["newly_occluded"]  # grown from the newly occluded pixel (it wins ties)
+    assert out[8, 8] == FLAG["disoccluded"] and out[11, 11] == FLAG["disoccluded"]
+
+
+def test_first_frame_passes_the_full_synthesis_through():
+    p0 = render(camera(), sphere=(0.0, 0.0, -10.0))
+    first = state_plate(p0)
+    cd = run_node("ConsistentDepth", {}, {"proxy": p0, "guide": p0, "ref_proxy": p0}, frame=1)
+    out = run_node("Reproject", {}, {"depth": cd, "prev": None, "first": first, "source": toy_source()}, frame=1)
+    assert not out["flag"].any()
+    for c in ("R", "G", "B", "source.x", "source.y", "patch.id", "label.id"):
+        np.testing.assert_array_equal(out[c], first[c])
+    assert out["distortion"].max() < 0.5 * 0.5 + 1e-6 and out["category"].dtype == np.uint32
+    out = run_node("Reproject", {}, {"depth": cd, "prev": None, "source": toy_source()}, frame=1)
+    assert (out["flag"] == FLAG["disoccluded"]).all()
+
+
+def test_camera_cut_flags_the_whole_frame():
+    p0 = render(camera(), sphere=None)
+    p1 = render(camera(yaw=1.2, frame=2), sphere=(0.0, 0.0, -10.0))  # another view: nothing carries over
+    prev = state_plate(p0)
+    out = step(p1, p0, prev)
+    assert out.meta["temporal"]["cut"] and (out["flag"] == FLAG["disoccluded"]).all()
+    out = step(p1, p0, prev, cut_threshold=1.0)
+    assert not out.meta["temporal"]["cut"] and out["flag"].any()
+
+
+def test_deterministic_and_seeded_per_frame():
+    p0 = render(camera(), sphere=(0.0, 0.0, -10.0))
+    p1 = render(camera(pos=(0.3, 0.1, 0.2), frame=2), sphere=(0.0, 0.0, -10.0))
+    prev = with_distortion(state_plate(p0), np.zeros((64, 64)))
+    a = step(p1, p0, prev, noise=0.2)
+    b = step(p1, p0, prev, noise=0.2)
+    assert a.equals(b)
+    c = step(p1, p0, prev, frame=3, noise=0.2)
+    assert not np.array_equal(a["distortion"], c["distortion"])
+
+
+def test_map_colour_keeps_the_poisson_correction():
+    p0 = render(camera(), sphere=None)
+    p1 = render(camera(pos=(0.5, 0, 0), frame=2), sphere=None)
+    prev = state_plate(p0)
+    smooth = np.linspace(0, 0.1, 64, dtype=np.float32)[None, :] * np.ones((64, 1), np.float32)
+    prev = prev.with_channels({"R": prev["R"] + smooth})  # a smooth correction added by the Poisson solve
+    out = step(p1, p0, prev, **EXACT)
+    keep = out["flag"] == 0
+    base = lookup(toy_source().rgb(), out["source.x"], out["source.y"])
+    np.testing.assert_allclose((out["R"] - base[..., 0])[keep], np.roll(smooth, -1, axis=1)[keep], atol=1e-6)
+
+
+def test_bad_inputs():
+    p0 = render(camera(), sphere=None)
+    cd = run_node("ConsistentDepth", {}, {"proxy": p0, "guide": p0}, frame=2)
+    with pytest.raises(NodeInputError, match="prev"):
+        run_node("Reproject", {}, {"depth": cd, "prev": Plate({"R": p0["Z"]}), "source": toy_source()}, frame=2)
+    with pytest.raises(NodeInputError, match="source"):
+        run_node("Reproject", {}, {"depth": cd, "prev": state_plate(p0), "source": None}, frame=2)
