@@ -7,8 +7,8 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def main():
-    res = graph_node_medians(ROOT / "graphs" / "demo.yaml", repeat=5)
-    print_graph_medians("demo graph (graphs/demo.yaml)", res)
+    res = graph_node_medians(ROOT / "graphs" / "import_source.yaml", repeat=5)
+    print_graph_medians("source import graph (graphs/import_source.yaml)", res)
 
 
 if __name__ == "__main__":

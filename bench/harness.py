@@ -38,7 +38,7 @@ def table(title: str, rows: list[tuple[str, dict, float | None]]) -> None:
     print(f"peak RSS {peak_rss_mb():.0f} MiB")
 
 
-def graph_node_medians(graph_path, *, repeat: int = 3, frames=None, jobs: int = 1, overrides=()) -> dict:
+def graph_node_medians(graph_path, *, repeat: int = 3, frames=None, jobs: int = 1, overrides=(), variables=None) -> dict:
     """Per-node median compute seconds of a YAML graph (every node forced each repetition,
     after one warm-up run for the JIT), and the median wall time of a cache-hit re-run."""
     import tempfile
@@ -46,7 +46,7 @@ def graph_node_medians(graph_path, *, repeat: int = 3, frames=None, jobs: int = 
     from proxyshade.graph.graph import Graph
 
     with tempfile.TemporaryDirectory() as cache:
-        g = Graph.load(graph_path, cache=cache, overrides=list(overrides))
+        g = Graph.load(graph_path, cache=cache, overrides=list(overrides), variables=variables)
         g.run(frames, jobs=jobs)  # warm-up: JIT compile and fill the cache
         per: dict[str, list[float]] = {}
         walls = []
@@ -61,7 +61,7 @@ def graph_node_medians(graph_path, *, repeat: int = 3, frames=None, jobs: int = 
                 per.setdefault(k, []).append(v)
         hits = []
         for _ in range(max(repeat, 5)):
-            fresh = Graph.load(graph_path, cache=cache, overrides=list(overrides))
+            fresh = Graph.load(graph_path, cache=cache, overrides=list(overrides), variables=variables)
             t0 = time.perf_counter()
             fresh.run(frames, jobs=jobs)
             hits.append(time.perf_counter() - t0)

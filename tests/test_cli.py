@@ -12,56 +12,64 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 @pytest.fixture
-def demo(tmp_path):
-    """The demo graph copied beside a copy of the renoir sample."""
+def graph(tmp_path):
+    """The source-import graph copied beside a copy of the renoir sample."""
     (tmp_path / "graphs").mkdir()
     shutil.copytree(ROOT / "samples" / "renoir", tmp_path / "samples" / "renoir")
-    shutil.copy(ROOT / "graphs" / "demo.yaml", tmp_path / "graphs" / "demo.yaml")
-    return tmp_path / "graphs" / "demo.yaml"
+    shutil.copy(ROOT / "graphs" / "import_source.yaml", tmp_path / "graphs" / "import_source.yaml")
+    return tmp_path / "graphs" / "import_source.yaml"
 
 
-def test_run_then_rerun_reuses_everything(demo, capsys):
-    assert main(["run", str(demo), "-q"]) == 0
+def test_run_then_rerun_reuses_everything(graph, capsys):
+    assert main(["run", str(graph), "-q"]) == 0
     assert "4 computed, 0 reused" in capsys.readouterr().out
-    assert (demo.parent.parent / "out" / "demo" / "source.exr").is_file()
-    assert main(["run", str(demo), "--explain", "-q"]) == 0
+    assert (graph.parent.parent / "out" / "import_source" / "source.exr").is_file()
+    assert main(["run", str(graph), "--explain", "-q"]) == 0
     text = capsys.readouterr().out
     assert "0 computed, 4 reused" in text and "cache hit" in text
 
 
-def test_bad_input_exits_2_with_one_line(demo, capsys):
-    assert main(["run", str(demo), "--set", "src.far_distance=-1"]) == 2
+def test_bad_input_exits_2_with_one_line(graph, capsys):
+    assert main(["run", str(graph), "--set", "src.far_distance=-1"]) == 2
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and "src.far_distance: expected float >= 0.0, got -1" in err
-    assert main(["run", str(demo.parent / "missing.yaml")]) == 2
-    assert main(["run", str(demo), "--frames", "7"]) == 2  # outside the graph's frames
+    assert main(["run", str(graph.parent / "missing.yaml")]) == 2
+    assert main(["run", str(graph), "--frames", "7"]) == 2  # outside the graph's frames
     assert "outside the graph's frames 1-1" in capsys.readouterr().err
 
 
-def test_missing_source_file_is_bad_input(demo, capsys):
-    (demo.parent.parent / "samples" / "renoir" / "style.png").unlink()
-    assert main(["run", str(demo), "-q"]) == 2
+def test_missing_source_file_is_bad_input(graph, capsys):
+    (graph.parent.parent / "samples" / "renoir" / "style.png").unlink()
+    assert main(["run", str(graph), "-q"]) == 2
     assert "style.png: no such image file" in capsys.readouterr().err
 
 
-def test_inspect_nodes_graph_and_cache(demo, capsys):
-    main(["run", str(demo), "-q"])
+def test_inspect_nodes_graph_and_cache(graph, capsys):
+    main(["run", str(graph), "-q"])
     capsys.readouterr()
-    assert main(["inspect", str(demo.parent.parent / "out" / "demo" / "source.exr")]) == 0
+    assert main(["inspect", str(graph.parent.parent / "out" / "import_source" / "source.exr")]) == 0
     text = capsys.readouterr().out
     assert "label.id" in text and "uint" in text and "proxyshade/node: write" in text
     assert main(["nodes"]) == 0
     assert "SourceRead" in capsys.readouterr().out
-    assert main(["graph", str(demo)]) == 0
+    assert main(["graph", str(graph)]) == 0
     assert "write [ExrWrite] image<-src" in capsys.readouterr().out
-    assert main(["cache", "info", str(demo)]) == 0
+    assert main(["cache", "info", str(graph)]) == 0
     assert "5 entries" in capsys.readouterr().out
-    assert main(["cache", "clean", str(demo)]) == 0
-    assert main(["run", str(demo), "-q"]) == 0
+    assert main(["cache", "clean", str(graph)]) == 0
+    assert main(["run", str(graph), "-q"]) == 0
     assert "4 computed" in capsys.readouterr().out
 
 
-def test_console_script_exit_code(demo):
+def test_console_script_exit_code(graph):
     exe = Path(sys.executable).parent / "proxyshade"
-    r = subprocess.run([str(exe), "run", str(demo), "--set", "nope.x=1"], capture_output=True, text=True)
+    r = subprocess.run([str(exe), "run", str(graph), "--set", "nope.x=1"], capture_output=True, text=True)
     assert r.returncode == 2 and "no node 'nope'" in r.stderr and "Traceback" not in r.stderr
+
+
+def test_vars_from_the_command_line(graph, capsys):
+    shutil.copytree(ROOT / "samples" / "monet", graph.parent.parent / "samples" / "monet")
+    assert main(["run", str(graph), "-q", "--var", "sample=../samples/monet", "--var", "out=../out/m"]) == 0
+    assert (graph.parent.parent / "out" / "m" / "source.exr").is_file()
+    assert main(["run", str(graph), "--var", "oops"]) == 2
+    assert "--var oops: expected name=value" in capsys.readouterr().err
