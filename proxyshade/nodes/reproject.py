@@ -168,7 +168,7 @@ class Reproject(Node):
         valid, sx, sy, patch, res, dprev = kr.gather_prev(
             u, v, q, ok, lab, kr.inverse_depth(prev["Z"]), np.ascontiguousarray(prev["label.id"], np.uint32),
             np.ascontiguousarray(prev["patch.id"], np.uint32), prev["source.x"].astype(np.float32),
-            prev["source.y"].astype(np.float32), np.ascontiguousarray(prev_res, np.float32), prev_d, tol)
+            prev["source.y"].astype(np.float32), np.ascontiguousarray(prev_res, np.float32), prev_d, tol, scale)
         det = kr.surface_jacobian_det(u, v, w1, lab, valid, tol)
         D, distorted = kt.accumulate_distortion(dprev, det, valid, p.threshold, p.noise, frame_seed(p.seed, ctx.frame))
         raw = np.zeros((H, W), np.uint32)

@@ -225,7 +225,7 @@ def test_stale_winners():
 
 
 # -- gathering the previous frame ----------------------------------------------
-def gather_reference(u, v, q, ok, lab, pw, plab, ppatch, psx, psy, pres, pd, tol):
+def gather_reference(u, v, q, ok, lab, pw, plab, ppatch, psx, psy, pres, pd, tol, scale):
     h, w = u.shape
     hp, wp = pw.shape
     out = {k: np.zeros((h, w)) for k in ("sx", "sy", "patch", "d")}
@@ -258,7 +258,8 @@ def gather_reference(u, v, q, ok, lab, pw, plab, ppatch, psx, psy, pres, pd, tol
                 out["sx"][i, j] = sum(wt * psx[r, c] for r, c, wt, _ in good)
                 out["sy"][i, j] = sum(wt * psy[r, c] for r, c, wt, _ in good)
             else:
-                out["sx"][i, j], out["sy"][i, j] = psx[rn, cn], psy[rn, cn]
+                out["sx"][i, j] = psx[rn, cn] + (x - cn - 0.5) * scale
+                out["sy"][i, j] = psy[rn, cn] + (y - rn - 0.5) * scale
             W = sum(t[2] for t in good)
             if W > 0:
                 out["res"][i, j] = sum(wt * pres[r, c] for r, c, wt, _ in good) / W
@@ -282,8 +283,8 @@ def test_gather_prev_matches_reference():
     psx, psy = (rng.random((h, w)).astype(np.float32) * 50 for _ in range(2))
     pres = rng.random((h, w, 3)).astype(np.float32)
     pd = rng.random((h, w)).astype(np.float32)
-    got = K.gather_prev(u, v, q, ok, lab, pw, plab, ppatch, psx, psy, pres, pd, 0.02)
-    ref = gather_reference(u, v, q, ok, lab, pw, plab, ppatch, psx, psy, pres, pd, 0.02)
+    got = K.gather_prev(u, v, q, ok, lab, pw, plab, ppatch, psx, psy, pres, pd, 0.02, 0.5)
+    ref = gather_reference(u, v, q, ok, lab, pw, plab, ppatch, psx, psy, pres, pd, 0.02, 0.5)
     valid, sx, sy, patch, res, d = got
     assert valid.any() and not valid.all()
     np.testing.assert_array_equal(valid, ref["valid"])
@@ -306,7 +307,7 @@ def test_gather_integer_shift_copies_exactly():
     psy = (i * 1.0).astype(np.float32)
     pres = rng.random((h, w, 3)).astype(np.float32)
     valid, sx, sy, patch, res, d = K.gather_prev(u, v, q, ones, lab, q, lab, lab, psx, psy, pres,
-                                                 np.zeros((h, w), np.float32), 0.02)
+                                                 np.zeros((h, w), np.float32), 0.02, 1.0)
     np.testing.assert_array_equal(valid, j < w - 3)
     np.testing.assert_array_equal(sx[:, :w - 3], psx[:, 3:])
     np.testing.assert_array_equal(res[:, :w - 3], pres[:, 3:])

@@ -120,7 +120,7 @@ def toy_source(size: int = 96) -> Plate:
     lab[:, 2 * size // 3:] = 3
     noise = rng.random((size // 4 + 1, size // 4 + 1, 3)).astype(np.float32)
     tex = np.kron(noise, np.ones((4, 4, 1), np.float32))[:size, :size]
-    tex = 0.2 + 0.6 * tex + 0.1 * lab[..., None]
+    tex = (0.2 + 0.6 * tex + 0.1 * lab[..., None]).astype(np.float32)
     return Plate({"R": tex[..., 0].copy(), "G": tex[..., 1].copy(), "B": tex[..., 2].copy(), "label.id": lab},
                  {"labels": LABELS, "source": {}})
 
@@ -143,3 +143,38 @@ def state_plate(proxy_plate: Plate, seed: int = 0, scale: float = 1.0) -> Plate:
     meta["synthesis"] = {"factor": 4, "scale": scale, "exemplar_factor": 4.0 * scale}
     meta["source"] = {}
     return Plate(ch, meta)
+
+
+def coherence_metrics(scene: str, frames, size: int = 128, reproject: dict | None = None,
+                      filters=("bilinear", "cubic")) -> dict:
+    """Run the move coherently and frame by frame independently; per frame the share of
+    pixels resynthesized and the warp error of both over the pixels the coherent run kept
+    (flag 0 and a valid reprojection: same label and surface in the previous frame)."""
+    from proxyshade.io.usd import CameraInfo
+    from proxyshade.kernels import reproject as kr
+
+    frames = list(frames)
+    run = run_move(scene, frames, size=size, reproject=reproject)
+    indep = {fr: first_frame(scene, size, seed=fr, frame=fr) for fr in frames}
+    shares = []
+    coherent = {f: [] for f in filters}
+    independent = {f: [] for f in filters}
+    for a, b in zip(run[:-1], run[1:]):
+        cd, flag = b["cd"], b["reproject"]["flag"]
+        c1 = CameraInfo.from_meta(cd.meta["camera"])
+        c0 = CameraInfo.from_meta(a["final"].meta["camera"])
+        w1 = kr.inverse_depth(cd["Z"])
+        u, v, q, ok = kr.transfer(w1, kr.relative_matrix(c1, c0), kr.intrinsics(c1), kr.intrinsics(c0), c0.near)
+        prev = a["final"]
+        z = np.zeros(prev.shape, np.float32)
+        valid = kr.gather_prev(u, v, q, ok, np.ascontiguousarray(cd["label.id"]), kr.inverse_depth(prev["Z"]),
+                               np.ascontiguousarray(prev["label.id"]), np.ascontiguousarray(prev["patch.id"]), z, z,
+                               np.zeros(prev.shape + (3,), np.float32), z, 0.02, 1.0)[0]
+        mask = valid & (flag == 0)
+        shares.append(float((flag > 0).mean()))
+        for f in filters:
+            coherent[f].append(kr.warp_error(b["final"].rgb(), prev.rgb(), u, v, mask, f))
+            independent[f].append(kr.warp_error(indep[b["frame"]].rgb(), indep[a["frame"]].rgb(), u, v, mask, f))
+    return {"shares": shares, "coherent": coherent, "independent": independent,
+            "median_share": float(np.median(shares)),
+            "ratio": {f: float(np.mean(coherent[f]) / max(np.mean(independent[f]), 1e-12)) for f in filters}}
