@@ -1,0 +1,100 @@
+"""Resynthesize: restricted synthesis of flagged pixels, and the coherence of whole sample moves."""
+import numpy as np
+import pytest
+
+from proxyshade.errors import NodeInputError
+from proxyshade.graph.testing import run_node
+from proxyshade.kernels.lookup import lookup
+from proxyshade.nodes.reproject import FLAG
+from tests.nodes._temporal import SCENES, coherence_metrics, first_frame, proxy, source
+
+SIZE = 128
+
+
+def carried(scene="lake"):
+    """A 'Reproject output' over the first frame: its map and colours, no flags yet."""
+    f0 = first_frame(scene, SIZE)
+    return f0.with_channels({"flag": np.zeros(f0.shape, np.uint32), "distortion": np.zeros(f0.shape, np.float32)})
+
+
+def resynth(img, scene="lake", frame=2, **params):
+    return run_node("Resynthesize", params, {"image": img, "source": source(SCENES[scene])}, frame=frame)
+
+
+def test_nothing_flagged_passes_through():
+    img = carried()
+    out = resynth(img)
+    for c in img.names():
+        np.testing.assert_array_equal(out[c], img[c])
+
+
+def test_flagged_pixels_are_resynthesized_and_the_rest_kept_exactly():
+    img = carried()
+    flag = np.zeros(img.shape, np.uint32)
+    flag[40:72, 30:70] = FLAG["disoccluded"]
+    flag[90:100, 90:110] = FLAG["newly_occluded"]
+    img = img.with_channels({"flag": flag})
+    out = resynth(img, solve=False)
+    keep = flag == 0
+    for c in ("R", "G", "B", "source.x", "source.y", "patch.id", "label.id"):
+        np.testing.assert_array_equal(out[c][keep], img[c][keep])
+    new = ~keep
+    assert out["patch.id"][new].min() > img["patch.id"].max()
+    assert (out["source.x"][new] != img["source.x"][new]).mean() > 0.5  # flood fill grew new patches
+    src = source("renoir")
+    fidelity = (lookup(src["label.id"], out["source.x"], out["source.y"]) == out["label.id"])[new].mean()
+    assert fidelity > 0.99
+    rgb = lookup(src.rgb(), out["source.x"], out["source.y"])
+    np.testing.assert_allclose(out.rgb()[new], rgb[new], atol=1e-6)  # f∘s before the solve
+
+
+def test_distorted_areas_start_from_their_own_map():
+    img = carried()
+    flag = np.zeros(img.shape, np.uint32)
+    flag[32:64, 32:64] = FLAG["distorted"]
+    flag[80:112, 32:64] = FLAG["disoccluded"]
+    img = img.with_channels({"flag": flag})
+    out = resynth(img, solve=False, passes=0, passes_finest=0)  # no correction: the initial map only
+    d = flag == FLAG["distorted"]
+    f = flag == FLAG["disoccluded"]
+    same_d = (np.abs(out["source.x"] - img["source.x"]) < 1e-3)[d].mean()
+    same_f = (np.abs(out["source.x"] - img["source.x"]) < 1e-3)[f].mean()
+    assert same_d > 0.9 and same_f < 0.5
+
+
+def test_restricted_solve_equals_the_poisson_node_with_keep():
+    img = carried()
+    flag = np.zeros(img.shape, np.uint32)
+    flag[20:50, 10:60] = FLAG["disoccluded"]
+    flag[100:128, 0:30] = FLAG["distorted"]
+    img = img.with_channels({"flag": flag})
+    solved = resynth(img)
+    unsolved = resynth(img, solve=False)
+    ref = run_node("Poisson", {}, {"image": unsolved, "keep": unsolved, "source": source("renoir")})
+    np.testing.assert_allclose(solved.rgb(), ref.rgb(), atol=1e-4)
+    keep = flag == 0
+    np.testing.assert_array_equal(solved.rgb()[keep], img.rgb()[keep])
+
+
+def test_deterministic_per_frame_seed():
+    img = carried()
+    flag = np.zeros(img.shape, np.uint32)
+    flag[40:72, 30:70] = FLAG["disoccluded"]
+    img = img.with_channels({"flag": flag})
+    a, b = resynth(img, frame=3), resynth(img, frame=3)
+    assert a.equals(b)
+    c = resynth(img, frame=4)
+    assert not np.array_equal(a["source.x"], c["source.x"])
+
+
+def test_bad_inputs():
+    with pytest.raises(NodeInputError, match="Reproject"):
+        resynth(first_frame("lake", SIZE))  # no flag channel
+
+
+@pytest.mark.parametrize("scene", ["lake", "cliffs", "farm"])
+def test_sample_move_is_coherent_and_resynthesizes_little(scene):
+    m = coherence_metrics(scene, range(1, 7), SIZE, filters=("bilinear",))
+    print(scene, m["median_share"], m["ratio"], m["coherent"], m["independent"])
+    assert m["median_share"] <= 0.10
+    assert m["ratio"]["bilinear"] <= 0.10
