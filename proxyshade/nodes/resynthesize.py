@@ -77,72 +77,93 @@ class Resynthesize(Node):
     max_iter = Param(int, 100, min=1, doc="Poisson: most CG iterations")
 
     def compute(self, ctx) -> Plate:
-        p = ctx.p
         img = require(ctx, ctx.image, "image", ["flag", "label.id", "source.x", "source.y", "patch.id", "R", "G", "B"],
                       "Reproject's output")
         source = require(ctx, ctx.source, "source", ["R", "G", "B", "label.id"], "a SourceRead node")
-        flag = img["flag"]
-        flagged = flag != 0
-        nflag = int(flagged.sum())
-        if nflag == 0:
-            ctx.note("nothing flagged")
-            return img.with_channels(meta={"resynthesis": {"pixels": 0, "share": 0.0}})
-        check_finite(ctx, source, "source", ["R", "G", "B"])
-        check_finite(ctx, img, "image", ["source.x", "source.y", "R", "G", "B"])
-        syn = img.meta.get("synthesis", {}) if isinstance(img.meta.get("synthesis"), dict) else {}
-        f = p.factor if p.factor is not None else int(syn.get("factor", 4))
-        scale = p.scale if p.scale is not None else float(syn.get("scale", 1.0))
-        seed = frame_seed(p.seed, ctx.frame)
-        table = source_table(ctx, source)
-        n = len(table)
-        H, W = img.shape
-        g = dense_guide(ctx, img["label.id"], table, "image")
-        tgt = guide_at_synthesis(ctx, g, f, n)
-        st = setup(ctx, source, tgt, table, factor=f, scale=scale, coarse_size=p.coarse_size,
-                   max_distance=p.max_distance, with_rgb=p.use_rgb)
-        shape = tgt.shape
-        active = kcorrect.downsample_mask(flagged, f, shape)
-        fresh = kcorrect.downsample_mask((flag == FLAG["disoccluded"]) | (flag == FLAG["newly_occluded"]), f, shape)
-        S = st.from_source(block_sample(img["source.x"], f, shape), block_sample(img["source.y"], f, shape))
-        patch_s = block_sample(img["patch.id"], f, shape).astype(np.int64)
-        npatch = 0
-        if fresh.any():
-            fin = st.levels[-1]
-            S, patch_s, npatch = kpatch.flood_fill(fin.src_lab, fin.src_dist, fin.src_masks, fin.tgt_lab, fin.tgt_dist,
-                                                   fin.tgt_masks, seed=seed, w=p.w, threshold_scale=p.threshold_scale,
-                                                   threshold_offset=p.threshold_offset, mask=fresh, S=S,
-                                                   patch=patch_s)
-        if p.passes > 0 or p.passes_finest > 0:
-            S, _ = kcorrect.synthesize(st.levels, S, passes=p.passes, passes_finest=p.passes_finest, k=p.k, w=p.w,
-                                       seed=seed, knn_iterations=p.knn_iterations, use_rgb=p.use_rgb, kappa=p.kappa,
-                                       mask=active, radius_rule=p.radius)
-        S, _ = kmag.repair_labels(S, tgt, st.ex_lab)
-        # magnify to the output size and repair labels against the detailed labels
-        Sw = kmag.magnify(S, f, (H, W))
-        src_dense, _ = kf.dense_labels(source["label.id"], table)
-        Sw, rep = kmag.repair_labels(Sw, g, working_labels(src_dense, scale, n))
-        new_patch, _ = kpatch.offset_components(Sw)
-        base = np.uint32(int(img["patch.id"].max()) + 1)
-        sx_new = ((Sw[..., 1].astype(np.float64) + 0.5) * scale - 0.5).astype(np.float32)
-        sy_new = ((Sw[..., 0].astype(np.float64) + 0.5) * scale - 0.5).astype(np.float32)
-        sx = np.where(flagged, sx_new, img["source.x"]).astype(np.float32)
-        sy = np.where(flagged, sy_new, img["source.y"]).astype(np.float32)
-        patch = np.where(flagged, new_patch + base, img["patch.id"]).astype(np.uint32)
-        rgb_new = lookup(source.rgb(), sx, sy)
-        rgb = np.where(flagged[..., None], rgb_new, img.rgb()).astype(np.float32)
-        if p.solve:
-            src_rgb = source.rgb() if p.seams == "source" else None
-            rgb, pinfo = kt.poisson_regions(rgb, patch, img["label.id"], flagged, source=src_rgb, sx=sx, sy=sy,
-                                            step=scale, label_dirichlet=p.label_dirichlet, screen=p.screen,
-                                            tol=p.tol, max_iter=p.max_iter)
-            ctx.note(f"Poisson on {pinfo['windows']} windows ({pinfo['window_pixels']} px), at most "
-                     f"{pinfo['iterations']} iterations, residual {pinfo['residual']:.1e}")
-        info = {"pixels": nflag, "share": nflag / flagged.size, "synthesis_pixels": int(active.sum()),
-                "flood_filled": int(fresh.sum()), "patches": int(npatch), "repaired": int(rep["wrong"])}
-        ctx.note(f"resynthesized {100 * info['share']:.2f}% ({nflag} px; {info['synthesis_pixels']} synthesis px, "
-                 f"{info['flood_filled']} flood-filled)")
-        meta = dict(img.meta)
-        meta["resynthesis"] = info
-        meta["synthesis"] = dict(syn, factor=f, scale=scale, exemplar_factor=st.ex_factor)
-        return img.with_channels({"R": rgb[..., 0].copy(), "G": rgb[..., 1].copy(), "B": rgb[..., 2].copy(),
-                                  "source.x": sx, "source.y": sy, "patch.id": patch}, meta=meta)
+        return resynthesize(ctx, img, source, ctx.p, ctx.frame)
+
+
+def resynthesize(ctx, img: Plate, source: Plate, p, frame: int, timings: dict | None = None) -> Plate:
+    """What ``Resynthesize.compute`` does, with optional per-stage seconds in ``timings``
+    (features, flood fill, corrections, magnify, Poisson) for the bench."""
+    import time
+
+    tm = timings if timings is not None else {}
+    t = time.perf_counter()
+
+    def lap(name):
+        nonlocal t
+        now = time.perf_counter()
+        tm[name] = tm.get(name, 0.0) + now - t
+        t = now
+
+    flag = img["flag"]
+    flagged = flag != 0
+    nflag = int(flagged.sum())
+    if nflag == 0:
+        ctx.note("nothing flagged")
+        return img.with_channels(meta={"resynthesis": {"pixels": 0, "share": 0.0}})
+    check_finite(ctx, source, "source", ["R", "G", "B"])
+    check_finite(ctx, img, "image", ["source.x", "source.y", "R", "G", "B"])
+    syn = img.meta.get("synthesis", {}) if isinstance(img.meta.get("synthesis"), dict) else {}
+    f = p.factor if p.factor is not None else int(syn.get("factor", 4))
+    scale = p.scale if p.scale is not None else float(syn.get("scale", 1.0))
+    seed = frame_seed(p.seed, frame)
+    table = source_table(ctx, source)
+    n = len(table)
+    H, W = img.shape
+    g = dense_guide(ctx, img["label.id"], table, "image")
+    tgt = guide_at_synthesis(ctx, g, f, n)
+    st = setup(ctx, source, tgt, table, factor=f, scale=scale, coarse_size=p.coarse_size,
+               max_distance=p.max_distance, with_rgb=p.use_rgb)
+    shape = tgt.shape
+    lap("features")
+    active = kcorrect.downsample_mask(flagged, f, shape)
+    fresh = kcorrect.downsample_mask((flag == FLAG["disoccluded"]) | (flag == FLAG["newly_occluded"]), f, shape)
+    S = st.from_source(block_sample(img["source.x"], f, shape), block_sample(img["source.y"], f, shape))
+    patch_s = block_sample(img["patch.id"], f, shape).astype(np.int64)
+    npatch = 0
+    if fresh.any():
+        fin = st.levels[-1]
+        S, patch_s, npatch = kpatch.flood_fill(fin.src_lab, fin.src_dist, fin.src_masks, fin.tgt_lab, fin.tgt_dist,
+                                               fin.tgt_masks, seed=seed, w=p.w, threshold_scale=p.threshold_scale,
+                                               threshold_offset=p.threshold_offset, mask=fresh, S=S,
+                                               patch=patch_s)
+    lap("flood fill")
+    if p.passes > 0 or p.passes_finest > 0:
+        S, _ = kcorrect.synthesize(st.levels, S, passes=p.passes, passes_finest=p.passes_finest, k=p.k, w=p.w,
+                                   seed=seed, knn_iterations=p.knn_iterations, use_rgb=p.use_rgb, kappa=p.kappa,
+                                   mask=active, radius_rule=p.radius)
+    S, _ = kmag.repair_labels(S, tgt, st.ex_lab)
+    lap("corrections")
+    # magnify to the output size and repair labels against the detailed labels
+    Sw = kmag.magnify(S, f, (H, W))
+    src_dense, _ = kf.dense_labels(source["label.id"], table)
+    Sw, rep = kmag.repair_labels(Sw, g, working_labels(src_dense, scale, n))
+    new_patch, _ = kpatch.offset_components(Sw)
+    base = np.uint32(int(img["patch.id"].max()) + 1)
+    sx_new = ((Sw[..., 1].astype(np.float64) + 0.5) * scale - 0.5).astype(np.float32)
+    sy_new = ((Sw[..., 0].astype(np.float64) + 0.5) * scale - 0.5).astype(np.float32)
+    sx = np.where(flagged, sx_new, img["source.x"]).astype(np.float32)
+    sy = np.where(flagged, sy_new, img["source.y"]).astype(np.float32)
+    patch = np.where(flagged, new_patch + base, img["patch.id"]).astype(np.uint32)
+    rgb_new = lookup(source.rgb(), sx, sy)
+    rgb = np.where(flagged[..., None], rgb_new, img.rgb()).astype(np.float32)
+    lap("magnify")
+    if p.solve:
+        src_rgb = source.rgb() if p.seams == "source" else None
+        rgb, pinfo = kt.poisson_regions(rgb, patch, img["label.id"], flagged, source=src_rgb, sx=sx, sy=sy,
+                                        step=scale, label_dirichlet=p.label_dirichlet, screen=p.screen,
+                                        tol=p.tol, max_iter=p.max_iter)
+        ctx.note(f"Poisson on {pinfo['windows']} windows ({pinfo['window_pixels']} px), at most "
+                 f"{pinfo['iterations']} iterations, residual {pinfo['residual']:.1e}")
+    lap("Poisson")
+    info = {"pixels": nflag, "share": nflag / flagged.size, "synthesis_pixels": int(active.sum()),
+            "flood_filled": int(fresh.sum()), "patches": int(npatch), "repaired": int(rep["wrong"])}
+    ctx.note(f"resynthesized {100 * info['share']:.2f}% ({nflag} px; {info['synthesis_pixels']} synthesis px, "
+             f"{info['flood_filled']} flood-filled)")
+    meta = dict(img.meta)
+    meta["resynthesis"] = info
+    meta["synthesis"] = dict(syn, factor=f, scale=scale, exemplar_factor=st.ex_factor)
+    return img.with_channels({"R": rgb[..., 0].copy(), "G": rgb[..., 1].copy(), "B": rgb[..., 2].copy(),
+                              "source.x": sx, "source.y": sy, "patch.id": patch}, meta=meta)
