@@ -35,6 +35,7 @@ from harness import peak_rss_mb, table
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+import proxyshade.nodes  # noqa: E402,F401
 from proxyshade.graph.node import REGISTRY  # noqa: E402
 from proxyshade.graph.testing import run_node  # noqa: E402
 from tests.nodes import _temporal as T  # noqa: E402
