@@ -98,3 +98,33 @@ def test_sample_move_is_coherent_and_resynthesizes_little(scene):
     print(scene, m["median_share"], m["ratio"], m["coherent"], m["independent"])
     assert m["median_share"] <= 0.10
     assert m["ratio"]["bilinear"] <= 0.10
+
+
+def test_camera_move_graph_reuses_earlier_frames(tmp_path):
+    """graphs/camera_move.yaml at 64²: frame 3 alone computes frames 1-2 on the way, the first
+    frame's synthesis runs once, a re-run is all cache, frame 4 then only adds frame 4."""
+    from pathlib import Path
+
+    from proxyshade.graph.graph import Graph
+
+    graph = Path(__file__).resolve().parents[2] / "graphs" / "camera_move.yaml"
+
+    def load():
+        return Graph.load(graph, cache=tmp_path / "cache", overrides=["proxy.resolution=[64,64]"],
+                          variables={"out": str(tmp_path / "out")})
+
+    r = load().run([3])
+    done = {(x.node, x.frame) for x in r.runs if x.status == "computed"}
+    assert {("final", 1), ("final", 2), ("final", 3), ("write", 3), ("init", 1)} <= done
+    assert not any(n in ("init", "correct", "magnify", "first") and f != 1 for n, f in done)
+    assert ("write", 2) not in done and (tmp_path / "out" / "lake" / "frame.0003.exr").is_file()
+    r = load().run([3])
+    assert not r.computed
+    r = load().run([4])
+    assert {(x.node, x.frame) for x in r.runs if x.status == "computed"} == {
+        (n, 4) for n in ("proxy", "cd", "reproject", "final", "write", "preview", "flags")}
+    import OpenEXR
+
+    with OpenEXR.File(str(tmp_path / "out" / "lake" / "frame.0004.exr")) as f:
+        names = set(f.channels())
+    assert {"flag", "distortion", "category"} <= names
