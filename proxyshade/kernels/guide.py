@@ -1,0 +1,312 @@
+"""Guidance synthesis: k-coherent parallel label synthesis with the Chamfer metric.
+
+Bonneel et al. 2010, §4.2, after Lefebvre and Hoppe 2005 (parallel controllable texture
+synthesis), on label maps: the state is a map of exemplar coordinates; each level is
+upsampled from the coarser one, then corrected in parallel sub-passes (the four pixel
+parities, each reading a snapshot, so results do not depend on the thread count), with no
+jitter. A pixel's candidates are the k-coherent ones: for each neighbour q in its 3×3
+window, the exemplar coordinate that continues q's patch at p, and the k coordinates of
+that one's similarity set. The similarity set of an exemplar coordinate holds itself
+and k − 1 coordinates picked, by Hochbaum-Shmoys farthest-point traversal in image space,
+among the 4k closest in feature space of a seeded sample. Features are 5×5 label windows
+of the voting stack, compared with the symmetric Chamfer distance
+(``proxyshade.kernels.chamfer``); the guidance adds the Chamfer distance between the
+candidate's window and the proxy guide's window (voting pyramid) at the pixel.
+
+Options: ``locked`` label pairs whose border pixels only take candidates of the proxy's
+label there (§9.3: "ID boundaries should remain unaltered"), and ``allowed`` label
+adjacencies (those of the source and of the proxy): a candidate that would put two labels
+side by side which neither input ever has side by side is rejected.
+
+The ``l2`` variant (the paper's Fig. 3 baseline) compares 5×5 windows of label colours
+blurred by a Gaussian stack with the L2 norm instead.
+
+Labels here are dense indices 0..n-1.
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, prange
+
+from proxyshade.kernels._config import JIT, PJIT
+from proxyshade.kernels.chamfer import chamfer_masks
+from proxyshade.kernels.temporal import hash_uniform
+
+NB = 5
+R = 2
+
+
+@njit(**JIT)
+def _clamp(v, lo, hi):
+    return lo if v < lo else (hi if v > hi else v)
+
+
+@njit(**PJIT)
+def exemplar_masks(lab, h, n):
+    """(He, We, n) uint32 label masks of the 5×5 windows of spacing ``h`` (clamped) of every exemplar pixel."""
+    He, We = lab.shape
+    out = np.zeros((He, We, n), np.uint32)
+    for y in prange(He):
+        for x in range(We):
+            k = 0
+            for dy in range(-R, R + 1):
+                yy = _clamp(y + dy * h, 0, He - 1)
+                for dx in range(-R, R + 1):
+                    xx = _clamp(x + dx * h, 0, We - 1)
+                    out[y, x, lab[yy, xx]] |= np.uint32(1) << np.uint32(k)
+                    k += 1
+    return out
+
+
+@njit(**PJIT)
+def grid_masks(lab, n):
+    """(H, W, n) uint32 label masks of the 5×5 windows (spacing 1, clamped) of a label map."""
+    return exemplar_masks(lab, 1, n)
+
+
+@njit(**JIT)
+def _window_dist(metric, ma, mb, fa, fb):
+    if metric == 0:
+        return float(chamfer_masks(ma, mb))
+    s = 0.0
+    for t in range(fa.shape[0]):
+        d = fa[t] - fb[t]
+        s += d * d
+    return s
+
+
+@njit(**JIT)
+def _color_window(col, y, x, h, out):
+    """5×5 window (spacing h, clamped) of an (H, W, 3) colour stack, flattened into ``out``."""
+    H, W = col.shape[0], col.shape[1]
+    k = 0
+    for dy in range(-R, R + 1):
+        yy = _clamp(y + dy * h, 0, H - 1)
+        for dx in range(-R, R + 1):
+            xx = _clamp(x + dx * h, 0, W - 1)
+            for c in range(3):
+                out[k] = col[yy, xx, c]
+                k += 1
+
+
+@njit(**PJIT)
+def similarity_sets(lab, masks, col, h, k, sample, seed, metric):
+    """(He, We, k, 2) int32: per exemplar pixel, itself then k − 1 coordinates spread by
+    farthest-point traversal among the 4k closest of ``sample`` seeded random ones."""
+    He, We = lab.shape
+    out = np.empty((He, We, k, 2), np.int32)
+    m = 4 * k
+    for y in prange(He):
+        cand = np.empty((sample, 2), np.int32)
+        dist = np.empty(sample, np.float64)
+        fa = np.empty(75, np.float64)
+        fb = np.empty(75, np.float64)
+        for x in range(We):
+            if metric == 1:
+                _color_window(col, y, x, h, fa)
+            for s in range(sample):
+                cy = int(hash_uniform(seed, y * We + x, 2 * s) * He)
+                cx = int(hash_uniform(seed, y * We + x, 2 * s + 1) * We)
+                cand[s, 0] = cy
+                cand[s, 1] = cx
+                if abs(cy - y) <= 2 * h and abs(cx - x) <= 2 * h:
+                    dist[s] = np.inf  # trivially similar neighbours are not alternatives
+                    continue
+                if metric == 1:
+                    _color_window(col, cy, cx, h, fb)
+                dist[s] = _window_dist(metric, masks[y, x], masks[cy, cx], fa, fb)
+            order = np.argsort(dist, kind="mergesort")[:m]
+            out[y, x, 0, 0] = y
+            out[y, x, 0, 1] = x
+            chosen = 1
+            used = np.zeros(m, np.bool_)
+            while chosen < k:
+                best = -1
+                bestd = -1.0
+                for t in range(m):
+                    if used[t] or not np.isfinite(dist[order[t]]):
+                        continue
+                    cy, cx = cand[order[t], 0], cand[order[t], 1]
+                    dmin = np.inf
+                    for c in range(chosen):
+                        dd = float((cy - out[y, x, c, 0]) ** 2 + (cx - out[y, x, c, 1]) ** 2)
+                        dmin = min(dmin, dd)
+                    if dmin > bestd:
+                        bestd = dmin
+                        best = t
+                if best < 0:
+                    out[y, x, chosen, 0] = y
+                    out[y, x, chosen, 1] = x
+                else:
+                    used[best] = True
+                    out[y, x, chosen, 0] = cand[order[best], 0]
+                    out[y, x, chosen, 1] = cand[order[best], 1]
+                chosen += 1
+    return out
+
+
+@njit(**PJIT)
+def init_state(target, ex_lab, seed):
+    """Coarsest-level state: each pixel an exemplar coordinate of the target's label
+    (seeded choice among that label's exemplar pixels; any pixel when the label is absent)."""
+    H, W = target.shape
+    He, We = ex_lab.shape
+    n = max(target.max(), ex_lab.max()) + 1
+    counts = np.zeros(n, np.int64)
+    for y in range(He):
+        for x in range(We):
+            counts[ex_lab[y, x]] += 1
+    start = np.zeros(n + 1, np.int64)
+    for l in range(n):
+        start[l + 1] = start[l] + counts[l]
+    fill = start[:-1].copy()
+    flat = np.empty(He * We, np.int64)
+    for y in range(He):
+        for x in range(We):
+            l = ex_lab[y, x]
+            flat[fill[l]] = y * We + x
+            fill[l] += 1
+    S = np.empty((H, W, 2), np.int32)
+    for i in prange(H):
+        for j in range(W):
+            l = target[i, j]
+            u = hash_uniform(seed, i, j)
+            if counts[l] > 0:
+                f = flat[start[l] + int(u * counts[l])]
+            else:
+                f = int(u * He * We)
+            S[i, j, 0] = f // We
+            S[i, j, 1] = f % We
+    return S
+
+
+@njit(**PJIT)
+def upsample_state(S, h, He, We, H, W):
+    """Children of a coarser level's coordinates: S + h·d for d in {0, 1}², clamped."""
+    out = np.empty((H, W, 2), np.int32)
+    for i in prange(H):
+        for j in range(W):
+            pi = min(i // 2, S.shape[0] - 1)
+            pj = min(j // 2, S.shape[1] - 1)
+            out[i, j, 0] = _clamp(S[pi, pj, 0] + h * (i % 2), 0, He - 1)
+            out[i, j, 1] = _clamp(S[pi, pj, 1] + h * (j % 2), 0, We - 1)
+    return out
+
+
+@njit(**PJIT)
+def _subpass(S_old, S_new, par_i, par_j, ex_lab, ex_masks, ex_col, sim, tgt_masks, tgt_col, target, locked_mask,
+             allowed, h, w_proxy, metric, n):
+    H, W = S_old.shape[0], S_old.shape[1]
+    He, We = ex_lab.shape
+    k = sim.shape[2]
+    for i2 in prange((H - par_i + 1) // 2):
+        i = par_i + 2 * i2
+        ms = np.zeros(n, np.uint32)
+        fs = np.empty(75, np.float64)
+        fe = np.empty(75, np.float64)
+        for j in range(par_j, W, 2):
+            # the synthesized neighbourhood: labels (colours) under the current coordinates
+            for l in range(n):
+                ms[l] = 0
+            kk = 0
+            for dy in range(-R, R + 1):
+                ii = _clamp(i + dy, 0, H - 1)
+                for dx in range(-R, R + 1):
+                    jj = _clamp(j + dx, 0, W - 1)
+                    ey, ex = S_old[ii, jj, 0], S_old[ii, jj, 1]
+                    ms[ex_lab[ey, ex]] |= np.uint32(1) << np.uint32(kk)
+                    if metric == 1:
+                        for c in range(3):
+                            fs[3 * kk + c] = ex_col[ey, ex, c]
+                    kk += 1
+            best_y, best_x = S_old[i, j, 0], S_old[i, j, 1]
+            best = np.inf
+            for q in range(-1, 9 * k):  # candidates: the current one, then (3x3 neighbours) x k
+                if q < 0:
+                    cy, cx = S_old[i, j, 0], S_old[i, j, 1]
+                else:
+                    nb = q // k
+                    t = q % k
+                    di, dj = nb // 3 - 1, nb % 3 - 1
+                    ii = _clamp(i + di, 0, H - 1)
+                    jj = _clamp(j + dj, 0, W - 1)
+                    by = _clamp(S_old[ii, jj, 0] - h * (ii - i), 0, He - 1)
+                    bx = _clamp(S_old[ii, jj, 1] - h * (jj - j), 0, We - 1)
+                    cy, cx = sim[by, bx, t, 0], sim[by, bx, t, 1]
+                lc = ex_lab[cy, cx]
+                if locked_mask[i, j] and lc != target[i, j]:
+                    continue
+                ok = True
+                for d in range(4):
+                    ni = i + (d == 0) - (d == 1)
+                    nj = j + (d == 2) - (d == 3)
+                    if ni < 0 or ni >= H or nj < 0 or nj >= W:
+                        continue
+                    ln = ex_lab[S_old[ni, nj, 0], S_old[ni, nj, 1]]
+                    if not allowed[lc, ln]:
+                        ok = False
+                if not ok:
+                    continue
+                if metric == 1:
+                    _color_window(ex_col, cy, cx, h, fe)
+                    d1 = _window_dist(1, ms, ms, fs, fe)
+                    d2 = _window_dist(1, ms, ms, tgt_col[i, j], fe)
+                else:
+                    d1 = _window_dist(0, ms, ex_masks[cy, cx], fs, fe)
+                    d2 = _window_dist(0, tgt_masks[i, j], ex_masks[cy, cx], fs, fe)
+                c = d1 + w_proxy * d2
+                if c < best:
+                    best = c
+                    best_y, best_x = cy, cx
+            S_new[i, j, 0] = best_y
+            S_new[i, j, 1] = best_x
+
+
+def correct(S, ex_lab, ex_masks, ex_col, sim, tgt_masks, tgt_col, target, locked_mask, allowed, *, h, w_proxy,
+            metric, n, passes):
+    """``passes`` correction passes of four parity sub-passes each; returns the new state."""
+    S = S.copy()
+    for _ in range(passes):
+        for par_i, par_j in ((0, 0), (1, 1), (0, 1), (1, 0)):
+            snap = S.copy()
+            _subpass(snap, S, par_i, par_j, ex_lab, ex_masks, ex_col, sim, tgt_masks, tgt_col, target, locked_mask,
+                     allowed, h, w_proxy, metric, n)
+    return S
+
+
+def adjacency(*label_maps: np.ndarray, n: int) -> np.ndarray:
+    """(n, n) bool: labels that are 4-adjacent (or equal) somewhere in any of the maps."""
+    A = np.eye(n, dtype=bool)
+    for m in label_maps:
+        for a, b in ((m[:, :-1], m[:, 1:]), (m[:-1, :], m[1:, :])):
+            A[a.ravel(), b.ravel()] = True
+            A[b.ravel(), a.ravel()] = True
+    return A
+
+
+def new_adjacencies(result: np.ndarray, *inputs: np.ndarray, n: int) -> set[tuple[int, int]]:
+    """Label pairs side by side in ``result`` but in none of ``inputs``."""
+    have = adjacency(result, n=n)
+    ref = adjacency(*inputs, n=n)
+    return {(int(a), int(b)) for a, b in zip(*np.nonzero(have & ~ref)) if a < b}
+
+
+def locked_border(target: np.ndarray, pairs: list[tuple[int, int]], radius: int = 2) -> np.ndarray:
+    """Pixels within ``radius`` of a border between the two labels of a locked pair."""
+    out = np.zeros(target.shape, bool)
+    H, W = target.shape
+    for a, b in pairs:
+        border = np.zeros(target.shape, bool)
+        for da, db in ((target[:, :-1], target[:, 1:]), (target[:-1, :], target[1:, :])):
+            hit = ((da == a) & (db == b)) | ((da == b) & (db == a))
+            if da.shape[1] != W:
+                border[:, :-1] |= hit
+                border[:, 1:] |= hit
+            else:
+                border[:-1, :] |= hit
+                border[1:, :] |= hit
+        ii, jj = np.nonzero(border)
+        for di in range(-radius, radius + 1):
+            for dj in range(-radius, radius + 1):
+                out[np.clip(ii + di, 0, H - 1), np.clip(jj + dj, 0, W - 1)] = True
+    return out
