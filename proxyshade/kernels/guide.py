@@ -58,7 +58,7 @@ def exemplar_masks(lab, h, n):
     return out
 
 
-@njit(**PJIT)
+@njit(**JIT)
 def grid_masks(lab, n):
     """(H, W, n) uint32 label masks of the 5×5 windows (spacing 1, clamped) of a label map."""
     return exemplar_masks(lab, 1, n)
