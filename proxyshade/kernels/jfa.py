@@ -12,8 +12,10 @@ steps N/2, N/4, ..., 1, then one more pass of step 1 (each extra pass repairs so
 JFA's rare misses). The metric of seed s for pixel p is the squared Euclidean distance
 plus ``penalty`` when the seed's label differs from p's label.
 
-Every pass reads one buffer and writes another, each thread owning its rows, so the
-result does not depend on the thread count.
+Every pass reads one buffer and writes another, each thread owning its pixels, so the
+result does not depend on the thread count. A seed whose own label is the one it wants
+costs 0 and can never change, so passes only visit the other pixels (in depth extension,
+the few whose label the detailed guide changed).
 """
 from __future__ import annotations
 
@@ -32,10 +34,12 @@ def _cost(i, j, si, sj, lab_p, seed_lab, penalty):
 
 
 @njit(**PJIT)
-def _pass(seed_in, seed_out, labels, seed_labels, step, penalty):
+def _pass(seed_in, seed_out, labels, seed_labels, step, penalty, active):
     h, w = labels.shape
-    for i in prange(h):
-        for j in range(w):
+    for a in prange(active.shape[0]):
+        i = active[a] // w
+        j = active[a] % w
+        if True:
             best = seed_in[i, j]
             if best >= 0:
                 bc = _cost(i, j, best // w, best % w, labels[i, j], seed_labels[best // w, best % w], penalty)
@@ -78,9 +82,11 @@ def jump_flood(is_seed: np.ndarray, labels: np.ndarray, seed_labels: np.ndarray,
     """
     h, w = labels.shape
     a = np.where(is_seed, np.arange(h * w, dtype=np.int64).reshape(h, w), -1)
-    b = np.empty_like(a)
+    b = a.copy()
     labels = np.ascontiguousarray(labels, dtype=np.int64)
     seed_labels = np.ascontiguousarray(seed_labels, dtype=np.int64)
+    # a seed of its own label costs 0 and never changes: only the other pixels are updated
+    active = np.flatnonzero(~(is_seed & (labels == seed_labels))).astype(np.int64)
     n = 1
     while n < max(h, w):
         n *= 2
@@ -91,6 +97,6 @@ def jump_flood(is_seed: np.ndarray, labels: np.ndarray, seed_labels: np.ndarray,
         s //= 2
     steps.append(1)
     for st in steps:
-        _pass(a, b, labels, seed_labels, st, float(penalty))
+        _pass(a, b, labels, seed_labels, st, float(penalty), active)
         a, b = b, a
     return a
