@@ -458,10 +458,23 @@ def downsample_mask(mask: np.ndarray, h: int, shape: tuple[int, int]) -> np.ndar
     return pad.reshape(shape[0], h, shape[1], h).any(axis=(1, 3))
 
 
+def level_similarity_sets(levels: list, k: int, *, seed: int = 0, knn_iterations: int = 2,
+                          w: float = 90.0) -> list:
+    """``similarity_sets`` of every level (coarsest first), as ``synthesize`` uses them."""
+    L = len(levels)
+    ex_shape = levels[-1].src_lab.shape
+    knns = [None] * L
+    for l in range(L - 1, -1, -1):  # finest first: coarser lists start from finer ones
+        init = knns[l + 1] if l + 1 < L else None
+        knns[l] = similarity_sets(levels[l], k, seed=seed + 7919 * l, iterations=knn_iterations if init is None else 1,
+                                  w=w, init=init) if k > 0 else np.zeros(ex_shape + (0, 2), np.int32)
+    return knns
+
+
 def synthesize(levels: list, S_init: np.ndarray, *, passes: int = 5, passes_finest: int = 3, k: int = 2,
                w: float = 90.0, seed: int = 0, knn_iterations: int = 2, use_rgb: bool = True,
                kappa: float = 0.0, mask: np.ndarray | None = None, timings: dict | None = None,
-               radius_rule: str = "spacing") -> tuple[np.ndarray, list[dict]]:
+               radius_rule: str = "spacing", similarity: list | None = None) -> tuple[np.ndarray, list[dict]]:
     """Coarse-to-fine correction of an initial coordinate map.
 
     Parameters
@@ -472,6 +485,9 @@ def synthesize(levels: list, S_init: np.ndarray, *, passes: int = 5, passes_fine
     passes, passes_finest : correction passes per level and at the finest level.
     k : size of the similarity sets (k-coherence).
     mask : (Ht, Wt) bool, optional; only these pixels change, the rest keep ``S_init``.
+    similarity : optional per-level similarity sets from ``level_similarity_sets`` (they
+        depend on the exemplar side of the levels, k, w, seed and knn_iterations only):
+        passed again, the search is skipped (a later frame of one source).
 
     Returns the corrected map and per-level statistics.
     """
@@ -480,12 +496,13 @@ def synthesize(levels: list, S_init: np.ndarray, *, passes: int = 5, passes_fine
     L = len(levels)
     ex_shape = levels[-1].src_lab.shape
     S_init = np.ascontiguousarray(S_init, np.int32)
-    knns = [None] * L
     t0 = time.perf_counter()
-    for l in range(L - 1, -1, -1):  # finest first: coarser lists start from finer ones
-        init = knns[l + 1] if l + 1 < L else None
-        knns[l] = similarity_sets(levels[l], k, seed=seed + 7919 * l, iterations=knn_iterations if init is None else 1,
-                                  w=w, init=init) if k > 0 else np.zeros(ex_shape + (0, 2), np.int32)
+    if similarity is None:
+        knns = level_similarity_sets(levels, k, seed=seed, knn_iterations=knn_iterations, w=w)
+    else:
+        knns = list(similarity)
+        if len(knns) != L or any(a.shape[:3] != ex_shape + (k,) for a in knns):
+            raise ValueError(f"similarity must hold {L} arrays of shape {ex_shape + (k, 2)}")
     t1 = time.perf_counter()
     stats = []
     S = None

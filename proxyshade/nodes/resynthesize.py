@@ -18,6 +18,8 @@ the restricted solve.
 """
 from __future__ import annotations
 
+import weakref
+
 import numpy as np
 
 from proxyshade.graph.node import Input, Node, Param
@@ -32,6 +34,29 @@ from proxyshade.nodes.magnify import working_labels
 from proxyshade.nodes.patch_init import (check_finite, dense_guide, guide_at_synthesis, require, setup,
                                          source_table)
 from proxyshade.nodes.reproject import FLAG, frame_seed
+
+
+_SIMILARITY: list = []  # [(weakrefs to the source's arrays, key, similarity sets)], newest last
+
+
+def similarity_for(source: Plate, st, p) -> list:
+    """The similarity sets of the exemplar (``correct.level_similarity_sets``). They depend
+    on the source and the parameters only, not on the frame: within one run they are
+    searched once per source (kept by identity of its arrays, two entries) and reused."""
+    key = (st.factor, st.scale, len(st.levels), st.ex_lab.shape, p.max_distance, p.use_rgb, p.k, p.w,
+           p.knn_iterations, p.seed)
+    arrays = (source["R"], source["label.id"])
+    for refs, k, sims in _SIMILARITY:
+        if k == key and all(r() is a for r, a in zip(refs, arrays)):
+            return sims
+    sims = kcorrect.level_similarity_sets(st.levels, p.k, seed=p.seed, knn_iterations=p.knn_iterations, w=p.w)
+    try:
+        refs = tuple(weakref.ref(a) for a in arrays)
+    except TypeError:
+        return sims
+    _SIMILARITY.append((refs, key, sims))
+    del _SIMILARITY[:-2]
+    return sims
 
 
 def block_sample(a: np.ndarray, f: int, shape: tuple[int, int]) -> np.ndarray:
@@ -67,7 +92,7 @@ class Resynthesize(Node):
     knn_iterations = Param(int, 2, min=0, doc="PatchMatch iterations for the similarity sets")
     use_rgb = Param(bool, True, doc="colour neighbourhoods in the correction metric")
     radius = Param(str, "spacing", choices=("spacing", "level"), doc="near-copy rejection radius rule")
-    seed = Param(int, 0, doc="seed (combined with the frame number)")
+    seed = Param(int, 0, doc="seed of the flood fill (combined with the frame number) and of the similarity sets")
     solve = Param(bool, True, doc="finish with the restricted Poisson solve (Dirichlet outside the flagged pixels); "
                                   "false leaves it to a Poisson node with keep")
     seams = Param(str, "source", choices=("source", "zero"), doc="Poisson: target gradient across patch seams")
@@ -132,8 +157,8 @@ def resynthesize(ctx, img: Plate, source: Plate, p, frame: int, timings: dict | 
     lap("flood fill")
     if p.passes > 0 or p.passes_finest > 0:
         S, _ = kcorrect.synthesize(st.levels, S, passes=p.passes, passes_finest=p.passes_finest, k=p.k, w=p.w,
-                                   seed=seed, knn_iterations=p.knn_iterations, use_rgb=p.use_rgb, kappa=p.kappa,
-                                   mask=active, radius_rule=p.radius)
+                                   seed=p.seed, knn_iterations=p.knn_iterations, use_rgb=p.use_rgb, kappa=p.kappa,
+                                   mask=active, radius_rule=p.radius, similarity=similarity_for(source, st, p))
     S, _ = kmag.repair_labels(S, tgt, st.ex_lab)
     lap("corrections")
     # magnify to the output size and repair labels against the detailed labels

@@ -153,6 +153,17 @@ def test_synthesis_is_deterministic_across_thread_counts():
     assert (levels[-1].src_lab[a[..., 0], a[..., 1]] == levels[-1].tgt_lab).mean() > 0.99
 
 
+def test_precomputed_similarity_sets_give_the_same_result():
+    rng, levels = small_case(11, ex=(40, 48), tgt=(32, 32), nlev=3)
+    S0 = random_state(rng, levels[-1])
+    a, _ = kc.synthesize(levels, S0, k=2, seed=5)
+    sims = kc.level_similarity_sets(levels, 2, seed=5)
+    b, _ = kc.synthesize(levels, S0, k=2, seed=123, similarity=sims)  # the seed only seeds the search
+    assert np.array_equal(a, b)
+    with pytest.raises(ValueError, match="similarity"):
+        kc.synthesize(levels, S0, k=3, similarity=sims)
+
+
 def test_mask_limits_changes():
     rng, levels = small_case(10, ex=(40, 48), tgt=(32, 32), nlev=3)
     S0 = random_state(rng, levels[-1])
