@@ -33,25 +33,42 @@ from proxyshade.nodes.patch_init import require
 
 CATEGORY = {"A": 1, "B": 2, "C": 3, "D": 4}
 
-_GRID: list = []  # [(weakrefs to the frame-0 arrays, tolerance, corners)], newest last
+_GRID: list = []  # [(weakrefs to the frame-0 arrays, tolerances, Frame0)], newest last
 
 
-def frame0_grid(Z0: np.ndarray, lab0: np.ndarray, tol: float) -> tuple[np.ndarray, np.ndarray]:
-    """(inverse depth, grid corners) of the frame-0 plates. The corners depend on the first
-    frame only: within one run every later frame passes the same arrays, so they are kept
-    (by identity of the arrays, two entries) instead of being rebuilt each frame."""
-    for refs, t, w0, cw in _GRID:
-        if t == tol and refs[0]() is Z0 and refs[1]() is lab0:
-            return w0, cw
-    w0 = kr.inverse_depth(Z0)
-    cw = kr.grid_corners(w0, np.ascontiguousarray(lab0, np.uint32), tol)
+class Frame0:
+    """What the first frame contributes to every later frame: inverse depth, grid corners,
+    which pixels the frame-0 proxy hid (``occluded``) and which lay on it (``on_proxy``)."""
+
+    def __init__(self, Z0, lab0, Zp0, cut_tol: float, tol: float):
+        self.w0 = kr.inverse_depth(Z0)
+        self.cw = kr.grid_corners(self.w0, np.ascontiguousarray(lab0, np.uint32), cut_tol)
+        self.keep = np.isfinite(self.w0)
+        if Zp0 is not None:
+            wp0 = kr.inverse_depth(Zp0)
+            self.occluded = wp0 > self.w0 * (1.0 + tol)  # the proxy was in front of the guide's surface
+            self.on_proxy = np.abs(wp0 - self.w0) <= tol * np.maximum(wp0, self.w0)
+        else:
+            self.occluded = np.zeros(self.w0.shape, bool)
+            self.on_proxy = np.ones(self.w0.shape, bool)
+
+
+def frame0_grid(Z0: np.ndarray, lab0: np.ndarray, Zp0: np.ndarray | None, cut_tol: float, tol: float) -> Frame0:
+    """``Frame0`` of the first frame's plates. It depends on the first frame only: within one
+    run every later frame passes the same arrays, so it is kept (by identity of the arrays,
+    two entries) instead of being rebuilt each frame."""
+    arrays = (Z0, lab0, Zp0)
+    for refs, key, f0 in _GRID:
+        if key == (cut_tol, tol) and all((r() if r is not None else None) is a for r, a in zip(refs, arrays)):
+            return f0
+    f0 = Frame0(Z0, lab0, Zp0, cut_tol, tol)
     try:
-        refs = (weakref.ref(Z0), weakref.ref(lab0))
+        refs = tuple(weakref.ref(a) if a is not None else None for a in arrays)
     except TypeError:
-        return w0, cw
-    _GRID.append((refs, tol, w0, cw))
+        return f0
+    _GRID.append((refs, (cut_tol, tol), f0))
     del _GRID[:-2]
-    return w0, cw
+    return f0
 
 
 def camera_of(ctx, name: str, *plates) -> CameraInfo:
@@ -109,22 +126,15 @@ class ConsistentDepth(Node):
             raise ctx.error(f"the first frame's camera is {cam0.width}x{cam0.height} but the guide "
                             f"{guide.width}x{guide.height}; connect plates of one render")
         tol = p.depth_tolerance
-        w0, cw = frame0_grid(depth["Z"], guide["label.id"], p.cut_tolerance)
-        lab0 = np.ascontiguousarray(guide["label.id"], np.uint32)
         rp = ctx.ref_proxy if ctx.ref_proxy is not None else (guide if "Z" in guide and guide is not depth else None)
-        if rp is not None:
-            if rp.shape != guide.shape:
-                raise ctx.error("ref_proxy and guide differ in size; connect the first frame's ProxyRender")
-            wp0 = kr.inverse_depth(rp["Z"])
-            occluded0 = wp0 > w0 * (1.0 + tol)  # the proxy was in front of the guide's surface
-            on_proxy0 = np.abs(wp0 - w0) <= tol * np.maximum(wp0, w0)
-        else:
-            occluded0 = np.zeros(guide.shape, bool)
-            on_proxy0 = np.ones(guide.shape, bool)
+        if rp is not None and rp.shape != guide.shape:
+            raise ctx.error("ref_proxy and guide differ in size; connect the first frame's ProxyRender")
+        f0 = frame0_grid(depth["Z"], guide["label.id"], rp["Z"] if rp is not None else None, p.cut_tolerance, tol)
+        w0, cw, keep, occluded0, on_proxy0 = f0.w0, f0.cw, f0.keep, f0.occluded, f0.on_proxy
+        lab0 = np.ascontiguousarray(guide["label.id"], np.uint32)
         k0, k1 = kr.intrinsics(cam0), kr.intrinsics(cam1)
         M = kr.relative_matrix(cam0, cam1)
         wp1 = kr.inverse_depth(proxy["Z"])
-        keep = np.isfinite(w0)
         wg, src = kr.splat_grid(cw, keep, M, k0, k1, cam1.near, cam1.height, cam1.width, p.max_extent)
         covered = src >= 0
         if p.stale:  # grid pixels that lay on the proxy at frame 0 and float in front of it now: not covered
@@ -142,16 +152,16 @@ class ConsistentDepth(Node):
         cat[occl & prev] = CATEGORY["B"]
         cat[occl & ~prev] = CATEGORY["C"]
         grid = (cat == CATEGORY["A"]) | (cat == CATEGORY["B"])
-        label = np.where(grid, lab0.ravel()[s], proxy["label.id"]).astype(np.uint32)
+        label = np.where(grid, lab0.ravel()[s], proxy["label.id"]).astype(np.uint32, copy=False)
         with np.errstate(divide="ignore"):
             zg = np.where(wg > 0, 1.0 / np.where(wg > 0, wg, 1.0), np.inf)
-        Z = np.where(grid, zg, proxy["Z"]).astype(np.float32)
-        P = kr.unproject(np.where(grid, Z, np.inf).astype(np.float32), np.ascontiguousarray(cam1.camera_to_world), k1)
+        Z = np.where(grid, zg, proxy["Z"]).astype(np.float32, copy=False)
+        P = kr.unproject(np.where(grid, Z, np.inf).astype(np.float32, copy=False), np.ascontiguousarray(cam1.camera_to_world), k1)
         ch = {"label.id": label, "Z": Z, "category": cat}
         for k, a in enumerate("XYZ"):
             pp = "P." + a
             base = proxy[pp] if pp in proxy else np.zeros(proxy.shape, np.float32)
-            ch[pp] = np.where(grid & np.isfinite(Z), P[..., k], base).astype(np.float32)
+            ch[pp] = np.where(grid & np.isfinite(Z), P[..., k], base).astype(np.float32, copy=False)
         for c in ("N.X", "N.Y", "N.Z", "object.id"):
             if c in proxy:
                 ch[c] = proxy[c]

@@ -60,8 +60,8 @@ def newly_occluded(cat, u, v, ok, lab, prev_lab) -> np.ndarray:
     out = (cat == CATEGORY_C) & ok
     ii, jj = np.nonzero(out)
     hp, wp = prev_lab.shape
-    c = np.floor(u[ii, jj]).astype(np.int64)
-    r = np.floor(v[ii, jj]).astype(np.int64)
+    c = np.floor(u[ii, jj]).astype(np.int64, copy=False)
+    r = np.floor(v[ii, jj]).astype(np.int64, copy=False)
     inside = (c >= 0) & (r >= 0) & (c < wp) & (r < hp)
     other = np.ones(len(ii), bool)
     other[inside] = prev_lab[r[inside], c[inside]] != lab[ii[inside], jj[inside]]
@@ -73,7 +73,7 @@ def start_distortion(h: int, w: int, amount: float, seed: int, frame: int) -> np
     """Initial D of freshly synthesized pixels: uniform in [0, amount), hashed per pixel and frame."""
     if amount <= 0:
         return np.zeros((h, w), np.float32)
-    return (np.float32(amount) * kt.uniform_field(frame_seed(seed + 1, frame), h, w)).astype(np.float32)
+    return (np.float32(amount) * kt.uniform_field(frame_seed(seed + 1, frame), h, w)).astype(np.float32, copy=False)
 
 
 def clean_flags(raw: np.ndarray, *, radius: int, min_neighbours: int, dilate: int) -> np.ndarray:
@@ -81,7 +81,7 @@ def clean_flags(raw: np.ndarray, *, radius: int, min_neighbours: int, dilate: in
     dilated pixels take the reason of a flag they grew from, reasons 2, 1, 3 first."""
     anyf = raw > 0
     kept = kt.remove_isolated(anyf, radius, min_neighbours) if min_neighbours > 0 else anyf
-    out = np.where(kept, raw, 0).astype(np.uint32)
+    out = np.where(kept, raw, 0).astype(np.uint32, copy=False)
     if dilate <= 0:
         return out
     grown = kt.dilate(kept, dilate)
@@ -142,7 +142,7 @@ class Reproject(Node):
         H, W = cd.shape
         cat = cd["category"] if "category" in cd else np.zeros((H, W), np.uint32)
         geo = {c: cd[c] for c in ("label.id", "Z", "P.X", "P.Y", "P.Z") if c in cd}
-        geo["category"] = cat.astype(np.uint32)
+        geo["category"] = cat.astype(np.uint32, copy=False)
         prev = ctx.prev
         if prev is None:
             return self._first(ctx, cd, geo)
@@ -164,11 +164,11 @@ class Reproject(Node):
             prev_res = prev_rgb - lookup(src_rgb, prev["source.x"], prev["source.y"])
         else:
             prev_res = prev_rgb
-        prev_d = prev["distortion"].astype(np.float32) if "distortion" in prev else np.zeros(prev.shape, np.float32)
+        prev_d = prev["distortion"].astype(np.float32, copy=False) if "distortion" in prev else np.zeros(prev.shape, np.float32)
         valid, sx, sy, patch, res, dprev = kr.gather_prev(
             u, v, q, ok, lab, kr.inverse_depth(prev["Z"]), np.ascontiguousarray(prev["label.id"], np.uint32),
-            np.ascontiguousarray(prev["patch.id"], np.uint32), prev["source.x"].astype(np.float32),
-            prev["source.y"].astype(np.float32), np.ascontiguousarray(prev_res, np.float32), prev_d, tol, scale)
+            np.ascontiguousarray(prev["patch.id"], np.uint32), prev["source.x"].astype(np.float32, copy=False),
+            prev["source.y"].astype(np.float32, copy=False), np.ascontiguousarray(prev_res, np.float32), prev_d, tol, scale)
         det = kr.surface_jacobian_det(u, v, w1, lab, valid, tol)
         D, distorted = kt.accumulate_distortion(dprev, det, valid, p.threshold, p.noise, frame_seed(p.seed, ctx.frame))
         raw = np.zeros((H, W), np.uint32)
@@ -194,10 +194,10 @@ class Reproject(Node):
             rgb = lookup(src_rgb, sx, sy) + res
         else:
             rgb = res
-        rgb = np.where(keep[..., None], rgb, 0.0).astype(np.float32)
-        sx = np.where(keep, sx, 0.0).astype(np.float32)
-        sy = np.where(keep, sy, 0.0).astype(np.float32)
-        patch = np.where(keep, patch, 0).astype(np.uint32)
+        rgb = np.where(keep[..., None], rgb, 0.0).astype(np.float32, copy=False)
+        sx = np.where(keep, sx, 0.0).astype(np.float32, copy=False)
+        sy = np.where(keep, sy, 0.0).astype(np.float32, copy=False)
+        patch = np.where(keep, patch, 0).astype(np.uint32, copy=False)
         counts = {k: float((flag == v).mean()) for k, v in FLAG.items() if v}
         ctx.note(f"flagged {100 * share:.2f}%: " + ", ".join(f"{k} {100 * s:.2f}%" for k, s in counts.items()))
         ch = {"R": rgb[..., 0].copy(), "G": rgb[..., 1].copy(), "B": rgb[..., 2].copy(), "source.x": sx,

@@ -146,7 +146,7 @@ def resynthesize(ctx, img: Plate, source: Plate, p, frame: int, timings: dict | 
     active = kcorrect.downsample_mask(flagged, f, shape)
     fresh = kcorrect.downsample_mask((flag == FLAG["disoccluded"]) | (flag == FLAG["newly_occluded"]), f, shape)
     S = st.from_source(block_sample(img["source.x"], f, shape), block_sample(img["source.y"], f, shape))
-    patch_s = block_sample(img["patch.id"], f, shape).astype(np.int64)
+    patch_s = block_sample(img["patch.id"], f, shape).astype(np.int64, copy=False)
     npatch = 0
     if fresh.any():
         fin = st.levels[-1]
@@ -164,16 +164,20 @@ def resynthesize(ctx, img: Plate, source: Plate, p, frame: int, timings: dict | 
     # magnify to the output size and repair labels against the detailed labels
     Sw = kmag.magnify(S, f, (H, W))
     src_dense, _ = kf.dense_labels(source["label.id"], table)
-    Sw, rep = kmag.repair_labels(Sw, g, working_labels(src_dense, scale, n))
+    wl = working_labels(src_dense, scale, n)
+    # only flagged pixels take the new map: the others are told the label they land on (nothing to repair)
+    here = wl[np.clip(Sw[..., 0], 0, wl.shape[0] - 1), np.clip(Sw[..., 1], 0, wl.shape[1] - 1)]
+    Sw, rep = kmag.repair_labels(Sw, np.where(flagged, g, here), wl)
     new_patch, _ = kpatch.offset_components(Sw)
     base = np.uint32(int(img["patch.id"].max()) + 1)
-    sx_new = ((Sw[..., 1].astype(np.float64) + 0.5) * scale - 0.5).astype(np.float32)
-    sy_new = ((Sw[..., 0].astype(np.float64) + 0.5) * scale - 0.5).astype(np.float32)
-    sx = np.where(flagged, sx_new, img["source.x"]).astype(np.float32)
-    sy = np.where(flagged, sy_new, img["source.y"]).astype(np.float32)
-    patch = np.where(flagged, new_patch + base, img["patch.id"]).astype(np.uint32)
-    rgb_new = lookup(source.rgb(), sx, sy)
-    rgb = np.where(flagged[..., None], rgb_new, img.rgb()).astype(np.float32)
+    sx_new = ((Sw[..., 1].astype(np.float64) + 0.5) * scale - 0.5).astype(np.float32, copy=False)
+    sy_new = ((Sw[..., 0].astype(np.float64) + 0.5) * scale - 0.5).astype(np.float32, copy=False)
+    sx = np.where(flagged, sx_new, img["source.x"]).astype(np.float32, copy=False)
+    sy = np.where(flagged, sy_new, img["source.y"]).astype(np.float32, copy=False)
+    patch = np.where(flagged, new_patch + base, img["patch.id"]).astype(np.uint32, copy=False)
+    rgb = img.rgb()
+    ii, jj = np.nonzero(flagged)
+    rgb[ii, jj] = lookup(source.rgb(), sx[ii, jj][None], sy[ii, jj][None])[0]
     lap("magnify")
     if p.solve:
         src_rgb = source.rgb() if p.seams == "source" else None
