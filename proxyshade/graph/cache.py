@@ -17,6 +17,7 @@ import shutil
 import threading
 import time
 import warnings
+from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
 
 from proxyshade.graph.plate import Plate
@@ -44,10 +45,16 @@ def _atomic_write_text(path: Path, text: str) -> None:
 class Cache:
     """Disk store of plates by key. ``memory`` keeps plates of the current run."""
 
-    def __init__(self, root: str | Path):
+    def __init__(self, root: str | Path, *, background: bool = True):
         self.root = Path(root)
         self.memory: dict[str, Plate] = {}
         self._lock = threading.Lock()
+        # entries are compressed and written on a writer thread while the next nodes compute;
+        # ``flush`` waits for them (the engine calls it at the end of every run)
+        self._writer = ThreadPoolExecutor(max_workers=1, thread_name_prefix="proxyshade-cache") if background else None
+        self._pending: list[Future] = []
+        self._pinned: set[str] = set()
+        self._forgotten: set[str] = set()
 
     # -- paths -------------------------------------------------------------
     def _paths(self, key: str) -> tuple[Path, Path]:
@@ -105,14 +112,34 @@ class Cache:
 
     # -- writes ------------------------------------------------------------
     def store(self, key: str, plate: Plate, record: dict) -> None:
-        exr, js = self._paths(key)
-        exr.parent.mkdir(parents=True, exist_ok=True)
-        write_plate(exr, plate, extra={"proxyshade/node": str(record.get("node")), "proxyshade/key": key,
-                                       "proxyshade/frame": str(record.get("frame"))})
-        rec = dict(record, key=key, size=exr.stat().st_size, sha256=_sha256(exr), created=time.time())
-        _atomic_write_text(js, json.dumps(rec, sort_keys=True, default=str))
         with self._lock:
             self.memory[key] = plate
+            self._pinned.add(key)  # kept in memory until written
+        if self._writer is None:
+            self._write(key, plate, record)
+        else:
+            self._pending.append(self._writer.submit(self._write, key, plate, record))
+
+    def _write(self, key: str, plate: Plate, record: dict) -> None:
+        exr, js = self._paths(key)
+        exr.parent.mkdir(parents=True, exist_ok=True)
+        try:
+            write_plate(exr, plate, extra={"proxyshade/node": str(record.get("node")), "proxyshade/key": key,
+                                           "proxyshade/frame": str(record.get("frame"))})
+            rec = dict(record, key=key, size=exr.stat().st_size, sha256=_sha256(exr), created=time.time())
+            _atomic_write_text(js, json.dumps(rec, sort_keys=True, default=str))
+        finally:
+            with self._lock:
+                self._pinned.discard(key)
+                if key in self._forgotten:
+                    self._forgotten.discard(key)
+                    self.memory.pop(key, None)
+
+    def flush(self) -> None:
+        """Wait for every pending write; re-raise the first failure."""
+        pending, self._pending = self._pending, []
+        for f in pending:
+            f.result()
 
     def store_sink(self, key: str, files: list[Path], record: dict) -> None:
         _, js = self._paths(key)
@@ -121,9 +148,13 @@ class Cache:
         _atomic_write_text(js, json.dumps(rec, sort_keys=True, default=str))
 
     def forget(self, key: str) -> None:
-        """Drop a plate from the in-memory layer (the disk entry stays)."""
+        """Drop a plate from the in-memory layer (the disk entry stays; a plate still being
+        written is dropped once written)."""
         with self._lock:
-            self.memory.pop(key, None)
+            if key in self._pinned:
+                self._forgotten.add(key)
+            else:
+                self.memory.pop(key, None)
 
     # -- maintenance -------------------------------------------------------
     def info(self) -> dict:

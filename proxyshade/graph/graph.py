@@ -326,7 +326,10 @@ class Graph:
                     self.cache.forget(nr.key)
             hooks.done(nr)
 
-        make_executor(jobs).run(todo, work)
+        try:
+            make_executor(jobs).run(todo, work)
+        finally:
+            self.cache.flush()
         for inst, nr in runs.items():
             if nr.status != "computed":
                 hooks.done(nr)
@@ -397,7 +400,10 @@ class Graph:
         if (name, frame) not in plan.keys:
             raise ParamError(f"no node {name!r}; nodes are {', '.join(self.nodes)}")
         plan.keep.add(plan.keys[(name, frame)])
-        return self._value(plan, (name, frame))
+        try:
+            return self._value(plan, (name, frame))
+        finally:
+            self.cache.flush()
 
 
 @dataclass
