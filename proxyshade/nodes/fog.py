@@ -59,7 +59,7 @@ class Fog(Node):
     """
 
     version = 1
-    image = Input("composite with R,G,B, Z (P.X/P.Y/P.Z for height falloff or range)")
+    image = Input("composite with R,G,B, Z (P.X/P.Y/P.Z for height falloff or range)", channels=("R", "G", "B", "Z"))
     colour = Param(list, [0.62, 0.68, 0.75], length=3, doc="linear fog colour")
     density = Param(float, 0.02, min=0.0, doc="extinction per world unit at base_height")
     height_falloff = Param(float, 0.0, min=0.0, doc="per world unit; 0 = uniform fog")
@@ -73,11 +73,6 @@ class Fog(Node):
     def compute(self, ctx) -> Plate:
         img: Plate = ctx.image
         p = ctx.p
-        if img is None:
-            raise ctx.error("input 'image' is not connected; connect the composite")
-        for n in ("R", "G", "B", "Z"):
-            if n not in img:
-                raise ctx.error(f"image has no {n!r} channel; Fog needs R,G,B and Z, it has {', '.join(img.names())}")
         try:
             colour = [float(c) for c in p.colour]
         except (TypeError, ValueError):

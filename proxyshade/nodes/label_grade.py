@@ -77,7 +77,7 @@ class LabelGrade(Node):
     """Grade the pixels of one texture label in linear light; all other pixels are untouched."""
 
     version = 1
-    image = Input("plate with R,G,B, label.id and meta['labels']")
+    image = Input("plate with R,G,B, label.id and meta['labels']", channels=("R", "G", "B", "label.id"))
     label = Param(str, doc="name of the label to grade (from meta['labels'])")
     temperature = Param(float, REFERENCE_CCT, min=1667.0, max=25000.0,
                         doc="white balance: 6504 K white becomes this CCT's white (lower = warmer)")
@@ -91,12 +91,6 @@ class LabelGrade(Node):
     def compute(self, ctx) -> Plate:
         img: Plate = ctx.image
         p = ctx.p
-        if img is None:
-            raise ctx.error("input 'image' is not connected; connect a plate with label.id")
-        for n in ("R", "G", "B", "label.id"):
-            if n not in img:
-                raise ctx.error(f"image has no {n!r} channel; LabelGrade needs R,G,B and label.id, "
-                                f"it has {', '.join(img.names())}")
         table = img.meta.get("labels") or []
         ids = {t["name"]: int(t["id"]) for t in table}
         if p.label not in ids:

@@ -103,7 +103,7 @@ def test_height_falloff_without_p_is_one_line_error():
 
 
 def test_missing_depth_is_error():
-    with pytest.raises(NodeInputError, match="no 'Z' channel"):
+    with pytest.raises(NodeInputError, match="input 'image' has no channel Z; Fog needs R, G, B, Z there"):
         run_node("Fog", {}, {"image": Plate({c: np.zeros((1, 1), np.float32) for c in "RGB"})})
 
 

@@ -86,5 +86,5 @@ def test_bad_power_and_missing_label_channel():
     p = plate(np.random.default_rng(5))
     with pytest.raises(NodeInputError, match="power"):
         run_node("LabelGrade", {"label": "sky", "power": [1, 0, 1]}, {"image": p})
-    with pytest.raises(NodeInputError, match="no 'label.id' channel"):
+    with pytest.raises(NodeInputError, match="input 'image' has no channel label.id; LabelGrade needs"):
         run_node("LabelGrade", {"label": "sky"}, {"image": p.select(["R", "G", "B"])})
