@@ -110,19 +110,21 @@ def test_camera_move_graph_reuses_earlier_frames(tmp_path):
     graph = Path(__file__).resolve().parents[2] / "graphs" / "camera_move.yaml"
 
     def load():
-        return Graph.load(graph, cache=tmp_path / "cache", overrides=["proxy.resolution=[64,64]"],
+        return Graph.load(graph, cache=tmp_path / "cache",
+                          overrides=["proxy.resolution=[64,64]", "guide.size=32", "guide.start=16"],
                           variables={"out": str(tmp_path / "out")})
 
     r = load().run([3])
     done = {(x.node, x.frame) for x in r.runs if x.status == "computed"}
     assert {("final", 1), ("final", 2), ("final", 3), ("write", 3), ("init", 1)} <= done
-    assert not any(n in ("init", "correct", "magnify", "first") and f != 1 for n, f in done)
+    assert {("guide", 1), ("depth", 1), ("first", 1)} <= done
+    assert not any(n in ("guide", "depth", "init", "correct", "magnify", "first") and f != 1 for n, f in done)
     assert ("write", 2) not in done and (tmp_path / "out" / "lake" / "frame.0003.exr").is_file()
     r = load().run([3])
     assert not r.computed
     r = load().run([4])
     assert {(x.node, x.frame) for x in r.runs if x.status == "computed"} == {
-        (n, 4) for n in ("proxy", "cd", "reproject", "final", "write", "preview", "flags")}
+        (n, 4) for n in ("proxy", "cd", "reproject", "final", "write", "preview", "flags", "labels")}
     import OpenEXR
 
     with OpenEXR.File(str(tmp_path / "out" / "lake" / "frame.0004.exr")) as f:
