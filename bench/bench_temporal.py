@@ -1,8 +1,8 @@
 """Temporal coherence under camera motion (Bonneel et al. 2010, §6): the update frame.
 
 For each bundled scene's camera move, at 1024² output / 256² synthesis: the first frame
-once (PatchInit -> Correct -> Magnify -> Poisson on the proxy), then frames 2..N, each
-timed stage by stage like the paper's Table 1:
+once (GuideSynth -> DepthExtend -> PatchInit -> Correct -> Magnify -> Poisson), then
+frames 2..N, each timed stage by stage like the paper's Table 1:
 
   proxy        ProxyRender of the frame (label guide + depth)
   R&D          ConsistentDepth (frame-0 grid splatted into this camera) + Reproject
@@ -57,7 +57,8 @@ def update_frames(scene: str, size: int, frames: int) -> tuple[dict, list[float]
 
     src = T.source(T.SCENES[scene])
     p0 = T.proxy(scene, 1, size)
-    prev = T.first_frame(scene, size)
+    g0, d0 = T.detailed(scene, 1, size)
+    prev = T.first_frame(scene, size, detail=True)
     params = REGISTRY["Resynthesize"].validate_params({"seed": 1})
 
     class P:
@@ -74,7 +75,7 @@ def update_frames(scene: str, size: int, frames: int) -> tuple[dict, list[float]
                                       "resolution": [size, size]}, {"source": src}, frame=fr)
         tm["proxy"] = time.perf_counter() - t
         t = time.perf_counter()
-        cd = run_node("ConsistentDepth", {}, {"proxy": pN, "guide": p0, "ref_proxy": p0}, frame=fr)
+        cd = run_node("ConsistentDepth", {}, {"proxy": pN, "guide": g0, "depth": d0, "ref_proxy": p0}, frame=fr)
         rp = run_node("Reproject", {}, {"depth": cd, "prev": prev, "source": src}, frame=fr)
         tm["R&D"] = time.perf_counter() - t
         prev = resynthesize(_Ctx(), rp, src, P, fr, timings=tm)
@@ -92,7 +93,7 @@ def update_frames(scene: str, size: int, frames: int) -> tuple[dict, list[float]
 
 def move_shares(scene: str, size: int, last: int = 48) -> list[float]:
     """Share of pixels flagged per frame over the whole move (coherent run only)."""
-    run = T.run_move(scene, range(1, last + 1), size=size)
+    run = T.run_move(scene, range(1, last + 1), size=size, detail=True)
     return [float((r["reproject"]["flag"] > 0).mean()) for r in run[1:]]
 
 
@@ -114,7 +115,7 @@ def main(argv=None) -> None:
               f"({'ok' if med['update frame']['median'] <= 1.2 else 'OVER'}); "
               f"flagged per timed frame: median {100 * statistics.median(shares):.2f}%")
         s48 = move_shares(scene, args.metric_size)
-        m = T.coherence_metrics(scene, range(1, args.metric_frames + 1), args.metric_size)
+        m = T.coherence_metrics(scene, range(1, args.metric_frames + 1), args.metric_size, detail=True)
         summary.append((scene, med["update frame"]["median"], statistics.median(s48), max(s48), m["ratio"]))
         print(f"{scene}: share resynthesized per frame over 48 frames at {args.metric_size}²: median "
               f"{100 * statistics.median(s48):.2f}%, max {100 * max(s48):.2f}%")

@@ -28,10 +28,23 @@ def proxy(scene: str, frame: int, size: int = 128) -> Plate:
                     name="proxy")
 
 
-def first_frame(scene: str, size: int = 128, seed: int = 0, frame: int = 1, guide: Plate | None = None) -> Plate:
-    """Full synthesis of one frame on the proxy's labels (GuideSynth stands aside here)."""
+@functools.lru_cache(maxsize=None)
+def detailed(scene: str, frame: int = 1, size: int = 128) -> tuple[Plate, Plate]:
+    """GuideSynth's detailed guide (synthesis at size / 4) and DepthExtend's depth of a frame."""
+    pr = proxy(scene, frame, size)
+    s = max(16, size // 4)
+    g = run_node("GuideSynth", {"size": s, "start": min(s, max(16, s // 4)), "seed": 1},
+                 {"proxy": pr, "source": source(SCENES[scene])}, frame=frame, name="guide")
+    d = run_node("DepthExtend", {}, {"proxy": pr, "guide": g}, frame=frame, name="depth")
+    return g, d
+
+
+def first_frame(scene: str, size: int = 128, seed: int = 0, frame: int = 1, guide: Plate | None = None,
+                detail: bool = False) -> Plate:
+    """Full synthesis of one frame on the proxy's labels, or with ``detail`` on GuideSynth's
+    detailed guide with DepthExtend's depth."""
     src = source(SCENES[scene])
-    g = guide if guide is not None else proxy(scene, frame, size)
+    g = guide if guide is not None else (detailed(scene, frame, size)[1] if detail else proxy(scene, frame, size))
     init = run_node("PatchInit", {"seed": seed}, {"guide": g, "source": src}, name="init")
     cor = run_node("Correct", {"seed": seed}, {"init": init, "source": src}, name="correct")
     mag = run_node("Magnify", {}, {"synth": cor, "source": src, "guide": g, "depth": g}, name="magnify")
@@ -39,24 +52,23 @@ def first_frame(scene: str, size: int = 128, seed: int = 0, frame: int = 1, guid
 
 
 def run_move(scene: str, frames, size: int = 128, reproject: dict | None = None, resynth: dict | None = None,
-             first: int = 1) -> list[dict]:
+             first: int = 1, detail: bool = False) -> list[dict]:
     """Frames first..last of a scene's move; per frame the plates of each stage."""
     src = source(SCENES[scene])
     p0 = proxy(scene, first, size)
-    f0 = first_frame(scene, size, frame=first)
+    f0 = first_frame(scene, size, frame=first, detail=detail)
+    g0, d0 = detailed(scene, first, size) if detail else (p0, p0)
     out = []
     prev = None
     for fr in frames:
         pN = proxy(scene, fr, size)
-        cd = run_node("ConsistentDepth", {}, {"proxy": pN, "guide": p0, "ref_proxy": p0}, frame=fr, first_frame=first,
-                      name="cd")
+        cd = run_node("ConsistentDepth", {}, {"proxy": pN, "guide": g0, "depth": d0, "ref_proxy": p0}, frame=fr,
+                      first_frame=first, name="cd")
         rp = run_node("Reproject", reproject or {}, {"depth": cd, "prev": prev, "first": f0, "source": src},
                       frame=fr, first_frame=first, name="reproject")
-        rs = run_node("Resynthesize", resynth or {}, {"image": rp, "source": src}, frame=fr, first_frame=first,
-                      name="resynth")
-        fin = run_node("Poisson", {}, {"image": rs, "keep": rs, "source": src}, frame=fr, first_frame=first,
+        fin = run_node("Resynthesize", resynth or {}, {"image": rp, "source": src}, frame=fr, first_frame=first,
                        name="final")
-        out.append({"frame": fr, "proxy": pN, "cd": cd, "reproject": rp, "resynth": rs, "final": fin})
+        out.append({"frame": fr, "proxy": pN, "cd": cd, "reproject": rp, "final": fin})
         prev = fin
     return out
 
@@ -146,7 +158,7 @@ def state_plate(proxy_plate: Plate, seed: int = 0, scale: float = 1.0) -> Plate:
 
 
 def coherence_metrics(scene: str, frames, size: int = 128, reproject: dict | None = None,
-                      filters=("bilinear", "cubic")) -> dict:
+                      filters=("bilinear", "cubic"), detail: bool = False) -> dict:
     """Run the move coherently and frame by frame independently; per frame the share of
     pixels resynthesized and the warp error of both over the pixels the coherent run kept
     (flag 0 and a valid reprojection: same label and surface in the previous frame)."""
@@ -154,8 +166,8 @@ def coherence_metrics(scene: str, frames, size: int = 128, reproject: dict | Non
     from proxyshade.kernels import reproject as kr
 
     frames = list(frames)
-    run = run_move(scene, frames, size=size, reproject=reproject)
-    indep = {fr: first_frame(scene, size, seed=fr, frame=fr) for fr in frames}
+    run = run_move(scene, frames, size=size, reproject=reproject, detail=detail)
+    indep = {fr: first_frame(scene, size, seed=fr, frame=fr, detail=detail) for fr in frames}
     shares = []
     coherent = {f: [] for f in filters}
     independent = {f: [] for f in filters}
