@@ -298,26 +298,29 @@ def rasterize(points: np.ndarray, tris: np.ndarray, *, width: int, height: int, 
                                              bool(ortho), int(width), int(height), numba.get_num_threads())
     xy, dep, bar, src, r0, r1 = (a[keep] for a in (xy, dep, bar, src, r0, r1))  # in slot (= id) order
     nb = (height + BAND - 1) // BAND
-    band_start, band_list = _bin(r0, r1, nb)
+    band_start, band_list = bin_rows(r0, r1, nb, BAND)
     _raster_bands(xy, dep, bar, src, r0, r1, width, height, depth, tid, bary, count, band_start, band_list)
     return depth.astype(np.float32), tid, bary, count
 
 
 @njit(**JIT)
-def _bin(r0, r1, nb):
-    """Screen triangles listed per band of BAND rows, in increasing id order."""
+def bin_rows(r0, r1, nb, band):
+    """Items spanning rows r0[s]..r1[s] listed per band of ``band`` rows, in increasing
+    index order (items with r0 > r1 are skipped): (band starts (nb + 1,), item list)."""
     cnt = np.zeros(nb + 1, np.int64)
     for s in range(r0.shape[0]):
-        for b in range(r0[s] // BAND, r1[s] // BAND + 1):
-            cnt[b + 1] += 1
+        if r0[s] <= r1[s]:
+            for b in range(r0[s] // band, r1[s] // band + 1):
+                cnt[b + 1] += 1
     for b in range(nb):
         cnt[b + 1] += cnt[b]
     fill = cnt[:-1].copy()
     out = np.empty(cnt[nb], np.int64)
     for s in range(r0.shape[0]):
-        for b in range(r0[s] // BAND, r1[s] // BAND + 1):
-            out[fill[b]] = s
-            fill[b] += 1
+        if r0[s] <= r1[s]:
+            for b in range(r0[s] // band, r1[s] // band + 1):
+                out[fill[b]] = s
+                fill[b] += 1
     return cnt, out
 
 

@@ -29,6 +29,7 @@ import numpy as np
 from numba import njit, prange
 
 from proxyshade.kernels._config import JIT, PJIT
+from proxyshade.kernels.raster import bin_rows
 
 
 def intrinsics(cam) -> np.ndarray:
@@ -280,26 +281,6 @@ def _quad_rows(cw, keep, A, k1, near, height, width, max_extent):
     return r0.ravel(), r1.ravel()
 
 
-@njit(**JIT)
-def _bin_rows(r0, r1, nb, band):
-    """Quads listed per band of ``band`` rows, in increasing index order."""
-    cnt = np.zeros(nb + 1, np.int64)
-    for s in range(r0.shape[0]):
-        if r0[s] <= r1[s]:
-            for b in range(r0[s] // band, r1[s] // band + 1):
-                cnt[b + 1] += 1
-    for b in range(nb):
-        cnt[b + 1] += cnt[b]
-    fill = cnt[:-1].copy()
-    out = np.empty(cnt[nb], np.int64)
-    for s in range(r0.shape[0]):
-        if r0[s] <= r1[s]:
-            for b in range(r0[s] // band, r1[s] // band + 1):
-                out[fill[b]] = s
-                fill[b] += 1
-    return cnt, out
-
-
 @njit(**PJIT)
 def _splat_bands(cw, A, k1, near, height, width, band, start, lst, zbuf, src):
     h0, w0 = cw.shape[0], cw.shape[1]
@@ -364,7 +345,7 @@ def splat_grid(cw, keep, M, k0, k1, near, height, width, max_extent):
     A = affine_transfer(M, k0)
     r0, r1 = _quad_rows(cw, keep, A, k1, float(near), int(height), int(width), float(max_extent))
     nb = (int(height) + SPLAT_BAND - 1) // SPLAT_BAND
-    start, lst = _bin_rows(r0, r1, nb, SPLAT_BAND)
+    start, lst = bin_rows(r0, r1, nb, SPLAT_BAND)
     zbuf = np.full((int(height), int(width)), -1.0, np.float64)
     src = np.full((int(height), int(width)), -1, np.int64)
     _splat_bands(cw, A, k1, float(near), int(height), int(width), SPLAT_BAND, start, lst, zbuf, src)
