@@ -13,14 +13,16 @@ $(STAMP): pyproject.toml
 	$(PY) -m pip install -q -e '.[test]'
 	touch $(STAMP)
 
-# The first frame of each bundled scene (EXR + previews in out/first_frame), then the
-# farm scene composited with its CG house, shadow, fog and Cryptomatte (out/composite).
+# The first frame of each bundled scene (EXR + previews in out/first_frame), the farm
+# scene composited with its CG house, shadow, fog and Cryptomatte (out/composite), and the
+# first 12 frames of the lake's temporally coherent camera move (out/camera_move).
 demo: $(STAMP)
 	$(VENV)/bin/proxyshade run graphs/first_frame.yaml --frames 1 --var scene=lake --var source=renoir
 	$(VENV)/bin/proxyshade run graphs/first_frame.yaml --frames 1 --var scene=cliffs --var source=monet
 	$(VENV)/bin/proxyshade run graphs/first_frame.yaml --frames 1 --var scene=farm --var source=creek
 	$(VENV)/bin/proxyshade run graphs/composite.yaml --frames 1
-	@echo "demo output: out/first_frame/*.png, out/composite/farm.0001.png and their EXRs"
+	$(VENV)/bin/proxyshade run graphs/camera_move.yaml --frames 1-12
+	@echo "demo output: out/first_frame/*.png, out/composite/farm.0001.png, out/camera_move/lake/*.png and their EXRs"
 
 test: $(STAMP)
 	$(PY) -m pytest
