@@ -36,51 +36,6 @@ def _contour_mask(labels):
     return out
 
 
-@njit(**JIT)
-def _envelope_1d(f, n, out, v, z):
-    """Squared distance transform of one line: out[q] = min_p (q - p)^2 + f[p].
-
-    ``f`` holds integers (``_BIG`` where there is no site). Sites are the finite
-    entries; with none, ``out`` is all ``_BIG``.
-    """
-    k = -1
-    for q in range(n):
-        if f[q] >= _BIG:
-            continue
-        fq = f[q] + q * q
-        while k >= 0:
-            p = v[k]
-            # intersection of the parabolas rooted at p and q, kept as an exact rational:
-            # s = ((f[q] + q^2) - (f[p] + p^2)) / (2q - 2p)
-            num = fq - (f[p] + p * p)
-            den = 2 * (q - p)
-            # pop p when s <= z[k] (z[k] = num_k / den_k, den_k > 0)
-            if num * z[2 * k + 1] <= z[2 * k] * den:
-                k -= 1
-            else:
-                break
-        k += 1
-        v[k] = q
-        if k == 0:
-            z[0] = -1  # -infinity as -1/0 marker
-            z[1] = 0
-        else:
-            p = v[k - 1]
-            z[2 * k] = fq - (f[p] + p * p)
-            z[2 * k + 1] = 2 * (q - p)
-    if k < 0:
-        for q in range(n):
-            out[q] = _BIG
-        return
-    # walk q upwards, advancing along the envelope while the next breakpoint is <= q
-    j = 0
-    for q in range(n):
-        while j < k and z[2 * (j + 1)] <= q * z[2 * (j + 1) + 1]:
-            j += 1
-        p = v[j]
-        out[q] = (q - p) * (q - p) + f[p]
-
-
 @njit(**PJIT)
 def _edt_sq(sites):
     """Exact squared Euclidean distance (int64) to the nearest True pixel of ``sites``."""
@@ -90,11 +45,12 @@ def _edt_sq(sites):
     for j in prange(w):
         f = np.empty(h, np.int64)
         out = np.empty(h, np.int64)
+        arg = np.empty(h, np.int64)
         v = np.empty(h, np.int64)
         z = np.empty(2 * h + 2, np.int64)
         for i in range(h):
             f[i] = 0 if sites[i, j] else _BIG
-        _envelope_1d(f, h, out, v, z)
+        _envelope_1d_arg(f, h, out, arg, v, z)
         for i in range(h):
             g[i, j] = out[i]
     d = np.empty((h, w), np.int64)
@@ -102,11 +58,12 @@ def _edt_sq(sites):
     for i in prange(h):
         f = np.empty(w, np.int64)
         out = np.empty(w, np.int64)
+        arg = np.empty(w, np.int64)
         v = np.empty(w, np.int64)
         z = np.empty(2 * w + 2, np.int64)
         for j in range(w):
             f[j] = g[i, j]
-        _envelope_1d(f, w, out, v, z)
+        _envelope_1d_arg(f, w, out, arg, v, z)
         for j in range(w):
             d[i, j] = out[j]
     return d
@@ -166,7 +123,14 @@ def contour_distance(labels: np.ndarray, *, max_distance: float | None = None) -
 
 @njit(**JIT)
 def _envelope_1d_arg(f, n, out, arg, v, z):
-    """As ``_envelope_1d``, also returning the minimizing site (the first on ties)."""
+    """Squared distance transform of one line: out[q] = min_p (q - p)^2 + f[p], and in
+    ``arg`` the minimizing site (the first on ties; −1 when there is none).
+
+    ``f`` holds integers (``_BIG`` where there is no site). Sites are the finite
+    entries; with none, ``out`` is all ``_BIG``. Parabola intersections are compared as
+    exact rationals: s = ((f[q] + q²) − (f[p] + p²)) / (2q − 2p), kept as (num, den)
+    pairs in ``z`` (z[0] = −1/0 marks −infinity).
+    """
     k = -1
     for q in range(n):
         if f[q] >= _BIG:
