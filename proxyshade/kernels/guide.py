@@ -29,7 +29,9 @@ import numpy as np
 from numba import njit, prange
 
 from proxyshade.kernels._config import JIT, PJIT
-from proxyshade.kernels.chamfer import chamfer_masks
+from proxyshade.kernels.chamfer import chamfer_bounded, chamfer_masks
+from proxyshade.kernels.features import window_masks
+from proxyshade.kernels.patch import _label_lists
 from proxyshade.kernels.temporal import hash_uniform
 
 NB = 5
@@ -41,27 +43,15 @@ def _clamp(v, lo, hi):
     return lo if v < lo else (hi if v > hi else v)
 
 
-@njit(**PJIT)
 def exemplar_masks(lab, h, n):
-    """(He, We, n) uint32 label masks of the 5×5 windows of spacing ``h`` (clamped) of every exemplar pixel."""
-    He, We = lab.shape
-    out = np.zeros((He, We, n), np.uint32)
-    for y in prange(He):
-        for x in range(We):
-            k = 0
-            for dy in range(-R, R + 1):
-                yy = _clamp(y + dy * h, 0, He - 1)
-                for dx in range(-R, R + 1):
-                    xx = _clamp(x + dx * h, 0, We - 1)
-                    out[y, x, lab[yy, xx]] |= np.uint32(1) << np.uint32(k)
-                    k += 1
-    return out
+    """(He, We, n) uint32 Chamfer label masks of the 5×5 windows of spacing ``h`` (clamped)
+    of every exemplar pixel (``features.window_masks``)."""
+    return window_masks(lab, h, n)
 
 
-@njit(**JIT)
 def grid_masks(lab, n):
     """(H, W, n) uint32 label masks of the 5×5 windows (spacing 1, clamped) of a label map."""
-    return exemplar_masks(lab, 1, n)
+    return window_masks(lab, 1, n)
 
 
 @njit(**JIT)
@@ -92,41 +82,66 @@ def _color_window(col, y, x, h, out):
 @njit(**PJIT)
 def similarity_sets(lab, masks, col, h, k, sample, seed, metric):
     """(He, We, k, 2) int32: per exemplar pixel, itself then k − 1 coordinates spread by
-    farthest-point traversal among the 4k closest of ``sample`` seeded random ones."""
+    farthest-point traversal (Hochbaum-Shmoys) among the 4k closest of ``sample`` seeded
+    random ones (ties: the earlier draw); draws within 2h of the pixel are skipped."""
     He, We = lab.shape
     out = np.empty((He, We, k, 2), np.int32)
     m = 4 * k
     for y in prange(He):
         cand = np.empty((sample, 2), np.int32)
-        dist = np.empty(sample, np.float64)
+        top = np.empty(m, np.int64)  # draws kept, by increasing distance then draw index
+        topd = np.empty(m, np.float64)
         fa = np.empty(75, np.float64)
         fb = np.empty(75, np.float64)
+        used = np.empty(m, np.bool_)
         for x in range(We):
             if metric == 1:
                 _color_window(col, y, x, h, fa)
+            nt = 0
             for s in range(sample):
                 cy = int(hash_uniform(seed, y * We + x, 2 * s) * He)
                 cx = int(hash_uniform(seed, y * We + x, 2 * s + 1) * We)
                 cand[s, 0] = cy
                 cand[s, 1] = cx
                 if abs(cy - y) <= 2 * h and abs(cx - x) <= 2 * h:
-                    dist[s] = np.inf  # trivially similar neighbours are not alternatives
-                    continue
+                    continue  # trivially similar neighbours are not alternatives
                 if metric == 1:
                     _color_window(col, cy, cx, h, fb)
-                dist[s] = _window_dist(metric, masks[y, x], masks[cy, cx], fa, fb)
-            order = np.argsort(dist, kind="mergesort")[:m]
+                    d = _window_dist(1, masks[y, x], masks[cy, cx], fa, fb)
+                    if nt == m and d >= topd[m - 1]:
+                        continue
+                else:
+                    bound = np.int64(1) << 40
+                    if nt == m:
+                        bound = np.int64(topd[m - 1]) - 1  # a tie with the last kept loses (later draw)
+                        if bound < 0:
+                            continue
+                    e = chamfer_bounded(masks[y, x], masks[cy, cx], bound)
+                    if e > bound:
+                        continue
+                    d = float(e)
+                # insert after every kept draw of distance <= d
+                t = nt if nt < m else m - 1
+                while t > 0 and topd[t - 1] > d:
+                    if t < m:
+                        top[t] = top[t - 1]
+                        topd[t] = topd[t - 1]
+                    t -= 1
+                top[t] = s
+                topd[t] = d
+                if nt < m:
+                    nt += 1
             out[y, x, 0, 0] = y
             out[y, x, 0, 1] = x
             chosen = 1
-            used = np.zeros(m, np.bool_)
+            used[:] = False
             while chosen < k:
                 best = -1
                 bestd = -1.0
-                for t in range(m):
-                    if used[t] or not np.isfinite(dist[order[t]]):
+                for t in range(nt):
+                    if used[t]:
                         continue
-                    cy, cx = cand[order[t], 0], cand[order[t], 1]
+                    cy, cx = cand[top[t], 0], cand[top[t], 1]
                     dmin = np.inf
                     for c in range(chosen):
                         dd = float((cy - out[y, x, c, 0]) ** 2 + (cx - out[y, x, c, 1]) ** 2)
@@ -139,45 +154,39 @@ def similarity_sets(lab, masks, col, h, k, sample, seed, metric):
                     out[y, x, chosen, 1] = x
                 else:
                     used[best] = True
-                    out[y, x, chosen, 0] = cand[order[best], 0]
-                    out[y, x, chosen, 1] = cand[order[best], 1]
+                    out[y, x, chosen, 0] = cand[top[best], 0]
+                    out[y, x, chosen, 1] = cand[top[best], 1]
                 chosen += 1
     return out
 
 
 @njit(**PJIT)
-def init_state(target, ex_lab, seed):
-    """Coarsest-level state: each pixel an exemplar coordinate of the target's label
-    (seeded choice among that label's exemplar pixels; any pixel when the label is absent)."""
+def _init_state(target, He, We, starts, lists, seed):
     H, W = target.shape
-    He, We = ex_lab.shape
-    n = max(target.max(), ex_lab.max()) + 1
-    counts = np.zeros(n, np.int64)
-    for y in range(He):
-        for x in range(We):
-            counts[ex_lab[y, x]] += 1
-    start = np.zeros(n + 1, np.int64)
-    for l in range(n):
-        start[l + 1] = start[l] + counts[l]
-    fill = start[:-1].copy()
-    flat = np.empty(He * We, np.int64)
-    for y in range(He):
-        for x in range(We):
-            l = ex_lab[y, x]
-            flat[fill[l]] = y * We + x
-            fill[l] += 1
     S = np.empty((H, W, 2), np.int32)
     for i in prange(H):
         for j in range(W):
             l = target[i, j]
             u = hash_uniform(seed, i, j)
-            if counts[l] > 0:
-                f = flat[start[l] + int(u * counts[l])]
+            cnt = starts[l + 1] - starts[l]
+            if cnt > 0:
+                f = lists[starts[l] + int(u * cnt)]
             else:
                 f = int(u * He * We)
             S[i, j, 0] = f // We
             S[i, j, 1] = f % We
     return S
+
+
+def init_state(target, ex_lab, seed):
+    """Coarsest-level state: each pixel an exemplar coordinate of the target's label
+    (seeded choice among that label's exemplar pixels in raster order; any pixel when the
+    label is absent)."""
+    target = np.ascontiguousarray(target, np.int32)
+    ex_lab = np.ascontiguousarray(ex_lab, np.int32)
+    n = int(max(target.max(), ex_lab.max())) + 1
+    starts, lists = _label_lists(ex_lab, n)
+    return _init_state(target, ex_lab.shape[0], ex_lab.shape[1], starts, lists, seed)
 
 
 @njit(**PJIT)
@@ -193,17 +202,39 @@ def upsample_state(S, h, He, We, H, W):
     return out
 
 
+@njit(**JIT)
+def _candidate(q, i, j, S_old, sim, h, k, H, W, He, We):
+    """Candidate ``q`` of pixel (i, j): -1 is the current coordinate, then for each 3×3
+    neighbour (row-major) the k entries of the similarity set of the coordinate that
+    continues the neighbour's patch at (i, j)."""
+    if q < 0:
+        return S_old[i, j, 0], S_old[i, j, 1]
+    nb = q // k
+    t = q % k
+    ii = _clamp(i + nb // 3 - 1, 0, H - 1)
+    jj = _clamp(j + nb % 3 - 1, 0, W - 1)
+    by = _clamp(S_old[ii, jj, 0] - h * (ii - i), 0, He - 1)
+    bx = _clamp(S_old[ii, jj, 1] - h * (jj - j), 0, We - 1)
+    return sim[by, bx, t, 0], sim[by, bx, t, 1]
+
+
 @njit(**PJIT)
 def _subpass(S_old, S_new, par_i, par_j, ex_lab, ex_masks, ex_col, sim, tgt_masks, tgt_col, target, locked_mask,
              allowed, h, w_proxy, metric, n):
+    """Correct the pixels of parity (par_i, par_j): each takes, among its candidates, the
+    first one minimizing d(synthesized window, candidate) + w_proxy d(proxy window,
+    candidate). Repeated candidates are evaluated once and Chamfer sums stop early once
+    they cannot win (neither changes the result)."""
     H, W = S_old.shape[0], S_old.shape[1]
     He, We = ex_lab.shape
     k = sim.shape[2]
+    nq = 9 * k + 1
     for i2 in prange((H - par_i + 1) // 2):
         i = par_i + 2 * i2
         ms = np.zeros(n, np.uint32)
         fs = np.empty(75, np.float64)
         fe = np.empty(75, np.float64)
+        seen = np.empty(nq, np.int64)
         for j in range(par_j, W, 2):
             # the synthesized neighbourhood: labels (colours) under the current coordinates
             for l in range(n):
@@ -221,18 +252,19 @@ def _subpass(S_old, S_new, par_i, par_j, ex_lab, ex_masks, ex_col, sim, tgt_mask
                     kk += 1
             best_y, best_x = S_old[i, j, 0], S_old[i, j, 1]
             best = np.inf
-            for q in range(-1, 9 * k):  # candidates: the current one, then (3x3 neighbours) x k
-                if q < 0:
-                    cy, cx = S_old[i, j, 0], S_old[i, j, 1]
-                else:
-                    nb = q // k
-                    t = q % k
-                    di, dj = nb // 3 - 1, nb % 3 - 1
-                    ii = _clamp(i + di, 0, H - 1)
-                    jj = _clamp(j + dj, 0, W - 1)
-                    by = _clamp(S_old[ii, jj, 0] - h * (ii - i), 0, He - 1)
-                    bx = _clamp(S_old[ii, jj, 1] - h * (jj - j), 0, We - 1)
-                    cy, cx = sim[by, bx, t, 0], sim[by, bx, t, 1]
+            nseen = 0
+            for q in range(-1, 9 * k):
+                cy, cx = _candidate(q, i, j, S_old, sim, h, k, H, W, He, We)
+                key = np.int64(cy) * We + cx
+                dup = False
+                for u in range(nseen):
+                    if seen[u] == key:
+                        dup = True
+                        break
+                if dup:
+                    continue  # same cost as its first occurrence: cannot win (strict <)
+                seen[nseen] = key
+                nseen += 1
                 lc = ex_lab[cy, cx]
                 if locked_mask[i, j] and lc != target[i, j]:
                     continue
@@ -252,8 +284,23 @@ def _subpass(S_old, S_new, par_i, par_j, ex_lab, ex_masks, ex_col, sim, tgt_mask
                     d1 = _window_dist(1, ms, ms, fs, fe)
                     d2 = _window_dist(1, ms, ms, tgt_col[i, j], fe)
                 else:
-                    d1 = _window_dist(0, ms, ex_masks[cy, cx], fs, fe)
-                    d2 = _window_dist(0, tgt_masks[i, j], ex_masks[cy, cx], fs, fe)
+                    # exact Chamfer sums unless already too large to win; a margin of one
+                    # unit keeps float rounding of d1 + w d2 out of the decision
+                    b1 = np.int64(1) << 40
+                    if best < 1e12:
+                        b1 = np.int64(best) + 1
+                    e1 = chamfer_bounded(ms, ex_masks[cy, cx], b1)
+                    if e1 > b1:
+                        continue
+                    d1 = float(e1)
+                    if w_proxy > 0.0 and best < 1e12:
+                        b2 = np.int64((best - d1) / w_proxy) + 1
+                    else:
+                        b2 = np.int64(1) << 40
+                    e2 = chamfer_bounded(tgt_masks[i, j], ex_masks[cy, cx], b2)
+                    if e2 > b2:
+                        continue
+                    d2 = float(e2)
                 c = d1 + w_proxy * d2
                 if c < best:
                     best = c

@@ -94,3 +94,16 @@ def test_masks_round_trip():
     for i in range(3):
         for j in range(4):
             assert np.array_equal(kc.window_of(ms[i, j]).ravel(), win[i, j])
+
+
+def test_bounded_is_exact_below_the_bound_and_above_it_otherwise():
+    rng = np.random.default_rng(21)
+    for _ in range(300):
+        n = int(rng.integers(2, 6))
+        a = rng.integers(0, n, (5, 5)).astype(np.int32)
+        b = rng.integers(0, n, (5, 5)).astype(np.int32)
+        ma, mb = masks(a, n), masks(b, n)
+        d = chamfer_ref(a, b)
+        bound = int(rng.integers(0, 2 * d + 2))
+        got = kc.chamfer_bounded(ma, mb, bound)
+        assert got == d if d <= bound else got > bound
