@@ -39,28 +39,27 @@ def _pass(seed_in, seed_out, labels, seed_labels, step, penalty, active):
     for a in prange(active.shape[0]):
         i = active[a] // w
         j = active[a] % w
-        if True:
-            best = seed_in[i, j]
-            if best >= 0:
-                bc = _cost(i, j, best // w, best % w, labels[i, j], seed_labels[best // w, best % w], penalty)
-            else:
-                bc = np.inf
-            for di in (-step, 0, step):
-                ii = i + di
-                if ii < 0 or ii >= h:
+        best = seed_in[i, j]
+        if best >= 0:
+            bc = _cost(i, j, best // w, best % w, labels[i, j], seed_labels[best // w, best % w], penalty)
+        else:
+            bc = np.inf
+        for di in (-step, 0, step):
+            ii = i + di
+            if ii < 0 or ii >= h:
+                continue
+            for dj in (-step, 0, step):
+                jj = j + dj
+                if jj < 0 or jj >= w or (di == 0 and dj == 0):
                     continue
-                for dj in (-step, 0, step):
-                    jj = j + dj
-                    if jj < 0 or jj >= w or (di == 0 and dj == 0):
-                        continue
-                    s = seed_in[ii, jj]
-                    if s < 0 or s == best:
-                        continue
-                    c = _cost(i, j, s // w, s % w, labels[i, j], seed_labels[s // w, s % w], penalty)
-                    if c < bc or (c == bc and s < best):
-                        bc = c
-                        best = s
-            seed_out[i, j] = best
+                s = seed_in[ii, jj]
+                if s < 0 or s == best:
+                    continue
+                c = _cost(i, j, s // w, s % w, labels[i, j], seed_labels[s // w, s % w], penalty)
+                if c < bc or (c == bc and s < best):
+                    bc = c
+                    best = s
+        seed_out[i, j] = best
 
 
 def jump_flood(is_seed: np.ndarray, labels: np.ndarray, seed_labels: np.ndarray, *, penalty: float = 1024.0) -> np.ndarray:

@@ -31,11 +31,13 @@ class DepthExtend(Node):
     """Extend the proxy depth ``Z`` to the detailed guide (``guide``'s ``label.id``).
 
     Output: the guide plate with ``Z`` and ``P.X/P.Y/P.Z`` replaced by the extended ones
-    (``Z`` stays inf where the extended label has no depth, the sky), and ``depth.src``
+    (``Z`` stays inf where the extended label has no depth, the sky; ``P`` unprojected
+    from ``Z`` through meta["camera"], or without a camera copied from the pixel the depth
+    came from), and ``depth.src``
     (uint32: 1 + the flat index of the pixel the depth came from).
     """
 
-    version = 1
+    version = 2
     proxy = Input("ProxyRender plate: label.id, Z, camera metadata", channels=("label.id", "Z"))
     guide = Input("the detailed guide (GuideSynth): label.id at the proxy's size", channels=("label.id",))
     penalty = Param(float, 1024.0, min=0.0,
@@ -60,4 +62,10 @@ class DepthExtend(Node):
             P = c.unproject(cols, rows, np.where(finite, ext, 1.0))
             for k, a in enumerate("XYZ"):
                 ch[f"P.{a}"] = np.where(finite, P[..., k], 0.0).astype(np.float32)
+        elif all(f"P.{a}" in proxy for a in "XYZ"):
+            # no camera to unproject with: P of the pixel the depth came from
+            flat = np.maximum(src, 0).reshape(-1)
+            for a in "XYZ":
+                pa = proxy[f"P.{a}"].astype(np.float32)
+                ch[f"P.{a}"] = np.where(src >= 0, pa.reshape(-1)[flat].reshape(pa.shape), pa).astype(np.float32)
         return guide.with_channels(ch, meta={"camera": cam} if cam else None)

@@ -43,6 +43,17 @@ def _blur(img: np.ndarray, sigma: float) -> np.ndarray:
     return out
 
 
+def _block_mean(img: np.ndarray, g: int, shape) -> np.ndarray:
+    """(H, W, C) -> mean over g × g blocks (edge-padded), cropped to ``shape``: the proxy's
+    label colours taken down to a pyramid level (the l2 baseline's guide side)."""
+    H, W, C = img.shape
+    Hp, Wp = -(-H // g) * g, -(-W // g) * g
+    if (Hp, Wp) != (H, W):
+        img = np.pad(img, ((0, Hp - H), (0, Wp - W), (0, 0)), mode="edge")
+    out = img.reshape(Hp // g, g, Wp // g, g, C).mean(axis=(1, 3))
+    return np.ascontiguousarray(out[:shape[0], :shape[1]])
+
+
 def _windows(col: np.ndarray) -> np.ndarray:
     """(H, W, 3) -> (H, W, 75): each pixel's 5×5 window (clamped) of colours."""
     H, W, _ = col.shape
@@ -60,7 +71,7 @@ class GuideSynth(Node):
     each guide pixel came from). Metadata ``guide`` records the synthesis settings.
     """
 
-    version = 1
+    version = 2
     proxy = Input("ProxyRender plate (label.id at the output size)", channels=("label.id",))
     source = Input("SourceRead plate (label.id and its label table)", channels=("label.id",))
     size = Param(int, 256, min=8, doc="synthesis size of the longer side, a power of two")
@@ -137,7 +148,7 @@ class GuideSynth(Node):
             tmasks = kg.grid_masks(t_l, n)
             if metric == 1:
                 ex_col = np.ascontiguousarray(_blur(pal[ex], h / 2.0))
-                tgt_col = _windows(_blur(pal[t_l], 0.5))
+                tgt_col = _windows(_blur(_block_mean(pal[tgt], f * h, t_l.shape), 0.5))
             else:
                 ex_col = np.zeros((1, 1, 3))
                 tgt_col = np.zeros((1, 1, 75))

@@ -36,3 +36,24 @@ def test_size_mismatch_is_an_error():
     b = Plate({"label.id": np.zeros((8, 8), np.uint32)})
     with pytest.raises(NodeInputError, match="^depth: guide is 8x8 but proxy is 4x4"):
         run_node("DepthExtend", {}, {"proxy": a, "guide": b}, name="depth")
+
+
+def test_without_a_camera_P_comes_from_the_same_pixel_as_Z():
+    rng = np.random.default_rng(0)
+    lab = np.zeros((24, 32), np.uint32)
+    lab[:, 16:] = 1
+    z = rng.uniform(1, 2, lab.shape).astype(np.float32)
+    P = {f"P.{a}": rng.random(lab.shape).astype(np.float32) for a in "XYZ"}
+    proxy = Plate({"label.id": lab, "Z": z, **P})
+    g = lab.copy()
+    g[:, 13:16] = 1  # the detailed guide moves the border three pixels left
+    out = run_node("DepthExtend", {}, {"proxy": proxy, "guide": proxy.with_channels({"label.id": g})})
+    moved = g != lab
+    src = out["depth.src"].astype(np.int64) - 1
+    assert (lab.reshape(-1)[src[moved]] == 1).all()  # depth from a pixel that is label 1 in both
+    assert (src[moved] % 32 == 16).all()  # the nearest one: the proxy's first label-1 column
+    for a in "XYZ":
+        np.testing.assert_array_equal(out[f"P.{a}"][moved], P[f"P.{a}"].reshape(-1)[src[moved]])
+        np.testing.assert_array_equal(out[f"P.{a}"][~moved], P[f"P.{a}"][~moved])
+    np.testing.assert_array_equal(out["Z"][moved], z.reshape(-1)[src[moved]])
+    np.testing.assert_array_equal(out["Z"][~moved], z[~moved])
