@@ -110,75 +110,92 @@ def _clip(cam, planes, poly, bary, tmp, tbar):
 def _setup(points, tris, fx, fy, cx, cy, near, ortho, width, height, nthreads):
     """Clip and project every triangle; fan the clipped polygons into screen triangles.
 
-    Triangle ``ti`` writes only its own slots 6·ti ... 6·ti+5 (race-free in parallel);
-    ``keep`` marks the slots in use. Per slot: fixed-point vertices (3, 2), depths (3,),
-    barycentrics w.r.t. the source triangle (3, 3), source id and the rows it may cover.
+    Two passes over the triangles, each in parallel over contiguous chunks (scratch
+    buffers once per thread): the first counts the screen triangles each source triangle
+    yields (after clipping, dropping those that cover no pixel centre), the second writes
+    them at offsets from the prefix sum, so the output is in (source id, fan) order
+    whatever the thread count. Per screen triangle: fixed-point vertices (3, 2), depths
+    (3,), barycentrics w.r.t. the source triangle (3, 3), source id and the rows it may
+    cover.
     """
     t = tris.shape[0]
-    cap = 6 * t
-    xy = np.empty((cap, 3, 2), np.int64)
-    dep = np.empty((cap, 3), np.float64)
-    bar = np.empty((cap, 3, 3), np.float64)
-    src = np.empty(cap, np.int64)
-    r0 = np.empty(cap, np.int64)
-    r1 = np.empty(cap, np.int64)
-    keep = np.zeros(cap, np.bool_)
     planes = _planes(fx, fy, cx, cy, near, ortho, width, height)
     chunk = (t + nthreads - 1) // nthreads
-    for th in prange(nthreads):  # scratch buffers once per thread, not per triangle
-        cam = np.empty((3, 3), np.float64)
-        poly = np.empty((9, 3), np.float64)
-        pbar = np.empty((9, 3), np.float64)
-        tmp = np.empty((9, 3), np.float64)
-        tbar = np.empty((9, 3), np.float64)
+    counts = np.zeros(t + 1, np.int64)
+    empty2 = np.empty((0, 3, 2), np.int64)
+    empty3 = np.empty((0, 3), np.float64)
+    empty33 = np.empty((0, 3, 3), np.float64)
+    empty1 = np.empty(0, np.int64)
+    for th in prange(nthreads):
+        scratch = np.empty((4, 9, 3), np.float64)
         sx = np.empty(9, np.int64)
         sy = np.empty(9, np.int64)
         sd = np.empty(9, np.float64)
         for ti in range(th * chunk, min(t, (th + 1) * chunk)):
-            _setup_one(points, tris, ti, planes, fx, fy, cx, cy, ortho, width, height, cam, poly, pbar, tmp, tbar,
-                       sx, sy, sd, xy, dep, bar, src, r0, r1, keep)
-    return xy, dep, bar, src, r0, r1, keep
+            counts[ti + 1] = _setup_one(points, tris, ti, planes, fx, fy, cx, cy, ortho, width, height, scratch,
+                                        sx, sy, sd, False, 0, empty2, empty3, empty33, empty1, empty1, empty1)
+    for ti in range(t):
+        counts[ti + 1] += counts[ti]
+    total = counts[t]
+    xy = np.empty((total, 3, 2), np.int64)
+    dep = np.empty((total, 3), np.float64)
+    bar = np.empty((total, 3, 3), np.float64)
+    src = np.empty(total, np.int64)
+    r0 = np.empty(total, np.int64)
+    r1 = np.empty(total, np.int64)
+    for th in prange(nthreads):
+        scratch = np.empty((4, 9, 3), np.float64)
+        sx = np.empty(9, np.int64)
+        sy = np.empty(9, np.int64)
+        sd = np.empty(9, np.float64)
+        for ti in range(th * chunk, min(t, (th + 1) * chunk)):
+            if counts[ti + 1] > counts[ti]:
+                _setup_one(points, tris, ti, planes, fx, fy, cx, cy, ortho, width, height, scratch,
+                           sx, sy, sd, True, counts[ti], xy, dep, bar, src, r0, r1)
+    return xy, dep, bar, src, r0, r1
 
 
 @njit(**JIT)
-def _setup_one(points, tris, ti, planes, fx, fy, cx, cy, ortho, width, height, cam, poly, pbar, tmp, tbar,
-               sx, sy, sd, xy, dep, bar, src, r0, r1, keep):
-    for k in range(3):
-        cam[k, :] = points[tris[ti, k]]
+def _setup_one(points, tris, ti, planes, fx, fy, cx, cy, ortho, width, height, scratch, sx, sy, sd,
+               write, s, xy, dep, bar, src, r0, r1):
+    """Screen triangles of source triangle ``ti`` that may cover a pixel centre: returns
+    how many; with ``write``, stores them from slot ``s`` on."""
+    poly = scratch[0]
+    pbar = scratch[1]
     inside = True  # the common case: no plane cuts the triangle, no clipping needed
-    for q in range(planes.shape[0]):
-        for k in range(3):
-            if planes[q, 0] * cam[k, 0] + planes[q, 1] * cam[k, 1] + planes[q, 2] * cam[k, 2] + planes[q, 3] < 0:
+    for k in range(3):
+        v = tris[ti, k]
+        x, y, z = points[v, 0], points[v, 1], points[v, 2]
+        poly[k, 0] = x
+        poly[k, 1] = y
+        poly[k, 2] = z
+        for q in range(planes.shape[0]):
+            if planes[q, 0] * x + planes[q, 1] * y + planes[q, 2] * z + planes[q, 3] < 0:
                 inside = False
     if inside:
         n = 3
         for k in range(3):
-            poly[k, :] = cam[k]
-            pbar[k, :] = 0.0
-            pbar[k, k] = 1.0
+            for m in range(3):
+                pbar[k, m] = 1.0 if k == m else 0.0
     else:
-        n = _clip(cam, planes, poly, pbar, tmp, tbar)
+        cam = np.empty((3, 3), np.float64)
+        for k in range(3):
+            for m in range(3):
+                cam[k, m] = poly[k, m]
+        n = _clip(cam, planes, poly, pbar, scratch[2], scratch[3])
     for k in range(n):
         c, r, d = _project(poly[k], fx, fy, cx, cy, ortho)
         sx[k] = np.int64(np.floor(c * SUB + 0.5))
         sy[k] = np.int64(np.floor(r * SUB + 0.5))
         sd[k] = d
+    kept = 0
     for f in range(1, n - 1):
-        s = 6 * ti + f - 1
-        lo = sy[0]
-        hi = sy[0]
-        clo = sx[0]
-        chi = sx[0]
-        for q in range(3):
-            v = 0 if q == 0 else f + q - 1
-            xy[s, q, 0] = sx[v]
-            xy[s, q, 1] = sy[v]
-            dep[s, q] = sd[v]
-            bar[s, q, :] = pbar[v]
-            lo = min(lo, sy[v])
-            hi = max(hi, sy[v])
-            clo = min(clo, sx[v])
-            chi = max(chi, sx[v])
+        v1 = f
+        v2 = f + 1
+        lo = min(sy[0], min(sy[v1], sy[v2]))
+        hi = max(sy[0], max(sy[v1], sy[v2]))
+        clo = min(sx[0], min(sx[v1], sx[v2]))
+        chi = max(sx[0], max(sx[v1], sx[v2]))
         # rows whose centres (i + 0.5) may lie inside: (i*SUB + SUB/2) in [lo, hi]
         a = (lo - SUB // 2 + SUB - 1) // SUB
         b = (hi - SUB // 2) // SUB
@@ -186,10 +203,20 @@ def _setup_one(points, tris, ti, planes, fx, fy, cx, cy, ortho, width, height, c
         cb = (chi - SUB // 2) // SUB
         if b < 0 or a > height - 1 or cb < 0 or ca > width - 1 or a > b or ca > cb:
             continue
-        src[s] = ti
-        r0[s] = max(a, 0)
-        r1[s] = min(b, height - 1)
-        keep[s] = True
+        if write:
+            o = s + kept
+            for q in range(3):
+                v = 0 if q == 0 else f + q - 1
+                xy[o, q, 0] = sx[v]
+                xy[o, q, 1] = sy[v]
+                dep[o, q] = sd[v]
+                for m in range(3):
+                    bar[o, q, m] = pbar[v, m]
+            src[o] = ti
+            r0[o] = max(a, 0)
+            r1[o] = min(b, height - 1)
+        kept += 1
+    return kept
 
 
 @njit(**JIT)
@@ -204,7 +231,12 @@ def _owns(ax, ay, bx, by):
 @njit(**PJIT)
 def _raster_bands(xy, dep, bar, src, r0, r1, width, height, depth, tid, bary, count, band_start, band_list):
     nb = band_start.shape[0] - 1
-    for b in prange(nb):
+    stride = 8  # band order 0, 8, 16, ..., 1, 9, ...: each thread's chunk spans the whole image
+    per = (nb + stride - 1) // stride
+    for k in prange(per * stride):
+        b = (k % per) * stride + k // per
+        if b >= nb:
+            continue
         for q in range(band_start[b], band_start[b + 1]):
             s = band_list[q]
             x0, y0 = xy[s, 0, 0], xy[s, 0, 1]
@@ -231,13 +263,20 @@ def _raster_bands(xy, dep, bar, src, r0, r1, width, height, depth, tid, bary, co
             d0 = dep[s, 0]
             d1 = dep[s, v1]
             d2 = dep[s, v2]
+            # edge functions stepped exactly in integers along the row
+            dx0 = -(y2 - y1) * SUB
+            dx1 = -(y0 - y2) * SUB
+            dx2 = -(y1 - y0) * SUB
+            px0 = c0 * SUB + SUB // 2
             for i in range(rs, re + 1):
                 py = i * SUB + SUB // 2
+                e0 = (x2 - x1) * (py - y1) - (y2 - y1) * (px0 - x1) - dx0
+                e1 = (x0 - x2) * (py - y2) - (y0 - y2) * (px0 - x2) - dx1
+                e2 = (x1 - x0) * (py - y0) - (y1 - y0) * (px0 - x0) - dx2
                 for j in range(c0, c1 + 1):
-                    px = j * SUB + SUB // 2
-                    e0 = (x2 - x1) * (py - y1) - (y2 - y1) * (px - x1)
-                    e1 = (x0 - x2) * (py - y2) - (y0 - y2) * (px - x2)
-                    e2 = (x1 - x0) * (py - y0) - (y1 - y0) * (px - x0)
+                    e0 += dx0
+                    e1 += dx1
+                    e2 += dx2
                     if e0 < 0 or e1 < 0 or e2 < 0:
                         continue
                     if (e0 == 0 and not o0) or (e1 == 0 and not o1) or (e2 == 0 and not o2):
@@ -294,9 +333,8 @@ def rasterize(points: np.ndarray, tris: np.ndarray, *, width: int, height: int, 
     count = np.zeros((height, width), np.int32)
     if tris.shape[0] == 0:
         return depth.astype(np.float32), tid, bary, count
-    xy, dep, bar, src, r0, r1, keep = _setup(points, tris, float(fx), float(fy), float(cx), float(cy), float(near),
-                                             bool(ortho), int(width), int(height), numba.get_num_threads())
-    xy, dep, bar, src, r0, r1 = (a[keep] for a in (xy, dep, bar, src, r0, r1))  # in slot (= id) order
+    xy, dep, bar, src, r0, r1 = _setup(points, tris, float(fx), float(fy), float(cx), float(cy), float(near),
+                                       bool(ortho), int(width), int(height), numba.get_num_threads())
     nb = (height + BAND - 1) // BAND
     band_start, band_list = bin_rows(r0, r1, nb, BAND)
     _raster_bands(xy, dep, bar, src, r0, r1, width, height, depth, tid, bary, count, band_start, band_list)
