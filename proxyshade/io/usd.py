@@ -47,6 +47,11 @@ def stage_name(stage: Usd.Stage) -> str:
     return stage.GetRootLayer().identifier
 
 
+def up_axis(stage: Usd.Stage) -> str:
+    """The stage's up axis, 'Y' or 'Z'."""
+    return str(UsdGeom.GetStageUpAxis(stage))
+
+
 def check_frame(stage: Usd.Stage, frame: int) -> None:
     """A frame outside the stage's authored time range is bad input (a static stage has frame 1)."""
     if not stage.HasAuthoredTimeCodeRange():
@@ -113,10 +118,25 @@ class CameraInfo:
         rows, cols = np.mgrid[0:self.height, 0:self.width].astype(np.float64)
         return cols + 0.5, rows + 0.5
 
+    def projection(self) -> np.ndarray:
+        """The OpenGL clip matrix (4, 4, column-vector): ``clip = projection @ world_to_camera
+        @ [p, 1]``, NDC = clip[:3] / clip[3] with x right, y up in [-1, 1] over the image,
+        z in [-1, 1] between near and far (the transpose of ``Gf.Frustum``'s matrix)."""
+        W, H, n, f = self.width, self.height, self.near, self.far
+        return np.array([[2 * self.fx / W, 0.0, 1.0 - 2 * self.cx / W, 0.0],
+                         [0.0, 2 * self.fy / H, 2 * self.cy / H - 1.0, 0.0],
+                         [0.0, 0.0, -(f + n) / (f - n), -2 * f * n / (f - n)],
+                         [0.0, 0.0, -1.0, 0.0]])
+
     def to_meta(self) -> dict:
+        """JSON-able: the intrinsics in pixels, both 4x4 transforms (column-vector) and the
+        projection matrix; ``from_meta`` rebuilds the camera from it."""
         return {"path": self.path, "frame": self.frame, "resolution": [self.width, self.height],
                 "fx": self.fx, "fy": self.fy, "cx": self.cx, "cy": self.cy, "near": self.near, "far": self.far,
-                "camera_to_world": self.camera_to_world.tolist()}
+                "camera_to_world": self.camera_to_world.tolist(),
+                "world_to_camera": self.world_to_camera.tolist(),
+                "projection": self.projection().tolist(),
+                "position": self.position.tolist()}
 
     @classmethod
     def from_meta(cls, m: dict) -> "CameraInfo":
@@ -141,6 +161,9 @@ def camera_at(stage: Usd.Stage, path: str | None, frame: int, width: int, height
         raise UserError(f"{stage_name(stage)}: no camera at {path}; cameras in the stage: {', '.join(known) or 'none'}")
     check_frame(stage, frame)
     gcam = UsdGeom.Camera(prim).GetCamera(Usd.TimeCode(frame))
+    if gcam.projection != Gf.Camera.Perspective:
+        raise UserError(f"{stage_name(stage)}: camera {path} is orthographic; ProxyRender needs a perspective "
+                        "camera (projection = \"perspective\")")
     ha = gcam.horizontalAperture
     va = ha * height / width  # keep the horizontal aperture
     fx = width * gcam.focalLength / ha

@@ -51,7 +51,8 @@ class ProxyRender(Node):
     Outputs ``label.id`` (the source table's ids; empty pixels get the background label),
     ``Z`` (camera depth, inf where empty), ``P.X/Y/Z`` (world position), ``N.X/Y/Z``
     (world normal), ``object.id`` (1 + prim index; names in metadata ``objects``), and
-    metadata ``labels``, ``camera`` (see ``proxyshade.io.usd.CameraInfo.to_meta``), ``scene``.
+    metadata ``labels``, ``camera`` (see ``proxyshade.io.usd.CameraInfo.to_meta``; rebuild it
+    with ``CameraInfo.from_meta``), ``scene``, ``background``, ``up_axis``.
     """
 
     version = 1
@@ -121,6 +122,7 @@ class ProxyRender(Node):
             "camera": cam.to_meta(),
             "scene": str(path),
             "background": bg,
+            "up_axis": usd.up_axis(stage),
             "objects": [{"id": i + 1, "name": p.path, "label": p.label} for i, p in enumerate(prims)],
         }
         return Plate(ch, meta)

@@ -72,7 +72,34 @@ def _mesh(stage, path, pts, counts, idx, color=None) -> Usd.Prim:
 
 
 def build_stage(spec: dict, where: str = "scene") -> Usd.Stage:
-    """A USD stage (in memory) from a scene description dict."""
+    """A USD stage (in memory) from a scene description dict.
+
+    A malformed description is a one-line ``UserError`` naming the entry (``terrains[1]
+    (Ground)``) and what is wrong with it.
+    """
+    if not isinstance(spec, dict):
+        raise UserError(f"{where}: expected a mapping with terrains, spheres, cg, cameras, light")
+    at = ["top level"]
+    try:
+        return _build(spec, where, at)
+    except KeyError as e:
+        raise UserError(f"{where}: {at[0]}: missing field {e.args[0]!r}") from None
+    except (ValueError, TypeError, IndexError, AttributeError) as e:
+        raise UserError(f"{where}: {at[0]}: {e}") from None
+    except RuntimeError as e:  # pxr Tf errors, e.g. a name that is not a valid prim name
+        lines = [ln.strip() for ln in str(e).splitlines() if ln.strip()]
+        raise UserError(f"{where}: {at[0]}: {lines[-1] if lines else e}") from None
+
+
+def _name(d: dict, default: str | None = None) -> str:
+    name = d.get("name", default) if default is not None else d["name"]
+    if not (isinstance(name, str) and Sdf.Path.IsValidIdentifier(name)):
+        raise ValueError(f"name {name!r} is not a valid prim name; use letters, digits and underscores "
+                         "(not starting with a digit)")
+    return name
+
+
+def _build(spec: dict, where: str, at: list) -> Usd.Stage:
     stage = Usd.Stage.CreateInMemory()
     UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.y)
     UsdGeom.SetStageMetersPerUnit(stage, float(spec.get("meters_per_unit", 1.0)))
@@ -85,13 +112,17 @@ def build_stage(spec: dict, where: str = "scene") -> Usd.Stage:
     stage.SetDefaultPrim(world.GetPrim())
     world.GetPrim().SetCustomDataByKey("proxyshade:background", spec.get("background", "sky"))
     UsdGeom.Scope.Define(stage, "/World/Proxy")
-    for t in spec.get("terrains", []):
+    for i, t in enumerate(spec.get("terrains") or []):
+        at[0] = f"terrains[{i}] ({t.get('name', '?')})"
+        _name(t)
         ter = Terrain.from_dict(t)
         pts, counts, idx = ter.mesh()
         prim = _mesh(stage, f"/World/Proxy/{t['name']}", pts, counts, idx)
         prim.SetCustomDataByKey("proxyshade:strokes", len(ter.strokes))
         set_label(prim, t["label"])
-    for s in spec.get("spheres", []):
+    for i, s in enumerate(spec.get("spheres") or []):
+        at[0] = f"spheres[{i}] ({s.get('name', '?')})"
+        _name(s)
         group = UsdGeom.Xform.Define(stage, f"/World/Proxy/{s['name']}")
         set_label(group.GetPrim(), s["label"])
         if "arch" in s:
@@ -109,7 +140,9 @@ def build_stage(spec: dict, where: str = "scene") -> Usd.Stage:
     if spec.get("cg"):
         cg = UsdGeom.Scope.Define(stage, "/World/CG")
         cg.GetPrim().CreateAttribute(CG_ATTR, Sdf.ValueTypeNames.Bool, custom=True).Set(True)
-        for o in spec["cg"]:
+        for i, o in enumerate(spec["cg"]):
+            at[0] = f"cg[{i}] ({o.get('name', '?')})"
+            _name(o)
             kind = o.get("kind", "box")
             if kind not in ("house", "box"):
                 raise UserError(f"{where}: cg.{o['name']}.kind: {kind!r} is not valid; valid kinds are house, box")
@@ -118,7 +151,9 @@ def build_stage(spec: dict, where: str = "scene") -> Usd.Stage:
             x = UsdGeom.Xformable(prim)
             x.AddTranslateOp().Set(Gf.Vec3d(*map(float, o.get("position", [0, 0, 0]))))
             x.AddRotateYOp().Set(float(o.get("rotate_y", 0.0)))
-    for c in spec.get("cameras", []):
+    for i, c in enumerate(spec.get("cameras") or []):
+        at[0] = f"cameras[{i}] ({c.get('name', '?')})"
+        _name(c)
         cam = UsdGeom.Camera.Define(stage, f"/World/{c['name']}")
         cam.CreateFocalLengthAttr(float(c.get("focal_length", 35.0)))
         cam.CreateHorizontalApertureAttr(float(c.get("horizontal_aperture", 36.0)))
@@ -128,6 +163,8 @@ def build_stage(spec: dict, where: str = "scene") -> Usd.Stage:
         for f, M in camera_tool.from_dict(c, (lo, hi)).items():
             op.Set(_gf(M), Usd.TimeCode(f))
     if spec.get("light"):
+        at[0] = "light"
+        _name(spec["light"], "Sun")
         L = spec["light"]
         light = UsdLux.DistantLight.Define(stage, f"/World/{L.get('name', 'Sun')}")
         light.CreateIntensityAttr(float(L.get("intensity", 3.0)))
@@ -137,6 +174,7 @@ def build_stage(spec: dict, where: str = "scene") -> Usd.Stage:
         # the light shines down its −z: rotate so −z points along the sun's rays
         x.AddRotateYOp().Set(float(L.get("azimuth", 30.0)))
         x.AddRotateXOp().Set(-float(L.get("elevation", 45.0)))
+    at[0] = "top level"
     errors = validate(stage)
     if errors:
         raise UserError(f"{where}: the built stage fails UsdValidation: {errors[0]}")
@@ -152,6 +190,12 @@ def build_file(spec_path: str | Path, out_path: str | Path | None = None) -> Pat
         raise UserError(f"{spec_path}: cannot read scene description ({e}); fix the YAML") from None
     out = Path(out_path) if out_path else spec_path.with_suffix(".usda")
     stage = build_stage(spec, where=str(spec_path))
+    return write_usda(stage, out)
+
+
+def write_usda(stage: Usd.Stage, out: str | Path) -> Path:
+    """Write the stage's root layer as text to ``out``, atomically (temporary name, rename)."""
+    out = Path(out)
     tmp = out.with_name(f".{out.name}.tmp.usda")
     tmp.write_text(stage.GetRootLayer().ExportToString())
     tmp.replace(out)

@@ -86,3 +86,30 @@ def test_unreadable_stage(tmp_path):
         U.open_stage(bad)
     with pytest.raises(UserError, match="none.usda: no such USD file"):
         U.open_stage(tmp_path / "none.usda")
+
+
+@pytest.mark.parametrize("offsets", [(0.0, 0.0), (3.0, -2.0)])
+def test_meta_projection_is_gf_frustums_and_rebuilds_the_camera(offsets):
+    s = stage_with_camera(offsets)
+    UsdGeom.Camera(s.GetPrimAtPath("/Cam")).CreateClippingRangeAttr(Gf.Vec2f(0.5, 300))
+    cam = U.camera_at(s, "/Cam", 1, 320, 200)
+    fr = U.gf_frustum(cam, s)
+    meta = cam.to_meta()
+    np.testing.assert_allclose(np.array(meta["projection"]), np.array(fr.ComputeProjectionMatrix()).T, atol=1e-12)
+    np.testing.assert_allclose(np.array(meta["world_to_camera"]), np.array(fr.ComputeViewMatrix()).T, atol=1e-12)
+    # clip -> NDC -> pixels from the meta matrices alone agrees with project()
+    pts = np.random.default_rng(1).uniform(-3, 3, (10, 3))
+    clip = np.c_[pts, np.ones(10)] @ (np.array(meta["projection"]) @ np.array(meta["world_to_camera"])).T
+    ndc = clip[:, :3] / clip[:, 3:]
+    col, row, _ = U.CameraInfo.from_meta(meta).project(pts)
+    np.testing.assert_allclose((ndc[:, 0] + 1) / 2 * 320, col, atol=1e-9)
+    np.testing.assert_allclose((1 - ndc[:, 1]) / 2 * 200, row, atol=1e-9)
+    np.testing.assert_allclose(meta["position"], [1, 2, 10], atol=1e-12)
+
+
+def test_orthographic_camera_is_a_one_line_error():
+    s = stage_with_camera()
+    UsdGeom.Camera(s.GetPrimAtPath("/Cam")).CreateProjectionAttr(UsdGeom.Tokens.orthographic)
+    with pytest.raises(UserError, match="camera /Cam is orthographic") as e:
+        U.camera_at(s, "/Cam", 1, 10, 10)
+    assert "\n" not in str(e.value)
