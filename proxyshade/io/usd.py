@@ -306,10 +306,12 @@ def sphere_mesh(segments: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 def sphere_segments(radius_px: float, max_error_px: float = 0.25, cap: int = 512) -> int:
-    """Segments so the polygon's sagitta r·(1 − cos(π/n)) stays under ``max_error_px``."""
+    """Segments around for ``sphere_mesh`` so no face sinks more than ``max_error_px`` below
+    the sphere: a face spans 2π/n by 2π/n, its triangles have an angular circumradius of
+    √2·π/n and their planes lie r·(1 − cos(√2·π/n)) inside the sphere at most."""
     if radius_px <= max_error_px:
         return 8
-    n = int(np.ceil(np.pi / np.arccos(max(1.0 - max_error_px / radius_px, -1.0))))
+    n = int(np.ceil(np.sqrt(2.0) * np.pi / np.arccos(max(1.0 - max_error_px / radius_px, -1.0))))
     return int(min(max(n + (n % 2), 8), cap))
 
 
@@ -323,8 +325,11 @@ def world_mesh(prim: ScenePrim, cam: CameraInfo | None = None, max_error_px: flo
         centre = M[:3, 3]
         r_world = prim.radius * scale
         if cam is not None:
-            d = max(float(-cam.to_camera(centre)[2]) - r_world, cam.near)
-            n = sphere_segments(max(cam.fx, cam.fy) * r_world / d, max_error_px)
+            cc = cam.to_camera(centre)
+            d = max(float(-cc[2]) - r_world, cam.near)
+            # off the axis by θ, image distances grow by up to 1/cos θ in the radial direction
+            stretch = float(np.sqrt(1.0 + (cc[0] ** 2 + cc[1] ** 2) / d ** 2))
+            n = sphere_segments(max(cam.fx, cam.fy) * r_world * stretch / d, max_error_px)
         else:
             n = 64
         unit, tris = sphere_mesh(n)

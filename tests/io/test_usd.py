@@ -76,7 +76,14 @@ def test_labels_are_inherited_and_cg_marked():
 def test_sphere_tessellation_bound():
     for r in (3.0, 40.0, 300.0):
         n = U.sphere_segments(r, 0.25)
-        assert r * (1 - np.cos(np.pi / n)) <= 0.25
+        assert r * (1 - np.cos(np.sqrt(2) * np.pi / n)) <= 0.25  # deepest face point, triangles of a 2π/n grid
+        pts, tris = U.sphere_mesh(n)
+        a, b, c = pts[tris[:, 0]], pts[tris[:, 1]], pts[tris[:, 2]]
+        nrm = np.cross(b - a, c - a)
+        nrm /= np.linalg.norm(nrm, axis=1, keepdims=True)
+        assert (np.einsum("ij,ij->i", nrm, a) > 0).all()  # wound outwards
+        plane = np.abs(np.einsum("ij,ij->i", nrm, a))  # distance of each face plane from the centre
+        assert r * (1 - plane.min()) <= 0.25 + 1e-9
 
 
 def test_unreadable_stage(tmp_path):

@@ -122,3 +122,40 @@ def test_sample_scenes_render_their_labels(scene, source):
     expected = {"lake": {"sky", "vegetation", "water", "tree"}, "cliffs": {"sky", "cliff", "sea", "grass", "rock"},
                 "farm": {"sky", "vegetation", "water", "tree"}}[scene]
     assert present == expected
+
+
+@pytest.mark.parametrize("centre,r", [((0.0, 0.0, -20.0), 3.0), ((14.0, 14.0, -15.0), 2.0), ((0.0, 12.0, -12.0), 2.5)])
+def test_sphere_silhouette_error_under_half_a_pixel(centre, r):
+    """Pixels whose coverage differs from the exact sphere lie within 0.5 px of its true
+    silhouette (wide angle, off axis: the projected outline is an ellipse)."""
+    from proxyshade.io import usd
+    from proxyshade.nodes.proxy_render import render_prims
+
+    s = Usd.Stage.CreateInMemory()
+    c = UsdGeom.Camera.Define(s, "/Cam")
+    c.CreateFocalLengthAttr(14.0)
+    c.CreateHorizontalApertureAttr(36)
+    c.CreateVerticalApertureAttr(36)
+    sp = UsdGeom.Sphere.Define(s, "/S")
+    sp.CreateRadiusAttr(r)
+    sp.AddTranslateOp().Set(Gf.Vec3d(*centre))
+    cam = usd.camera_at(s, None, 1, 256, 256)
+    _, idx, _, _ = render_prims(usd.scene_prims(s, 1), cam)
+    C = np.array(centre)
+    d = np.linalg.norm(C)
+    cols, rows = cam.pixel_grid()
+    v = np.stack([(cols - cam.cx) / cam.fx, -(rows - cam.cy) / cam.fy, -np.ones_like(cols)], -1)
+    v /= np.linalg.norm(v, axis=-1, keepdims=True)
+    exact = v @ (C / d) >= np.sqrt(1 - (r / d) ** 2)  # the pixel's ray hits the sphere
+    bad = exact != (idx >= 0)
+    assert exact.sum() > 500 and bad.sum() < 0.05 * exact.sum()
+    # the true silhouette: the circle where the view cone touches the sphere, projected
+    u = C / d
+    a = np.cross(u, [0.0, 1.0, 0.0])
+    a /= np.linalg.norm(a)
+    b = np.cross(u, a)
+    t = np.linspace(0, 2 * np.pi, 8000)[:, None]
+    ring = C * (1 - r * r / d / d) + r * np.sqrt(1 - r * r / d / d) * (np.cos(t) * a + np.sin(t) * b)
+    pc, pr, _ = cam.project(ring)
+    dist = np.hypot(cols[bad][:, None] - pc[None], rows[bad][:, None] - pr[None]).min(1)
+    assert np.max(dist, initial=0.0) < 0.5
