@@ -17,7 +17,7 @@ import shutil
 import threading
 import time
 import warnings
-from concurrent.futures import Future, ThreadPoolExecutor
+from concurrent.futures import Future, ThreadPoolExecutor, wait
 from pathlib import Path
 
 from proxyshade.graph.plate import Plate
@@ -138,6 +138,7 @@ class Cache:
     def flush(self) -> None:
         """Wait for every pending write; re-raise the first failure."""
         pending, self._pending = self._pending, []
+        wait(pending)  # every write finishes (or fails) before anything is reported
         for f in pending:
             f.result()
 
