@@ -38,34 +38,19 @@ def _contour_mask(labels):
 
 @njit(**PJIT)
 def _edt_sq(sites):
-    """Exact squared Euclidean distance (int64) to the nearest True pixel of ``sites``."""
+    """Exact squared Euclidean distance (int64) to the nearest True pixel of ``sites``
+    (``_BIG`` where there is none), from the nearest-site transform."""
     h, w = sites.shape
-    g = np.empty((h, w), np.int64)
-    # columns
-    for j in prange(w):
-        f = np.empty(h, np.int64)
-        out = np.empty(h, np.int64)
-        arg = np.empty(h, np.int64)
-        v = np.empty(h, np.int64)
-        z = np.empty(2 * h + 2, np.int64)
-        for i in range(h):
-            f[i] = 0 if sites[i, j] else _BIG
-        _envelope_1d_arg(f, h, out, arg, v, z)
-        for i in range(h):
-            g[i, j] = out[i]
+    near = _nearest_site(sites)
     d = np.empty((h, w), np.int64)
-    # rows
     for i in prange(h):
-        f = np.empty(w, np.int64)
-        out = np.empty(w, np.int64)
-        arg = np.empty(w, np.int64)
-        v = np.empty(w, np.int64)
-        z = np.empty(2 * w + 2, np.int64)
         for j in range(w):
-            f[j] = g[i, j]
-        _envelope_1d_arg(f, w, out, arg, v, z)
-        for j in range(w):
-            d[i, j] = out[j]
+            r = near[i, j, 0]
+            if r < 0:
+                d[i, j] = _BIG
+            else:
+                c = near[i, j, 1]
+                d[i, j] = (i - r) * (i - r) + (j - c) * (j - c)
     return d
 
 
