@@ -30,6 +30,7 @@ from numba import njit, prange
 
 from proxyshade.kernels._config import JIT, PJIT
 from proxyshade.kernels.raster import bin_rows
+from proxyshade.kernels.temporal import jacobian_det
 
 
 def intrinsics(cam) -> np.ndarray:
@@ -474,39 +475,31 @@ def gather_prev(u, v, q, ok, lab, prev_w, prev_lab, prev_patch, prev_sx, prev_sy
 
 
 @njit(**PJIT)
-def surface_jacobian_det(u, v, w, lab, valid, tol):
-    """det J of the map (row, col) -> (u, v) by central differences, using a neighbour
-    only when it is valid, has the pixel's label and lies on its surface (``same_surface``
-    on the inverse depths ``w``): one-sided differences next to silhouettes and label
-    borders, 1 where a pixel has no usable neighbour along an axis or is invalid.
-    J = [[du/dx, du/dy], [dv/dx, dv/dy]], x = column, y = row. (H, W) float64."""
-    h, wd = u.shape
-    out = np.ones((h, wd), np.float64)
+def surface_links(w, lab, valid, tol):
+    """Neighbour links (``temporal.LEFT`` ... bits) to neighbours that are valid, have the
+    pixel's label and lie on its surface (``same_surface`` on the inverse depths ``w``)."""
+    h, wd = valid.shape
+    out = np.zeros((h, wd), np.uint8)
     for i0 in prange(h):
         i = np.int64(i0)
         for j in range(wd):
             if not valid[i, j]:
                 continue
-            jl = j
-            jr = j
-            iu = i
-            idn = i
-            if j > 0 and valid[i, j - 1] and lab[i, j - 1] == lab[i, j] and same_surface(w[i, j - 1], w[i, j], tol):
-                jl = j - 1
-            if j < wd - 1 and valid[i, j + 1] and lab[i, j + 1] == lab[i, j] and same_surface(w[i, j + 1], w[i, j], tol):
-                jr = j + 1
-            if i > 0 and valid[i - 1, j] and lab[i - 1, j] == lab[i, j] and same_surface(w[i - 1, j], w[i, j], tol):
-                iu = i - 1
-            if i < h - 1 and valid[i + 1, j] and lab[i + 1, j] == lab[i, j] and same_surface(w[i + 1, j], w[i, j], tol):
-                idn = i + 1
-            if jr == jl or idn == iu:
-                continue
-            dux = (u[i, jr] - u[i, jl]) / (jr - jl)
-            dvx = (v[i, jr] - v[i, jl]) / (jr - jl)
-            duy = (u[idn, j] - u[iu, j]) / (idn - iu)
-            dvy = (v[idn, j] - v[iu, j]) / (idn - iu)
-            out[i, j] = dux * dvy - duy * dvx
+            m = 0
+            for b in range(4):
+                a = i + (b == 3) - (b == 2)
+                c = j + (b == 1) - (b == 0)
+                if 0 <= a < h and 0 <= c < wd and valid[a, c] and lab[a, c] == lab[i, j] \
+                        and same_surface(w[a, c], w[i, j], tol):
+                    m |= 1 << b
+            out[i, j] = m
     return out
+
+
+def surface_jacobian_det(u, v, w, lab, valid, tol):
+    """det J of the reprojected coordinates, differences taken only across neighbours on the
+    pixel's surface (``surface_links``): one-sided next to silhouettes and label borders."""
+    return jacobian_det(u, v, valid, surface_links(w, lab, valid, tol))
 
 
 @njit(**PJIT)

@@ -28,13 +28,34 @@ def hash_uniform(seed, i, j):
     return float(z >> np.uint64(11)) * (1.0 / 9007199254740992.0)
 
 
-@njit(**PJIT)
-def jacobian_det(u, v, valid):
-    """det J of the map (row, col) -> (u, v) by central differences (one-sided at borders
-    and next to invalid pixels). u, v: (H, W) float; valid: (H, W) bool. Invalid pixels get 1.
+LEFT, RIGHT, UP, DOWN = 1, 2, 4, 8  # neighbour-link bits
 
-    J = [[du/dx, du/dy], [dv/dx, dv/dy]] with x = column, y = row.
-    """
+
+@njit(**PJIT)
+def neighbour_links(valid):
+    """uint8 per pixel: which 4-neighbours a difference may use (LEFT, RIGHT, UP, DOWN
+    bits): here, the valid neighbours of valid pixels."""
+    h, w = valid.shape
+    out = np.zeros((h, w), np.uint8)
+    for i in prange(h):
+        for j in range(w):
+            if not valid[i, j]:
+                continue
+            m = 0
+            if j > 0 and valid[i, j - 1]:
+                m |= LEFT
+            if j < w - 1 and valid[i, j + 1]:
+                m |= RIGHT
+            if i > 0 and valid[i - 1, j]:
+                m |= UP
+            if i < h - 1 and valid[i + 1, j]:
+                m |= DOWN
+            out[i, j] = m
+    return out
+
+
+@njit(**PJIT)
+def _jacobian_det(u, v, valid, links):
     h, w = u.shape
     out = np.ones((h, w), np.float64)
     for i0 in prange(h):
@@ -42,11 +63,11 @@ def jacobian_det(u, v, valid):
         for j in range(w):
             if not valid[i, j]:
                 continue
-            # x derivatives
-            jl = j - 1 if j > 0 and valid[i, j - 1] else j
-            jr = j + 1 if j < w - 1 and valid[i, j + 1] else j
-            iu = i - 1 if i > 0 and valid[i - 1, j] else i
-            idn = i + 1 if i < h - 1 and valid[i + 1, j] else i
+            m = links[i, j]
+            jl = j - 1 if m & LEFT else j
+            jr = j + 1 if m & RIGHT else j
+            iu = i - 1 if m & UP else i
+            idn = i + 1 if m & DOWN else i
             if jr == jl or idn == iu:
                 continue
             dux = (u[i, jr] - u[i, jl]) / (jr - jl)
@@ -55,6 +76,19 @@ def jacobian_det(u, v, valid):
             dvy = (v[idn, j] - v[iu, j]) / (idn - iu)
             out[i, j] = dux * dvy - duy * dvx
     return out
+
+
+def jacobian_det(u, v, valid, links=None):
+    """det J of the map (row, col) -> (u, v) by central differences, one-sided where a
+    neighbour may not be used (``links``, default ``neighbour_links(valid)``); 1 where a
+    pixel is invalid or has no usable neighbour along an axis. (H, W) float64.
+
+    J = [[du/dx, du/dy], [dv/dx, dv/dy]] with x = column, y = row.
+    """
+    valid = np.ascontiguousarray(valid, dtype=np.bool_)
+    if links is None:
+        links = neighbour_links(valid)
+    return _jacobian_det(u, v, valid, links)
 
 
 @njit(**PJIT)
