@@ -47,6 +47,36 @@ from proxyshade.kernels.distance import contour_mask
 # diag == 0 marks a cell with no unknown (fixed).
 
 
+@njit(inline="always", **JIT)
+def _neighbour_sum(x, we, ws, i, j, h, w):
+    """Sum over the 4 neighbours of (i, j) of edge weight × x, per channel (east weights
+    ``we[i, j]`` join (i, j)-(i, j+1), south weights ``ws[i, j]`` join (i, j)-(i+1, j))."""
+    s0 = 0.0
+    s1 = 0.0
+    s2 = 0.0
+    if j + 1 < w:
+        c = we[i, j]
+        s0 += c * x[i, j + 1, 0]
+        s1 += c * x[i, j + 1, 1]
+        s2 += c * x[i, j + 1, 2]
+    if j > 0:
+        c = we[i, j - 1]
+        s0 += c * x[i, j - 1, 0]
+        s1 += c * x[i, j - 1, 1]
+        s2 += c * x[i, j - 1, 2]
+    if i + 1 < h:
+        c = ws[i, j]
+        s0 += c * x[i + 1, j, 0]
+        s1 += c * x[i + 1, j, 1]
+        s2 += c * x[i + 1, j, 2]
+    if i > 0:
+        c = ws[i - 1, j]
+        s0 += c * x[i - 1, j, 0]
+        s1 += c * x[i - 1, j, 1]
+        s2 += c * x[i - 1, j, 2]
+    return s0, s1, s2
+
+
 @njit(**PJIT)
 def _fine_operator(fixed, screen):
     h, w = fixed.shape
@@ -138,29 +168,10 @@ def _smooth(diag, we, ws, x, b, color):
             d = diag[i, j]
             if d == 0.0:
                 continue
-            s0 = b[i, j, 0]
-            s1 = b[i, j, 1]
-            s2 = b[i, j, 2]
-            if j + 1 < w:
-                c = we[i, j]
-                s0 += c * x[i, j + 1, 0]
-                s1 += c * x[i, j + 1, 1]
-                s2 += c * x[i, j + 1, 2]
-            if j > 0:
-                c = we[i, j - 1]
-                s0 += c * x[i, j - 1, 0]
-                s1 += c * x[i, j - 1, 1]
-                s2 += c * x[i, j - 1, 2]
-            if i + 1 < h:
-                c = ws[i, j]
-                s0 += c * x[i + 1, j, 0]
-                s1 += c * x[i + 1, j, 1]
-                s2 += c * x[i + 1, j, 2]
-            if i > 0:
-                c = ws[i - 1, j]
-                s0 += c * x[i - 1, j, 0]
-                s1 += c * x[i - 1, j, 1]
-                s2 += c * x[i - 1, j, 2]
+            n0, n1, n2 = _neighbour_sum(x, we, ws, i, j, h, w)
+            s0 = b[i, j, 0] + n0
+            s1 = b[i, j, 1] + n1
+            s2 = b[i, j, 2] + n2
             inv = 1.0 / d
             x[i, j, 0] = s0 * inv
             x[i, j, 1] = s1 * inv
@@ -178,29 +189,10 @@ def _residual(diag, we, ws, x, b, r):
                 r[i, j, 1] = 0.0
                 r[i, j, 2] = 0.0
                 continue
-            s0 = b[i, j, 0] - d * x[i, j, 0]
-            s1 = b[i, j, 1] - d * x[i, j, 1]
-            s2 = b[i, j, 2] - d * x[i, j, 2]
-            if j + 1 < w:
-                c = we[i, j]
-                s0 += c * x[i, j + 1, 0]
-                s1 += c * x[i, j + 1, 1]
-                s2 += c * x[i, j + 1, 2]
-            if j > 0:
-                c = we[i, j - 1]
-                s0 += c * x[i, j - 1, 0]
-                s1 += c * x[i, j - 1, 1]
-                s2 += c * x[i, j - 1, 2]
-            if i + 1 < h:
-                c = ws[i, j]
-                s0 += c * x[i + 1, j, 0]
-                s1 += c * x[i + 1, j, 1]
-                s2 += c * x[i + 1, j, 2]
-            if i > 0:
-                c = ws[i - 1, j]
-                s0 += c * x[i - 1, j, 0]
-                s1 += c * x[i - 1, j, 1]
-                s2 += c * x[i - 1, j, 2]
+            n0, n1, n2 = _neighbour_sum(x, we, ws, i, j, h, w)
+            s0 = b[i, j, 0] - d * x[i, j, 0] + n0
+            s1 = b[i, j, 1] - d * x[i, j, 1] + n1
+            s2 = b[i, j, 2] - d * x[i, j, 2] + n2
             r[i, j, 0] = s0
             r[i, j, 1] = s1
             r[i, j, 2] = s2
