@@ -7,7 +7,9 @@ same map can be re-applied to any other image or AOV of the source (another expo
 a time-lapse photo, a relit version, its label map).
 
 Float images are sampled bilinearly with clamp-to-edge (at integer coordinates this is
-exactly the pixel); integer images (ids) take the nearest pixel, never a blend.
+exactly the pixel), or with a Lanczos-3 filter (``filter="lanczos3"``: 6×6 taps, sharp at
+fractional positions, where bilinear averages neighbours and loses up to half the
+texture's finest detail); integer images (ids) take the nearest pixel, never a blend.
 """
 from __future__ import annotations
 
@@ -41,6 +43,69 @@ def _bilinear(img, sx, sy, out):
                 out[i, j, k] = (1.0 - fy) * a + fy * b
 
 
+LANCZOS_A = 3
+LANCZOS_BINS = 4096  # phases of the weight table: positions are read to 1/4096 pixel
+
+
+def _lanczos_table(a: int = LANCZOS_A, bins: int = LANCZOS_BINS) -> np.ndarray:
+    """(bins + 1, 2a) normalised Lanczos-a weights of taps floor(x) − a + 1 … floor(x) + a
+    for phases t = x − floor(x) = b / bins; phase 0 is exactly the pixel (1 at its tap)."""
+    t = np.arange(bins + 1, dtype=np.float64)[:, None] / bins
+    d = np.arange(-a + 1, a + 1, dtype=np.float64)[None, :] - t
+    w = np.sinc(d) * np.sinc(d / a)
+    w[np.abs(d) >= a] = 0.0
+    w /= w.sum(axis=1, keepdims=True)
+    w[0] = 0.0
+    w[0, a - 1] = 1.0
+    w[bins] = 0.0
+    w[bins, a] = 1.0
+    return w
+
+
+_LANCZOS = _lanczos_table()
+
+
+@njit(**PJIT)
+def _lanczos(img, sx, sy, table, out):
+    h, w, c = img.shape
+    oh, ow = sx.shape
+    bins = table.shape[0] - 1
+    n = table.shape[1]
+    a = n // 2
+    for i in prange(oh):
+        acc = np.zeros(c, np.float64)
+        row = np.zeros(c, np.float64)
+        for j in range(ow):
+            x = min(max(np.float64(sx[i, j]), 0.0), w - 1.0)
+            y = min(max(np.float64(sy[i, j]), 0.0), h - 1.0)
+            x0 = int(np.floor(x))
+            y0 = int(np.floor(y))
+            bx = int(np.floor((x - x0) * bins + 0.5))
+            by = int(np.floor((y - y0) * bins + 0.5))
+            if bx == 0 and by == 0:
+                for k in range(c):
+                    out[i, j, k] = img[y0, x0, k]
+                continue
+            acc[:] = 0.0
+            for r in range(n):
+                wy = table[by, r]
+                if wy == 0.0:
+                    continue
+                yy = min(max(y0 - a + 1 + r, 0), h - 1)
+                row[:] = 0.0
+                for t in range(n):
+                    wx = table[bx, t]
+                    if wx == 0.0:
+                        continue
+                    xx = min(max(x0 - a + 1 + t, 0), w - 1)
+                    for k in range(c):
+                        row[k] += wx * img[yy, xx, k]
+                for k in range(c):
+                    acc[k] += wy * row[k]
+            for k in range(c):
+                out[i, j, k] = acc[k]
+
+
 @njit(**PJIT)
 def _nearest(img, sx, sy, out):
     h, w, c = img.shape
@@ -55,7 +120,10 @@ def _nearest(img, sx, sy, out):
                 out[i, j, k] = img[y, x, k]
 
 
-def lookup(image: np.ndarray, sx: np.ndarray, sy: np.ndarray) -> np.ndarray:
+FILTERS = ("bilinear", "lanczos3")
+
+
+def lookup(image: np.ndarray, sx: np.ndarray, sy: np.ndarray, *, filter: str = "bilinear") -> np.ndarray:
     """Sample ``image`` at source positions ``(sx, sy)``.
 
     Parameters
@@ -66,12 +134,19 @@ def lookup(image: np.ndarray, sx: np.ndarray, sy: np.ndarray) -> np.ndarray:
     sx, sy : (P, Q) float ndarray
         Column and row in ``image`` pixels (centres at integers); clamped to the image.
         Read as float32 (exact for integers below 2**24).
+    filter : {'bilinear', 'lanczos3'}
+        Reconstruction of float images between pixel centres. Both are exactly the pixel
+        at integer positions; ``lanczos3`` (windowed sinc, 6×6 taps, phases to 1/4096
+        pixel, clamp-to-edge) keeps the fine detail that bilinear blurs at fractional
+        positions, at the cost of a slight ringing next to hard edges.
 
     Returns
     -------
     (P, Q) or (P, Q, C) ndarray
         float32 for float images, the image's dtype for integer images.
     """
+    if filter not in FILTERS:
+        raise ValueError(f"{filter!r} is not a valid filter. Valid filters are 'bilinear' and 'lanczos3'")
     image = np.asarray(image)
     sx = np.ascontiguousarray(sx, dtype=np.float32)  # one compiled signature for every caller
     sy = np.ascontiguousarray(sy, dtype=np.float32)
@@ -87,7 +162,10 @@ def lookup(image: np.ndarray, sx: np.ndarray, sy: np.ndarray) -> np.ndarray:
     else:
         img = img.astype(np.float32, copy=False)
         out = np.empty(sx.shape + (img.shape[2],), np.float32)
-        _bilinear(img, sx, sy, out)
+        if filter == "lanczos3":
+            _lanczos(img, sx, sy, _LANCZOS, out)
+        else:
+            _bilinear(img, sx, sy, out)
     return out[..., 0] if flat else out
 
 

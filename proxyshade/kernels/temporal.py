@@ -55,6 +55,47 @@ def neighbour_links(valid):
 
 
 @njit(**PJIT)
+def patch_links(valid, patch, lab):
+    """Neighbour links (``LEFT`` ... bits) to valid 4-neighbours of valid pixels in the
+    same patch with the same label: the neighbours a coordinate map is continuous with."""
+    h, w = valid.shape
+    out = np.zeros((h, w), np.uint8)
+    for i0 in prange(h):
+        i = np.int64(i0)
+        for j in range(w):
+            if not valid[i, j]:
+                continue
+            m = 0
+            for b in range(4):
+                a = i + (b == 3) - (b == 2)
+                c = j + (b == 1) - (b == 0)
+                if 0 <= a < h and 0 <= c < w and valid[a, c] and patch[a, c] == patch[i, j] \
+                        and lab[a, c] == lab[i, j]:
+                    m |= 1 << b
+            out[i, j] = m
+    return out
+
+
+@njit(**JIT)
+def _partials(u, v, links, i, j):
+    """Central (or one-sided) differences of u, v at (i, j) along the linked neighbours:
+    (has x, has y, du/dx, dv/dx, du/dy, dv/dy)."""
+    m = links[i, j]
+    jl = j - 1 if m & LEFT else j
+    jr = j + 1 if m & RIGHT else j
+    iu = i - 1 if m & UP else i
+    idn = i + 1 if m & DOWN else i
+    dux = dvx = duy = dvy = 0.0
+    if jr != jl:
+        dux = (u[i, jr] - u[i, jl]) / (jr - jl)
+        dvx = (v[i, jr] - v[i, jl]) / (jr - jl)
+    if idn != iu:
+        duy = (u[idn, j] - u[iu, j]) / (idn - iu)
+        dvy = (v[idn, j] - v[iu, j]) / (idn - iu)
+    return jr != jl, idn != iu, dux, dvx, duy, dvy
+
+
+@njit(**PJIT)
 def _jacobian_det(u, v, valid, links):
     h, w = u.shape
     out = np.ones((h, w), np.float64)
@@ -63,18 +104,9 @@ def _jacobian_det(u, v, valid, links):
         for j in range(w):
             if not valid[i, j]:
                 continue
-            m = links[i, j]
-            jl = j - 1 if m & LEFT else j
-            jr = j + 1 if m & RIGHT else j
-            iu = i - 1 if m & UP else i
-            idn = i + 1 if m & DOWN else i
-            if jr == jl or idn == iu:
-                continue
-            dux = (u[i, jr] - u[i, jl]) / (jr - jl)
-            dvx = (v[i, jr] - v[i, jl]) / (jr - jl)
-            duy = (u[idn, j] - u[iu, j]) / (idn - iu)
-            dvy = (v[idn, j] - v[iu, j]) / (idn - iu)
-            out[i, j] = dux * dvy - duy * dvx
+            hx, hy, dux, dvx, duy, dvy = _partials(u, v, links, i, j)
+            if hx and hy:
+                out[i, j] = dux * dvy - duy * dvx
     return out
 
 
@@ -89,6 +121,39 @@ def jacobian_det(u, v, valid, links=None):
     if links is None:
         links = neighbour_links(valid)
     return _jacobian_det(u, v, valid, links)
+
+
+@njit(**PJIT)
+def _map_deviation(sx, sy, valid, links, scale):
+    h, w = sx.shape
+    out = np.zeros((h, w), np.float32)
+    for i0 in prange(h):
+        i = np.int64(i0)
+        for j in range(w):
+            if not valid[i, j]:
+                continue
+            hx, hy, a, c, b, d = _partials(sx, sy, links, i, j)
+            a = a / scale - 1.0 if hx else 0.0
+            c = c / scale if hx else 0.0
+            b = b / scale if hy else 0.0
+            d = d / scale - 1.0 if hy else 0.0
+            out[i, j] = np.sqrt(a * a + b * b + c * c + d * d)
+    return out
+
+
+def map_deviation(sx, sy, valid, links, scale):
+    """How far a coordinate map has drifted from a plain copy of the source, per pixel.
+
+    J = ∂(source.x, source.y)/∂(column, row) / ``scale`` by central differences over the
+    linked neighbours (``patch_links``: one patch, one label); a fresh synthesis has
+    J = I (a translated copy at the synthesis scale). Returns ‖J − I‖_F (float32, 0
+    where invalid; an axis without a linked neighbour counts as undistorted): a zoom by
+    s gives √2·|s − 1|, a rotation by θ 2√2·sin(θ/2), a shear k gives k; a map that has
+    torn inside one patch gives a large value. Unlike det J accumulated frame by frame it
+    sees shear and anisotropic stretch (det 1) and does not drift.
+    """
+    return _map_deviation(np.ascontiguousarray(sx, np.float64), np.ascontiguousarray(sy, np.float64),
+                          np.ascontiguousarray(valid, np.bool_), links, float(scale))
 
 
 @njit(**PJIT)
@@ -174,6 +239,18 @@ def uniform_field(seed, h, w):
     for i in prange(h):
         for j in range(w):
             out[i, j] = hash_uniform(seed, i, j)
+    return out
+
+
+@njit(**PJIT)
+def hash_field(seed, ids):
+    """``hash_uniform(seed, id, 0)`` for each entry of an (H, W) id map (float32): one
+    random number per id, the same wherever and whenever the id appears."""
+    h, w = ids.shape
+    out = np.empty((h, w), np.float32)
+    for i in prange(h):
+        for j in range(w):
+            out[i, j] = hash_uniform(seed, ids[i, j], 0)
     return out
 
 

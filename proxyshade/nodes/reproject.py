@@ -43,7 +43,7 @@ from proxyshade.kernels.lookup import lookup
 from proxyshade.nodes.consistent_depth import camera_of
 from proxyshade.nodes.patch_init import check_finite, require
 
-FLAG = {"none": 0, "disoccluded": 1, "newly_occluded": 2, "distorted": 3}
+FLAG = {"none": 0, "disoccluded": 1, "newly_occluded": 2, "distorted": 3, "reanchored": 4}
 CATEGORY_C = 3
 STATE = ("R", "G", "B", "source.x", "source.y", "patch.id", "label.id")
 
@@ -69,24 +69,72 @@ def newly_occluded(cat, u, v, ok, lab, prev_lab) -> np.ndarray:
     return out
 
 
-def start_distortion(h: int, w: int, amount: float, seed: int, frame: int) -> np.ndarray:
-    """Initial D of freshly synthesized pixels: uniform in [0, amount), hashed per pixel and frame."""
-    if amount <= 0:
-        return np.zeros((h, w), np.float32)
-    return (np.float32(amount) * kt.uniform_field(frame_seed(seed + 1, frame), h, w)).astype(np.float32, copy=False)
+def fits_source(src_lab: np.ndarray, sx: np.ndarray, sy: np.ndarray, lab: np.ndarray, mask: np.ndarray) -> np.ndarray:
+    """Pixels of ``mask`` whose source position lies inside the source (no clamped,
+    smeared edge pixels) on a pixel of their label."""
+    out = np.zeros(mask.shape, bool)
+    ii, jj = np.nonzero(mask)
+    x, y = sx[ii, jj], sy[ii, jj]
+    hs, ws = src_lab.shape
+    inside = (x >= 0) & (y >= 0) & (x <= ws - 1) & (y <= hs - 1)
+    out[ii, jj] = inside & (lookup(src_lab, x[None], y[None])[0] == lab[ii, jj])
+    return out
+
+
+def patch_thresholds(patch: np.ndarray, threshold: float, spread: float, seed: int) -> np.ndarray:
+    """Each pixel's distortion threshold: its patch's, uniform in [(1 − spread)·threshold,
+    threshold], hashed from the patch id and the seed (the same for the patch's whole
+    life, so it is flagged once, whole, when its deviation crosses it)."""
+    if spread <= 0:
+        return np.full(patch.shape, threshold, np.float32)
+    u = kt.hash_field(seed, np.ascontiguousarray(patch, np.uint32))
+    return (threshold * (1.0 - spread * u)).astype(np.float32, copy=False)
+
+
+def reanchor_distorted(have, patch, D, sx, sy, scale, threshold, spread, seed):
+    """Patches whose mean map deviation crosses their threshold (``patch_thresholds``),
+    whole, and their maps re-anchored: a patch's map becomes the plain copy (a
+    translation at the synthesis scale) through its mean position and mean source
+    position, so its texture stays where it was near its middle and the distortion is
+    gone. Returns (distorted (H, W) bool, sx, sy)."""
+    ids = patch[have].astype(np.int64, copy=False)
+    if ids.size == 0:
+        return np.zeros(have.shape, bool), sx, sy
+    n = int(ids.max()) + 1
+    count = np.bincount(ids, minlength=n).astype(np.float64)
+    mean_d = np.bincount(ids, weights=D[have], minlength=n) / np.maximum(count, 1)
+    ids_all = np.arange(n, dtype=np.uint32)[None]
+    bad = mean_d > patch_thresholds(ids_all, threshold, spread, seed)[0]
+    bad[0] = False  # patch 0: no patch
+    distorted = have & bad[np.minimum(patch, n - 1)]
+    if not distorted.any():
+        return distorted, sx, sy
+    ii, jj = np.nonzero(distorted)
+    pid = patch[ii, jj].astype(np.int64)
+    c = np.maximum(np.bincount(pid, minlength=n), 1).astype(np.float64)
+    mi = np.bincount(pid, weights=ii, minlength=n) / c
+    mj = np.bincount(pid, weights=jj, minlength=n) / c
+    mx = np.bincount(pid, weights=sx[ii, jj], minlength=n) / c
+    my = np.bincount(pid, weights=sy[ii, jj], minlength=n) / c
+    sx = sx.copy()
+    sy = sy.copy()
+    sx[ii, jj] = mx[pid] + (jj - mj[pid]) * scale
+    sy[ii, jj] = my[pid] + (ii - mi[pid]) * scale
+    return distorted, sx, sy
 
 
 def clean_flags(raw: np.ndarray, *, radius: int, min_neighbours: int, dilate: int) -> np.ndarray:
-    """Remove isolated flags (``kt.remove_isolated``), dilate the rest (``kt.dilate``);
-    dilated pixels take the reason of a flag they grew from, reasons 2, 1, 3 first."""
+    """Remove isolated flags (``kt.remove_isolated``), dilate the disoccluded and newly
+    occluded ones (``kt.dilate``; distorted pixels are whole patches, re-anchored, with
+    nothing to blend into around them); dilated pixels take the reason of a flag they
+    grew from, 2 before 1."""
     anyf = raw > 0
     kept = kt.remove_isolated(anyf, radius, min_neighbours) if min_neighbours > 0 else anyf
     out = np.where(kept, raw, 0).astype(np.uint32, copy=False)
     if dilate <= 0:
         return out
-    grown = kt.dilate(kept, dilate)
-    todo = grown & ~kept
-    for reason in (FLAG["newly_occluded"], FLAG["disoccluded"], FLAG["distorted"]):
+    todo = ~kept
+    for reason in (FLAG["newly_occluded"], FLAG["disoccluded"]):
         if not todo.any():
             break
         m = kt.dilate(out == reason, dilate) & todo
@@ -121,17 +169,27 @@ class Reproject(Node):
                    doc="look colours up through the carried map (+ reprojected Poisson correction), or copy them")
     depth_tolerance = Param(float, 0.02, min=0.0, max=1.0,
                             doc="relative inverse-depth difference under which a previous pixel is the same surface")
-    threshold = Param(float, 0.5, min=0.0, doc="accumulated distortion D above which a pixel is resynthesized")
-    noise = Param(float, 0.01, min=0.0, doc="uniform noise in [0, noise) added to D each frame")
-    reset_spread = Param(float, 0.5, min=0.0, max=1.0,
-                         doc="where D starts (first frame, after a resynthesis): uniform in [0, spread x threshold), "
-                             "so regions resynthesized together are not flagged together again (no coherent wave)")
-    seed = Param(int, 0, doc="seed of the per-frame noise")
+    threshold = Param(float, 0.35, min=0.0,
+                      doc="map deviation ||J - I|| (J: the carried map's Jacobian over the synthesis scale) above "
+                          "which a pixel is resynthesized")
+    spread = Param(float, 0.5, min=0.0, max=1.0,
+                   doc="each patch's threshold is uniform in [(1 - spread) x threshold, threshold] (hashed from its "
+                       "id and the seed): patches that distort together are redone at different frames, not as "
+                       "one wave")
+    filter = Param(str, "lanczos3", choices=("lanczos3", "bilinear"),
+                   doc="reconstruction of the source at the carried (fractional) positions; bilinear blurs the "
+                       "finest detail")
+    seed = Param(int, 0, doc="seed of the per-patch thresholds")
     isolated_radius = Param(int, 2, min=0, max=8, doc="window radius of the isolated-flag test (2: 5x5)")
     min_neighbours = Param(int, 3, min=0, doc="flags with fewer other flags in the window are dropped")
     dilate = Param(int, 2, min=0, max=64, doc="dilation radius of the remaining flagged regions (pixels)")
-    fill_radius = Param(int, 3, min=0, max=16,
-                        doc="unflagged pixels without a previous value continue a neighbour's patch this close")
+    fill_radius = Param(int, 6, min=0, max=32,
+                        doc="pixels without a previous value (disoccluded) continue the patch of a kept pixel of "
+                            "their label this close, where the continued source position has their label; the "
+                            "rest are flagged")
+    extend_frames = Param(int, 6, min=0,
+                          doc="frames a disoccluded band may continue its neighbour's patch before it is flood-filled "
+                              "(the 'extension' channel counts them)")
     cut_threshold = Param(float, 0.5, min=0.0, max=1.0,
                           doc="share of flagged pixels above which the frame is a camera cut (full synthesis)")
 
@@ -161,37 +219,48 @@ class Reproject(Node):
         src_rgb = source.rgb()
         prev_rgb = prev.rgb()
         if p.colour == "map":
-            prev_res = prev_rgb - lookup(src_rgb, prev["source.x"], prev["source.y"])
+            prev_res = prev_rgb - lookup(src_rgb, prev["source.x"], prev["source.y"], filter=p.filter)
         else:
             prev_res = prev_rgb
-        prev_d = prev["distortion"].astype(np.float32, copy=False) if "distortion" in prev else np.zeros(prev.shape, np.float32)
-        valid, sx, sy, patch, res, dprev = kr.gather_prev(
+        prev_ext = prev["extension"].astype(np.float32, copy=False) if "extension" in prev else np.zeros(prev.shape, np.float32)
+        valid, sx, sy, patch, res, ext = kr.gather_prev(
             u, v, q, ok, lab, kr.inverse_depth(prev["Z"]), np.ascontiguousarray(prev["label.id"], np.uint32),
             np.ascontiguousarray(prev["patch.id"], np.uint32), prev["source.x"].astype(np.float32, copy=False),
-            prev["source.y"].astype(np.float32, copy=False), np.ascontiguousarray(prev_res, np.float32), prev_d, tol, scale)
-        det = kr.surface_jacobian_det(u, v, w1, lab, valid, tol)
-        D, distorted = kt.accumulate_distortion(dprev, det, valid, p.threshold, p.noise, frame_seed(p.seed, ctx.frame))
+            prev["source.y"].astype(np.float32, copy=False), np.ascontiguousarray(prev_res, np.float32), prev_ext, tol, scale)
+        # disoccluded pixels continue the patch of a kept neighbour of their label when the
+        # continued source position still has that label: no new seam, nothing to redo
+        have = valid
+        src_lab = np.ascontiguousarray(source["label.id"], np.uint32)
+        if p.fill_radius > 0 and not valid.all():
+            sx, sy, patch, res, ext, filled = kr.fill_from_neighbours(~valid, valid, lab, sx, sy, patch, res, ext,
+                                                                       p.fill_radius, scale)
+            ext = np.where(filled, ext + 1.0, ext).astype(np.float32, copy=False)
+            # a patch continued frame after frame would extrude its borders into streaks:
+            # past extend_frames the continued band is flood-filled afresh instead
+            filled &= fits_source(src_lab, sx, sy, lab, filled) & (ext <= p.extend_frames)
+            have = valid | filled
+        D = kt.map_deviation(sx, sy, have, kt.patch_links(have, patch, lab), scale)
+        distorted, sx, sy = reanchor_distorted(have, patch, D, sx, sy, scale, p.threshold, p.spread, p.seed)
         raw = np.zeros((H, W), np.uint32)
-        raw[distorted] = FLAG["distorted"]
-        raw[~valid] = FLAG["disoccluded"]
+        if distorted.any():
+            fits = fits_source(src_lab, sx, sy, lab, distorted)
+            raw[distorted] = np.where(fits[distorted], FLAG["reanchored"], FLAG["distorted"])
+        raw[~have] = FLAG["disoccluded"]
         raw[newly_occluded(cat, u, v, ok, lab, prev["label.id"])] = FLAG["newly_occluded"]
         flag = clean_flags(raw, radius=p.isolated_radius, min_neighbours=p.min_neighbours, dilate=p.dilate)
-        # invalid pixels whose flag was dropped as isolated continue a neighbour's patch
-        need = ~valid & (flag == 0)
-        if need.any():
-            sx, sy, patch, res, D, filled = kr.fill_from_neighbours(need, valid, lab, sx, sy, patch, res, D,
-                                                                     p.fill_radius, scale)
-            flag[need & ~filled] = FLAG["disoccluded"]
+        flag[~have & (flag == 0)] = FLAG["disoccluded"]  # dropped as isolated, but nothing to carry
         share = float((flag > 0).mean())
         cut = share > p.cut_threshold
         if cut:
             ctx.note(f"camera cut: {100 * share:.1f}% of the frame flagged (> {100 * p.cut_threshold:.0f}%); "
                      "full synthesis of this frame")
             flag[:] = FLAG["disoccluded"]
-        keep = flag == 0
-        D = np.where(keep, D, start_distortion(H, W, p.threshold * p.reset_spread, p.seed, ctx.frame))
+        # re-anchored patches keep their (new) map; their old Poisson correction no longer fits
+        keep = (flag == 0) | (flag == FLAG["reanchored"])
+        D = np.where(flag == 0, D, 0.0).astype(np.float32, copy=False)
+        ext = np.where(keep, ext, 0.0).astype(np.float32, copy=False)
         if p.colour == "map":
-            rgb = lookup(src_rgb, sx, sy) + res
+            rgb = lookup(src_rgb, sx, sy, filter=p.filter) + np.where((flag == 0)[..., None], res, 0.0)
         else:
             rgb = res
         rgb = np.where(keep[..., None], rgb, 0.0).astype(np.float32, copy=False)
@@ -201,10 +270,11 @@ class Reproject(Node):
         counts = {k: float((flag == v).mean()) for k, v in FLAG.items() if v}
         ctx.note(f"flagged {100 * share:.2f}%: " + ", ".join(f"{k} {100 * s:.2f}%" for k, s in counts.items()))
         ch = {"R": rgb[..., 0].copy(), "G": rgb[..., 1].copy(), "B": rgb[..., 2].copy(), "source.x": sx,
-              "source.y": sy, "patch.id": patch, "distortion": D, "flag": flag}
+              "source.y": sy, "patch.id": patch, "distortion": D, "extension": ext, "flag": flag}
         ch.update(geo)
         meta = self._meta(prev, cd)
-        meta["temporal"] = dict(counts, flagged=float((flag > 0).mean()), cut=bool(cut), frame=int(ctx.frame))
+        meta["temporal"] = dict(counts, flagged=float((flag > 0).mean()), cut=bool(cut), frame=int(ctx.frame),
+                                filter=p.filter)
         return Plate(ch, meta)
 
     @staticmethod
@@ -223,7 +293,7 @@ class Reproject(Node):
                 ctx.note("no previous frame and no 'first' plate: full synthesis of this frame")
             z = np.zeros((H, W), np.float32)
             ch = {"R": z, "G": z, "B": z, "source.x": z, "source.y": z, "patch.id": np.zeros((H, W), np.uint32),
-                  "distortion": z, "flag": np.full((H, W), FLAG["disoccluded"], np.uint32)}
+                  "distortion": z, "extension": z, "flag": np.full((H, W), FLAG["disoccluded"], np.uint32)}
             ch.update(geo)
             meta = dict(cd.meta)
             meta["temporal"] = dict(flagged=1.0, cut=True, frame=int(ctx.frame))
@@ -232,7 +302,8 @@ class Reproject(Node):
         if first.shape != (H, W):
             raise ctx.error(f"first is {first.width}x{first.height}, depth {W}x{H}; connect plates of one resolution")
         ch = {c: first[c] for c in STATE}
-        ch["distortion"] = start_distortion(H, W, ctx.p.threshold * ctx.p.reset_spread, ctx.p.seed, ctx.frame)
+        ch["distortion"] = np.zeros((H, W), np.float32)
+        ch["extension"] = np.zeros((H, W), np.float32)
         ch["flag"] = np.zeros((H, W), np.uint32)
         ch.update({k: v for k, v in geo.items() if k != "label.id"})
         ch.update({c: first[c] for c in ("label.id", "Z", "P.X", "P.Y", "P.Z") if c in first})

@@ -134,6 +134,37 @@ def resynthesize(ctx, img: Plate, source: Plate, p, frame: int, timings: dict | 
     f = p.factor if p.factor is not None else int(syn.get("factor", 4))
     scale = p.scale if p.scale is not None else float(syn.get("scale", 1.0))
     seed = frame_seed(p.seed, frame)
+    redo = flagged & (flag != FLAG["reanchored"])  # re-anchored patches keep their map: Poisson only
+    sx, sy, patch, rgb = img["source.x"], img["source.y"], img["patch.id"], img.rgb()
+    info = {"pixels": nflag, "share": nflag / flagged.size, "resynthesized": int(redo.sum()),
+            "synthesis_pixels": 0, "flood_filled": 0, "patches": 0, "repaired": 0}
+    ex_factor = syn.get("exemplar_factor")
+    if redo.any():
+        sx, sy, patch, rgb, ex_factor = _synthesize(ctx, img, source, p, redo, f, scale, seed, info, lap)
+    lap("magnify")
+    if p.solve:
+        src_rgb = source.rgb() if p.seams == "source" else None
+        rgb, pinfo = kt.poisson_regions(rgb, patch, img["label.id"], flagged, source=src_rgb, sx=sx, sy=sy,
+                                        step=scale, label_dirichlet=p.label_dirichlet, screen=p.screen,
+                                        tol=p.tol, max_iter=p.max_iter)
+        ctx.note(f"Poisson on {pinfo['windows']} windows ({pinfo['window_pixels']} px), at most "
+                 f"{pinfo['iterations']} iterations, residual {pinfo['residual']:.1e}")
+    lap("Poisson")
+    ctx.note(f"flagged {100 * info['share']:.2f}% ({nflag} px; {info['resynthesized']} resynthesized, "
+             f"{info['synthesis_pixels']} synthesis px, {info['flood_filled']} flood-filled)")
+    meta = dict(img.meta)
+    meta["resynthesis"] = info
+    meta["synthesis"] = dict(syn, factor=f, scale=scale, exemplar_factor=ex_factor)
+    return img.with_channels({"R": rgb[..., 0].copy(), "G": rgb[..., 1].copy(), "B": rgb[..., 2].copy(),
+                              "source.x": sx, "source.y": sy, "patch.id": patch}, meta=meta)
+
+
+def _synthesize(ctx, img: Plate, source: Plate, p, redo: np.ndarray, f: int, scale: float, seed: int, info: dict,
+                lap):
+    """The first-frame kernels on the pixels in ``redo`` (flood fill of the disoccluded and
+    newly occluded, masked corrections, magnify, label repair, colour lookup); the rest
+    keep the carried map. Returns source.x, source.y, patch.id, RGB and the exemplar factor."""
+    flag = img["flag"]
     table = source_table(ctx, source)
     n = len(table)
     H, W = img.shape
@@ -143,7 +174,7 @@ def resynthesize(ctx, img: Plate, source: Plate, p, frame: int, timings: dict | 
                max_distance=p.max_distance, with_rgb=p.use_rgb)
     shape = tgt.shape
     lap("features")
-    active = kcorrect.downsample_mask(flagged, f, shape)
+    active = kcorrect.downsample_mask(redo, f, shape)
     fresh = kcorrect.downsample_mask((flag == FLAG["disoccluded"]) | (flag == FLAG["newly_occluded"]), f, shape)
     S = st.from_source(block_sample(img["source.x"], f, shape), block_sample(img["source.y"], f, shape))
     patch_s = block_sample(img["patch.id"], f, shape).astype(np.int64, copy=False)
@@ -165,34 +196,20 @@ def resynthesize(ctx, img: Plate, source: Plate, p, frame: int, timings: dict | 
     Sw = kmag.magnify(S, f, (H, W))
     src_dense, _ = kf.dense_labels(source["label.id"], table)
     wl = working_labels(src_dense, scale, n)
-    # only flagged pixels take the new map: the others are told the label they land on (nothing to repair)
+    # only redo pixels take the new map: the others are told the label they land on (nothing to repair)
     here = wl[np.clip(Sw[..., 0], 0, wl.shape[0] - 1), np.clip(Sw[..., 1], 0, wl.shape[1] - 1)]
-    Sw, rep = kmag.repair_labels(Sw, np.where(flagged, g, here), wl)
+    Sw, rep = kmag.repair_labels(Sw, np.where(redo, g, here), wl)
     new_patch, _ = kpatch.offset_components(Sw)
     base = np.uint32(int(img["patch.id"].max()) + 1)
     sx_new = ((Sw[..., 1].astype(np.float64) + 0.5) * scale - 0.5).astype(np.float32, copy=False)
     sy_new = ((Sw[..., 0].astype(np.float64) + 0.5) * scale - 0.5).astype(np.float32, copy=False)
-    sx = np.where(flagged, sx_new, img["source.x"]).astype(np.float32, copy=False)
-    sy = np.where(flagged, sy_new, img["source.y"]).astype(np.float32, copy=False)
-    patch = np.where(flagged, new_patch + base, img["patch.id"]).astype(np.uint32, copy=False)
+    sx = np.where(redo, sx_new, img["source.x"]).astype(np.float32, copy=False)
+    sy = np.where(redo, sy_new, img["source.y"]).astype(np.float32, copy=False)
+    patch = np.where(redo, new_patch + base, img["patch.id"]).astype(np.uint32, copy=False)
     rgb = img.rgb()
-    ii, jj = np.nonzero(flagged)
-    rgb[ii, jj] = lookup(source.rgb(), sx[ii, jj][None], sy[ii, jj][None])[0]
-    lap("magnify")
-    if p.solve:
-        src_rgb = source.rgb() if p.seams == "source" else None
-        rgb, pinfo = kt.poisson_regions(rgb, patch, img["label.id"], flagged, source=src_rgb, sx=sx, sy=sy,
-                                        step=scale, label_dirichlet=p.label_dirichlet, screen=p.screen,
-                                        tol=p.tol, max_iter=p.max_iter)
-        ctx.note(f"Poisson on {pinfo['windows']} windows ({pinfo['window_pixels']} px), at most "
-                 f"{pinfo['iterations']} iterations, residual {pinfo['residual']:.1e}")
-    lap("Poisson")
-    info = {"pixels": nflag, "share": nflag / flagged.size, "synthesis_pixels": int(active.sum()),
-            "flood_filled": int(fresh.sum()), "patches": int(npatch), "repaired": int(rep["wrong"])}
-    ctx.note(f"resynthesized {100 * info['share']:.2f}% ({nflag} px; {info['synthesis_pixels']} synthesis px, "
-             f"{info['flood_filled']} flood-filled)")
-    meta = dict(img.meta)
-    meta["resynthesis"] = info
-    meta["synthesis"] = dict(syn, factor=f, scale=scale, exemplar_factor=st.ex_factor)
-    return img.with_channels({"R": rgb[..., 0].copy(), "G": rgb[..., 1].copy(), "B": rgb[..., 2].copy(),
-                              "source.x": sx, "source.y": sy, "patch.id": patch}, meta=meta)
+    ii, jj = np.nonzero(redo)
+    filt = img.meta.get("temporal", {}).get("filter", "bilinear")  # Reproject's, so kept and new pixels match
+    rgb[ii, jj] = lookup(source.rgb(), sx[ii, jj][None], sy[ii, jj][None], filter=filt)[0]
+    info.update(synthesis_pixels=int(active.sum()), flood_filled=int(fresh.sum()), patches=int(npatch),
+                repaired=int(rep["wrong"]))
+    return sx, sy, patch, rgb, st.ex_factor

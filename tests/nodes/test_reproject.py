@@ -6,10 +6,11 @@ from proxyshade.errors import NodeInputError
 from proxyshade.graph.plate import Plate
 from proxyshade.graph.testing import run_node
 from proxyshade.kernels.lookup import lookup
-from proxyshade.nodes.reproject import FLAG, clean_flags
+from proxyshade.kernels import temporal as kt
+from proxyshade.nodes.reproject import FLAG, clean_flags, patch_thresholds
 from tests.nodes._temporal import camera, render, state_plate, toy_source
 
-EXACT = {"noise": 0.0, "reset_spread": 0.0}
+EXACT = {"spread": 0.0, "fill_radius": 0}  # one threshold for all patches; disoccluded pixels not continued
 
 
 def step(proxy_n, proxy_0, prev, frame=2, **params):
@@ -32,7 +33,7 @@ def test_translation_over_a_plane_copies_pixels_and_has_no_distortion(colour):
         out = step(renders[k], renders[0], prev, frame=k + 1, colour=colour, threshold=0.05, **EXACT)
         flag = out["flag"]
         assert not (flag == FLAG["distorted"]).any()
-        assert np.abs(out["distortion"]).max() < 1e-5  # det J = 1 exactly, D stays 0
+        assert np.abs(out["distortion"]).max() < 1e-5  # the carried map is still a translation: J = I
         # the column that entered on the right is disoccluded (dilated by 2), nothing else
         assert (flag[:, -1] == FLAG["disoccluded"]).all() and not flag[:, :-3].any()
         # kept pixels: the previous frame one pixel to the right, exactly (map: through the map)
@@ -46,18 +47,38 @@ def test_translation_over_a_plane_copies_pixels_and_has_no_distortion(colour):
         prev = prev.with_channels({"flag": np.zeros((64, 64), np.uint32)})
 
 
-def test_zoom_gives_the_expected_determinant():
+def deviation(plate: Plate, mask: np.ndarray) -> np.ndarray:
+    return kt.map_deviation(plate["source.x"], plate["source.y"], mask,
+                            kt.patch_links(mask, plate["patch.id"], plate["label.id"]), 1.0)
+
+
+def test_zoom_is_measured_on_the_carried_map_and_reanchored_past_the_threshold():
     p0 = render(camera(f=40.0), sphere=None)
     p1 = render(camera(f=44.0, frame=2), sphere=None)
     prev = with_distortion(state_plate(p0), np.zeros((64, 64)))
     out = step(p1, p0, prev, threshold=10.0, **EXACT)
-    expected = abs((40.0 / 44.0) ** 2 - 1)  # the previous frame sees the same content 40/44 as large
+    expected = np.sqrt(2) * (1 - 40.0 / 44.0)  # the map steps 40/44 source pixels per pixel: ||J - I|| = sqrt(2)(1 - s)
     inner = (slice(4, -4), slice(4, -4))
-    np.testing.assert_allclose(out["distortion"][inner], expected, rtol=1e-4)
+    interior = deviation(out, np.ones((64, 64), bool))[inner] > 0  # patch borders aside
+    np.testing.assert_allclose(out["distortion"][inner][interior], expected, rtol=1e-3)
     assert not out["flag"].any()
-    # accumulated over frames, reset and flagged past the threshold (cut detection off)
-    out = step(p1, p0, with_distortion(prev, np.full((64, 64), 0.9)), threshold=1.0, cut_threshold=1.0, **EXACT)
-    assert (out["flag"][inner] == FLAG["distorted"]).all() and (out["distortion"][inner] == 0).all()
+    # past the threshold whole patches are flagged; those whose copy still fits the source
+    # labels are re-anchored: a plain translation again (J = I), resynthesis left for the rest
+    out = step(p1, p0, prev, threshold=0.1, cut_threshold=1.0, **EXACT)
+    flag = out["flag"]
+    assert ((flag[inner] == FLAG["reanchored"]) | (flag[inner] == FLAG["distorted"])).all()
+    assert (flag == FLAG["reanchored"]).mean() > 0.5
+    re = flag == FLAG["reanchored"]
+    assert deviation(out, re).max() < 1e-4
+
+
+def test_shear_with_unit_determinant_is_seen():
+    # a map sheared by k has det J = 1 (what the paper's det J never flags) but ||J - I|| = k
+    i, j = np.mgrid[0:32, 0:32].astype(np.float64)
+    valid = np.ones((32, 32), bool)
+    links = kt.patch_links(valid, np.ones((32, 32), np.uint32), np.ones((32, 32), np.uint32))
+    np.testing.assert_allclose(kt.jacobian_det(j + 0.3 * i, i, valid), 1.0, atol=1e-12)
+    np.testing.assert_allclose(kt.map_deviation(j + 0.3 * i, i, valid, links, 1.0), 0.3, atol=1e-6)
 
 
 def test_moving_ball_flags_exactly_the_newly_occluded_ring():
@@ -113,15 +134,17 @@ def test_camera_cut_flags_the_whole_frame():
     assert not out.meta["temporal"]["cut"] and out["flag"].any()
 
 
-def test_deterministic_and_seeded_per_frame():
+def test_deterministic_and_seeded_per_patch():
     p0 = render(camera(), sphere=(0.0, 0.0, -10.0))
-    p1 = render(camera(pos=(0.3, 0.1, 0.2), frame=2), sphere=(0.0, 0.0, -10.0))
+    p1 = render(camera(f=44.0, frame=2), sphere=(0.0, 0.0, -10.0))
     prev = with_distortion(state_plate(p0), np.zeros((64, 64)))
-    a = step(p1, p0, prev, noise=0.2)
-    b = step(p1, p0, prev, noise=0.2)
-    assert a.equals(b)
-    c = step(p1, p0, prev, frame=3, noise=0.2)
-    assert not np.array_equal(a["distortion"], c["distortion"])
+    a = step(p1, p0, prev, threshold=0.2)
+    assert a.equals(step(p1, p0, prev, threshold=0.2))
+    # each patch has one threshold in [(1 - spread) t, t], the same wherever the patch is
+    ids = np.repeat(np.arange(200, dtype=np.uint32)[None], 3, axis=0)
+    t1, t2 = patch_thresholds(ids, 0.2, 0.5, 0), patch_thresholds(ids, 0.2, 0.5, 1)
+    assert (t1 == t1[0]).all() and (t1 >= 0.1 - 1e-7).all() and (t1 <= 0.2).all() and np.ptp(t1) > 0.08
+    assert not np.array_equal(t1, t2)
 
 
 def test_map_colour_keeps_the_poisson_correction():
@@ -130,7 +153,7 @@ def test_map_colour_keeps_the_poisson_correction():
     prev = state_plate(p0)
     smooth = np.linspace(0, 0.1, 64, dtype=np.float32)[None, :] * np.ones((64, 1), np.float32)
     prev = prev.with_channels({"R": prev["R"] + smooth})  # a smooth correction added by the Poisson solve
-    out = step(p1, p0, prev, **EXACT)
+    out = step(p1, p0, prev, filter="bilinear", **EXACT)
     keep = out["flag"] == 0
     base = lookup(toy_source().rgb(), out["source.x"], out["source.y"])
     np.testing.assert_allclose((out["R"] - base[..., 0])[keep], np.roll(smooth, -1, axis=1)[keep], atol=1e-6)
