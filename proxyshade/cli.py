@@ -115,7 +115,7 @@ def nodes():
 
     for name in sorted(REGISTRY):
         cls = REGISTRY[name]
-        out.print(f"[bold]{name}[/bold] (v{cls.version}{', time-dependent' if cls.time_dependent else ''}{', writes files' if cls.sink else ''})")
+        out.print(f"[bold]{name}[/bold] (v{cls.version}{', time-dependent' if cls.time_dependent else ''}{', writes files' if cls.sink else ''}{', whole sequence' if cls.sequence else ''})")
         doc = cls.doc().splitlines()
         if doc:
             out.print(f"  {doc[0]}")
