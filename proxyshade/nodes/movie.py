@@ -26,15 +26,15 @@ class Movie(Node):
     max_size = Param(int, 512, min=16, doc="long edge of the movie's frames; larger plates are downscaled")
 
     def compute(self, ctx) -> Plate:
-        frames = []
+        frames, shape = [], None
         for frame, plate in zip(ctx.image.frames, ctx.image):
             problem = channels_problem(plate.names(), ctx.p.channels)
             if problem:
                 raise ctx.error(f"frame {frame}: {problem}")
-            if frames and plate.shape != shape:
+            shape = shape or plate.shape
+            if plate.shape != shape:
                 raise ctx.error(f"frame {frame} is {plate.width}x{plate.height}, frame {ctx.image.frames[0]} is "
                                 f"{shape[1]}x{shape[0]}; a movie needs one size for every frame")
-            shape = plate.shape
             frames.append(resize_u8(to_display(plate, ctx.p.channels, ctx.p.exposure), ctx.p.max_size))
         path = write_gif(ctx.path(ctx.p.path), frames, ctx.p.fps)
         return Plate(meta={"movie": str(path), "frames": [ctx.image.frames[0], ctx.image.frames[-1]]})
