@@ -115,7 +115,7 @@ def nodes():
 
     for name in sorted(REGISTRY):
         cls = REGISTRY[name]
-        out.print(f"[bold]{name}[/bold] (v{cls.version}{', time-dependent' if cls.time_dependent else ''}{', writes files' if cls.sink else ''})")
+        out.print(f"[bold]{name}[/bold] (v{cls.version}{', time-dependent' if cls.time_dependent else ''}{', writes files' if cls.sink else ''}{', whole sequence' if cls.sequence else ''})")
         doc = cls.doc().splitlines()
         if doc:
             out.print(f"  {doc[0]}")
@@ -141,7 +141,7 @@ def show_graph(graph: Path = typer.Argument(..., help="YAML graph file"),
     for name, node in g.nodes.items():
         ins = []
         for k, ref in g.connections[name].items():
-            at = "@first" if ref.first else (f"@{ref.offset:+d}" if ref.offset else "")
+            at = "@all" if ref.all else "@first" if ref.first else (f"@{ref.offset:+d}" if ref.offset else "")
             ins.append(f"{k}<-{ref.node}{at}")
         state = "" if g.enabled[name] else " (disabled)"
         out.print(f"  {name} [{type(node).__name__}]{state} {'  '.join(ins)}", highlight=False)

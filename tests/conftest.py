@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import collections
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -56,7 +57,28 @@ class _TFrame(Node, register=False):
         return Plate({"R": np.full((4, 4), ctx.frame, np.float32)})
 
 
-TYPES = {"TConst": _TConst, "TAdd": _TAdd, "TFrame": _TFrame}
+class _TRead(Node, register=False):
+    """A plate holding the number in a text file ('####': one file per frame)."""
+
+    path = Param(Path)
+
+    def compute(self, ctx):
+        COMPUTES[self.name] += 1
+        return Plate({"R": np.full((4, 4), float(ctx.path(ctx.p.path).read_text()), np.float32)})
+
+
+class _TSeq(Node, register=False):
+    """A sequence node: R = the sum over the sequence of R; meta lists the frames it read."""
+
+    image = Input(channels=("R",), sequence=True)
+
+    def compute(self, ctx):
+        COMPUTES[self.name] += 1
+        total = sum(p["R"] for p in ctx.image)
+        return Plate({"R": total.astype(np.float32)}, {"frames": list(ctx.image.frames)})
+
+
+TYPES = {"TConst": _TConst, "TAdd": _TAdd, "TFrame": _TFrame, "TRead": _TRead, "TSeq": _TSeq}
 
 
 @pytest.fixture

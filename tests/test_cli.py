@@ -73,3 +73,18 @@ def test_vars_from_the_command_line(graph, capsys):
     assert (graph.parent.parent / "out" / "m" / "source.exr").is_file()
     assert main(["run", str(graph), "--var", "oops"]) == 2
     assert "--var oops: expected name=value" in capsys.readouterr().err
+
+
+def test_movie_of_a_partial_range_and_graph_listing(tmp_path, registry, capsys):
+    g = tmp_path / "m.yaml"
+    g.write_text("format: proxyshade/1\nframes: 1-10\nnodes:\n"
+                 "  f:     {type: TFrame}\n"
+                 "  movie: {type: Movie, inputs: {image: {node: f, frame: all}}, params: {path: out/m.gif, channels: [R]}}\n")
+    assert main(["graph", str(g)]) == 0
+    assert "movie [Movie] image<-f@all" in capsys.readouterr().out
+    assert main(["run", str(g), "--frames", "3", "--explain", "-q"]) == 0
+    text = capsys.readouterr().out
+    assert "4 computed, 0 reused" in text  # f at 1, 2, 3 and one movie
+    assert main(["run", str(g), "--frames", "3", "-q"]) == 0
+    assert "0 computed, 4 reused" in capsys.readouterr().out
+    assert (tmp_path / "out" / "m.gif").is_file()

@@ -1,8 +1,9 @@
 """The engine: a graph of nodes over a frame range, run incrementally against a cache.
 
 A run unrolls the graph over the requested frames into a DAG of (node, frame)
-instances (inputs may name a node at a frame offset or at the first frame), rejects
-cycles, computes every instance's key top-down without touching pixels, then computes
+instances (inputs may name a node at a frame offset, at the first frame, or, for a
+sequence node such as Movie, at every frame up to the last requested one: a sequence
+node has one instance per run, at that last frame), rejects cycles, computes every instance's key top-down without touching pixels, then computes
 exactly the keys the cache lacks, on an executor, loading cached inputs only when a
 computed node needs them. Instances whose keys coincide (a time-independent node at
 several frames) are computed once.
@@ -14,6 +15,7 @@ several frames) are computed once.
 """
 from __future__ import annotations
 
+import functools
 import os
 import resource
 import threading
@@ -28,20 +30,26 @@ from proxyshade.errors import CycleError, GraphFileError, ParamError, UserError
 from proxyshade.graph import keys as K
 from proxyshade.graph.cache import Cache
 from proxyshade.graph.executor import make_executor
-from proxyshade.graph.node import REGISTRY, Context, Node, resolve_path
+from proxyshade.graph.node import REGISTRY, Context, Node, PlateSequence, resolve_path
 from proxyshade.graph.plate import Plate
 
 
 @dataclass(frozen=True)
 class InputRef:
-    """An input connection: ``node`` at this frame, at ``offset`` frames, or at the first frame."""
+    """An input connection: ``node`` at this frame, at ``offset`` frames, at the first frame,
+    or (``all``, for a sequence input) at every frame from the first one to this one."""
 
     node: str
     offset: int = 0
     first: bool = False
+    all: bool = False
 
     def frame(self, frame: int, first_frame: int) -> int:
         return first_frame if self.first else frame + self.offset
+
+    def frames(self, frame: int, first_frame: int) -> list[int]:
+        """The upstream frames this input reads at ``frame``, in order."""
+        return list(range(first_frame, frame + 1)) if self.all else [self.frame(frame, first_frame)]
 
 
 @dataclass
@@ -151,6 +159,25 @@ class Graph:
         params[param] = value
         node.params = node.validate_params(params, where=f"{name}.")
 
+    def ref_problem(self, name: str, inp: str, ref: InputRef) -> str | None:
+        """Why ``name.inp`` cannot read ``ref`` (a message ending with the fix), or None."""
+        cls = type(self.nodes[name])
+        spec = cls.inputs_spec[inp]
+        src = self.nodes.get(ref.node)
+        if src is None:
+            return f"no node {ref.node!r}; nodes are {', '.join(self.nodes)}"
+        if ref.all and (ref.offset or ref.first):
+            return "frame: all reads every frame up to this one; drop the offset or 'first'"
+        if ref.all and not spec.sequence:
+            return (f"{cls.__name__} input {inp!r} takes one plate, not the whole sequence; drop 'frame: all' "
+                    "(or read one frame: -1 or first)")
+        if spec.sequence and not ref.all:
+            return f"{cls.__name__} reads the whole sequence here; connect it as {{node: {ref.node}, frame: all}}"
+        if src.sequence:
+            return (f"{ref.node} ({type(src).__name__}) reads the whole sequence and runs once per run, so no node "
+                    f"can read it; connect {name}.{inp} to what {ref.node} reads instead")
+        return None
+
     # -- unrolling ---------------------------------------------------------
     def _check_frame(self, frame: int) -> None:
         lo, hi = self.frames
@@ -159,12 +186,24 @@ class Graph:
                             "pick frames inside the range or widen 'frames'")
 
     def instances(self, frames: list[int]) -> nx.DiGraph:
-        """The unrolled DAG of (node, frame) for ``frames``; edges carry the input name."""
+        """The unrolled DAG of (node, frame) for ``frames``; edges carry the input name.
+
+        A sequence node has one instance, at the last of ``frames`` (none when disabled)."""
         dag = nx.DiGraph()
         first = self.frames[0]
-        stack = [(n, f) for f in frames for n in self.nodes]
         for f in frames:
             self._check_frame(f)
+        for name, conns in self.connections.items():
+            for inp, ref in conns.items():
+                problem = self.ref_problem(name, inp, ref)
+                if problem:
+                    raise GraphFileError(f"{self.source or self.name}: nodes.{name}.inputs.{inp}: {problem}")
+        stack = []
+        for name, node in self.nodes.items():
+            if not node.sequence:
+                stack += [(name, f) for f in frames]
+            elif self.enabled[name]:
+                stack.append((name, max(frames)))  # once per run: a movie is not rewritten at every frame
         seen = set()
         while stack:
             inst = stack.pop()
@@ -174,13 +213,11 @@ class Graph:
             dag.add_node(inst)
             name, frame = inst
             for inp, ref in self.connections[name].items():
-                if ref.node not in self.nodes:
-                    raise GraphFileError(f"{name}.{inp}: no node {ref.node!r}; nodes are {', '.join(self.nodes)}")
-                f2 = ref.frame(frame, first)
-                if f2 < first or f2 > self.frames[1]:
-                    continue  # before the first frame: the input arrives as None
-                dag.add_edge((ref.node, f2), inst, inputs=dag.get_edge_data((ref.node, f2), inst, {}).get("inputs", ()) + (inp,))
-                stack.append((ref.node, f2))
+                for f2 in ref.frames(frame, first):
+                    if f2 < first or f2 > self.frames[1]:
+                        continue  # before the first frame: the input arrives as None
+                    dag.add_edge((ref.node, f2), inst, inputs=dag.get_edge_data((ref.node, f2), inst, {}).get("inputs", ()) + (inp,))
+                    stack.append((ref.node, f2))
         try:
             cycle = nx.find_cycle(dag)
         except nx.NetworkXNoCycle:
@@ -231,7 +268,7 @@ class Graph:
         for inst in nx.lexicographical_topological_sort(dag, key=str):
             name, frame = inst
             node = self.nodes[name]
-            input_keys: dict[str, str | None] = {}
+            input_keys: dict[str, str | list[str] | None] = {}
             for inp, spec in type(node).inputs_spec.items():
                 ref = self.connections[name].get(inp)
                 if ref is None:
@@ -239,6 +276,9 @@ class Graph:
                         raise GraphFileError(f"{self.source or self.name}: nodes.{name}.inputs.{inp}: not connected; "
                                              f"connect it to a node ({type(node).__name__} needs it)")
                     input_keys[inp] = None
+                    continue
+                if ref.all:  # a sequence input: the keys of every frame, in order
+                    input_keys[inp] = [inst_key[(ref.node, f2)] for f2 in ref.frames(frame, first)]
                     continue
                 f2 = ref.frame(frame, first)
                 if (ref.node, f2) not in inst_key:
@@ -305,9 +345,8 @@ class Graph:
                     todo.add_edge(p, inst)
         consumers: dict[str, int] = {}
         for inst in todo:
-            for k in set(plan.input_keys(inst).values()):
-                if k:
-                    consumers[k] = consumers.get(k, 0) + 1
+            for k in plan.held_keys(inst):
+                consumers[k] = consumers.get(k, 0) + 1
         guard = threading.Lock()
 
         def work(inst):
@@ -317,11 +356,10 @@ class Graph:
             self._compute(plan, inst, nr)
             nr.seconds = time.perf_counter() - t
             with guard:
-                for k in set(plan.input_keys(inst).values()):
-                    if k:
-                        consumers[k] -= 1
-                        if consumers[k] == 0 and k not in plan.keep:
-                            self.cache.forget(k)
+                for k in plan.held_keys(inst):
+                    consumers[k] -= 1
+                    if consumers[k] == 0 and k not in plan.keep:
+                        self.cache.forget(k)
                 if consumers.get(nr.key, 0) == 0 and nr.key not in plan.keep:
                     self.cache.forget(nr.key)
             hooks.done(nr)
@@ -354,6 +392,15 @@ class Graph:
             nr = NodeRun(inst[0], inst[1], key, "computed", "corrupt cache entry")
             return self._compute_locked(plan, inst, nr)
 
+    def _sequence_plate(self, plan: "Plan", name: str, frame: int) -> Plate:
+        """One plate of a sequence input, dropped from memory again unless it was held there."""
+        key = plan.keys[(name, frame)]
+        held = key in self.cache.memory
+        plate = self._value(plan, (name, frame))
+        if not held and key not in plan.keep:
+            self.cache.forget(key)
+        return plate
+
     def _compute(self, plan: "Plan", inst, nr: NodeRun) -> Plate:
         with self._lock(nr.key):
             if nr.key in self.cache.memory:
@@ -363,10 +410,14 @@ class Graph:
     def _compute_locked(self, plan: "Plan", inst, nr: NodeRun) -> Plate:
         name, frame = inst
         node = self.nodes[name]
-        inputs: dict[str, Plate | None] = {}
+        inputs: dict[str, Plate | PlateSequence | None] = {}
         first = self.frames[0]
         for inp in type(node).inputs_spec:
             ref = self.connections[name].get(inp)
+            if ref is not None and ref.all:
+                inputs[inp] = PlateSequence(ref.frames(frame, first), functools.partial(self._sequence_plate, plan, ref.node),
+                                            functools.partial(node.check_plate, inp))
+                continue
             src = (ref.node, ref.frame(frame, first)) if ref else None
             inputs[inp] = self._value(plan, src) if src in plan.keys else None
         ctx = Context(node, frame, first, inputs, dict(node.params), self.graph_dir, plan.threads, nr.notes)
@@ -378,8 +429,8 @@ class Graph:
             msg = str(e)
             raise type(e)(msg if msg.startswith(name) else f"{name}@{frame}: {msg}") from None
         except Exception as e:
-            summary = ", ".join(f"{k}={v.width}x{v.height}[{','.join(v.names()[:6])}]" if v is not None else f"{k}=None"
-                                for k, v in inputs.items())
+            summary = ", ".join(f"{k}=None" if v is None else f"{k}={len(v)} frames" if isinstance(v, PlateSequence)
+                                else f"{k}={v.width}x{v.height}[{','.join(v.names()[:6])}]" for k, v in inputs.items())
             raise NodeError(f"node {name!r} ({type(node).__name__}) failed at frame {frame} with inputs "
                             f"{summary or 'none'}: {type(e).__name__}: {e}") from e
         if not isinstance(plate, Plate):
@@ -418,9 +469,14 @@ class Plan:
     threads: int = 0
     keep: set[str] = field(default_factory=set)
 
-    def input_keys(self, inst) -> dict[str, str | None]:
+    def input_keys(self, inst) -> dict[str, str | list[str] | None]:
         c = self.components.get(inst)
         return dict(c["inputs"]) if c else {}
+
+    def held_keys(self, inst) -> set[str]:
+        """Upstream keys whose plates the instance's compute reads at once: its one-frame inputs
+        (a sequence input reads its plates one at a time, from disk once they are dropped)."""
+        return {k for k in self.input_keys(inst).values() if isinstance(k, str)}
 
 
 class Hooks:

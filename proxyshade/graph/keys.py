@@ -4,7 +4,8 @@ key = sha256 of the canonical JSON of
   node type, version, code hash (the node's module and the proxyshade.kernels modules it
   uses, comments stripped), hashed parameters, upstream keys by input name, the frame
   (only when the node depends on time), the content hashes of the files its Path
-  parameters name, and the node's ``key_extra``.
+  parameters name, and the node's ``key_extra``. A sequence input's upstream keys are the
+  list of its frames' keys, so changing one frame changes the key.
 
 The components are kept so ``--explain`` can say which one changed.
 """
@@ -103,6 +104,16 @@ def make_key(components: dict) -> str:
     return digest(components)
 
 
+def _input_change(name: str, old: Any, new: Any) -> str:
+    """'image' for a one-frame input; for a sequence input (a list of keys, one per frame)
+    how many frames changed: 'image: 2 of 30 frames' or 'image: 29 -> 30 frames'."""
+    if not (isinstance(old, list) and isinstance(new, list)):
+        return name
+    if len(old) != len(new):
+        return f"{name}: {len(old)} -> {len(new)} frames"
+    return f"{name}: {sum(a != b for a, b in zip(old, new))} of {len(new)} frames"
+
+
 def diff_components(old: dict | None, new: dict) -> str:
     """Why a key changed, in words: 'new params (k: 5 -> 3)', 'new input (proxy)', ..."""
     if not old:
@@ -117,7 +128,7 @@ def diff_components(old: dict | None, new: dict) -> str:
     if changed:
         reasons.append("new params (" + ", ".join(f"{k}: {op.get(k)!r} -> {np_.get(k)!r}" for k in changed) + ")")
     oi, ni = old.get("inputs", {}), new.get("inputs", {})
-    changed = [k for k in sorted(set(oi) | set(ni)) if oi.get(k) != ni.get(k)]
+    changed = [_input_change(k, oi.get(k), ni.get(k)) for k in sorted(set(oi) | set(ni)) if oi.get(k) != ni.get(k)]
     if changed:
         reasons.append("new input (" + ", ".join(changed) + ")")
     if old.get("files") != new.get("files"):

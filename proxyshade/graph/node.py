@@ -20,9 +20,10 @@ imported (``proxyshade.nodes`` imports them all).
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, ClassVar
+from typing import Any, Callable, ClassVar, Iterable
 
 from proxyshade.errors import NodeInputError, ParamError
 from proxyshade.graph.plate import Plate
@@ -35,12 +36,17 @@ _UNSET = object()
 @dataclass
 class Input:
     """An upstream plate. ``optional`` inputs may be unconnected (or fall before the
-    first frame when connected at a negative frame offset) and arrive as ``None``."""
+    first frame when connected at a negative frame offset) and arrive as ``None``.
+
+    A ``sequence`` input takes the whole sequence (connected as ``{node: X, frame: all}``)
+    and arrives as a ``PlateSequence``; a node with one is a sequence node, instantiated
+    once per run, at the last requested frame."""
 
     doc: str = ""
     optional: bool = False
     name: str = ""
     channels: tuple[str, ...] = ()  # channels the node reads: checked by the engine before compute
+    sequence: bool = False
 
 
 class Param:
@@ -159,6 +165,27 @@ class Context:
         return NodeInputError(f"{self.node.name}: {message}")
 
 
+class PlateSequence(Sequence):
+    """What a sequence input delivers: the upstream plates of ``frames`` (first frame to the
+    node's frame, in order). Each plate is loaded, and its declared channels checked, when
+    it is read, so a long sequence is never held in memory at once."""
+
+    def __init__(self, frames: Iterable[int], load: Callable[[int], Plate], check: Callable[[Plate], None]):
+        self.frames = list(frames)
+        self._load = load
+        self._check = check
+
+    def __len__(self) -> int:
+        return len(self.frames)
+
+    def __getitem__(self, i):
+        if isinstance(i, slice):
+            return [self[j] for j in range(*i.indices(len(self)))]
+        plate = self._load(self.frames[i])
+        self._check(plate)
+        return plate
+
+
 class _Namespace:
     def __init__(self, d: dict):
         self.__dict__.update(d)
@@ -184,6 +211,7 @@ class Node:
     version: ClassVar[int] = 1
     time_dependent: ClassVar[bool] = False  # output depends on the frame number
     sink: ClassVar[bool] = False  # writes files outside the cache (ExrWrite, Preview)
+    sequence: ClassVar[bool] = False  # has a sequence input: one instance per run (set from the Inputs)
     inputs_spec: ClassVar[dict[str, Input]]
     params_spec: ClassVar[dict[str, Param]]
 
@@ -200,6 +228,7 @@ class Node:
                     params[k] = v
         cls.inputs_spec = inputs
         cls.params_spec = params
+        cls.sequence = any(i.sequence for i in inputs.values())
         if register and not cls.__name__.startswith("_"):
             REGISTRY[cls.__name__] = cls
 
@@ -242,18 +271,25 @@ class Node:
         return None
 
     def check_inputs(self, inputs: dict[str, Plate | None]) -> None:
-        """One-line errors for unconnected required inputs and missing declared channels."""
+        """One-line errors for unconnected required inputs and missing declared channels
+        (a sequence input's plates are checked as they are read, by ``check_plate``)."""
         for k, spec in self.inputs_spec.items():
             plate = inputs.get(k)
             if plate is None:
                 if not spec.optional:
                     raise NodeInputError(f"{self.name}: input {k!r} is not connected; connect a node to it")
                 continue
-            missing = [c for c in spec.channels if c not in plate]
-            if missing:
-                raise NodeInputError(
-                    f"{self.name}: input {k!r} has no channel {', '.join(missing)}; {type(self).__name__} needs "
-                    f"{', '.join(spec.channels)} there, it has {', '.join(plate.names()) or 'none'}")
+            if not spec.sequence:
+                self.check_plate(k, plate)
+
+    def check_plate(self, input_name: str, plate: Plate) -> None:
+        """A one-line error when ``plate`` lacks a channel the input declares."""
+        spec = self.inputs_spec[input_name]
+        missing = [c for c in spec.channels if c not in plate]
+        if missing:
+            raise NodeInputError(
+                f"{self.name}: input {input_name!r} has no channel {', '.join(missing)}; {type(self).__name__} needs "
+                f"{', '.join(spec.channels)} there, it has {', '.join(plate.names()) or 'none'}")
 
     def passthrough_input(self) -> str | None:
         """The input a disabled node passes through (default: its first input)."""

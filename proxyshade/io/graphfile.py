@@ -8,6 +8,7 @@
       guide: {type: GuideSynth, inputs: {source: src, proxy: proxy}, params: {k: 5}}
       final: {type: Poisson, inputs: {prev: {node: final, frame: -1}, ref: {node: guide, frame: first}}}
       write: {type: ExrWrite, inputs: {image: final}, params: {path: out/lake.####.exr}, enabled: true}
+      movie: {type: Movie, inputs: {image: {node: final, frame: all}}, params: {path: out/lake.gif}}
 
 Relative paths resolve against the graph file's folder; ``${name}`` is replaced by a
 variable; ``####`` in a path is the zero-padded frame. Every error names the file, the
@@ -130,14 +131,16 @@ def _input_ref(value: Any, where: str) -> InputRef:
     if isinstance(value, dict):
         extra = set(value) - {"node", "frame"}
         if extra or "node" not in value or not isinstance(value["node"], str):
-            raise GraphFileError(f"{where}: expected a node name or {{node: NAME, frame: -1|first}}, got {dict(value)!r}")
+            raise GraphFileError(f"{where}: expected a node name or {{node: NAME, frame: -1|first|all}}, got {dict(value)!r}")
         frame = value.get("frame", 0)
         if frame == "first":
             return InputRef(value["node"], first=True)
+        if frame == "all":
+            return InputRef(value["node"], all=True)
         if isinstance(frame, bool) or not isinstance(frame, int):
-            raise GraphFileError(f"{where}.frame: expected an integer offset (e.g. -1) or 'first', got {frame!r}")
+            raise GraphFileError(f"{where}.frame: expected an integer offset (e.g. -1), 'first' or 'all', got {frame!r}")
         return InputRef(value["node"], offset=frame)
-    raise GraphFileError(f"{where}: expected a node name or {{node: NAME, frame: -1|first}}, got {value!r}")
+    raise GraphFileError(f"{where}: expected a node name or {{node: NAME, frame: -1|first|all}}, got {value!r}")
 
 
 def build_graph(data: Any, path: Path, *, cache=None, overrides: list[str] = (),
@@ -221,8 +224,9 @@ def build_graph(data: Any, path: Path, *, cache=None, overrides: list[str] = (),
         pending_inputs[name] = refs
     for name, refs in pending_inputs.items():
         for k, (ref, line) in refs.items():
-            if ref.node not in g.nodes:
-                raise err(line, f"nodes.{name}.inputs.{k}", f"no node {ref.node!r}; nodes are {', '.join(g.nodes)}")
+            problem = g.ref_problem(name, k, ref)
+            if problem:
+                raise err(line, f"nodes.{name}.inputs.{k}", problem)
             g.connections[name][k] = ref
     for o in overrides:
         target, eq, raw = o.partition("=")

@@ -4,6 +4,8 @@ OpenImageIO reports errors by return value; here they become ``UserError`` namin
 """
 from __future__ import annotations
 
+import os
+import threading
 from pathlib import Path
 
 import numpy as np
@@ -47,4 +49,59 @@ def write_png(path: str | Path, rgb8: np.ndarray) -> Path:
         tmp.unlink(missing_ok=True)
         raise UserError(f"{path}: cannot write PNG: {out.geterror().strip()}")
     tmp.replace(path)
+    return path
+
+
+def resize_u8(rgb8: np.ndarray, max_size: int) -> np.ndarray:
+    """Downscale an (H, W, 3) uint8 picture so its long edge is at most ``max_size`` (OpenImageIO's
+    ImageBufAlgo.resize, its default filter); a picture already small enough is returned as is."""
+    h, w = rgb8.shape[:2]
+    if max(h, w) <= max_size:
+        return rgb8
+    s = max_size / max(h, w)
+    nw, nh = max(1, round(w * s)), max(1, round(h * s))
+    src = oiio.ImageBuf(oiio.ImageSpec(w, h, rgb8.shape[2], oiio.UINT8))
+    src.set_pixels(oiio.ROI(), np.ascontiguousarray(rgb8, dtype=np.uint8))
+    dst = oiio.ImageBufAlgo.resize(src, roi=oiio.ROI(0, nw, 0, nh, 0, 1, 0, rgb8.shape[2]))
+    if dst.has_error:
+        raise UserError(f"cannot resize a {w}x{h} picture to {nw}x{nh}: {dst.geterror().strip()}")
+    return np.asarray(dst.get_pixels(oiio.UINT8)).reshape(nh, nw, rgb8.shape[2])
+
+
+def write_gif(path: str | Path, frames: list[np.ndarray], fps: int) -> Path:
+    """Write (H, W, 3) uint8 pictures of one size as an animated GIF that loops forever,
+    atomically (a temporary name in the same folder, then rename; a failure leaves nothing).
+
+    GIF stores a frame's delay in hundredths of a second, so the rate plays as 100 / int(100 / fps)
+    (24 fps plays at 25); colours are reduced to a 256-colour palette per frame, with dithering."""
+    path = Path(path)
+    if not frames:
+        raise UserError(f"{path}: no frames to write; give the movie at least one frame")
+    h, w, c = frames[0].shape
+    bad = next((i for i, f in enumerate(frames) if f.shape != (h, w, c)), None)
+    if bad is not None:
+        raise UserError(f"{path}: frame {bad} is {frames[bad].shape[1]}x{frames[bad].shape[0]}, the first is {w}x{h}; "
+                        "give every frame one size")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.{threading.get_ident()}.tmp.gif")
+    spec = oiio.ImageSpec(w, h, c, oiio.UINT8)
+    spec.attribute("FramesPerSecond", oiio.TypeRational, (int(fps), 1))
+    spec.attribute("oiio:LoopCount", 0)  # 0: loop forever
+    out = oiio.ImageOutput.create(str(tmp))
+    try:
+        if out is None:
+            raise UserError(f"{path}: cannot write GIF: {oiio.geterror().strip()}")
+        for i, frame in enumerate(frames):
+            ok = out.open(str(tmp), [spec] * len(frames)) if i == 0 else out.open(str(tmp), spec, "AppendSubimage")
+            if not ok or not out.write_image(np.ascontiguousarray(frame, dtype=np.uint8)):
+                raise UserError(f"{path}: cannot write GIF frame {i}: {out.geterror().strip()}")
+        if not out.close():
+            raise UserError(f"{path}: cannot write GIF: {out.geterror().strip()}")
+        out = None
+        tmp.replace(path)
+    except BaseException:
+        if out is not None:
+            out.close()
+        tmp.unlink(missing_ok=True)
+        raise
     return path

@@ -1,59 +1,12 @@
 """Preview: a PNG of chosen channels for people to look at (not for pipelines)."""
 from __future__ import annotations
 
-import colorsys
-import warnings
 from pathlib import Path
-
-import numpy as np
 
 from proxyshade.graph.node import Input, Node, Param
 from proxyshade.graph.plate import Plate
 from proxyshade.io.images import write_png
-
-warnings.filterwarnings("ignore", message='.*"Matplotlib" related API features.*')
-import colour  # noqa: E402
-
-
-def id_palette(ids: np.ndarray, labels: list[dict] | None = None) -> np.ndarray:
-    """Distinct 8-bit colours for an id map: the label table's colours where known,
-    otherwise golden-ratio hues; id 0 is black."""
-    known = {}
-    for t in labels or []:
-        c = t["color"].lstrip("#")
-        known[int(t["id"])] = [int(c[i:i + 2], 16) for i in (0, 2, 4)]
-    uniq, inv = np.unique(ids, return_inverse=True)
-    pal = np.zeros((len(uniq), 3), np.uint8)
-    for i, u in enumerate(uniq):
-        if int(u) in known:
-            pal[i] = known[int(u)]
-        elif u != 0:
-            r, g, b = colorsys.hsv_to_rgb((int(u) * 0.618033988749895) % 1.0, 0.65, 0.95)
-            pal[i] = [int(r * 255), int(g * 255), int(b * 255)]
-    return pal[inv.reshape(ids.shape)]
-
-
-def to_display(plate: Plate, channels: list[str], exposure: float = 0.0) -> np.ndarray:
-    """(H, W, 3) uint8 sRGB picture of ``channels``: ids in distinct colours, depth as grey,
-    colour through colour-science's sRGB encoding."""
-    arrs = [plate[c] for c in channels]
-    if len(arrs) == 1 and arrs[0].dtype == np.uint32:
-        return id_palette(arrs[0], plate.meta.get("labels") if channels[0] == "label.id" else None)
-    if len(arrs) == 1 and channels[0] in ("Z", "depth.Z", "distortion") or (len(arrs) == 1 and arrs[0].dtype != np.uint32 and channels[0] not in "RGB"):
-        z = arrs[0].astype(np.float64)
-        fin = np.isfinite(z)
-        out = np.zeros(z.shape, np.float64)
-        if fin.any():
-            lo, hi = np.percentile(z[fin], [1, 99])
-            out[fin] = 1.0 - np.clip((z[fin] - lo) / max(hi - lo, 1e-12), 0, 1)
-        g = (out * 255 + 0.5).astype(np.uint8)
-        return np.repeat(g[..., None], 3, axis=2)
-    rgb = np.stack([a.astype(np.float64) for a in arrs], -1)
-    if rgb.shape[-1] == 1:
-        rgb = np.repeat(rgb, 3, axis=-1)
-    rgb = np.nan_to_num(rgb * 2.0 ** exposure, nan=0.0, posinf=1.0, neginf=0.0)
-    enc = colour.cctf_encoding(np.clip(rgb[..., :3], 0.0, 1.0), function="sRGB")
-    return (np.clip(enc, 0, 1) * 255 + 0.5).astype(np.uint8)
+from proxyshade.kernels.display import DEFAULT_CHANNELS, channels_problem, to_display
 
 
 class Preview(Node):
@@ -64,15 +17,13 @@ class Preview(Node):
     sink = True
     image = Input("the plate to look at")
     path = Param(Path, doc="output PNG; '####' is replaced by the frame number")
-    channels = Param(list, ["R", "G", "B"], doc="one id/depth channel, or three colour channels")
+    channels = Param(list, list(DEFAULT_CHANNELS), doc="one id/depth channel, or three colour channels")
     exposure = Param(float, 0.0, doc="stops of exposure for colour channels")
 
     def compute(self, ctx) -> Plate:
         plate = ctx.image
-        missing = [c for c in ctx.p.channels if c not in plate]
-        if missing:
-            raise ctx.error(f"channels {missing} are not in the input; it has {', '.join(plate.names())}")
-        if len(ctx.p.channels) not in (1, 3):
-            raise ctx.error(f"channels {ctx.p.channels}: give one channel or three")
+        problem = channels_problem(plate.names(), ctx.p.channels)
+        if problem:
+            raise ctx.error(problem)
         write_png(ctx.path(ctx.p.path), to_display(plate, ctx.p.channels, ctx.p.exposure))
         return plate

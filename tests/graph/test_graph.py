@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import os
+import re
 import sys
 import types
 
@@ -11,10 +12,11 @@ import pytest
 from proxyshade.errors import CycleError
 from proxyshade.graph import keys
 from proxyshade.graph.graph import Graph, InputRef
+from proxyshade.graph.node import Node
 from proxyshade.graph.plate import Plate
 from proxyshade.io.exr import read_plate
 
-from tests.conftest import _TAdd, _TConst, _TFrame
+from tests.conftest import _TAdd, _TConst, _TFrame, _TRead, _TSeq
 
 
 def chain(tmp_path, frames=(1, 1)):
@@ -238,3 +240,127 @@ def test_declared_input_channels_are_checked_before_compute(tmp_path, computes):
     with pytest.raises(NodeInputError, match=r"^s: input 'a' has no channel R; _TAdd needs R there, it has Z$"):
         run_node(_TAdd, {}, {"a": Plate({"Z": np.zeros((2, 2), np.float32)})}, name="s")
     assert computes["s"] == 0
+
+
+# -- sequence inputs: {node: X, frame: all} ---------------------------------------------
+
+def sequence(tmp_path, frames=(1, 6)):
+    g = Graph(graph_dir=tmp_path, frames=frames, cache=tmp_path / "cache")
+    g.add("f", _TFrame)
+    g.add("acc", _TAdd, {}, {"a": "f", "prev": InputRef("acc", offset=-1)})
+    g.add("seq", _TSeq, {}, {"image": InputRef("acc", all=True)})
+    return g
+
+
+def test_sequence_node_runs_once_at_the_last_frame_over_every_frame(tmp_path, computes):
+    g = sequence(tmp_path)
+    r = g.run(jobs=2)
+    assert computes["seq"] == 1 and computes["acc"] == 6
+    assert [(x.frame, x.status) for x in r.rows("seq")] == [(6, "computed")]
+    plate = g.value("seq", 6)
+    assert plate.meta["frames"] == [1, 2, 3, 4, 5, 6]
+    assert plate["R"][0, 0] == sum(sum(range(1, f + 1)) for f in range(1, 7))  # acc(f) = 1 + ... + f
+
+
+def test_sequence_node_is_reused_when_nothing_changed(tmp_path, computes):
+    sequence(tmp_path).run()
+    computes.clear()
+    r = sequence(tmp_path).run()
+    assert r.computed == set() and "seq" in r.reused
+    assert sum(computes.values()) == 0
+
+
+def test_sequence_key_changes_when_one_frame_changes(tmp_path, computes):
+    for f in range(1, 5):
+        (tmp_path / f"in.{f:04d}.txt").write_text(str(f))
+    g = Graph(graph_dir=tmp_path, frames=(1, 4), cache=tmp_path / "cache")
+    g.add("read", _TRead, {"path": "in.####.txt"})
+    g.add("seq", _TSeq, {}, {"image": InputRef("read", all=True)})
+    g.run()
+    before = g.plan().keys[("seq", 4)]
+    assert g.value("seq", 4)["R"][0, 0] == 10
+    computes.clear()
+    (tmp_path / "in.0003.txt").write_text("30")
+    assert g.plan().keys[("seq", 4)] != before
+    r = g.run()
+    assert computes == {"read": 1, "seq": 1}  # only frame 3 upstream, and the sequence node
+    assert r.rows("seq")[0].reason == "new input (image: 1 of 4 frames)"
+    assert g.value("seq", 4)["R"][0, 0] == 37
+
+
+def test_sequence_over_a_partial_range_covers_first_to_last_requested(tmp_path, computes):
+    g = sequence(tmp_path, frames=(1, 48))
+    r = g.run([5])
+    assert computes["acc"] == 5 and computes["seq"] == 1
+    assert [x.frame for x in r.rows("seq")] == [5]
+    assert g.value("seq", 5).meta["frames"] == [1, 2, 3, 4, 5]
+    computes.clear()
+    r = g.run([2, 7])
+    assert computes == {"f": 2, "acc": 2, "seq": 1}  # frames 6 and 7 were missing; one movie, at 7
+    assert [x.frame for x in r.rows("seq")] == [7]
+    assert g.value("seq", 7).meta["frames"] == list(range(1, 8))
+
+
+def test_sequence_input_reads_its_plates_one_at_a_time(tmp_path, monkeypatch):
+    sequence(tmp_path, frames=(1, 8)).run(list(range(1, 8)))  # acc 1..7 on disk, in no graph's memory
+    g = sequence(tmp_path, frames=(1, 8))
+    acc_keys = [g.plan([8]).keys[("acc", f)] for f in range(1, 8)]
+    held = []
+    real = _TSeq.compute
+
+    def compute(self, ctx):
+        for _ in ctx.image:
+            held.append(sum(k in g.cache.memory for k in acc_keys))
+        return real(self, ctx)
+
+    monkeypatch.setattr(_TSeq, "compute", compute)
+    g.run([8])
+    assert len(held) == 8 and max(held) <= 1  # never more than the plate being read
+
+
+def test_disabled_sequence_node_has_no_instance(tmp_path, computes):
+    g = sequence(tmp_path)
+    g.enabled["seq"] = False
+    r = g.run()
+    assert r.rows("seq") == [] and computes["seq"] == 0
+
+
+class _TNoR(Node, register=False):
+    def compute(self, ctx):
+        return Plate({"Z": np.zeros((2, 2), np.float32)})
+
+
+def test_sequence_plates_are_checked_for_declared_channels(tmp_path, computes):
+    from proxyshade.errors import NodeInputError
+
+    g = Graph(graph_dir=tmp_path, frames=(1, 2), cache=tmp_path / "cache")
+    g.add("z", _TNoR)
+    g.add("seq", _TSeq, {}, {"image": InputRef("z", all=True)})
+    with pytest.raises(NodeInputError, match=r"^seq: input 'image' has no channel R; _TSeq needs R there, it has Z$"):
+        g.run()
+
+
+@pytest.mark.parametrize("inputs, message", [
+    ({"a": InputRef("f", all=True)}, "nodes.bad.inputs.a: _TAdd input 'a' takes one plate, not the whole sequence; "
+                                      "drop 'frame: all'"),
+    ({"a": "seq"}, "nodes.bad.inputs.a: seq (_TSeq) reads the whole sequence and runs once per run, so no node can "
+                   "read it; connect bad.a to what seq reads instead"),
+])
+def test_bad_sequence_connections_are_rejected(tmp_path, inputs, message):
+    from proxyshade.errors import GraphFileError
+
+    g = sequence(tmp_path)
+    g.add("bad", _TAdd, {}, inputs)
+    with pytest.raises(GraphFileError, match=re.escape(message)):
+        g.plan()
+
+
+def test_sequence_input_needs_frame_all(tmp_path):
+    from proxyshade.errors import GraphFileError
+
+    g = Graph(graph_dir=tmp_path, frames=(1, 3), cache=tmp_path / "cache")
+    g.add("f", _TFrame)
+    g.add("seq", _TSeq, {}, {"image": "f"})
+    with pytest.raises(GraphFileError, match=r"nodes.seq.inputs.image: _TSeq reads the whole sequence here; "
+                                             r"connect it as \{node: f, frame: all\}$"):
+        g.instances([1])

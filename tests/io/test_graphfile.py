@@ -48,6 +48,13 @@ def test_good_graph_loads_and_runs(tmp_path, registry):
     ("{type: TConst, params: {value: 1.0}}", "{type: TConst, params: {size: 0}}", r"g.yaml:6: nodes.b.params.size: expected int >= 1, got 0"),
     ("inputs: {image: s}, ", "", r"g.yaml:\d+: nodes.w.inputs.image: not connected"),
     ("frames: 1-3", "frames: [1, 3", r"g.yaml:\d+: not valid YAML"),
+    ("frame: -1", "frame: every", r"g.yaml:7: nodes.s.inputs.prev.frame: expected an integer offset \(e.g. -1\), 'first' or 'all'"),
+    ("prev: {node: s, frame: -1}", "prev: {node: a, frame: all}",
+     r"g.yaml:7: nodes.s.inputs.prev: _?TAdd input 'prev' takes one plate, not the whole sequence; drop 'frame: all'"),
+    ("  w:", "  q:   {type: TSeq, inputs: {image: s}}\n  w:",
+     r"g.yaml:8: nodes.q.inputs.image: _?TSeq reads the whole sequence here; connect it as \{node: s, frame: all\}"),
+    ("  w:", "  q:   {type: TSeq, inputs: {image: {node: s, frame: all}}}\n  r:   {type: TAdd, inputs: {a: q}}\n  w:",
+     r"g.yaml:9: nodes.r.inputs.a: q \(_?TSeq\) reads the whole sequence and runs once per run, so no node can read it"),
 ])
 def test_malformed_yaml_gives_one_line_error(tmp_path, registry, old, new, expect):
     text = GOOD.replace(old, new)
@@ -70,6 +77,14 @@ def test_overrides_and_relative_paths(tmp_path, registry):
     assert g.nodes["b"].params["value"] == 4.0 and g.enabled["s"] is False
     with pytest.raises(GraphFileError, match=r"--set b.value=x: b.value: expected float, got 'x'"):
         Graph.load(write(tmp_path, GOOD.replace('"${v}"', "2.0")), overrides=["b.value=x"])
+
+
+def test_frame_all_connects_a_sequence_input(tmp_path, registry):
+    text = GOOD.replace('"${v}"', "2.0") + "  q:   {type: TSeq, inputs: {image: {node: s, frame: all}}}\n"
+    g = Graph.load(write(tmp_path, text))
+    assert g.connections["q"]["image"].all
+    g.run([2])
+    assert g.value("q", 2).meta["frames"] == [1, 2]
 
 
 def test_frame_lists():

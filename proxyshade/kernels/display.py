@@ -1,0 +1,69 @@
+"""Display conversion: a plate's chosen channels as an 8-bit sRGB picture for people.
+
+Colour channels go through the sRGB encoding (IEC 61966-2-1, via colour-science), id
+channels get distinct colours (the label table's own where known, otherwise golden-ratio
+hues), depth-like channels a grey ramp between their 1st and 99th percentiles. Shared by
+the Preview and Movie nodes; living among the kernels, it is part of their cache keys.
+"""
+from __future__ import annotations
+
+import colorsys
+import warnings
+
+import numpy as np
+
+warnings.filterwarnings("ignore", message='.*"Matplotlib" related API features.*')
+import colour  # noqa: E402
+
+DEFAULT_CHANNELS = ("R", "G", "B")
+
+
+def channels_problem(names: list[str], channels: list[str]) -> str | None:
+    """Why ``channels`` cannot be shown from a plate holding ``names`` (with the fix), or None."""
+    missing = [c for c in channels if c not in names]
+    if missing:
+        return f"channels {missing} are not in the input; it has {', '.join(names)}"
+    if len(channels) not in (1, 3):
+        return f"channels {channels}: give one channel or three"
+    return None
+
+
+def id_palette(ids: np.ndarray, labels: list[dict] | None = None) -> np.ndarray:
+    """Distinct 8-bit colours for an id map: the label table's colours where known,
+    otherwise golden-ratio hues; id 0 is black."""
+    known = {}
+    for t in labels or []:
+        c = t["color"].lstrip("#")
+        known[int(t["id"])] = [int(c[i:i + 2], 16) for i in (0, 2, 4)]
+    uniq, inv = np.unique(ids, return_inverse=True)
+    pal = np.zeros((len(uniq), 3), np.uint8)
+    for i, u in enumerate(uniq):
+        if int(u) in known:
+            pal[i] = known[int(u)]
+        elif u != 0:
+            r, g, b = colorsys.hsv_to_rgb((int(u) * 0.618033988749895) % 1.0, 0.65, 0.95)
+            pal[i] = [int(r * 255), int(g * 255), int(b * 255)]
+    return pal[inv.reshape(ids.shape)]
+
+
+def to_display(plate, channels: list[str], exposure: float = 0.0) -> np.ndarray:
+    """(H, W, 3) uint8 sRGB picture of ``channels`` of ``plate``: ids in distinct colours,
+    depth as grey, colour through colour-science's sRGB encoding."""
+    arrs = [plate[c] for c in channels]
+    if len(arrs) == 1 and arrs[0].dtype == np.uint32:
+        return id_palette(arrs[0], plate.meta.get("labels") if channels[0] == "label.id" else None)
+    if len(arrs) == 1 and channels[0] in ("Z", "depth.Z", "distortion") or (len(arrs) == 1 and arrs[0].dtype != np.uint32 and channels[0] not in "RGB"):
+        z = arrs[0].astype(np.float64)
+        fin = np.isfinite(z)
+        out = np.zeros(z.shape, np.float64)
+        if fin.any():
+            lo, hi = np.percentile(z[fin], [1, 99])
+            out[fin] = 1.0 - np.clip((z[fin] - lo) / max(hi - lo, 1e-12), 0, 1)
+        g = (out * 255 + 0.5).astype(np.uint8)
+        return np.repeat(g[..., None], 3, axis=2)
+    rgb = np.stack([a.astype(np.float64) for a in arrs], -1)
+    if rgb.shape[-1] == 1:
+        rgb = np.repeat(rgb, 3, axis=-1)
+    rgb = np.nan_to_num(rgb * 2.0 ** exposure, nan=0.0, posinf=1.0, neginf=0.0)
+    enc = colour.cctf_encoding(np.clip(rgb[..., :3], 0.0, 1.0), function="sRGB")
+    return (np.clip(enc, 0, 1) * 255 + 0.5).astype(np.uint8)
