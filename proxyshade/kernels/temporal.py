@@ -6,6 +6,10 @@ If D becomes greater than a given threshold, D is reset to 0 and the pixel is fl
 resynthesis. We perturb D with random noise to avoid a coherent wave ... We remove these
 isolated pixels in 5×5 neighborhoods. We dilate remaining flagged regions."
 
+Here the distortion is read off the carried coordinate map itself (``map_deviation``:
+‖J − I‖, which also sees shear), and the noise is one threshold per patch
+(``hash_field`` of its id) rather than a per-frame perturbation.
+
 Pure functions on arrays. Randomness is a hash of (seed, row, column), never a global
 generator, so serial and parallel runs agree bit for bit.
 """
@@ -157,27 +161,6 @@ def map_deviation(sx, sy, valid, links, scale):
 
 
 @njit(**PJIT)
-def accumulate_distortion(d_prev, det, valid, threshold, noise, seed):
-    """D += |det − 1| (+ uniform noise in [0, noise)) where valid; where D > threshold, D
-    resets to 0 and the pixel is flagged. Returns (D float32, flagged bool)."""
-    h, w = det.shape
-    d = np.zeros((h, w), np.float32)
-    flag = np.zeros((h, w), np.bool_)
-    for i in prange(h):
-        for j in range(w):
-            if not valid[i, j]:
-                continue
-            x = d_prev[i, j] + abs(det[i, j] - 1.0)
-            if noise > 0.0:
-                x += noise * hash_uniform(seed, i, j)
-            if x > threshold:
-                flag[i, j] = True
-                x = 0.0
-            d[i, j] = x
-    return d, flag
-
-
-@njit(**PJIT)
 def remove_isolated(flags, radius, min_neighbours):
     """Unflag pixels with fewer than ``min_neighbours`` other flagged pixels in their
     (2·radius+1)² window (5×5 for radius 2). Reads one array, writes another."""
@@ -228,17 +211,6 @@ def dilate(flags, radius):
                 nxt = i
             if nxt - i <= radius:
                 out[i, j] = True
-    return out
-
-
-@njit(**PJIT)
-def uniform_field(seed, h, w):
-    """(h, w) float32 of ``hash_uniform(seed, i, j)``: the same numbers the distortion
-    noise uses, for seeding per-pixel start values."""
-    out = np.empty((h, w), np.float32)
-    for i in prange(h):
-        for j in range(w):
-            out[i, j] = hash_uniform(seed, i, j)
     return out
 
 

@@ -41,28 +41,6 @@ def test_determinant_matches_reference_with_invalid_pixels():
             assert got[i, j] == pytest.approx(np.linalg.det(J), abs=1e-9)
 
 
-def test_distortion_accumulates_resets_and_flags():
-    det = np.full((4, 4), 1.1)
-    valid = np.ones((4, 4), bool)
-    d = np.zeros((4, 4), np.float32)
-    flags_seen = []
-    for _ in range(6):
-        d, f = T.accumulate_distortion(d, det, valid, 0.45, 0.0, 0)
-        flags_seen.append(bool(f.all()))
-    assert flags_seen == [False, False, False, False, True, False]  # 0.1 per frame, > 0.45 at the 5th
-    assert np.all(d == np.float32(0.1))  # reset at the 5th, then one more frame
-
-
-def test_noise_is_deterministic_and_bounded():
-    det = np.ones((30, 30))
-    valid = np.ones((30, 30), bool)
-    d1, _ = T.accumulate_distortion(np.zeros((30, 30), np.float32), det, valid, 10.0, 0.5, 42)
-    d2, _ = T.accumulate_distortion(np.zeros((30, 30), np.float32), det, valid, 10.0, 0.5, 42)
-    d3, _ = T.accumulate_distortion(np.zeros((30, 30), np.float32), det, valid, 10.0, 0.5, 43)
-    assert np.array_equal(d1, d2) and not np.array_equal(d1, d3)
-    assert d1.min() >= 0 and d1.max() < 0.5 and d1.std() > 0.1
-
-
 def ref_remove_isolated(f, r, k):
     out = np.zeros_like(f)
     for i, j in zip(*np.nonzero(f)):
@@ -98,12 +76,6 @@ def test_isolated_single_flags_removed_regions_kept():
 
 
 # -- additions for the temporal nodes (issue 6) --------------------------------
-def test_uniform_field_is_the_noise_hash():
-    f = T.uniform_field(9, 5, 7)
-    assert f.dtype == np.float32
-    assert all(f[i, j] == np.float32(T.hash_uniform(9, i, j)) for i in range(5) for j in range(7))
-
-
 def test_components4_match_scipy():
     from scipy import ndimage
 
@@ -159,3 +131,36 @@ def test_poisson_regions_equal_the_whole_frame_solve(screen):
     assert info["windows"] == 3 and info["window_pixels"] < h * w
     np.testing.assert_array_equal(got[~free], colors[~free])
     np.testing.assert_allclose(got, ref, atol=2e-4)
+
+
+def test_hash_field_is_one_number_per_id():
+    ids = np.array([[3, 3, 9], [9, 0, 3]], np.uint32)
+    f = T.hash_field(11, ids)
+    assert f[0, 0] == f[0, 1] == f[1, 2] and f[0, 2] == f[1, 0]
+    assert f[0, 0] == np.float32(T.hash_uniform(11, 3, 0)) and 0 <= f.min() and f.max() < 1
+    assert not np.array_equal(f, T.hash_field(12, ids))
+
+
+def test_map_deviation_matches_reference():
+    rng = np.random.default_rng(4)
+    sx, sy = rng.random((2, 9, 11)) * 20
+    valid = rng.random((9, 11)) > 0.2
+    patch = rng.integers(1, 3, (9, 11)).astype(np.uint32)
+    lab = np.ones((9, 11), np.uint32)
+    links = T.patch_links(valid, patch, lab)
+    got = T.map_deviation(sx, sy, valid, links, 2.0)
+    h, w = sx.shape
+    ok = lambda a, b, i, j: 0 <= a < h and 0 <= b < w and valid[a, b] and patch[a, b] == patch[i, j]
+    for i in range(h):
+        for j in range(w):
+            if not valid[i, j]:
+                assert got[i, j] == 0
+                continue
+            jl, jr = (j - 1 if ok(i, j - 1, i, j) else j), (j + 1 if ok(i, j + 1, i, j) else j)
+            iu, idn = (i - 1 if ok(i - 1, j, i, j) else i), (i + 1 if ok(i + 1, j, i, j) else i)
+            J = np.eye(2)
+            if jr != jl:
+                J[:, 0] = [(sx[i, jr] - sx[i, jl]) / (jr - jl) / 2, (sy[i, jr] - sy[i, jl]) / (jr - jl) / 2]
+            if idn != iu:
+                J[:, 1] = [(sx[idn, j] - sx[iu, j]) / (idn - iu) / 2, (sy[idn, j] - sy[iu, j]) / (idn - iu) / 2]
+            assert got[i, j] == pytest.approx(np.linalg.norm(J - np.eye(2)), rel=1e-5, abs=1e-6)

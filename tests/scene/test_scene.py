@@ -1,4 +1,5 @@
 """Modelling tools and the bundled scenes."""
+import re
 from pathlib import Path
 
 import numpy as np
@@ -47,12 +48,18 @@ def test_camera_moves_look_at_their_target():
     assert np.all(np.isfinite(np.array(list(fly.values()))))
 
 
+def _rounded(text: str) -> str:
+    return re.sub(r"-?\d+\.\d+(?:e[-+]?\d+)?", lambda m: f"{float(m.group()):.12g}", text)
+
+
 @pytest.mark.parametrize("name", SCENES)
 def test_bundled_usda_is_what_its_yaml_builds(name):
     spec = yaml.safe_load((ROOT / "samples/scenes" / f"{name}.yaml").read_text())
     stage = build_stage(spec)  # keep the stage alive while its in-memory layer is used
     built = stage.GetRootLayer().ExportToString()
-    assert built == (ROOT / "samples/scenes" / f"{name}.usda").read_text()
+    # the same text, numbers to 12 significant digits: the last bits of a camera matrix
+    # follow the numpy / libm build, not the scene
+    assert _rounded(built) == _rounded((ROOT / "samples/scenes" / f"{name}.usda").read_text())
 
 
 @pytest.mark.parametrize("name", SCENES)
