@@ -496,6 +496,14 @@ def surface_links(w, lab, valid, tol):
     return out
 
 
+def patch_links(valid, patch, lab):
+    """Neighbour links to valid neighbours in the same patch with the same label: the
+    neighbours a coordinate map is continuous with (``surface_links`` with the patch id
+    as the 'depth' and no tolerance: equal ids)."""
+    return surface_links(np.asarray(patch, np.float64), np.ascontiguousarray(lab, np.uint32),
+                         np.ascontiguousarray(valid, np.bool_), 0.0)
+
+
 def surface_jacobian_det(u, v, w, lab, valid, tol):
     """det J of the reprojected coordinates, differences taken only across neighbours on the
     pixel's surface (``surface_links``): one-sided next to silhouettes and label borders."""

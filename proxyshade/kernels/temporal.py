@@ -58,28 +58,6 @@ def neighbour_links(valid):
     return out
 
 
-@njit(**PJIT)
-def patch_links(valid, patch, lab):
-    """Neighbour links (``LEFT`` ... bits) to valid 4-neighbours of valid pixels in the
-    same patch with the same label: the neighbours a coordinate map is continuous with."""
-    h, w = valid.shape
-    out = np.zeros((h, w), np.uint8)
-    for i0 in prange(h):
-        i = np.int64(i0)
-        for j in range(w):
-            if not valid[i, j]:
-                continue
-            m = 0
-            for b in range(4):
-                a = i + (b == 3) - (b == 2)
-                c = j + (b == 1) - (b == 0)
-                if 0 <= a < h and 0 <= c < w and valid[a, c] and patch[a, c] == patch[i, j] \
-                        and lab[a, c] == lab[i, j]:
-                    m |= 1 << b
-            out[i, j] = m
-    return out
-
-
 @njit(**JIT)
 def _partials(u, v, links, i, j):
     """Central (or one-sided) differences of u, v at (i, j) along the linked neighbours:
@@ -149,7 +127,7 @@ def map_deviation(sx, sy, valid, links, scale):
     """How far a coordinate map has drifted from a plain copy of the source, per pixel.
 
     J = ∂(source.x, source.y)/∂(column, row) / ``scale`` by central differences over the
-    linked neighbours (``patch_links``: one patch, one label); a fresh synthesis has
+    linked neighbours (``reproject.patch_links``: one patch, one label); a fresh synthesis has
     J = I (a translated copy at the synthesis scale). Returns ‖J − I‖_F (float32, 0
     where invalid; an axis without a linked neighbour counts as undistorted): a zoom by
     s gives √2·|s − 1|, a rotation by θ 2√2·sin(θ/2), a shear k gives k; a map that has

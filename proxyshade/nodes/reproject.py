@@ -239,7 +239,7 @@ class Reproject(Node):
             # past extend_frames the continued band is flood-filled afresh instead
             filled &= fits_source(src_lab, sx, sy, lab, filled) & (ext <= p.extend_frames)
             have = valid | filled
-        D = kt.map_deviation(sx, sy, have, kt.patch_links(have, patch, lab), scale)
+        D = kt.map_deviation(sx, sy, have, kr.patch_links(have, patch, lab), scale)
         distorted, sx, sy = reanchor_distorted(have, patch, D, sx, sy, scale, p.threshold, p.spread, p.seed)
         raw = np.zeros((H, W), np.uint32)
         if distorted.any():

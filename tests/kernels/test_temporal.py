@@ -147,7 +147,8 @@ def test_map_deviation_matches_reference():
     valid = rng.random((9, 11)) > 0.2
     patch = rng.integers(1, 3, (9, 11)).astype(np.uint32)
     lab = np.ones((9, 11), np.uint32)
-    links = T.patch_links(valid, patch, lab)
+    from proxyshade.kernels.reproject import patch_links
+    links = patch_links(valid, patch, lab)
     got = T.map_deviation(sx, sy, valid, links, 2.0)
     h, w = sx.shape
     ok = lambda a, b, i, j: 0 <= a < h and 0 <= b < w and valid[a, b] and patch[a, b] == patch[i, j]

@@ -6,6 +6,7 @@ from proxyshade.errors import NodeInputError
 from proxyshade.graph.plate import Plate
 from proxyshade.graph.testing import run_node
 from proxyshade.kernels.lookup import lookup
+from proxyshade.kernels import reproject as kr
 from proxyshade.kernels import temporal as kt
 from proxyshade.nodes.reproject import FLAG, clean_flags, patch_thresholds
 from tests.nodes._temporal import camera, render, state_plate, toy_source
@@ -49,7 +50,7 @@ def test_translation_over_a_plane_copies_pixels_and_has_no_distortion(colour):
 
 def deviation(plate: Plate, mask: np.ndarray) -> np.ndarray:
     return kt.map_deviation(plate["source.x"], plate["source.y"], mask,
-                            kt.patch_links(mask, plate["patch.id"], plate["label.id"]), 1.0)
+                            kr.patch_links(mask, plate["patch.id"], plate["label.id"]), 1.0)
 
 
 def test_zoom_is_measured_on_the_carried_map_and_reanchored_past_the_threshold():
@@ -76,7 +77,7 @@ def test_shear_with_unit_determinant_is_seen():
     # a map sheared by k has det J = 1 (what the paper's det J never flags) but ||J - I|| = k
     i, j = np.mgrid[0:32, 0:32].astype(np.float64)
     valid = np.ones((32, 32), bool)
-    links = kt.patch_links(valid, np.ones((32, 32), np.uint32), np.ones((32, 32), np.uint32))
+    links = kr.patch_links(valid, np.ones((32, 32), np.uint32), np.ones((32, 32), np.uint32))
     np.testing.assert_allclose(kt.jacobian_det(j + 0.3 * i, i, valid), 1.0, atol=1e-12)
     np.testing.assert_allclose(kt.map_deviation(j + 0.3 * i, i, valid, links, 1.0), 0.3, atol=1e-6)
 
