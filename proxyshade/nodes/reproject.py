@@ -19,15 +19,26 @@ added back, bilinearly reprojected: re-sampling the colour itself every frame wo
 the texture a little more each frame. ``colour: bilinear`` copies the previous colour
 bilinearly (the paper's literal reading).
 
+Departures from the paper, each for what a viewer saw over a whole shot (docs/temporal.md):
+the source is read with Lanczos-3 at the carried fractional positions (``filter``;
+bilinear lost a quarter of the detail on the first carried frame); disoccluded pixels
+first continue a neighbouring kept patch (``fill_radius``, at most ``extend_frames``
+frames running, counted in ``extension``); distortion is measured on the carried map
+itself, D = ‖J − I‖ of ∂(source.x, source.y)/∂(col, row) / scale within a patch
+(det J of the geometry is blind to shear), and a patch whose mean D crosses its own
+threshold (hashed per patch within ``spread``: the paper's noise against a coherent
+wave) is re-anchored whole to a plain copy through its middle instead of resynthesized.
+
 Flags (uint32 ``flag``): 0 kept, 1 disoccluded (no previous pixel of this label on this
-surface: outside the previous image, depth test failed, label changed), 2 newly occluded
-(category C of ConsistentDepth whose previous pixel had another label: the object now in
-front hides what was seen there), 3 distorted
-(accumulated D over the threshold). Isolated flags (fewer than ``min_neighbours`` other
-flagged pixels in the 5×5 window) are dropped, the rest dilated by ``dilate`` pixels
-(dilated pixels take the reason of a flag they grew from, in the order 2, 1, 3). When more
-than ``cut_threshold`` of the frame is flagged the frame is treated as a camera cut:
-everything is flagged for a full synthesis (noted in the run report).
+surface, and not continued), 2 newly occluded (category C of ConsistentDepth whose
+previous pixel had another label: the object now in front hides what was seen there),
+3 distorted (re-anchored, but the copy leaves its label: resynthesized), 4 re-anchored
+(the new map kept; only the Poisson solve is redone). Isolated flags (fewer than
+``min_neighbours`` other flagged pixels in the 5×5 window) are dropped; reasons 1 and 2
+are dilated by ``dilate`` pixels (dilated pixels take the reason of a flag they grew
+from, 2 before 1). When more than ``cut_threshold`` of the frame is flagged the frame is
+treated as a camera cut: everything is flagged for a full synthesis (noted in the run
+report).
 
 Kernels: ``proxyshade.kernels.reproject``, ``proxyshade.kernels.temporal``.
 """
@@ -149,7 +160,7 @@ class Reproject(Node):
     Output at the ConsistentDepth's size: ``R,G,B``, ``source.x/y``, ``patch.id`` (the
     carried synthesis; zeros where flagged without a previous pixel), ``label.id``, ``Z``,
     ``P.X/Y/Z``, ``category`` (from ConsistentDepth), ``distortion`` (float32, the
-    accumulated D), ``flag`` (uint32, see the module doc); metadata: the previous frame's
+    map's deviation ‖J − I‖ where kept), ``extension`` (frames of continuation), ``flag`` (uint32, see the module doc); metadata: the previous frame's
     (labels, source, synthesis) with this frame's camera and ``temporal`` (flag shares,
     ``cut``).
 
@@ -158,7 +169,7 @@ class Reproject(Node):
     """
 
     version = 1
-    time_dependent = True  # the noise is seeded per frame
+    time_dependent = True  # the frame is recorded in meta['temporal']
     depth = Input("this frame's ConsistentDepth: label.id, Z, category, camera")
     prev = Input("the previous final frame (Poisson at frame: -1): R,G,B, source.x/y, patch.id, label.id, Z",
                  optional=True)
