@@ -134,6 +134,72 @@ def reanchor_distorted(have, patch, D, sx, sy, scale, threshold, spread, seed):
     return distorted, sx, sy
 
 
+def absorb_fragments(have, patch, lab, sx, sy, scale, min_area, src_lab):
+    """Patches smaller than ``min_area`` pixels (slivers left by continuation, patches
+    that shrank on screen) continue the neighbouring patch they touch most, with its
+    translation at the contact, where the continued copy stays on their label inside the
+    source: one copy where there were two seams. Returns (absorbed (H, W) bool, sx, sy,
+    patch)."""
+    none = np.zeros(have.shape, bool)
+    if min_area <= 1:
+        return none, sx, sy, patch
+    ids = patch.astype(np.int64, copy=False)
+    n = int(ids.max()) + 1
+    area = np.bincount(ids[have], minlength=n)
+    small = have & (area[ids] < min_area) & (patch != 0)
+    if not small.any():
+        return none, sx, sy, patch
+    H, W = have.shape
+    ii, jj = np.nonzero(small)
+    pairs = []
+    for di, dj in ((0, 1), (0, -1), (1, 0), (-1, 0)):
+        a, b = ii + di, jj + dj
+        inside = (a >= 0) & (a < H) & (b >= 0) & (b < W)
+        a, b, i0, j0 = a[inside], b[inside], ii[inside], jj[inside]
+        ok = have[a, b] & (lab[a, b] == lab[i0, j0]) & (ids[a, b] != ids[i0, j0]) & (area[ids[a, b]] >= min_area)
+        pairs.append(np.stack([ids[i0[ok], j0[ok]], ids[a[ok], b[ok]], a[ok], b[ok]], 1))
+    pairs = np.concatenate(pairs)
+    if not len(pairs):
+        return none, sx, sy, patch
+    # per small patch: the neighbour with the most contacts (ties: the lower id), and its
+    # translation at the first contact pixel in scan order
+    order = np.lexsort((pairs[:, 2] * W + pairs[:, 3], pairs[:, 1], pairs[:, 0]))
+    pairs = pairs[order]
+    key = pairs[:, 0] * n + pairs[:, 1]
+    uk, first, count = np.unique(key, return_index=True, return_counts=True)
+    small_id, target = uk // n, uk % n
+    best = np.lexsort((target, -count, small_id))
+    keep = np.ones(len(best), bool)
+    keep[1:] = small_id[best][1:] != small_id[best][:-1]
+    best = best[keep]
+    src = pairs[first[best]]
+    ox = np.full(n, np.nan)
+    oy = np.full(n, np.nan)
+    tg = np.zeros(n, np.int64)
+    ox[src[:, 0]] = sx[src[:, 2], src[:, 3]] - src[:, 3] * scale
+    oy[src[:, 0]] = sy[src[:, 2], src[:, 3]] - src[:, 2] * scale
+    tg[src[:, 0]] = src[:, 1]
+    pid = ids[ii, jj]
+    go = ~np.isnan(ox[pid])
+    ii, jj, pid = ii[go], jj[go], pid[go]
+    nsx, nsy = sx.copy(), sy.copy()
+    nsx[ii, jj] = (ox[pid] + jj * scale).astype(np.float32)
+    nsy[ii, jj] = (oy[pid] + ii * scale).astype(np.float32)
+    moved = np.zeros(have.shape, bool)
+    moved[ii, jj] = True
+    fits = fits_source(src_lab, nsx, nsy, lab, moved)
+    # all or nothing per patch: a half-absorbed fragment would leave a seam inside it
+    bad = np.bincount(pid, weights=~fits[ii, jj], minlength=n) > 0
+    ok = ~bad[pid]
+    absorbed = np.zeros(have.shape, bool)
+    absorbed[ii[ok], jj[ok]] = True
+    sx = np.where(absorbed, nsx, sx).astype(np.float32, copy=False)
+    sy = np.where(absorbed, nsy, sy).astype(np.float32, copy=False)
+    patch = patch.copy()
+    patch[ii[ok], jj[ok]] = tg[pid[ok]].astype(np.uint32)
+    return absorbed, sx, sy, patch
+
+
 def clean_flags(raw: np.ndarray, *, radius: int, min_neighbours: int, dilate: int) -> np.ndarray:
     """Remove isolated flags (``kt.remove_isolated``), dilate the disoccluded and newly
     occluded ones (``kt.dilate``; distorted pixels are whole patches, re-anchored, with
@@ -201,6 +267,9 @@ class Reproject(Node):
     extend_frames = Param(int, 6, min=0,
                           doc="frames a disoccluded band may continue its neighbour's patch before it is flood-filled "
                               "(the 'extension' channel counts them)")
+    min_patch_area = Param(int, 16, min=0,
+                           doc="patches smaller than this (pixels) continue the neighbouring patch they touch most "
+                               "(flagged re-anchored); 0 keeps every fragment")
     cut_threshold = Param(float, 0.5, min=0.0, max=1.0,
                           doc="share of flagged pixels above which the frame is a camera cut (full synthesis)")
 
@@ -252,7 +321,9 @@ class Reproject(Node):
             have = valid | filled
         D = kt.map_deviation(sx, sy, have, kr.patch_links(have, patch, lab), scale)
         distorted, sx, sy = reanchor_distorted(have, patch, D, sx, sy, scale, p.threshold, p.spread, p.seed)
+        absorbed, sx, sy, patch = absorb_fragments(have, patch, lab, sx, sy, scale, p.min_patch_area, src_lab)
         raw = np.zeros((H, W), np.uint32)
+        raw[absorbed] = FLAG["reanchored"]
         if distorted.any():
             fits = fits_source(src_lab, sx, sy, lab, distorted)
             raw[distorted] = np.where(fits[distorted], FLAG["reanchored"], FLAG["distorted"])

@@ -8,7 +8,7 @@ from proxyshade.graph.testing import run_node
 from proxyshade.kernels.lookup import lookup
 from proxyshade.kernels import reproject as kr
 from proxyshade.kernels import temporal as kt
-from proxyshade.nodes.reproject import FLAG, clean_flags, patch_thresholds
+from proxyshade.nodes.reproject import FLAG, absorb_fragments, clean_flags, patch_thresholds
 from tests.nodes._temporal import camera, render, state_plate, toy_source
 
 EXACT = {"spread": 0.0, "fill_radius": 0}  # one threshold for all patches; disoccluded pixels not continued
@@ -167,3 +167,25 @@ def test_bad_inputs():
         run_node("Reproject", {}, {"depth": cd, "prev": Plate({"R": p0["Z"]}), "source": toy_source()}, frame=2)
     with pytest.raises(NodeInputError, match="source"):
         run_node("Reproject", {}, {"depth": cd, "prev": state_plate(p0), "source": None}, frame=2)
+
+
+def test_fragments_continue_the_patch_they_touch_most():
+    H, W = 12, 16
+    i, j = np.mgrid[0:H, 0:W]
+    patch = np.where(j < 8, 1, 2).astype(np.uint32)
+    sx = np.where(j < 8, j + 10.0, j + 40.0).astype(np.float32)
+    sy = (i + 5.0).astype(np.float32)
+    patch[4:6, 6:8] = 3  # a 2x2 fragment on the left patch's side, touching patch 2 on one edge
+    sx[4:6, 6:8] = 70.0 + j[4:6, 6:8]
+    lab = np.ones((H, W), np.uint32)
+    src_lab = np.ones((40, 100), np.uint32)
+    have = np.ones((H, W), bool)
+    absorbed, nsx, nsy, npatch = absorb_fragments(have, patch, lab, sx, sy, 1.0, 8, src_lab)
+    assert absorbed.sum() == 4 and absorbed[4:6, 6:8].all()
+    assert (npatch[4:6, 6:8] == 1).all()  # 6 contacts with patch 1 (left, top, bottom), 2 with patch 2
+    np.testing.assert_array_equal(nsx[4:6, 6:8], j[4:6, 6:8] + 10.0)  # patch 1's translation carried on
+    np.testing.assert_array_equal(nsy, sy)
+    # where the continued copy would leave the fragment's label, it stays as it is
+    src_lab[:, 16:18] = 2
+    absorbed, nsx, _, npatch = absorb_fragments(have, patch, lab, sx, sy, 1.0, 8, src_lab)
+    assert not absorbed.any() and np.array_equal(nsx, sx) and np.array_equal(npatch, patch)
