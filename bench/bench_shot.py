@@ -9,7 +9,7 @@ Resynthesize every frame), at each output size, per frame:
   detail    mean colour difference of same-label 4-adjacent pairs (``quality.detail``),
             relative to frame 1's
   warp      mean |I_N - warp(I_N-1)| over pixels kept and validly reprojected, coherent /
-            independent per-frame synthesis (warp with Lanczos-3, as the renderer reads the
+            independent per-frame synthesis (warp with Lanczos-4, as the renderer reads the
             source; the bilinear-warp ratio is printed too)
   share     share of pixels flagged (resynthesized or re-anchored) in the frame
   update s  seconds of the frame after the first (proxy render + ConsistentDepth +
@@ -54,7 +54,7 @@ def warp_errors(cur, prev, cd, flag, indep_cur, indep_prev) -> dict:
                            np.zeros(prev.shape + (3,), np.float32), z, 0.02, 1.0)[0]
     mask = valid & (flag == 0)
     out = {}
-    for f in ("lanczos3", "bilinear"):
+    for f in ("lanczos4", "bilinear"):
         out[f] = (kr.warp_error(cur.rgb(), prev.rgb(), u, v, mask, f),
                   kr.warp_error(indep_cur.rgb(), indep_prev.rgb(), u, v, mask, f))
     return out
@@ -105,28 +105,28 @@ def main(argv=None) -> None:
         for scene in args.scenes:
             rows = shot(scene, size, args.frames, args.warp_every)
             print(f"\n## {scene} {size}² ({args.frames} frames)")
-            print(f"{'frame':>5} {'seams':>6} {'detail':>7} {'share':>7} {'update s':>9} {'warp L3':>8} {'warp bil':>8}")
+            print(f"{'frame':>5} {'seams':>6} {'detail':>7} {'share':>7} {'update s':>9} {'warp L4':>8} {'warp bil':>8}")
             for r in rows:
                 if args.per_frame or r["frame"] in (1, 2, 8, 12, 16, 24, 32, 40, 48) or r["frame"] == args.frames:
                     w = r["warp"]
-                    wl = f"{w['lanczos3'][0] / max(w['lanczos3'][1], 1e-12):8.4f}" if w else f"{'':>8}"
+                    wl = f"{w['lanczos4'][0] / max(w['lanczos4'][1], 1e-12):8.4f}" if w else f"{'':>8}"
                     wb = f"{w['bilinear'][0] / max(w['bilinear'][1], 1e-12):8.4f}" if w else f"{'':>8}"
                     upd = f"{r['update']:9.3f}" if r["update"] is not None else f"{'':>9}"
                     print(f"{r['frame']:>5} {r['seams']:6.2f} {r['detail']:7.3f} {100 * r['share']:6.2f}% {upd} {wl} {wb}")
             later = rows[1:]
             ws = [r["warp"] for r in later if r["warp"]]
             ratio = {f: (float(np.mean([w[f][0] for w in ws])) / max(float(np.mean([w[f][1] for w in ws])), 1e-12)
-                         if ws else float("nan")) for f in ("lanczos3", "bilinear")}
+                         if ws else float("nan")) for f in ("lanczos4", "bilinear")}
             s = {"scene": scene, "size": size, "seams_max": max(r["seams"] for r in rows),
                  "detail_min": min(r["detail"] for r in rows), "share_median": statistics.median(r["share"] for r in later),
                  "share_max": max(r["share"] for r in later),
                  "update_median": statistics.median(r["update"] for r in later[1:]), "warp": ratio}
             summary.append(s)
     print("\n## Summary (bars: seams <= 1.5x, detail >= 0.9, warp <= 0.1, share median <= 10 %, update 1024² <= 0.5 s)")
-    print(f"{'scene':<7} {'size':>5} {'seams max':>9} {'detail min':>10} {'warp L3':>8} {'warp bil':>8} "
+    print(f"{'scene':<7} {'size':>5} {'seams max':>9} {'detail min':>10} {'warp L4':>8} {'warp bil':>8} "
           f"{'share med':>9} {'share max':>9} {'update med':>10}")
     for s in summary:
-        print(f"{s['scene']:<7} {s['size']:>5} {s['seams_max']:8.2f}x {s['detail_min']:10.3f} {s['warp']['lanczos3']:8.4f} "
+        print(f"{s['scene']:<7} {s['size']:>5} {s['seams_max']:8.2f}x {s['detail_min']:10.3f} {s['warp']['lanczos4']:8.4f} "
               f"{s['warp']['bilinear']:8.4f} {100 * s['share_median']:8.2f}% {100 * s['share_max']:8.2f}% "
               f"{s['update_median']:9.3f}s")
     print(f"peak RSS {peak_rss_mb():.0f} MiB")

@@ -678,14 +678,16 @@ def poisson_transfer(colors: np.ndarray, patch: np.ndarray, labels: np.ndarray |
 
 
 
-def seam_gradients(source: np.ndarray, sx: np.ndarray, sy: np.ndarray, step: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
+def seam_gradients(source: np.ndarray, sx: np.ndarray, sy: np.ndarray, step: float = 1.0, *,
+                   filter: str = "bilinear") -> tuple[np.ndarray, np.ndarray]:
     """Source gradients through a coordinate map, for the edges across patch seams.
 
     For output pixel p and its east neighbour q, the wanted u_q - u_p is the mean of the
     source's gradient read from either side: (f(s_p + e) - f(s_p) + f(s_q) - f(s_q - e)) / 2
     with e one output pixel (``step`` source pixels) along x; the same along y. Inside a
     patch this equals f∘s(q) - f∘s(p); across a seam it keeps the texture's contrast
-    instead of the jump.
+    instead of the jump. ``filter`` is ``kernels.lookup``'s (read the source as the
+    colours were read).
 
     Returns gx, gy (M, N, 3) float32 (the last column / row of gx / gy is unused).
     """
@@ -694,13 +696,13 @@ def seam_gradients(source: np.ndarray, sx: np.ndarray, sy: np.ndarray, step: flo
     sx = np.asarray(sx, np.float32)
     sy = np.asarray(sy, np.float32)
     e = np.float32(step)
-    f0 = lookup(source, sx, sy)
+    f0 = lookup(source, sx, sy, filter=filter)
     gx = np.zeros(f0.shape, np.float32)
     gy = np.zeros(f0.shape, np.float32)
-    fe = lookup(source, sx + e, sy)[:, :-1]
-    fw = lookup(source, sx[:, 1:] - e, sy[:, 1:])
+    fe = lookup(source, sx + e, sy, filter=filter)[:, :-1]
+    fw = lookup(source, sx[:, 1:] - e, sy[:, 1:], filter=filter)
     gx[:, :-1] = 0.5 * ((fe - f0[:, :-1]) + (f0[:, 1:] - fw))
-    fs = lookup(source, sx, sy + e)[:-1]
-    fn = lookup(source, sx[1:], sy[1:] - e)
+    fs = lookup(source, sx, sy + e, filter=filter)[:-1]
+    fn = lookup(source, sx[1:], sy[1:] - e, filter=filter)
     gy[:-1] = 0.5 * ((fs - f0[:-1]) + (f0[1:] - fn))
     return gx, gy

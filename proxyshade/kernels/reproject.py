@@ -605,17 +605,17 @@ def _cubic(img, x, y, out):
 def warp_previous(prev_image: np.ndarray, u: np.ndarray, v: np.ndarray, filter: str = "bilinear") -> np.ndarray:
     """The previous frame's image (H', W', C) read where each current pixel lands
     (``transfer``'s u, v: pixel-centre convention, pixel (i, j) at j + 0.5), bilinear
-    or Lanczos-3 (``kernels.lookup``), or with Keys' cubic convolution (``filter="cubic"``):
+    or Lanczos (``kernels.lookup``), or with Keys' cubic convolution (``filter="cubic"``):
     the sharper filters blur less of what is measured. Clamped at the border."""
     from proxyshade.kernels.lookup import lookup
 
     img = np.ascontiguousarray(prev_image, np.float32)
     x = np.ascontiguousarray(u - 0.5, np.float64)
     y = np.ascontiguousarray(v - 0.5, np.float64)
-    if filter in ("bilinear", "lanczos3"):
+    if filter in ("bilinear", "lanczos3", "lanczos4"):
         return lookup(img, x.astype(np.float32), y.astype(np.float32), filter=filter)
     if filter != "cubic":
-        raise ValueError(f"filter {filter!r}: use 'bilinear', 'lanczos3' or 'cubic'")
+        raise ValueError(f"filter {filter!r}: use 'bilinear', 'lanczos3', 'lanczos4' or 'cubic'")
     out = np.empty(x.shape + (img.shape[2],), np.float32)
     _cubic(img, x, y, out)
     return out

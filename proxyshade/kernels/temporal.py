@@ -282,7 +282,7 @@ def group_boxes(boxes: np.ndarray, shape: tuple[int, int], *, margin: int = 1, s
 def poisson_regions(colors: np.ndarray, patch: np.ndarray, labels: np.ndarray | None, free: np.ndarray, *,
                     source: np.ndarray | None = None, sx: np.ndarray | None = None, sy: np.ndarray | None = None,
                     step: float = 1.0, label_dirichlet: bool = True, screen: float = 0.0, tol: float = 1e-5,
-                    max_iter: int = 100, slack: int = 4096) -> tuple[np.ndarray, dict]:
+                    max_iter: int = 100, slack: int = 4096, filter: str = "bilinear") -> tuple[np.ndarray, dict]:
     """``kernels.poisson.poisson_transfer`` restricted to the ``free`` pixels (Dirichlet
     ``colors`` everywhere else), solved window by window.
 
@@ -291,7 +291,8 @@ def poisson_regions(colors: np.ndarray, patch: np.ndarray, labels: np.ndarray | 
     neighbours: a window around it (``group_boxes``) gives the same linear system as the
     whole frame, at the cost of its area. Pixels of other components inside a window are
     fixed there (they are never 4-neighbours of the component). With ``source``, ``sx``,
-    ``sy`` the seam gradients are the source's (``poisson.seam_gradients``), else zero.
+    ``sy`` the seam gradients are the source's (``poisson.seam_gradients``, read with
+    ``filter``), else zero.
 
     Returns (u (H, W, 3) float32, info: windows, solved pixels, window pixels, most
     iterations, largest residual).
@@ -307,7 +308,7 @@ def poisson_regions(colors: np.ndarray, patch: np.ndarray, labels: np.ndarray | 
         mine = np.isin(sub, ids) if len(ids) > 1 else sub == ids[0]
         gx = gy = None
         if source is not None:
-            gx, gy = kpoisson.seam_gradients(source, sx[r0:r1, c0:c1], sy[r0:r1, c0:c1], step)
+            gx, gy = kpoisson.seam_gradients(source, sx[r0:r1, c0:c1], sy[r0:r1, c0:c1], step, filter=filter)
         lab = labels[r0:r1, c0:c1] if labels is not None else None
         out, inf = kpoisson.poisson_transfer(colors[r0:r1, c0:c1], patch[r0:r1, c0:c1], lab, fixed=~mine,
                                              values=colors[r0:r1, c0:c1], label_dirichlet=label_dirichlet,

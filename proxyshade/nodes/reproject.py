@@ -20,7 +20,7 @@ the texture a little more each frame. ``colour: bilinear`` copies the previous c
 bilinearly (the paper's literal reading).
 
 Departures from the paper, each for what a viewer saw over a whole shot (docs/temporal.md):
-the source is read with Lanczos-3 at the carried fractional positions (``filter``;
+the source is read with Lanczos-4 at the carried fractional positions (``filter``;
 bilinear lost a quarter of the detail on the first carried frame); disoccluded pixels
 first continue a neighbouring kept patch (``fill_radius``, at most ``extend_frames``
 frames running, counted in ``extension``); distortion is measured on the carried map
@@ -57,6 +57,7 @@ from proxyshade.nodes.patch_init import check_finite, require
 FLAG = {"none": 0, "disoccluded": 1, "newly_occluded": 2, "distorted": 3, "reanchored": 4}
 CATEGORY_C = 3
 STATE = ("R", "G", "B", "source.x", "source.y", "patch.id", "label.id")
+CORRECTION = ("correction.R", "correction.G", "correction.B")  # colour minus the source through the map
 
 
 def frame_seed(seed: int, frame: int) -> int:
@@ -253,7 +254,7 @@ class Reproject(Node):
                    doc="each patch's threshold is uniform in [(1 - spread) x threshold, threshold] (hashed from its "
                        "id and the seed): patches that distort together are redone at different frames, not as "
                        "one wave")
-    filter = Param(str, "lanczos3", choices=("lanczos3", "bilinear"),
+    filter = Param(str, "lanczos4", choices=("lanczos4", "lanczos3", "bilinear"),
                    doc="reconstruction of the source at the carried (fractional) positions; bilinear blurs the "
                        "finest detail")
     seed = Param(int, 0, doc="seed of the per-patch thresholds")
@@ -298,7 +299,9 @@ class Reproject(Node):
                                   cam0.near)
         src_rgb = source.rgb()
         prev_rgb = prev.rgb()
-        if p.colour == "map":
+        if p.colour == "map" and all(c in prev for c in CORRECTION):
+            prev_res = prev.layer(CORRECTION)  # carried by Resynthesize: no second read of the source
+        elif p.colour == "map":
             prev_res = prev_rgb - lookup(src_rgb, prev["source.x"], prev["source.y"], filter=p.filter)
         else:
             prev_res = prev_rgb
@@ -342,7 +345,8 @@ class Reproject(Node):
         D = np.where(flag == 0, D, 0.0).astype(np.float32, copy=False)
         ext = np.where(keep, ext, 0.0).astype(np.float32, copy=False)
         if p.colour == "map":
-            rgb = lookup(src_rgb, sx, sy, filter=p.filter) + np.where((flag == 0)[..., None], res, 0.0)
+            res = np.where((flag == 0)[..., None], res, 0.0).astype(np.float32, copy=False)
+            rgb = lookup(src_rgb, sx, sy, filter=p.filter) + res
         else:
             rgb = res
         rgb = np.where(keep[..., None], rgb, 0.0).astype(np.float32, copy=False)
@@ -353,6 +357,8 @@ class Reproject(Node):
         ctx.note(f"flagged {100 * share:.2f}%: " + ", ".join(f"{k} {100 * s:.2f}%" for k, s in counts.items()))
         ch = {"R": rgb[..., 0].copy(), "G": rgb[..., 1].copy(), "B": rgb[..., 2].copy(), "source.x": sx,
               "source.y": sy, "patch.id": patch, "distortion": D, "extension": ext, "flag": flag}
+        if p.colour == "map":
+            ch.update({c: res[..., k].copy() for k, c in enumerate(CORRECTION)})
         ch.update(geo)
         meta = self._meta(prev, cd)
         meta["temporal"] = dict(counts, flagged=float((flag > 0).mean()), cut=bool(cut), frame=int(ctx.frame),

@@ -33,7 +33,7 @@ from proxyshade.kernels.lookup import lookup
 from proxyshade.nodes.magnify import working_labels
 from proxyshade.nodes.patch_init import (check_finite, dense_guide, guide_at_synthesis, require, setup,
                                          source_table)
-from proxyshade.nodes.reproject import FLAG, frame_seed
+from proxyshade.nodes.reproject import CORRECTION, FLAG, frame_seed
 
 
 _SIMILARITY: list = []  # [(weakrefs to the source's arrays, key, similarity sets)], newest last
@@ -142,11 +142,17 @@ def resynthesize(ctx, img: Plate, source: Plate, p, frame: int, timings: dict | 
     if redo.any():
         sx, sy, patch, rgb, ex_factor = _synthesize(ctx, img, source, p, redo, f, scale, seed, info, lap)
     lap("magnify")
+    out = {}
+    filt = img.meta.get("temporal", {}).get("filter", "bilinear")
     if p.solve:
         src_rgb = source.rgb() if p.seams == "source" else None
+        before = rgb
         rgb, pinfo = kt.poisson_regions(rgb, patch, img["label.id"], flagged, source=src_rgb, sx=sx, sy=sy,
                                         step=scale, label_dirichlet=p.label_dirichlet, screen=p.screen,
-                                        tol=p.tol, max_iter=p.max_iter)
+                                        tol=p.tol, max_iter=p.max_iter, filter=filt)
+        if all(c in img for c in CORRECTION):  # flagged pixels were the source through the map: add the solve's change
+            corr = np.where(flagged[..., None], rgb - before, img.layer(CORRECTION))
+            out.update({c: corr[..., k].astype(np.float32) for k, c in enumerate(CORRECTION)})
         ctx.note(f"Poisson on {pinfo['windows']} windows ({pinfo['window_pixels']} px), at most "
                  f"{pinfo['iterations']} iterations, residual {pinfo['residual']:.1e}")
     lap("Poisson")
@@ -155,8 +161,10 @@ def resynthesize(ctx, img: Plate, source: Plate, p, frame: int, timings: dict | 
     meta = dict(img.meta)
     meta["resynthesis"] = info
     meta["synthesis"] = dict(syn, factor=f, scale=scale, exemplar_factor=ex_factor)
-    return img.with_channels({"R": rgb[..., 0].copy(), "G": rgb[..., 1].copy(), "B": rgb[..., 2].copy(),
-                              "source.x": sx, "source.y": sy, "patch.id": patch}, meta=meta)
+    out.update({"R": rgb[..., 0].copy(), "G": rgb[..., 1].copy(), "B": rgb[..., 2].copy(), "source.x": sx,
+                "source.y": sy, "patch.id": patch})
+    # without the solve here the correction is a later Poisson node's: drop it rather than carry it stale
+    return img.with_channels(out, meta=meta, drop=() if p.solve else CORRECTION)
 
 
 def _synthesize(ctx, img: Plate, source: Plate, p, redo: np.ndarray, f: int, scale: float, seed: int, info: dict,
