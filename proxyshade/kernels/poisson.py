@@ -706,3 +706,137 @@ def seam_gradients(source: np.ndarray, sx: np.ndarray, sy: np.ndarray, step: flo
     fn = lookup(source, sx[1:], sy[1:] - e, filter=filter)
     gy[:-1] = 0.5 * ((fs - f0[:-1]) + (f0[1:] - fn))
     return gx, gy
+
+
+# ---------------------------------------------------------------------------
+# many small free regions (a frame update): red-black SOR on the free pixels only
+
+
+@njit(**PJIT)
+def _sor_sweep(ii, jj, omega, diag, we, ws, b, v):
+    """One over-relaxed Gauss-Seidel update of the listed pixels (all of one colour of the
+    red-black ordering, so no two are neighbours: the order does not matter)."""
+    h, w = diag.shape
+    for k in prange(ii.shape[0]):
+        i = ii[k]
+        j = jj[k]
+        n0, n1, n2 = _neighbour_sum(v, we, ws, i, j, h, w)
+        inv = 1.0 / diag[i, j]
+        o = omega[k]
+        v[i, j, 0] += o * ((b[i, j, 0] + n0) * inv - v[i, j, 0])
+        v[i, j, 1] += o * ((b[i, j, 1] + n1) * inv - v[i, j, 1])
+        v[i, j, 2] += o * ((b[i, j, 2] + n2) * inv - v[i, j, 2])
+
+
+RES_BLOCK = 4096  # listed pixels per partial sum of the residual norm
+
+
+@njit(**PJIT)
+def _residual_norm(ii, jj, diag, we, ws, b, v, out):
+    """Per-channel residual norm over the listed pixels: partial sums over fixed blocks of
+    the list in parallel, added in block order (the same number for any thread count, so
+    the number of sweeps never depends on it)."""
+    h, w = diag.shape
+    n = ii.shape[0]
+    nb = (n + RES_BLOCK - 1) // RES_BLOCK
+    part = np.zeros((nb, 3))
+    for blk in prange(nb):
+        for k in range(blk * RES_BLOCK, min(n, (blk + 1) * RES_BLOCK)):
+            i = ii[k]
+            j = jj[k]
+            a0, a1, a2 = _apply_at(diag, we, ws, v, i, j)
+            r0 = b[i, j, 0] - a0
+            r1 = b[i, j, 1] - a1
+            r2 = b[i, j, 2] - a2
+            part[blk, 0] += r0 * r0
+            part[blk, 1] += r1 * r1
+            part[blk, 2] += r2 * r2
+    out[:] = 0.0
+    for blk in range(nb):
+        for c in range(3):
+            out[c] += part[blk, c]
+    for c in range(3):
+        out[c] = np.sqrt(out[c])
+
+
+def solve_sor(fixed: np.ndarray, b: np.ndarray, rows: np.ndarray, cols: np.ndarray, omega: np.ndarray, *,
+              screen: float = 0.0, tol: float = 1e-5, max_sweeps: int = 2000, check: int = 8) -> tuple[np.ndarray, dict]:
+    """Solve A v = b (``solve_system``'s operator) on the listed free pixels by red-black SOR.
+
+    For many small free regions, each bounded by fixed pixels, in a large frame: the work
+    is proportional to the free pixels, not the frame. ``omega`` (one per listed pixel)
+    should suit its region's size (``sor_omega``). Stops when every channel's residual
+    norm over the listed pixels is at most ``tol`` times its initial norm (checked every
+    ``check`` sweeps). Returns v (zero off the list) and {"iterations", "residual"}.
+    """
+    diag, we, ws = _fine_operator(np.ascontiguousarray(fixed, np.bool_), np.float32(screen))
+    b = np.ascontiguousarray(b, np.float32)
+    v = np.zeros(b.shape, np.float32)
+    red = (rows + cols) % 2 == 0
+    lists = [(np.ascontiguousarray(rows[m], np.int64), np.ascontiguousarray(cols[m], np.int64),
+              np.ascontiguousarray(omega[m], np.float64)) for m in (red, ~red)]
+    ii = np.ascontiguousarray(rows, np.int64)
+    jj = np.ascontiguousarray(cols, np.int64)
+    r0 = np.zeros(3)
+    _residual_norm(ii, jj, diag, we, ws, b, v, r0)
+    if np.all(r0 == 0.0):
+        return v, {"iterations": 0, "residual": 0.0}
+    res = r0.copy()
+    sweeps = 0
+    while sweeps < max_sweeps:
+        for _ in range(check):
+            for a, c, o in lists:
+                _sor_sweep(a, c, o, diag, we, ws, b, v)
+        sweeps += check
+        _residual_norm(ii, jj, diag, we, ws, b, v, res)
+        if np.all(res <= tol * r0):
+            break
+    rel = float(np.max(np.where(r0 > 0, res / np.where(r0 > 0, r0, 1.0), 0.0)))
+    return v, {"iterations": sweeps, "residual": rel}
+
+
+def sor_omega(rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
+    """The optimal over-relaxation for a rows × cols rectangle with Dirichlet borders:
+    2 / (1 + sqrt(1 − ρ²)), ρ = (cos(π / (rows + 1)) + cos(π / (cols + 1))) / 2 the Jacobi
+    spectral radius (Young). A region's bounding box stands in for it."""
+    rho = 0.5 * (np.cos(np.pi / (np.asarray(rows, np.float64) + 1.0)) + np.cos(np.pi / (np.asarray(cols, np.float64) + 1.0)))
+    return 2.0 / (1.0 + np.sqrt(np.maximum(1.0 - rho * rho, 0.0)))
+
+
+def rhs(colors: np.ndarray, patch: np.ndarray, fixed: np.ndarray, seam_gx: np.ndarray, seam_gy: np.ndarray) -> np.ndarray:
+    """``_rhs`` with fixed pixels keeping their colour (correction 0)."""
+    b = np.empty(colors.shape, np.float32)
+    _rhs(np.ascontiguousarray(colors, np.float32), np.ascontiguousarray(patch, np.uint32),
+         np.ascontiguousarray(fixed, np.bool_), np.zeros(colors.shape, np.float32),
+         np.ascontiguousarray(seam_gx, np.float32), np.ascontiguousarray(seam_gy, np.float32), b)
+    return b
+
+
+def seam_gradients_at(source: np.ndarray, sx: np.ndarray, sy: np.ndarray, patch: np.ndarray, near: np.ndarray,
+                      step: float = 1.0, *, filter: str = "bilinear") -> tuple[np.ndarray, np.ndarray]:
+    """``seam_gradients`` on only the edges that cross a patch seam and touch a pixel of
+    ``near`` (the rest stay zero, as ``_rhs`` reads gx, gy only across seams): the same
+    numbers at a cost proportional to those edges."""
+    from proxyshade.kernels.lookup import lookup
+
+    h, w = patch.shape
+    gx = np.zeros((h, w, 3), np.float32)
+    gy = np.zeros((h, w, 3), np.float32)
+    e = np.float32(step)
+    sx = np.asarray(sx, np.float32)
+    sy = np.asarray(sy, np.float32)
+    for axis, g in ((1, gx), (0, gy)):
+        a = (slice(None), slice(0, -1)) if axis == 1 else (slice(0, -1), slice(None))
+        bq = (slice(None), slice(1, None)) if axis == 1 else (slice(1, None), slice(None))
+        edge = (patch[a] != patch[bq]) & (near[a] | near[bq])
+        pi, pj = np.nonzero(edge)
+        if not len(pi):
+            continue
+        qi, qj = pi + (axis == 0), pj + (axis == 1)
+        dx, dy = (e, 0) if axis == 1 else (0, e)
+
+        def at(i, j, ox, oy):
+            return lookup(source, (sx[i, j] + ox)[None], (sy[i, j] + oy)[None], filter=filter)[0]
+
+        g[pi, pj] = 0.5 * ((at(pi, pj, dx, dy) - at(pi, pj, 0, 0)) + (at(qi, qj, 0, 0) - at(qi, qj, -dx, -dy)))
+    return gx, gy

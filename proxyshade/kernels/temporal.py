@@ -279,31 +279,75 @@ def group_boxes(boxes: np.ndarray, shape: tuple[int, int], *, margin: int = 1, s
     return [(a, b, c, d, sorted(ids)) for a, b, c, d, ids in wins]
 
 
+def region_width(mask: np.ndarray, comp: np.ndarray, n: int) -> np.ndarray:
+    """Width of each component (1..n of ``comp``) of ``mask``: twice the largest distance
+    from one of its pixels to a pixel outside it (the side of the square its slowest
+    Poisson mode is like), at least 1."""
+    from proxyshade.kernels.distance import squared_distance
+
+    d = np.sqrt(squared_distance(np.pad(~mask, 1, constant_values=True))[1:-1, 1:-1])
+    width = np.zeros(n + 1)
+    np.maximum.at(width, comp[mask], d[mask])
+    return np.maximum(2.0 * width[1:], 1.0)
+
+
 def poisson_regions(colors: np.ndarray, patch: np.ndarray, labels: np.ndarray | None, free: np.ndarray, *,
                     source: np.ndarray | None = None, sx: np.ndarray | None = None, sy: np.ndarray | None = None,
                     step: float = 1.0, label_dirichlet: bool = True, screen: float = 0.0, tol: float = 1e-5,
-                    max_iter: int = 100, slack: int = 4096, filter: str = "bilinear") -> tuple[np.ndarray, dict]:
+                    max_iter: int = 100, slack: int = 4096, filter: str = "bilinear",
+                    small: int = 64) -> tuple[np.ndarray, dict]:
     """``kernels.poisson.poisson_transfer`` restricted to the ``free`` pixels (Dirichlet
-    ``colors`` everywhere else), solved window by window.
+    ``colors`` everywhere else).
 
     With every other pixel fixed, each 4-connected component of ``free`` is an
     independent problem whose only data outside it is its one-pixel ring of fixed
-    neighbours: a window around it (``group_boxes``) gives the same linear system as the
-    whole frame, at the cost of its area. Pixels of other components inside a window are
-    fixed there (they are never 4-neighbours of the component). With ``source``, ``sx``,
-    ``sy`` the seam gradients are the source's (``poisson.seam_gradients``, read with
-    ``filter``), else zero.
+    neighbours. Components whose bounding box is at most ``small`` pixels across (its
+    shorter side; smaller than the frame) are solved together by red-black SOR on their
+    own pixels (``poisson.solve_sor``: the work follows the free pixels, however
+    scattered, and SOR converges at the pace of the region's width); the
+    others in windows around them (``group_boxes``), each the same linear system as the
+    whole frame at the cost of its area, by multigrid-preconditioned CG. Pixels of other
+    components inside a window are fixed there (they are never 4-neighbours of the
+    component). With ``source``, ``sx``, ``sy`` the seam gradients are the source's
+    (``poisson.seam_gradients``, read with ``filter``), else zero.
 
     Returns (u (H, W, 3) float32, info: windows, solved pixels, window pixels, most
-    iterations, largest residual).
+    iterations, largest residual, SOR pixels and sweeps).
     """
     from proxyshade.kernels import poisson as kpoisson
 
     colors = np.ascontiguousarray(colors, np.float32)
     u = colors.copy()
+    h, w = free.shape
     comp, boxes = components4(np.ascontiguousarray(free, np.bool_))
-    info = {"windows": 0, "free": int(free.sum()), "window_pixels": 0, "iterations": 0, "residual": 0.0}
-    for r0, r1, c0, c1, ids in group_boxes(boxes, free.shape, slack=slack):
+    info = {"windows": 0, "free": int(free.sum()), "window_pixels": 0, "iterations": 0, "residual": 0.0,
+            "sor_pixels": 0, "sor_sweeps": 0}
+    if not len(boxes):
+        return u, info
+    bh = boxes[:, 1] - boxes[:, 0] + 1
+    bw = boxes[:, 3] - boxes[:, 2] + 1
+    is_small = (np.minimum(bh, bw) <= small) & (bh * bw < h * w)
+    if is_small.any():
+        sel = np.concatenate([[False], is_small])[comp]
+        fixed = ~sel
+        if labels is not None and label_dirichlet:
+            fixed |= kpoisson.contour_mask(np.ascontiguousarray(labels))
+        todo = ~fixed
+        gx = gy = np.zeros((h, w, 3), np.float32)
+        if source is not None:
+            gx, gy = kpoisson.seam_gradients_at(source, sx, sy, patch, todo, step, filter=filter)
+        b = kpoisson.rhs(colors, patch, fixed, gx, gy)
+        rows, cols = np.nonzero(todo)
+        k = comp[rows, cols] - 1
+        width = region_width(todo, comp, len(boxes))
+        omega = kpoisson.sor_omega(2 * width[k], 2 * width[k])  # twice the inscribed square: measured fastest on lake
+        v, inf = kpoisson.solve_sor(fixed, b, rows, cols, omega, screen=screen, tol=tol)
+        u[rows, cols] = colors[rows, cols] + v[rows, cols]
+        info.update(sor_pixels=int(len(rows)), sor_sweeps=int(inf["iterations"]))
+        info["residual"] = max(info["residual"], float(inf["residual"]))
+    large = np.nonzero(~is_small)[0]
+    for r0, r1, c0, c1, idx in group_boxes(boxes[large], free.shape, slack=slack):
+        ids = [int(large[i - 1]) + 1 for i in idx]
         sub = comp[r0:r1, c0:c1]
         mine = np.isin(sub, ids) if len(ids) > 1 else sub == ids[0]
         gx = gy = None

@@ -106,8 +106,9 @@ def test_group_boxes_cover_every_component_with_a_margin():
     assert len(groups) < 4
 
 
+@pytest.mark.parametrize("small", [0, 64])  # windows with multigrid CG, or SOR on the free pixels
 @pytest.mark.parametrize("screen", [0.0, 0.01])
-def test_poisson_regions_equal_the_whole_frame_solve(screen):
+def test_poisson_regions_equal_the_whole_frame_solve(screen, small):
     from proxyshade.kernels import poisson as P
 
     rng = np.random.default_rng(12)
@@ -127,8 +128,11 @@ def test_poisson_regions_equal_the_whole_frame_solve(screen):
     ref, _ = P.poisson_transfer(colors, patch, labels, fixed=~free, values=colors, seam_gx=gx, seam_gy=gy,
                                 screen=screen, tol=1e-7, max_iter=500)
     got, info = T.poisson_regions(colors, patch, labels, free, source=src, sx=sx, sy=sy, step=0.5, screen=screen,
-                                  tol=1e-7, max_iter=500, slack=0)
-    assert info["windows"] == 3 and info["window_pixels"] < h * w
+                                  tol=1e-7, max_iter=500, slack=0, small=small)
+    if small:
+        assert info["windows"] == 0 and info["sor_pixels"] == free.sum() - (free & P.contour_mask(labels)).sum()
+    else:
+        assert info["windows"] == 3 and info["window_pixels"] < h * w
     np.testing.assert_array_equal(got[~free], colors[~free])
     np.testing.assert_allclose(got, ref, atol=2e-4)
 
