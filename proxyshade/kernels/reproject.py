@@ -395,7 +395,8 @@ def gather_prev(u, v, q, ok, lab, prev_w, prev_lab, prev_patch, prev_sx, prev_sy
     when the 2×2 previous pixels around the position are all valid and in one patch,
     else the nearest pixel's translation continued to the position (``scale`` source
     pixels per pixel; 0 snaps to the nearest pixel's coordinates); patch id nearest; residual (H, W, 3) and distortion
-    bilinear over the valid ones among the 2×2 (weights renormalised).
+    bilinear over the valid ones among the 2×2 in the nearest pixel's patch (weights
+    renormalised: the residual, a Poisson correction, jumps across seams).
 
     Returns valid (bool), sx, sy (float32), patch (uint32), residual (float32 ×3),
     distortion (float32), all (H, W)."""
@@ -450,6 +451,8 @@ def gather_prev(u, v, q, ok, lab, prev_w, prev_lab, prev_patch, prev_sx, prev_sy
                     same = False
                 bsx += wt * prev_sx[rr, cc]
                 bsy += wt * prev_sy[rr, cc]
+                if prev_patch[rr, cc] != pn:
+                    continue  # the correction jumps at seams (it cancels the seam): not across them
                 r0_ += wt * prev_res[rr, cc, 0]
                 r1_ += wt * prev_res[rr, cc, 1]
                 r2_ += wt * prev_res[rr, cc, 2]
