@@ -260,10 +260,11 @@ def gather_reference(u, v, q, ok, lab, pw, plab, ppatch, psx, psy, pres, pd, tol
             else:
                 out["sx"][i, j] = psx[rn, cn] + (x - cn - 0.5) * scale
                 out["sy"][i, j] = psy[rn, cn] + (y - rn - 0.5) * scale
-            W = sum(t[2] for t in good)
+            mine = [t for t in good if ppatch[t[0], t[1]] == ppatch[rn, cn]]  # not across a seam
+            W = sum(t[2] for t in mine)
             if W > 0:
-                out["res"][i, j] = sum(wt * pres[r, c] for r, c, wt, _ in good) / W
-                out["d"][i, j] = sum(wt * pd[r, c] for r, c, wt, _ in good) / W
+                out["res"][i, j] = sum(wt * pres[r, c] for r, c, wt, _ in mine) / W
+                out["d"][i, j] = sum(wt * pd[r, c] for r, c, wt, _ in mine) / W
             else:
                 out["res"][i, j], out["d"][i, j] = pres[rn, cn], pd[rn, cn]
     return out
