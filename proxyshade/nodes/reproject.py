@@ -135,9 +135,24 @@ def reanchor_distorted(have, patch, D, sx, sy, scale, threshold, spread, seed):
     return distorted, sx, sy
 
 
-def absorb_fragments(have, patch, lab, sx, sy, scale, min_area, src_lab):
-    """Patches smaller than ``min_area`` pixels (slivers left by continuation, patches
-    that shrank on screen) continue the neighbouring patch they touch most, with its
+def patch_width(have: np.ndarray, ids: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """(area, width) of each patch id < n over the ``have`` pixels: width = 2 × area /
+    perimeter (edges to another patch, an unkept pixel or the image border): a strip's
+    width, half a square's side."""
+    area = np.bincount(ids[have], minlength=n)
+    m = np.pad(np.where(have, ids, -1), 1, constant_values=-1)
+    h, w = ids.shape
+    per = np.zeros(n)
+    for di, dj in ((0, 1), (0, -1), (1, 0), (-1, 0)):
+        edge = have & (m[1 + di:1 + di + h, 1 + dj:1 + dj + w] != ids)
+        per += np.bincount(ids[edge], minlength=n)
+    return area, 2.0 * area / np.maximum(per, 1.0)
+
+
+def absorb_fragments(have, patch, lab, sx, sy, scale, min_area, src_lab, min_width=0.0):
+    """Patches smaller than ``min_area`` pixels or thinner than ``min_width`` (slivers left
+    by continuation, patches that shrank or were sheared thin on screen) continue the
+    neighbouring patch they touch most, with its
     translation at the contact, where the continued copy stays on their label inside the
     source: one copy where there were two seams. Returns (absorbed (H, W) bool, sx, sy,
     patch)."""
@@ -146,8 +161,9 @@ def absorb_fragments(have, patch, lab, sx, sy, scale, min_area, src_lab):
         return none, sx, sy, patch
     ids = patch.astype(np.int64, copy=False)
     n = int(ids.max()) + 1
-    area = np.bincount(ids[have], minlength=n)
-    small = have & (area[ids] < min_area) & (patch != 0)
+    area, width = patch_width(have, ids, n)
+    frag = (area < min_area) | (width < min_width)
+    small = have & frag[ids] & (patch != 0)
     if not small.any():
         return none, sx, sy, patch
     H, W = have.shape
@@ -157,7 +173,7 @@ def absorb_fragments(have, patch, lab, sx, sy, scale, min_area, src_lab):
         a, b = ii + di, jj + dj
         inside = (a >= 0) & (a < H) & (b >= 0) & (b < W)
         a, b, i0, j0 = a[inside], b[inside], ii[inside], jj[inside]
-        ok = have[a, b] & (lab[a, b] == lab[i0, j0]) & (ids[a, b] != ids[i0, j0]) & (area[ids[a, b]] >= min_area)
+        ok = have[a, b] & (lab[a, b] == lab[i0, j0]) & (ids[a, b] != ids[i0, j0]) & ~frag[ids[a, b]]
         pairs.append(np.stack([ids[i0[ok], j0[ok]], ids[a[ok], b[ok]], a[ok], b[ok]], 1))
     pairs = np.concatenate(pairs)
     if not len(pairs):
@@ -271,6 +287,8 @@ class Reproject(Node):
     min_patch_area = Param(int, 16, min=0,
                            doc="patches smaller than this (pixels) continue the neighbouring patch they touch most "
                                "(flagged re-anchored); 0 keeps every fragment")
+    min_patch_width = Param(float, 1.5, min=0.0,
+                            doc="patches thinner than this (2 x area / perimeter, pixels) are fragments too")
     cut_threshold = Param(float, 0.5, min=0.0, max=1.0,
                           doc="share of flagged pixels above which the frame is a camera cut (full synthesis)")
 
@@ -324,7 +342,8 @@ class Reproject(Node):
             have = valid | filled
         D = kt.map_deviation(sx, sy, have, kr.patch_links(have, patch, lab), scale)
         distorted, sx, sy = reanchor_distorted(have, patch, D, sx, sy, scale, p.threshold, p.spread, p.seed)
-        absorbed, sx, sy, patch = absorb_fragments(have, patch, lab, sx, sy, scale, p.min_patch_area, src_lab)
+        absorbed, sx, sy, patch = absorb_fragments(have, patch, lab, sx, sy, scale, p.min_patch_area, src_lab,
+                                                   p.min_patch_width)
         raw = np.zeros((H, W), np.uint32)
         raw[absorbed] = FLAG["reanchored"]
         if distorted.any():

@@ -8,10 +8,11 @@ from proxyshade.graph.testing import run_node
 from proxyshade.kernels.lookup import lookup
 from proxyshade.kernels import reproject as kr
 from proxyshade.kernels import temporal as kt
-from proxyshade.nodes.reproject import FLAG, absorb_fragments, clean_flags, patch_thresholds
+from proxyshade.nodes.reproject import FLAG, absorb_fragments, clean_flags, patch_thresholds, patch_width
 from tests.nodes._temporal import camera, render, state_plate, toy_source
 
-EXACT = {"spread": 0.0, "fill_radius": 0}  # one threshold for all patches; disoccluded pixels not continued
+EXACT = {"spread": 0.0, "fill_radius": 0, "min_patch_area": 0, "min_patch_width": 0.0}  # one threshold for all
+# patches; disoccluded pixels not continued; fragments kept
 
 
 def step(proxy_n, proxy_0, prev, frame=2, **params):
@@ -189,3 +190,19 @@ def test_fragments_continue_the_patch_they_touch_most():
     src_lab[:, 16:18] = 2
     absorbed, nsx, _, npatch = absorb_fragments(have, patch, lab, sx, sy, 1.0, 8, src_lab)
     assert not absorbed.any() and np.array_equal(nsx, sx) and np.array_equal(npatch, patch)
+
+
+def test_thin_slivers_are_fragments_too():
+    H, W = 12, 40
+    i, j = np.mgrid[0:H, 0:W]
+    patch = np.where(j < 20, 1, 2).astype(np.uint32)
+    patch[5, 2:38] = 3  # a 1-px sliver 36 px long: large enough by area, 2A/P < 1.5
+    sx = np.where(patch == 1, j + 10.0, np.where(patch == 2, j + 60.0, j + 150.0)).astype(np.float32)
+    sy = (i + 5.0).astype(np.float32)
+    have = np.ones((H, W), bool)
+    area, width = patch_width(have, patch.astype(np.int64), 4)
+    assert area[3] == 36 and width[3] < 1.5 and width[1] > 4
+    absorbed, nsx, _, npatch = absorb_fragments(have, patch, np.ones((H, W), np.uint32), sx, sy, 1.0, 16,
+                                                np.ones((40, 240), np.uint32), 1.5)
+    assert absorbed.sum() == 36 and set(np.unique(npatch[5, 2:38])) <= {1, 2}
+    assert not absorbed[patch != 3].any()
