@@ -104,6 +104,8 @@ def main(argv=None) -> None:
     for size in args.sizes:
         for scene in args.scenes:
             rows = shot(scene, size, args.frames, args.warp_every)
+            T.proxy.cache_clear()  # the per-frame proxies and guides of the independent runs
+            T.detailed.cache_clear()
             print(f"\n## {scene} {size}² ({args.frames} frames)")
             print(f"{'frame':>5} {'seams':>6} {'detail':>7} {'share':>7} {'update s':>9} {'warp L4':>8} {'warp bil':>8}")
             for r in rows:

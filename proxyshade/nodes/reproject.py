@@ -287,7 +287,7 @@ class Reproject(Node):
     min_patch_area = Param(int, 16, min=0,
                            doc="patches smaller than this (pixels) continue the neighbouring patch they touch most "
                                "(flagged re-anchored); 0 keeps every fragment")
-    min_patch_width = Param(float, 1.5, min=0.0,
+    min_patch_width = Param(float, 2.0, min=0.0,
                             doc="patches thinner than this (2 x area / perimeter, pixels) are fragments too")
     cut_threshold = Param(float, 0.5, min=0.0, max=1.0,
                           doc="share of flagged pixels above which the frame is a camera cut (full synthesis)")
