@@ -53,7 +53,7 @@ class _Ctx:
 
 def update_frames(scene: str, size: int, frames: int) -> tuple[dict, list[float]]:
     """Per-stage seconds of frames 2..frames+1 of a scene's move (after a warm-up frame)."""
-    from proxyshade.nodes.resynthesize import resynthesize
+    from proxyshade.synthesis.resynthesis import resynthesize
 
     src = T.source(T.SCENES[scene])
     p0 = T.proxy(scene, 1, size)
@@ -78,7 +78,7 @@ def update_frames(scene: str, size: int, frames: int) -> tuple[dict, list[float]
         cd = run_node("ConsistentDepth", {}, {"proxy": pN, "guide": g0, "depth": d0, "ref_proxy": p0}, frame=fr)
         rp = run_node("Reproject", {}, {"depth": cd, "prev": prev, "source": src}, frame=fr)
         tm["R&D"] = time.perf_counter() - t
-        prev = resynthesize(_Ctx(), rp, src, P, fr, timings=tm)
+        prev = resynthesize(rp, src, P, fr, timings=tm)
         if fr == 2:
             continue  # warm-up (compiled kernels loaded, caches filled)
         for s in STAGES:

@@ -22,7 +22,7 @@ import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 import networkx as nx
 
@@ -30,26 +30,9 @@ from proxyshade.errors import CycleError, GraphFileError, ParamError, UserError
 from proxyshade.graph import keys as K
 from proxyshade.graph.cache import Cache
 from proxyshade.graph.executor import make_executor
-from proxyshade.graph.node import REGISTRY, Context, Node, PlateSequence, resolve_path
+from proxyshade.graph.node import REGISTRY, Context, InputRef, Node, PlateSequence, resolve_path
 from proxyshade.graph.plate import Plate
-
-
-@dataclass(frozen=True)
-class InputRef:
-    """An input connection: ``node`` at this frame, at ``offset`` frames, at the first frame,
-    or (``all``, for a sequence input) at every frame from the first one to this one."""
-
-    node: str
-    offset: int = 0
-    first: bool = False
-    all: bool = False
-
-    def frame(self, frame: int, first_frame: int) -> int:
-        return first_frame if self.first else frame + self.offset
-
-    def frames(self, frame: int, first_frame: int) -> list[int]:
-        """The upstream frames this input reads at ``frame``, in order."""
-        return list(range(first_frame, frame + 1)) if self.all else [self.frame(frame, first_frame)]
+from proxyshade.io.graphfile import load_graph
 
 
 @dataclass
@@ -120,9 +103,7 @@ class Graph:
     def load(cls, path: str | Path, *, cache: str | Path | None = None, overrides: list[str] = (),
              variables: dict[str, str] | None = None) -> "Graph":
         """Load a YAML graph file (see ``proxyshade.io.graphfile``); ``overrides`` are 'node.param=value'."""
-        from proxyshade.io.graphfile import load_graph
-
-        return load_graph(path, cache=cache, overrides=overrides, variables=variables)
+        return load_graph(path, cls, cache=cache, overrides=overrides, variables=variables)
 
     def add(self, name: str, node_type: str | type[Node], params: dict | None = None,
             inputs: dict[str, str | InputRef] | None = None, enabled: bool = True) -> Node:
@@ -487,11 +468,3 @@ class Hooks:
     def start(self, run: NodeRun) -> None: ...
 
     def done(self, run: NodeRun) -> None: ...
-
-
-class CallbackHooks(Hooks):
-    def __init__(self, on_done: Callable[[NodeRun], None]):
-        self._on_done = on_done
-
-    def done(self, run: NodeRun) -> None:
-        self._on_done(run)

@@ -1,8 +1,8 @@
 """Cache keys: computed top-down from declarations, never from pixels.
 
 key = sha256 of the canonical JSON of
-  node type, version, code hash (the node's module and the proxyshade.kernels modules it
-  uses, comments stripped), hashed parameters, upstream keys by input name, the frame
+  node type, version, code hash (the source of the node's module and of every proxyshade
+  module it reaches through imports at any level, comments stripped: ``import_closure``), hashed parameters, upstream keys by input name, the frame
   (only when the node depends on time), the content hashes of the files its Path
   parameters name, and the node's ``key_extra``. A sequence input's upstream keys are the
   list of its frames' keys, so changing one frame changes the key.
@@ -11,14 +11,15 @@ The components are kept so ``--explain`` can say which one changed.
 """
 from __future__ import annotations
 
+import ast
 import functools
 import hashlib
+import importlib.util
 import inspect
 import io
 import json
 import sys
 import tokenize
-import types
 from pathlib import Path
 from typing import Any
 
@@ -43,43 +44,103 @@ def _strip_comments(source: str) -> str:
     return " ".join(out)
 
 
+def module_file(module_name: str, root: Path | None = None) -> Path | None:
+    """The source file of a module: under ``root`` (a folder holding the ``proxyshade``
+    package) when given, else where Python imports it from; None when it has none."""
+    if root is not None:
+        base = Path(root, *module_name.split("."))
+        for cand in (base.with_suffix(".py"), base / "__init__.py"):
+            if cand.is_file():
+                return cand
+        return None
+    mod = sys.modules.get(module_name)
+    origin = getattr(mod, "__file__", None) if mod is not None else None
+    if origin is None:
+        try:
+            spec = importlib.util.find_spec(module_name)
+        except (ImportError, ValueError):
+            return None
+        origin = spec.origin if spec is not None else None
+    return Path(origin) if origin and origin.endswith(".py") else None
+
+
+def _is_module(name: str, root: Path | None) -> bool:
+    return module_file(name, root) is not None
+
+
+def imported_modules(source: str, module_name: str, is_package: bool, root: Path | None = None) -> set[str]:
+    """``proxyshade`` modules imported anywhere in ``source`` (module level, inside functions
+    or classes, relative or absolute). ``from pkg import mod`` names ``pkg.mod``;
+    ``from pkg import name`` (a name defined in the package) names ``pkg`` itself. A
+    package is not counted merely for holding an imported module: what its
+    ``__init__`` defines is used only when imported by name."""
+    tree = ast.parse(source)
+    package = module_name if is_package else module_name.rpartition(".")[0]
+    found: set[str] = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            found.update(a.name for a in node.names if a.name.split(".")[0] == "proxyshade")
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                parts = package.split(".")
+                base = ".".join(parts[:len(parts) - node.level + 1])
+                base = f"{base}.{node.module}" if node.module else base
+            else:
+                base = node.module or ""
+            if base.split(".")[0] != "proxyshade":
+                continue
+            for a in node.names:
+                sub = f"{base}.{a.name}"
+                found.add(sub if a.name != "*" and _is_module(sub, root) else base)
+    return {m for m in found if _is_module(m, root)}
+
+
+def module_source(module_name: str, root: Path | None = None) -> str:
+    path = module_file(module_name, root)
+    if path is None:
+        mod = sys.modules.get(module_name)
+        try:
+            return inspect.getsource(mod) if mod is not None else ""
+        except (OSError, TypeError):
+            return ""
+    return path.read_text(encoding="utf-8")
+
+
 @functools.lru_cache(maxsize=None)
-def module_hash(module_name: str) -> str:
-    mod = sys.modules[module_name]
-    try:
-        src = inspect.getsource(mod)
-    except (OSError, TypeError):
-        return "nosource"
-    return hashlib.sha256(_strip_comments(src).encode()).hexdigest()
+def module_hash(module_name: str, root: Path | None = None) -> str:
+    """sha256 of a module's source with comments stripped ('nosource' when it has none)."""
+    src = module_source(module_name, root)
+    return hashlib.sha256(_strip_comments(src).encode()).hexdigest() if src else "nosource"
 
 
-def used_kernel_modules(module: types.ModuleType) -> list[str]:
-    """proxyshade.kernels modules a node module uses: imported as modules or via functions."""
-    names = set()
-    for v in vars(module).values():
-        mod_name = v.__name__ if isinstance(v, types.ModuleType) else getattr(v, "__module__", None)
-        if isinstance(mod_name, str) and mod_name.startswith("proxyshade.kernels.") and mod_name in sys.modules:
-            names.add(mod_name)
-    return sorted(names)
-
-
-def _kernel_closure(name: str, seen: set[str]) -> None:
-    if name in seen:
-        return
-    seen.add(name)
-    for dep in used_kernel_modules(sys.modules[name]):
-        _kernel_closure(dep, seen)
-
-
-def code_hash(node_cls: type) -> str:
-    """Hash of a node type's implementation: its module and the kernels it (transitively) uses."""
-    mod = sys.modules[node_cls.__module__]
+@functools.lru_cache(maxsize=None)
+def import_closure(module_name: str, root: Path | None = None) -> tuple[str, ...]:
+    """Every ``proxyshade`` module ``module_name`` reaches through imports at any level,
+    itself included, sorted: read from the sources (the import graph), not from names in
+    a namespace, so a helper module, an io module or a kernel imported inside a function
+    is covered."""
     seen: set[str] = set()
-    for dep in used_kernel_modules(mod):
-        _kernel_closure(dep, seen)
-    parts = [(node_cls.__module__, module_hash(node_cls.__module__))]
-    parts += [(m, module_hash(m)) for m in sorted(seen)]
-    return digest(parts)
+    todo = [module_name]
+    while todo:
+        name = todo.pop()
+        if name in seen:
+            continue
+        seen.add(name)
+        src = module_source(name, root)
+        if not src:
+            continue
+        path = module_file(name, root)
+        is_pkg = path is not None and path.name == "__init__.py"
+        todo.extend(imported_modules(src, name, is_pkg, root) - seen)
+    return tuple(sorted(seen))
+
+
+def code_hash(node_cls: type, root: Path | None = None) -> str:
+    """Hash of a node type's implementation: the source of its module and of every
+    ``proxyshade`` module it reaches through imports (``import_closure``). ``root``
+    reads the package from another folder (tests edit a copy)."""
+    mods = import_closure(node_cls.__module__, root)
+    return digest([(m, module_hash(m, root)) for m in mods])
 
 
 @functools.lru_cache(maxsize=4096)

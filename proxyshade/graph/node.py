@@ -20,10 +20,13 @@ imported (``proxyshade.nodes`` imports them all).
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable, ClassVar, Iterable
+
+import numpy as np
 
 from proxyshade.errors import NodeInputError, ParamError
 from proxyshade.graph.plate import Plate
@@ -35,18 +38,55 @@ _UNSET = object()
 
 @dataclass
 class Input:
-    """An upstream plate. ``optional`` inputs may be unconnected (or fall before the
-    first frame when connected at a negative frame offset) and arrive as ``None``.
+    """An upstream plate, checked by the engine before ``compute`` runs.
 
-    A ``sequence`` input takes the whole sequence (connected as ``{node: X, frame: all}``)
-    and arrives as a ``PlateSequence``; a node with one is a sequence node, instantiated
-    once per run, at the last requested frame."""
+    ``channels`` the node reads (missing ones are a one-line error); ``finite``: True
+    (every declared float channel) or the channels that must hold no NaN or Inf, except
+    the ``inf_ok`` ones (Inf marks empty pixels there, only NaN is refused); ``dtype``:
+    channel -> numpy dtype name the channel must have (ids are ``uint32``); ``fix``: what
+    to connect, said in those errors (e.g. ``"connect a SourceRead node"``).
+
+    ``optional`` inputs may be unconnected (or fall before the first frame when connected
+    at a negative frame offset) and arrive as ``None``. A ``sequence`` input takes the
+    whole sequence (connected as ``{node: X, frame: all}``) and arrives as a
+    ``PlateSequence``; a node with one is a sequence node, instantiated once per run, at
+    the last requested frame."""
 
     doc: str = ""
     optional: bool = False
     name: str = ""
-    channels: tuple[str, ...] = ()  # channels the node reads: checked by the engine before compute
+    channels: tuple[str, ...] = ()
     sequence: bool = False
+    finite: bool | tuple[str, ...] = False
+    inf_ok: tuple[str, ...] = ()
+    dtype: dict[str, str] | None = None
+    fix: str = ""
+
+    def problem(self, plate: Plate, node_type: str) -> str | None:
+        """What is wrong with ``plate`` for this input of a ``node_type`` node, in words, or None."""
+        missing = [c for c in self.channels if c not in plate]
+        if missing:
+            return (f"has no channel {', '.join(missing)}; {node_type} needs {', '.join(self.channels)} there, "
+                    f"it has {', '.join(plate.names()) or 'none'}" + (f"; {self.fix}" if self.fix else ""))
+        for c, want in (self.dtype or {}).items():
+            if c in plate and plate[c].dtype != np.dtype(want):
+                return (f"channel {c} is {plate[c].dtype}, not {want}" + (f"; {self.fix}" if self.fix else
+                        f"; write it as {want}"))
+        check = self.channels if self.finite is True else (self.finite or ())
+        for c in check:
+            if c not in plate:
+                continue
+            a = plate[c]
+            if not np.issubdtype(a.dtype, np.floating):
+                continue
+            nan_only = c in self.inf_ok
+            bad = np.isnan(a) if nan_only else ~np.isfinite(a)
+            if bad.any():
+                y, x = np.argwhere(bad)[0]
+                kind = "NaN" if nan_only else "NaN/Inf"
+                return (f"channel {c} has {int(bad.sum())} {kind} pixel(s), first at x={x} y={y}; fix the upstream "
+                        "node or clean the image (e.g. clamp or inpaint those pixels)")
+        return None
 
 
 class Param:
@@ -160,9 +200,33 @@ class Context:
         """Add a line to the run report for this node and frame."""
         self._notes.append(message)
 
+    def warn(self, message: str) -> None:
+        """A warning: a line in the run report and a Python warning, naming this node."""
+        message = f"{self.node.name}: {message}"
+        self._notes.append(message)
+        warnings.warn(message, stacklevel=2)
+
     def error(self, message: str) -> NodeInputError:
         """A one-line bad-input error naming this node: ``raise ctx.error('...')``."""
         return NodeInputError(f"{self.node.name}: {message}")
+
+
+@dataclass(frozen=True)
+class InputRef:
+    """An input connection: ``node`` at this frame, at ``offset`` frames, at the first frame,
+    or (``all``, for a sequence input) at every frame from the first one to this one."""
+
+    node: str
+    offset: int = 0
+    first: bool = False
+    all: bool = False
+
+    def frame(self, frame: int, first_frame: int) -> int:
+        return first_frame if self.first else frame + self.offset
+
+    def frames(self, frame: int, first_frame: int) -> list[int]:
+        """The upstream frames this input reads at ``frame``, in order."""
+        return list(range(first_frame, frame + 1)) if self.all else [self.frame(frame, first_frame)]
 
 
 class PlateSequence(Sequence):
@@ -271,25 +335,25 @@ class Node:
         return None
 
     def check_inputs(self, inputs: dict[str, Plate | None]) -> None:
-        """One-line errors for unconnected required inputs and missing declared channels
-        (a sequence input's plates are checked as they are read, by ``check_plate``)."""
+        """One-line errors for unconnected required inputs and for plates that fail their
+        ``Input``'s declaration (a sequence input's plates are checked as they are read, by
+        ``check_plate``)."""
         for k, spec in self.inputs_spec.items():
             plate = inputs.get(k)
             if plate is None:
                 if not spec.optional:
-                    raise NodeInputError(f"{self.name}: input {k!r} is not connected; connect a node to it")
+                    raise NodeInputError(f"{self.name}: input {k!r} is not connected; "
+                                         f"{spec.fix or 'connect a node to it'}")
                 continue
             if not spec.sequence:
                 self.check_plate(k, plate)
 
     def check_plate(self, input_name: str, plate: Plate) -> None:
-        """A one-line error when ``plate`` lacks a channel the input declares."""
-        spec = self.inputs_spec[input_name]
-        missing = [c for c in spec.channels if c not in plate]
-        if missing:
-            raise NodeInputError(
-                f"{self.name}: input {input_name!r} has no channel {', '.join(missing)}; {type(self).__name__} needs "
-                f"{', '.join(spec.channels)} there, it has {', '.join(plate.names()) or 'none'}")
+        """A one-line error when ``plate`` fails the input's declaration (channels, dtypes,
+        finite values)."""
+        problem = self.inputs_spec[input_name].problem(plate, type(self).__name__)
+        if problem:
+            raise NodeInputError(f"{self.name}: input {input_name!r} {problem}")
 
     def passthrough_input(self) -> str | None:
         """The input a disabled node passes through (default: its first input)."""

@@ -129,13 +129,3 @@ class Plate:
             and np.array_equal(self.channels[n].view(np.uint8), other.channels[n].view(np.uint8))
             for n in self.channels
         )
-
-
-def set_layer(channels: dict, names: Iterable[str], arr: np.ndarray, dtype=np.float32) -> dict:
-    """Split an (H, W, C) array into ``channels`` under ``names``; returns ``channels``."""
-    names = list(names)
-    if arr.shape[-1] != len(names):
-        raise PlateError(f"array has {arr.shape[-1]} channels, {len(names)} names given")
-    for i, n in enumerate(names):
-        channels[n] = np.ascontiguousarray(arr[..., i], dtype=dtype)
-    return channels

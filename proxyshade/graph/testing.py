@@ -3,6 +3,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from proxyshade.errors import UserError
 from proxyshade.graph.node import REGISTRY, Context, Node, PlateSequence
 from proxyshade.graph.plate import Plate
 
@@ -28,4 +29,8 @@ def run_node(node_type: str | type[Node], params: dict | None = None, inputs: di
     notes: list[str] = []
     ctx = Context(node, frame, first_frame, ins, node.params, Path(graph_dir), threads, notes)
     node.check_inputs(ins)
-    return node.compute(ctx)
+    try:
+        return node.compute(ctx)
+    except UserError as e:  # the layer's errors name no node: prefix it, as the engine does
+        msg = str(e)
+        raise type(e)(msg if msg.startswith(f"{name}:") else f"{name}: {msg}") from None

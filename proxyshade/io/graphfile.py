@@ -24,8 +24,7 @@ from typing import Any
 import yaml
 
 from proxyshade.errors import GraphFileError, ParamError
-from proxyshade.graph.graph import Graph, InputRef
-from proxyshade.graph.node import REGISTRY
+from proxyshade.graph.node import REGISTRY, InputRef
 
 FORMAT = "proxyshade/1"
 _NODE_KEYS = ("type", "inputs", "params", "enabled", "doc")
@@ -143,9 +142,10 @@ def _input_ref(value: Any, where: str) -> InputRef:
     raise GraphFileError(f"{where}: expected a node name or {{node: NAME, frame: -1|first|all}}, got {value!r}")
 
 
-def build_graph(data: Any, path: Path, *, cache=None, overrides: list[str] = (),
-                variables: dict[str, str] | None = None) -> Graph:
-    """Validate plain graph data (as loaded from ``path``) and build the Graph."""
+def build_graph(data: Any, path: Path, graph_cls: type, *, cache=None, overrides: list[str] = (),
+                variables: dict[str, str] | None = None):
+    """Validate plain graph data (as loaded from ``path``) and build a ``graph_cls``
+    (``proxyshade.graph.graph.Graph``, which calls this through ``Graph.load``)."""
     import proxyshade.nodes  # noqa: F401  (register node types)
 
     f = str(path)
@@ -171,7 +171,7 @@ def build_graph(data: Any, path: Path, *, cache=None, overrides: list[str] = (),
     if not isinstance(nodes, dict) or not nodes:
         raise err(_line(data, "nodes"), "nodes", "expected a mapping of node name -> {type, inputs, params}")
 
-    g = Graph(graph_dir=path.parent, frames=frames, cache=cache, name=path.stem, source=f)
+    g = graph_cls(graph_dir=path.parent, frames=frames, cache=cache, name=path.stem, source=f)
     pending_inputs = {}
     for name, spec in nodes.items():
         kp = f"nodes.{name}"
@@ -243,6 +243,7 @@ def build_graph(data: Any, path: Path, *, cache=None, overrides: list[str] = (),
     return g
 
 
-def load_graph(path: str | Path, *, cache=None, overrides: list[str] = (), variables=None) -> Graph:
+def load_graph(path: str | Path, graph_cls: type, *, cache=None, overrides: list[str] = (), variables=None):
+    """The graph file at ``path`` as a ``graph_cls``: use ``Graph.load(path)``."""
     path = Path(path)
-    return build_graph(read_yaml(path), path, cache=cache, overrides=overrides, variables=variables)
+    return build_graph(read_yaml(path), path, graph_cls, cache=cache, overrides=overrides, variables=variables)

@@ -138,8 +138,3 @@ def load_source(table_path: str | Path, *, far_distance: float = 100.0, max_far_
     if t.get("layout"):
         meta["source"]["layout"] = t["layout"]
     return Plate(ch, meta)
-
-
-def label_names(plate: Plate) -> dict[int, str]:
-    """id -> name from a plate's ``labels`` metadata."""
-    return {int(t["id"]): t["name"] for t in plate.meta.get("labels", [])}

@@ -392,3 +392,30 @@ def validate(stage: Usd.Stage) -> list[str]:
     ctx = UsdValidation.ValidationContext(reg.GetOrLoadAllValidators())
     return [f"{e.GetName()}: {e.GetMessage()}" for e in ctx.Validate(stage)
             if e.GetType() == UsdValidation.ValidationErrorType.Error]
+
+
+def cg_digest(path: Path, frame: int, *, cg_only: bool = True) -> str | None:
+    """A digest of what a CG render or shadow sees at ``frame``: CG prims, light, cameras."""
+    try:
+        stage = open_stage(path)
+        prims = scene_prims(stage, frame)
+        light = distant_light(stage, frame)
+        h = hashlib.sha256()
+        for p in prims:
+            if p.cg or not cg_only:
+                h.update(p.digest.encode())
+        h.update(repr(light).encode())
+        for c in cameras(stage):
+            m = UsdGeom.Camera(stage.GetPrimAtPath(c)).GetCamera(Usd.TimeCode(frame))
+            h.update(repr((c, m.focalLength, m.horizontalAperture, m.horizontalApertureOffset,
+                           m.verticalApertureOffset, m.clippingRange, m.transform)).encode())
+        return h.hexdigest()
+    except Exception:  # noqa: BLE001 - reported properly by compute
+        return None
+
+
+def no_light_message(prims: list, what: str) -> str:
+    """The warning for CG prims without a UsdLux.DistantLight: the prims, what happens, the fix."""
+    names = ", ".join(p.path for p in prims[:4]) + (" ..." if len(prims) > 4 else "")
+    return (f"the scene has CG prims ({names}) but no UsdLux.DistantLight prim; {what}. "
+            "Add a DistantLight to the stage")

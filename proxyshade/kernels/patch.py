@@ -140,7 +140,6 @@ def _flood_fill(src_lab, src_dist, src_masks, tgt_lab, tgt_dist, tgt_masks, orde
     tD = np.empty(NB2, np.float32)
     pid = first_id
     npatch = 0
-    seeds_best = 0.0
     for t in range(order.shape[0]):
         p = order[t]
         i = p // Wt
@@ -160,7 +159,6 @@ def _flood_fill(src_lab, src_dist, src_masks, tgt_lab, tgt_dist, tgt_masks, orde
               thr_scale * best + thr_offset, w, queue, stamp)
         pid += 1
         npatch += 1
-        seeds_best += best
     return npatch
 
 

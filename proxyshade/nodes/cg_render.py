@@ -7,47 +7,15 @@ The prims are rasterized with the proxy rasterizer (``proxyshade.kernels.raster`
 """
 from __future__ import annotations
 
-import hashlib
-import warnings
 from pathlib import Path
 
 import numpy as np
-from pxr import Usd, UsdGeom
 
 from proxyshade.errors import UserError
 from proxyshade.graph.node import Input, Node, Param, resolve_path
 from proxyshade.graph.plate import Plate
 from proxyshade.io import usd
 from proxyshade.kernels import raster
-
-
-def usd_digest(path: Path, frame: int, *, cg_only: bool = True) -> str | None:
-    """A digest of what a CG render or shadow sees at ``frame``: CG prims, light, cameras."""
-    try:
-        stage = usd.open_stage(path)
-        prims = usd.scene_prims(stage, frame)
-        light = usd.distant_light(stage, frame)
-        h = hashlib.sha256()
-        for p in prims:
-            if p.cg or not cg_only:
-                h.update(p.digest.encode())
-        h.update(repr(light).encode())
-        for c in usd.cameras(stage):
-            m = UsdGeom.Camera(stage.GetPrimAtPath(c)).GetCamera(Usd.TimeCode(frame))
-            h.update(repr((c, m.focalLength, m.horizontalAperture, m.horizontalApertureOffset,
-                           m.verticalApertureOffset, m.clippingRange, m.transform)).encode())
-        return h.hexdigest()
-    except Exception:  # noqa: BLE001 - reported properly by compute
-        return None
-
-
-def warn_no_light(ctx, prims: list, what: str) -> None:
-    """Report a missing UsdLux.DistantLight (run report note + Python warning)."""
-    names = ", ".join(p.path for p in prims[:4]) + (" ..." if len(prims) > 4 else "")
-    msg = (f"{ctx.node.name}: the scene has CG prims ({names}) but no UsdLux.DistantLight prim; {what}. "
-           "Add a DistantLight to the stage")
-    ctx.note(msg)
-    warnings.warn(msg, stacklevel=2)
 
 
 def lambert(albedo: np.ndarray, normal: np.ndarray, light: dict, ambient: float) -> np.ndarray:
@@ -110,7 +78,7 @@ class CgRender(Node):
     exposure = Param(float, 0.0, min=-16.0, max=16.0, doc="stops, to balance the CG against the plate")
 
     def key_extra(self, frame, graph_dir):
-        return usd_digest(resolve_path(self.params["scene"], graph_dir, frame), frame)
+        return usd.cg_digest(resolve_path(self.params["scene"], graph_dir, frame), frame)
 
     def compute(self, ctx) -> Plate:
         stage, cam = stage_and_camera(ctx)
@@ -119,7 +87,7 @@ class CgRender(Node):
         if not prims:
             ctx.note("the scene has no CG prims (bool proxyshade:cg = true); the CG plate is empty")
         elif light is None:
-            warn_no_light(ctx, prims, "CG prims are lit by a headlight")
+            ctx.warn(usd.no_light_message(prims, "CG prims are lit by a headlight"))
         return render_cg(prims, cam, light, ambient=ctx.p.ambient, exposure=ctx.p.exposure)
 
 

@@ -17,67 +17,17 @@ code  paper  pixel                                             label and depth f
 
 "Occluded at frame 0" means the detailed guide showed a surface behind the frame-0 proxy
 there (the guide's detail overrides the proxy, e.g. sky or mountain between tree
-spheres); those pixels keep the guide's decision. Kernels: ``proxyshade.kernels.reproject``.
+spheres); those pixels keep the guide's decision. Layer: ``proxyshade.synthesis.temporal``
+(the frame-0 grid); kernels ``proxyshade.kernels.reproject``.
 """
 from __future__ import annotations
-
-import weakref
 
 import numpy as np
 
 from proxyshade.graph.node import Input, Node, Param
 from proxyshade.graph.plate import Plate
-from proxyshade.io.usd import CameraInfo
 from proxyshade.kernels import reproject as kr
-from proxyshade.nodes.patch_init import require
-
-CATEGORY = {"A": 1, "B": 2, "C": 3, "D": 4}
-
-_GRID: list = []  # [(weakrefs to the frame-0 arrays, tolerances, Frame0)], newest last
-
-
-class Frame0:
-    """What the first frame contributes to every later frame: inverse depth, grid corners,
-    which pixels the frame-0 proxy hid (``occluded``) and which lay on it (``on_proxy``)."""
-
-    def __init__(self, Z0, lab0, Zp0, cut_tol: float, tol: float):
-        self.w0 = kr.inverse_depth(Z0)
-        self.cw = kr.grid_corners(self.w0, np.ascontiguousarray(lab0, np.uint32), cut_tol)
-        self.keep = np.isfinite(self.w0)
-        if Zp0 is not None:
-            wp0 = kr.inverse_depth(Zp0)
-            self.occluded = wp0 > self.w0 * (1.0 + tol)  # the proxy was in front of the guide's surface
-            self.on_proxy = np.abs(wp0 - self.w0) <= tol * np.maximum(wp0, self.w0)
-        else:
-            self.occluded = np.zeros(self.w0.shape, bool)
-            self.on_proxy = np.ones(self.w0.shape, bool)
-
-
-def frame0_grid(Z0: np.ndarray, lab0: np.ndarray, Zp0: np.ndarray | None, cut_tol: float, tol: float) -> Frame0:
-    """``Frame0`` of the first frame's plates. It depends on the first frame only: within one
-    run every later frame passes the same arrays, so it is kept (by identity of the arrays,
-    two entries) instead of being rebuilt each frame."""
-    arrays = (Z0, lab0, Zp0)
-    for refs, key, f0 in _GRID:
-        if key == (cut_tol, tol) and all((r() if r is not None else None) is a for r, a in zip(refs, arrays)):
-            return f0
-    f0 = Frame0(Z0, lab0, Zp0, cut_tol, tol)
-    try:
-        refs = tuple(weakref.ref(a) if a is not None else None for a in arrays)
-    except TypeError:
-        return f0
-    _GRID.append((refs, (cut_tol, tol), f0))
-    del _GRID[:-2]
-    return f0
-
-
-def camera_of(ctx, name: str, *plates) -> CameraInfo:
-    """The camera in the first plate's metadata that has one (a ProxyRender's)."""
-    for p in plates:
-        if p is not None and isinstance(p.meta.get("camera"), dict):
-            return CameraInfo.from_meta(p.meta["camera"])
-    raise ctx.error(f"input '{name}' has no camera in its metadata (meta['camera']); connect a plate derived from "
-                    "ProxyRender (GuideSynth, DepthExtend and Magnify pass it on)")
+from proxyshade.synthesis.temporal import CATEGORY, camera_of, frame0_grid
 
 
 class ConsistentDepth(Node):
@@ -90,11 +40,14 @@ class ConsistentDepth(Node):
     """
 
     version = 1
-    proxy = Input("this frame's ProxyRender: label.id, Z, camera")
+    proxy = Input("this frame's ProxyRender: label.id, Z, camera", channels=("label.id", "Z"), finite=("Z",),
+                  inf_ok=("Z",), fix="connect this frame's ProxyRender")
     guide = Input("the detailed guide at the first frame (GuideSynth at frame: first): label.id; its Z, if any, "
-                  "is the frame-0 proxy depth unless ref_proxy is connected")
+                  "is the frame-0 proxy depth unless ref_proxy is connected", channels=("label.id",),
+                  fix="connect GuideSynth at frame: first")
     depth = Input("extended depth at the first frame (DepthExtend at frame: first): Z; default the guide's Z",
-                  optional=True)
+                  optional=True, channels=("Z",), finite=("Z",), inf_ok=("Z",),
+                  fix="connect DepthExtend at frame: first")
     ref_proxy = Input("the ProxyRender at the first frame (frame: first), for 'occluded at frame 0'", optional=True)
     depth_tolerance = Param(float, 0.02, min=0.0, max=1.0,
                             doc="relative inverse-depth difference under which two depths are one surface")
@@ -109,17 +62,18 @@ class ConsistentDepth(Node):
 
     def compute(self, ctx) -> Plate:
         p = ctx.p
-        proxy = require(ctx, ctx.proxy, "proxy", ["label.id", "Z"], "this frame's ProxyRender")
-        guide = require(ctx, ctx.guide, "guide", ["label.id"], "GuideSynth at frame: first")
+        proxy, guide = ctx.proxy, ctx.guide
         depth = ctx.depth if ctx.depth is not None else guide
-        depth = require(ctx, depth, "depth", ["Z"], "DepthExtend at frame: first (or a guide with Z)")
+        if "Z" not in depth:
+            raise ctx.error("input 'depth' is not connected and the guide has no Z; connect DepthExtend at "
+                            "frame: first (or a guide with Z)")
         if depth.shape != guide.shape:
             raise ctx.error(f"depth is {depth.width}x{depth.height}, guide {guide.width}x{guide.height}; connect the "
                             "DepthExtend of this guide")
         if np.isnan(depth["Z"]).any() or np.isnan(proxy["Z"]).any():
             raise ctx.error("Z has NaN pixels; fix the upstream render (inf marks empty pixels)")
-        cam1 = camera_of(ctx, "proxy", proxy)
-        cam0 = camera_of(ctx, "depth", ctx.depth, guide, ctx.ref_proxy)
+        cam1 = camera_of("proxy", proxy)
+        cam0 = camera_of("depth", ctx.depth, guide, ctx.ref_proxy)
         if (cam1.width, cam1.height) != (proxy.width, proxy.height):
             raise ctx.error(f"proxy's camera is {cam1.width}x{cam1.height} but the plate {proxy.width}x{proxy.height}")
         if (cam0.width, cam0.height) != (guide.width, guide.height):

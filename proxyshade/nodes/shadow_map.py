@@ -17,7 +17,6 @@ from proxyshade.graph.node import Input, Node, Param, resolve_path
 from proxyshade.graph.plate import Plate
 from proxyshade.io import usd
 from proxyshade.kernels import raster, shadow
-from proxyshade.nodes.cg_render import usd_digest, warn_no_light
 
 
 def light_depth_map(prims: list, direction, size: int) -> tuple[np.ndarray, dict]:
@@ -54,7 +53,7 @@ class ShadowMap(Node):
     bias = Param(float, 0.0, min=0.0, doc="depth tolerance in world units along the light")
 
     def key_extra(self, frame, graph_dir):
-        return usd_digest(resolve_path(self.params["scene"], graph_dir, frame), frame)
+        return usd.cg_digest(resolve_path(self.params["scene"], graph_dir, frame), frame)
 
     def compute(self, ctx) -> Plate:
         img: Plate = ctx.image
@@ -77,7 +76,7 @@ class ShadowMap(Node):
             ctx.note("the scene has no CG prims (bool proxyshade:cg = true); nothing casts a shadow")
             return img.with_channels({"shadow": none}, {"light": light})
         if light is None:
-            warn_no_light(ctx, prims, "shadows skipped")
+            ctx.warn(usd.no_light_message(prims, "shadows skipped"))
             return img.with_channels({"shadow": none}, {"light": None})
         depth, proj = light_depth_map(prims, light["direction"], p.size)
         P = img.layer(["P.X", "P.Y", "P.Z"], np.float64)

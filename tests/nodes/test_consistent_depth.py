@@ -5,7 +5,7 @@ import pytest
 from proxyshade.errors import NodeInputError
 from proxyshade.graph.plate import Plate
 from proxyshade.graph.testing import run_node
-from proxyshade.nodes.consistent_depth import CATEGORY
+from proxyshade.synthesis.temporal import CATEGORY
 from tests.nodes._temporal import camera, proxy, render
 
 A, B, C, D = (CATEGORY[k] for k in "ABCD")

@@ -8,7 +8,7 @@ from proxyshade.graph.testing import run_node
 from proxyshade.kernels.lookup import lookup
 from proxyshade.kernels import reproject as kr
 from proxyshade.kernels import temporal as kt
-from proxyshade.nodes.reproject import FLAG, absorb_fragments, clean_flags, patch_thresholds, patch_width
+from proxyshade.synthesis.temporal import FLAG, absorb_fragments, clean_flags, patch_thresholds, patch_width
 from tests.nodes._temporal import camera, render, state_plate, toy_source
 
 EXACT = {"spread": 0.0, "fill_radius": 0, "min_patch_area": 0, "min_patch_width": 0.0}  # one threshold for all

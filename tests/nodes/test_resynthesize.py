@@ -5,7 +5,7 @@ import pytest
 from proxyshade.errors import NodeInputError
 from proxyshade.graph.testing import run_node
 from proxyshade.kernels.lookup import lookup
-from proxyshade.nodes.reproject import FLAG
+from proxyshade.synthesis.temporal import FLAG
 from tests.nodes._temporal import SCENES, coherence_metrics, first_frame, proxy, source
 
 SIZE = 128

@@ -1,0 +1,96 @@
+"""Parameter groups: each parameter of a shared synthesis step declared once.
+
+A node inherits the groups of the steps it runs (``class PatchInit(FloodFill, Node)``);
+the engine collects their ``Param`` declarations like the node's own. ``Group.of(p)``
+reads a group's values from a node's ``ctx.p``; the layer function of that step takes
+them as one argument.
+"""
+from __future__ import annotations
+
+from types import SimpleNamespace
+from typing import Any
+
+from proxyshade.graph.node import Input, Param
+
+
+class ParamGroup:
+    """Base of the parameter groups."""
+
+    @classmethod
+    def names(cls) -> list[str]:
+        out: list[str] = []
+        for base in reversed(cls.__mro__):
+            out += [k for k, v in vars(base).items() if isinstance(v, Param) and k not in out]
+        return out
+
+    @classmethod
+    def of(cls, p: Any) -> SimpleNamespace:
+        """This group's parameter values read from ``p`` (a node's ``ctx.p``), as attributes."""
+        return SimpleNamespace(**{k: getattr(p, k) for k in cls.names()})
+
+
+class PatchMetric(ParamGroup):
+    """Eq. 1: contour-distance neighbourhoods plus w · Chamfer distance."""
+
+    w = Param(float, 90.0, min=0.0, doc="weight of the Chamfer distance in eq. 1")
+    max_distance = Param(float, 8.0, min=0.0, optional=True,
+                         doc="clamp contour distances (level pixels); null = unclamped")
+
+
+class FloodFill(PatchMetric):
+    """Patches grown by flood fill from random seeds (§5 step 1)."""
+
+    threshold_scale = Param(float, 1.25, min=1.0,
+                            doc="flood fill stops above threshold_scale * best + threshold_offset")
+    threshold_offset = Param(float, 5.0, min=0.0, doc="see threshold_scale")
+
+
+class Correction(PatchMetric):
+    """k-coherent correction, coarse to fine (§5 step 2)."""
+
+    coarse_size = Param(int, 32, min=4, doc="long edge of the coarsest level where correction starts")
+    passes = Param(int, 5, min=0, doc="correction passes per level (each four parity sub-passes)")
+    passes_finest = Param(int, 3, min=0, doc="correction passes at the synthesis size")
+    k = Param(int, 2, min=0, max=16, doc="similarity set size (k-coherence); 0 = coherent candidates only")
+    kappa = Param(float, 0.0, min=0.0, doc="penalty (x 1 + kappa) on similarity-set candidates; favours coherence")
+    knn_iterations = Param(int, 2, min=0, doc="PatchMatch iterations for the similarity sets")
+    use_rgb = Param(bool, True, doc="add the colour neighbourhood to the metric (the paper does)")
+    radius = Param(str, "spacing", choices=("spacing", "level"),
+                   doc="near-copy radius: one level pixel (spacing h) or 2^l exemplar pixels at level l")
+
+
+class PoissonSolve(ParamGroup):
+    """Gradient-domain blending of patch seams (§5 step 3, §7)."""
+
+    seams = Param(str, "source", choices=("source", "zero"),
+                  doc="target gradient across patch seams: the source's through the map, or zero")
+    screen = Param(float, 0.01, min=0.0,
+                   doc="λ of a data term λ(u - f)²: 0 = pure Poisson (the paper; drifts far from label borders)")
+    label_dirichlet = Param(bool, True, doc="keep pixels on boundaries between label ids (Γ2) unchanged")
+    tol = Param(float, 1e-5, min=1e-12, max=1.0, doc="relative residual at which the solver stops")
+    max_iter = Param(int, 100, min=1, doc="most conjugate-gradient iterations")
+
+
+class Guidance(ParamGroup):
+    """Guidance synthesis (§4): the detailed label guide."""
+
+    size = Param(int, 256, min=8, doc="synthesis size of the longer side, a power of two")
+    start = Param(int, 64, min=8, doc="coarsest synthesis level, a power of two")
+    k = Param(int, 5, min=1, max=16, doc="coherent candidates per neighbour (chosen among 4k)")
+    passes = Param(int, 2, min=0, max=16, doc="correction passes per level (4 parity sub-passes each)")
+    proxy_weight = Param(float, 1.0, min=0.0, doc="weight of agreement with the proxy guide")
+    scale = Param(float, 1.0, min=0.01, doc="source pixels per output pixel")
+    sample = Param(int, 48, min=4, max=1024, doc="random exemplar windows examined per similarity set")
+    metric = Param(str, "chamfer", choices=("chamfer", "l2"), doc="'l2' = label colours, Gaussian stack, L2 (Fig. 3 baseline)")
+    locked = Param(list, [], doc="label name pairs whose borders stay as in the proxy, e.g. [[sky, water]]")
+    keep_adjacency = Param(bool, True, doc="reject candidates that put side by side labels that neither the source "
+                                           "nor the proxy has side by side (chamfer metric only)")
+    seed = Param(int, 0)
+
+
+def source_input(doc: str = "annotated source (SourceRead): R,G,B, label.id and its label table", *,
+                 optional: bool = False) -> Input:
+    """The annotated-source input every synthesis node declares: colours (finite) and
+    uint32 label ids."""
+    return Input(doc, optional=optional, channels=("R", "G", "B", "label.id"), finite=("R", "G", "B"),
+                 dtype={"label.id": "uint32"}, fix="connect a SourceRead node")

@@ -1,0 +1,82 @@
+"""Patch synthesis on the coordinate map (Bonneel et al. 2010, §5): flood fill of source
+patches, k-coherent correction coarse to fine, magnification to the output size and the
+label repair after it. Each step works on the whole map or, with a ``mask``, only on the
+masked pixels (the others are fixed context): the first frame and the local
+resynthesis of later frames (§6.3) run the same functions.
+
+Kernels: ``proxyshade.kernels.patch`` (flood fill, components), ``kernels.correct``,
+``kernels.magnify``.
+"""
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+
+from proxyshade.kernels import correct as kcorrect
+from proxyshade.kernels import magnify as kmag
+from proxyshade.kernels import patch as kpatch
+from proxyshade.synthesis.exemplar import SynthesisSetup, grid_to_source
+
+
+def fill_patches(st: SynthesisSetup, fill: SimpleNamespace, *, seed: int, mask: np.ndarray | None = None,
+                 S: np.ndarray | None = None, patch: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, int]:
+    """Cover the synthesis-size guide (or its ``mask`` pixels, keeping ``S``/``patch``
+    elsewhere) with patches grown by flood fill at the finest level. ``fill``: the
+    ``FloodFill`` parameters. Returns (S exemplar (row, col) int32, patch ids, count)."""
+    fin = st.levels[-1]
+    return kpatch.flood_fill(fin.src_lab, fin.src_dist, fin.src_masks, fin.tgt_lab, fin.tgt_dist, fin.tgt_masks,
+                             seed=seed, w=fill.w, threshold_scale=fill.threshold_scale,
+                             threshold_offset=fill.threshold_offset, mask=mask, S=S, patch=patch)
+
+
+def similarity_sets(st: SynthesisSetup, corr: SimpleNamespace, *, seed: int) -> list:
+    """The exemplar's similarity sets per level (k nearest windows), for ``correct_map``."""
+    return kcorrect.level_similarity_sets(st.levels, corr.k, seed=seed, knn_iterations=corr.knn_iterations,
+                                          w=corr.w)
+
+
+def correct_map(st: SynthesisSetup, S0: np.ndarray, corr: SimpleNamespace, *, seed: int,
+                mask: np.ndarray | None = None, similarity: list | None = None) -> tuple[np.ndarray, list, dict]:
+    """k-coherent correction of the map ``S0`` (or of its ``mask`` pixels) from the
+    coarsest level up to the synthesis size, then ``repair_map``. ``corr``: the
+    ``Correction`` parameters. Returns (S, per-level stats, the repair's counts)."""
+    S, stats = kcorrect.synthesize(st.levels, S0, passes=corr.passes, passes_finest=corr.passes_finest, k=corr.k,
+                                   w=corr.w, seed=seed, knn_iterations=corr.knn_iterations, use_rgb=corr.use_rgb,
+                                   kappa=corr.kappa, mask=mask, radius_rule=corr.radius, similarity=similarity)
+    S, rep = repair_map(st, S)
+    return S, stats, rep
+
+
+def repair_map(st: SynthesisSetup, S: np.ndarray) -> tuple[np.ndarray, dict]:
+    """Pixels of the synthesis-size map that landed on an exemplar pixel of another label
+    than the guide's moved onto theirs (``kernels.magnify.repair_labels``)."""
+    return kmag.repair_labels(S, st.tgt_lab, st.ex_lab)
+
+
+def magnify_map(S: np.ndarray, factor: int, shape: tuple[int, int], *, scale: float,
+                target: np.ndarray | None = None, labels: np.ndarray | None = None,
+                only: np.ndarray | None = None):
+    """The exemplar map ``S`` magnified by ``factor`` to the output size ``shape`` (each
+    patch keeps its translation, the source is read at full detail). With ``target``,
+    pixels whose ``labels`` (the source's on the output-scale grid,
+    ``labels.working_labels``) differ from ``target`` are moved onto theirs; with
+    ``only``, just those pixels are (the others are taken to be where they land).
+
+    Returns (source.x, source.y float32, patch ids uint32 from 1, patch count, the
+    repair's counts)."""
+    Sw = kmag.magnify(S, factor, shape)
+    rep = {"wrong": 0, "extended": 0, "nearest": 0}
+    if target is not None:
+        if only is not None:
+            here = labels[np.clip(Sw[..., 0], 0, labels.shape[0] - 1), np.clip(Sw[..., 1], 0, labels.shape[1] - 1)]
+            target = np.where(only, target, here)
+        Sw, rep = kmag.repair_labels(Sw, target, labels)
+    patch, npatch = patch_ids(Sw)
+    return grid_to_source(Sw[..., 1], scale), grid_to_source(Sw[..., 0], scale), patch, npatch, rep
+
+
+def patch_ids(S: np.ndarray) -> tuple[np.ndarray, int]:
+    """Patches of a map: 4-connected regions of one translation (uint32 ids from 1), and
+    their count."""
+    return kpatch.offset_components(S)

@@ -1,0 +1,154 @@
+"""Local resynthesis of a carried frame (Bonneel et al. 2010, §6.3): the first frame's
+steps run again, restricted to the pixels Reproject flagged.
+
+"In areas flagged for resynthesis due to excessive distortion, texture synthesis is
+initialized with the existing distorted pixel colors. In the remaining areas flagged for
+resynthesis, floodfill is used. The rest of the texture synthesis process remains the
+same, except the Poisson solve being restricted to the newly synthesized areas with
+Dirichlet boundary conditions in order to avoid global changes in the image."
+
+At the synthesis size (output / ``factor``) a pixel is active when any of its output
+pixels is flagged; ``patches.fill_patches(mask=...)`` covers the active pixels flagged
+disoccluded or newly occluded (the others keep the carried coordinates: distorted areas
+start from their distorted map), ``patches.correct_map(mask=...)`` corrects all active
+pixels with the unflagged ones as fixed context, then ``patches.magnify_map`` writes the
+map into the flagged output pixels only and ``blend.blend_regions`` solves the Poisson
+equation on the flagged pixels. Unflagged pixels keep Reproject's colours and map exactly.
+"""
+from __future__ import annotations
+
+import time
+from types import SimpleNamespace
+from typing import Callable
+
+import numpy as np
+
+from proxyshade.graph.plate import Plate
+from proxyshade.kernels.correct import downsample_mask
+from proxyshade.kernels.lookup import lookup
+from proxyshade.synthesis import labels as L
+from proxyshade.synthesis.blend import blend_regions
+from proxyshade.synthesis.exemplar import setup
+from proxyshade.synthesis.memo import ArrayMemo
+from proxyshade.synthesis.params import Correction, FloodFill, PoissonSolve
+from proxyshade.synthesis.patches import correct_map, fill_patches, magnify_map, repair_map, similarity_sets
+from proxyshade.synthesis.temporal import CORRECTION, FLAG, frame_seed
+
+_SIMILARITY = ArrayMemo(2)  # similarity sets of the newest sources
+
+
+def exemplar_similarity(source: Plate, st, corr: SimpleNamespace, *, seed: int) -> list:
+    """``patches.similarity_sets`` of the exemplar: they depend on the source, the
+    exemplar geometry (factor, scale, levels) and the correction parameters, not on the
+    frame, so within one run they are searched once per source and reused."""
+    key = (st.factor, st.scale, len(st.levels), st.ex_lab.shape, tuple(sorted(vars(corr).items())), seed)
+    return _SIMILARITY.get((source["R"], source["label.id"]), key,
+                           lambda: similarity_sets(st, corr, seed=seed))
+
+
+def block_sample(a: np.ndarray, f: int, shape: tuple[int, int]) -> np.ndarray:
+    """The output pixel at the middle of each f×f block (clamped at the border)."""
+    rows = np.minimum(np.arange(shape[0]) * f + f // 2, a.shape[0] - 1)
+    cols = np.minimum(np.arange(shape[1]) * f + f // 2, a.shape[1] - 1)
+    return np.ascontiguousarray(a[rows][:, cols])
+
+
+def resynthesize(img: Plate, source: Plate, p, frame: int, *, note: Callable[[str], None] = lambda s: None,
+                 timings: dict | None = None) -> Plate:
+    """The flagged pixels of Reproject's plate ``img`` resynthesized. ``p``: the
+    parameters (``FloodFill``, ``Correction``, ``PoissonSolve`` groups, ``factor``,
+    ``scale``, ``seed``, ``solve``); per-stage seconds are added to ``timings`` (features,
+    flood fill, corrections, magnify, Poisson) for the bench."""
+    tm = timings if timings is not None else {}
+    t = time.perf_counter()
+
+    def lap(name):
+        nonlocal t
+        now = time.perf_counter()
+        tm[name] = tm.get(name, 0.0) + now - t
+        t = now
+
+    flag = img["flag"]
+    flagged = flag != 0
+    nflag = int(flagged.sum())
+    if nflag == 0:
+        note("nothing flagged")
+        return img.with_channels(meta={"resynthesis": {"pixels": 0, "share": 0.0}})
+    syn = img.meta.get("synthesis", {}) if isinstance(img.meta.get("synthesis"), dict) else {}
+    f = p.factor if p.factor is not None else int(syn.get("factor", 4))
+    scale = p.scale if p.scale is not None else float(syn.get("scale", 1.0))
+    redo = flagged & (flag != FLAG["reanchored"])  # re-anchored patches keep their map: Poisson only
+    sx, sy, patch, rgb = img["source.x"], img["source.y"], img["patch.id"], img.rgb()
+    info = {"pixels": nflag, "share": nflag / flagged.size, "resynthesized": int(redo.sum()),
+            "synthesis_pixels": 0, "flood_filled": 0, "patches": 0, "repaired": 0}
+    ex_factor = syn.get("exemplar_factor")
+    filt = img.meta.get("temporal", {}).get("filter", "bilinear")  # Reproject's, so kept and new pixels match
+    if redo.any():
+        sx, sy, patch, rgb, ex_factor = _synthesize(img, source, p, redo, f, scale, frame_seed(p.seed, frame),
+                                                    info, lap, filt)
+    lap("magnify")
+    out = {}
+    if p.solve:
+        before = rgb
+        rgb, pinfo = blend_regions(rgb, patch, img["label.id"], flagged, PoissonSolve.of(p),
+                                   source_rgb=source.rgb(), sx=sx, sy=sy, scale=scale, filter=filt)
+        if all(c in img for c in CORRECTION):  # flagged pixels were the source through the map: add the solve's change
+            corr = np.where(flagged[..., None], rgb - before, img.layer(CORRECTION))
+            out.update({c: corr[..., k].astype(np.float32) for k, c in enumerate(CORRECTION)})
+        note(f"Poisson on {pinfo['windows']} windows ({pinfo['window_pixels']} px), at most "
+             f"{pinfo['iterations']} iterations, residual {pinfo['residual']:.1e}")
+    lap("Poisson")
+    note(f"flagged {100 * info['share']:.2f}% ({nflag} px; {info['resynthesized']} resynthesized, "
+         f"{info['synthesis_pixels']} synthesis px, {info['flood_filled']} flood-filled)")
+    meta = dict(img.meta)
+    meta["resynthesis"] = info
+    meta["synthesis"] = dict(syn, factor=f, scale=scale, exemplar_factor=ex_factor)
+    out.update({"R": rgb[..., 0].copy(), "G": rgb[..., 1].copy(), "B": rgb[..., 2].copy(), "source.x": sx,
+                "source.y": sy, "patch.id": patch})
+    # without the solve here the correction is a later Poisson node's: drop it rather than carry it stale
+    return img.with_channels(out, meta=meta, drop=() if p.solve else CORRECTION)
+
+
+def _synthesize(img: Plate, source: Plate, p, redo: np.ndarray, f: int, scale: float, seed: int, info: dict, lap,
+                filt: str):
+    """The first frame's steps on the pixels in ``redo``; the rest keep the carried map.
+    Returns source.x, source.y, patch.id, RGB and the exemplar factor."""
+    flag = img["flag"]
+    table = L.source_table(source)
+    n = len(table)
+    H, W = img.shape
+    g = L.dense_guide(img["label.id"], table, "image")
+    tgt = L.guide_at_synthesis(g, f, n)
+    st = setup(source, tgt, table, factor=f, scale=scale, coarse_size=p.coarse_size, max_distance=p.max_distance,
+               with_rgb=p.use_rgb)
+    shape = tgt.shape
+    lap("features")
+    active = downsample_mask(redo, f, shape)
+    fresh = downsample_mask((flag == FLAG["disoccluded"]) | (flag == FLAG["newly_occluded"]), f, shape)
+    S = st.from_source(block_sample(img["source.x"], f, shape), block_sample(img["source.y"], f, shape))
+    patch_s = block_sample(img["patch.id"], f, shape).astype(np.int64, copy=False)
+    npatch = 0
+    if fresh.any():
+        S, patch_s, npatch = fill_patches(st, FloodFill.of(p), seed=seed, mask=fresh, S=S, patch=patch_s)
+    lap("flood fill")
+    corr = Correction.of(p)
+    if p.passes > 0 or p.passes_finest > 0:
+        S, _, _ = correct_map(st, S, corr, seed=p.seed, mask=active,
+                              similarity=exemplar_similarity(source, st, corr, seed=p.seed))
+    else:
+        S, _ = repair_map(st, S)
+    lap("corrections")
+    # magnify to the output size and repair labels against the detailed labels; only redo
+    # pixels take the new map: the others are told the label they land on (nothing to repair)
+    wl = L.working_labels(L.source_dense(source, table), scale, n)
+    sx_new, sy_new, new_patch, _, rep = magnify_map(S, f, (H, W), scale=scale, target=g, labels=wl, only=redo)
+    base = np.uint32(int(img["patch.id"].max()) + 1)
+    sx = np.where(redo, sx_new, img["source.x"]).astype(np.float32, copy=False)
+    sy = np.where(redo, sy_new, img["source.y"]).astype(np.float32, copy=False)
+    patch = np.where(redo, new_patch + base, img["patch.id"]).astype(np.uint32, copy=False)
+    rgb = img.rgb()
+    ii, jj = np.nonzero(redo)
+    rgb[ii, jj] = lookup(source.rgb(), sx[ii, jj][None], sy[ii, jj][None], filter=filt)[0]
+    info.update(synthesis_pixels=int(active.sum()), flood_filled=int(fresh.sum()), patches=int(npatch),
+                repaired=int(rep["wrong"]))
+    return sx, sy, patch, rgb, st.ex_factor

@@ -1,0 +1,240 @@
+"""Temporal coherence of the synthesis state (Bonneel et al. 2010, §6): the first
+frame's grid carried to later frames (§6.1, ConsistentDepth) and the previous frame's
+coordinate map carried into this one, with its flags (§6.2, Reproject): distortion of the
+carried map, re-anchoring of distorted patches, continuation of fragments and
+disocclusions, cleaning of the flags.
+
+Flags (uint32 ``flag``): 0 kept, 1 disoccluded, 2 newly occluded, 3 distorted
+(resynthesized), 4 re-anchored (the new map kept; only the Poisson solve is redone).
+``CORRECTION`` is the carried Poisson correction: the colour minus the source through
+the map. Kernels: ``proxyshade.kernels.reproject``, ``proxyshade.kernels.temporal``.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from proxyshade.errors import NodeInputError
+from proxyshade.io.usd import CameraInfo
+from proxyshade.kernels import reproject as kr
+from proxyshade.kernels import temporal as kt
+from proxyshade.kernels.lookup import lookup
+from proxyshade.synthesis.memo import ArrayMemo
+
+CATEGORY = {"A": 1, "B": 2, "C": 3, "D": 4}  # ConsistentDepth's pixel kinds (see that node)
+FLAG = {"none": 0, "disoccluded": 1, "newly_occluded": 2, "distorted": 3, "reanchored": 4}
+CATEGORY_C = CATEGORY["C"]
+STATE = ("R", "G", "B", "source.x", "source.y", "patch.id", "label.id")
+CORRECTION = ("correction.R", "correction.G", "correction.B")  # colour minus the source through the map
+
+
+def newly_occluded(cat, u, v, ok, lab, prev_lab) -> np.ndarray:
+    """Category-C pixels (ConsistentDepth: the proxy now hides what the first frame saw)
+    that land on a pixel of another label in the previous frame: what was visible there
+    is now occluded by an object."""
+    out = (cat == CATEGORY_C) & ok
+    ii, jj = np.nonzero(out)
+    hp, wp = prev_lab.shape
+    c = np.floor(u[ii, jj]).astype(np.int64, copy=False)
+    r = np.floor(v[ii, jj]).astype(np.int64, copy=False)
+    inside = (c >= 0) & (r >= 0) & (c < wp) & (r < hp)
+    other = np.ones(len(ii), bool)
+    other[inside] = prev_lab[r[inside], c[inside]] != lab[ii[inside], jj[inside]]
+    out[ii, jj] = other
+    return out
+
+
+def fits_source(src_lab: np.ndarray, sx: np.ndarray, sy: np.ndarray, lab: np.ndarray, mask: np.ndarray) -> np.ndarray:
+    """Pixels of ``mask`` whose source position lies inside the source (no clamped,
+    smeared edge pixels) on a pixel of their label."""
+    out = np.zeros(mask.shape, bool)
+    ii, jj = np.nonzero(mask)
+    x, y = sx[ii, jj], sy[ii, jj]
+    hs, ws = src_lab.shape
+    inside = (x >= 0) & (y >= 0) & (x <= ws - 1) & (y <= hs - 1)
+    out[ii, jj] = inside & (lookup(src_lab, x[None], y[None])[0] == lab[ii, jj])
+    return out
+
+
+def patch_thresholds(patch: np.ndarray, threshold: float, spread: float, seed: int) -> np.ndarray:
+    """Each pixel's distortion threshold: its patch's, uniform in [(1 − spread)·threshold,
+    threshold], hashed from the patch id and the seed (the same for the patch's whole
+    life, so it is flagged once, whole, when its deviation crosses it)."""
+    if spread <= 0:
+        return np.full(patch.shape, threshold, np.float32)
+    u = kt.hash_field(seed, np.ascontiguousarray(patch, np.uint32))
+    return (threshold * (1.0 - spread * u)).astype(np.float32, copy=False)
+
+
+def reanchor_distorted(have, patch, D, sx, sy, scale, threshold, spread, seed):
+    """Patches whose mean map deviation crosses their threshold (``patch_thresholds``),
+    whole, and their maps re-anchored: a patch's map becomes the plain copy (a
+    translation at the synthesis scale) through its mean position and mean source
+    position, so its texture stays where it was near its middle and the distortion is
+    gone. Returns (distorted (H, W) bool, sx, sy)."""
+    ids = patch[have].astype(np.int64, copy=False)
+    if ids.size == 0:
+        return np.zeros(have.shape, bool), sx, sy
+    n = int(ids.max()) + 1
+    count = np.bincount(ids, minlength=n).astype(np.float64)
+    mean_d = np.bincount(ids, weights=D[have], minlength=n) / np.maximum(count, 1)
+    ids_all = np.arange(n, dtype=np.uint32)[None]
+    bad = mean_d > patch_thresholds(ids_all, threshold, spread, seed)[0]
+    bad[0] = False  # patch 0: no patch
+    distorted = have & bad[np.minimum(patch, n - 1)]
+    if not distorted.any():
+        return distorted, sx, sy
+    ii, jj = np.nonzero(distorted)
+    pid = patch[ii, jj].astype(np.int64)
+    c = np.maximum(np.bincount(pid, minlength=n), 1).astype(np.float64)
+    mi = np.bincount(pid, weights=ii, minlength=n) / c
+    mj = np.bincount(pid, weights=jj, minlength=n) / c
+    mx = np.bincount(pid, weights=sx[ii, jj], minlength=n) / c
+    my = np.bincount(pid, weights=sy[ii, jj], minlength=n) / c
+    sx = sx.copy()
+    sy = sy.copy()
+    sx[ii, jj] = mx[pid] + (jj - mj[pid]) * scale
+    sy[ii, jj] = my[pid] + (ii - mi[pid]) * scale
+    return distorted, sx, sy
+
+
+def patch_width(have: np.ndarray, ids: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """(area, width) of each patch id < n over the ``have`` pixels: width = 2 × area /
+    perimeter (edges to another patch, an unkept pixel or the image border): a strip's
+    width, half a square's side."""
+    area = np.bincount(ids[have], minlength=n)
+    m = np.pad(np.where(have, ids, -1), 1, constant_values=-1)
+    h, w = ids.shape
+    per = np.zeros(n)
+    for di, dj in ((0, 1), (0, -1), (1, 0), (-1, 0)):
+        edge = have & (m[1 + di:1 + di + h, 1 + dj:1 + dj + w] != ids)
+        per += np.bincount(ids[edge], minlength=n)
+    return area, 2.0 * area / np.maximum(per, 1.0)
+
+
+def absorb_fragments(have, patch, lab, sx, sy, scale, min_area, src_lab, min_width=0.0):
+    """Patches smaller than ``min_area`` pixels or thinner than ``min_width`` (slivers left
+    by continuation, patches that shrank or were sheared thin on screen) continue the
+    neighbouring patch they touch most, with its
+    translation at the contact, where the continued copy stays on their label inside the
+    source: one copy where there were two seams. Returns (absorbed (H, W) bool, sx, sy,
+    patch)."""
+    none = np.zeros(have.shape, bool)
+    if min_area <= 1:
+        return none, sx, sy, patch
+    ids = patch.astype(np.int64, copy=False)
+    n = int(ids.max()) + 1
+    area, width = patch_width(have, ids, n)
+    frag = (area < min_area) | (width < min_width)
+    small = have & frag[ids] & (patch != 0)
+    if not small.any():
+        return none, sx, sy, patch
+    H, W = have.shape
+    ii, jj = np.nonzero(small)
+    pairs = []
+    for di, dj in ((0, 1), (0, -1), (1, 0), (-1, 0)):
+        a, b = ii + di, jj + dj
+        inside = (a >= 0) & (a < H) & (b >= 0) & (b < W)
+        a, b, i0, j0 = a[inside], b[inside], ii[inside], jj[inside]
+        ok = have[a, b] & (lab[a, b] == lab[i0, j0]) & (ids[a, b] != ids[i0, j0]) & ~frag[ids[a, b]]
+        pairs.append(np.stack([ids[i0[ok], j0[ok]], ids[a[ok], b[ok]], a[ok], b[ok]], 1))
+    pairs = np.concatenate(pairs)
+    if not len(pairs):
+        return none, sx, sy, patch
+    # per small patch: the neighbour with the most contacts (ties: the lower id), and its
+    # translation at the first contact pixel in scan order
+    order = np.lexsort((pairs[:, 2] * W + pairs[:, 3], pairs[:, 1], pairs[:, 0]))
+    pairs = pairs[order]
+    key = pairs[:, 0] * n + pairs[:, 1]
+    uk, first, count = np.unique(key, return_index=True, return_counts=True)
+    small_id, target = uk // n, uk % n
+    best = np.lexsort((target, -count, small_id))
+    keep = np.ones(len(best), bool)
+    keep[1:] = small_id[best][1:] != small_id[best][:-1]
+    best = best[keep]
+    src = pairs[first[best]]
+    ox = np.full(n, np.nan)
+    oy = np.full(n, np.nan)
+    tg = np.zeros(n, np.int64)
+    ox[src[:, 0]] = sx[src[:, 2], src[:, 3]] - src[:, 3] * scale
+    oy[src[:, 0]] = sy[src[:, 2], src[:, 3]] - src[:, 2] * scale
+    tg[src[:, 0]] = src[:, 1]
+    pid = ids[ii, jj]
+    go = ~np.isnan(ox[pid])
+    ii, jj, pid = ii[go], jj[go], pid[go]
+    nsx, nsy = sx.copy(), sy.copy()
+    nsx[ii, jj] = (ox[pid] + jj * scale).astype(np.float32)
+    nsy[ii, jj] = (oy[pid] + ii * scale).astype(np.float32)
+    moved = np.zeros(have.shape, bool)
+    moved[ii, jj] = True
+    fits = fits_source(src_lab, nsx, nsy, lab, moved)
+    # all or nothing per patch: a half-absorbed fragment would leave a seam inside it
+    bad = np.bincount(pid, weights=~fits[ii, jj], minlength=n) > 0
+    ok = ~bad[pid]
+    absorbed = np.zeros(have.shape, bool)
+    absorbed[ii[ok], jj[ok]] = True
+    sx = np.where(absorbed, nsx, sx).astype(np.float32, copy=False)
+    sy = np.where(absorbed, nsy, sy).astype(np.float32, copy=False)
+    patch = patch.copy()
+    patch[ii[ok], jj[ok]] = tg[pid[ok]].astype(np.uint32)
+    return absorbed, sx, sy, patch
+
+
+def clean_flags(raw: np.ndarray, *, radius: int, min_neighbours: int, dilate: int) -> np.ndarray:
+    """Remove isolated flags (``kt.remove_isolated``), dilate the disoccluded and newly
+    occluded ones (``kt.dilate``; distorted pixels are whole patches, re-anchored, with
+    nothing to blend into around them); dilated pixels take the reason of a flag they
+    grew from, 2 before 1."""
+    anyf = raw > 0
+    kept = kt.remove_isolated(anyf, radius, min_neighbours) if min_neighbours > 0 else anyf
+    out = np.where(kept, raw, 0).astype(np.uint32, copy=False)
+    if dilate <= 0:
+        return out
+    todo = ~kept
+    for reason in (FLAG["newly_occluded"], FLAG["disoccluded"]):
+        if not todo.any():
+            break
+        m = kt.dilate(out == reason, dilate) & todo
+        out[m] = reason
+        todo &= ~m
+    return out
+
+
+_GRID = ArrayMemo(2)  # Frame0 of the newest first frames
+
+
+class Frame0:
+    """What the first frame contributes to every later frame: inverse depth, grid corners,
+    which pixels the frame-0 proxy hid (``occluded``) and which lay on it (``on_proxy``)."""
+
+    def __init__(self, Z0, lab0, Zp0, cut_tol: float, tol: float):
+        self.w0 = kr.inverse_depth(Z0)
+        self.cw = kr.grid_corners(self.w0, np.ascontiguousarray(lab0, np.uint32), cut_tol)
+        self.keep = np.isfinite(self.w0)
+        if Zp0 is not None:
+            wp0 = kr.inverse_depth(Zp0)
+            self.occluded = wp0 > self.w0 * (1.0 + tol)  # the proxy was in front of the guide's surface
+            self.on_proxy = np.abs(wp0 - self.w0) <= tol * np.maximum(wp0, self.w0)
+        else:
+            self.occluded = np.zeros(self.w0.shape, bool)
+            self.on_proxy = np.ones(self.w0.shape, bool)
+
+
+def frame0_grid(Z0: np.ndarray, lab0: np.ndarray, Zp0: np.ndarray | None, cut_tol: float, tol: float) -> Frame0:
+    """``Frame0`` of the first frame's plates. It depends on the first frame only: within one
+    run every later frame passes the same arrays, so it is kept (``memo.ArrayMemo``)
+    instead of being rebuilt each frame."""
+    return _GRID.get((Z0, lab0, Zp0), (cut_tol, tol), lambda: Frame0(Z0, lab0, Zp0, cut_tol, tol))
+
+
+def camera_of(name: str, *plates) -> CameraInfo:
+    """The camera in the first plate's metadata that has one (a ProxyRender's)."""
+    for p in plates:
+        if p is not None and isinstance(p.meta.get("camera"), dict):
+            return CameraInfo.from_meta(p.meta["camera"])
+    raise NodeInputError(f"input '{name}' has no camera in its metadata (meta['camera']); connect a plate derived "
+                         "from ProxyRender (GuideSynth, DepthExtend and Magnify pass it on)")
+
+
+def frame_seed(seed: int, frame: int) -> int:
+    """The noise seed of one frame (non-negative, differs frame to frame)."""
+    return (int(seed) * 1_000_003 + int(frame) * 7919 + 17) % (1 << 62)
