@@ -25,6 +25,7 @@ from pathlib import Path
 from typing import Any
 
 import networkx as nx
+import numba
 
 from proxyshade.errors import CycleError, GraphFileError, ParamError, UserError
 from proxyshade.graph import keys as K
@@ -33,6 +34,15 @@ from proxyshade.graph.executor import make_executor
 from proxyshade.graph.node import REGISTRY, Context, InputRef, Node, PlateSequence, resolve_path
 from proxyshade.graph.plate import Plate
 from proxyshade.io.graphfile import load_graph
+
+
+def set_kernel_threads(threads: int) -> int:
+    """Threads the numba kernels called from this thread use: ``threads`` (0: every one
+    numba has, ``NUMBA_NUM_THREADS``), at most that many. Returns the count set."""
+    n = numba.config.NUMBA_NUM_THREADS
+    n = min(threads, n) if threads > 0 else n
+    numba.set_num_threads(n)
+    return n
 
 
 @dataclass
@@ -402,6 +412,7 @@ class Graph:
             src = (ref.node, ref.frame(frame, first)) if ref else None
             inputs[inp] = self._value(plan, src) if src in plan.keys else None
         ctx = Context(node, frame, first, inputs, dict(node.params), self.graph_dir, plan.threads, nr.notes)
+        set_kernel_threads(plan.threads)  # numba's thread count is per calling thread: set it in this worker
         t = time.perf_counter()
         try:
             node.check_inputs(inputs)

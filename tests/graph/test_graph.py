@@ -345,3 +345,31 @@ def test_sequence_input_needs_frame_all(tmp_path):
     with pytest.raises(GraphFileError, match=r"nodes.seq.inputs.image: _TSeq reads the whole sequence here; "
                                              r"connect it as \{node: f, frame: all\}$"):
         g.instances([1])
+
+
+class _TThreads(Node, register=False):
+    """Records how many threads numba kernels would use in its compute."""
+
+    time_dependent = True
+
+    seen: list = []
+
+    def compute(self, ctx):
+        import numba
+
+        _TThreads.seen.append(numba.get_num_threads())
+        return Plate({"R": np.zeros((2, 2), np.float32)})
+
+
+@pytest.mark.parametrize("jobs", [1, 2])
+def test_threads_sets_numba_threads_in_every_node(tmp_path, jobs):
+    import numba
+
+    g = Graph(graph_dir=tmp_path, frames=(1, 2), cache=tmp_path / "cache")
+    g.add("t", _TThreads, {})
+    _TThreads.seen.clear()
+    g.run([1, 2], jobs=jobs, threads=1, force=("t",))
+    assert _TThreads.seen == [1, 1]
+    _TThreads.seen.clear()
+    g.run([1, 2], jobs=jobs, threads=0, force=("t",))
+    assert _TThreads.seen == [numba.config.NUMBA_NUM_THREADS] * 2
