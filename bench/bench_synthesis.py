@@ -28,6 +28,7 @@ from proxyshade.graph.plate import Plate  # noqa: E402
 from proxyshade.graph.testing import run_node  # noqa: E402
 from proxyshade.io.source import labels_from_map, load_source  # noqa: E402
 from proxyshade.kernels import correct as kc  # noqa: E402
+from proxyshade.kernels.random import mix_seed  # noqa: E402
 from proxyshade.kernels import features as kf  # noqa: E402
 from proxyshade.kernels import magnify as km  # noqa: E402
 from proxyshade.kernels import patch as kp  # noqa: E402
@@ -67,7 +68,7 @@ def stages(sample: str, repeat: int) -> tuple[list, dict]:
         knns = [None] * len(st.levels)
         for l in range(len(st.levels) - 1, -1, -1):
             init = knns[l + 1] if l + 1 < len(st.levels) else None
-            knns[l] = kc.similarity_sets(st.levels[l], 2, seed=7919 * l, iterations=2 if init is None else 1,
+            knns[l] = kc.similarity_sets(st.levels[l], 2, seed=mix_seed(0, l), iterations=2 if init is None else 1,
                                          init=init)
         state["st"] = st
 

@@ -34,6 +34,7 @@ import numpy as np
 from numba import njit, prange
 
 from proxyshade.kernels._config import JIT, PJIT
+from proxyshade.kernels.random import mix_seed, rand
 from proxyshade.kernels.features import NB2, chamfer_masks, dist_sq_D, dist_sq_rgb, gather_target
 
 WINDOW = 4  # half side of the 9x9 repetition window
@@ -41,23 +42,6 @@ WINDOW = 4  # half side of the 9x9 repetition window
 
 # ---------------------------------------------------------------------------
 # hashing: explicit randomness, one stream per (seed, level, pixel, draw)
-
-
-@njit(**JIT)
-def _mix(x):
-    x = (x ^ (x >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
-    x = (x ^ (x >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
-    return x ^ (x >> np.uint64(31))
-
-
-@njit(**JIT)
-def _rand(seed, a, b, c):
-    """Uniform integer in [0, 2^53) from four keys."""
-    x = _mix(np.uint64(seed) + np.uint64(0x9E3779B97F4A7C15))
-    x = _mix(x ^ np.uint64(a))
-    x = _mix(x ^ np.uint64(b))
-    x = _mix(x ^ np.uint64(c))
-    return np.int64(x >> np.uint64(11))
 
 
 # ---------------------------------------------------------------------------
@@ -120,7 +104,7 @@ def _knn_init(src_lab, src_dist, src_rgb, src_masks, h, k, excl, w, seed, starts
             l = src_lab[y, x]
             n = starts[l + 1] - starts[l]
             for t in range(2 * k):
-                c = lists[starts[l] + _rand(seed, y * W + x, 0x1000 + t, h) % n]
+                c = lists[starts[l] + rand(seed, y * W + x, 0x1000 + t, h) % n]
                 cy = c // W
                 cx = c % W
                 if max(abs(cy - y), abs(cx - x)) <= excl:
@@ -166,9 +150,9 @@ def _knn_iter(src_lab, src_dist, src_rgb, src_masks, h, k, excl, w, seed, it, oy
                 bx = lx[t]
                 R = max(H, W) // 2
                 while R >= 1:
-                    cy = by + _rand(seed, y * W + x, it * 4096 + draw, h) % (2 * R + 1) - R
+                    cy = by + rand(seed, y * W + x, it * 4096 + draw, h) % (2 * R + 1) - R
                     draw += 1
-                    cx = bx + _rand(seed, y * W + x, it * 4096 + draw, h) % (2 * R + 1) - R
+                    cx = bx + rand(seed, y * W + x, it * 4096 + draw, h) % (2 * R + 1) - R
                     draw += 1
                     R //= 2
                     if cy < 0 or cy >= H or cx < 0 or cx >= W:
@@ -466,7 +450,7 @@ def level_similarity_sets(levels: list, k: int, *, seed: int = 0, knn_iterations
     knns = [None] * L
     for l in range(L - 1, -1, -1):  # finest first: coarser lists start from finer ones
         init = knns[l + 1] if l + 1 < L else None
-        knns[l] = similarity_sets(levels[l], k, seed=seed + 7919 * l, iterations=knn_iterations if init is None else 1,
+        knns[l] = similarity_sets(levels[l], k, seed=mix_seed(seed, l), iterations=knn_iterations if init is None else 1,
                                   w=w, init=init) if k > 0 else np.zeros(ex_shape + (0, 2), np.int32)
     return knns
 

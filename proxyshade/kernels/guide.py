@@ -32,7 +32,7 @@ from proxyshade.kernels._config import JIT, PJIT
 from proxyshade.kernels.chamfer import chamfer_bounded, chamfer_masks
 from proxyshade.kernels.features import window_masks
 from proxyshade.kernels.patch import _label_lists
-from proxyshade.kernels.temporal import hash_uniform
+from proxyshade.kernels.random import uniform
 
 NB = 5
 R = 2
@@ -99,8 +99,8 @@ def similarity_sets(lab, masks, col, h, k, sample, seed, metric):
                 _color_window(col, y, x, h, fa)
             nt = 0
             for s in range(sample):
-                cy = int(hash_uniform(seed, y * We + x, 2 * s) * He)
-                cx = int(hash_uniform(seed, y * We + x, 2 * s + 1) * We)
+                cy = int(uniform(seed, y * We + x, 2 * s, 0) * He)
+                cx = int(uniform(seed, y * We + x, 2 * s + 1, 0) * We)
                 cand[s, 0] = cy
                 cand[s, 1] = cx
                 if abs(cy - y) <= 2 * h and abs(cx - x) <= 2 * h:
@@ -167,7 +167,7 @@ def _init_state(target, He, We, starts, lists, seed):
     for i in prange(H):
         for j in range(W):
             l = target[i, j]
-            u = hash_uniform(seed, i, j)
+            u = uniform(seed, i, j, 0)
             cnt = starts[l + 1] - starts[l]
             if cnt > 0:
                 f = lists[starts[l] + int(u * cnt)]

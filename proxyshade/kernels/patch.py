@@ -21,6 +21,7 @@ import numpy as np
 from numba import njit, prange
 
 from proxyshade.kernels._config import JIT, PJIT
+from proxyshade.kernels.random import permutation
 from proxyshade.kernels.features import NB2, chamfer_masks, dist_sq_D, gather_target
 
 
@@ -202,7 +203,7 @@ def flood_fill(src_lab: np.ndarray, src_dist: np.ndarray, src_masks: np.ndarray,
         S = np.ascontiguousarray(S, dtype=np.int32).copy()
         patch = np.ascontiguousarray(patch, dtype=np.int64).copy()
         first = int(patch.max()) + 1 if patch.size else 1
-    order = np.random.default_rng(seed).permutation(Ht * Wt).astype(np.int64)
+    order = permutation(seed, Ht * Wt)
     r = _flood_fill(np.ascontiguousarray(src_lab, np.int32), np.ascontiguousarray(src_dist, np.float32),
                     np.ascontiguousarray(src_masks), np.ascontiguousarray(tgt_lab, np.int32),
                     np.ascontiguousarray(tgt_dist, np.float32), np.ascontiguousarray(tgt_masks), order, free, S,

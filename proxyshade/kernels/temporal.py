@@ -8,7 +8,7 @@ isolated pixels in 5×5 neighborhoods. We dilate remaining flagged regions."
 
 Here the distortion is read off the carried coordinate map itself (``map_deviation``:
 ‖J − I‖, which also sees shear), and the noise is one threshold per patch
-(``hash_field`` of its id) rather than a per-frame perturbation.
+(``kernels.random.uniform_field`` of its id) rather than a per-frame perturbation.
 
 Pure functions on arrays. Randomness is a hash of (seed, row, column), never a global
 generator, so serial and parallel runs agree bit for bit.
@@ -19,17 +19,6 @@ import numpy as np
 from numba import njit, prange
 
 from proxyshade.kernels._config import JIT, PJIT
-
-
-@njit(**JIT)
-def hash_uniform(seed, i, j):
-    """A uniform float in [0, 1) from (seed, i, j): splitmix64 of the packed triple."""
-    z = np.uint64(seed) * np.uint64(0x9E3779B97F4A7C15) + np.uint64(i) * np.uint64(0xBF58476D1CE4E5B9) \
-        + np.uint64(j) * np.uint64(0x94D049BB133111EB) + np.uint64(0x632BE59BD9B4E019)
-    z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
-    z = (z ^ (z >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
-    z = z ^ (z >> np.uint64(31))
-    return float(z >> np.uint64(11)) * (1.0 / 9007199254740992.0)
 
 
 LEFT, RIGHT, UP, DOWN = 1, 2, 4, 8  # neighbour-link bits
@@ -189,18 +178,6 @@ def dilate(flags, radius):
                 nxt = i
             if nxt - i <= radius:
                 out[i, j] = True
-    return out
-
-
-@njit(**PJIT)
-def hash_field(seed, ids):
-    """``hash_uniform(seed, id, 0)`` for each entry of an (H, W) id map (float32): one
-    random number per id, the same wherever and whenever the id appears."""
-    h, w = ids.shape
-    out = np.empty((h, w), np.float32)
-    for i in prange(h):
-        for j in range(w):
-            out[i, j] = hash_uniform(seed, ids[i, j], 0)
     return out
 
 

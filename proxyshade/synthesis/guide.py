@@ -15,6 +15,7 @@ import numpy as np
 from proxyshade.errors import NodeInputError
 from proxyshade.graph.plate import Plate
 from proxyshade.kernels import guide as kg
+from proxyshade.kernels.random import mix_seed
 from proxyshade.kernels.voting import vote_down, vote_filter
 from proxyshade.synthesis.labels import dense_guide, source_table
 
@@ -129,7 +130,7 @@ def synthesize_guide(proxy: Plate, source: Plate, gp: SimpleNamespace) -> tuple[
         else:
             ex_col = np.zeros((1, 1, 3))
             tgt_col = np.zeros((1, 1, 75))
-        sim = kg.similarity_sets(e_l, masks, ex_col, h, gp.k, gp.sample, gp.seed * 7919 + l, metric)
+        sim = kg.similarity_sets(e_l, masks, ex_col, h, gp.k, gp.sample, mix_seed(gp.seed, l), metric)
         if S is None:
             S = kg.init_state(t_l, e_l, gp.seed)
         else:

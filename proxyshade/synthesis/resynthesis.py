@@ -26,13 +26,14 @@ import numpy as np
 from proxyshade.graph.plate import Plate
 from proxyshade.kernels.correct import downsample_mask
 from proxyshade.kernels.lookup import lookup
+from proxyshade.kernels.random import mix_seed
 from proxyshade.synthesis import labels as L
 from proxyshade.synthesis.blend import blend_regions
 from proxyshade.synthesis.exemplar import setup
 from proxyshade.synthesis.memo import ArrayMemo
 from proxyshade.synthesis.params import Correction, FloodFill, PoissonSolve
 from proxyshade.synthesis.patches import correct_map, fill_patches, magnify_map, repair_map, similarity_sets
-from proxyshade.synthesis.temporal import CORRECTION, FLAG, frame_seed
+from proxyshade.synthesis.temporal import CORRECTION, FLAG
 
 _SIMILARITY = ArrayMemo(2)  # similarity sets of the newest sources
 
@@ -84,7 +85,7 @@ def resynthesize(img: Plate, source: Plate, p, frame: int, *, note: Callable[[st
     ex_factor = syn.get("exemplar_factor")
     filt = img.meta.get("temporal", {}).get("filter", "bilinear")  # Reproject's, so kept and new pixels match
     if redo.any():
-        sx, sy, patch, rgb, ex_factor = _synthesize(img, source, p, redo, f, scale, frame_seed(p.seed, frame),
+        sx, sy, patch, rgb, ex_factor = _synthesize(img, source, p, redo, f, scale, mix_seed(p.seed, frame),
                                                     info, lap, filt)
     lap("magnify")
     out = {}

@@ -18,6 +18,7 @@ from proxyshade.io.usd import CameraInfo
 from proxyshade.kernels import reproject as kr
 from proxyshade.kernels import temporal as kt
 from proxyshade.kernels.lookup import lookup
+from proxyshade.kernels.random import uniform_field
 from proxyshade.synthesis.memo import ArrayMemo
 
 CATEGORY = {"A": 1, "B": 2, "C": 3, "D": 4}  # ConsistentDepth's pixel kinds (see that node)
@@ -61,7 +62,7 @@ def patch_thresholds(patch: np.ndarray, threshold: float, spread: float, seed: i
     life, so it is flagged once, whole, when its deviation crosses it)."""
     if spread <= 0:
         return np.full(patch.shape, threshold, np.float32)
-    u = kt.hash_field(seed, np.ascontiguousarray(patch, np.uint32))
+    u = uniform_field(seed, np.ascontiguousarray(patch, np.uint32))
     return (threshold * (1.0 - spread * u)).astype(np.float32, copy=False)
 
 
@@ -233,8 +234,3 @@ def camera_of(name: str, *plates) -> CameraInfo:
             return CameraInfo.from_meta(p.meta["camera"])
     raise NodeInputError(f"input '{name}' has no camera in its metadata (meta['camera']); connect a plate derived "
                          "from ProxyRender (GuideSynth, DepthExtend and Magnify pass it on)")
-
-
-def frame_seed(seed: int, frame: int) -> int:
-    """The noise seed of one frame (non-negative, differs frame to frame)."""
-    return (int(seed) * 1_000_003 + int(frame) * 7919 + 17) % (1 << 62)

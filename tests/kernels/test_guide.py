@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from proxyshade.kernels import guide as kg
-from proxyshade.kernels.temporal import hash_uniform
+from proxyshade.kernels.random import uniform
 
 from tests.kernels.naive_synthesis import window
 from tests.kernels.test_chamfer import chamfer_ref
@@ -33,8 +33,8 @@ def similarity_ref(lab, h, k, sample, seed):
         for x in range(We):
             draws = []
             for s in range(sample):
-                cy = int(hash_uniform(seed, y * We + x, 2 * s) * He)
-                cx = int(hash_uniform(seed, y * We + x, 2 * s + 1) * We)
+                cy = int(uniform(seed, y * We + x, 2 * s, 0) * He)
+                cx = int(uniform(seed, y * We + x, 2 * s + 1, 0) * We)
                 if abs(cy - y) <= 2 * h and abs(cx - x) <= 2 * h:
                     continue
                 draws.append((chamfer_ref(window(lab, y, x, h), window(lab, cy, cx, h)), s, (cy, cx)))

@@ -137,14 +137,6 @@ def test_poisson_regions_equal_the_whole_frame_solve(screen, small):
     np.testing.assert_allclose(got, ref, atol=2e-4)
 
 
-def test_hash_field_is_one_number_per_id():
-    ids = np.array([[3, 3, 9], [9, 0, 3]], np.uint32)
-    f = T.hash_field(11, ids)
-    assert f[0, 0] == f[0, 1] == f[1, 2] and f[0, 2] == f[1, 0]
-    assert f[0, 0] == np.float32(T.hash_uniform(11, 3, 0)) and 0 <= f.min() and f.max() < 1
-    assert not np.array_equal(f, T.hash_field(12, ids))
-
-
 def test_map_deviation_matches_reference():
     rng = np.random.default_rng(4)
     sx, sy = rng.random((2, 9, 11)) * 20

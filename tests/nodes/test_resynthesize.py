@@ -40,7 +40,9 @@ def test_flagged_pixels_are_resynthesized_and_the_rest_kept_exactly():
         np.testing.assert_array_equal(out[c][keep], img[c][keep])
     new = ~keep
     assert out["patch.id"][new].min() > img["patch.id"].max()
-    assert (out["source.x"][new] != img["source.x"][new]).mean() > 0.5  # flood fill grew new patches
+    # flood fill grew new patches (it may pick the carried copy again: 0.41-0.59 of the
+    # pixels move, 10th-90th percentile over 40 seeds)
+    assert (out["source.x"][new] != img["source.x"][new]).mean() > 0.3
     src = source("renoir")
     fidelity = (lookup(src["label.id"], out["source.x"], out["source.y"]) == out["label.id"])[new].mean()
     assert fidelity > 0.99
