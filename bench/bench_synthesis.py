@@ -28,21 +28,15 @@ from proxyshade.graph.plate import Plate  # noqa: E402
 from proxyshade.graph.testing import run_node  # noqa: E402
 from proxyshade.io.source import labels_from_map, load_source  # noqa: E402
 from proxyshade.kernels import correct as kc  # noqa: E402
-from proxyshade.kernels.random import mix_seed  # noqa: E402
-from proxyshade.kernels import features as kf  # noqa: E402
-from proxyshade.kernels import magnify as km  # noqa: E402
-from proxyshade.kernels import patch as kp  # noqa: E402
 from proxyshade.kernels import poisson as kpo  # noqa: E402
 from proxyshade.kernels.lookup import lookup  # noqa: E402
-from proxyshade.nodes import patch_init as npi  # noqa: E402
+from proxyshade.synthesis import labels as L  # noqa: E402
+from proxyshade.synthesis.exemplar import setup  # noqa: E402
+from proxyshade.synthesis.params import Correction, FloodFill  # noqa: E402
+from proxyshade.synthesis.patches import correct_map, fill_patches, magnify_map, similarity_sets  # noqa: E402
 
 OUT = 1024
 FACTOR = 4
-
-
-class _Ctx:
-    def error(self, msg):
-        return RuntimeError(msg)
 
 
 def guide_for(src: Plate, size: int = OUT) -> Plate:
@@ -55,40 +49,29 @@ def guide_for(src: Plate, size: int = OUT) -> Plate:
 def stages(sample: str, repeat: int) -> tuple[list, dict]:
     src = load_source(ROOT / "samples" / sample / "source.yaml")
     guide = guide_for(src)
-    ctx = _Ctx()
-    table_ids = npi.source_table(ctx, src)
+    table_ids = L.source_table(src)
     n = len(table_ids)
-    g_dense = npi.dense_guide(ctx, guide["label.id"], table_ids)
-    tgt = npi.guide_at_synthesis(ctx, g_dense, FACTOR, n)
+    g_dense = L.dense_guide(guide["label.id"], table_ids)
+    tgt = L.guide_at_synthesis(g_dense, FACTOR, n)
+    corr, fill = Correction.defaults(), FloodFill.defaults()
     state: dict = {}
 
     def features():
-        st = npi.setup(ctx, src, tgt, table_ids, factor=FACTOR, scale=1.0, coarse_size=32, max_distance=8.0,
-                       with_rgb=True)
-        knns = [None] * len(st.levels)
-        for l in range(len(st.levels) - 1, -1, -1):
-            init = knns[l + 1] if l + 1 < len(st.levels) else None
-            knns[l] = kc.similarity_sets(st.levels[l], 2, seed=mix_seed(0, l), iterations=2 if init is None else 1,
-                                         init=init)
+        st = setup(src, tgt, table_ids, factor=FACTOR, scale=1.0, coarse_size=corr.coarse_size,
+                   max_distance=corr.max_distance, with_rgb=corr.use_rgb)
+        state["sims"] = similarity_sets(st, corr, seed=0)
         state["st"] = st
 
     def flood():
-        fin = state["st"].levels[-1]
-        state["S0"], _, state["npatch"] = kp.flood_fill(fin.src_lab, fin.src_dist, fin.src_masks, fin.tgt_lab,
-                                                        fin.tgt_dist, fin.tgt_masks, seed=0)
+        state["S0"], _, state["npatch"] = fill_patches(state["st"], fill, seed=0)
 
     def corrections():
-        tm: dict = {}
-        state["S"], _ = kc.synthesize(state["st"].levels, state["S0"], k=2, timings=tm)
-        state["corr_only"] = tm["corrections"]
+        state["S"], _, _ = correct_map(state["st"], state["S0"], corr, seed=0, similarity=state["sims"])
 
     def magnify():
-        Sw = km.magnify(state["S"], FACTOR, guide.shape)
-        src_dense, _ = kf.dense_labels(src["label.id"], table_ids)
-        Sw, _ = km.repair_labels(Sw, g_dense, src_dense)
-        state["patch"], _ = kp.offset_components(Sw)
-        state["sx"] = Sw[..., 1].astype(np.float32)
-        state["sy"] = Sw[..., 0].astype(np.float32)
+        wl = L.working_labels(L.source_dense(src, table_ids), 1.0, n)
+        state["sx"], state["sy"], state["patch"], _, _ = magnify_map(state["S"], FACTOR, guide.shape, scale=1.0,
+                                                                    target=g_dense, labels=wl)
         state["rgb"] = lookup(src.rgb(), state["sx"], state["sy"])
 
     def poisson():

@@ -163,7 +163,7 @@ def _knn_iter(src_lab, src_dist, src_rgb, src_masks, h, k, excl, w, seed, it, oy
                     _insert(ly, lx, ld, k, cy, cx, d)
 
 
-def similarity_sets(level, k: int, *, seed: int = 0, iterations: int = 2, w: float = 90.0,
+def similarity_sets(level, k: int, *, seed: int, iterations: int, w: float,
                     init: np.ndarray | None = None) -> np.ndarray:
     """(He, We, k, 2) int32: for each exemplar pixel, k similar exemplar pixels of the
     same label, more than ``2 h`` away (approximate k-NN by PatchMatch).
@@ -366,7 +366,7 @@ def _subpass(src_lab, src_dist, src_rgb, src_masks, tgt_lab, tgt_dist, tgt_masks
             S_new[i, j, 1] = bx
 
 
-def correct_level(level, S: np.ndarray, knn: np.ndarray, *, passes: int, radius: int, w: float = 90.0,
+def correct_level(level, S: np.ndarray, knn: np.ndarray, *, passes: int, radius: int, w: float,
                   use_rgb: bool = True, kappa: float = 0.0,
                   active: np.ndarray | None = None) -> tuple[np.ndarray, dict]:
     """``passes`` correction passes (4 parity sub-passes each) at one level."""
@@ -442,8 +442,7 @@ def downsample_mask(mask: np.ndarray, h: int, shape: tuple[int, int]) -> np.ndar
     return pad.reshape(shape[0], h, shape[1], h).any(axis=(1, 3))
 
 
-def level_similarity_sets(levels: list, k: int, *, seed: int = 0, knn_iterations: int = 2,
-                          w: float = 90.0) -> list:
+def level_similarity_sets(levels: list, k: int, *, seed: int, knn_iterations: int, w: float) -> list:
     """``similarity_sets`` of every level (coarsest first), as ``synthesize`` uses them."""
     L = len(levels)
     ex_shape = levels[-1].src_lab.shape
@@ -455,9 +454,8 @@ def level_similarity_sets(levels: list, k: int, *, seed: int = 0, knn_iterations
     return knns
 
 
-def synthesize(levels: list, S_init: np.ndarray, *, passes: int = 5, passes_finest: int = 3, k: int = 2,
-               w: float = 90.0, seed: int = 0, knn_iterations: int = 2, use_rgb: bool = True,
-               kappa: float = 0.0, mask: np.ndarray | None = None, timings: dict | None = None,
+def synthesize(levels: list, S_init: np.ndarray, *, passes: int, passes_finest: int, k: int, w: float, seed: int,
+               knn_iterations: int, use_rgb: bool, kappa: float, mask: np.ndarray | None = None, timings: dict | None = None,
                radius_rule: str = "spacing", similarity: list | None = None) -> tuple[np.ndarray, list[dict]]:
     """Coarse-to-fine correction of an initial coordinate map.
 

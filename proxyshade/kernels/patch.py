@@ -164,8 +164,8 @@ def _flood_fill(src_lab, src_dist, src_masks, tgt_lab, tgt_dist, tgt_masks, orde
 
 
 def flood_fill(src_lab: np.ndarray, src_dist: np.ndarray, src_masks: np.ndarray, tgt_lab: np.ndarray,
-               tgt_dist: np.ndarray, tgt_masks: np.ndarray, *, seed: int = 0, w: float = 90.0,
-               threshold_scale: float = 1.25, threshold_offset: float = 5.0, mask: np.ndarray | None = None,
+               tgt_dist: np.ndarray, tgt_masks: np.ndarray, *, seed: int, w: float,
+               threshold_scale: float, threshold_offset: float, mask: np.ndarray | None = None,
                S: np.ndarray | None = None, patch: np.ndarray | None = None, chunks: int = 16):
     """Cover the guide with patches of the exemplar.
 

@@ -24,6 +24,11 @@ class ParamGroup:
         return out
 
     @classmethod
+    def defaults(cls) -> SimpleNamespace:
+        """This group's default values, as attributes (for calling the layer outside a node)."""
+        return SimpleNamespace(**{k: getattr(cls, k).default for k in cls.names()})
+
+    @classmethod
     def of(cls, p: Any) -> SimpleNamespace:
         """This group's parameter values read from ``p`` (a node's ``ctx.p``), as attributes."""
         return SimpleNamespace(**{k: getattr(p, k) for k in cls.names()})

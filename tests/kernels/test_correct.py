@@ -8,6 +8,11 @@ from proxyshade.kernels import correct as kc
 from proxyshade.kernels import features as kf
 
 from tests.kernels import naive_synthesis as naive
+from proxyshade.synthesis.params import Correction
+
+_C = Correction.defaults()
+SYN = dict(passes=_C.passes, passes_finest=_C.passes_finest, k=_C.k, w=_C.w, seed=0,
+           knn_iterations=_C.knn_iterations, use_rgb=_C.use_rgb, kappa=_C.kappa)  # the nodes' defaults
 
 
 def blobs(rng, h, w, n, k=5):
@@ -49,7 +54,7 @@ def test_rejected_matches_reference():
 def test_subpass_matches_reference(seed, kappa, use_level):
     rng, levels = small_case(seed)
     lv = levels[use_level]
-    knn = kc.similarity_sets(lv, 2, seed=seed)
+    knn = kc.similarity_sets(lv, 2, seed=seed, iterations=2, w=SYN['w'])
     S = random_state(rng, lv)
     radius = lv.h
     for pi, pj in ((0, 0), (1, 0)):
@@ -73,7 +78,7 @@ def test_no_accepted_candidate_already_in_the_window():
     used elsewhere in its 9x9 window before the sub-pass (unless label fidelity forced it)."""
     rng, levels = small_case(5, ex=(30, 36), tgt=(24, 24))
     lv = levels[-1]
-    knn = kc.similarity_sets(lv, 2, seed=5)
+    knn = kc.similarity_sets(lv, 2, seed=5, iterations=2, w=SYN['w'])
     Ht, Wt = lv.tgt_lab.shape
     # a state full of repeats: two copies of the same exemplar area side by side
     ii, jj = np.mgrid[0:Ht, 0:Wt]
@@ -100,7 +105,7 @@ def test_similarity_sets_are_valid_and_close_to_brute_force():
     rng, levels = small_case(6, ex=(18, 20))
     lv = levels[-1]
     k = 3
-    knn = kc.similarity_sets(lv, k, seed=1, iterations=3)
+    knn = kc.similarity_sets(lv, k, seed=1, iterations=3, w=SYN['w'])
     He, We = lv.src_lab.shape
     ratios = []
     for y in range(He):
@@ -142,10 +147,10 @@ def test_translation_survives_down_and_up():
 def test_synthesis_is_deterministic_across_thread_counts():
     rng, levels = small_case(9, ex=(40, 48), tgt=(32, 32), nlev=3)
     S0 = random_state(rng, levels[-1])
-    a, _ = kc.synthesize(levels, S0, k=2, seed=3)
+    a, _ = kc.synthesize(levels, S0, **dict(SYN, k=2, seed=3))
     numba.set_num_threads(1)
     try:
-        b, _ = kc.synthesize(levels, S0, k=2, seed=3)
+        b, _ = kc.synthesize(levels, S0, **dict(SYN, k=2, seed=3))
     finally:
         numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
     assert np.array_equal(a, b)
@@ -156,12 +161,12 @@ def test_synthesis_is_deterministic_across_thread_counts():
 def test_precomputed_similarity_sets_give_the_same_result():
     rng, levels = small_case(11, ex=(40, 48), tgt=(32, 32), nlev=3)
     S0 = random_state(rng, levels[-1])
-    a, _ = kc.synthesize(levels, S0, k=2, seed=5)
-    sims = kc.level_similarity_sets(levels, 2, seed=5)
-    b, _ = kc.synthesize(levels, S0, k=2, seed=123, similarity=sims)  # the seed only seeds the search
+    a, _ = kc.synthesize(levels, S0, **dict(SYN, k=2, seed=5))
+    sims = kc.level_similarity_sets(levels, 2, seed=5, knn_iterations=SYN['knn_iterations'], w=SYN['w'])
+    b, _ = kc.synthesize(levels, S0, **dict(SYN, k=2, seed=123), similarity=sims)  # the seed only seeds the search
     assert np.array_equal(a, b)
     with pytest.raises(ValueError, match="similarity"):
-        kc.synthesize(levels, S0, k=3, similarity=sims)
+        kc.synthesize(levels, S0, **dict(SYN, k=3), similarity=sims)
 
 
 def test_mask_limits_changes():
@@ -169,6 +174,6 @@ def test_mask_limits_changes():
     S0 = random_state(rng, levels[-1])
     mask = np.zeros((32, 32), bool)
     mask[8:20, 4:28] = True
-    S, _ = kc.synthesize(levels, S0, k=2, mask=mask)
+    S, _ = kc.synthesize(levels, S0, **dict(SYN, k=2), mask=mask)
     assert np.array_equal(S[~mask], S0[~mask])
     assert (S[mask] != S0[mask]).any()
