@@ -27,7 +27,6 @@ sys.path.insert(0, str(ROOT))
 from proxyshade.graph.plate import Plate  # noqa: E402
 from proxyshade.graph.testing import run_node  # noqa: E402
 from proxyshade.io.source import labels_from_map, load_source  # noqa: E402
-from proxyshade.kernels import correct as kc  # noqa: E402
 from proxyshade.kernels import poisson as kpo  # noqa: E402
 from proxyshade.kernels.lookup import lookup  # noqa: E402
 from proxyshade.synthesis import labels as L  # noqa: E402

@@ -84,7 +84,7 @@ class ConsistentDepth(Node):
         if rp is not None and rp.shape != guide.shape:
             raise ctx.error("ref_proxy and guide differ in size; connect the first frame's ProxyRender")
         f0 = frame0_grid(depth["Z"], guide["label.id"], rp["Z"] if rp is not None else None, p.cut_tolerance, tol)
-        w0, cw, keep, occluded0, on_proxy0 = f0.w0, f0.cw, f0.keep, f0.occluded, f0.on_proxy
+        cw, keep, occluded0, on_proxy0 = f0.cw, f0.keep, f0.occluded, f0.on_proxy
         lab0 = np.ascontiguousarray(guide["label.id"], np.uint32)
         k0, k1 = kr.intrinsics(cam0), kr.intrinsics(cam1)
         M = kr.relative_matrix(cam0, cam1)

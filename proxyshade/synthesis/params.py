@@ -93,6 +93,43 @@ class Guidance(ParamGroup):
     seed = Param(int, 0)
 
 
+class Carry(ParamGroup):
+    """Reprojection of the synthesis state into the next frame and its flags (§6.2)."""
+
+    colour = Param(str, "map", choices=("map", "bilinear"),
+                   doc="look colours up through the carried map (+ reprojected Poisson correction), or copy them")
+    depth_tolerance = Param(float, 0.02, min=0.0, max=1.0,
+                            doc="relative inverse-depth difference under which a previous pixel is the same surface")
+    threshold = Param(float, 0.35, min=0.0,
+                      doc="map deviation ||J - I|| (J: the carried map's Jacobian over the synthesis scale) above "
+                          "which a pixel is resynthesized")
+    spread = Param(float, 0.5, min=0.0, max=1.0,
+                   doc="each patch's threshold is uniform in [(1 - spread) x threshold, threshold] (hashed from its "
+                       "id and the seed): patches that distort together are redone at different frames, not as "
+                       "one wave")
+    filter = Param(str, "lanczos4", choices=("lanczos4", "lanczos3", "bilinear"),
+                   doc="reconstruction of the source at the carried (fractional) positions; bilinear blurs the "
+                       "finest detail")
+    seed = Param(int, 0, doc="seed of the per-patch thresholds")
+    isolated_radius = Param(int, 2, min=0, max=8, doc="window radius of the isolated-flag test (2: 5x5)")
+    min_neighbours = Param(int, 3, min=0, doc="flags with fewer other flags in the window are dropped")
+    dilate = Param(int, 2, min=0, max=64, doc="dilation radius of the remaining flagged regions (pixels)")
+    fill_radius = Param(int, 6, min=0, max=32,
+                        doc="pixels without a previous value (disoccluded) continue the patch of a kept pixel of "
+                            "their label this close, where the continued source position has their label; the "
+                            "rest are flagged")
+    extend_frames = Param(int, 6, min=0,
+                          doc="frames a disoccluded band may continue its neighbour's patch before it is flood-filled "
+                              "(the 'extension' channel counts them)")
+    min_patch_area = Param(int, 16, min=0,
+                           doc="patches smaller than this (pixels) continue the neighbouring patch they touch most "
+                               "(flagged re-anchored); 0 keeps every fragment")
+    min_patch_width = Param(float, 2.0, min=0.0,
+                            doc="patches thinner than this (2 x area / perimeter, pixels) are fragments too")
+    cut_threshold = Param(float, 0.5, min=0.0, max=1.0,
+                          doc="share of flagged pixels above which the frame is a camera cut (full synthesis)")
+
+
 def source_input(doc: str = "annotated source (SourceRead): R,G,B, label.id and its label table", *,
                  optional: bool = False) -> Input:
     """The annotated-source input every synthesis node declares: colours (finite) and

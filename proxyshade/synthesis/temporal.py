@@ -14,6 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from proxyshade.errors import NodeInputError
+from proxyshade.graph.plate import Plate
 from proxyshade.io.usd import CameraInfo
 from proxyshade.kernels import reproject as kr
 from proxyshade.kernels import temporal as kt
@@ -234,3 +235,128 @@ def camera_of(name: str, *plates) -> CameraInfo:
             return CameraInfo.from_meta(p.meta["camera"])
     raise NodeInputError(f"input '{name}' has no camera in its metadata (meta['camera']); connect a plate derived "
                          "from ProxyRender (GuideSynth, DepthExtend and Magnify pass it on)")
+
+
+def carry(cd: Plate, prev: Plate | None, first: Plate | None, source: Plate, p, *, frame: int, first_frame: int,
+          note=lambda s: None) -> Plate:
+    """The previous frame's synthesis state ``prev`` carried into the camera of ``cd``
+    (this frame's ConsistentDepth), with its flags; at the first frame (no ``prev``) the
+    ``first`` plate with no flags, or everything flagged without one. ``p``: the
+    ``Carry`` parameters. See ``nodes.reproject`` for the channels."""
+    H, W = cd.shape
+    cat = cd["category"] if "category" in cd else np.zeros((H, W), np.uint32)
+    geo = {c: cd[c] for c in ("label.id", "Z", "P.X", "P.Y", "P.Z") if c in cd}
+    geo["category"] = cat.astype(np.uint32, copy=False)
+    if prev is None:
+        return _first_frame(cd, first, geo, frame, first_frame, note)
+    cam1 = camera_of("depth", cd)
+    cam0 = camera_of("prev", prev)
+    if (cam0.width, cam0.height) != (prev.width, prev.height):
+        raise NodeInputError(f"prev's camera is {cam0.width}x{cam0.height}, the plate {prev.width}x{prev.height}")
+    scale = float(prev.meta.get("synthesis", {}).get("scale", 1.0))
+    tol = p.depth_tolerance
+    w1 = kr.inverse_depth(cd["Z"])
+    lab = np.ascontiguousarray(cd["label.id"], np.uint32)
+    u, v, q, ok = kr.transfer(w1, kr.relative_matrix(cam1, cam0), kr.intrinsics(cam1), kr.intrinsics(cam0),
+                              cam0.near)
+    src_rgb = source.rgb()
+    prev_rgb = prev.rgb()
+    if p.colour == "map" and all(c in prev for c in CORRECTION):
+        prev_res = prev.layer(CORRECTION)  # carried by Resynthesize: no second read of the source
+    elif p.colour == "map":
+        prev_res = prev_rgb - lookup(src_rgb, prev["source.x"], prev["source.y"], filter=p.filter)
+    else:
+        prev_res = prev_rgb
+    prev_ext = prev["extension"].astype(np.float32, copy=False) if "extension" in prev else np.zeros(prev.shape, np.float32)
+    valid, sx, sy, patch, res, ext = kr.gather_prev(
+        u, v, q, ok, lab, kr.inverse_depth(prev["Z"]), np.ascontiguousarray(prev["label.id"], np.uint32),
+        np.ascontiguousarray(prev["patch.id"], np.uint32), prev["source.x"].astype(np.float32, copy=False),
+        prev["source.y"].astype(np.float32, copy=False), np.ascontiguousarray(prev_res, np.float32), prev_ext, tol, scale)
+    # disoccluded pixels continue the patch of a kept neighbour of their label when the
+    # continued source position still has that label: no new seam, nothing to redo
+    have = valid
+    src_lab = np.ascontiguousarray(source["label.id"], np.uint32)
+    if p.fill_radius > 0 and not valid.all():
+        sx, sy, patch, res, ext, filled = kr.fill_from_neighbours(~valid, valid, lab, sx, sy, patch, res, ext,
+                                                                   p.fill_radius, scale)
+        ext = np.where(filled, ext + 1.0, ext).astype(np.float32, copy=False)
+        # a patch continued frame after frame would extrude its borders into streaks:
+        # past extend_frames the continued band is flood-filled afresh instead
+        filled &= fits_source(src_lab, sx, sy, lab, filled) & (ext <= p.extend_frames)
+        have = valid | filled
+    D = kt.map_deviation(sx, sy, have, kr.patch_links(have, patch, lab), scale)
+    distorted, sx, sy = reanchor_distorted(have, patch, D, sx, sy, scale, p.threshold, p.spread, p.seed)
+    absorbed, sx, sy, patch = absorb_fragments(have, patch, lab, sx, sy, scale, p.min_patch_area, src_lab,
+                                               p.min_patch_width)
+    raw = np.zeros((H, W), np.uint32)
+    raw[absorbed] = FLAG["reanchored"]
+    if distorted.any():
+        fits = fits_source(src_lab, sx, sy, lab, distorted)
+        raw[distorted] = np.where(fits[distorted], FLAG["reanchored"], FLAG["distorted"])
+    raw[~have] = FLAG["disoccluded"]
+    raw[newly_occluded(cat, u, v, ok, lab, prev["label.id"])] = FLAG["newly_occluded"]
+    flag = clean_flags(raw, radius=p.isolated_radius, min_neighbours=p.min_neighbours, dilate=p.dilate)
+    flag[~have & (flag == 0)] = FLAG["disoccluded"]  # dropped as isolated, but nothing to carry
+    share = float((flag > 0).mean())
+    cut = share > p.cut_threshold
+    if cut:
+        note(f"camera cut: {100 * share:.1f}% of the frame flagged (> {100 * p.cut_threshold:.0f}%); "
+                 "full synthesis of this frame")
+        flag[:] = FLAG["disoccluded"]
+    # re-anchored patches keep their (new) map; their old Poisson correction no longer fits
+    keep = (flag == 0) | (flag == FLAG["reanchored"])
+    D = np.where(flag == 0, D, 0.0).astype(np.float32, copy=False)
+    ext = np.where(keep, ext, 0.0).astype(np.float32, copy=False)
+    if p.colour == "map":
+        res = np.where((flag == 0)[..., None], res, 0.0).astype(np.float32, copy=False)
+        rgb = lookup(src_rgb, sx, sy, filter=p.filter) + res
+    else:
+        rgb = res
+    rgb = np.where(keep[..., None], rgb, 0.0).astype(np.float32, copy=False)
+    sx = np.where(keep, sx, 0.0).astype(np.float32, copy=False)
+    sy = np.where(keep, sy, 0.0).astype(np.float32, copy=False)
+    patch = np.where(keep, patch, 0).astype(np.uint32, copy=False)
+    counts = {k: float((flag == v).mean()) for k, v in FLAG.items() if v}
+    note(f"flagged {100 * share:.2f}%: " + ", ".join(f"{k} {100 * s:.2f}%" for k, s in counts.items()))
+    ch = {"R": rgb[..., 0].copy(), "G": rgb[..., 1].copy(), "B": rgb[..., 2].copy(), "source.x": sx,
+          "source.y": sy, "patch.id": patch, "distortion": D, "extension": ext, "flag": flag}
+    if p.colour == "map":
+        ch.update({c: res[..., k].copy() for k, c in enumerate(CORRECTION)})
+    ch.update(geo)
+    meta = _carried_meta(prev, cd)
+    meta["temporal"] = dict(counts, flagged=float((flag > 0).mean()), cut=bool(cut), frame=int(frame),
+                            filter=p.filter)
+    return Plate(ch, meta)
+
+
+def _carried_meta(state: Plate, cd: Plate) -> dict:
+    meta = dict(state.meta)
+    for k in ("camera", "up_axis", "objects", "scene", "background"):
+        if k in cd.meta:
+            meta[k] = cd.meta[k]
+    return meta
+
+
+def _first_frame(cd: Plate, first: Plate | None, geo: dict, frame: int, first_frame: int, note) -> Plate:
+    H, W = cd.shape
+    if first is None:
+        if frame != first_frame:
+            note("no previous frame and no 'first' plate: full synthesis of this frame")
+        z = np.zeros((H, W), np.float32)
+        ch = {"R": z, "G": z, "B": z, "source.x": z, "source.y": z, "patch.id": np.zeros((H, W), np.uint32),
+              "distortion": z, "extension": z, "flag": np.full((H, W), FLAG["disoccluded"], np.uint32)}
+        ch.update(geo)
+        meta = dict(cd.meta)
+        meta["temporal"] = dict(flagged=1.0, cut=True, frame=int(frame))
+        return Plate(ch, meta)
+    if first.shape != (H, W):
+        raise NodeInputError(f"first is {first.width}x{first.height}, depth {W}x{H}; connect plates of one resolution")
+    ch = {c: first[c] for c in STATE}
+    ch["distortion"] = np.zeros((H, W), np.float32)
+    ch["extension"] = np.zeros((H, W), np.float32)
+    ch["flag"] = np.zeros((H, W), np.uint32)
+    ch.update({k: v for k, v in geo.items() if k != "label.id"})
+    ch.update({c: first[c] for c in ("label.id", "Z", "P.X", "P.Y", "P.Z") if c in first})
+    meta = _carried_meta(first, cd)
+    meta["temporal"] = dict(flagged=0.0, cut=False, frame=int(frame))
+    return Plate(ch, meta)

@@ -1,16 +1,12 @@
 """The engine: incremental runs, keys, cache robustness, time, cycles, determinism."""
 from __future__ import annotations
 
-import os
 import re
-import sys
-import types
 
 import numpy as np
 import pytest
 
 from proxyshade.errors import CycleError
-from proxyshade.graph import keys
 from proxyshade.graph.graph import Graph, InputRef
 from proxyshade.graph.node import Node
 from proxyshade.graph.plate import Plate
