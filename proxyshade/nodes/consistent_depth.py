@@ -27,10 +27,11 @@ import numpy as np
 from proxyshade.graph.node import Input, Node, Param
 from proxyshade.graph.plate import Plate
 from proxyshade.kernels import reproject as kr
+from proxyshade.synthesis.params import SameSurface
 from proxyshade.synthesis.temporal import CATEGORY, camera_of, frame0_grid
 
 
-class ConsistentDepth(Node):
+class ConsistentDepth(SameSurface, Node):
     """Project the frame-0 grid (detailed labels + extended depth) into this frame's camera.
 
     Output at the proxy's size: ``label.id``, ``Z`` (inf where nothing), ``P.X/Y/Z``
@@ -49,8 +50,6 @@ class ConsistentDepth(Node):
                   optional=True, channels=("Z",), finite=("Z",), inf_ok=("Z",),
                   fix="connect DepthExtend at frame: first")
     ref_proxy = Input("the ProxyRender at the first frame (frame: first), for 'occluded at frame 0'", optional=True)
-    depth_tolerance = Param(float, 0.02, min=0.0, max=1.0,
-                            doc="relative inverse-depth difference under which two depths are one surface")
     cut_tolerance = Param(float, 0.1, min=0.0, max=10.0,
                           doc="cut the grid between neighbours whose inverse depths differ by more (relative)")
     max_extent = Param(float, 64.0, min=1.0, doc="skip grid quads larger than this many pixels in frame N")

@@ -93,13 +93,19 @@ class Guidance(ParamGroup):
     seed = Param(int, 0)
 
 
-class Carry(ParamGroup):
+class SameSurface(ParamGroup):
+    """When two depths are one surface (the frame-0 grid against the proxy, a pixel against
+    the previous frame's)."""
+
+    depth_tolerance = Param(float, 0.02, min=0.0, max=1.0,
+                            doc="relative inverse-depth difference under which two depths are one surface")
+
+
+class Carry(SameSurface):
     """Reprojection of the synthesis state into the next frame and its flags (§6.2)."""
 
     colour = Param(str, "map", choices=("map", "bilinear"),
                    doc="look colours up through the carried map (+ reprojected Poisson correction), or copy them")
-    depth_tolerance = Param(float, 0.02, min=0.0, max=1.0,
-                            doc="relative inverse-depth difference under which a previous pixel is the same surface")
     threshold = Param(float, 0.35, min=0.0,
                       doc="map deviation ||J - I|| (J: the carried map's Jacobian over the synthesis scale) above "
                           "which a pixel is resynthesized")
