@@ -9,8 +9,8 @@ A node type is a class that declares
 * ``compute(ctx) -> Plate``.
 
 The engine, not the node, builds each output's cache key (see ``proxyshade.graph.keys``)
-from the node type, version, a hash of its implementation source (its module and the
-``proxyshade.kernels`` modules it uses), its canonical hashed parameters, its upstream
+from the node type, version, a hash of its implementation source (its module and every
+``proxyshade`` module it reaches through imports: ``keys.import_closure``), its canonical hashed parameters, its upstream
 keys, the frame when the node depends on time, the content of the files it reads
 (``Param(Path, ...)``) and whatever ``key_extra`` adds. Keys never touch pixels.
 

@@ -4,11 +4,13 @@
     frames: 1-48                  # the sequence's frame range (default 1)
     vars: {sample: ../samples/renoir}
     nodes:
-      src:   {type: SourceRead, params: {table: "${sample}/source.yaml"}}
-      guide: {type: GuideSynth, inputs: {source: src, proxy: proxy}, params: {k: 5}}
-      final: {type: Poisson, inputs: {prev: {node: final, frame: -1}, ref: {node: guide, frame: first}}}
-      write: {type: ExrWrite, inputs: {image: final}, params: {path: out/lake.####.exr}, enabled: true}
-      movie: {type: Movie, inputs: {image: {node: final, frame: all}}, params: {path: out/lake.gif}}
+      src:     {type: SourceRead, params: {table: "${sample}/source.yaml"}}
+      guide:   {type: GuideSynth, inputs: {source: src, proxy: proxy}, params: {k: 5}}
+      reproj:  {type: Reproject, inputs: {depth: depth, source: src, prev: {node: final, frame: -1},
+                                          first: {node: first, frame: first}}}
+      final:   {type: Resynthesize, inputs: {image: reproj, source: src}}
+      write:   {type: ExrWrite, inputs: {image: final}, params: {path: out/lake.####.exr}, enabled: true}
+      movie:   {type: Movie, inputs: {image: {node: final, frame: all}}, params: {path: out/lake.gif}}
 
 Relative paths resolve against the graph file's folder; ``${name}`` is replaced by a
 variable; ``####`` in a path is the zero-padded frame. Every error names the file, the
