@@ -10,9 +10,10 @@ A node type is a class that declares
 
 The engine, not the node, builds each output's cache key (see ``proxyshade.graph.keys``)
 from the node type, version, a hash of its implementation source (its module and every
-``proxyshade`` module it reaches through imports: ``keys.import_closure``), its canonical hashed parameters, its upstream
-keys, the frame when the node depends on time, the content of the files it reads
-(``Param(Path, ...)``) and whatever ``key_extra`` adds. Keys never touch pixels.
+``proxyshade`` module it reaches through imports: ``keys.import_closure``), its
+canonical hashed parameters, its upstream keys, the frame when the node depends on
+time, the content of the files it reads (``Param(Path, ...)``) and whatever
+``key_extra`` adds. Keys never touch pixels.
 
 Node types register themselves by class name in ``REGISTRY`` when their module is
 imported (``proxyshade.nodes`` imports them all).
