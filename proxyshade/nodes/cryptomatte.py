@@ -73,7 +73,8 @@ class Cryptomatte(Node):
     """
 
     version = 1
-    image = Input("plate with label.id (+ meta labels) and/or object.id (+ meta objects)")
+    image = Input("plate with label.id (+ meta labels) and/or object.id (+ meta objects)",
+                  dtype={"label.id": "uint32", "object.id": "uint32"}, fix="connect the composite plate")
     samples = Input("optional plate k times the size with the same id channels, for edge coverage",
                     optional=True)
     levels = Param(int, 6, choices=(2, 4, 6, 8), doc="ranks stored (2 per RGBA layer); the spec suggests 6")
@@ -82,8 +83,6 @@ class Cryptomatte(Node):
 
     def compute(self, ctx) -> Plate:
         img: Plate = ctx.image
-        if img is None:
-            raise ctx.error("input 'image' is not connected; connect the composite plate")
         smp: Plate | None = ctx.samples
         factor = 1
         if smp is not None:

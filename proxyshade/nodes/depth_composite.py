@@ -36,19 +36,15 @@ class DepthComposite(Node):
     """
 
     version = 1
-    scene = Input("synthesized plate: R,G,B, Z (A optional, 1 when absent), label.id, P, ...")
-    cg = Input("CG render: premultiplied R,G,B,A, Z (inf where empty), object.id")
+    scene = Input("synthesized plate: R,G,B, Z (A optional, 1 when absent), label.id, P, ...",
+                  channels=("R", "G", "B", "Z"), fix="connect the synthesized plate (Poisson or ShadowMap)")
+    cg = Input("CG render: premultiplied R,G,B,A, Z (inf where empty), object.id", channels=("R", "G", "B", "A", "Z"),
+               fix="connect CgRender's output")
     bias = Param(float, 0.0, doc="depth bias: CG wins where Z_cg <= Z_scene + bias (ties go to CG)")
 
     def compute(self, ctx) -> Plate:
         scene: Plate = ctx.scene
         cg: Plate = ctx.cg
-        if scene is None or cg is None:
-            raise ctx.error("inputs 'scene' and 'cg' must both be connected")
-        for name, pl, need in (("scene", scene, ("R", "G", "B", "Z")), ("cg", cg, ("R", "G", "B", "A", "Z"))):
-            miss = [n for n in need if n not in pl]
-            if miss:
-                raise ctx.error(f"{name} plate lacks {', '.join(miss)}; it has {', '.join(pl.names())}")
         if scene.shape != cg.shape:
             raise ctx.error(f"cg plate is {cg.width}x{cg.height} but scene is {scene.width}x{scene.height}; "
                             "render the CG with the proxy's camera and resolution")

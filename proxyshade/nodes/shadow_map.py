@@ -45,7 +45,9 @@ class ShadowMap(Node):
 
     version = 1
     time_dependent = True
-    image = Input("synthesized plate with R,G,B and world position P.X/P.Y/P.Z")
+    image = Input("synthesized plate with R,G,B and world position P.X/P.Y/P.Z",
+                  channels=("R", "G", "B", "P.X", "P.Y", "P.Z"),
+                  fix="connect the synthesized plate with its world position (Magnify with DepthExtend's depth)")
     scene = Param(Path, doc="USD stage with CG prims (proxyshade:cg) and a UsdLux.DistantLight")
     factor = Param(float, 0.35, min=0.0, max=1.0, doc="colour multiplier in full shadow")
     size = Param(int, 1024, min=16, max=8192, doc="shadow-map texels per side")
@@ -58,12 +60,6 @@ class ShadowMap(Node):
     def compute(self, ctx) -> Plate:
         img: Plate = ctx.image
         p = ctx.p
-        if img is None:
-            raise ctx.error("input 'image' is not connected; connect the synthesized plate")
-        need = [n for n in ("R", "G", "B", "P.X", "P.Y", "P.Z") if n not in img]
-        if need:
-            raise ctx.error(f"image lacks {', '.join(need)}; ShadowMap needs colour and world position, "
-                            f"it has {', '.join(img.names())}")
         try:
             stage = usd.open_stage(ctx.path(p.scene))
             usd.check_frame(stage, ctx.frame)

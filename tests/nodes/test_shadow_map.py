@@ -100,6 +100,6 @@ def test_no_cg_passes_through(tmp_path):
 
 def test_missing_world_position_is_one_line_error(scene):
     plate = ground_plate(20).select(["R", "G", "B", "Z"])
-    with pytest.raises(NodeInputError, match="image lacks P.X, P.Y, P.Z") as e:
+    with pytest.raises(NodeInputError, match="input 'image' has no channel P.X, P.Y, P.Z; ShadowMap needs") as e:
         run_node("ShadowMap", {"scene": str(scene)}, {"image": plate})
     assert "\n" not in str(e.value)
