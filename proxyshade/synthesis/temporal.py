@@ -301,7 +301,7 @@ def carry(cd: Plate, prev: Plate | None, first: Plate | None, source: Plate, p, 
     cut = share > p.cut_threshold
     if cut:
         note(f"camera cut: {100 * share:.1f}% of the frame flagged (> {100 * p.cut_threshold:.0f}%); "
-                 "full synthesis of this frame")
+             "full synthesis of this frame")
         flag[:] = FLAG["disoccluded"]
     # re-anchored patches keep their (new) map; their old Poisson correction no longer fits
     keep = (flag == 0) | (flag == FLAG["reanchored"])
