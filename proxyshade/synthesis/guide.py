@@ -87,13 +87,13 @@ def synthesize_guide(proxy: Plate, source: Plate, gp: SimpleNamespace) -> tuple[
     if not _pow2(gp.size) or not _pow2(gp.start) or gp.start > gp.size:
         raise NodeInputError(f"size {gp.size} and start {gp.start} must be powers of two with start <= size "
                              "(e.g. size 256, start 64)")
-    if gp.size > max(H, W) or max(H, W) % gp.size or not _pow2(max(H, W) // gp.size):
-        raise NodeInputError(f"size {gp.size} does not divide the output {W}x{H} by a power of two; "
-                             f"use a power of two up to {max(H, W)} that divides it")
-    f = max(H, W) // gp.size
-    if H % f or W % f:
-        raise NodeInputError(f"the output {W}x{H} is not a multiple of the magnification {f}; "
-                             "render the proxy at a multiple of it")
+    if gp.size > max(H, W):
+        raise NodeInputError(f"size {gp.size} is larger than the output {W}x{H}; use a power of two up to "
+                             f"{max(H, W)}")
+    # magnification: the power of two nearest to output / size; the proxy guide is padded
+    # (edge pixels repeated) to a multiple of every level's block and the result cropped,
+    # so any output size and aspect works
+    f = 2 ** max(0, int(round(np.log2(max(H, W) / gp.size))))
     g = f * gp.scale  # source pixels per synthesis (exemplar) pixel
     if abs(g - round(g)) < 1e-9 and g >= 1:
         ex = vote_down(src, int(round(g)), n)
@@ -102,13 +102,17 @@ def synthesize_guide(proxy: Plate, source: Plate, gp: SimpleNamespace) -> tuple[
         xs = np.minimum(((np.arange(int(src.shape[1] / g)) + 0.5) * g).astype(int), src.shape[1] - 1)
         ex = src[ys][:, xs].astype(np.int32)
     levels = int(np.log2(gp.size // gp.start)) + 1
+    block_px = f * 2 ** (levels - 1)
+    Hp, Wp = -(-H // block_px) * block_px, -(-W // block_px) * block_px
+    tgt_full = tgt
+    tgt = np.pad(tgt, ((0, Hp - H), (0, Wp - W)), mode="edge") if (Hp, Wp) != (H, W) else tgt
     if min(ex.shape) < 8:
         raise NodeInputError(f"the source is {ex.shape[1]}x{ex.shape[0]} at the synthesis scale, smaller than a "
                              "useful exemplar; lower 'scale' or use a larger source")
     t0 = vote_down(tgt, f, n) if f > 1 else tgt.astype(np.int32)
     # the l2 baseline is kept as the paper's Fig. 3 describes it: no adjacency rule
     keep_adj = gp.keep_adjacency and gp.metric == "chamfer"
-    allowed = kg.adjacency(src, tgt, n=n) if keep_adj else np.ones((n, n), bool)
+    allowed = kg.adjacency(src, tgt_full, n=n) if keep_adj else np.ones((n, n), bool)
     lock_pairs = []
     by_name = {t["name"]: i for i, t in enumerate(sorted(source.meta["labels"], key=lambda t: list(table).index(int(t["id"]))))}
     for pair in gp.locked:
@@ -148,7 +152,8 @@ def synthesize_guide(proxy: Plate, source: Plate, gp: SimpleNamespace) -> tuple[
     sy = np.clip(sy, 0, hs - 1)
     sx = np.clip(sx, 0, ws - 1)
     fine = src[np.rint(sy).astype(int), np.rint(sx).astype(int)].astype(np.int32)
-    block = np.repeat(np.repeat(syn, f, 0), f, 1)
+    block = np.repeat(np.repeat(syn, f, 0), f, 1)[:H, :W]
+    tgt = tgt_full
     out = _respect_adjacency(fine, block, allowed) if keep_adj else fine
     if lock_pairs:  # locked borders stay exactly as in the proxy at the output size
         keep = kg.locked_border(tgt, lock_pairs, radius=2 * f)
@@ -159,7 +164,7 @@ def synthesize_guide(proxy: Plate, source: Plate, gp: SimpleNamespace) -> tuple[
           "source.y": sy.astype(np.float32)}
     meta = {"labels": source.meta["labels"],
             "guide": {"size": gp.size, "start": gp.start, "k": gp.k, "metric": gp.metric, "seed": gp.seed,
-                      "magnify": f, "synth_labels_shape": list(syn.shape)}}
+                      "magnify": f, "synth_labels_shape": list(syn.shape), "padded": [Wp, Hp]}}
     return proxy.with_channels(ch, meta=meta), note
 
 
