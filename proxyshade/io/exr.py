@@ -8,7 +8,9 @@ turned into exceptions naming the file here.
 
 Metadata: ``proxyshade/meta`` holds the plate's metadata as JSON; string values whose key
 contains '/' (``proxyshade/node``, ``cryptomatte/<key>/name``, ...) are also written as
-header attributes of their own, so other tools see them. Compression is ZIP by default.
+header attributes of their own, so other tools see them. Plates with R,G,B carry their
+colour space: ``chromaticities`` (Rec.709, D65) and ``colorInteropID`` ``lin_rec709_scene``
+(OpenImageIO's ``oiio:ColorSpace``). Compression is ZIP by default.
 Files are written to a temporary name beside the target and renamed into place.
 """
 from __future__ import annotations
@@ -32,6 +34,11 @@ COMPRESSIONS = {
     "dwaa": OpenEXR.DWAA_COMPRESSION,
 }
 _META = "proxyshade/meta"
+# R,G,B are linear Rec.709 / sRGB primaries, D65 (sources are decoded from sRGB with
+# colour-science): the chromaticities attribute and the ASWF colour-interop id, which
+# OpenImageIO reports as oiio:ColorSpace and Nuke and OCIO configs understand
+REC709_CHROMATICITIES = (0.64, 0.33, 0.30, 0.60, 0.15, 0.06, 0.3127, 0.3290)
+COLOUR_SPACE = "lin_rec709_scene"
 
 
 class ExrError(UserError):
@@ -42,6 +49,9 @@ def _header(plate: Plate, compression: str, extra: dict | None) -> dict:
     if compression not in COMPRESSIONS:
         raise ExrError(f"compression {compression!r} is not valid; valid ones are {', '.join(COMPRESSIONS)}")
     header = {"compression": COMPRESSIONS[compression], "type": OpenEXR.scanlineimage}
+    if all(c in plate.channels for c in ("R", "G", "B")):
+        header["chromaticities"] = REC709_CHROMATICITIES
+        header["colorInteropID"] = COLOUR_SPACE
     meta = plate.meta
     header[_META] = json.dumps(meta, sort_keys=True, default=str)
     for k, v in list(meta.items()) + list((extra or {}).items()):

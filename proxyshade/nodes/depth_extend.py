@@ -33,7 +33,8 @@ class DepthExtend(Node):
     Output: the guide plate with ``Z`` and ``P.X/P.Y/P.Z`` replaced by the extended ones
     (``Z`` stays inf where the extended label has no depth, the sky; ``P`` unprojected
     from ``Z`` through meta["camera"], or without a camera copied from the pixel the depth
-    came from), and ``depth.src``
+    came from), ``N.X/Y/Z`` and ``object.id`` (when the proxy has them) of the pixel the
+    depth came from, and ``depth.src``
     (uint32: 1 + the flat index of the pixel the depth came from).
     """
 
@@ -68,4 +69,10 @@ class DepthExtend(Node):
             for a in "XYZ":
                 pa = proxy[f"P.{a}"].astype(np.float32)
                 ch[f"P.{a}"] = np.where(src >= 0, pa.reshape(-1)[flat].reshape(pa.shape), pa).astype(np.float32)
+        # normals and object ids follow the depth: those of the pixel it came from
+        flat = np.maximum(src, 0).reshape(-1)
+        for c in ("N.X", "N.Y", "N.Z", "object.id"):
+            if c in proxy:
+                a = proxy[c]
+                ch[c] = np.where(src >= 0, a.reshape(-1)[flat].reshape(a.shape), a).astype(a.dtype, copy=False)
         return guide.with_channels(ch, meta={"camera": cam} if cam else None)

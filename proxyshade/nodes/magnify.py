@@ -20,13 +20,13 @@ from proxyshade.synthesis.exemplar import provenance, source_to_grid
 from proxyshade.synthesis.params import source_input
 from proxyshade.synthesis.patches import magnify_map
 
-DEPTH_CHANNELS = ("Z", "P.X", "P.Y", "P.Z")
+DEPTH_CHANNELS = ("Z", "P.X", "P.Y", "P.Z", "N.X", "N.Y", "N.Z", "object.id")  # geometry AOVs passed on
 
 
 class Magnify(Node):
     """Synthesis-size map -> output-size plate: ``R,G,B`` (linear, looked up in the
     source), ``label.id`` (the detailed guide), ``source.x/y``, ``patch.id``, and ``Z``
-    (and ``P.X/Y/Z``) from ``depth`` when connected. Metadata: the label table and the
+    (and ``P.X/Y/Z``, ``N.X/Y/Z``, ``object.id``) from ``depth`` when connected. Metadata: the label table and the
     source's photo and label-map paths (provenance of every pixel)."""
 
     version = 1
@@ -35,8 +35,9 @@ class Magnify(Node):
     source = source_input()
     guide = Input("detailed guide at output size: label.id", channels=("label.id",),
                   fix="connect the detailed guide (GuideSynth)")
-    depth = Input("extended depth (DepthExtend): Z and optionally P.X/P.Y/P.Z", optional=True, channels=("Z",),
-                  finite=("Z",), inf_ok=("Z",), fix="connect DepthExtend's output")
+    depth = Input("extended depth (DepthExtend): Z and optionally P.X/P.Y/P.Z, N.X/N.Y/N.Z, object.id", optional=True,
+                  channels=("Z",), finite=("Z",), inf_ok=("Z",), dtype={"object.id": "uint32"},
+                  fix="connect DepthExtend's output")
     repair = Param(bool, True, doc="move pixels whose source label differs from the guide's onto the right label")
 
     def compute(self, ctx) -> Plate:
@@ -68,7 +69,7 @@ class Magnify(Node):
                                 "connect DepthExtend's output for this guide")
             for c in DEPTH_CHANNELS:
                 if c in ctx.depth:
-                    ch[c] = ctx.depth[c].astype(np.float32)
+                    ch[c] = ctx.depth[c] if c == "object.id" else ctx.depth[c].astype(np.float32)
         meta = provenance(source)
         meta["synthesis"] = dict(syn, patches=npatch, magnified=True, repaired=int(rep["wrong"]))
         for k in ("camera", "up_axis", "objects"):

@@ -45,6 +45,9 @@ def render_prims(prims: list, cam, *, max_error_px: float = 0.25):
     return depth, prim_idx, wpos, nrm
 
 
+MAX_SIDE = 16384  # pixels per side: 16K is beyond any delivery format
+
+
 class ProxyRender(Node):
     """Rasterize the scene's proxy prims (not the CG ones) at the frame through the camera.
 
@@ -84,8 +87,9 @@ class ProxyRender(Node):
 
     def compute(self, ctx) -> Plate:
         w, h = ctx.p.resolution
-        if not (isinstance(w, int) and isinstance(h, int) and w > 0 and h > 0):
-            raise ctx.error(f"resolution {ctx.p.resolution} must be two positive integers [width, height]")
+        if not (isinstance(w, int) and isinstance(h, int) and 0 < w <= MAX_SIDE and 0 < h <= MAX_SIDE):
+            raise ctx.error(f"resolution {ctx.p.resolution} must be two integers [width, height] from 1 to {MAX_SIDE} "
+                            "(e.g. [1920, 1080])")
         path = self._scene_path(ctx.graph_dir)
         stage = open_cached(path)
         cam = usd.camera_at(stage, ctx.p.camera, ctx.frame, w, h)

@@ -26,6 +26,7 @@ CATEGORY = {"A": 1, "B": 2, "C": 3, "D": 4}  # ConsistentDepth's pixel kinds (se
 FLAG = {"none": 0, "disoccluded": 1, "newly_occluded": 2, "distorted": 3, "reanchored": 4}
 CATEGORY_C = CATEGORY["C"]
 STATE = ("R", "G", "B", "source.x", "source.y", "patch.id", "label.id")
+GEOMETRY = ("label.id", "Z", "P.X", "P.Y", "P.Z", "N.X", "N.Y", "N.Z", "object.id")  # this frame's, not carried
 CORRECTION = ("correction.R", "correction.G", "correction.B")  # colour minus the source through the map
 
 
@@ -245,7 +246,7 @@ def carry(cd: Plate, prev: Plate | None, first: Plate | None, source: Plate, p, 
     ``Carry`` parameters. See ``nodes.reproject`` for the channels."""
     H, W = cd.shape
     cat = cd["category"] if "category" in cd else np.zeros((H, W), np.uint32)
-    geo = {c: cd[c] for c in ("label.id", "Z", "P.X", "P.Y", "P.Z") if c in cd}
+    geo = {c: cd[c] for c in GEOMETRY if c in cd}
     geo["category"] = cat.astype(np.uint32, copy=False)
     if prev is None:
         return _first_frame(cd, first, geo, frame, first_frame, note)
@@ -356,7 +357,7 @@ def _first_frame(cd: Plate, first: Plate | None, geo: dict, frame: int, first_fr
     ch["extension"] = np.zeros((H, W), np.float32)
     ch["flag"] = np.zeros((H, W), np.uint32)
     ch.update({k: v for k, v in geo.items() if k != "label.id"})
-    ch.update({c: first[c] for c in ("label.id", "Z", "P.X", "P.Y", "P.Z") if c in first})
+    ch.update({c: first[c] for c in GEOMETRY if c in first})
     meta = _carried_meta(first, cd)
     meta["temporal"] = dict(flagged=0.0, cut=False, frame=int(frame))
     return Plate(ch, meta)

@@ -159,3 +159,14 @@ def test_sphere_silhouette_error_under_half_a_pixel(centre, r):
     pc, pr, _ = cam.project(ring)
     dist = np.hypot(cols[bad][:, None] - pc[None], rows[bad][:, None] - pr[None]).min(1)
     assert np.max(dist, initial=0.0) < 0.5
+
+
+@pytest.mark.parametrize("res", [[0, 100], [-5, 100], [100, 20000], [100.5, 100]])
+def test_bad_resolution_is_a_one_line_error(res):
+    from proxyshade.errors import NodeInputError, ParamError
+
+    src = run_node("SourceRead", {"table": "samples/renoir/source.yaml"}, graph_dir=ROOT)
+    with pytest.raises((NodeInputError, ParamError), match=r"resolution|expected") as e:
+        run_node("ProxyRender", {"scene": "samples/scenes/lake.usda", "resolution": res}, {"source": src},
+                 graph_dir=ROOT)
+    assert "\n" not in str(e.value)

@@ -128,7 +128,7 @@ def test_camera_move_graph_reuses_earlier_frames(tmp_path):
     assert not r.computed
     r = load().run([4])
     assert {(x.node, x.frame) for x in r.runs if x.status == "computed"} == {
-        (n, 4) for n in ("proxy", "cd", "reproject", "final", "write", "preview", "flags", "labels", "movie")}
+        (n, 4) for n in ("proxy", "cd", "reproject", "final", "crypto", "write", "preview", "flags", "labels", "movie")}
     import OpenEXR
 
     with OpenEXR.File(str(tmp_path / "out" / "lake" / "frame.0004.exr")) as f:
