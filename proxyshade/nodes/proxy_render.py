@@ -46,6 +46,10 @@ def render_prims(prims: list, cam, *, max_error_px: float = 0.25):
 
 
 MAX_SIDE = 16384  # pixels per side: 16K is beyond any delivery format
+FORMATS = {  # delivery formats: name -> [width, height]
+    "1k": [1024, 1024], "hd": [1920, 1080], "2k": [2048, 1080], "2k_scope": [2048, 858], "2k_flat": [1998, 1080],
+    "uhd": [3840, 2160], "4k": [4096, 2160],
+}
 
 
 class ProxyRender(Node):
@@ -63,9 +67,15 @@ class ProxyRender(Node):
     source = Input("the annotated source (its label table names the labels)")
     scene = Param(str, doc="USD scene (.usda/.usd); relative to the graph file")
     camera = Param(str, None, doc="camera prim path (default: the first camera)")
-    resolution = Param(list, [1024, 1024], length=2, doc="[width, height] in pixels")
+    resolution = Param(list, [1024, 1024], length=2, doc="[width, height] in pixels (unless format is set)")
+    format = Param(str, None, choices=tuple(FORMATS),
+                   doc="a delivery format instead of resolution: " + ", ".join(f"{k} {v[0]}x{v[1]}" for k, v in FORMATS.items()))
     background = Param(str, None, doc="label of empty pixels (default: the scene's, else 'sky')")
     max_error_px = Param(float, 0.25, min=0.01, doc="sphere silhouette error bound in pixels")
+
+    @staticmethod
+    def _size(params: dict) -> list:
+        return FORMATS[params["format"]] if params.get("format") else params["resolution"]
 
     def _scene_path(self, graph_dir: Path) -> Path:
         return resolve_path(self.params["scene"], graph_dir)
@@ -77,7 +87,7 @@ class ProxyRender(Node):
             return "missing"
         try:
             stage = open_cached(path)
-            w, h = self.params["resolution"]
+            w, h = self._size(self.params)
             cam = usd.camera_at(stage, self.params["camera"], frame, int(w), int(h))
             prims = [(p.path, p.digest) for p in usd.scene_prims(stage, frame) if not p.cg]
             bg = stage.GetDefaultPrim().GetCustomDataByKey("proxyshade:background") if stage.GetDefaultPrim() else None
@@ -86,7 +96,7 @@ class ProxyRender(Node):
         return keys.digest([cam.to_meta(), prims, bg])
 
     def compute(self, ctx) -> Plate:
-        w, h = ctx.p.resolution
+        w, h = self._size(ctx.params)
         if not (isinstance(w, int) and isinstance(h, int) and 0 < w <= MAX_SIDE and 0 < h <= MAX_SIDE):
             raise ctx.error(f"resolution {ctx.p.resolution} must be two integers [width, height] from 1 to {MAX_SIDE} "
                             "(e.g. [1920, 1080])")

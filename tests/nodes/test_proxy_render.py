@@ -170,3 +170,13 @@ def test_bad_resolution_is_a_one_line_error(res):
         run_node("ProxyRender", {"scene": "samples/scenes/lake.usda", "resolution": res}, {"source": src},
                  graph_dir=ROOT)
     assert "\n" not in str(e.value)
+
+
+def test_format_names_a_delivery_resolution():
+    src = run_node("SourceRead", {"table": "samples/renoir/source.yaml"}, graph_dir=ROOT)
+    p = run_node("ProxyRender", {"scene": "samples/scenes/lake.usda", "format": "2k_scope"}, {"source": src},
+                 graph_dir=ROOT)
+    assert p.shape == (858, 2048)
+    g = Graph.load(ROOT / "graphs" / "first_frame.yaml", variables={"format": "hd"})
+    assert g.nodes["proxy"].params["format"] == "hd"
+    assert Graph.load(ROOT / "graphs" / "first_frame.yaml").nodes["proxy"].params["format"] is None
