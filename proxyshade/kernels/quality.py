@@ -98,3 +98,16 @@ def detail(rgb: np.ndarray, labels: np.ndarray) -> float:
     """
     n, t = _detail(np.ascontiguousarray(rgb, np.float32), np.ascontiguousarray(labels, np.uint32))
     return float(t) / n if n else 0.0
+
+
+def repetition(sx: np.ndarray, sy: np.ndarray, source_shape: tuple[int, int], *, top: float = 0.01) -> float:
+    """Share of the output's pixels drawn from the most-used ``top`` share of source pixels
+    (``source.x/y`` rounded to source pixels). A synthesis that copies the source evenly
+    gives about ``top`` times the output/source area ratio, capped at 1; the same few
+    source patches tiled on a lattice give much more."""
+    hs, ws = source_shape
+    c = np.clip(np.rint(sx), 0, ws - 1).astype(np.int64)
+    r = np.clip(np.rint(sy), 0, hs - 1).astype(np.int64)
+    counts = np.bincount((r * ws + c).ravel(), minlength=hs * ws)
+    k = max(1, int(round(top * hs * ws)))
+    return float(np.sort(counts)[-k:].sum() / counts.sum())

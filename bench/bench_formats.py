@@ -1,0 +1,76 @@
+"""Production formats: the first frame (graphs/first_frame.yaml, lake from renoir) at
+growing sizes, each in its own process (so peak RSS is that size's): wall time of a
+forced run after a warm-up, peak RSS, and the repetition measure of the result (share of
+the output drawn from the most-used 1% of source pixels, ``kernels.quality.repetition``),
+relative to 1024². Bars (issue: production formats): HD <= 6 s, 4K <= 20 s, RSS at 4K
+<= 6 GB, repetition at HD and 4K within 1.5x of 1024²'s.
+
+Run: ``python bench/run.py formats`` (``--sizes 512x512 1024x1024 hd uhd 4k``).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+BARS = {"hd": 6.0, "4k": 20.0}
+
+_CHILD = r"""
+import json, resource, sys, tempfile, time
+sys.path.insert(0, {root!r})
+from proxyshade import Graph
+from proxyshade.io.source import load_source
+from proxyshade.kernels.quality import repetition
+size = {size!r}
+over = ["preview.enabled=false", "proxy_labels.enabled=false", "detail_labels.enabled=false"]
+var = {{"out": tempfile.mkdtemp()}}
+if "x" in size:
+    w, h = size.split("x")
+    over.append(f"proxy.resolution=[{{w}},{{h}}]")
+else:
+    var["format"] = size
+with tempfile.TemporaryDirectory() as cache:
+    g = Graph.load({graph!r}, cache=cache, overrides=over, variables=var)
+    g.run([1])  # warm-up: JIT and cache
+    walls = []
+    for _ in range({repeat}):
+        t = time.perf_counter()
+        g.run([1], force=tuple(g.nodes))
+        walls.append(time.perf_counter() - t)
+    plate = g.value("final", 1)
+    src = load_source({source!r})
+    rep = repetition(plate["source.x"], plate["source.y"], src.shape)
+walls.sort()
+print(json.dumps({{"size": size, "shape": list(plate.shape), "wall": walls[len(walls) // 2],
+                  "rss_gb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2 ** 20, "repetition": rep}}))
+"""
+
+
+def measure(size: str, repeat: int) -> dict:
+    code = _CHILD.format(root=str(ROOT), size=size, repeat=repeat, graph=str(ROOT / "graphs" / "first_frame.yaml"),
+                         source=str(ROOT / "samples" / "renoir" / "source.yaml"))
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def main(argv=None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--sizes", nargs="*", default=["512x512", "1024x1024", "hd", "uhd", "4k"])
+    ap.add_argument("--repeat", type=int, default=3)
+    args = ap.parse_args(sys.argv[2:] if argv is None and len(sys.argv) > 1 and sys.argv[1] == "formats" else argv)
+    rows = [measure(s, args.repeat) for s in args.sizes]
+    ref = next((r for r in rows if r["size"] == "1024x1024"), rows[0])
+    print(f"{'size':>10} {'pixels':>10} {'first frame s':>14} {'s/Mpx':>7} {'peak RSS GB':>12} "
+          f"{'repetition':>11} {'vs 1024²':>9} {'bar s':>6}")
+    for r in rows:
+        h, w = r["shape"]
+        mp = w * h / 1e6
+        print(f"{w}x{h:<5} {w * h:>10} {r['wall']:>14.2f} {r['wall'] / mp:>7.2f} {r['rss_gb']:>12.2f} "
+              f"{r['repetition']:>11.4f} {r['repetition'] / ref['repetition']:>9.2f} {BARS.get(r['size'], float('nan')):>6.1f}")
+
+
+if __name__ == "__main__":
+    main()
