@@ -30,6 +30,35 @@ except ImportError:  # pragma: no cover
 out = Console()
 err = Console(stderr=True)
 
+source_app = typer.Typer(no_args_is_help=True, help="Annotated sources: a photo, its label map, a source.yaml.")
+app.add_typer(source_app, name="source")
+
+
+@source_app.command("new")
+def source_new(photo: Path = typer.Argument(..., help="the photo (8-bit sRGB)"),
+               label_map: Path = typer.Argument(..., help="its label map: flat colours, one per label, same size"),
+               output: Path = typer.Option(None, "-o", "--output", help="the source.yaml to write (default: beside the photo)"),
+               min_share: float = typer.Option(0.005, "--min-share", help="colours covering less of the map are noise"),
+               force: bool = typer.Option(False, "--force", help="replace an existing file")):
+    """Write a source.yaml for PHOTO and LABEL_MAP with the palette found in the map."""
+    from proxyshade.io.source import load_source, new_table
+
+    output = output or photo.parent / "source.yaml"
+    if output.exists() and not force:
+        raise UserError(f"{output}: exists; choose another -o path or pass --force to replace it")
+    text, rep = new_table(photo, label_map, output, min_share=min_share)
+    output.parent.mkdir(parents=True, exist_ok=True)
+    tmp = output.with_name(f".{output.name}.{os.getpid()}.tmp")
+    tmp.write_text(text)
+    try:
+        load_source(tmp, where=str(output))  # the table must load as written
+    except UserError:
+        tmp.unlink()
+        raise
+    os.replace(tmp, output)
+    out.print(f"{output}: {rep['labels']} labels; {rep['snapped']} pixels ({rep['snapped_share']:.2%}) of other "
+              "colours will snap to the nearest label. Rename the labels after your scene's.", markup=False)
+
 
 class _BarHooks:
     """One progress bar per node, advancing once per frame."""
@@ -103,6 +132,14 @@ def _vars(items: List[str]) -> dict:
         name, eq, value = item.partition("=")
         if not eq or not name:
             raise UserError(f"--var {item}: expected name=value")
+        if value.lstrip().startswith(("{", "[")):  # a mapping or a list, in YAML flow style
+            import yaml
+
+            try:
+                value = yaml.safe_load(value)
+            except yaml.YAMLError as e:
+                raise UserError(f"--var {item}: not valid YAML ({getattr(e, 'problem', e)}); write a mapping like "
+                                "{sand: rock} or a list like [1920, 1080]") from None
         out[name.strip()] = value
     return out
 

@@ -23,7 +23,7 @@ def graph(tmp_path):
 def test_run_then_rerun_reuses_everything(graph, capsys):
     assert main(["run", str(graph), "-q"]) == 0
     assert "4 computed, 0 reused" in capsys.readouterr().out
-    assert (graph.parent.parent / "out" / "import_source" / "source.exr").is_file()
+    assert (graph.parent.parent / "out" / "import_source" / "renoir.exr").is_file()
     assert main(["run", str(graph), "--explain", "-q"]) == 0
     text = capsys.readouterr().out
     assert "0 computed, 4 reused" in text and "cache hit" in text
@@ -47,7 +47,7 @@ def test_missing_source_file_is_bad_input(graph, capsys):
 def test_inspect_nodes_graph_and_cache(graph, capsys):
     main(["run", str(graph), "-q"])
     capsys.readouterr()
-    assert main(["inspect", str(graph.parent.parent / "out" / "import_source" / "source.exr")]) == 0
+    assert main(["inspect", str(graph.parent.parent / "out" / "import_source" / "renoir.exr")]) == 0
     text = capsys.readouterr().out
     assert "label.id" in text and "uint" in text and "proxyshade/node: write" in text
     assert main(["nodes"]) == 0
@@ -67,10 +67,15 @@ def test_console_script_exit_code(graph):
     assert r.returncode == 2 and "no node 'nope'" in r.stderr and "Traceback" not in r.stderr
 
 
-def test_vars_from_the_command_line(graph, capsys):
+def test_vars_from_the_command_line(graph, capsys, monkeypatch):
     shutil.copytree(ROOT / "samples" / "monet", graph.parent.parent / "samples" / "monet")
-    assert main(["run", str(graph), "-q", "--var", "sample=../samples/monet", "--var", "out=../out/m"]) == 0
-    assert (graph.parent.parent / "out" / "m" / "source.exr").is_file()
+    # a bundled name (samples/monet beside the graph's folder) and an output folder of the user's
+    assert main(["run", str(graph), "-q", "--var", "source=monet", "--var", f"out={graph.parent.parent / 'out' / 'm'}"]) == 0
+    assert (graph.parent.parent / "out" / "m" / "monet.exr").is_file()
+    # a path to a source.yaml, relative to the current folder
+    monkeypatch.chdir(graph.parent.parent)
+    assert main(["run", str(graph), "-q", "--var", "source=samples/monet/source.yaml", "--var", "out=out/p"]) == 0
+    assert (graph.parent.parent / "out" / "p" / "monet.exr").is_file()
     assert main(["run", str(graph), "--var", "oops"]) == 2
     assert "--var oops: expected name=value" in capsys.readouterr().err
 

@@ -24,7 +24,7 @@ def test_first_frame_at_any_size_and_aspect(tmp_path, size):
                               "preview.enabled=false", "proxy_labels.enabled=false", "detail_labels.enabled=false"],
                    variables={"out": str(tmp_path)})
     g.run([1])
-    exr = tmp_path / "lake.0001.exr"
+    exr = tmp_path / "lake_renoir.0001.exr"
     plate = read_plate(exr)
     assert plate.shape == (h, w)
     for c in ("R", "G", "B", "Z", "P.X", "N.X", "N.Y", "N.Z", "label.id", "object.id", "patch.id", "source.x"):

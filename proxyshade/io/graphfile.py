@@ -112,6 +112,54 @@ def _subst(value: Any, variables: dict[str, Any], where: str) -> Any:
     return value
 
 
+def _resolve_vars(declared: dict, given: dict, f: str, line: int) -> dict:
+    """The graph's variables with the command line's (``--var``) over them.
+
+    A variable declared as ``{default: renoir, bundled: "../samples/{}/source.yaml"}``
+    takes a bundled name or a path: a value with a path separator or a file suffix (or
+    naming an existing file) is a path of the user's, made absolute against the current
+    folder; anything else is a bundled name, put into the pattern (which resolves against
+    the graph file's folder like any path parameter). ``${NAME_name}`` is the short name
+    outputs are named after (the bundled name, or the file's stem). One declared as
+    ``{default: ../out, path: true}`` is a path: the default resolves against the graph
+    file's folder, a ``--var`` value against the current folder."""
+    out = {}
+    for name, spec in declared.items():
+        if isinstance(spec, dict) and spec.get("path") is True and set(spec) <= {"default", "path", "doc"}:
+            # a folder or file: the graph's default resolves against the graph file, a value
+            # given on the command line against the current folder
+            out[name] = str(Path(given[name]).expanduser().resolve()) if name in given else spec.get("default")
+        elif isinstance(spec, dict) and "bundled" in spec:
+            extra = set(spec) - {"default", "bundled", "doc"}
+            if extra or not isinstance(spec["bundled"], str) or "{}" not in spec["bundled"]:
+                raise GraphFileError(f"{f}:{line}: vars.{name}: expected {{default: NAME, bundled: \"path/{{}}/...\"}} "
+                                     f"(the pattern holds {{}} where the name goes), got {dict(spec)!r}")
+            value = given.get(name, spec.get("default"))
+            out[name] = _bundled_or_path(value, spec["bundled"])
+            out[f"{name}_name"] = _short_name(value)
+        else:
+            out[name] = given.get(name, spec)
+    for name, value in given.items():
+        out.setdefault(name, value)
+    return out
+
+
+def _bundled_or_path(value: Any, pattern: str) -> Any:
+    if not isinstance(value, str) or not value:
+        return value
+    p = Path(value).expanduser()
+    if p.is_absolute() or "/" in value or "\\" in value or p.suffix or p.is_file():
+        return str(p.resolve())
+    return pattern.replace("{}", value)
+
+
+def _short_name(value: Any) -> str:
+    """What outputs are named after: a bundled name itself, a path's file stem (its folder's
+    name for a generic file name such as source.yaml)."""
+    p = Path(str(value))
+    return p.parent.name if p.stem in ("source", "scene") and p.parent.name else p.stem
+
+
 def read_yaml(path: Path) -> Any:
     try:
         text = path.read_text()
@@ -168,7 +216,7 @@ def build_graph(data: Any, path: Path, graph_cls: type, *, cache=None, overrides
     vars_ = data.get("vars") or {}
     if not isinstance(vars_, dict):
         raise err(_line(data, "vars"), "vars", "expected a mapping name -> value")
-    variables = {**dict(vars_), **(variables or {})}
+    variables = _resolve_vars(vars_, variables or {}, f, _line(data, "vars"))
     nodes = data.get("nodes")
     if not isinstance(nodes, dict) or not nodes:
         raise err(_line(data, "nodes"), "nodes", "expected a mapping of node name -> {type, inputs, params}")

@@ -7,9 +7,9 @@ and failing when too many are far from every table colour.
 """
 from __future__ import annotations
 
-from pathlib import Path
-
+import os
 import warnings
+from pathlib import Path
 
 warnings.filterwarnings("ignore", message='.*"Matplotlib" related API features.*')
 import colour  # noqa: E402
@@ -138,3 +138,41 @@ def load_source(table_path: str | Path, *, far_distance: float = 100.0, max_far_
     if t.get("layout"):
         meta["source"]["layout"] = t["layout"]
     return Plate(ch, meta)
+
+
+def palette(rgb8: np.ndarray, *, min_share: float = 0.005) -> tuple[list[tuple[tuple[int, int, int], int]], int]:
+    """The label colours of a label map: each distinct colour covering at least
+    ``min_share`` of the pixels, largest first, with its pixel count; and how many pixels
+    have another colour (anti-aliasing or JPEG noise, snapped to the nearest label when
+    the source is read)."""
+    flat = rgb8.reshape(-1, 3)
+    uniq, counts = np.unique(flat, axis=0, return_counts=True)
+    order = np.argsort(-counts, kind="stable")
+    keep = [(tuple(int(v) for v in uniq[i]), int(counts[i])) for i in order if counts[i] >= min_share * len(flat)]
+    return keep, int(len(flat) - sum(c for _, c in keep))
+
+
+def new_table(photo: Path, label_map: Path, out: Path, *, min_share: float = 0.005) -> tuple[str, dict]:
+    """The text of a ``source.yaml`` (to be written at ``out``) for ``photo`` and its
+    ``label_map``: one label per palette colour (named ``label_1``, ... by area, to be
+    renamed after the scene's labels), ids from 1. Returns (YAML text, report: labels,
+    snapped pixels and their share)."""
+    rgb8, lab8 = read_u8(photo), read_u8(label_map)
+    if rgb8.shape != lab8.shape:
+        raise UserError(f"{label_map}: the label map is {lab8.shape[1]}x{lab8.shape[0]} but the photo "
+                        f"{rgb8.shape[1]}x{rgb8.shape[0]}; paint the label map at the photo's size")
+    colours, other = palette(lab8, min_share=min_share)
+    if len(colours) < 2:
+        raise UserError(f"{label_map}: fewer than two colours cover {min_share:.1%} of the map each; paint at "
+                        "least two labelled regions (flat colours, one per label)")
+
+    def rel(p: Path) -> str:
+        return Path(os.path.relpath(p.resolve(), out.resolve().parent)).as_posix()
+
+    lines = [f"# written by 'proxyshade source new'; rename the labels after your scene's (UsdSemantics texture",
+             f"# labels) and keep the colours: they are the label map's",
+             f"image: {rel(photo)}", f"labels_map: {rel(label_map)}", "labels:"]
+    n = rgb8.shape[0] * rgb8.shape[1]
+    for i, (c, count) in enumerate(colours, 1):
+        lines.append(f"  label_{i}: {{id: {i}, color: \"#{c[0]:02x}{c[1]:02x}{c[2]:02x}\"}}   # {count / n:.1%} of the map")
+    return "\n".join(lines) + "\n", {"labels": len(colours), "snapped": other, "snapped_share": other / n}

@@ -72,6 +72,8 @@ class ProxyRender(Node):
                    doc="a delivery format instead of resolution: " + ", ".join(f"{k} {v[0]}x{v[1]}" for k, v in FORMATS.items()))
     background = Param(str, None, doc="label of empty pixels (default: the scene's, else 'sky')")
     max_error_px = Param(float, 0.25, min=0.01, doc="sphere silhouette error bound in pixels")
+    labels = Param(dict, {}, doc="scene label -> source label, for scene labels the source lacks "
+                                 "(e.g. {sand: rock}: render sand with the photo's rock)")
 
     @staticmethod
     def _size(params: dict) -> list:
@@ -116,12 +118,24 @@ class ProxyRender(Node):
         if unlabelled:
             raise ctx.error(f"{path.name}: prim {unlabelled[0]} has no texture label; apply "
                             f"UsdSemantics.LabelsAPI:texture (labels: {', '.join(sorted(table))})")
-        missing = [lab for lab in scene_labels if lab not in table]
+        mapping = ctx.p.labels
+        bad = {k: v for k, v in mapping.items() if not isinstance(v, str) or v not in table}
+        if bad:
+            k, v = next(iter(bad.items()))
+            raise ctx.error(f"labels: {k}: {v!r} is not a label of the source; source labels: "
+                            f"{', '.join(sorted(table))}")
+        unused = sorted(set(mapping) - set(scene_labels))
+        if unused:
+            ctx.warn(f"labels: {', '.join(unused)} not in the scene (its labels: {', '.join(scene_labels)}); "
+                     "the mapping of those does nothing")
+        missing = [lab for lab in scene_labels if mapping.get(lab, lab) not in table]
         if missing:
             raise ctx.error(f"{path.name}: scene label(s) {', '.join(missing)} not in the source's table; "
-                            f"scene labels: {', '.join(scene_labels)}; source labels: {', '.join(sorted(table))}")
+                            f"scene labels: {', '.join(scene_labels)}; source labels: {', '.join(sorted(table))}; "
+                            f"map them with the labels parameter, e.g. {{{missing[0]}: {sorted(table)[0]}}}")
         depth, prim_idx, wpos, nrm = render_prims(prims, cam, max_error_px=ctx.p.max_error_px)
-        lab_of_prim = np.array([table[p.label] for p in prims] + [table[bg]], np.uint32)
+        lab_of_prim = np.array([table[mapping.get(p.label, p.label)] for p in prims] + [table[mapping.get(bg, bg)]],
+                               np.uint32)
         label = lab_of_prim[np.where(prim_idx >= 0, prim_idx, len(prims))]
         ch = {
             "label.id": label,

@@ -123,7 +123,7 @@ def test_camera_move_graph_reuses_earlier_frames(tmp_path):
     assert {("final", 1), ("final", 2), ("final", 3), ("write", 3), ("init", 1)} <= done
     assert {("guide", 1), ("depth", 1), ("first", 1)} <= done
     assert not any(n in ("guide", "depth", "init", "correct", "magnify", "first") and f != 1 for n, f in done)
-    assert ("write", 2) not in done and (tmp_path / "out" / "lake" / "frame.0003.exr").is_file()
+    assert ("write", 2) not in done and (tmp_path / "out" / "lake_renoir" / "frame.0003.exr").is_file()
     r = load().run([3])
     assert not r.computed
     r = load().run([4])
@@ -131,6 +131,6 @@ def test_camera_move_graph_reuses_earlier_frames(tmp_path):
         (n, 4) for n in ("proxy", "cd", "reproject", "final", "crypto", "write", "preview", "flags", "labels", "movie")}
     import OpenEXR
 
-    with OpenEXR.File(str(tmp_path / "out" / "lake" / "frame.0004.exr")) as f:
+    with OpenEXR.File(str(tmp_path / "out" / "lake_renoir" / "frame.0004.exr")) as f:
         names = set(f.channels())
     assert {"flag", "distortion", "category"} <= names
