@@ -1,6 +1,8 @@
 """The ``proxyshade`` command line: run graphs, list nodes, inspect EXRs, manage the cache.
 
-Exit codes: 0 ok, 2 bad input (a one-line message, no traceback), 1 internal error.
+Exit codes (``proxyshade.errors``): 0 ok; 1 internal error; 2 bad input or a usage error
+(a one-line message, no traceback); 74 an output or cache file could not be written (a full
+disk, an I/O error); 130 interrupted (Ctrl-C: "interrupted", no partial output).
 """
 from __future__ import annotations
 
@@ -15,7 +17,9 @@ from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
-from proxyshade.errors import UserError
+from rich.text import Text
+
+from proxyshade.errors import EXIT_BAD_INPUT, EXIT_INTERNAL, EXIT_INTERRUPTED, EXIT_IO, UserError
 
 app = typer.Typer(add_completion=False, no_args_is_help=True, help="Proxy-guided texture synthesis as a cached node graph.")
 cache_app = typer.Typer(no_args_is_help=True, help="Inspect or clean the cache.")
@@ -29,6 +33,20 @@ except ImportError:  # pragma: no cover
 
 out = Console()
 err = Console(stderr=True)
+
+# typer's exceptions (typer vendors click since 0.22; older versions re-export click's): found
+# from the public BadParameter, so no import of click itself
+_USAGE_ERROR = next(c for c in typer.BadParameter.__mro__ if c.__name__ == "UsageError")
+_CLICK_EXCEPTION = next(c for c in typer.BadParameter.__mro__ if c.__name__ == "ClickException")
+
+
+def _one_line(text: str) -> str:
+    return " ".join(line.strip() for line in str(text).splitlines() if line.strip())
+
+
+def _say(console: Console, text: str) -> None:
+    """Print text as it is: no rich markup (``shot[v2].exr`` keeps its brackets), no highlighting."""
+    console.print(text, markup=False, highlight=False, soft_wrap=True)
 
 
 class _BarHooks:
@@ -56,7 +74,7 @@ class _BarHooks:
 
 @app.command()
 def run(
-    graph: Path = typer.Argument(..., help="YAML graph file"),
+    graph: Path = typer.Argument(..., metavar="GRAPH", help="YAML graph file"),
     frames: Optional[str] = typer.Option(None, "--frames", help="frames to compute: 1-48, 30 or 1,5,9-12 (default: the graph's range)"),
     set_: List[str] = typer.Option([], "--set", help="override a parameter: node.param=value (repeatable)"),
     var: List[str] = typer.Option([], "--var", help="set a graph variable: name=value (repeatable), used as ${name}"),
@@ -72,7 +90,7 @@ def run(
     from proxyshade.io.graphfile import parse_frame_list
 
     g = Graph.load(graph, cache=cache, overrides=list(set_), variables=_vars(var))
-    fl = parse_frame_list(frames) if frames else None
+    fl = parse_frame_list(frames, bounds=g.frames) if frames is not None else None
     with Progress(TextColumn("{task.description:<14}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
                   console=err, disable=quiet or not err.is_terminal, transient=True) as progress:
         report = g.run(fl, jobs=jobs, force=tuple(force), hooks=_BarHooks(progress), threads=threads)
@@ -83,7 +101,8 @@ def run(
         for c in ("node", "frame", "status", "why", "seconds"):
             t.add_column(c, justify="right" if c in ("frame", "seconds") else "left")
         for r in report.runs:
-            t.add_row(r.node, str(r.frame), r.status, r.reason, f"{r.seconds:.3f}" if r.status == "computed" else "")
+            t.add_row(Text(r.node), str(r.frame), r.status, Text(r.reason),
+                      f"{r.seconds:.3f}" if r.status == "computed" else "")
         out.print(t)
     else:
         per = {}
@@ -91,10 +110,13 @@ def run(
             if r.status == "computed":
                 per[r.node] = per.get(r.node, 0.0) + r.seconds
         for name, s in per.items():
-            out.print(f"  {name:<16} {s:8.3f} s")
+            _say(out, f"  {name:<16} {s:8.3f} s")
+    if report.cleaned:
+        _say(out, f"  note removed {len(report.cleaned)} temporary file(s) left by killed runs "
+                  f"({sum(n for _, n in report.cleaned) / 1e6:.1f} MB)")
     for note in report.notes:
-        out.print(f"  note {note}")
-    out.print(f"{computed} computed, {reused} reused in {report.wall:.3f} s, peak memory {report.peak_rss_mb:.0f} MiB")
+        _say(out, f"  note {note}")
+    _say(out, f"{computed} computed, {reused} reused in {report.wall:.3f} s, peak memory {report.peak_rss_mb:.0f} MiB")
 
 
 def _vars(items: List[str]) -> dict:
@@ -127,7 +149,7 @@ def nodes():
 
 
 @app.command("graph")
-def show_graph(graph: Path = typer.Argument(..., help="YAML graph file"),
+def show_graph(graph: Path = typer.Argument(..., metavar="GRAPH", help="YAML graph file"),
                frames: Optional[str] = typer.Option(None, "--frames", help="frames to unroll (default: the first)"),
                var: List[str] = typer.Option([], "--var", help="set a graph variable: name=value")):
     """Print the graph's DAG: each node, its type and where its inputs come from."""
@@ -135,9 +157,9 @@ def show_graph(graph: Path = typer.Argument(..., help="YAML graph file"),
     from proxyshade.io.graphfile import parse_frame_list
 
     g = Graph.load(graph, variables=_vars(var))
-    fl = parse_frame_list(frames) if frames else [g.frames[0]]
+    fl = parse_frame_list(frames, bounds=g.frames) if frames is not None else [g.frames[0]]
     g.instances(fl)  # rejects cycles
-    out.print(f"{graph}: frames {g.frames[0]}-{g.frames[1]}")
+    _say(out, f"{graph}: frames {g.frames[0]}-{g.frames[1]}")
     for name, node in g.nodes.items():
         ins = []
         for k, ref in g.connections[name].items():
@@ -148,12 +170,12 @@ def show_graph(graph: Path = typer.Argument(..., help="YAML graph file"),
 
 
 @app.command()
-def inspect(file: Path = typer.Argument(..., help="an EXR file")):
+def inspect(file: Path = typer.Argument(..., metavar="FILE", help="an EXR file")):
     """Channels, their types and the metadata of an EXR."""
     from proxyshade.io.exr import read_header
 
     info = read_header(file)
-    out.print(f"{file}: {info['width']}x{info['height']}")
+    _say(out, f"{file}: {info['width']}x{info['height']}")
     for name, typ in info["channels"]:
         out.print(f"  {name:<20} {typ}", highlight=False)
     for k, v in sorted(info["attributes"].items()):
@@ -176,7 +198,9 @@ def cache_info(graph: Optional[Path] = typer.Argument(None, help="graph file who
     from proxyshade.graph.cache import Cache
 
     i = Cache(_cache_root(graph, cache)).info()
-    out.print(f"{i['root']}: {i['entries']} entries, {i['bytes'] / 1e6:.1f} MB")
+    temps = (f", {i['temps']} temporary file(s) ({i['temp_bytes'] / 1e6:.1f} MB, {i['stale_temps']} left by killed "
+             "runs: the next run removes them)") if i["temps"] else ""
+    _say(out, f"{i['root']}: {i['entries']} entries, {i['bytes'] / 1e6:.1f} MB{temps}")
 
 
 @cache_app.command("clean")
@@ -187,32 +211,68 @@ def cache_clean(graph: Optional[Path] = typer.Argument(None, help="graph file wh
 
     c = Cache(_cache_root(graph, cache))
     n = c.clean()
-    out.print(f"removed {n} entries from {c.root}")
+    _say(out, f"removed {n} entries from {c.root}")
+
+
+def _show_warning(message, category, filename, lineno, file=None, line=None):
+    """Warnings as one line on stderr (no source line of the code that warned)."""
+    _say(err, f"warning: {_one_line(str(message))}")
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Entry point: maps bad input to exit code 2 and internal errors to 1."""
-    warnings.simplefilter("default")
+    """Entry point: returns the exit code (see the module docstring)."""
     try:
-        app(args=argv, standalone_mode=False)
-    except UserError as e:
-        err.print(f"error: {e}", highlight=False, soft_wrap=True)
-        return (2)
-    except (typer.Exit, SystemExit) as e:
-        return (getattr(e, "exit_code", getattr(e, "code", 0)) or 0)
-    except Exception as e:  # noqa: BLE001
-        import click
+        with warnings.catch_warnings():
+            warnings.simplefilter("default")
+            warnings.showwarning = _show_warning
+            return _main(argv)
+    except KeyboardInterrupt:  # outside typer's own handling (before or after the command)
+        _say(err, "interrupted")
+        return EXIT_INTERRUPTED
 
-        if isinstance(e, click.exceptions.UsageError):
-            err.print(f"error: {e.format_message()}", highlight=False, soft_wrap=True)
-            return (2)
-        if isinstance(e, click.exceptions.Abort):
-            return (1)
-        err.print(f"internal error: {type(e).__name__}: {e}", highlight=False, soft_wrap=True)
+
+def _main(argv: list[str] | None) -> int:
+    try:
+        code = app(args=argv, prog_name="proxyshade", standalone_mode=False)
+    except UserError as e:
+        _say(err, f"error: {_one_line(str(e))}")
+        return getattr(e, "exit_code", EXIT_BAD_INPUT)
+    except KeyboardInterrupt:
+        code = EXIT_INTERRUPTED
+    except (typer.Exit, SystemExit) as e:
+        code = getattr(e, "exit_code", getattr(e, "code", 0))
+    except _USAGE_ERROR as e:
+        if type(e).__name__ == "NoArgsIsHelpError":  # a bare 'proxyshade' or 'proxyshade cache'
+            _say(err, e.format_message())
+            return EXIT_BAD_INPUT
+        usage = _one_line(e.ctx.get_usage()) if getattr(e, "ctx", None) else ""
+        cmd = e.ctx.command_path if getattr(e, "ctx", None) else "proxyshade"
+        _say(err, f"error: {_one_line(e.format_message())} {usage} (see '{cmd} --help')".replace("  ", " "))
+        return EXIT_BAD_INPUT
+    except _CLICK_EXCEPTION as e:
+        _say(err, f"error: {_one_line(e.format_message())}")
+        return e.exit_code or EXIT_INTERNAL
+    except typer.Abort as e:
+        if isinstance(e.__context__, KeyboardInterrupt):  # typer versions whose Ctrl-C is an Abort
+            code = EXIT_INTERRUPTED
+        else:
+            _say(err, "aborted")
+            return EXIT_INTERNAL
+    except OSError as e:  # a file outside the writers (a report, a folder) on a full or failing disk
         if os.environ.get("PROXYSHADE_DEBUG"):
             raise
-        return (1)
-    return (0)
+        _say(err, f"error: {e.filename or ''}{': ' if e.filename else ''}{e.strerror or e}; "
+                  "free space or fix the disk, then run again")
+        return EXIT_IO
+    except Exception as e:  # noqa: BLE001
+        _say(err, f"internal error: {type(e).__name__}: {_one_line(str(e))} (PROXYSHADE_DEBUG=1 for the traceback)")
+        if os.environ.get("PROXYSHADE_DEBUG"):
+            raise
+        return EXIT_INTERNAL
+    code = code if isinstance(code, int) else 0
+    if code == EXIT_INTERRUPTED:
+        _say(err, "interrupted")
+    return code
 
 
 if __name__ == "__main__":
