@@ -17,8 +17,29 @@ from proxyshade.io.files import io_error, output_target, temp_for
 
 
 def _msg(text: str) -> str:
-    """OpenImageIO's error text (often several lines of library output) as one line."""
-    return " ".join(line.strip() for line in str(text).splitlines() if line.strip()) or "unknown error"
+    """OpenImageIO's error text (often several lines of library output, repeated) as one line."""
+    lines = [line.strip() for line in str(text).splitlines() if line.strip()]
+    return "; ".join(dict.fromkeys(lines)) or "unknown error"
+
+
+def _png_problem(path: Path) -> str | None:
+    """Why a PNG file is cut short (its chunks do not reach IEND), or None. Checked before libpng
+    reads it: libpng prints its own complaints about a truncated file straight to stderr."""
+    with open(path, "rb") as f:
+        data = f.read()
+    if not data.startswith(b"\x89PNG\r\n\x1a\n"):
+        return None  # not a PNG by content: OpenImageIO says what it is
+    pos = 8
+    while pos + 8 <= len(data):
+        length = int.from_bytes(data[pos:pos + 4], "big")
+        kind = data[pos + 4:pos + 8]
+        end = pos + 12 + length
+        if end > len(data):
+            return f"truncated: the file ends inside its {kind.decode('latin-1')} chunk at byte {len(data)} of {end}"
+        if kind == b"IEND":
+            return None
+        pos = end
+    return f"truncated: the file ends at byte {len(data)} before its IEND chunk"
 
 
 def read_u8(path: str | Path) -> np.ndarray:
@@ -26,6 +47,10 @@ def read_u8(path: str | Path) -> np.ndarray:
     path = Path(path)
     if not path.is_file():
         raise UserError(f"{path}: no such image file; check the path (relative paths resolve against the YAML file)")
+    if path.suffix.lower() == ".png":
+        problem = _png_problem(path)
+        if problem:
+            raise UserError(f"{path}: cannot read image ({problem}); re-export it")
     buf = oiio.ImageBuf(str(path))
     if buf.has_error:
         raise UserError(f"{path}: cannot read image: {_msg(buf.geterror())}; re-export it")
