@@ -7,7 +7,9 @@ disk, an I/O error); 130 interrupted (Ctrl-C: "interrupted", no partial output).
 from __future__ import annotations
 
 import os
+import signal
 import sys
+import threading
 import warnings
 from pathlib import Path
 from typing import List, Optional
@@ -220,7 +222,8 @@ def _show_warning(message, category, filename, lineno, file=None, line=None):
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Entry point: returns the exit code (see the module docstring)."""
+    """Entry point: returns the exit code (see the module docstring). ``argv`` None: the
+    process's own command line (the console script)."""
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("default")
@@ -229,6 +232,11 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:  # outside typer's own handling (before or after the command)
         _say(err, "interrupted")
         return EXIT_INTERRUPTED
+    finally:
+        if argv is None and threading.current_thread() is threading.main_thread():
+            # the exit code is decided and every file is written: a Ctrl-C while the interpreter
+            # shuts down (joining threads, unloading libraries) would only turn it into a bare SIGINT
+            signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 def _main(argv: list[str] | None) -> int:
