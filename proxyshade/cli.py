@@ -142,12 +142,12 @@ def nodes():
         out.print(f"[bold]{name}[/bold] (v{cls.version}{', time-dependent' if cls.time_dependent else ''}{', writes files' if cls.sink else ''}{', whole sequence' if cls.sequence else ''})")
         doc = cls.doc().splitlines()
         if doc:
-            out.print(f"  {doc[0]}")
+            _say(out, f"  {doc[0]}")
         for k, i in cls.inputs_spec.items():
-            out.print(f"  input  {k:<18} {'(optional) ' if i.optional else ''}{i.doc}")
+            _say(out, f"  input  {k:<18} {'(optional) ' if i.optional else ''}{i.doc}")
         for k, p in cls.params_spec.items():
             default = "required" if p.required else f"default {p.default!r}"
-            out.print(f"  param  {k:<18} {p.describe()}, {default}{'' if p.hashed else ', not hashed'}  {p.doc}", highlight=False)
+            _say(out, f"  param  {k:<18} {p.describe()}, {default}{'' if p.hashed else ', not hashed'}  {p.doc}")
 
 
 @app.command("graph")
@@ -168,7 +168,7 @@ def show_graph(graph: Path = typer.Argument(..., metavar="GRAPH", help="YAML gra
             at = "@all" if ref.all else "@first" if ref.first else (f"@{ref.offset:+d}" if ref.offset else "")
             ins.append(f"{k}<-{ref.node}{at}")
         state = "" if g.enabled[name] else " (disabled)"
-        out.print(f"  {name} [{type(node).__name__}]{state} {'  '.join(ins)}", highlight=False)
+        _say(out, f"  {name} [{type(node).__name__}]{state} {'  '.join(ins)}")
 
 
 @app.command()
@@ -179,10 +179,10 @@ def inspect(file: Path = typer.Argument(..., metavar="FILE", help="an EXR file")
     info = read_header(file)
     _say(out, f"{file}: {info['width']}x{info['height']}")
     for name, typ in info["channels"]:
-        out.print(f"  {name:<20} {typ}", highlight=False)
+        _say(out, f"  {name:<20} {typ}")
     for k, v in sorted(info["attributes"].items()):
         s = str(v)
-        out.print(f"  {k}: {s[:200] + '...' if len(s) > 200 else s}", highlight=False)
+        _say(out, f"  {k}: {s[:200] + '...' if len(s) > 200 else s}")
 
 
 def _cache_root(graph: Optional[Path], cache: Optional[Path]) -> Path:

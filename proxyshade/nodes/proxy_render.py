@@ -107,6 +107,12 @@ class ProxyRender(Node):
             raise ctx.error(f"{path.name}: scene label(s) {', '.join(missing)} not in the source's table; "
                             f"scene labels: {', '.join(scene_labels)}; source labels: {', '.join(sorted(table))}")
         depth, prim_idx, wpos, nrm = render_prims(prims, cam, max_error_px=ctx.p.max_error_px)
+        if not prims:
+            ctx.warn(f"{path.name}: the scene has no proxy prims (labelled meshes or spheres not marked CG), so the "
+                     f"render is all '{bg}'; add labelled geometry")
+        elif not (prim_idx >= 0).any():
+            ctx.warn(f"{path.name}: no proxy prim is in view of the camera at frame {ctx.frame}, so the render is all "
+                     f"'{bg}'; check the camera")
         lab_of_prim = np.array([table[p.label] for p in prims] + [table[bg]], np.uint32)
         label = lab_of_prim[np.where(prim_idx >= 0, prim_idx, len(prims))]
         ch = {

@@ -512,3 +512,53 @@ def test_truncated_png_is_one_line(tmp_path, capfd):
     code, _, err = cli(capfd, "run", tmp_path / "graphs" / "import_source.yaml", "-q")  # capfd: the libraries' output too
     assert code == EXIT_BAD_INPUT and len(err) == 1, err
     assert "style.png: cannot read image (truncated: the file ends inside its IDAT chunk" in err[0]
+
+
+# -- 13 and 12: scenes that render nothing, malformed USD ------------------------------------------------
+def _scene_graph(tmp_path: Path, scene: str) -> Path:
+    from proxyshade.graph.plate import Plate
+    from proxyshade.io.exr import write_plate
+
+    table = [{"name": "sky", "id": 2, "color": "#ffffff"}, {"name": "water", "id": 3, "color": "#0000ff"}]
+    write_plate(tmp_path / "src.exr", Plate({"label.id": np.zeros((2, 2), np.uint32)}, {"labels": table}))
+    nodes = ("  src: {type: ExrRead, params: {path: src.exr}}\n"
+             f"  proxy: {{type: ProxyRender, inputs: {{source: src}}, params: {{scene: {scene}, resolution: [8, 8]}}}}\n"
+             "  w: {type: ExrWrite, inputs: {image: proxy}, params: {path: out/proxy.exr}}\n")
+    return write_graph(tmp_path, nodes, frames="1", vars_="")
+
+
+@pytest.mark.parametrize("case,expect", [
+    ("empty", "the scene has no proxy prims (labelled meshes or spheres not marked CG), so the render is all 'sky'; "
+              "add labelled geometry"),
+    ("behind", "no proxy prim is in view of the camera at frame 1, so the render is all 'sky'; check the camera"),
+])
+def test_scene_that_renders_only_sky_warns(tmp_path, capsys, case, expect):
+    from pxr import Gf, Usd, UsdGeom, UsdSemantics, Vt
+
+    s = Usd.Stage.CreateNew(str(tmp_path / "s.usda"))
+    world = UsdGeom.Xform.Define(s, "/World")
+    s.SetDefaultPrim(world.GetPrim())
+    cam = UsdGeom.Camera.Define(s, "/World/Cam")
+    cam.CreateHorizontalApertureAttr(36)
+    cam.CreateVerticalApertureAttr(36)
+    cam.CreateClippingRangeAttr(Gf.Vec2f(0.1, 1000))
+    if case == "behind":  # a labelled plane behind the camera (it looks down -Z)
+        m = UsdGeom.Mesh.Define(s, "/World/Plane")
+        m.CreatePointsAttr([(-9, -9, 5), (9, -9, 5), (9, 9, 5), (-9, 9, 5)])
+        m.CreateFaceVertexCountsAttr([4])
+        m.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
+        UsdSemantics.LabelsAPI.Apply(m.GetPrim(), "texture").CreateLabelsAttr().Set(Vt.TokenArray(["water"]))
+    s.Save()
+    code, out, err = cli(capsys, "run", _scene_graph(tmp_path, "s.usda"), "-q")
+    assert code == 0 and err == [f"warning: proxy: s.usda: {expect}"], err
+    assert f"note proxy@1: proxy: s.usda: {expect}" in out
+    assert (read_plate(tmp_path / "out" / "proxy.exr")["label.id"] == 2).all()
+
+
+def test_malformed_usd_keeps_usds_parse_error(tmp_path, capsys):
+    scene = tmp_path / "bad.usda"
+    scene.write_text('#usda 1.0\ndef Xform "World" {\n  def Mesh "M" {\n    point3f[] points = [(0, 0, 0), (1, 1\n  }\n}\n')
+    code, _, err = cli(capsys, "run", _scene_graph(tmp_path, "bad.usda"), "-q")
+    assert code == EXIT_BAD_INPUT and len(err) == 1, err
+    assert f"{scene}: cannot open USD stage: {scene}:5:3: parse error" in err[0], err
+    assert "pxrInternal" not in err[0] and not (tmp_path / "out").exists()
