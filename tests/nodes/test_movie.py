@@ -3,7 +3,7 @@ import numpy as np
 import OpenImageIO as oiio
 import pytest
 
-from proxyshade.errors import NodeInputError, UserError, WriteError
+from proxyshade.errors import NodeInputError, WriteError
 from proxyshade.graph.graph import Graph, InputRef
 from proxyshade.graph.node import Node
 from proxyshade.graph.plate import Plate
