@@ -1,11 +1,15 @@
 """The ``proxyshade`` command line: run graphs, list nodes, inspect EXRs, manage the cache.
 
-Exit codes: 0 ok, 2 bad input (a one-line message, no traceback), 1 internal error.
+Exit codes (``proxyshade.errors``): 0 ok; 1 internal error; 2 bad input or a usage error
+(a one-line message, no traceback); 74 an output or cache file could not be written (a full
+disk, an I/O error); 130 interrupted (Ctrl-C: "interrupted", no partial output).
 """
 from __future__ import annotations
 
 import os
+import signal
 import sys
+import threading
 import warnings
 from pathlib import Path
 from typing import List, Optional
@@ -15,7 +19,9 @@ from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
-from proxyshade.errors import UserError
+from rich.text import Text
+
+from proxyshade.errors import EXIT_BAD_INPUT, EXIT_INTERNAL, EXIT_INTERRUPTED, EXIT_IO, UserError
 
 app = typer.Typer(add_completion=False, no_args_is_help=True, help="Proxy-guided texture synthesis as a cached node graph.")
 cache_app = typer.Typer(no_args_is_help=True, help="Inspect or clean the cache.")
@@ -29,6 +35,21 @@ except ImportError:  # pragma: no cover
 
 out = Console()
 err = Console(stderr=True)
+
+# typer's exceptions (typer vendors click since 0.22; older versions re-export click's): found
+# from the public BadParameter, so no import of click itself
+_USAGE_ERROR = next(c for c in typer.BadParameter.__mro__ if c.__name__ == "UsageError")
+_CLICK_EXCEPTION = next(c for c in typer.BadParameter.__mro__ if c.__name__ == "ClickException")
+
+
+def _one_line(text: str) -> str:
+    return " ".join(line.strip() for line in str(text).splitlines() if line.strip())
+
+
+def _say(console: Console, text: str) -> None:
+    """Print text as it is: no rich markup (``shot[v2].exr`` keeps its brackets), no highlighting."""
+    console.print(text, markup=False, highlight=False, soft_wrap=True)
+
 
 source_app = typer.Typer(no_args_is_help=True, help="Annotated sources: a photo, its label map, a source.yaml.")
 app.add_typer(source_app, name="source")
@@ -85,7 +106,7 @@ class _BarHooks:
 
 @app.command()
 def run(
-    graph: Path = typer.Argument(..., help="YAML graph file"),
+    graph: Path = typer.Argument(..., metavar="GRAPH", help="YAML graph file"),
     frames: Optional[str] = typer.Option(None, "--frames", help="frames to compute: 1-48, 30 or 1,5,9-12 (default: the graph's range)"),
     set_: List[str] = typer.Option([], "--set", help="override a parameter: node.param=value (repeatable)"),
     var: List[str] = typer.Option([], "--var", help="set a graph variable: name=value (repeatable), used as ${name}"),
@@ -101,7 +122,7 @@ def run(
     from proxyshade.io.graphfile import parse_frame_list
 
     g = Graph.load(graph, cache=cache, overrides=list(set_), variables=_vars(var))
-    fl = parse_frame_list(frames) if frames else None
+    fl = parse_frame_list(frames, bounds=g.frames) if frames is not None else None
     with Progress(TextColumn("{task.description:<14}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
                   console=err, disable=quiet or not err.is_terminal, transient=True) as progress:
         report = g.run(fl, jobs=jobs, force=tuple(force), hooks=_BarHooks(progress), threads=threads)
@@ -112,7 +133,8 @@ def run(
         for c in ("node", "frame", "status", "why", "seconds"):
             t.add_column(c, justify="right" if c in ("frame", "seconds") else "left")
         for r in report.runs:
-            t.add_row(r.node, str(r.frame), r.status, r.reason, f"{r.seconds:.3f}" if r.status == "computed" else "")
+            t.add_row(Text(r.node), str(r.frame), r.status, Text(r.reason),
+                      f"{r.seconds:.3f}" if r.status == "computed" else "")
         out.print(t)
     else:
         per = {}
@@ -120,10 +142,13 @@ def run(
             if r.status == "computed":
                 per[r.node] = per.get(r.node, 0.0) + r.seconds
         for name, s in per.items():
-            out.print(f"  {name:<16} {s:8.3f} s")
+            _say(out, f"  {name:<16} {s:8.3f} s")
+    if report.cleaned:
+        _say(out, f"  note removed {len(report.cleaned)} temporary file(s) left by killed runs "
+                  f"({sum(n for _, n in report.cleaned) / 1e6:.1f} MB)")
     for note in report.notes:
-        out.print(f"  note {note}")
-    out.print(f"{computed} computed, {reused} reused in {report.wall:.3f} s, peak memory {report.peak_rss_mb:.0f} MiB")
+        _say(out, f"  note {note}")
+    _say(out, f"{computed} computed, {reused} reused in {report.wall:.3f} s, peak memory {report.peak_rss_mb:.0f} MiB")
 
 
 def _vars(items: List[str]) -> dict:
@@ -155,16 +180,16 @@ def nodes():
         out.print(f"[bold]{name}[/bold] (v{cls.version}{', time-dependent' if cls.time_dependent else ''}{', writes files' if cls.sink else ''}{', whole sequence' if cls.sequence else ''})")
         doc = cls.doc().splitlines()
         if doc:
-            out.print(f"  {doc[0]}")
+            _say(out, f"  {doc[0]}")
         for k, i in cls.inputs_spec.items():
-            out.print(f"  input  {k:<18} {'(optional) ' if i.optional else ''}{i.doc}")
+            _say(out, f"  input  {k:<18} {'(optional) ' if i.optional else ''}{i.doc}")
         for k, p in cls.params_spec.items():
             default = "required" if p.required else f"default {p.default!r}"
-            out.print(f"  param  {k:<18} {p.describe()}, {default}{'' if p.hashed else ', not hashed'}  {p.doc}", highlight=False)
+            _say(out, f"  param  {k:<18} {p.describe()}, {default}{'' if p.hashed else ', not hashed'}  {p.doc}")
 
 
 @app.command("graph")
-def show_graph(graph: Path = typer.Argument(..., help="YAML graph file"),
+def show_graph(graph: Path = typer.Argument(..., metavar="GRAPH", help="YAML graph file"),
                frames: Optional[str] = typer.Option(None, "--frames", help="frames to unroll (default: the first)"),
                var: List[str] = typer.Option([], "--var", help="set a graph variable: name=value")):
     """Print the graph's DAG: each node, its type and where its inputs come from."""
@@ -172,30 +197,30 @@ def show_graph(graph: Path = typer.Argument(..., help="YAML graph file"),
     from proxyshade.io.graphfile import parse_frame_list
 
     g = Graph.load(graph, variables=_vars(var))
-    fl = parse_frame_list(frames) if frames else [g.frames[0]]
+    fl = parse_frame_list(frames, bounds=g.frames) if frames is not None else [g.frames[0]]
     g.instances(fl)  # rejects cycles
-    out.print(f"{graph}: frames {g.frames[0]}-{g.frames[1]}")
+    _say(out, f"{graph}: frames {g.frames[0]}-{g.frames[1]}")
     for name, node in g.nodes.items():
         ins = []
         for k, ref in g.connections[name].items():
             at = "@all" if ref.all else "@first" if ref.first else (f"@{ref.offset:+d}" if ref.offset else "")
             ins.append(f"{k}<-{ref.node}{at}")
         state = "" if g.enabled[name] else " (disabled)"
-        out.print(f"  {name} [{type(node).__name__}]{state} {'  '.join(ins)}", highlight=False)
+        _say(out, f"  {name} [{type(node).__name__}]{state} {'  '.join(ins)}")
 
 
 @app.command()
-def inspect(file: Path = typer.Argument(..., help="an EXR file")):
+def inspect(file: Path = typer.Argument(..., metavar="FILE", help="an EXR file")):
     """Channels, their types and the metadata of an EXR."""
     from proxyshade.io.exr import read_header
 
     info = read_header(file)
-    out.print(f"{file}: {info['width']}x{info['height']}")
+    _say(out, f"{file}: {info['width']}x{info['height']}")
     for name, typ in info["channels"]:
-        out.print(f"  {name:<20} {typ}", highlight=False)
+        _say(out, f"  {name:<20} {typ}")
     for k, v in sorted(info["attributes"].items()):
         s = str(v)
-        out.print(f"  {k}: {s[:200] + '...' if len(s) > 200 else s}", highlight=False)
+        _say(out, f"  {k}: {s[:200] + '...' if len(s) > 200 else s}")
 
 
 def _cache_root(graph: Optional[Path], cache: Optional[Path]) -> Path:
@@ -213,7 +238,9 @@ def cache_info(graph: Optional[Path] = typer.Argument(None, help="graph file who
     from proxyshade.graph.cache import Cache
 
     i = Cache(_cache_root(graph, cache)).info()
-    out.print(f"{i['root']}: {i['entries']} entries, {i['bytes'] / 1e6:.1f} MB")
+    temps = (f", {i['temps']} temporary file(s) ({i['temp_bytes'] / 1e6:.1f} MB, {i['stale_temps']} left by killed "
+             "runs: the next run removes them)") if i["temps"] else ""
+    _say(out, f"{i['root']}: {i['entries']} entries, {i['bytes'] / 1e6:.1f} MB{temps}")
 
 
 @cache_app.command("clean")
@@ -224,32 +251,74 @@ def cache_clean(graph: Optional[Path] = typer.Argument(None, help="graph file wh
 
     c = Cache(_cache_root(graph, cache))
     n = c.clean()
-    out.print(f"removed {n} entries from {c.root}")
+    _say(out, f"removed {n} entries from {c.root}")
+
+
+def _show_warning(message, category, filename, lineno, file=None, line=None):
+    """Warnings as one line on stderr (no source line of the code that warned)."""
+    _say(err, f"warning: {_one_line(str(message))}")
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Entry point: maps bad input to exit code 2 and internal errors to 1."""
-    warnings.simplefilter("default")
+    """Entry point: returns the exit code (see the module docstring). ``argv`` None: the
+    process's own command line (the console script)."""
     try:
-        app(args=argv, standalone_mode=False)
-    except UserError as e:
-        err.print(f"error: {e}", highlight=False, soft_wrap=True)
-        return (2)
-    except (typer.Exit, SystemExit) as e:
-        return (getattr(e, "exit_code", getattr(e, "code", 0)) or 0)
-    except Exception as e:  # noqa: BLE001
-        import click
+        with warnings.catch_warnings():
+            warnings.simplefilter("default")
+            warnings.showwarning = _show_warning
+            return _main(argv)
+    except KeyboardInterrupt:  # outside typer's own handling (before or after the command)
+        _say(err, "interrupted")
+        return EXIT_INTERRUPTED
+    finally:
+        if argv is None and threading.current_thread() is threading.main_thread():
+            # the exit code is decided and every file is written: a Ctrl-C while the interpreter
+            # shuts down (joining threads, unloading libraries) would only turn it into a bare SIGINT
+            signal.signal(signal.SIGINT, signal.SIG_IGN)
 
-        if isinstance(e, click.exceptions.UsageError):
-            err.print(f"error: {e.format_message()}", highlight=False, soft_wrap=True)
-            return (2)
-        if isinstance(e, click.exceptions.Abort):
-            return (1)
-        err.print(f"internal error: {type(e).__name__}: {e}", highlight=False, soft_wrap=True)
+
+def _main(argv: list[str] | None) -> int:
+    try:
+        code = app(args=argv, prog_name="proxyshade", standalone_mode=False)
+    except UserError as e:
+        _say(err, f"error: {_one_line(str(e))}")
+        return getattr(e, "exit_code", EXIT_BAD_INPUT)
+    except KeyboardInterrupt:
+        code = EXIT_INTERRUPTED
+    except (typer.Exit, SystemExit) as e:
+        code = getattr(e, "exit_code", getattr(e, "code", 0))
+    except _USAGE_ERROR as e:
+        if type(e).__name__ == "NoArgsIsHelpError":  # a bare 'proxyshade' or 'proxyshade cache'
+            _say(err, e.format_message())
+            return EXIT_BAD_INPUT
+        usage = _one_line(e.ctx.get_usage()) if getattr(e, "ctx", None) else ""
+        cmd = e.ctx.command_path if getattr(e, "ctx", None) else "proxyshade"
+        _say(err, f"error: {_one_line(e.format_message())} {usage} (see '{cmd} --help')".replace("  ", " "))
+        return EXIT_BAD_INPUT
+    except _CLICK_EXCEPTION as e:
+        _say(err, f"error: {_one_line(e.format_message())}")
+        return e.exit_code or EXIT_INTERNAL
+    except typer.Abort as e:
+        if isinstance(e.__context__, KeyboardInterrupt):  # typer versions whose Ctrl-C is an Abort
+            code = EXIT_INTERRUPTED
+        else:
+            _say(err, "aborted")
+            return EXIT_INTERNAL
+    except OSError as e:  # a file outside the writers (a report, a folder) on a full or failing disk
         if os.environ.get("PROXYSHADE_DEBUG"):
             raise
-        return (1)
-    return (0)
+        _say(err, f"error: {e.filename or ''}{': ' if e.filename else ''}{e.strerror or e}; "
+                  "free space or fix the disk, then run again")
+        return EXIT_IO
+    except Exception as e:  # noqa: BLE001
+        _say(err, f"internal error: {type(e).__name__}: {_one_line(str(e))} (PROXYSHADE_DEBUG=1 for the traceback)")
+        if os.environ.get("PROXYSHADE_DEBUG"):
+            raise
+        return EXIT_INTERNAL
+    code = code if isinstance(code, int) else 0
+    if code == EXIT_INTERRUPTED:
+        _say(err, "interrupted")
+    return code
 
 
 if __name__ == "__main__":

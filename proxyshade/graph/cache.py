@@ -1,12 +1,21 @@
 """A content-addressed plate store on disk, with an in-memory layer for one run.
 
 Layout: ``<root>/<key[:2]>/<key>.exr`` holds the plate and ``<key>.json`` a small record
-(node, type, frame, params, upstream keys, compute time, the EXR's size and sha256).
-Both are written to temporary names and renamed into place, the record last, so a killed
-write leaves no entry. A truncated or corrupt entry (size or hash mismatch, unreadable
-EXR) is reported with a warning and treated as missing, so it is recomputed.
+(its key, node, type, frame, params, upstream keys, compute time, the EXR's size and
+sha256); the EXR's header carries the key too (``proxyshade/key``). Both are written to
+temporary names and renamed into place, the record last, so a killed write leaves no
+entry. An entry is used only when its record is a JSON object naming the key asked for,
+its size matches, and (when loaded) its sha256 and header key match: anything else (a
+truncated file, another entry's files copied under the key, a damaged record) is reported
+with a warning and recomputed.
 
-Sink nodes (writers) store a record only: it says which files they wrote.
+Sink nodes (writers) store a record only: the files they wrote with each file's size and
+sha256, so a re-run is a hit only while every file still holds what was written.
+
+A read-only cache (a render farm's shared one) serves its hits; what a run computes is
+kept in memory only, with a note. Temporaries of killed runs are removed by
+``remove_stale_temps`` (the engine calls it at the start of every run) and counted by
+``info``.
 """
 from __future__ import annotations
 
@@ -20,8 +29,10 @@ import warnings
 from concurrent.futures import Future, ThreadPoolExecutor, wait
 from pathlib import Path
 
+from proxyshade.errors import WriteError
 from proxyshade.graph.plate import Plate
 from proxyshade.io.exr import read_plate, write_plate
+from proxyshade.io.files import READ_ONLY, io_error, remove_stale_temps, stale_temps, temp_for
 
 
 class CacheWarning(UserWarning):
@@ -37,9 +48,20 @@ def _sha256(path: Path) -> str:
 
 
 def _atomic_write_text(path: Path, text: str) -> None:
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.{threading.get_ident()}.tmp")
-    tmp.write_text(text)
-    os.replace(tmp, path)
+    tmp = temp_for(path)
+    try:
+        tmp.write_text(text)
+        os.replace(tmp, path)
+    finally:
+        if os.path.lexists(tmp):
+            tmp.unlink()
+
+
+def _read_only(e: BaseException) -> bool:
+    """Whether a failed write means the cache cannot be written at all (read-only)."""
+    while e is not None and not isinstance(e, OSError):
+        e = e.__cause__ or e.__context__
+    return e is not None and e.errno in READ_ONLY
 
 
 class Cache:
@@ -55,6 +77,8 @@ class Cache:
         self._pending: list[Future] = []
         self._pinned: set[str] = set()
         self._forgotten: set[str] = set()
+        self.read_only = False  # set when a write fails with EROFS/EACCES: hits are served, results kept in memory
+        self.unstored = 0  # results of this process not stored because the cache is read-only
 
     # -- paths -------------------------------------------------------------
     def _paths(self, key: str) -> tuple[Path, Path]:
@@ -62,27 +86,36 @@ class Cache:
         return d / f"{key}.exr", d / f"{key}.json"
 
     def record(self, key: str) -> dict | None:
+        """The entry's record, or None when missing or not a JSON object."""
         _, js = self._paths(key)
         try:
-            return json.loads(js.read_text())
+            rec = json.loads(js.read_text())
         except (OSError, ValueError):
             return None
+        return rec if isinstance(rec, dict) else None
 
     # -- queries -----------------------------------------------------------
     def has(self, key: str) -> tuple[bool, str]:
-        """Whether a usable entry exists; otherwise why not ('missing', 'corrupt ...')."""
+        """Whether a usable entry exists; otherwise why not ('not in cache', 'corrupt ...')."""
         if key in self.memory:
             return True, "in memory"
+        _, js = self._paths(key)
         rec = self.record(key)
         if rec is None:
+            if js.exists():
+                self._warn_corrupt(key, None, "its record is not a JSON object")
+                return False, "corrupt cache entry (record)"
             return False, "not in cache"
+        if rec.get("key") != key:
+            self._warn_corrupt(key, rec, f"its record is for key {str(rec.get('key'))[:12]}")
+            return False, "corrupt cache entry (record of another key)"
         if rec.get("sink"):
-            missing = [p for p, size in rec.get("files", {}).items() if not Path(p).is_file() or Path(p).stat().st_size != size]
-            return (False, "output file missing or changed") if missing else (True, "written before")
+            why = _sink_files_problem(rec.get("files"))
+            return (False, f"output {why}") if why else (True, "written before")
         exr, _ = self._paths(key)
         if not exr.is_file() or exr.stat().st_size != rec.get("size"):
             self._warn_corrupt(key, rec, "size mismatch (truncated?)")
-            return False, "corrupt cache entry"
+            return False, "corrupt cache entry (size)"
         return True, "cache hit"
 
     def _warn_corrupt(self, key: str, rec: dict | None, why: str) -> None:
@@ -94,21 +127,36 @@ class Cache:
         with self._lock:
             if key in self.memory:
                 return self.memory[key]
+        problem = self.load_problem(key)
+        if problem is not None:
+            return None
+        with self._lock:
+            return self.memory[key]
+
+    def load_problem(self, key: str) -> str | None:
+        """Load the entry into memory; None when it loaded, else why not ('not in cache',
+        'corrupt cache entry (content hash)', ...), after a warning for a corrupt one."""
+        with self._lock:
+            if key in self.memory:
+                return None
         rec = self.record(key)
         exr, _ = self._paths(key)
         if rec is None or not exr.is_file():
-            return None
+            return "not in cache"
+        if rec.get("key") != key:
+            self._warn_corrupt(key, rec, f"its record is for key {str(rec.get('key'))[:12]}")
+            return "corrupt cache entry (record of another key)"
         if _sha256(exr) != rec.get("sha256"):
             self._warn_corrupt(key, rec, "content hash mismatch")
-            return None
+            return "corrupt cache entry (content hash)"
         try:
-            plate = read_plate(exr)
+            plate = read_plate(exr, expect={"proxyshade/key": key})
         except Exception as e:  # noqa: BLE001 - any unreadable entry is recomputed
             self._warn_corrupt(key, rec, str(e))
-            return None
+            return "corrupt cache entry (unreadable)"
         with self._lock:
             self.memory[key] = plate
-        return plate
+        return None
 
     # -- writes ------------------------------------------------------------
     def store(self, key: str, plate: Plate, record: dict) -> None:
@@ -122,18 +170,34 @@ class Cache:
 
     def _write(self, key: str, plate: Plate, record: dict) -> None:
         exr, js = self._paths(key)
-        exr.parent.mkdir(parents=True, exist_ok=True)
         try:
+            if self.read_only:
+                self.unstored += 1
+                return
+            exr.parent.mkdir(parents=True, exist_ok=True)
             write_plate(exr, plate, extra={"proxyshade/node": str(record.get("node")), "proxyshade/key": key,
                                            "proxyshade/frame": str(record.get("frame"))})
             rec = dict(record, key=key, size=exr.stat().st_size, sha256=_sha256(exr), created=time.time())
-            _atomic_write_text(js, json.dumps(rec, sort_keys=True, default=str))
+            self._write_record(js, rec)
+        except (OSError, WriteError) as e:
+            if not _read_only(e):
+                raise e if isinstance(e, WriteError) else io_error(exr, e, "cannot write cache entry") from None
+            self.read_only = True
+            self.unstored += 1
         finally:
             with self._lock:
                 self._pinned.discard(key)
                 if key in self._forgotten:
                     self._forgotten.discard(key)
                     self.memory.pop(key, None)
+
+    def _write_record(self, js: Path, rec: dict) -> None:
+        try:
+            _atomic_write_text(js, json.dumps(rec, sort_keys=True, default=str))
+        except OSError as e:
+            if _read_only(e):
+                raise
+            raise io_error(js, e, "cannot write cache record") from None
 
     def flush(self) -> None:
         """Wait for every pending write; re-raise the first failure."""
@@ -143,10 +207,21 @@ class Cache:
             f.result()
 
     def store_sink(self, key: str, files: list[Path], record: dict) -> None:
+        """Record the files a writer wrote, with each file's size and sha256."""
         _, js = self._paths(key)
-        js.parent.mkdir(parents=True, exist_ok=True)
-        rec = dict(record, key=key, sink=True, files={str(p): p.stat().st_size for p in files}, created=time.time())
-        _atomic_write_text(js, json.dumps(rec, sort_keys=True, default=str))
+        rec = dict(record, key=key, sink=True, created=time.time(),
+                   files={str(p): {"size": p.stat().st_size, "sha256": _sha256(p)} for p in files})
+        if self.read_only:
+            self.unstored += 1
+            return
+        try:
+            js.parent.mkdir(parents=True, exist_ok=True)
+            self._write_record(js, rec)
+        except OSError as e:
+            if not _read_only(e):
+                raise io_error(js, e, "cannot write cache record") from None
+            self.read_only = True
+            self.unstored += 1
 
     def forget(self, key: str) -> None:
         """Drop a plate from the in-memory layer (the disk entry stays; a plate still being
@@ -158,16 +233,36 @@ class Cache:
                 self.memory.pop(key, None)
 
     # -- maintenance -------------------------------------------------------
+    def _folders(self) -> list[Path]:
+        if not self.root.is_dir():
+            return []
+        return sorted(p for p in self.root.iterdir() if p.is_dir())
+
     def info(self) -> dict:
-        n, size = 0, 0
-        if self.root.is_dir():
-            for p in self.root.glob("*/*.json"):
-                n += 1
-                size += p.stat().st_size
-                exr = p.with_suffix(".exr")
-                if exr.is_file():
-                    size += exr.stat().st_size
-        return {"root": str(self.root), "entries": n, "bytes": size}
+        """Entries and bytes, and the temporaries of killed runs (``stale``: removable now)."""
+        n, size, temps, temp_bytes, stale = 0, 0, 0, 0, 0
+        for d in self._folders():
+            stale_here = set(stale_temps(d))
+            for p in d.iterdir():
+                if p.name.startswith(".") and ".tmp" in p.name:
+                    temps += 1
+                    temp_bytes += p.stat().st_size
+                    stale += p in stale_here
+                elif p.suffix == ".json" and d.name != "runs":
+                    n += 1
+                    size += p.stat().st_size
+                    exr = p.with_suffix(".exr")
+                    if exr.is_file():
+                        size += exr.stat().st_size
+        return {"root": str(self.root), "entries": n, "bytes": size, "temps": temps, "temp_bytes": temp_bytes,
+                "stale_temps": stale}
+
+    def remove_stale_temps(self) -> list[tuple[Path, int]]:
+        """Delete temporaries left by killed runs (their process is gone, or a day old)."""
+        removed = []
+        for d in self._folders():
+            removed += remove_stale_temps(d)
+        return removed
 
     def clean(self) -> int:
         n = self.info()["entries"]
@@ -179,13 +274,38 @@ class Cache:
     def last_run(self, graph_id: str) -> dict:
         p = self.root / "runs" / f"{graph_id}.json"
         try:
-            return json.loads(p.read_text())
+            rec = json.loads(p.read_text())
         except (OSError, ValueError):
             return {}
+        return rec if isinstance(rec, dict) else {}
 
     def save_run(self, graph_id: str, components: dict) -> None:
-        p = self.root / "runs" / f"{graph_id}.json"
-        p.parent.mkdir(parents=True, exist_ok=True)
+        """Remember the key components of a run (for --explain); skipped when nothing changed
+        or the cache is read-only."""
         old = self.last_run(graph_id)
-        old.update(components)
-        _atomic_write_text(p, json.dumps(old, sort_keys=True, default=str))
+        new = dict(old, **components)
+        if self.read_only or json.loads(json.dumps(new, sort_keys=True, default=str)) == old:
+            return
+        p = self.root / "runs" / f"{graph_id}.json"
+        try:
+            p.parent.mkdir(parents=True, exist_ok=True)
+            _atomic_write_text(p, json.dumps(new, sort_keys=True, default=str))
+        except OSError as e:
+            if not _read_only(e):
+                raise io_error(p, e, "cannot write the run record") from None
+            self.read_only = True
+
+
+def _sink_files_problem(files) -> str | None:
+    """Why a writer's recorded files no longer hold what it wrote, or None."""
+    if not isinstance(files, dict) or not files:
+        return "record has no files"
+    for p, want in files.items():
+        path = Path(p)
+        if not isinstance(want, dict):
+            return f"record of {path.name} has no content hash"
+        if not path.is_file():
+            return f"file missing: {path.name}"
+        if path.stat().st_size != want.get("size") or _sha256(path) != want.get("sha256"):
+            return f"file changed since written: {path.name}"
+    return None

@@ -33,6 +33,7 @@ from proxyshade.graph.cache import Cache
 from proxyshade.graph.executor import make_executor
 from proxyshade.graph.node import REGISTRY, Context, InputRef, Node, PlateSequence, resolve_path
 from proxyshade.graph.plate import Plate
+from proxyshade.io.files import output_target, remove_stale_temps
 from proxyshade.io.graphfile import load_graph
 
 
@@ -63,6 +64,8 @@ class RunReport:
     runs: list[NodeRun]
     wall: float
     peak_rss_mb: float
+    cleaned: list[tuple[Path, int]] = field(default_factory=list)  # stale temporaries of killed runs, removed
+    run_notes: list[str] = field(default_factory=list)  # notes about the run as a whole
 
     @property
     def computed(self) -> set[str]:
@@ -77,7 +80,7 @@ class RunReport:
 
     @property
     def notes(self) -> list[str]:
-        return [f"{r.node}@{r.frame}: {n}" for r in self.runs for n in r.notes]
+        return self.run_notes + [f"{r.node}@{r.frame}: {n}" for r in self.runs for n in r.notes]
 
 
 class NodeError(RuntimeError):
@@ -101,6 +104,7 @@ class Graph:
         self.nodes: dict[str, Node] = {}
         self.connections: dict[str, dict[str, InputRef]] = {}
         self.enabled: dict[str, bool] = {}
+        self.lines: dict[str, int] = {}  # node -> line in the graph file, for messages
         if isinstance(cache, Cache):
             self.cache = cache
         else:
@@ -306,6 +310,7 @@ class Graph:
         plan.threads = threads
         hooks = hooks or Hooks()
         hooks.plan(plan)
+        cleaned = self._remove_stale_temps(plan)
         runs: dict[tuple[str, int], NodeRun] = {}
         key_owner: dict[str, tuple[str, int]] = {}
         todo = nx.DiGraph()
@@ -324,6 +329,7 @@ class Graph:
             ok, why = (False, "forced") if name in plan.force else self.cache.has(key)
             if ok:
                 runs[inst] = NodeRun(name, frame, key, "reused", why)
+                plan.rows[key] = runs[inst]  # turned into "computed" if loading it finds it corrupt
             else:
                 reason = why if why not in ("not in cache",) else K.diff_components(last.get(f"{name}@{frame}"), plan.components[inst])
                 runs[inst] = NodeRun(name, frame, key, "computed", reason)
@@ -366,7 +372,36 @@ class Graph:
         order = {inst: i for i, inst in enumerate(nx.lexicographical_topological_sort(plan.dag, key=str))}
         rows = sorted(runs.values(), key=lambda r: (r.frame, order[(r.node, r.frame)]))
         peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
-        return RunReport(rows, time.perf_counter() - t0, peak)
+        notes = []
+        if self.cache.unstored:
+            notes.append(f"cache {self.cache.root} is read-only: {self.cache.unstored} result(s) computed by this "
+                         "run were not stored")
+            self.cache.unstored = 0
+        return RunReport(rows, time.perf_counter() - t0, peak, cleaned, notes)
+
+    def _remove_stale_temps(self, plan: "Plan") -> list[tuple[Path, int]]:
+        """Delete temporaries that killed runs left in the cache and beside this run's outputs."""
+        removed = self.cache.remove_stale_temps()
+        seen = set()
+        for name, frame in plan.dag:
+            node = self.nodes[name]
+            if not node.sink:
+                continue
+            for k, spec in type(node).params_spec.items():
+                if spec.type is Path and node.params.get(k):
+                    try:
+                        target = output_target(resolve_path(node.params[k], self.graph_dir, frame))
+                    except UserError:
+                        continue  # refused when the writer runs, with its message
+                    if target not in seen:
+                        seen.add(target)
+                        removed += remove_stale_temps(target.parent, target.name)
+        return removed
+
+    def where(self, name: str) -> str:
+        """'graph.yaml:12: ' for a node loaded from a file (the start of its messages), else ''."""
+        line = self.lines.get(name)
+        return f"{self.source}:{line}: " if self.source and line else ""
 
     def _graph_id(self) -> str:
         return K.digest([str(self.source or self.name), str(self.graph_dir)])[:16]
@@ -377,11 +412,21 @@ class Graph:
         if inst in plan.passthrough:
             return self._value(plan, plan.passthrough[inst])
         with self._lock(key):
-            plate = self.cache.load(key) if not self.nodes[inst[0]].sink else None
-            if plate is not None:
-                return plate
-            nr = NodeRun(inst[0], inst[1], key, "computed", "corrupt cache entry")
-            return self._compute_locked(plan, inst, nr)
+            if self.nodes[inst[0]].sink:
+                problem = "a writer's plate is not cached"
+            else:
+                problem = self.cache.load_problem(key)
+                if problem is None:
+                    return self.cache.memory[key]
+            nr = plan.rows.get(key)
+            if nr is not None and nr.status == "reused":  # the report says what happened, not what was planned
+                nr.status, nr.reason = "computed", problem
+            else:
+                nr = NodeRun(inst[0], inst[1], key, "computed", problem)
+            t = time.perf_counter()
+            plate = self._compute_locked(plan, inst, nr)
+            nr.seconds = time.perf_counter() - t
+            return plate
 
     def _sequence_plate(self, plan: "Plan", name: str, frame: int) -> Plate:
         """One plate of a sequence input, dropped from memory again unless it was held there."""
@@ -419,11 +464,11 @@ class Graph:
             plate = node.compute(ctx)
         except UserError as e:
             msg = str(e)
-            raise type(e)(msg if msg.startswith(name) else f"{name}@{frame}: {msg}") from None
+            raise type(e)(self.where(name) + (msg if msg.startswith(name) else f"{name}@{frame}: {msg}")) from None
         except Exception as e:
             summary = ", ".join(f"{k}=None" if v is None else f"{k}={len(v)} frames" if isinstance(v, PlateSequence)
                                 else f"{k}={v.width}x{v.height}[{','.join(v.names()[:6])}]" for k, v in inputs.items())
-            raise NodeError(f"node {name!r} ({type(node).__name__}) failed at frame {frame} with inputs "
+            raise NodeError(f"{self.where(name)}node {name!r} ({type(node).__name__}) failed at frame {frame} with inputs "
                             f"{summary or 'none'}: {type(e).__name__}: {e}") from e
         if not isinstance(plate, Plate):
             raise NodeError(f"node {name!r} ({type(node).__name__}) returned {type(plate).__name__}, not a Plate")
@@ -460,6 +505,7 @@ class Plan:
     force: set[str]
     threads: int = 0
     keep: set[str] = field(default_factory=set)
+    rows: dict[str, NodeRun] = field(default_factory=dict)  # key -> the run's row of its reused instance
 
     def input_keys(self, inst) -> dict[str, str | list[str] | None]:
         c = self.components.get(inst)

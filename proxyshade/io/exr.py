@@ -11,7 +11,9 @@ contains '/' (``proxyshade/node``, ``cryptomatte/<key>/name``, ...) are also wri
 header attributes of their own, so other tools see them. Plates with R,G,B carry their
 colour space: ``chromaticities`` (Rec.709, D65) and ``colorInteropID`` ``lin_rec709_scene``
 (OpenImageIO's ``oiio:ColorSpace``). Compression is ZIP by default.
-Files are written to a temporary name beside the target and renamed into place.
+Files are written to a temporary name beside the target and renamed into place
+(``proxyshade.io.files``): a symlink is written through, a device or folder refused, and a
+failed write (a full disk) leaves nothing at the name and raises ``WriteError``.
 """
 from __future__ import annotations
 
@@ -23,8 +25,9 @@ import numpy as np
 import OpenEXR
 import OpenImageIO as oiio
 
-from proxyshade.errors import UserError
+from proxyshade.errors import UserError, WriteError
 from proxyshade.graph.plate import Plate
+from proxyshade.io.files import io_error, output_target, temp_for
 
 COMPRESSIONS = {
     "zip": OpenEXR.ZIP_COMPRESSION,
@@ -61,29 +64,42 @@ def _header(plate: Plate, compression: str, extra: dict | None) -> dict:
 
 
 def write_plate(path: str | Path, plate: Plate, *, compression: str = "zip", extra: dict | None = None) -> Path:
-    """Write ``plate`` to ``path`` atomically. ``extra`` adds metadata (node, key, frame)."""
+    """Write ``plate`` to ``path`` atomically. ``extra`` adds metadata (node, key, frame).
+
+    A symlink at ``path`` is written through to its target; anything else that is not a
+    regular file is refused (``UserError``); a failed write raises ``WriteError``."""
     path = Path(path)
     if not plate.channels:
         raise ExrError(f"{path}: the plate has no channels to write")
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.{id(plate)}.tmp.exr")
+    header = _header(plate, compression, extra)
+    target = output_target(path)
     channels = {n: np.ascontiguousarray(a) for n, a in plate.channels.items()}
+    tmp = None
     try:
-        with OpenEXR.File(_header(plate, compression, extra), channels) as f:
+        target.parent.mkdir(parents=True, exist_ok=True)
+        tmp = temp_for(target, ".exr")
+        with OpenEXR.File(header, channels) as f:
             f.write(str(tmp))
-        os.replace(tmp, path)
-    except ExrError:
-        raise
-    except Exception as e:  # the bindings raise plain exceptions
-        raise ExrError(f"{path}: cannot write EXR: {e}") from None
+        os.replace(tmp, target)
+    except OSError as e:
+        raise io_error(path, e, "cannot write EXR") from None
+    except Exception as e:  # the bindings raise plain exceptions (a full disk among them)
+        raise WriteError(f"{path}: cannot write EXR ({_one_line(e)}); free space or fix the disk, then run again") from None
     finally:
-        if tmp.exists():
+        if tmp is not None and os.path.lexists(tmp):
             tmp.unlink()
     return path
 
 
-def read_plate(path: str | Path) -> Plate:
-    """Read a single-part EXR as a plate, each channel in its stored pixel type."""
+def _one_line(e: BaseException) -> str:
+    return " ".join(line.strip() for line in str(e).splitlines() if line.strip()) or type(e).__name__
+
+
+def read_plate(path: str | Path, *, expect: dict[str, str] | None = None) -> Plate:
+    """Read a single-part EXR as a plate, each channel in its stored pixel type.
+
+    ``expect``: header attributes that must hold these values (the cache checks
+    ``proxyshade/key``), else ``ExrError``."""
     path = Path(path)
     if not path.is_file():
         raise ExrError(f"{path}: no such EXR file; check the path")
@@ -92,7 +108,10 @@ def read_plate(path: str | Path) -> Plate:
             chans = {name: np.array(ch.pixels) for name, ch in f.channels().items()}
             header = dict(f.header())  # after channels(): reading them resets the header view
     except Exception as e:
-        raise ExrError(f"{path}: not a readable EXR ({e}); re-render it or delete it") from None
+        raise ExrError(f"{path}: not a readable EXR ({_one_line(e)}); re-render it or delete it") from None
+    for k, v in (expect or {}).items():
+        if header.get(k) != v:
+            raise ExrError(f"{path}: header {k} is {header.get(k)!r}, expected {v!r}; the file belongs elsewhere")
     meta = {}
     if _META in header:
         try:
@@ -112,7 +131,7 @@ def read_header(path: str | Path) -> dict:
     path = Path(path)
     inp = oiio.ImageInput.open(str(path))
     if inp is None:
-        raise ExrError(f"{path}: cannot open: {oiio.geterror().strip()}")
+        raise ExrError(f"{path}: cannot open: {' '.join(oiio.geterror().split())}")
     try:
         spec = inp.spec()
         fmts = spec.channelformats or [spec.format] * spec.nchannels

@@ -13,9 +13,12 @@
       movie:   {type: Movie, inputs: {image: {node: final, frame: all}}, params: {path: out/lake.gif}}
 
 Relative paths resolve against the graph file's folder; ``${name}`` is replaced by a
-variable; ``####`` in a path is the zero-padded frame. Every error names the file, the
-line, the key path and the fix:
-``graphs/lake.yaml:12: nodes.guide.params.k: expected int >= 1, got 0``.
+variable (``--var name=value`` sets one defined under ``vars``); ``####`` in a path is the
+zero-padded frame. Every error names the file, the line, the key path and the fix:
+``graphs/lake.yaml:12: nodes.guide.params.k: expected int >= 1, got 0``. A key given twice
+in one mapping (two nodes of one name), a value that expands to more than ``MAX_ITEMS``
+items (YAML aliases), nesting deeper than ``MAX_DEPTH``, a file that is not UTF-8 text and a
+frame range of more than ``MAX_FRAMES`` frames are such errors too.
 """
 from __future__ import annotations
 
@@ -29,6 +32,9 @@ from proxyshade.errors import GraphFileError, ParamError
 from proxyshade.graph.node import REGISTRY, InputRef
 
 FORMAT = "proxyshade/1"
+MAX_FRAMES = 100_000  # frames in one range: far beyond a shot, far below exhausting memory
+MAX_ITEMS = 100_000  # list/dict items in one parameter value once aliases are expanded
+MAX_DEPTH = 100  # nesting of mappings and lists
 _NODE_KEYS = ("type", "inputs", "params", "enabled", "doc")
 _VAR = re.compile(r"\$\{([A-Za-z_][A-Za-z0-9_]*)\}")
 
@@ -43,7 +49,25 @@ class _Loader(yaml.SafeLoader):
     pass
 
 
+class _DuplicateKey(Exception):
+    pass
+
+
 def _construct_mapping(loader, node):
+    seen = {}
+    for knode, _ in node.value:  # before merge keys (<<) are flattened in: an override is not a duplicate
+        if knode.tag == "tag:yaml.org,2002:merge":
+            continue
+        k = loader.construct_object(knode, deep=True)
+        line = knode.start_mark.line + 1
+        try:
+            first = seen.get(k)
+        except TypeError:  # an unhashable key: PyYAML reports it below
+            continue
+        seen[k] = line
+        if first is not None:
+            raise _DuplicateKey(f"{line}: key {k!r} appears twice in one mapping (lines {first} and {line}); "
+                                "remove or rename one")
     loader.flatten_mapping(node)
     out = _LineMap()
     out.lines = {}
@@ -80,15 +104,28 @@ def parse_frames(value: Any, where: str) -> tuple[int, int]:
         raise GraphFileError(f"{where}: expected a frame range like 1-48, got {value!r}")
     if hi < lo:
         raise GraphFileError(f"{where}: frame range {value!r} ends before it starts; write first-last")
+    if hi - lo + 1 > MAX_FRAMES:
+        raise GraphFileError(f"{where}: frame range {lo}-{hi} has {hi - lo + 1} frames, more than {MAX_FRAMES}; "
+                             "give a shorter range")
     return lo, hi
 
 
-def parse_frame_list(text: str, where: str = "--frames") -> list[int]:
-    """'1-48', '30', '1,5,9-12' -> sorted frames."""
+def parse_frame_list(text: str, where: str = "--frames", bounds: tuple[int, int] | None = None) -> list[int]:
+    """'1-48', '30', '1,5,9-12' -> sorted frames, each range checked against ``bounds`` (the
+    graph's frames) before any list is built."""
+    if not str(text).strip():
+        raise GraphFileError(f"{where}: no frames given; write frames like 1-48, 30 or 1,5,9-12 "
+                             "(or leave the option out for the graph's range)")
+    ranges = [parse_frames(part.strip(), where) for part in str(text).split(",")]
+    for lo, hi in ranges:
+        if bounds is not None and (lo < bounds[0] or hi > bounds[1]):
+            raise GraphFileError(f"{where}: frames {lo}-{hi} are outside the graph's frames {bounds[0]}-{bounds[1]}; "
+                                 "pick frames inside the range or widen 'frames'")
     out: set[int] = set()
-    for part in str(text).split(","):
-        lo, hi = parse_frames(part.strip(), where)
+    for lo, hi in ranges:
         out.update(range(lo, hi + 1))
+        if len(out) > MAX_FRAMES:
+            raise GraphFileError(f"{where}: more than {MAX_FRAMES} frames; run a shorter range")
     return sorted(out)
 
 
@@ -160,13 +197,49 @@ def _short_name(value: Any) -> str:
     return p.parent.name if p.stem in ("source", "scene") and p.parent.name else p.stem
 
 
+def _size(value: Any, seen: dict, depth: int = 0) -> int:
+    """Items in ``value`` with YAML aliases expanded, counted in time linear in the distinct
+    objects (a shared sub-value is counted once per use, from a memo); stops past MAX_ITEMS."""
+    if not isinstance(value, (list, dict)):
+        return 1
+    if id(value) in seen:
+        return seen[id(value)]
+    if depth > MAX_DEPTH:
+        return MAX_ITEMS + 1
+    items = value.values() if isinstance(value, dict) else value
+    n = 1
+    for v in items:
+        n += _size(v, seen, depth + 1)
+        if n > MAX_ITEMS:
+            break
+    seen[id(value)] = n
+    return n
+
+
+def _check_size(value: Any, where: str) -> None:
+    if _size(value, {}) > MAX_ITEMS:
+        raise GraphFileError(f"{where}: the value expands to more than {MAX_ITEMS} items (or nests deeper than "
+                             f"{MAX_DEPTH}), e.g. through YAML aliases; give a plain value")
+
+
 def read_yaml(path: Path) -> Any:
     try:
-        text = path.read_text()
+        raw = path.read_bytes()
     except OSError as e:
         raise GraphFileError(f"{path}: cannot read graph file ({e.strerror}); check the path") from None
     try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as e:
+        line = raw[:e.start].count(b"\n") + 1
+        raise GraphFileError(f"{path}:{line}: not a UTF-8 text file (byte 0x{raw[e.start]:02x} at offset {e.start}); "
+                             "give a YAML graph file") from None
+    try:
         return yaml.load(text, Loader=_Loader)
+    except _DuplicateKey as e:
+        raise GraphFileError(f"{path}:{e}") from None
+    except RecursionError:
+        raise GraphFileError(f"{path}: nested too deeply to read; a graph file nests a few levels, "
+                             "check for runaway brackets") from None
     except yaml.YAMLError as e:
         mark = getattr(e, "problem_mark", None)
         line = mark.line + 1 if mark else 0
@@ -216,6 +289,12 @@ def build_graph(data: Any, path: Path, graph_cls: type, *, cache=None, overrides
     vars_ = data.get("vars") or {}
     if not isinstance(vars_, dict):
         raise err(_line(data, "vars"), "vars", "expected a mapping name -> value")
+    for k, v in vars_.items():
+        _check_size(v, f"{f}:{_line(vars_, k)}: vars.{k}")
+    for k in variables or {}:
+        if k not in vars_:
+            raise GraphFileError(f"--var {k}: {f} defines no variable {k!r}; its variables are "
+                                 f"{', '.join(sorted(map(str, vars_))) or 'none'} (add it under vars, or fix the name)")
     variables = _resolve_vars(vars_, variables or {}, f, _line(data, "vars"))
     nodes = data.get("nodes")
     if not isinstance(nodes, dict) or not nodes:
@@ -246,8 +325,12 @@ def build_graph(data: Any, path: Path, graph_cls: type, *, cache=None, overrides
             if k not in cls.params_spec:
                 raise err(_line(params, k), f"{kp}.params.{k}",
                           f"{t} has no parameter {k!r}; its parameters are {', '.join(cls.params_spec) or 'none'}")
+            where = f"{f}:{_line(params, k)}: {kp}.params.{k}"
+            _check_size(v, where)
+            v = _subst(v, variables, where)
+            _check_size(v, where)
             try:
-                checked[k] = cls.params_spec[k].validate(_subst(v, variables, f"{f}:{_line(params, k)}: {kp}.params.{k}"))
+                checked[k] = cls.params_spec[k].validate(v)
             except ParamError as e:
                 raise err(_line(params, k), f"{kp}.params.{k}", str(e)) from None
         missing = [k for k, s in cls.params_spec.items() if s.required and k not in checked]
@@ -271,6 +354,8 @@ def build_graph(data: Any, path: Path, graph_cls: type, *, cache=None, overrides
             if not s.optional and k not in refs:
                 raise err(_line(spec, "inputs") or line, f"{kp}.inputs.{k}", f"not connected; {t} needs it: connect it to a node")
         g.add(name, cls, checked, {}, enabled)
+        if isinstance(getattr(g, "lines", None), dict):
+            g.lines[name] = line
         pending_inputs[name] = refs
     for name, refs in pending_inputs.items():
         for k, (ref, line) in refs.items():

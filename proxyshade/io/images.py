@@ -1,17 +1,45 @@
 """Reading and writing ordinary (non-plate) images with OpenImageIO: photos, label maps, previews.
 
-OpenImageIO reports errors by return value; here they become ``UserError`` naming the file.
+OpenImageIO reports errors by return value; here they become one-line ``UserError``s naming
+the file (``WriteError`` when an output cannot be written: a full disk). Outputs are written
+to a temporary name and renamed (``proxyshade.io.files``): a failed or interrupted write
+leaves nothing at the name, a symlink is written through, a device is refused.
 """
 from __future__ import annotations
 
-import os
-import threading
 from pathlib import Path
 
 import numpy as np
 import OpenImageIO as oiio
 
-from proxyshade.errors import UserError
+from proxyshade.errors import UserError, WriteError
+from proxyshade.io.files import io_error, output_target, temp_for
+
+
+def _msg(text: str) -> str:
+    """OpenImageIO's error text (often several lines of library output, repeated) as one line."""
+    lines = [line.strip() for line in str(text).splitlines() if line.strip()]
+    return "; ".join(dict.fromkeys(lines)) or "unknown error"
+
+
+def _png_problem(path: Path) -> str | None:
+    """Why a PNG file is cut short (its chunks do not reach IEND), or None. Checked before libpng
+    reads it: libpng prints its own complaints about a truncated file straight to stderr."""
+    with open(path, "rb") as f:
+        data = f.read()
+    if not data.startswith(b"\x89PNG\r\n\x1a\n"):
+        return None  # not a PNG by content: OpenImageIO says what it is
+    pos = 8
+    while pos + 8 <= len(data):
+        length = int.from_bytes(data[pos:pos + 4], "big")
+        kind = data[pos + 4:pos + 8]
+        end = pos + 12 + length
+        if end > len(data):
+            return f"truncated: the file ends inside its {kind.decode('latin-1')} chunk at byte {len(data)} of {end}"
+        if kind == b"IEND":
+            return None
+        pos = end
+    return f"truncated: the file ends at byte {len(data)} before its IEND chunk"
 
 
 def read_u8(path: str | Path) -> np.ndarray:
@@ -19,12 +47,17 @@ def read_u8(path: str | Path) -> np.ndarray:
     path = Path(path)
     if not path.is_file():
         raise UserError(f"{path}: no such image file; check the path (relative paths resolve against the YAML file)")
+    if path.suffix.lower() == ".png":
+        problem = _png_problem(path)
+        if problem:
+            raise UserError(f"{path}: cannot read image ({problem}); re-export it")
     buf = oiio.ImageBuf(str(path))
     if buf.has_error:
-        raise UserError(f"{path}: cannot read image: {buf.geterror().strip()}")
+        raise UserError(f"{path}: cannot read image: {_msg(buf.geterror())}; re-export it")
     px = buf.get_pixels(oiio.UINT8)
     if px is None or buf.has_error:
-        raise UserError(f"{path}: cannot read pixels: {buf.geterror().strip()}")
+        raise UserError(f"{path}: cannot read pixels ({_msg(buf.geterror())}); the file is damaged or truncated: "
+                        "re-export it")
     px = np.asarray(px)
     if px.ndim == 2:
         px = px[..., None]
@@ -34,21 +67,36 @@ def read_u8(path: str | Path) -> np.ndarray:
 
 
 def write_png(path: str | Path, rgb8: np.ndarray) -> Path:
-    """Write an (H, W, 3) uint8 array as PNG, atomically (temporary name, then rename)."""
+    """Write an (H, W, 3) uint8 array as PNG, atomically (temporary name, then rename).
+
+    Every OpenImageIO step is checked (``close`` flushes the data: a full disk fails there);
+    on any failure or interrupt the temporary is removed and nothing is left at ``path``."""
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.tmp{id(rgb8)}.png")
+    target = output_target(path)
     h, w, c = rgb8.shape
     spec = oiio.ImageSpec(w, h, c, oiio.UINT8)
-    out = oiio.ImageOutput.create(str(tmp))
-    if out is None or not out.open(str(tmp), spec):
-        raise UserError(f"{path}: cannot write PNG: {oiio.geterror().strip()}")
-    ok = out.write_image(np.ascontiguousarray(rgb8, dtype=np.uint8))
-    out.close()
-    if not ok:
-        tmp.unlink(missing_ok=True)
-        raise UserError(f"{path}: cannot write PNG: {out.geterror().strip()}")
-    tmp.replace(path)
+    tmp, out = None, None
+    try:
+        target.parent.mkdir(parents=True, exist_ok=True)
+        tmp = temp_for(target, ".png")
+        out = oiio.ImageOutput.create(str(tmp))
+        if out is None or not out.open(str(tmp), spec):
+            raise WriteError(f"{path}: cannot write PNG ({_msg(oiio.geterror() if out is None else out.geterror())}); "
+                             "check the folder and free space")
+        ok = out.write_image(np.ascontiguousarray(rgb8, dtype=np.uint8))
+        closing, out = out, None
+        closed = closing.close()
+        if not ok or not closed:
+            raise WriteError(f"{path}: cannot write PNG ({_msg(closing.geterror())}); free space or fix the disk, "
+                             "then run again")
+        tmp.replace(target)
+    except OSError as e:
+        raise io_error(path, e, "cannot write PNG") from None
+    finally:
+        if out is not None:
+            out.close()
+        if tmp is not None and tmp.exists():
+            tmp.unlink()
     return path
 
 
@@ -64,7 +112,7 @@ def resize_u8(rgb8: np.ndarray, max_size: int) -> np.ndarray:
     src.set_pixels(oiio.ROI(), np.ascontiguousarray(rgb8, dtype=np.uint8))
     dst = oiio.ImageBufAlgo.resize(src, roi=oiio.ROI(0, nw, 0, nh, 0, 1, 0, rgb8.shape[2]))
     if dst.has_error:
-        raise UserError(f"cannot resize a {w}x{h} picture to {nw}x{nh}: {dst.geterror().strip()}")
+        raise UserError(f"cannot resize a {w}x{h} picture to {nw}x{nh}: {_msg(dst.geterror())}")
     return np.asarray(dst.get_pixels(oiio.UINT8)).reshape(nh, nw, rgb8.shape[2])
 
 
@@ -82,23 +130,31 @@ def write_gif(path: str | Path, frames: list[np.ndarray], fps: int) -> Path:
     if bad is not None:
         raise UserError(f"{path}: frame {bad} is {frames[bad].shape[1]}x{frames[bad].shape[0]}, the first is {w}x{h}; "
                         "give every frame one size")
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.{threading.get_ident()}.tmp.gif")
+    target = output_target(path)
+    target.parent.mkdir(parents=True, exist_ok=True)
+    tmp = temp_for(target, ".gif")
     spec = oiio.ImageSpec(w, h, c, oiio.UINT8)
     spec.attribute("FramesPerSecond", oiio.TypeRational, (int(fps), 1))
     spec.attribute("oiio:LoopCount", 0)  # 0: loop forever
     out = oiio.ImageOutput.create(str(tmp))
     try:
         if out is None:
-            raise UserError(f"{path}: cannot write GIF: {oiio.geterror().strip()}")
+            raise WriteError(f"{path}: cannot write GIF ({_msg(oiio.geterror())}); check the folder and free space")
         for i, frame in enumerate(frames):
             ok = out.open(str(tmp), [spec] * len(frames)) if i == 0 else out.open(str(tmp), spec, "AppendSubimage")
             if not ok or not out.write_image(np.ascontiguousarray(frame, dtype=np.uint8)):
-                raise UserError(f"{path}: cannot write GIF frame {i}: {out.geterror().strip()}")
-        if not out.close():
-            raise UserError(f"{path}: cannot write GIF: {out.geterror().strip()}")
-        out = None
-        tmp.replace(path)
+                raise WriteError(f"{path}: cannot write GIF frame {i} ({_msg(out.geterror())}); free space or fix "
+                                 "the disk, then run again")
+        closing, out = out, None
+        if not closing.close():
+            raise WriteError(f"{path}: cannot write GIF ({_msg(closing.geterror())}); free space or fix the disk, "
+                             "then run again")
+        tmp.replace(target)
+    except OSError as e:
+        if out is not None:
+            out.close()
+        tmp.unlink(missing_ok=True)
+        raise io_error(path, e, "cannot write GIF") from None
     except BaseException:
         if out is not None:
             out.close()

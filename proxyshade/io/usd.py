@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import functools
 import hashlib
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -37,10 +38,19 @@ def open_stage(path: str | Path) -> Usd.Stage:
             loaded.Reload(force=True)
         stage = Usd.Stage.Open(str(path))
     except Exception as e:  # noqa: BLE001 - pxr raises Tf errors
-        raise UserError(f"{path}: cannot open USD stage: {str(e).strip().splitlines()[-1]}") from None
+        raise UserError(f"{path}: cannot open USD stage: {tf_message(e)}; fix the file") from None
     if stage is None:
         raise UserError(f"{path}: cannot open USD stage")
     return stage
+
+
+def tf_message(e: BaseException) -> str:
+    """A pxr (Tf) error as one line: USD's own messages ('file.usda:8:3: parse error ...'), without
+    the C++ function, source file and namespace of each."""
+    text = str(e)
+    msgs = re.findall(r"in file \S+ : '(.*?)'\s*(?=\n\s*Error in |$)", text, re.S)
+    msgs = [re.sub(r"pxrInternal_v\w+?__pxrReserved__::", "", m) for m in msgs] or [text]
+    return "; ".join(" ".join(m.split()) for m in msgs)
 
 
 def stage_name(stage: Usd.Stage) -> str:

@@ -134,6 +134,12 @@ class ProxyRender(Node):
                             f"scene labels: {', '.join(scene_labels)}; source labels: {', '.join(sorted(table))}; "
                             f"map them with the labels parameter, e.g. {{{missing[0]}: {sorted(table)[0]}}}")
         depth, prim_idx, wpos, nrm = render_prims(prims, cam, max_error_px=ctx.p.max_error_px)
+        if not prims:
+            ctx.warn(f"{path.name}: the scene has no proxy prims (labelled meshes or spheres not marked CG), so the "
+                     f"render is all '{bg}'; add labelled geometry")
+        elif not (prim_idx >= 0).any():
+            ctx.warn(f"{path.name}: no proxy prim is in view of the camera at frame {ctx.frame}, so the render is all "
+                     f"'{bg}'; check the camera")
         lab_of_prim = np.array([table[mapping.get(p.label, p.label)] for p in prims] + [table[mapping.get(bg, bg)]],
                                np.uint32)
         label = lab_of_prim[np.where(prim_idx >= 0, prim_idx, len(prims))]

@@ -80,7 +80,8 @@ def test_corrupted_cache_entry_is_recomputed(tmp_path, computes):
         r = g2.run()
     assert computes["sum"] == 1 and computes["out"] == 1
     np.testing.assert_array_equal(g2.value("out")["R"], np.full((8, 8), 9.0, np.float32))
-    assert r.computed == {"out"}
+    assert r.computed == {"sum", "out"}  # the report says what ran: the damaged entry was recomputed
+    assert r.rows("sum")[0].reason == "corrupt cache entry (content hash)"
 
 
 def test_truncated_cache_entry_is_recomputed(tmp_path, computes):
@@ -92,7 +93,7 @@ def test_truncated_cache_entry_is_recomputed(tmp_path, computes):
     with pytest.warns(UserWarning, match="corrupt"):
         r = chain(tmp_path).run()
     assert r.computed == {"out"}
-    assert r.rows("out")[0].reason == "corrupt cache entry"
+    assert r.rows("out")[0].reason == "corrupt cache entry (size)"
 
 
 def test_killed_write_leaves_no_entry(tmp_path, monkeypatch):

@@ -3,7 +3,7 @@ import numpy as np
 import OpenImageIO as oiio
 import pytest
 
-from proxyshade.errors import NodeInputError, UserError
+from proxyshade.errors import NodeInputError, WriteError
 from proxyshade.graph.graph import Graph, InputRef
 from proxyshade.graph.node import Node
 from proxyshade.graph.plate import Plate
@@ -118,7 +118,7 @@ def test_failed_write_leaves_no_file_and_names_it(tmp_path, monkeypatch):
     run_node("Movie", {"path": "out/m.gif"}, {"image": [ramp(1)]}, graph_dir=tmp_path)
     old = (tmp_path / "out" / "m.gif").read_bytes()
     monkeypatch.setattr(oiio.ImageOutput, "create", Failing)
-    with pytest.raises(UserError, match=r"m.gif: cannot write GIF frame 0: disk full$"):
+    with pytest.raises(WriteError, match=r"m.gif: cannot write GIF frame 0 \(disk full\); free space or fix the disk"):
         run_node("Movie", {"path": "out/m.gif"}, {"image": [ramp(1), ramp(2)]}, graph_dir=tmp_path)
     assert created and [p.name for p in (tmp_path / "out").iterdir()] == ["m.gif"]  # no temporary file left
     assert (tmp_path / "out" / "m.gif").read_bytes() == old  # the previous movie is untouched

@@ -1,0 +1,107 @@
+"""Output files written atomically: where a write lands, temporary names, stale temporaries.
+
+Every file proxyshade writes (cache entries, EXR, PNG and GIF outputs, run records) is
+written to ``.<name>.<pid>.<n>.tmp<.ext>`` beside its target and renamed over it, so a
+reader sees the old file or the new one, never a part. A symlink is written through to
+its target; a device, FIFO or folder at the output path is refused. A process killed
+mid-write leaves its temporary behind: ``stale_temps`` finds those whose process is gone
+(or that are older than a day) and ``remove_stale_temps`` deletes them.
+"""
+from __future__ import annotations
+
+import errno
+import itertools
+import os
+import re
+import stat
+import time
+from pathlib import Path
+
+from proxyshade.errors import UserError, WriteError
+
+_TMP = re.compile(r"^\.(?P<name>.+)\.(?P<pid>\d+)\.(?P<n>\d+)\.tmp(?:\.[A-Za-z0-9]+)?$")
+_OLD_TMP = re.compile(r"^\.(?P<name>.+)\.tmp\d+\.png$")  # PNG temporaries before pids were in the name
+_counter = itertools.count()
+MAX_AGE_S = 24 * 3600.0
+READ_ONLY = (errno.EROFS, errno.EACCES, errno.EPERM)
+
+_KINDS = ((stat.S_ISDIR, "folder"), (stat.S_ISCHR, "character device"), (stat.S_ISBLK, "block device"),
+          (stat.S_ISFIFO, "FIFO"), (stat.S_ISSOCK, "socket"))
+
+
+def output_target(path: str | Path) -> Path:
+    """The file a write to ``path`` replaces: ``path`` itself, or a symlink's final target.
+    Raises a one-line ``UserError`` when something other than a regular file is there."""
+    path = Path(path)
+    target = Path(os.path.realpath(path)) if path.is_symlink() else path
+    try:
+        st = os.stat(target)
+    except FileNotFoundError:
+        return target
+    except OSError as e:
+        raise WriteError(f"{path}: cannot check the output path ({e.strerror}); check the folder") from None
+    if not stat.S_ISREG(st.st_mode):
+        kind = next((k for test, k in _KINDS if test(st.st_mode)), "special file")
+        via = f" (through the symlink to {target})" if target != path else ""
+        raise UserError(f"{path}: is a {kind}{via}, not a regular file; proxyshade will not replace it: "
+                        "give an output file path")
+    return target
+
+
+def temp_for(target: Path, suffix: str = "") -> Path:
+    """A temporary name beside ``target`` for this process (``suffix``: the format's extension)."""
+    return target.with_name(f".{target.name}.{os.getpid()}.{next(_counter)}.tmp{suffix}")
+
+
+def io_error(path: Path | str, e: BaseException, what: str = "cannot write") -> WriteError:
+    """A one-line WriteError for an OSError while writing ``path`` (disk full, I/O error)."""
+    reason = e.strerror if isinstance(e, OSError) and e.strerror else str(e).splitlines()[0] if str(e) else type(e).__name__
+    return WriteError(f"{path}: {what} ({reason}); free space or fix the disk, then run again")
+
+
+def _alive(pid: int) -> bool:
+    if pid == os.getpid():
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
+def stale_temps(folder: Path, name: str | None = None, *, max_age: float = MAX_AGE_S) -> list[Path]:
+    """Temporaries in ``folder`` (for the file ``name``, or any) left by a process that is gone,
+    or older than ``max_age`` seconds."""
+    try:
+        entries = list(os.scandir(folder))
+    except OSError:
+        return []
+    now = time.time()
+    out = []
+    for e in entries:
+        m = _TMP.match(e.name) or _OLD_TMP.match(e.name)
+        if not m or (name is not None and m.group("name") != name):
+            continue
+        try:
+            age = now - e.stat(follow_symlinks=False).st_mtime
+        except OSError:
+            continue
+        pid = int(m.group("pid")) if "pid" in m.groupdict() else None
+        if age > max_age or (pid is not None and not _alive(pid)):
+            out.append(Path(e.path))
+    return sorted(out)
+
+
+def remove_stale_temps(folder: Path, name: str | None = None) -> list[tuple[Path, int]]:
+    """Delete the stale temporaries ``stale_temps`` finds; returns (path, bytes) of each removed."""
+    removed = []
+    for p in stale_temps(folder, name):
+        try:
+            size = p.stat().st_size
+            p.unlink()
+        except OSError:
+            continue
+        removed.append((p, size))
+    return removed
