@@ -464,6 +464,8 @@ class Graph:
             plate = node.compute(ctx)
         except UserError as e:
             msg = str(e)
+            if self.source and msg.startswith(f"{self.source}:"):
+                raise  # raised by an upstream node read inside this compute (a sequence input): named already
             raise type(e)(self.where(name) + (msg if msg.startswith(name) else f"{name}@{frame}: {msg}")) from None
         except Exception as e:
             summary = ", ".join(f"{k}=None" if v is None else f"{k}={len(v)} frames" if isinstance(v, PlateSequence)
