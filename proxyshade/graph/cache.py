@@ -209,8 +209,7 @@ class Cache:
     def store_sink(self, key: str, files: list[Path], record: dict) -> None:
         """Record the files a writer wrote, with each file's size and sha256."""
         _, js = self._paths(key)
-        rec = dict(record, key=key, sink=True, created=time.time(),
-                   files={str(p): {"size": p.stat().st_size, "sha256": _sha256(p)} for p in files})
+        rec = dict(record, key=key, sink=True, created=time.time(), files={str(p): _file_state(p) for p in files})
         if self.read_only:
             self.unstored += 1
             return
@@ -244,16 +243,19 @@ class Cache:
         for d in self._folders():
             stale_here = set(stale_temps(d))
             for p in d.iterdir():
-                if p.name.startswith(".") and ".tmp" in p.name:
-                    temps += 1
-                    temp_bytes += p.stat().st_size
-                    stale += p in stale_here
-                elif p.suffix == ".json" and d.name != "runs":
-                    n += 1
-                    size += p.stat().st_size
-                    exr = p.with_suffix(".exr")
-                    if exr.is_file():
-                        size += exr.stat().st_size
+                try:
+                    if p.name.startswith(".") and ".tmp" in p.name:
+                        temp_bytes += p.stat().st_size
+                        temps += 1
+                        stale += p in stale_here
+                    elif p.suffix == ".json" and d.name != "runs":
+                        size += p.stat().st_size
+                        n += 1
+                        exr = p.with_suffix(".exr")
+                        if exr.is_file():
+                            size += exr.stat().st_size
+                except FileNotFoundError:  # removed by a run meanwhile
+                    continue
         return {"root": str(self.root), "entries": n, "bytes": size, "temps": temps, "temp_bytes": temp_bytes,
                 "stale_temps": stale}
 
@@ -296,6 +298,13 @@ class Cache:
             self.read_only = True
 
 
+def _file_state(path: Path) -> dict:
+    """What a writer records of a file it wrote: size and sha256, and the stat that lets a re-run
+    skip hashing a file nobody touched (same size, inode and modification time to the ns)."""
+    st = path.stat()
+    return {"size": st.st_size, "sha256": _sha256(path), "mtime_ns": st.st_mtime_ns, "ino": st.st_ino}
+
+
 def _sink_files_problem(files) -> str | None:
     """Why a writer's recorded files no longer hold what it wrote, or None."""
     if not isinstance(files, dict) or not files:
@@ -304,8 +313,15 @@ def _sink_files_problem(files) -> str | None:
         path = Path(p)
         if not isinstance(want, dict):
             return f"record of {path.name} has no content hash"
-        if not path.is_file():
+        try:
+            st = path.stat()
+        except OSError:
+            st = None
+        if st is None or not path.is_file():
             return f"file missing: {path.name}"
-        if path.stat().st_size != want.get("size") or _sha256(path) != want.get("sha256"):
+        if st.st_size != want.get("size"):
+            return f"file changed since written: {path.name}"
+        untouched = st.st_mtime_ns == want.get("mtime_ns") and st.st_ino == want.get("ino")
+        if not untouched and _sha256(path) != want.get("sha256"):
             return f"file changed since written: {path.name}"
     return None

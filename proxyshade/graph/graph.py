@@ -382,7 +382,7 @@ class Graph:
     def _remove_stale_temps(self, plan: "Plan") -> list[tuple[Path, int]]:
         """Delete temporaries that killed runs left in the cache and beside this run's outputs."""
         removed = self.cache.remove_stale_temps()
-        seen = set()
+        outputs: dict[Path, set[str]] = {}  # folder -> names of this run's outputs in it
         for name, frame in plan.dag:
             node = self.nodes[name]
             if not node.sink:
@@ -393,9 +393,9 @@ class Graph:
                         target = output_target(resolve_path(node.params[k], self.graph_dir, frame))
                     except UserError:
                         continue  # refused when the writer runs, with its message
-                    if target not in seen:
-                        seen.add(target)
-                        removed += remove_stale_temps(target.parent, target.name)
+                    outputs.setdefault(target.parent, set()).add(target.name)
+        for folder, names in outputs.items():
+            removed += remove_stale_temps(folder, names)
         return removed
 
     def where(self, name: str) -> str:
@@ -464,6 +464,8 @@ class Graph:
             plate = node.compute(ctx)
         except UserError as e:
             msg = str(e)
+            if self.source and msg.startswith(f"{self.source}:"):
+                raise  # raised by an upstream node read inside this compute (a sequence input): named already
             raise type(e)(self.where(name) + (msg if msg.startswith(name) else f"{name}@{frame}: {msg}")) from None
         except Exception as e:
             summary = ", ".join(f"{k}=None" if v is None else f"{k}={len(v)} frames" if isinstance(v, PlateSequence)

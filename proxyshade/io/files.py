@@ -71,8 +71,8 @@ def _alive(pid: int) -> bool:
     return True
 
 
-def stale_temps(folder: Path, name: str | None = None, *, max_age: float = MAX_AGE_S) -> list[Path]:
-    """Temporaries in ``folder`` (for the file ``name``, or any) left by a process that is gone,
+def stale_temps(folder: Path, names: set[str] | None = None, *, max_age: float = MAX_AGE_S) -> list[Path]:
+    """Temporaries in ``folder`` (for the files ``names``, or any) left by a process that is gone,
     or older than ``max_age`` seconds."""
     try:
         entries = list(os.scandir(folder))
@@ -82,7 +82,7 @@ def stale_temps(folder: Path, name: str | None = None, *, max_age: float = MAX_A
     out = []
     for e in entries:
         m = _TMP.match(e.name) or _OLD_TMP.match(e.name)
-        if not m or (name is not None and m.group("name") != name):
+        if not m or (names is not None and m.group("name") not in names):
             continue
         try:
             age = now - e.stat(follow_symlinks=False).st_mtime
@@ -94,10 +94,10 @@ def stale_temps(folder: Path, name: str | None = None, *, max_age: float = MAX_A
     return sorted(out)
 
 
-def remove_stale_temps(folder: Path, name: str | None = None) -> list[tuple[Path, int]]:
+def remove_stale_temps(folder: Path, names: set[str] | None = None) -> list[tuple[Path, int]]:
     """Delete the stale temporaries ``stale_temps`` finds; returns (path, bytes) of each removed."""
     removed = []
-    for p in stale_temps(folder, name):
+    for p in stale_temps(folder, names):
         try:
             size = p.stat().st_size
             p.unlink()

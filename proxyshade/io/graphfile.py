@@ -216,6 +216,11 @@ def _size(value: Any, seen: dict, depth: int = 0) -> int:
     return n
 
 
+def _short(text: str, limit: int = 400) -> str:
+    """A message about a long value, cut to ``limit`` characters."""
+    return text if len(text) <= limit else f"{text[:limit]}... ({len(text)} characters)"
+
+
 def _check_size(value: Any, where: str) -> None:
     if _size(value, {}) > MAX_ITEMS:
         raise GraphFileError(f"{where}: the value expands to more than {MAX_ITEMS} items (or nests deeper than "
@@ -332,7 +337,7 @@ def build_graph(data: Any, path: Path, graph_cls: type, *, cache=None, overrides
             try:
                 checked[k] = cls.params_spec[k].validate(v)
             except ParamError as e:
-                raise err(_line(params, k), f"{kp}.params.{k}", str(e)) from None
+                raise err(_line(params, k), f"{kp}.params.{k}", _short(str(e))) from None
         missing = [k for k, s in cls.params_spec.items() if s.required and k not in checked]
         if missing:
             k = missing[0]
@@ -374,7 +379,7 @@ def build_graph(data: Any, path: Path, graph_cls: type, *, cache=None, overrides
         try:
             g.set(target.strip(), value)
         except ParamError as e:
-            raise GraphFileError(f"--set {o}: {e}") from None
+            raise GraphFileError(f"--set {_short(o)}: {_short(str(e))}") from None
     return g
 
 

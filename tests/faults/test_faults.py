@@ -561,3 +561,10 @@ def test_malformed_usd_keeps_usds_parse_error(tmp_path, capsys):
     assert code == EXIT_BAD_INPUT and len(err) == 1, err
     assert f"{scene}: cannot open USD stage: {scene}:5:3: parse error" in err[0], err
     assert "pxrInternal" not in err[0] and not (tmp_path / "out").exists()
+
+
+def test_a_long_bad_value_is_cut_in_its_message(tmp_path, registry, capsys):
+    nodes = NODES.replace("size: 4}", "size: [" + ", ".join(["64"] * 50000) + "]}")
+    code, _, err = cli(capsys, "run", write_graph(tmp_path, nodes), "-q")
+    assert code == EXIT_BAD_INPUT and len(err) == 1 and len(err[0]) < 700, err[0][:300]
+    assert "nodes.a.params.size: expected int >= 1, got [64, 64" in err[0] and "characters)" in err[0]
