@@ -12,13 +12,16 @@ The components are kept so ``--explain`` can say which one changed.
 from __future__ import annotations
 
 import ast
+import atexit
 import functools
 import hashlib
 import importlib.util
 import inspect
 import io
 import json
+import os
 import sys
+import threading
 import tokenize
 from pathlib import Path
 from typing import Any
@@ -68,31 +71,101 @@ def _is_module(name: str, root: Path | None) -> bool:
     return module_file(name, root) is not None
 
 
+def _raw_imports(source: str) -> list:
+    """The import statements of ``source`` at every level, as plain data: ``[0, name, []]``
+    for ``import name``, ``[level, module, [names]]`` for ``from ...module import names``."""
+    out = []
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.Import):
+            out += [[0, a.name, []] for a in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            out.append([node.level, node.module or "", [a.name for a in node.names]])
+    return out
+
+
+def _resolve(raw: list, module_name: str, is_package: bool, root: Path | None) -> set[str]:
+    package = module_name if is_package else module_name.rpartition(".")[0]
+    found: set[str] = set()
+    for level, module, names in raw:
+        if level:
+            parts = package.split(".")
+            base = ".".join(parts[:len(parts) - level + 1])
+            base = f"{base}.{module}" if module else base
+        else:
+            base = module
+        if base.split(".")[0] != "proxyshade":
+            continue
+        if not names:  # import a.b.c
+            found.add(base)
+        for n in names:
+            sub = f"{base}.{n}"
+            found.add(sub if n != "*" and _is_module(sub, root) else base)
+    return {m for m in found if _is_module(m, root)}
+
+
 def imported_modules(source: str, module_name: str, is_package: bool, root: Path | None = None) -> set[str]:
     """``proxyshade`` modules imported anywhere in ``source`` (module level, inside functions
     or classes, relative or absolute). ``from pkg import mod`` names ``pkg.mod``;
     ``from pkg import name`` (a name defined in the package) names ``pkg`` itself. A
     package is not counted merely for holding an imported module: what its
     ``__init__`` defines is used only when imported by name."""
-    tree = ast.parse(source)
-    package = module_name if is_package else module_name.rpartition(".")[0]
-    found: set[str] = set()
-    for node in ast.walk(tree):
-        if isinstance(node, ast.Import):
-            found.update(a.name for a in node.names if a.name.split(".")[0] == "proxyshade")
-        elif isinstance(node, ast.ImportFrom):
-            if node.level:
-                parts = package.split(".")
-                base = ".".join(parts[:len(parts) - node.level + 1])
-                base = f"{base}.{node.module}" if node.module else base
-            else:
-                base = node.module or ""
-            if base.split(".")[0] != "proxyshade":
-                continue
-            for a in node.names:
-                sub = f"{base}.{a.name}"
-                found.add(sub if a.name != "*" and _is_module(sub, root) else base)
-    return {m for m in found if _is_module(m, root)}
+    return _resolve(_raw_imports(source), module_name, is_package, root)
+
+
+# What a source file says (its comment-stripped hash, its import statements) is kept on
+# disk between processes, keyed by the file's path and stat signature (size, mtime, ctime,
+# inode: any edit changes it), in a file named after this module's own source: a run of a
+# fully cached graph does not parse every module again. Unwritable: kept in memory only.
+_FACTS: dict | None = None
+_FACTS_DIRTY = False
+_FACTS_LOCK = threading.Lock()
+
+
+def _facts_path() -> Path:
+    base = os.environ.get("PROXYSHADE_CODE_CACHE") or os.path.join(
+        os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache"), "proxyshade")
+    me = hashlib.sha256(Path(__file__).read_bytes()).hexdigest()[:16]
+    return Path(base) / f"code-facts-{me}.json"
+
+
+def _save_facts() -> None:
+    if not _FACTS_DIRTY or _FACTS is None:
+        return
+    try:
+        path = _facts_path()
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+        tmp.write_text(json.dumps(_FACTS))
+        os.replace(tmp, path)
+    except OSError:
+        pass
+
+
+def _file_facts(path: Path) -> dict:
+    """{'sha': comment-stripped source hash, 'imports': _raw_imports} of a source file."""
+    global _FACTS, _FACTS_DIRTY
+    st = path.stat()
+    sig = [st.st_size, st.st_mtime_ns, st.st_ctime_ns, st.st_ino]
+    key = str(path.resolve())
+    with _FACTS_LOCK:
+        if _FACTS is None:
+            try:
+                _FACTS = json.loads(_facts_path().read_text())
+                if not isinstance(_FACTS, dict):
+                    _FACTS = {}
+            except (OSError, ValueError):
+                _FACTS = {}
+            atexit.register(_save_facts)
+        hit = _FACTS.get(key)
+        if isinstance(hit, dict) and hit.get("sig") == sig:
+            return hit
+    src = path.read_text(encoding="utf-8")
+    facts = {"sig": sig, "sha": hashlib.sha256(_strip_comments(src).encode()).hexdigest(),
+             "imports": _raw_imports(src)}
+    with _FACTS_LOCK:
+        _FACTS[key] = facts
+        _FACTS_DIRTY = True
+    return facts
 
 
 def module_source(module_name: str, root: Path | None = None) -> str:
@@ -109,6 +182,9 @@ def module_source(module_name: str, root: Path | None = None) -> str:
 @functools.lru_cache(maxsize=None)
 def module_hash(module_name: str, root: Path | None = None) -> str:
     """sha256 of a module's source with comments stripped ('nosource' when it has none)."""
+    path = module_file(module_name, root)
+    if path is not None:
+        return _file_facts(path)["sha"]
     src = module_source(module_name, root)
     return hashlib.sha256(_strip_comments(src).encode()).hexdigest() if src else "nosource"
 
@@ -126,12 +202,14 @@ def import_closure(module_name: str, root: Path | None = None) -> tuple[str, ...
         if name in seen:
             continue
         seen.add(name)
-        src = module_source(name, root)
-        if not src:
-            continue
         path = module_file(name, root)
+        if path is not None:
+            raw = _file_facts(path)["imports"]
+        else:
+            src = module_source(name, root)
+            raw = _raw_imports(src) if src else []
         is_pkg = path is not None and path.name == "__init__.py"
-        todo.extend(imported_modules(src, name, is_pkg, root) - seen)
+        todo.extend(_resolve(raw, name, is_pkg, root) - seen)
     return tuple(sorted(seen))
 
 

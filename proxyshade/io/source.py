@@ -1,23 +1,21 @@
 """Annotated sources: a photo, its label map and a YAML label table.
 
 The label table (``source.yaml``) names the photo, the label map and each label's id and
-colour. Loading decodes the 8-bit sRGB photo to linear light with colour-science and
+colour_science(). Loading decodes the 8-bit sRGB photo to linear light with colour-science and
 snaps every label-map pixel to the nearest table colour, counting how many were snapped
-and failing when too many are far from every table colour.
+and failing when too many are far from every table colour_science().
 """
 from __future__ import annotations
 
 import os
-import warnings
 from pathlib import Path
 
-warnings.filterwarnings("ignore", message='.*"Matplotlib" related API features.*')
-import colour  # noqa: E402
 import numpy as np
 import yaml
 
 from proxyshade.errors import UserError
 from proxyshade.graph.plate import Plate
+from proxyshade.io.colourlib import colour_science
 from proxyshade.io.images import read_u8
 
 
@@ -71,15 +69,15 @@ def load_table(path: Path) -> dict:
 
 def srgb_to_linear(rgb8: np.ndarray) -> np.ndarray:
     """(H, W, 3) uint8 sRGB -> float32 linear, with colour-science's sRGB decoding."""
-    return np.asarray(colour.cctf_decoding(rgb8.astype(np.float64) / 255.0, function="sRGB"), dtype=np.float32)
+    return np.asarray(colour_science().cctf_decoding(rgb8.astype(np.float64) / 255.0, function="sRGB"), dtype=np.float32)
 
 
 def snap_labels(rgb8: np.ndarray, table: list[dict], *, far_distance: float = 100.0):
-    """Snap each pixel of a label map to the nearest table colour.
+    """Snap each pixel of a label map to the nearest table colour_science().
 
     Returns ``(ids (H, W) uint32, snapped count, far count)``: snapped pixels were not
     exactly a table colour; far ones were more than ``far_distance`` (8-bit RGB units)
-    from every table colour.
+    from every table colour_science().
     """
     pal = np.array([parse_colour(t["color"], "table") for t in table], dtype=np.int32)
     ids = np.array([t["id"] for t in table], dtype=np.uint32)
@@ -169,8 +167,8 @@ def new_table(photo: Path, label_map: Path, out: Path, *, min_share: float = 0.0
     def rel(p: Path) -> str:
         return Path(os.path.relpath(p.resolve(), out.resolve().parent)).as_posix()
 
-    lines = [f"# written by 'proxyshade source new'; rename the labels after your scene's (UsdSemantics texture",
-             f"# labels) and keep the colours: they are the label map's",
+    lines = ["# written by 'proxyshade source new'; rename the labels after your scene's (UsdSemantics texture",
+             "# labels) and keep the colours: they are the label map's",
              f"image: {rel(photo)}", f"labels_map: {rel(label_map)}", "labels:"]
     n = rgb8.shape[0] * rgb8.shape[1]
     for i, (c, count) in enumerate(colours, 1):

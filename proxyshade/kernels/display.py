@@ -8,12 +8,11 @@ the Preview and Movie nodes; living among the kernels, it is part of their cache
 from __future__ import annotations
 
 import colorsys
-import warnings
 
 import numpy as np
 
-warnings.filterwarnings("ignore", message='.*"Matplotlib" related API features.*')
-import colour  # noqa: E402
+from proxyshade.io.colourlib import colour_science
+
 
 DEFAULT_CHANNELS = ("R", "G", "B")
 
@@ -65,5 +64,5 @@ def to_display(plate, channels: list[str], exposure: float = 0.0) -> np.ndarray:
     if rgb.shape[-1] == 1:
         rgb = np.repeat(rgb, 3, axis=-1)
     rgb = np.nan_to_num(rgb * 2.0 ** exposure, nan=0.0, posinf=1.0, neginf=0.0)
-    enc = colour.cctf_encoding(np.clip(rgb[..., :3], 0.0, 1.0), function="sRGB")
+    enc = colour_science().cctf_encoding(np.clip(rgb[..., :3], 0.0, 1.0), function="sRGB")
     return (np.clip(enc, 0, 1) * 255 + 0.5).astype(np.uint8)

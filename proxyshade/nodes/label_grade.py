@@ -14,15 +14,13 @@ Rec.709/sRGB primaries, with colour-science for the colourimetry:
 """
 from __future__ import annotations
 
-import warnings
 
 import numpy as np
 
 from proxyshade.graph.node import Input, Node, Param
 from proxyshade.graph.plate import Plate
+from proxyshade.io.colourlib import colour_science
 
-warnings.filterwarnings("ignore", message='.*"Matplotlib" related API features.*')
-import colour  # noqa: E402
 
 REFERENCE_CCT = 6504.0
 ADAPTATIONS = ("CAT02", "CAT16", "Bradford", "Von Kries")
@@ -30,17 +28,17 @@ ADAPTATIONS = ("CAT02", "CAT16", "Bradford", "Von Kries")
 
 def white_balance_matrix(temperature: float, transform: str = "CAT02") -> np.ndarray:
     """(3, 3) linear-sRGB matrix adapting the white of 6504 K to that of ``temperature`` K."""
-    cs = colour.RGB_COLOURSPACES["sRGB"]
-    xy_ref = colour.temperature.CCT_to_xy_Kang2002(REFERENCE_CCT)
-    xy_new = colour.temperature.CCT_to_xy_Kang2002(float(temperature))
-    cat = colour.adaptation.matrix_chromatic_adaptation_VonKries(
-        colour.xy_to_XYZ(xy_ref), colour.xy_to_XYZ(xy_new), transform=transform)
+    cs = colour_science().RGB_COLOURSPACES["sRGB"]
+    xy_ref = colour_science().temperature.CCT_to_xy_Kang2002(REFERENCE_CCT)
+    xy_new = colour_science().temperature.CCT_to_xy_Kang2002(float(temperature))
+    cat = colour_science().adaptation.matrix_chromatic_adaptation_VonKries(
+        colour_science().xy_to_XYZ(xy_ref), colour_science().xy_to_XYZ(xy_new), transform=transform)
     return np.asarray(cs.matrix_XYZ_to_RGB @ cat @ cs.matrix_RGB_to_XYZ, np.float64)
 
 
 def luminance_weights() -> np.ndarray:
     """Rec.709 / sRGB luminance weights (the Y row of RGB->XYZ)."""
-    return np.asarray(colour.RGB_COLOURSPACES["sRGB"].matrix_RGB_to_XYZ[1], np.float64)
+    return np.asarray(colour_science().RGB_COLOURSPACES["sRGB"].matrix_RGB_to_XYZ[1], np.float64)
 
 
 def grade(rgb: np.ndarray, *, temperature: float = REFERENCE_CCT, adaptation: str = "CAT02",
