@@ -87,6 +87,7 @@ class _BarHooks:
     def __init__(self, progress: Progress):
         self.progress = progress
         self.tasks = {}
+        self.told_compiling = False
 
     def plan(self, plan):
         counts = {}
@@ -97,7 +98,13 @@ class _BarHooks:
                 self.tasks[name] = self.progress.add_task(name, total=counts[name])
 
     def start(self, run):
-        pass
+        if not self.told_compiling:
+            self.told_compiling = True
+            from proxyshade.kernels._config import kernels_cached
+
+            if not kernels_cached():
+                _say(err, "compiling the numba kernels: once after an install or upgrade, about a minute on 2 cores "
+                          "(later runs load them from numba's cache)")
 
     def done(self, run):
         if run.node in self.tasks:

@@ -93,3 +93,14 @@ def test_movie_of_a_partial_range_and_graph_listing(tmp_path, registry, capsys):
     assert main(["run", str(g), "--frames", "3", "-q"]) == 0
     assert "0 computed, 4 reused" in capsys.readouterr().out
     assert (tmp_path / "out" / "m.gif").is_file()
+
+
+def test_first_run_says_it_compiles_the_kernels(graph, capsys, monkeypatch):
+    import proxyshade.kernels._config as config
+
+    monkeypatch.setattr(config, "kernels_cached", lambda: False)  # as right after an install
+    assert main(["run", str(graph), "-q"]) == 0
+    assert "compiling the numba kernels" in capsys.readouterr().err
+    monkeypatch.setattr(config, "kernels_cached", lambda: True)
+    assert main(["run", str(graph), "-q", "--force", "src"]) == 0
+    assert "compiling" not in capsys.readouterr().err

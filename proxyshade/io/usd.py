@@ -159,6 +159,18 @@ def cameras(stage: Usd.Stage) -> list[str]:
     return [str(p.GetPath()) for p in stage.Traverse() if p.IsA(UsdGeom.Camera)]
 
 
+def film_aspect(stage: Usd.Stage, path: str | None, frame: int) -> float:
+    """Height over width of the camera's film back (vertical over horizontal aperture) at
+    ``frame``: the aspect its author framed."""
+    known = cameras(stage)
+    path = path or (known[0] if known else None)
+    prim = stage.GetPrimAtPath(path) if path and Sdf.Path.IsValidPathString(path) else None
+    if prim is None or not prim.IsValid() or not prim.IsA(UsdGeom.Camera):
+        raise UserError(f"{stage_name(stage)}: no camera at {path}; cameras in the stage: {', '.join(known) or 'none'}")
+    gcam = UsdGeom.Camera(prim).GetCamera(Usd.TimeCode(frame))
+    return gcam.verticalAperture / gcam.horizontalAperture
+
+
 def camera_at(stage: Usd.Stage, path: str | None, frame: int, width: int, height: int) -> CameraInfo:
     """The camera at ``frame`` (the first camera when ``path`` is None), conformed to W×H."""
     known = cameras(stage)

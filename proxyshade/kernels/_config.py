@@ -6,3 +6,12 @@ Kernels are pure functions on arrays: ``@njit(**JIT)`` for serial code,
 """
 JIT = dict(cache=True, nogil=True, fastmath=False)
 PJIT = dict(cache=True, nogil=True, fastmath=False, parallel=True)
+
+
+def kernels_cached() -> bool:
+    """Whether numba's on-disk cache holds compiled kernels (index files beside the kernel
+    modules): False on the first run after an install, when every kernel compiles."""
+    from pathlib import Path
+
+    cache = Path(__file__).parent / "__pycache__"
+    return cache.is_dir() and any(cache.glob("*.nbi"))

@@ -67,7 +67,9 @@ class ProxyRender(Node):
     source = Input("the annotated source (its label table names the labels)")
     scene = Param(str, doc="USD scene (.usda/.usd); relative to the graph file")
     camera = Param(str, None, doc="camera prim path (default: the first camera)")
-    resolution = Param(list, [1024, 1024], length=2, doc="[width, height] in pixels (unless format is set)")
+    resolution = Param(list, [1024, 1024], length=2,
+                       doc="[width, height] in pixels (unless format is set); [width, null]: the height that keeps "
+                           "the camera's film aspect")
     format = Param(str, None, choices=tuple(FORMATS),
                    doc="a delivery format instead of resolution: " + ", ".join(f"{k} {v[0]}x{v[1]}" for k, v in FORMATS.items()))
     background = Param(str, None, doc="label of empty pixels (default: the scene's, else 'sky')")
@@ -76,8 +78,13 @@ class ProxyRender(Node):
                                  "(e.g. {sand: rock}: render sand with the photo's rock)")
 
     @staticmethod
-    def _size(params: dict) -> list:
-        return FORMATS[params["format"]] if params.get("format") else params["resolution"]
+    def _size(params: dict, stage, frame: int) -> list:
+        if params.get("format"):
+            return FORMATS[params["format"]]
+        w, h = params["resolution"]
+        if h is None and isinstance(w, int) and not isinstance(w, bool):
+            h = max(1, int(round(w * usd.film_aspect(stage, params["camera"], frame))))
+        return [w, h]
 
     def _scene_path(self, graph_dir: Path) -> Path:
         return resolve_path(self.params["scene"], graph_dir)
@@ -89,7 +96,7 @@ class ProxyRender(Node):
             return "missing"
         try:
             stage = open_cached(path)
-            w, h = self._size(self.params)
+            w, h = self._size(self.params, stage, frame)
             cam = usd.camera_at(stage, self.params["camera"], frame, int(w), int(h))
             prims = [(p.path, p.digest) for p in usd.scene_prims(stage, frame) if not p.cg]
             bg = stage.GetDefaultPrim().GetCustomDataByKey("proxyshade:background") if stage.GetDefaultPrim() else None
@@ -98,12 +105,12 @@ class ProxyRender(Node):
         return keys.digest([cam.to_meta(), prims, bg])
 
     def compute(self, ctx) -> Plate:
-        w, h = self._size(ctx.params)
-        if not (isinstance(w, int) and isinstance(h, int) and 0 < w <= MAX_SIDE and 0 < h <= MAX_SIDE):
-            raise ctx.error(f"resolution {ctx.p.resolution} must be two integers [width, height] from 1 to {MAX_SIDE} "
-                            "(e.g. [1920, 1080])")
         path = self._scene_path(ctx.graph_dir)
         stage = open_cached(path)
+        w, h = self._size(ctx.params, stage, ctx.frame)
+        if not (isinstance(w, int) and isinstance(h, int) and 0 < w <= MAX_SIDE and 0 < h <= MAX_SIDE):
+            raise ctx.error(f"resolution {ctx.p.resolution} must be two integers [width, height] from 1 to {MAX_SIDE} "
+                            "(or [width, null]: the camera's aspect), e.g. [1920, 1080]")
         cam = usd.camera_at(stage, ctx.p.camera, ctx.frame, w, h)
         prims = [p for p in usd.scene_prims(stage, ctx.frame) if not p.cg]
         table = {t["name"]: int(t["id"]) for t in ctx.source.meta.get("labels", [])}

@@ -180,3 +180,15 @@ def test_format_names_a_delivery_resolution():
     g = Graph.load(ROOT / "graphs" / "first_frame.yaml", variables={"format": "hd"})
     assert g.nodes["proxy"].params["format"] == "hd"
     assert Graph.load(ROOT / "graphs" / "first_frame.yaml").nodes["proxy"].params["format"] is None
+
+
+def test_null_height_keeps_the_cameras_film_aspect():
+    from pxr import Usd, UsdGeom
+
+    src = run_node("SourceRead", {"table": "samples/renoir/source.yaml"}, graph_dir=ROOT)
+    stage = Usd.Stage.Open(str(ROOT / "samples" / "scenes" / "lake.usda"))
+    cam = next(UsdGeom.Camera(p) for p in stage.Traverse() if p.IsA(UsdGeom.Camera))
+    aspect = cam.GetVerticalApertureAttr().Get(1) / cam.GetHorizontalApertureAttr().Get(1)
+    p = run_node("ProxyRender", {"scene": "samples/scenes/lake.usda", "resolution": [300, None]}, {"source": src},
+                 graph_dir=ROOT)
+    assert p.shape == (round(300 * aspect), 300)
