@@ -351,8 +351,9 @@ def poisson_regions(colors: np.ndarray, patch: np.ndarray, labels: np.ndarray | 
         sub = comp[r0:r1, c0:c1]
         mine = np.isin(sub, ids) if len(ids) > 1 else sub == ids[0]
         gx = gy = None
-        if source is not None:
-            gx, gy = kpoisson.seam_gradients(source, sx[r0:r1, c0:c1], sy[r0:r1, c0:c1], step, filter=filter)
+        if source is not None:  # only the seam edges the solve reads: those touching its free pixels
+            gx, gy = kpoisson.seam_gradients_at(source, sx[r0:r1, c0:c1], sy[r0:r1, c0:c1], patch[r0:r1, c0:c1],
+                                                mine, step, filter=filter)
         lab = labels[r0:r1, c0:c1] if labels is not None else None
         out, inf = kpoisson.poisson_transfer(colors[r0:r1, c0:c1], patch[r0:r1, c0:c1], lab, fixed=~mine,
                                              values=colors[r0:r1, c0:c1], label_dirichlet=label_dirichlet,
