@@ -159,6 +159,40 @@ def _coarsen(diag, we, ws, mass, alpha):
     return dc, ec, sc, mc
 
 
+@njit(**JIT)
+def _smooth_serial(diag, we, ws, x, b, color):
+    """``_smooth`` on one thread (for the tiny coarsest level: no parallel launch). The
+    cells of one colour do not neighbour each other, so the result is the same."""
+    h, w = diag.shape
+    for i in range(h):
+        j0 = (color + i) % 2
+        for j in range(j0, w, 2):
+            d = diag[i, j]
+            if d == 0.0:
+                continue
+            n0, n1, n2 = _neighbour_sum(x, we, ws, i, j, h, w)
+            s0 = b[i, j, 0] + n0
+            s1 = b[i, j, 1] + n1
+            s2 = b[i, j, 2] + n2
+            inv = 1.0 / d
+            x[i, j, 0] = s0 * inv
+            x[i, j, 1] = s1 * inv
+            x[i, j, 2] = s2 * inv
+
+
+@njit(**JIT)
+def _coarse_solve(diag, we, ws, x, b, sweeps):
+    """The coarsest level of a V-cycle: from x = 0, ``sweeps`` red-black then ``sweeps``
+    black-red Gauss-Seidel sweeps, in one compiled call."""
+    x[...] = 0.0
+    for _ in range(sweeps):
+        _smooth_serial(diag, we, ws, x, b, 0)
+        _smooth_serial(diag, we, ws, x, b, 1)
+    for _ in range(sweeps):
+        _smooth_serial(diag, we, ws, x, b, 1)
+        _smooth_serial(diag, we, ws, x, b, 0)
+
+
 @njit(**PJIT)
 def _smooth(diag, we, ws, x, b, color):
     """One Gauss-Seidel half sweep on cells with (i + j) % 2 == color, 3 channels."""
@@ -504,13 +538,7 @@ class _Hierarchy:
         after), so it can precondition conjugate gradients."""
         diag, we, ws = self.ops[level]
         if level == len(self.ops) - 1:
-            x[...] = 0.0
-            for _ in range(coarse_sweeps):
-                _smooth(diag, we, ws, x, b, 0)
-                _smooth(diag, we, ws, x, b, 1)
-            for _ in range(coarse_sweeps):
-                _smooth(diag, we, ws, x, b, 1)
-                _smooth(diag, we, ws, x, b, 0)
+            _coarse_solve(diag, we, ws, x, b, coarse_sweeps)
             return
         _jacobi_start(diag, x, b, 0)  # the first red half-sweep, from x = 0
         _smooth(diag, we, ws, x, b, 1)
