@@ -69,21 +69,35 @@ def transfer(w, M, k0, k1, near):
     """Where every pixel centre of camera 0 (inverse depth ``w``, (H, W)) lands in camera 1.
 
     Returns u (column), v (row), inverse depth in camera 1, all (H, W) float64, and ok
-    (bool: finite input, in front of camera 1's near plane)."""
+    (bool: finite input, in front of camera 1's near plane). ``_xfer``'s arithmetic, with
+    the camera-0 ray of each column and row computed once."""
     h, wd = w.shape
     u = np.zeros((h, wd), np.float64)
     v = np.zeros((h, wd), np.float64)
     q = np.zeros((h, wd), np.float64)
     ok = np.zeros((h, wd), np.bool_)
+    xs = np.empty(wd, np.float64)
+    for j in range(wd):
+        xs[j] = ((j + 0.5) - k0[2]) / k0[0]
+    m00, m01, m02, m03 = M[0, 0], M[0, 1], M[0, 2], M[0, 3]
+    m10, m11, m12, m13 = M[1, 0], M[1, 1], M[1, 2], M[1, 3]
+    m20, m21, m22, m23 = M[2, 0], M[2, 1], M[2, 2], M[2, 3]
     for i in prange(h):
+        y = -((i + 0.5) - k0[3]) / k0[1]
         for j in range(wd):
-            if not np.isfinite(w[i, j]):
+            wij = w[i, j]
+            if not np.isfinite(wij):
                 continue
-            a, b, c, good = _xfer(j + 0.5, i + 0.5, w[i, j], M, k0, k1, near)
-            u[i, j] = a
-            v[i, j] = b
-            q[i, j] = c
-            ok[i, j] = good
+            x = xs[j]
+            X = m00 * x + m01 * y - m02 + m03 * wij
+            Y = m10 * x + m11 * y - m12 + m13 * wij
+            d = -(m20 * x + m21 * y - m22 + m23 * wij)
+            if d <= 0.0 or d <= near * wij:
+                continue
+            u[i, j] = k1[2] + k1[0] * X / d
+            v[i, j] = k1[3] - k1[1] * Y / d
+            q[i, j] = wij / d
+            ok[i, j] = True
     return u, v, q, ok
 
 

@@ -55,6 +55,22 @@ def test_transfer_identity_and_behind_camera():
     assert not ok.any()
 
 
+
+def test_transfer_is_xfer_at_every_pixel_bit_for_bit():
+    rng = np.random.default_rng(3)
+    c0, c1 = random_cams(rng)
+    w = K.inverse_depth(rng.uniform(0.05, 60, (c0.height, c0.width)))
+    w[0, :4] = 0.0  # sky
+    w[1, 1] = np.nan
+    w[2, 2] = 100.0  # in front of the near plane of camera 1
+    M, k0, k1 = K.relative_matrix(c0, c1), K.intrinsics(c0), K.intrinsics(c1)
+    u, v, q, ok = K.transfer(w, M, k0, k1, c1.near)
+    assert not ok.all() and ok.any()
+    for i in range(c0.height):
+        for j in range(c0.width):
+            want = K._xfer(j + 0.5, i + 0.5, w[i, j], M, k0, k1, c1.near) if np.isfinite(w[i, j]) else (0, 0, 0, False)
+            assert (u[i, j], v[i, j], q[i, j], ok[i, j]) == want
+
 # -- the grid -----------------------------------------------------------------
 def corners_reference(w, lab, tol):
     h, wd = w.shape
