@@ -235,6 +235,24 @@ def _tri(P, a, b, c, px, py):
     return l0, l1, l2
 
 
+@njit(**JIT)
+def _tri_area(P, a, b, c, area, px, py):
+    """``_tri`` with the triangle's ``area`` (its ``_edge``) given, stopping at the first
+    negative barycentric: the same numbers where it is inside, -1 elsewhere."""
+    if area == 0.0:
+        return -1.0, 0.0, 0.0
+    l0 = _edge(P[b, 0], P[b, 1], P[c, 0], P[c, 1], px, py) / area
+    if l0 < 0.0:
+        return -1.0, 0.0, 0.0
+    l1 = _edge(P[c, 0], P[c, 1], P[a, 0], P[a, 1], px, py) / area
+    if l1 < 0.0:
+        return -1.0, 0.0, 0.0
+    l2 = _edge(P[a, 0], P[a, 1], P[b, 0], P[b, 1], px, py) / area
+    if l2 < 0.0:
+        return -1.0, 0.0, 0.0
+    return l0, l1, l2
+
+
 def affine_transfer(M, k0) -> np.ndarray:
     """(3, 4) A with camera-1 homogeneous X = A · (col, row, 1, w) for a camera-0 pixel
     position (col, row) at inverse depth w (``_xfer`` without the divisions)."""
@@ -317,15 +335,18 @@ def _splat_bands(cw, A, k1, near, height, width, band, start, lst, zbuf, src):
             c1 = min(width - 1, int(np.floor(xmax - 0.5)))
             r0 = max(y0, int(np.ceil(ymin - 0.5)))
             r1 = min(y1, int(np.floor(ymax - 0.5)))
+            # _tri of the two triangles (TL, TR, BR) and (TL, BR, BL), their areas once per quad
+            a1 = _edge(P[0, 0], P[0, 1], P[1, 0], P[1, 1], P[3, 0], P[3, 1])
+            a2 = _edge(P[0, 0], P[0, 1], P[3, 0], P[3, 1], P[2, 0], P[2, 1])
             for r in range(r0, r1 + 1):
                 py = r + 0.5
                 for c in range(c0, c1 + 1):
                     px = c + 0.5
-                    l0, l1, l2 = _tri(P, 0, 1, 3, px, py)
+                    l0, l1, l2 = _tri_area(P, 0, 1, 3, a1, px, py)
                     if l0 >= 0.0:
                         q = l0 * P[0, 2] + l1 * P[1, 2] + l2 * P[3, 2]
                     else:
-                        l0, l1, l2 = _tri(P, 0, 3, 2, px, py)
+                        l0, l1, l2 = _tri_area(P, 0, 3, 2, a2, px, py)
                         if l0 < 0.0:
                             continue
                         q = l0 * P[0, 2] + l1 * P[3, 2] + l2 * P[2, 2]
