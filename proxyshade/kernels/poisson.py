@@ -825,37 +825,54 @@ def solve_sor(fixed: np.ndarray, b: np.ndarray, rows: np.ndarray, cols: np.ndarr
 
 
 @njit(**JIT)
-def _sor_run(ii, jj, omega, lo, hi, diag, we, ws, b, v):
-    """Over-relaxed Gauss-Seidel updates of list entries lo..hi, in list order."""
-    h, w = diag.shape
+def _sor_run(nb, dl, bl, omega, lo, hi, vl):
+    """Over-relaxed Gauss-Seidel updates of list entries lo..hi, in list order, on the
+    compact list (``nb``: list index of the east, west, south, north neighbour, -1 where
+    there is none or it is fixed; ``dl``, ``bl``: diagonal and right-hand side). The
+    arithmetic of ``_sor_sweep``: a fixed neighbour's term there is exactly zero."""
     for k in range(lo, hi):
-        i = ii[k]
-        j = jj[k]
-        n0, n1, n2 = _neighbour_sum(v, we, ws, i, j, h, w)
-        inv = 1.0 / diag[i, j]
+        n0 = 0.0
+        n1 = 0.0
+        n2 = 0.0
+        for m in range(4):
+            q = nb[k, m]
+            if q >= 0:
+                n0 += vl[q, 0]
+                n1 += vl[q, 1]
+                n2 += vl[q, 2]
+        inv = 1.0 / dl[k]
         o = omega[k]
-        v[i, j, 0] += o * ((b[i, j, 0] + n0) * inv - v[i, j, 0])
-        v[i, j, 1] += o * ((b[i, j, 1] + n1) * inv - v[i, j, 1])
-        v[i, j, 2] += o * ((b[i, j, 2] + n2) * inv - v[i, j, 2])
+        vl[k, 0] += o * ((bl[k, 0] + n0) * inv - vl[k, 0])
+        vl[k, 1] += o * ((bl[k, 1] + n1) * inv - vl[k, 1])
+        vl[k, 2] += o * ((bl[k, 2] + n2) * inv - vl[k, 2])
 
 
 @njit(**JIT)
-def _run_residual(ii, jj, lo, hi, diag, we, ws, b, v, out):
-    """Per-channel squared residual norm over list entries lo..hi, summed in list order."""
+def _run_residual(nb, dl, bl, lo, hi, vl, out):
+    """Per-channel squared residual norm over list entries lo..hi, summed in list order
+    (``_apply_at``'s float32 arithmetic)."""
     out[:] = 0.0
     for k in range(lo, hi):
-        a0, a1, a2 = _apply_at(diag, we, ws, v, ii[k], jj[k])
-        r0 = b[ii[k], jj[k], 0] - a0
-        r1 = b[ii[k], jj[k], 1] - a1
-        r2 = b[ii[k], jj[k], 2] - a2
+        d = dl[k]
+        a0 = d * vl[k, 0]
+        a1 = d * vl[k, 1]
+        a2 = d * vl[k, 2]
+        for m in range(4):
+            q = nb[k, m]
+            if q >= 0:
+                a0 -= vl[q, 0]
+                a1 -= vl[q, 1]
+                a2 -= vl[q, 2]
+        r0 = bl[k, 0] - a0
+        r1 = bl[k, 1] - a1
+        r2 = bl[k, 2] - a2
         out[0] += r0 * r0
         out[1] += r1 * r1
         out[2] += r2 * r2
 
 
 @njit(**PJIT)
-def _sor_regions(bins, bin_start, starts, mids, ii, jj, omega, diag, we, ws, b, v, tol, check, max_sweeps,
-                 sweeps, rel):
+def _sor_regions(bins, bin_start, starts, mids, nb, dl, bl, omega, vl, tol, check, max_sweeps, sweeps, rel):
     """Each region (list entries starts[k]..starts[k + 1], its red pixels before ``mids[k]``)
     swept on its own until its residual falls to ``tol`` times its initial one. The
     regions are independent (fixed pixels between them): a thread owns whole regions
@@ -868,17 +885,17 @@ def _sor_regions(bins, bin_start, starts, mids, ii, jj, omega, diag, we, ws, b, 
             k = bins[q]
             lo = starts[k]
             hi = starts[k + 1]
-            _run_residual(ii, jj, lo, hi, diag, we, ws, b, v, r0)
+            _run_residual(nb, dl, bl, lo, hi, vl, r0)
             if r0[0] == 0.0 and r0[1] == 0.0 and r0[2] == 0.0:
                 continue
             s = 0
             worst = 0.0
             while s < max_sweeps:
                 for _ in range(check):
-                    _sor_run(ii, jj, omega, lo, mids[k], diag, we, ws, b, v)  # red
-                    _sor_run(ii, jj, omega, mids[k], hi, diag, we, ws, b, v)  # black
+                    _sor_run(nb, dl, bl, omega, lo, mids[k], vl)  # red
+                    _sor_run(nb, dl, bl, omega, mids[k], hi, vl)  # black
                 s += check
-                _run_residual(ii, jj, lo, hi, diag, we, ws, b, v, r)
+                _run_residual(nb, dl, bl, lo, hi, vl, r)
                 done = True
                 worst = 0.0
                 for c in range(3):
@@ -891,6 +908,28 @@ def _sor_regions(bins, bin_start, starts, mids, ii, jj, omega, diag, we, ws, b, 
                     break
             sweeps[k] = s
             rel[k] = worst
+
+
+@njit(**JIT)
+def _list_neighbours(ii, jj, h, w):
+    """(n, 4) list index of each listed pixel's east, west, south, north neighbour (-1:
+    outside the image or not listed)."""
+    pos = np.full((h, w), -1, np.int64)
+    for k in range(ii.shape[0]):
+        pos[ii[k], jj[k]] = k
+    nb = np.full((ii.shape[0], 4), -1, np.int64)
+    for k in range(ii.shape[0]):
+        i = ii[k]
+        j = jj[k]
+        if j + 1 < w:
+            nb[k, 0] = pos[i, j + 1]
+        if j > 0:
+            nb[k, 1] = pos[i, j - 1]
+        if i + 1 < h:
+            nb[k, 2] = pos[i + 1, j]
+        if i > 0:
+            nb[k, 3] = pos[i - 1, j]
+    return nb
 
 
 def solve_sor_regions(fixed: np.ndarray, b: np.ndarray, rows: np.ndarray, cols: np.ndarray, omega: np.ndarray,
@@ -944,8 +983,13 @@ def solve_sor_regions(fixed: np.ndarray, b: np.ndarray, rows: np.ndarray, cols: 
     bin_start = np.searchsorted(owner[bins], np.arange(nt + 1)).astype(np.int64)
     sweeps = np.zeros(nreg, np.int64)
     rel = np.zeros(nreg)
-    _sor_regions(bins, bin_start, starts, mids, ii, jj, om, diag, we, ws, b, v, float(tol), int(check),
-                 int(max_sweeps), sweeps, rel)
+    # the listed pixels' unknowns, right-hand side, diagonal and neighbours, contiguous per region
+    h, w = diag.shape
+    nb = _list_neighbours(ii, jj, h, w)
+    vl = np.zeros((n, 3), np.float32)
+    _sor_regions(bins, bin_start, starts, mids, nb, np.ascontiguousarray(diag[ii, jj]),
+                 np.ascontiguousarray(b[ii, jj]), om, vl, float(tol), int(check), int(max_sweeps), sweeps, rel)
+    v[ii, jj] = vl
     return v, {"iterations": int(sweeps.max()), "sweeps": float((sweeps * size).sum() / n),
                "residual": float(rel.max())}
 
