@@ -1015,7 +1015,7 @@ def seam_gradients_at(source: np.ndarray, sx: np.ndarray, sy: np.ndarray, patch:
                       step: float = 1.0, *, filter: str = "bilinear") -> tuple[np.ndarray, np.ndarray]:
     """``seam_gradients`` on only the edges that cross a patch seam and touch a pixel of
     ``near`` (the rest stay zero, as ``_rhs`` reads gx, gy only across seams): the same
-    numbers at a cost proportional to those edges."""
+    numbers at a cost proportional to those edges (all the source reads in one lookup)."""
     from proxyshade.kernels.lookup import lookup
 
     h, w = patch.shape
@@ -1024,6 +1024,8 @@ def seam_gradients_at(source: np.ndarray, sx: np.ndarray, sy: np.ndarray, patch:
     e = np.float32(step)
     sx = np.asarray(sx, np.float32)
     sy = np.asarray(sy, np.float32)
+    edges = []
+    xs, ys = [], []
     for axis, g in ((1, gx), (0, gy)):
         a = (slice(None), slice(0, -1)) if axis == 1 else (slice(0, -1), slice(None))
         bq = (slice(None), slice(1, None)) if axis == 1 else (slice(1, None), slice(None))
@@ -1033,9 +1035,18 @@ def seam_gradients_at(source: np.ndarray, sx: np.ndarray, sy: np.ndarray, patch:
             continue
         qi, qj = pi + (axis == 0), pj + (axis == 1)
         dx, dy = (e, 0) if axis == 1 else (0, e)
-
-        def at(i, j, ox, oy):
-            return lookup(source, (sx[i, j] + ox)[None], (sy[i, j] + oy)[None], filter=filter)[0]
-
-        g[pi, pj] = 0.5 * ((at(pi, pj, dx, dy) - at(pi, pj, 0, 0)) + (at(qi, qj, 0, 0) - at(qi, qj, -dx, -dy)))
+        edges.append((g, pi, pj))
+        # f(s_p + e), f(s_p), f(s_q), f(s_q - e)
+        for i, j, ox, oy in ((pi, pj, dx, dy), (pi, pj, 0, 0), (qi, qj, 0, 0), (qi, qj, -dx, -dy)):
+            xs.append(sx[i, j] + ox)
+            ys.append(sy[i, j] + oy)
+    if not edges:
+        return gx, gy
+    f = lookup(source, np.concatenate(xs)[None], np.concatenate(ys)[None], filter=filter)[0]
+    k = 0
+    for g, pi, pj in edges:
+        n = len(pi)
+        fe, f0, fq, fw = (f[k + m * n:k + (m + 1) * n] for m in range(4))
+        g[pi, pj] = 0.5 * ((fe - f0) + (fq - fw))
+        k += 4 * n
     return gx, gy
