@@ -38,7 +38,7 @@ from __future__ import annotations
 
 import numba
 import numpy as np
-from numba import njit, prange
+from numba import njit, prange, typed
 
 from proxyshade.kernels._config import JIT, PJIT
 from proxyshade.kernels.distance import contour_mask
@@ -371,6 +371,88 @@ def _prolong_add(xc, x, diag, alpha):
             x[i, j, 2] += alpha * xc[I, J, 2]
 
 
+# serial twins of the V-cycle kernels for small levels (one compiled call per V-cycle
+# below ``SERIAL_CELLS`` instead of a parallel launch per kernel): every cell is
+# computed from the same neighbours as in the parallel kernels, so the bits are the same
+
+
+SERIAL_CELLS = 1 << 15  # levels with fewer cells run their whole V-cycle serially
+
+
+@njit(**JIT)
+def _jacobi_start_serial(diag, x, b, color):
+    h, w = diag.shape
+    for i in range(h):
+        for j in range(w):
+            d = diag[i, j]
+            if (i + j) % 2 == color and d != 0.0:
+                inv = 1.0 / d
+                x[i, j, 0] = b[i, j, 0] * inv
+                x[i, j, 1] = b[i, j, 1] * inv
+                x[i, j, 2] = b[i, j, 2] * inv
+            else:
+                x[i, j, 0] = 0.0
+                x[i, j, 1] = 0.0
+                x[i, j, 2] = 0.0
+
+
+@njit(**JIT)
+def _residual_restrict_serial(diag, we, ws, x, b, rc):
+    h, w = diag.shape
+    hc, wc = rc.shape[0], rc.shape[1]
+    for I in range(hc):
+        for J in range(wc):
+            rc[I, J, 0] = 0.0
+            rc[I, J, 1] = 0.0
+            rc[I, J, 2] = 0.0
+        for i in range(2 * I, min(2 * I + 2, h)):
+            for j in range(w):
+                if diag[i, j] == 0.0:
+                    continue
+                a0, a1, a2 = _apply_at(diag, we, ws, x, i, j)
+                J = j >> 1
+                rc[I, J, 0] += b[i, j, 0] - a0
+                rc[I, J, 1] += b[i, j, 1] - a1
+                rc[I, J, 2] += b[i, j, 2] - a2
+
+
+@njit(**JIT)
+def _prolong_add_serial(xc, x, diag, alpha):
+    h, w = diag.shape
+    for i in range(h):
+        I = i // 2
+        for j in range(w):
+            if diag[i, j] == 0.0:
+                continue
+            J = j // 2
+            x[i, j, 0] += alpha * xc[I, J, 0]
+            x[i, j, 1] += alpha * xc[I, J, 1]
+            x[i, j, 2] += alpha * xc[I, J, 2]
+
+
+@njit(**JIT)
+def _vcycle_serial(diags, wes, wss, xs, bs, level, sweeps, coarse_sweeps):
+    """``_Hierarchy.vcycle`` from ``level`` down, on one thread: the same kernels in the
+    same order (levels as typed lists; the right-hand side of ``level`` in ``bs[level]``,
+    the result in ``xs[level]``)."""
+    last = len(diags) - 1
+    for l in range(level, last):
+        d, e, sw, x, b = diags[l], wes[l], wss[l], xs[l], bs[l]
+        _jacobi_start_serial(d, x, b, 0)
+        _smooth_serial(d, e, sw, x, b, 1)
+        for _ in range(sweeps - 1):
+            _smooth_serial(d, e, sw, x, b, 0)
+            _smooth_serial(d, e, sw, x, b, 1)
+        _residual_restrict_serial(d, e, sw, x, b, bs[l + 1])
+    _coarse_solve(diags[last], wes[last], wss[last], xs[last], bs[last], coarse_sweeps)
+    for l in range(last - 1, level - 1, -1):
+        d, e, sw, x, b = diags[l], wes[l], wss[l], xs[l], bs[l]
+        _prolong_add_serial(xs[l + 1], x, d, 1.0)
+        for _ in range(sweeps):
+            _smooth_serial(d, e, sw, x, b, 1)
+            _smooth_serial(d, e, sw, x, b, 0)
+
+
 # ---------------------------------------------------------------------------
 # problem set-up
 
@@ -531,12 +613,24 @@ class _Hierarchy:
         self.ops = ops
         self.x = [np.zeros(op[0].shape + (3,), np.float32) for op in ops]
         self.b = [np.zeros(op[0].shape + (3,), np.float32) for op in ops]
+        # from the first level below SERIAL_CELLS down, one serial call (typed lists)
+        self.serial_from = next((k for k, op in enumerate(ops) if op[0].size < SERIAL_CELLS), len(ops))
+        if self.serial_from < len(ops):
+            tl = [typed.List(a) for a in zip(*ops)]
+            self.lists = (tl[0], tl[1], tl[2], typed.List(self.x), typed.List(self.b))
 
     def vcycle(self, b: np.ndarray, x: np.ndarray, *, sweeps: int = 1, coarse_sweeps: int = 30,
                level: int = 0) -> None:
         """Approximately solve A x = b from x = 0; symmetric (red-black before, black-red
         after), so it can precondition conjugate gradients."""
         diag, we, ws = self.ops[level]
+        if level >= self.serial_from:
+            if b is not self.b[level]:  # the lists hold self.b / self.x (shared buffers)
+                self.b[level][...] = b
+            _vcycle_serial(*self.lists, level, sweeps, coarse_sweeps)
+            if x is not self.x[level]:
+                x[...] = self.x[level]
+            return
         if level == len(self.ops) - 1:
             _coarse_solve(diag, we, ws, x, b, coarse_sweeps)
             return
