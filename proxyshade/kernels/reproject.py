@@ -43,8 +43,22 @@ def relative_matrix(cam_from, cam_to) -> np.ndarray:
     return np.ascontiguousarray(np.linalg.inv(cam_to.camera_to_world) @ cam_from.camera_to_world, np.float64)
 
 
+@njit(**PJIT)
+def _inverse_depth(Z, out):
+    h, w = Z.shape
+    for i in prange(h):
+        for j in range(w):
+            z = np.float64(Z[i, j])
+            out[i, j] = 0.0 if np.isinf(z) else 1.0 / z
+
+
 def inverse_depth(Z: np.ndarray) -> np.ndarray:
     """1/Z as float64 (0 where Z is inf); NaN stays NaN."""
+    Z = np.asarray(Z)
+    if Z.ndim == 2 and Z.dtype in (np.float32, np.float64):  # one parallel pass, the same numbers
+        out = np.empty(Z.shape, np.float64)
+        _inverse_depth(np.ascontiguousarray(Z), out)
+        return out
     Z = np.asarray(Z, np.float64)
     with np.errstate(divide="ignore"):
         return np.where(np.isinf(Z), 0.0, 1.0 / Z)

@@ -379,3 +379,17 @@ def test_unproject_inverts_transfer_geometry():
     ref = c0.unproject(col, row, np.where(np.isinf(Z), 1.0, Z).astype(np.float64))
     np.testing.assert_allclose(got[1:], ref[1:], rtol=1e-5, atol=1e-5)
     assert (got[0, 0] == 0).all()
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_inverse_depth_is_the_reciprocal_with_inf_as_zero(dtype):
+    rng = np.random.default_rng(4)
+    Z = rng.uniform(0.01, 100, (9, 11)).astype(dtype)
+    Z[0, :3] = [np.inf, -np.inf, np.nan]
+    Z[1, 0] = 0.0
+    with np.errstate(divide="ignore"):
+        want = np.where(np.isinf(Z.astype(np.float64)), 0.0, 1.0 / Z.astype(np.float64))
+    got = K.inverse_depth(Z)
+    assert got.dtype == np.float64
+    assert np.array_equal(got, want, equal_nan=True)
+    assert np.array_equal(K.inverse_depth(Z[0]), want[0], equal_nan=True)  # 1-D: numpy
