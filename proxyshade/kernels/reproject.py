@@ -301,6 +301,34 @@ def _quad(cw, i, j, A, k1, near, P):
     return True
 
 
+@njit(**JIT)
+def _quad_after(cw, i, j, A, k1, near, P, prev):
+    """``_quad`` of quad (i, j) when ``prev`` holds the projected corners of quad (i, j − 1)
+    (``_quad`` was True for it): its right corners are this quad's left ones wherever the
+    corner depths are equal (an uncut grid edge), the same numbers without recomputing."""
+    for k in range(4):
+        wk = cw[i, j, k]
+        if not np.isfinite(wk):
+            return False
+        if k % 2 == 0 and wk == cw[i, j - 1, k + 1]:  # same grid point, same depth
+            P[k, 0] = prev[k + 1, 0]
+            P[k, 1] = prev[k + 1, 1]
+            P[k, 2] = prev[k + 1, 2]
+            continue
+        col = j + (1.0 if k % 2 == 1 else 0.0)
+        row = i + (1.0 if k >= 2 else 0.0)
+        X = A[0, 0] * col + A[0, 1] * row + A[0, 2] + A[0, 3] * wk
+        Y = A[1, 0] * col + A[1, 1] * row + A[1, 2] + A[1, 3] * wk
+        d = -(A[2, 0] * col + A[2, 1] * row + A[2, 2] + A[2, 3] * wk)
+        if d <= 0.0 or d <= near * wk:
+            return False
+        r = 1.0 / d
+        P[k, 0] = k1[2] + k1[0] * X * r
+        P[k, 1] = k1[3] - k1[1] * Y * r
+        P[k, 2] = wk * r
+    return True
+
+
 @njit(**PJIT)
 def _quad_rows(cw, keep, A, k1, near, height, width, max_extent):
     """Pixel-row range each quad covers in camera 1 (r0 > r1 when it draws nothing)."""
@@ -308,10 +336,19 @@ def _quad_rows(cw, keep, A, k1, near, height, width, max_extent):
     r0 = np.zeros((h0, w0), np.int32)
     r1 = np.full((h0, w0), -1, np.int32)
     for i in prange(h0):
-        P = np.zeros((4, 3), np.float64)
+        cur = np.zeros((4, 3), np.float64)
+        prev = np.zeros((4, 3), np.float64)
+        have = False  # prev holds quad (i, j - 1), projected
         for j in range(w0):
-            if not keep[i, j] or not _quad(cw, i, j, A, k1, near, P):
+            if not keep[i, j]:
+                have = False
                 continue
+            ok = _quad_after(cw, i, j, A, k1, near, cur, prev) if have else _quad(cw, i, j, A, k1, near, cur)
+            prev, cur = cur, prev  # prev: this quad's corners from here on
+            have = ok
+            if not ok:
+                continue
+            P = prev
             xmin = min(min(P[0, 0], P[1, 0]), min(P[2, 0], P[3, 0]))
             xmax = max(max(P[0, 0], P[1, 0]), max(P[2, 0], P[3, 0]))
             ymin = min(min(P[0, 1], P[1, 1]), min(P[2, 1], P[3, 1]))
@@ -333,14 +370,22 @@ def _splat_bands(cw, A, k1, near, height, width, band, start, lst, zbuf, src):
     h0, w0 = cw.shape[0], cw.shape[1]
     nb = start.shape[0] - 1
     for bi in prange(nb):
-        P = np.zeros((4, 3), np.float64)
+        cur = np.zeros((4, 3), np.float64)
+        prev = np.zeros((4, 3), np.float64)
         y0 = bi * band
         y1 = min(height, y0 + band) - 1
+        last = -2  # the quad whose corners prev holds (every listed quad projects)
         for t in range(start[bi], start[bi + 1]):
             s = lst[t]
             i = s // w0
             j = s - i * w0
-            _quad(cw, i, j, A, k1, near, P)
+            if s == last + 1 and j > 0:
+                _quad_after(cw, i, j, A, k1, near, cur, prev)
+            else:
+                _quad(cw, i, j, A, k1, near, cur)
+            prev, cur = cur, prev
+            last = s
+            P = prev
             xmin = min(min(P[0, 0], P[1, 0]), min(P[2, 0], P[3, 0]))
             xmax = max(max(P[0, 0], P[1, 0]), max(P[2, 0], P[3, 0]))
             ymin = min(min(P[0, 1], P[1, 1]), min(P[2, 1], P[3, 1]))
