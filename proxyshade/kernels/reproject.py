@@ -29,7 +29,7 @@ import numpy as np
 from numba import njit, prange
 
 from proxyshade.kernels._config import JIT, PJIT
-from proxyshade.kernels.raster import bin_rows
+from proxyshade.kernels.raster import bin_rows_parallel
 from proxyshade.kernels.temporal import jacobian_det
 
 
@@ -440,7 +440,7 @@ def splat_grid(cw, keep, M, k0, k1, near, height, width, max_extent):
     A = affine_transfer(M, k0)
     r0, r1 = _quad_rows(cw, keep, A, k1, float(near), int(height), int(width), float(max_extent))
     nb = (int(height) + SPLAT_BAND - 1) // SPLAT_BAND
-    start, lst = bin_rows(r0, r1, nb, SPLAT_BAND)
+    start, lst = bin_rows_parallel(r0, r1, nb, SPLAT_BAND)
     zbuf = np.full((int(height), int(width)), -1.0, np.float64)
     src = np.full((int(height), int(width)), -1, np.int64)
     _splat_bands(cw, A, k1, float(near), int(height), int(width), SPLAT_BAND, start, lst, zbuf, src)
