@@ -5,10 +5,13 @@ Kernels are pure functions on arrays: ``@njit(**JIT)`` for serial code,
 ``nogil`` lets the graph executor run independent nodes on threads.
 
 Threads wait passively between parallel loops (``OMP_WAIT_POLICY=PASSIVE`` unless the
-environment sets it): numba's OpenMP layer otherwise spins at every barrier, and on
-cores shared with other processes a spinning thread holds the core the thread with the
-work needs. A lake update frame at 1024² on 2 busy cores: 0.74 s passive, 3.7–8.3 s
-spinning (docs/temporal.md). Set ``OMP_WAIT_POLICY=ACTIVE`` for a machine of one's own.
+environment sets it): numba's OpenMP layer otherwise spins for milliseconds after every
+parallel loop, and on cores shared with other processes a spinning thread holds the core
+the thread with the work needs. Lake update frame at 1024² on 2 cores (docs/temporal.md):
+one other job running, 0.73 s passive against 0.98 s with a 0.1 ms spin
+(``GOMP_SPINCOUNT=10000``) and 3.7–10.7 s with the default spin; idle cores, 0.58–0.61 s
+passive against 0.50–0.54 s spinning (waking a sleeping thread costs ~50 µs per parallel
+loop). Set ``OMP_WAIT_POLICY=ACTIVE`` (or ``GOMP_SPINCOUNT``) on a machine of one's own.
 """
 import os
 
