@@ -18,11 +18,15 @@ cores). Then, on each move, the median share of pixels resynthesized per frame o
 48 frames and the temporal warp-error ratio (mean |I_N - warp(I_N-1)| over kept pixels,
 coherent / independent per-frame synthesis) over the first frames, at ``--metric-size``.
 
-Run: ``python bench/run.py temporal`` (or ``python bench/bench_temporal.py --frames 8``).
+Run: ``python bench/run.py temporal`` (or ``python bench/bench_temporal.py --frames 8``);
+``--cpu`` times the stages by CPU time on one thread (the work itself: on cores shared with
+other jobs wall time measures their load as much as ours), ``--no-metrics`` skips the
+share / warp-error runs.
 """
 from __future__ import annotations
 
 import argparse
+import os
 import statistics
 import sys
 import time
@@ -104,7 +108,21 @@ def main(argv=None) -> None:
     ap.add_argument("--metric-size", type=int, default=256, help="output size of the share / warp-error runs")
     ap.add_argument("--metric-frames", type=int, default=8, help="frames of the warp-error comparison")
     ap.add_argument("--scenes", nargs="*", default=list(T.SCENES))
+    ap.add_argument("--threads", type=int, default=0, help="numba threads (0: numba's default)")
+    ap.add_argument("--cpu", action="store_true",
+                    help="time stages by the process's CPU time on one thread: the work, steady on cores shared "
+                         "with other jobs (wall time there depends on their load)")
+    ap.add_argument("--no-metrics", action="store_true", help="timings only (no 48-frame share / warp-error runs)")
     args = ap.parse_args(sys.argv[2:] if argv is None and len(sys.argv) > 1 and sys.argv[1] == "temporal" else argv)
+    import numba
+
+    if args.cpu:
+        numba.set_num_threads(1)
+        time.perf_counter = time.process_time  # every stage clock of this process, Resynthesize's included
+    elif args.threads:
+        numba.set_num_threads(args.threads)
+    print(f"numba threads {numba.get_num_threads()}, clock {'CPU time' if args.cpu else 'wall'}, "
+          f"OMP_WAIT_POLICY={os.environ.get('OMP_WAIT_POLICY')}")
     summary = []
     for scene in args.scenes:
         med, shares = update_frames(scene, args.size, args.frames)
@@ -114,6 +132,10 @@ def main(argv=None) -> None:
         print(f"must <= 1.2 s: median {med['update frame']['median']:.3f} s "
               f"({'ok' if med['update frame']['median'] <= 1.2 else 'OVER'}); "
               f"flagged per timed frame: median {100 * statistics.median(shares):.2f}%")
+        if args.no_metrics:
+            summary.append((scene, med["update frame"]["median"], float("nan"), float("nan"),
+                            {"bilinear": float("nan")}))
+            continue
         s48 = move_shares(scene, args.metric_size)
         m = T.coherence_metrics(scene, range(1, args.metric_frames + 1), args.metric_size, detail=True)
         summary.append((scene, med["update frame"]["median"], statistics.median(s48), max(s48), m["ratio"]))

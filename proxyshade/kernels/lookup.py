@@ -125,6 +125,63 @@ def _lanczos(img, sx, sy, table, out):
 
 
 @njit(**PJIT)
+def _lanczos_rgb(img, rgbx, sx, sy, table, out):
+    """``_lanczos`` of a colour image read from a float64 copy with its channels padded
+    to four (``rgbx``, (M, N, 4): no conversion per tap, aligned pixels) and the
+    Lanczos-4 taps unrolled; every sum in ``_lanczos``'s order (bit-identical output,
+    about a third faster on a 1024² read)."""
+    h, w, c = img.shape
+    oh, ow = sx.shape
+    bins = table.shape[0] - 1
+    n = table.shape[1]
+    a = n // 2
+    for i in prange(oh):
+        for j in range(ow):
+            xs, bx = _tap_start(np.float64(sx[i, j]), w, bins, a)
+            ys, by = _tap_start(np.float64(sy[i, j]), h, bins, a)
+            if bx == 0 and by == 0:
+                for k in range(3):
+                    out[i, j, k] = img[ys + a - 1, xs + a - 1, k]
+                continue
+            inside = xs >= 0 and ys >= 0 and xs + n <= w and ys + n <= h
+            if inside and n == 8:  # Lanczos-4 away from the border: fixed trip counts, unrolled
+                r0 = r1 = r2 = 0.0
+                for r in range(8):
+                    t0 = t1 = t2 = t3 = 0.0
+                    for t in range(8):
+                        wx = table[bx, t]
+                        t0 += wx * rgbx[ys + r, xs + t, 0]
+                        t1 += wx * rgbx[ys + r, xs + t, 1]
+                        t2 += wx * rgbx[ys + r, xs + t, 2]
+                        t3 += wx * rgbx[ys + r, xs + t, 3]
+                    wy = table[by, r]
+                    r0 += wy * t0
+                    r1 += wy * t1
+                    r2 += wy * t2
+                out[i, j, 0] = r0
+                out[i, j, 1] = r1
+                out[i, j, 2] = r2
+                continue
+            r0 = r1 = r2 = 0.0
+            for r in range(n):
+                yy = ys + r if inside else min(max(ys + r, 0), h - 1)
+                t0 = t1 = t2 = 0.0
+                for t in range(n):
+                    xx = xs + t if inside else min(max(xs + t, 0), w - 1)
+                    wx = table[bx, t]
+                    t0 += wx * rgbx[yy, xx, 0]
+                    t1 += wx * rgbx[yy, xx, 1]
+                    t2 += wx * rgbx[yy, xx, 2]
+                wy = table[by, r]
+                r0 += wy * t0
+                r1 += wy * t1
+                r2 += wy * t2
+            out[i, j, 0] = r0
+            out[i, j, 1] = r1
+            out[i, j, 2] = r2
+
+
+@njit(**PJIT)
 def _nearest(img, sx, sy, out):
     h, w, c = img.shape
     oh, ow = sx.shape
@@ -180,7 +237,12 @@ def lookup(image: np.ndarray, sx: np.ndarray, sy: np.ndarray, *, filter: str = "
     else:
         img = img.astype(np.float32, copy=False)
         out = np.empty(sx.shape + (img.shape[2],), np.float32)
-        if filter in _LANCZOS:
+        if filter in _LANCZOS and img.shape[2] == 3 and sx.size >= img.shape[0] * img.shape[1]:
+            # many reads of a colour image: pad it to four float64 channels once (vector sums)
+            rgbx = np.zeros(img.shape[:2] + (4,), np.float64)
+            rgbx[..., :3] = img
+            _lanczos_rgb(img, rgbx, sx, sy, _LANCZOS[filter], out)
+        elif filter in _LANCZOS:
             _lanczos(img, sx, sy, _LANCZOS[filter], out)
         else:
             _bilinear(img, sx, sy, out)

@@ -94,6 +94,59 @@ def _repair_step(S, ok, guide, srclab, S_new, ok_new):
     return n
 
 
+@njit(**PJIT)
+def _front_steps(S, ok, guide, srclab, ii, jj, max_steps):
+    """``_repair_step`` repeated (at most ``max_steps`` times, until a step fixes nothing),
+    visiting only the pixels still wrong (``ii``, ``jj``: the wrong pixels, scan order):
+    each step reads the state of the previous one, as ``_repair_step`` does, so the result
+    is the same at a cost proportional to the wrong pixels. Updates S, ok in place;
+    returns how many were fixed."""
+    Ht, Wt = guide.shape
+    Hs, Ws = srclab.shape
+    n = ii.shape[0]
+    ny = np.empty(n, np.int32)
+    nx = np.empty(n, np.int32)
+    got = np.zeros(n, np.bool_)
+    extended = 0
+    for _ in range(max_steps):
+        if n == 0:
+            break
+        for k in prange(n):
+            i = ii[k]
+            j = jj[k]
+            got[k] = False
+            lab = guide[i, j]
+            for m in range(8):
+                di = (-1, 1, 0, 0, -1, -1, 1, 1)[m]
+                dj = (0, 0, -1, 1, -1, 1, -1, 1)[m]
+                a = i + di
+                b = j + dj
+                if a < 0 or a >= Ht or b < 0 or b >= Wt or not ok[a, b] or guide[a, b] != lab:
+                    continue
+                y = S[a, b, 0] - di
+                x = S[a, b, 1] - dj
+                if 0 <= y < Hs and 0 <= x < Ws and srclab[y, x] == lab:
+                    ny[k] = y
+                    nx[k] = x
+                    got[k] = True
+                    break
+        m = 0
+        for k in range(n):
+            if got[k]:
+                S[ii[k], jj[k], 0] = ny[k]
+                S[ii[k], jj[k], 1] = nx[k]
+                ok[ii[k], jj[k]] = True
+            else:
+                ii[m] = ii[k]
+                jj[m] = jj[k]
+                m += 1
+        if m == n:
+            break
+        extended += n - m
+        n = m
+    return extended
+
+
 def repair_labels(S: np.ndarray, guide: np.ndarray, srclab: np.ndarray, *, max_steps: int = 64,
                   nearest: bool = True) -> tuple[np.ndarray, dict]:
     """Move pixels whose source label differs from the guide's onto the right label.
@@ -111,18 +164,8 @@ def repair_labels(S: np.ndarray, guide: np.ndarray, srclab: np.ndarray, *, max_s
     srclab = np.ascontiguousarray(srclab, np.int32)
     ok = np.empty(guide.shape, np.bool_)
     wrong = int(_label_ok(S, guide, srclab, ok))
-    extended = 0
-    S2 = np.empty_like(S)
-    ok2 = np.empty_like(ok)
-    for _ in range(max_steps):
-        if extended == wrong:
-            break
-        n = int(_repair_step(S, ok, guide, srclab, S2, ok2))
-        S, S2 = S2, S
-        ok, ok2 = ok2, ok
-        if n == 0:
-            break
-        extended += n
+    ii, jj = np.nonzero(~ok)
+    extended = int(_front_steps(S, ok, guide, srclab, ii.astype(np.int64), jj.astype(np.int64), int(max_steps)))
     near = 0
     if nearest and extended < wrong:
         for lab in np.unique(guide[~ok]):

@@ -36,8 +36,9 @@ Computing 55, 1995 (over-correction of aggregation coarse grids).
 """
 from __future__ import annotations
 
+import numba
 import numpy as np
-from numba import njit, prange
+from numba import njit, prange, typed
 
 from proxyshade.kernels._config import JIT, PJIT
 from proxyshade.kernels.distance import contour_mask
@@ -156,6 +157,40 @@ def _coarsen(diag, we, ws, mass, alpha):
                     s += ws[i0 + 1, j0 + 1]
                 sc[I, J] = s * inv
     return dc, ec, sc, mc
+
+
+@njit(**JIT)
+def _smooth_serial(diag, we, ws, x, b, color):
+    """``_smooth`` on one thread (for the tiny coarsest level: no parallel launch). The
+    cells of one colour do not neighbour each other, so the result is the same."""
+    h, w = diag.shape
+    for i in range(h):
+        j0 = (color + i) % 2
+        for j in range(j0, w, 2):
+            d = diag[i, j]
+            if d == 0.0:
+                continue
+            n0, n1, n2 = _neighbour_sum(x, we, ws, i, j, h, w)
+            s0 = b[i, j, 0] + n0
+            s1 = b[i, j, 1] + n1
+            s2 = b[i, j, 2] + n2
+            inv = 1.0 / d
+            x[i, j, 0] = s0 * inv
+            x[i, j, 1] = s1 * inv
+            x[i, j, 2] = s2 * inv
+
+
+@njit(**JIT)
+def _coarse_solve(diag, we, ws, x, b, sweeps):
+    """The coarsest level of a V-cycle: from x = 0, ``sweeps`` red-black then ``sweeps``
+    black-red Gauss-Seidel sweeps, in one compiled call."""
+    x[...] = 0.0
+    for _ in range(sweeps):
+        _smooth_serial(diag, we, ws, x, b, 0)
+        _smooth_serial(diag, we, ws, x, b, 1)
+    for _ in range(sweeps):
+        _smooth_serial(diag, we, ws, x, b, 1)
+        _smooth_serial(diag, we, ws, x, b, 0)
 
 
 @njit(**PJIT)
@@ -336,6 +371,88 @@ def _prolong_add(xc, x, diag, alpha):
             x[i, j, 2] += alpha * xc[I, J, 2]
 
 
+# serial twins of the V-cycle kernels for small levels (one compiled call per V-cycle
+# below ``SERIAL_CELLS`` instead of a parallel launch per kernel): every cell is
+# computed from the same neighbours as in the parallel kernels, so the bits are the same
+
+
+SERIAL_CELLS = 1 << 15  # levels with fewer cells run their whole V-cycle serially
+
+
+@njit(**JIT)
+def _jacobi_start_serial(diag, x, b, color):
+    h, w = diag.shape
+    for i in range(h):
+        for j in range(w):
+            d = diag[i, j]
+            if (i + j) % 2 == color and d != 0.0:
+                inv = 1.0 / d
+                x[i, j, 0] = b[i, j, 0] * inv
+                x[i, j, 1] = b[i, j, 1] * inv
+                x[i, j, 2] = b[i, j, 2] * inv
+            else:
+                x[i, j, 0] = 0.0
+                x[i, j, 1] = 0.0
+                x[i, j, 2] = 0.0
+
+
+@njit(**JIT)
+def _residual_restrict_serial(diag, we, ws, x, b, rc):
+    h, w = diag.shape
+    hc, wc = rc.shape[0], rc.shape[1]
+    for I in range(hc):
+        for J in range(wc):
+            rc[I, J, 0] = 0.0
+            rc[I, J, 1] = 0.0
+            rc[I, J, 2] = 0.0
+        for i in range(2 * I, min(2 * I + 2, h)):
+            for j in range(w):
+                if diag[i, j] == 0.0:
+                    continue
+                a0, a1, a2 = _apply_at(diag, we, ws, x, i, j)
+                J = j >> 1
+                rc[I, J, 0] += b[i, j, 0] - a0
+                rc[I, J, 1] += b[i, j, 1] - a1
+                rc[I, J, 2] += b[i, j, 2] - a2
+
+
+@njit(**JIT)
+def _prolong_add_serial(xc, x, diag, alpha):
+    h, w = diag.shape
+    for i in range(h):
+        I = i // 2
+        for j in range(w):
+            if diag[i, j] == 0.0:
+                continue
+            J = j // 2
+            x[i, j, 0] += alpha * xc[I, J, 0]
+            x[i, j, 1] += alpha * xc[I, J, 1]
+            x[i, j, 2] += alpha * xc[I, J, 2]
+
+
+@njit(**JIT)
+def _vcycle_serial(diags, wes, wss, xs, bs, level, sweeps, coarse_sweeps):
+    """``_Hierarchy.vcycle`` from ``level`` down, on one thread: the same kernels in the
+    same order (levels as typed lists; the right-hand side of ``level`` in ``bs[level]``,
+    the result in ``xs[level]``)."""
+    last = len(diags) - 1
+    for l in range(level, last):
+        d, e, sw, x, b = diags[l], wes[l], wss[l], xs[l], bs[l]
+        _jacobi_start_serial(d, x, b, 0)
+        _smooth_serial(d, e, sw, x, b, 1)
+        for _ in range(sweeps - 1):
+            _smooth_serial(d, e, sw, x, b, 0)
+            _smooth_serial(d, e, sw, x, b, 1)
+        _residual_restrict_serial(d, e, sw, x, b, bs[l + 1])
+    _coarse_solve(diags[last], wes[last], wss[last], xs[last], bs[last], coarse_sweeps)
+    for l in range(last - 1, level - 1, -1):
+        d, e, sw, x, b = diags[l], wes[l], wss[l], xs[l], bs[l]
+        _prolong_add_serial(xs[l + 1], x, d, 1.0)
+        for _ in range(sweeps):
+            _smooth_serial(d, e, sw, x, b, 1)
+            _smooth_serial(d, e, sw, x, b, 0)
+
+
 # ---------------------------------------------------------------------------
 # problem set-up
 
@@ -496,20 +613,26 @@ class _Hierarchy:
         self.ops = ops
         self.x = [np.zeros(op[0].shape + (3,), np.float32) for op in ops]
         self.b = [np.zeros(op[0].shape + (3,), np.float32) for op in ops]
+        # from the first level below SERIAL_CELLS down, one serial call (typed lists)
+        self.serial_from = next((k for k, op in enumerate(ops) if op[0].size < SERIAL_CELLS), len(ops))
+        if self.serial_from < len(ops):
+            tl = [typed.List(a) for a in zip(*ops)]
+            self.lists = (tl[0], tl[1], tl[2], typed.List(self.x), typed.List(self.b))
 
     def vcycle(self, b: np.ndarray, x: np.ndarray, *, sweeps: int = 1, coarse_sweeps: int = 30,
                level: int = 0) -> None:
         """Approximately solve A x = b from x = 0; symmetric (red-black before, black-red
         after), so it can precondition conjugate gradients."""
         diag, we, ws = self.ops[level]
+        if level >= self.serial_from:
+            if b is not self.b[level]:  # the lists hold self.b / self.x (shared buffers)
+                self.b[level][...] = b
+            _vcycle_serial(*self.lists, level, sweeps, coarse_sweeps)
+            if x is not self.x[level]:
+                x[...] = self.x[level]
+            return
         if level == len(self.ops) - 1:
-            x[...] = 0.0
-            for _ in range(coarse_sweeps):
-                _smooth(diag, we, ws, x, b, 0)
-                _smooth(diag, we, ws, x, b, 1)
-            for _ in range(coarse_sweeps):
-                _smooth(diag, we, ws, x, b, 1)
-                _smooth(diag, we, ws, x, b, 0)
+            _coarse_solve(diag, we, ws, x, b, coarse_sweeps)
             return
         _jacobi_start(diag, x, b, 0)  # the first red half-sweep, from x = 0
         _smooth(diag, we, ws, x, b, 1)
@@ -795,6 +918,176 @@ def solve_sor(fixed: np.ndarray, b: np.ndarray, rows: np.ndarray, cols: np.ndarr
     return v, {"iterations": sweeps, "residual": rel}
 
 
+@njit(**JIT)
+def _sor_run(nb, dl, bl, omega, lo, hi, vl):
+    """Over-relaxed Gauss-Seidel updates of list entries lo..hi, in list order, on the
+    compact list (``nb``: list index of the east, west, south, north neighbour, -1 where
+    there is none or it is fixed; ``dl``, ``bl``: diagonal and right-hand side). The
+    arithmetic of ``_sor_sweep``: a fixed neighbour's term there is exactly zero."""
+    for k in range(lo, hi):
+        n0 = 0.0
+        n1 = 0.0
+        n2 = 0.0
+        for m in range(4):
+            q = nb[k, m]
+            if q >= 0:
+                n0 += vl[q, 0]
+                n1 += vl[q, 1]
+                n2 += vl[q, 2]
+        inv = 1.0 / dl[k]
+        o = omega[k]
+        vl[k, 0] += o * ((bl[k, 0] + n0) * inv - vl[k, 0])
+        vl[k, 1] += o * ((bl[k, 1] + n1) * inv - vl[k, 1])
+        vl[k, 2] += o * ((bl[k, 2] + n2) * inv - vl[k, 2])
+
+
+@njit(**JIT)
+def _run_residual(nb, dl, bl, lo, hi, vl, out):
+    """Per-channel squared residual norm over list entries lo..hi, summed in list order
+    (``_apply_at``'s float32 arithmetic)."""
+    out[:] = 0.0
+    for k in range(lo, hi):
+        d = dl[k]
+        a0 = d * vl[k, 0]
+        a1 = d * vl[k, 1]
+        a2 = d * vl[k, 2]
+        for m in range(4):
+            q = nb[k, m]
+            if q >= 0:
+                a0 -= vl[q, 0]
+                a1 -= vl[q, 1]
+                a2 -= vl[q, 2]
+        r0 = bl[k, 0] - a0
+        r1 = bl[k, 1] - a1
+        r2 = bl[k, 2] - a2
+        out[0] += r0 * r0
+        out[1] += r1 * r1
+        out[2] += r2 * r2
+
+
+@njit(**PJIT)
+def _sor_regions(bins, bin_start, starts, mids, nb, dl, bl, omega, vl, tol, check, max_sweeps, sweeps, rel):
+    """Each region (list entries starts[k]..starts[k + 1], its red pixels before ``mids[k]``)
+    swept on its own until its residual falls to ``tol`` times its initial one. The
+    regions are independent (fixed pixels between them): a thread owns whole regions
+    (``bins``: region ids per thread, ``bin_start``), so the result does not depend on
+    which thread sweeps which region, nor on the thread count."""
+    for t in prange(bin_start.shape[0] - 1):
+        r0 = np.zeros(3)
+        r = np.zeros(3)
+        for q in range(bin_start[t], bin_start[t + 1]):
+            k = bins[q]
+            lo = starts[k]
+            hi = starts[k + 1]
+            _run_residual(nb, dl, bl, lo, hi, vl, r0)
+            if r0[0] == 0.0 and r0[1] == 0.0 and r0[2] == 0.0:
+                continue
+            s = 0
+            worst = 0.0
+            while s < max_sweeps:
+                for _ in range(check):
+                    _sor_run(nb, dl, bl, omega, lo, mids[k], vl)  # red
+                    _sor_run(nb, dl, bl, omega, mids[k], hi, vl)  # black
+                s += check
+                _run_residual(nb, dl, bl, lo, hi, vl, r)
+                done = True
+                worst = 0.0
+                for c in range(3):
+                    if r0[c] > 0.0:
+                        e = np.sqrt(r[c] / r0[c])
+                        worst = max(worst, e)
+                        if e > tol:
+                            done = False
+                if done:
+                    break
+            sweeps[k] = s
+            rel[k] = worst
+
+
+@njit(**JIT)
+def _list_neighbours(ii, jj, h, w):
+    """(n, 4) list index of each listed pixel's east, west, south, north neighbour (-1:
+    outside the image or not listed)."""
+    pos = np.full((h, w), -1, np.int64)
+    for k in range(ii.shape[0]):
+        pos[ii[k], jj[k]] = k
+    nb = np.full((ii.shape[0], 4), -1, np.int64)
+    for k in range(ii.shape[0]):
+        i = ii[k]
+        j = jj[k]
+        if j + 1 < w:
+            nb[k, 0] = pos[i, j + 1]
+        if j > 0:
+            nb[k, 1] = pos[i, j - 1]
+        if i + 1 < h:
+            nb[k, 2] = pos[i + 1, j]
+        if i > 0:
+            nb[k, 3] = pos[i - 1, j]
+    return nb
+
+
+def solve_sor_regions(fixed: np.ndarray, b: np.ndarray, rows: np.ndarray, cols: np.ndarray, omega: np.ndarray,
+                      region: np.ndarray, *, screen: float = 0.0, tol: float = 1e-5, max_sweeps: int = 2000,
+                      check: int = 8, threads: int | None = None) -> tuple[np.ndarray, dict]:
+    """``solve_sor`` with each region converged on its own.
+
+    ``region`` (one id per listed pixel) groups the listed pixels into independent
+    problems: no listed pixel of one region is a 4-neighbour of another's (fixed pixels
+    lie between them). Each region is swept (red-black, ``check`` sweeps between residual
+    checks) until every channel's residual norm over its own pixels is at most ``tol``
+    times its initial one: thin regions stop after a few sweeps instead of sweeping
+    until the widest one has converged, and a thread sweeps whole regions with no
+    synchronisation between sweeps. ``threads`` only balances the work (default numba's
+    thread count); the result is the same for any value. Returns v (zero off the list)
+    and {"iterations" (most sweeps of a region), "sweeps" (pixel sweeps / listed pixels),
+    "residual" (largest relative residual of a region)}.
+    """
+    diag, we, ws = _fine_operator(np.ascontiguousarray(fixed, np.bool_), np.float32(screen))
+    b = np.ascontiguousarray(b, np.float32)
+    v = np.zeros(b.shape, np.float32)
+    n = len(rows)
+    if n == 0:
+        return v, {"iterations": 0, "sweeps": 0.0, "residual": 0.0}
+    rows = np.asarray(rows, np.int64)
+    cols = np.asarray(cols, np.int64)
+    _, reg = np.unique(np.asarray(region), return_inverse=True)
+    reg = reg.ravel()
+    black = (rows + cols) % 2
+    order = np.lexsort((cols, rows, black, reg))  # by region, red before black, then scan order
+    ii = np.ascontiguousarray(rows[order])
+    jj = np.ascontiguousarray(cols[order])
+    om = np.ascontiguousarray(np.asarray(omega, np.float64)[order])
+    reg = reg[order]
+    nreg = int(reg[-1]) + 1
+    starts = np.searchsorted(reg, np.arange(nreg + 1)).astype(np.int64)
+    nred = np.bincount(reg, weights=black[order] == 0, minlength=nreg).astype(np.int64)
+    mids = starts[:-1] + nred
+    # balance: regions by decreasing expected work (pixels / (2 - omega) ~ pixels x width),
+    # each to the least loaded thread
+    nt = max(1, int(threads if threads is not None else numba.get_num_threads()))
+    size = np.diff(starts).astype(np.float64)
+    work = size / np.maximum(2.0 - np.maximum.reduceat(om, starts[:-1]), 1e-3)
+    load = np.zeros(nt)
+    owner = np.empty(nreg, np.int64)
+    for k in np.argsort(-work, kind="stable"):
+        t = int(np.argmin(load))
+        owner[k] = t
+        load[t] += work[k]
+    bins = np.argsort(owner, kind="stable").astype(np.int64)
+    bin_start = np.searchsorted(owner[bins], np.arange(nt + 1)).astype(np.int64)
+    sweeps = np.zeros(nreg, np.int64)
+    rel = np.zeros(nreg)
+    # the listed pixels' unknowns, right-hand side, diagonal and neighbours, contiguous per region
+    h, w = diag.shape
+    nb = _list_neighbours(ii, jj, h, w)
+    vl = np.zeros((n, 3), np.float32)
+    _sor_regions(bins, bin_start, starts, mids, nb, np.ascontiguousarray(diag[ii, jj]),
+                 np.ascontiguousarray(b[ii, jj]), om, vl, float(tol), int(check), int(max_sweeps), sweeps, rel)
+    v[ii, jj] = vl
+    return v, {"iterations": int(sweeps.max()), "sweeps": float((sweeps * size).sum() / n),
+               "residual": float(rel.max())}
+
+
 def sor_omega(rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
     """The optimal over-relaxation for a rows × cols rectangle with Dirichlet borders:
     2 / (1 + sqrt(1 − ρ²)), ρ = (cos(π / (rows + 1)) + cos(π / (cols + 1))) / 2 the Jacobi
@@ -816,7 +1109,7 @@ def seam_gradients_at(source: np.ndarray, sx: np.ndarray, sy: np.ndarray, patch:
                       step: float = 1.0, *, filter: str = "bilinear") -> tuple[np.ndarray, np.ndarray]:
     """``seam_gradients`` on only the edges that cross a patch seam and touch a pixel of
     ``near`` (the rest stay zero, as ``_rhs`` reads gx, gy only across seams): the same
-    numbers at a cost proportional to those edges."""
+    numbers at a cost proportional to those edges (all the source reads in one lookup)."""
     from proxyshade.kernels.lookup import lookup
 
     h, w = patch.shape
@@ -825,6 +1118,8 @@ def seam_gradients_at(source: np.ndarray, sx: np.ndarray, sy: np.ndarray, patch:
     e = np.float32(step)
     sx = np.asarray(sx, np.float32)
     sy = np.asarray(sy, np.float32)
+    edges = []
+    xs, ys = [], []
     for axis, g in ((1, gx), (0, gy)):
         a = (slice(None), slice(0, -1)) if axis == 1 else (slice(0, -1), slice(None))
         bq = (slice(None), slice(1, None)) if axis == 1 else (slice(1, None), slice(None))
@@ -834,9 +1129,18 @@ def seam_gradients_at(source: np.ndarray, sx: np.ndarray, sy: np.ndarray, patch:
             continue
         qi, qj = pi + (axis == 0), pj + (axis == 1)
         dx, dy = (e, 0) if axis == 1 else (0, e)
-
-        def at(i, j, ox, oy):
-            return lookup(source, (sx[i, j] + ox)[None], (sy[i, j] + oy)[None], filter=filter)[0]
-
-        g[pi, pj] = 0.5 * ((at(pi, pj, dx, dy) - at(pi, pj, 0, 0)) + (at(qi, qj, 0, 0) - at(qi, qj, -dx, -dy)))
+        edges.append((g, pi, pj))
+        # f(s_p + e), f(s_p), f(s_q), f(s_q - e)
+        for i, j, ox, oy in ((pi, pj, dx, dy), (pi, pj, 0, 0), (qi, qj, 0, 0), (qi, qj, -dx, -dy)):
+            xs.append(sx[i, j] + ox)
+            ys.append(sy[i, j] + oy)
+    if not edges:
+        return gx, gy
+    f = lookup(source, np.concatenate(xs)[None], np.concatenate(ys)[None], filter=filter)[0]
+    k = 0
+    for g, pi, pj in edges:
+        n = len(pi)
+        fe, f0, fq, fw = (f[k + m * n:k + (m + 1) * n] for m in range(4))
+        g[pi, pj] = 0.5 * ((fe - f0) + (fq - fw))
+        k += 4 * n
     return gx, gy

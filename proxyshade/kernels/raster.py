@@ -336,9 +336,52 @@ def rasterize(points: np.ndarray, tris: np.ndarray, *, width: int, height: int, 
     xy, dep, bar, src, r0, r1 = _setup(points, tris, float(fx), float(fy), float(cx), float(cy), float(near),
                                        bool(ortho), int(width), int(height), numba.get_num_threads())
     nb = (height + BAND - 1) // BAND
-    band_start, band_list = bin_rows(r0, r1, nb, BAND)
+    band_start, band_list = bin_rows_parallel(r0, r1, nb, BAND)
     _raster_bands(xy, dep, bar, src, r0, r1, width, height, depth, tid, bary, count, band_start, band_list)
     return depth.astype(np.float32), tid, bary, count
+
+
+BIN_CHUNKS = 16  # item chunks of bin_rows_parallel (fixed: the list does not depend on threads)
+
+
+@njit(**PJIT)
+def _bin_count(r0, r1, band, cnt):
+    nchunk = cnt.shape[0]
+    n = r0.shape[0]
+    step = (n + nchunk - 1) // nchunk
+    for c in prange(nchunk):
+        for s in range(c * step, min(n, (c + 1) * step)):
+            if r0[s] <= r1[s]:
+                for b in range(r0[s] // band, r1[s] // band + 1):
+                    cnt[c, b] += 1
+
+
+@njit(**PJIT)
+def _bin_fill(r0, r1, band, off, out):
+    nchunk = off.shape[0]
+    n = r0.shape[0]
+    step = (n + nchunk - 1) // nchunk
+    for c in prange(nchunk):
+        pos = off[c].copy()
+        for s in range(c * step, min(n, (c + 1) * step)):
+            if r0[s] <= r1[s]:
+                for b in range(r0[s] // band, r1[s] // band + 1):
+                    out[pos[b]] = s
+                    pos[b] += 1
+
+
+def bin_rows_parallel(r0, r1, nb, band):
+    """``bin_rows`` in parallel: items counted and listed by fixed chunks of the index
+    range, each chunk's items placed after the earlier chunks' in every band, so the
+    lists are ``bin_rows``' exactly."""
+    cnt = np.zeros((BIN_CHUNKS, nb), np.int64)
+    _bin_count(r0, r1, band, cnt)
+    start = np.zeros(nb + 1, np.int64)
+    np.cumsum(cnt.sum(axis=0), out=start[1:])
+    off = start[:-1][None, :] + np.cumsum(cnt, axis=0) - cnt  # chunk c's first slot in each band
+    out = np.empty(int(start[-1]), np.int64)
+    _bin_fill(r0, r1, band, np.ascontiguousarray(off), out)
+    return start, out
 
 
 @njit(**JIT)

@@ -29,7 +29,7 @@ import numpy as np
 from numba import njit, prange
 
 from proxyshade.kernels._config import JIT, PJIT
-from proxyshade.kernels.raster import bin_rows
+from proxyshade.kernels.raster import bin_rows_parallel
 from proxyshade.kernels.temporal import jacobian_det
 
 
@@ -43,8 +43,22 @@ def relative_matrix(cam_from, cam_to) -> np.ndarray:
     return np.ascontiguousarray(np.linalg.inv(cam_to.camera_to_world) @ cam_from.camera_to_world, np.float64)
 
 
+@njit(**PJIT)
+def _inverse_depth(Z, out):
+    h, w = Z.shape
+    for i in prange(h):
+        for j in range(w):
+            z = np.float64(Z[i, j])
+            out[i, j] = 0.0 if np.isinf(z) else 1.0 / z
+
+
 def inverse_depth(Z: np.ndarray) -> np.ndarray:
     """1/Z as float64 (0 where Z is inf); NaN stays NaN."""
+    Z = np.asarray(Z)
+    if Z.ndim == 2 and Z.dtype in (np.float32, np.float64):  # one parallel pass, the same numbers
+        out = np.empty(Z.shape, np.float64)
+        _inverse_depth(np.ascontiguousarray(Z), out)
+        return out
     Z = np.asarray(Z, np.float64)
     with np.errstate(divide="ignore"):
         return np.where(np.isinf(Z), 0.0, 1.0 / Z)
@@ -69,21 +83,35 @@ def transfer(w, M, k0, k1, near):
     """Where every pixel centre of camera 0 (inverse depth ``w``, (H, W)) lands in camera 1.
 
     Returns u (column), v (row), inverse depth in camera 1, all (H, W) float64, and ok
-    (bool: finite input, in front of camera 1's near plane)."""
+    (bool: finite input, in front of camera 1's near plane). ``_xfer``'s arithmetic, with
+    the camera-0 ray of each column and row computed once."""
     h, wd = w.shape
     u = np.zeros((h, wd), np.float64)
     v = np.zeros((h, wd), np.float64)
     q = np.zeros((h, wd), np.float64)
     ok = np.zeros((h, wd), np.bool_)
+    xs = np.empty(wd, np.float64)
+    for j in range(wd):
+        xs[j] = ((j + 0.5) - k0[2]) / k0[0]
+    m00, m01, m02, m03 = M[0, 0], M[0, 1], M[0, 2], M[0, 3]
+    m10, m11, m12, m13 = M[1, 0], M[1, 1], M[1, 2], M[1, 3]
+    m20, m21, m22, m23 = M[2, 0], M[2, 1], M[2, 2], M[2, 3]
     for i in prange(h):
+        y = -((i + 0.5) - k0[3]) / k0[1]
         for j in range(wd):
-            if not np.isfinite(w[i, j]):
+            wij = w[i, j]
+            if not np.isfinite(wij):
                 continue
-            a, b, c, good = _xfer(j + 0.5, i + 0.5, w[i, j], M, k0, k1, near)
-            u[i, j] = a
-            v[i, j] = b
-            q[i, j] = c
-            ok[i, j] = good
+            x = xs[j]
+            X = m00 * x + m01 * y - m02 + m03 * wij
+            Y = m10 * x + m11 * y - m12 + m13 * wij
+            d = -(m20 * x + m21 * y - m22 + m23 * wij)
+            if d <= 0.0 or d <= near * wij:
+                continue
+            u[i, j] = k1[2] + k1[0] * X / d
+            v[i, j] = k1[3] - k1[1] * Y / d
+            q[i, j] = wij / d
+            ok[i, j] = True
     return u, v, q, ok
 
 
@@ -221,6 +249,24 @@ def _tri(P, a, b, c, px, py):
     return l0, l1, l2
 
 
+@njit(**JIT)
+def _tri_area(P, a, b, c, area, px, py):
+    """``_tri`` with the triangle's ``area`` (its ``_edge``) given, stopping at the first
+    negative barycentric: the same numbers where it is inside, -1 elsewhere."""
+    if area == 0.0:
+        return -1.0, 0.0, 0.0
+    l0 = _edge(P[b, 0], P[b, 1], P[c, 0], P[c, 1], px, py) / area
+    if l0 < 0.0:
+        return -1.0, 0.0, 0.0
+    l1 = _edge(P[c, 0], P[c, 1], P[a, 0], P[a, 1], px, py) / area
+    if l1 < 0.0:
+        return -1.0, 0.0, 0.0
+    l2 = _edge(P[a, 0], P[a, 1], P[b, 0], P[b, 1], px, py) / area
+    if l2 < 0.0:
+        return -1.0, 0.0, 0.0
+    return l0, l1, l2
+
+
 def affine_transfer(M, k0) -> np.ndarray:
     """(3, 4) A with camera-1 homogeneous X = A · (col, row, 1, w) for a camera-0 pixel
     position (col, row) at inverse depth w (``_xfer`` without the divisions)."""
@@ -255,6 +301,34 @@ def _quad(cw, i, j, A, k1, near, P):
     return True
 
 
+@njit(**JIT)
+def _quad_after(cw, i, j, A, k1, near, P, prev):
+    """``_quad`` of quad (i, j) when ``prev`` holds the projected corners of quad (i, j − 1)
+    (``_quad`` was True for it): its right corners are this quad's left ones wherever the
+    corner depths are equal (an uncut grid edge), the same numbers without recomputing."""
+    for k in range(4):
+        wk = cw[i, j, k]
+        if not np.isfinite(wk):
+            return False
+        if k % 2 == 0 and wk == cw[i, j - 1, k + 1]:  # same grid point, same depth
+            P[k, 0] = prev[k + 1, 0]
+            P[k, 1] = prev[k + 1, 1]
+            P[k, 2] = prev[k + 1, 2]
+            continue
+        col = j + (1.0 if k % 2 == 1 else 0.0)
+        row = i + (1.0 if k >= 2 else 0.0)
+        X = A[0, 0] * col + A[0, 1] * row + A[0, 2] + A[0, 3] * wk
+        Y = A[1, 0] * col + A[1, 1] * row + A[1, 2] + A[1, 3] * wk
+        d = -(A[2, 0] * col + A[2, 1] * row + A[2, 2] + A[2, 3] * wk)
+        if d <= 0.0 or d <= near * wk:
+            return False
+        r = 1.0 / d
+        P[k, 0] = k1[2] + k1[0] * X * r
+        P[k, 1] = k1[3] - k1[1] * Y * r
+        P[k, 2] = wk * r
+    return True
+
+
 @njit(**PJIT)
 def _quad_rows(cw, keep, A, k1, near, height, width, max_extent):
     """Pixel-row range each quad covers in camera 1 (r0 > r1 when it draws nothing)."""
@@ -262,10 +336,19 @@ def _quad_rows(cw, keep, A, k1, near, height, width, max_extent):
     r0 = np.zeros((h0, w0), np.int32)
     r1 = np.full((h0, w0), -1, np.int32)
     for i in prange(h0):
-        P = np.zeros((4, 3), np.float64)
+        cur = np.zeros((4, 3), np.float64)
+        prev = np.zeros((4, 3), np.float64)
+        have = False  # prev holds quad (i, j - 1), projected
         for j in range(w0):
-            if not keep[i, j] or not _quad(cw, i, j, A, k1, near, P):
+            if not keep[i, j]:
+                have = False
                 continue
+            ok = _quad_after(cw, i, j, A, k1, near, cur, prev) if have else _quad(cw, i, j, A, k1, near, cur)
+            prev, cur = cur, prev  # prev: this quad's corners from here on
+            have = ok
+            if not ok:
+                continue
+            P = prev
             xmin = min(min(P[0, 0], P[1, 0]), min(P[2, 0], P[3, 0]))
             xmax = max(max(P[0, 0], P[1, 0]), max(P[2, 0], P[3, 0]))
             ymin = min(min(P[0, 1], P[1, 1]), min(P[2, 1], P[3, 1]))
@@ -287,14 +370,22 @@ def _splat_bands(cw, A, k1, near, height, width, band, start, lst, zbuf, src):
     h0, w0 = cw.shape[0], cw.shape[1]
     nb = start.shape[0] - 1
     for bi in prange(nb):
-        P = np.zeros((4, 3), np.float64)
+        cur = np.zeros((4, 3), np.float64)
+        prev = np.zeros((4, 3), np.float64)
         y0 = bi * band
         y1 = min(height, y0 + band) - 1
+        last = -2  # the quad whose corners prev holds (every listed quad projects)
         for t in range(start[bi], start[bi + 1]):
             s = lst[t]
             i = s // w0
             j = s - i * w0
-            _quad(cw, i, j, A, k1, near, P)
+            if s == last + 1 and j > 0:
+                _quad_after(cw, i, j, A, k1, near, cur, prev)
+            else:
+                _quad(cw, i, j, A, k1, near, cur)
+            prev, cur = cur, prev
+            last = s
+            P = prev
             xmin = min(min(P[0, 0], P[1, 0]), min(P[2, 0], P[3, 0]))
             xmax = max(max(P[0, 0], P[1, 0]), max(P[2, 0], P[3, 0]))
             ymin = min(min(P[0, 1], P[1, 1]), min(P[2, 1], P[3, 1]))
@@ -303,15 +394,18 @@ def _splat_bands(cw, A, k1, near, height, width, band, start, lst, zbuf, src):
             c1 = min(width - 1, int(np.floor(xmax - 0.5)))
             r0 = max(y0, int(np.ceil(ymin - 0.5)))
             r1 = min(y1, int(np.floor(ymax - 0.5)))
+            # _tri of the two triangles (TL, TR, BR) and (TL, BR, BL), their areas once per quad
+            a1 = _edge(P[0, 0], P[0, 1], P[1, 0], P[1, 1], P[3, 0], P[3, 1])
+            a2 = _edge(P[0, 0], P[0, 1], P[3, 0], P[3, 1], P[2, 0], P[2, 1])
             for r in range(r0, r1 + 1):
                 py = r + 0.5
                 for c in range(c0, c1 + 1):
                     px = c + 0.5
-                    l0, l1, l2 = _tri(P, 0, 1, 3, px, py)
+                    l0, l1, l2 = _tri_area(P, 0, 1, 3, a1, px, py)
                     if l0 >= 0.0:
                         q = l0 * P[0, 2] + l1 * P[1, 2] + l2 * P[3, 2]
                     else:
-                        l0, l1, l2 = _tri(P, 0, 3, 2, px, py)
+                        l0, l1, l2 = _tri_area(P, 0, 3, 2, a2, px, py)
                         if l0 < 0.0:
                             continue
                         q = l0 * P[0, 2] + l1 * P[3, 2] + l2 * P[2, 2]
@@ -346,7 +440,7 @@ def splat_grid(cw, keep, M, k0, k1, near, height, width, max_extent):
     A = affine_transfer(M, k0)
     r0, r1 = _quad_rows(cw, keep, A, k1, float(near), int(height), int(width), float(max_extent))
     nb = (int(height) + SPLAT_BAND - 1) // SPLAT_BAND
-    start, lst = bin_rows(r0, r1, nb, SPLAT_BAND)
+    start, lst = bin_rows_parallel(r0, r1, nb, SPLAT_BAND)
     zbuf = np.full((int(height), int(width)), -1.0, np.float64)
     src = np.full((int(height), int(width)), -1, np.int64)
     _splat_bands(cw, A, k1, float(near), int(height), int(width), SPLAT_BAND, start, lst, zbuf, src)

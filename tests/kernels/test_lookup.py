@@ -106,3 +106,28 @@ def test_lanczos_keeps_detail_that_bilinear_blurs():
     half = grad(lookup(img, jj + 0.25, ii + 0.25))
     sharp = grad(lookup(img, jj + 0.25, ii + 0.25, filter="lanczos3"))
     assert half < 0.8 * g0 and sharp > half * 1.15
+
+
+@pytest.mark.parametrize("filt", ["lanczos3", "lanczos4"])
+def test_many_colour_reads_take_the_padded_kernel_bit_identically(filt):
+    """A read of at least as many positions as the image has pixels goes through the
+    padded float64 copy (``_lanczos_rgb``): the same bits as the per-tap kernel, inside,
+    at the borders and at integer positions."""
+    from proxyshade.kernels.lookup import _LANCZOS, _lanczos
+
+    rng = np.random.default_rng(10)
+    img = rng.random((23, 31, 3)).astype(np.float32)
+    sx = (rng.random((40, 30)) * 38 - 4).astype(np.float32)
+    sy = (rng.random((40, 30)) * 30 - 4).astype(np.float32)
+    sx[::7] = np.round(sx[::7])
+    sy[::7] = np.round(sy[::7])
+    assert sx.size >= img.shape[0] * img.shape[1]
+    want = np.empty(sx.shape + (3,), np.float32)
+    _lanczos(img, sx, sy, _LANCZOS[filt], want)
+    got = lookup(img, sx, sy, filter=filt)
+    assert np.array_equal(got.view(np.uint32), want.view(np.uint32))
+    for i in range(0, 40, 9):
+        for j in range(0, 30, 7):
+            a = 3 if filt == "lanczos3" else 4
+            np.testing.assert_allclose(got[i, j], _lanczos_reference(img, float(sx[i, j]), float(sy[i, j]), a),
+                                       atol=2e-3)

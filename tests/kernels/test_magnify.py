@@ -47,3 +47,29 @@ def test_labels_all_right_is_identity():
     guide = src[S[..., 0], S[..., 1]]
     out, rep = km.repair_labels(S, guide, src)
     assert rep["wrong"] == 0 and np.array_equal(out, S)
+
+
+def _repair_by_whole_frame_steps(S, guide, srclab, max_steps=64):
+    """The front growth written with whole-frame steps (``_repair_step``), no fallback."""
+    S = np.ascontiguousarray(S, np.int32).copy()
+    ok = np.empty(guide.shape, np.bool_)
+    km._label_ok(S, guide, srclab, ok)
+    S2, ok2 = np.empty_like(S), np.empty_like(ok)
+    for _ in range(max_steps):
+        if int(km._repair_step(S, ok, guide, srclab, S2, ok2)) == 0:
+            break
+        S, S2, ok, ok2 = S2, S, ok2, ok
+    return S, ok
+
+
+def test_front_over_wrong_pixels_equals_whole_frame_steps():
+    rng = np.random.default_rng(5)
+    for trial in range(4):
+        srclab = (rng.random((30, 40)) < 0.5).astype(np.int32) + 1
+        srclab[:, :20] = 1 + (trial % 2)
+        guide = np.where(np.arange(48)[:, None] + np.arange(56)[None, :] < 50, 1, 2).astype(np.int32)
+        S = np.stack([rng.integers(0, 30, (48, 56)), rng.integers(0, 40, (48, 56))], -1).astype(np.int32)
+        want, ok = _repair_by_whole_frame_steps(S, guide, srclab, max_steps=3 + trial)
+        got, info = km.repair_labels(S, guide, srclab, max_steps=3 + trial, nearest=False)
+        assert np.array_equal(got, want)
+        assert info["extended"] == info["wrong"] - int((~ok).sum()) > 0

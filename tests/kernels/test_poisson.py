@@ -201,3 +201,52 @@ def test_deterministic_across_threads():
     finally:
         numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
     assert np.array_equal(a, b)
+
+
+def _sor_case(rng, h=40, w=60):
+    """Free regions of different widths (a thin band, a square, a blob crossing a patch
+    seam, a single pixel) separated by fixed pixels, and the direct solve of each."""
+    colors, patch, labels = random_case(rng, h, w, nlab=1)
+    free = np.zeros((h, w), bool)
+    free[3:5, 2:50] = True
+    free[10:30, 5:25] = True
+    free[12:35, 32:55] = (rng.random((23, 23)) < 0.9)
+    free[37, 10] = True
+    fixed = ~free
+    gx, gy = rng.normal(0, 0.1, (2, h, w, 3)).astype(np.float32)
+    ref = direct_solve(colors, patch, None, fixed=fixed, values=colors, gx=gx, gy=gy, screen=0.01)
+    b = poisson.rhs(colors, patch, fixed, gx, gy)
+    from scipy.ndimage import label as cc
+    comp, _ = cc(free)
+    rows, cols = np.nonzero(free)
+    return colors, ref, fixed, b, rows, cols, comp[rows, cols]
+
+
+def test_sor_regions_match_direct_solve():
+    rng = np.random.default_rng(21)
+    colors, ref, fixed, b, rows, cols, region = _sor_case(rng)
+    omega = poisson.sor_omega(np.full(len(rows), 8.0), np.full(len(rows), 8.0))
+    v, info = poisson.solve_sor_regions(fixed, b, rows, cols, omega, region, screen=0.01, tol=1e-6)
+    u = colors.astype(np.float64) + v
+    np.testing.assert_allclose(u[rows, cols], ref[rows, cols], atol=1e-5)
+    assert np.all(v[fixed] == 0)
+    # each region stops on its own: the mean sweeps per pixel are below the most sweeps
+    assert info["sweeps"] < info["iterations"] and info["residual"] <= 1e-6
+    # the same answer as the one-list solve to the tolerance
+    w1, _ = poisson.solve_sor(fixed, b, rows, cols, omega, screen=0.01, tol=1e-6)
+    np.testing.assert_allclose(v, w1, atol=1e-5)
+
+
+def test_sor_regions_do_not_depend_on_threads_or_balance():
+    import numba
+    rng = np.random.default_rng(22)
+    _, _, fixed, b, rows, cols, region = _sor_case(rng)
+    omega = poisson.sor_omega(np.full(len(rows), 12.0), np.full(len(rows), 12.0))
+    a, _ = poisson.solve_sor_regions(fixed, b, rows, cols, omega, region, screen=0.01, threads=2)
+    c, _ = poisson.solve_sor_regions(fixed, b, rows, cols, omega, region, screen=0.01, threads=5)
+    numba.set_num_threads(1)
+    try:
+        d, _ = poisson.solve_sor_regions(fixed, b, rows, cols, omega, region, screen=0.01, threads=1)
+    finally:
+        numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
+    assert np.array_equal(a, c) and np.array_equal(a, d)

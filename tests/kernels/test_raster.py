@@ -121,3 +121,15 @@ def test_threads_give_identical_results():
     numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
     for a, b in zip(*outs):
         assert np.array_equal(a, b)
+
+
+@pytest.mark.parametrize("n", [0, 5, 1000])
+def test_bin_rows_parallel_lists_what_bin_rows_lists(n):
+    from proxyshade.kernels.raster import bin_rows, bin_rows_parallel
+
+    rng = np.random.default_rng(n)
+    r0 = rng.integers(0, 100, n).astype(np.int32)
+    r1 = (r0 + rng.integers(-3, 20, n)).clip(max=99).astype(np.int32)  # some r0 > r1: skipped
+    want = bin_rows(r0, r1, 13, 8)
+    got = bin_rows_parallel(r0, r1, 13, 8)
+    assert np.array_equal(got[0], want[0]) and np.array_equal(got[1], want[1])

@@ -55,6 +55,22 @@ def test_transfer_identity_and_behind_camera():
     assert not ok.any()
 
 
+
+def test_transfer_is_xfer_at_every_pixel_bit_for_bit():
+    rng = np.random.default_rng(3)
+    c0, c1 = random_cams(rng)
+    w = K.inverse_depth(rng.uniform(0.05, 60, (c0.height, c0.width)))
+    w[0, :4] = 0.0  # sky
+    w[1, 1] = np.nan
+    w[2, 2] = 100.0  # in front of the near plane of camera 1
+    M, k0, k1 = K.relative_matrix(c0, c1), K.intrinsics(c0), K.intrinsics(c1)
+    u, v, q, ok = K.transfer(w, M, k0, k1, c1.near)
+    assert not ok.all() and ok.any()
+    for i in range(c0.height):
+        for j in range(c0.width):
+            want = K._xfer(j + 0.5, i + 0.5, w[i, j], M, k0, k1, c1.near) if np.isfinite(w[i, j]) else (0, 0, 0, False)
+            assert (u[i, j], v[i, j], q[i, j], ok[i, j]) == want
+
 # -- the grid -----------------------------------------------------------------
 def corners_reference(w, lab, tol):
     h, wd = w.shape
@@ -363,3 +379,17 @@ def test_unproject_inverts_transfer_geometry():
     ref = c0.unproject(col, row, np.where(np.isinf(Z), 1.0, Z).astype(np.float64))
     np.testing.assert_allclose(got[1:], ref[1:], rtol=1e-5, atol=1e-5)
     assert (got[0, 0] == 0).all()
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_inverse_depth_is_the_reciprocal_with_inf_as_zero(dtype):
+    rng = np.random.default_rng(4)
+    Z = rng.uniform(0.01, 100, (9, 11)).astype(dtype)
+    Z[0, :3] = [np.inf, -np.inf, np.nan]
+    Z[1, 0] = 0.0
+    with np.errstate(divide="ignore"):
+        want = np.where(np.isinf(Z.astype(np.float64)), 0.0, 1.0 / Z.astype(np.float64))
+    got = K.inverse_depth(Z)
+    assert got.dtype == np.float64
+    assert np.array_equal(got, want, equal_nan=True)
+    assert np.array_equal(K.inverse_depth(Z[0]), want[0], equal_nan=True)  # 1-D: numpy

@@ -161,3 +161,13 @@ def test_map_deviation_matches_reference():
             if idn != iu:
                 J[:, 1] = [(sx[idn, j] - sx[iu, j]) / (idn - iu) / 2, (sy[idn, j] - sy[iu, j]) / (idn - iu) / 2]
             assert got[i, j] == pytest.approx(np.linalg.norm(J - np.eye(2)), rel=1e-5, abs=1e-6)
+
+
+def test_region_thickness_is_twice_area_over_perimeter():
+    mask = np.zeros((30, 40), bool)
+    mask[2:5, 3:33] = True  # a band 3 px wide, 30 long
+    mask[10:20, 10:20] = True  # a 10 x 10 square
+    mask[25:30, 0:1] = True  # 5 x 1 at the image border (the border counts as outside)
+    comp, boxes = T.components4(mask)
+    got = T.region_thickness(mask, comp, len(boxes))
+    np.testing.assert_allclose(got, [2 * 90 / 66, 2 * 100 / 40, 1.0])  # the last: 10 / 12, clamped to 1
