@@ -3,8 +3,10 @@ frame, or only the newly synthesized regions with Dirichlet values around them.
 
 Solve Δu = Δ(f∘s) in Ω, ∇u = 0 across patch boundaries (Γ1: with ``seams: source`` the
 source's own gradient read through the map on both sides of the seam instead), u = f∘s on
-boundaries between label ids (Γ2). Kernels: ``proxyshade.kernels.poisson``, the
-restricted solve ``proxyshade.kernels.temporal.poisson_regions``.
+boundaries between label ids (Γ2). The restricted solve (``poisson_regions``) splits
+the free pixels into their 4-connected regions: narrow ones by SOR on their own pixels,
+the others in windows by multigrid-preconditioned CG. Kernels:
+``proxyshade.kernels.poisson``, ``proxyshade.kernels.temporal.components4``.
 """
 from __future__ import annotations
 
@@ -36,6 +38,126 @@ def blend_regions(rgb: np.ndarray, patch: np.ndarray, labels: np.ndarray, free: 
                   filter: str) -> tuple[np.ndarray, dict]:
     """The solve restricted to the ``free`` pixels, the rest Dirichlet (§6.3), region by
     region; seam gradients read with ``filter`` (the reconstruction the colours used)."""
-    return kt.poisson_regions(rgb, patch, labels, free, source=source_rgb if solve.seams == "source" else None,
+    return poisson_regions(rgb, patch, labels, free, source=source_rgb if solve.seams == "source" else None,
                               sx=sx, sy=sy, step=scale, label_dirichlet=solve.label_dirichlet, screen=solve.screen,
                               tol=solve.tol, max_iter=solve.max_iter, filter=filter)
+
+
+def group_boxes(boxes: np.ndarray, shape: tuple[int, int], *, margin: int = 1, slack: int = 4096) -> list[tuple]:
+    """Merge component boxes (``components4``) into solve windows: each box grown by
+    ``margin`` and clipped to ``shape``; two windows merge when they overlap or when their
+    union's area is at most the sum of their areas + ``slack`` (fewer, cheaper solves).
+    Returns [(row0, row1, col0, col1 exclusive ends, [component ids 1..])]."""
+    h, w = shape
+    wins = [[max(0, b[0] - margin), min(h, b[1] + 1 + margin), max(0, b[2] - margin), min(w, b[3] + 1 + margin),
+             [k + 1]] for k, b in enumerate(np.asarray(boxes).tolist())]
+    changed = True
+    while changed and len(wins) > 1:
+        changed = False
+        out: list = []
+        for win in wins:
+            for o in out:
+                r0, r1 = min(o[0], win[0]), max(o[1], win[1])
+                c0, c1 = min(o[2], win[2]), max(o[3], win[3])
+                overlap = o[0] < win[1] and win[0] < o[1] and o[2] < win[3] and win[2] < o[3]
+                area = (o[1] - o[0]) * (o[3] - o[2]) + (win[1] - win[0]) * (win[3] - win[2])
+                if overlap or (r1 - r0) * (c1 - c0) <= area + slack:
+                    o[:4] = [r0, r1, c0, c1]
+                    o[4] = o[4] + win[4]
+                    changed = True
+                    break
+            else:
+                out.append(win)
+        wins = out
+    return [(a, b, c, d, sorted(ids)) for a, b, c, d, ids in wins]
+
+
+def region_thickness(mask: np.ndarray, comp: np.ndarray, n: int) -> np.ndarray:
+    """Thickness of each component (1..n of ``comp``) of ``mask``: 2 × area / perimeter
+    (edges to a pixel outside ``mask`` or to the image border), at least 1: a band's
+    width, half a square's side. (no distance transform of the
+    frame needed)."""
+    h, w = mask.shape
+    area = np.bincount(comp[mask], minlength=n + 1)[1:].astype(np.float64)
+    m = np.pad(mask, 1)
+    per = np.zeros(n + 1)
+    for di, dj in ((0, 1), (0, -1), (1, 0), (-1, 0)):
+        edge = mask & ~m[1 + di:1 + di + h, 1 + dj:1 + dj + w]
+        per += np.bincount(comp[edge], minlength=n + 1)
+    return np.maximum(2.0 * area / np.maximum(per[1:], 1.0), 1.0)
+
+
+def poisson_regions(colors: np.ndarray, patch: np.ndarray, labels: np.ndarray | None, free: np.ndarray, *,
+                    source: np.ndarray | None = None, sx: np.ndarray | None = None, sy: np.ndarray | None = None,
+                    step: float = 1.0, label_dirichlet: bool = True, screen: float = 0.0, tol: float = 1e-5,
+                    max_iter: int = 100, slack: int = 4096, filter: str = "bilinear",
+                    small: int = 64) -> tuple[np.ndarray, dict]:
+    """``kernels.poisson.poisson_transfer`` restricted to the ``free`` pixels (Dirichlet
+    ``colors`` everywhere else).
+
+    With every other pixel fixed, each 4-connected component of ``free`` is an
+    independent problem whose only data outside it is its one-pixel ring of fixed
+    neighbours. Components whose bounding box is at most ``small`` pixels across (its
+    shorter side; smaller than the frame) are solved together by red-black SOR on their
+    own pixels (``poisson.solve_sor_regions``: the work follows the free pixels, however
+    scattered, and each region is swept until its own residual has fallen by ``tol``,
+    at the pace of its width); the
+    others in windows around them (``group_boxes``), each the same linear system as the
+    whole frame at the cost of its area, by multigrid-preconditioned CG. Pixels of other
+    components inside a window are fixed there (they are never 4-neighbours of the
+    component). With ``source``, ``sx``, ``sy`` the seam gradients are the source's
+    (``poisson.seam_gradients``, read with ``filter``), else zero.
+
+    Returns (u (H, W, 3) float32, info: windows, solved pixels, window pixels, most
+    iterations, largest residual, SOR pixels and sweeps).
+    """
+    colors = np.ascontiguousarray(colors, np.float32)
+    u = colors.copy()
+    h, w = free.shape
+    comp, boxes = kt.components4(np.ascontiguousarray(free, np.bool_))
+    info = {"windows": 0, "free": int(free.sum()), "window_pixels": 0, "iterations": 0, "residual": 0.0,
+            "sor_pixels": 0, "sor_sweeps": 0}
+    if not len(boxes):
+        return u, info
+    bh = boxes[:, 1] - boxes[:, 0] + 1
+    bw = boxes[:, 3] - boxes[:, 2] + 1
+    is_small = (np.minimum(bh, bw) <= small) & (bh * bw < h * w)
+    if is_small.any():
+        sel = np.concatenate([[False], is_small])[comp]
+        fixed = ~sel
+        if labels is not None and label_dirichlet:
+            fixed |= kpoisson.contour_mask(np.ascontiguousarray(labels))
+        todo = ~fixed
+        gx = gy = np.zeros((h, w, 3), np.float32)
+        if source is not None:
+            gx, gy = kpoisson.seam_gradients_at(source, sx, sy, patch, todo, step, filter=filter)
+        b = kpoisson.rhs(colors, patch, fixed, gx, gy)
+        rows, cols = np.nonzero(todo)
+        k = comp[rows, cols] - 1
+        # each region converged on its own; omega of a square 2.5 x its thickness: fewest sweeps on
+        # lake (as few as from the inscribed width, without a distance transform of the frame)
+        width = region_thickness(todo, comp, len(boxes))
+        omega = kpoisson.sor_omega(2.5 * width[k], 2.5 * width[k])
+        v, inf = kpoisson.solve_sor_regions(fixed, b, rows, cols, omega, k, screen=screen, tol=tol)
+        u[rows, cols] = colors[rows, cols] + v[rows, cols]
+        info.update(sor_pixels=int(len(rows)), sor_sweeps=int(inf["iterations"]), sor_mean_sweeps=inf["sweeps"])
+        info["residual"] = max(info["residual"], float(inf["residual"]))
+    large = np.nonzero(~is_small)[0]
+    for r0, r1, c0, c1, idx in group_boxes(boxes[large], free.shape, slack=slack):
+        ids = [int(large[i - 1]) + 1 for i in idx]
+        sub = comp[r0:r1, c0:c1]
+        mine = np.isin(sub, ids) if len(ids) > 1 else sub == ids[0]
+        gx = gy = None
+        if source is not None:  # only the seam edges the solve reads: those touching its free pixels
+            gx, gy = kpoisson.seam_gradients_at(source, sx[r0:r1, c0:c1], sy[r0:r1, c0:c1], patch[r0:r1, c0:c1],
+                                                mine, step, filter=filter)
+        lab = labels[r0:r1, c0:c1] if labels is not None else None
+        out, inf = kpoisson.poisson_transfer(colors[r0:r1, c0:c1], patch[r0:r1, c0:c1], lab, fixed=~mine,
+                                             values=colors[r0:r1, c0:c1], label_dirichlet=label_dirichlet,
+                                             seam_gx=gx, seam_gy=gy, screen=screen, tol=tol, max_iter=max_iter)
+        u[r0:r1, c0:c1][mine] = out[mine]
+        info["windows"] += 1
+        info["window_pixels"] += (r1 - r0) * (c1 - c0)
+        info["iterations"] = max(info["iterations"], int(inf["iterations"]))
+        info["residual"] = max(info["residual"], float(inf["residual"]))
+    return u, info

@@ -89,54 +89,6 @@ def test_components4_match_scipy():
         assert tuple(boxes[k]) == (sl[0].start, sl[0].stop - 1, sl[1].start, sl[1].stop - 1)
 
 
-def test_group_boxes_cover_every_component_with_a_margin():
-    mask = np.zeros((60, 80), bool)
-    mask[5:8, 5:9] = True
-    mask[10:12, 6:10] = True  # near the first: merged (cheap)
-    mask[40:55, 60:75] = True
-    mask[0:60, 79] = True  # a border strip: clipped at the image
-    _, boxes = T.components4(mask)
-    groups = T.group_boxes(boxes, mask.shape, slack=64)
-    seen = sorted(k for g in groups for k in g[4])
-    assert seen == [1, 2, 3, 4]
-    for r0, r1, c0, c1, ids in groups:
-        for k in ids:
-            b = boxes[k - 1]
-            assert r0 <= max(0, b[0] - 1) and r1 >= min(60, b[1] + 2) and c0 <= max(0, b[2] - 1) and c1 >= min(80, b[3] + 2)
-    assert len(groups) < 4
-
-
-@pytest.mark.parametrize("small", [0, 64])  # windows with multigrid CG, or SOR on the free pixels
-@pytest.mark.parametrize("screen", [0.0, 0.01])
-def test_poisson_regions_equal_the_whole_frame_solve(screen, small):
-    from proxyshade.kernels import poisson as P
-
-    rng = np.random.default_rng(12)
-    h, w = 48, 56
-    colors = rng.random((h, w, 3)).astype(np.float32)
-    patch = (np.arange(h)[:, None] // 7 * 10 + np.arange(w)[None, :] // 9).astype(np.uint32)
-    labels = np.ones((h, w), np.uint32)
-    labels[:, 30:] = 2
-    free = np.zeros((h, w), bool)
-    free[4:15, 3:20] = True
-    free[30:45, 25:50] = True  # crosses the label border
-    free[20:22, 50:56] = True  # touches the image border
-    src = rng.random((32, 32, 3)).astype(np.float32)
-    sx = np.clip(np.arange(w)[None, :] * 0.5 + 0 * np.arange(h)[:, None], 0, 31).astype(np.float32)
-    sy = np.clip(np.arange(h)[:, None] * 0.5 + 0 * np.arange(w)[None, :], 0, 31).astype(np.float32)
-    gx, gy = P.seam_gradients(src, sx, sy, 0.5)
-    ref, _ = P.poisson_transfer(colors, patch, labels, fixed=~free, values=colors, seam_gx=gx, seam_gy=gy,
-                                screen=screen, tol=1e-7, max_iter=500)
-    got, info = T.poisson_regions(colors, patch, labels, free, source=src, sx=sx, sy=sy, step=0.5, screen=screen,
-                                  tol=1e-7, max_iter=500, slack=0, small=small)
-    if small:
-        assert info["windows"] == 0 and info["sor_pixels"] == free.sum() - (free & P.contour_mask(labels)).sum()
-    else:
-        assert info["windows"] == 3 and info["window_pixels"] < h * w
-    np.testing.assert_array_equal(got[~free], colors[~free])
-    np.testing.assert_allclose(got, ref, atol=2e-4)
-
-
 def test_map_deviation_matches_reference():
     rng = np.random.default_rng(4)
     sx, sy = rng.random((2, 9, 11)) * 20
@@ -161,13 +113,3 @@ def test_map_deviation_matches_reference():
             if idn != iu:
                 J[:, 1] = [(sx[idn, j] - sx[iu, j]) / (idn - iu) / 2, (sy[idn, j] - sy[iu, j]) / (idn - iu) / 2]
             assert got[i, j] == pytest.approx(np.linalg.norm(J - np.eye(2)), rel=1e-5, abs=1e-6)
-
-
-def test_region_thickness_is_twice_area_over_perimeter():
-    mask = np.zeros((30, 40), bool)
-    mask[2:5, 3:33] = True  # a band 3 px wide, 30 long
-    mask[10:20, 10:20] = True  # a 10 x 10 square
-    mask[25:30, 0:1] = True  # 5 x 1 at the image border (the border counts as outside)
-    comp, boxes = T.components4(mask)
-    got = T.region_thickness(mask, comp, len(boxes))
-    np.testing.assert_allclose(got, [2 * 90 / 66, 2 * 100 / 40, 1.0])  # the last: 10 / 12, clamped to 1
