@@ -93,10 +93,13 @@ def setup(source: Plate, tgt_lab_synth: np.ndarray, table: np.ndarray, *, factor
     F = float(scale) * factor
     Hs, Ws = src_dense.shape
     ex_rgb, ex_lab = kf.build_exemplar(source.rgb(), src_dense, F, n)
-    nlev = levels_for(max(tgt_lab_synth.shape), coarse_size)
+    He, We = ex_lab.shape
+    # the coarsest level's 5x5 neighbourhood (spacing h) must fit in the exemplar: a large
+    # output from a small source starts the correction at a finer level instead
+    fit = 1 + int(np.floor(np.log2(max(min(He, We) - 1, 4) / 4)))
+    nlev = max(1, min(levels_for(max(tgt_lab_synth.shape), coarse_size), fit))
     h = 2 ** (nlev - 1)
     need = 4 * h + 1
-    He, We = ex_lab.shape
     if min(He, We) < need:
         raise NodeInputError(
             f"source {Ws}x{Hs} px at scale {scale:g} x factor {factor} is a {We}x{He} exemplar, smaller than "

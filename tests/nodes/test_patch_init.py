@@ -48,17 +48,21 @@ def test_guide_label_missing_from_source_table():
         run_node("PatchInit", {}, {"guide": Plate({"label.id": ids}), "source": src}, name="init")
 
 
-def test_source_smaller_than_a_neighbourhood_at_the_coarsest_level():
+def test_small_source_starts_the_correction_at_a_finer_level():
+    """A source too small for the coarsest level's neighbourhood (large output, small photo)
+    shortens the pyramid instead of failing; smaller than one 5x5 neighbourhood fails."""
     src = T.source("renoir")
-    small = Plate({k: np.ascontiguousarray(v[:60, :60]) for k, v in src.channels.items()}, src.meta)
-    lab = int(np.bincount(small["label.id"].ravel()).argmax())
+    lab = int(np.bincount(src["label.id"][:60, :60].ravel()).argmax())
     g = Plate({"label.id": np.full((512, 512), lab, np.uint32)})
-    # 60 px / factor 4 = 15 exemplar px; 3 levels from 32 to 128 need 4 * 4 + 1 = 17
-    with pytest.raises(NodeInputError, match=r"^init: .*15x15 exemplar, smaller than a 5x5 neighbourhood at the "
-                                             r"coarsest level \(spacing 4: needs 17x17\); lower 'scale'"):
-        run_node("PatchInit", {}, {"guide": g, "source": small}, name="init")
-    # a coarsest level of 64 (spacing 2) fits
-    run_node("PatchInit", {"coarse_size": 64}, {"guide": g, "source": small}, name="init")
+    # 60 px / factor 4 = 15 exemplar px: 3 levels from 32 to 128 would need 4 * 4 + 1 = 17; 2 levels fit
+    small = Plate({k: np.ascontiguousarray(v[:60, :60]) for k, v in src.channels.items()}, src.meta)
+    out = run_node("PatchInit", {}, {"guide": g, "source": small}, name="init")
+    assert out.shape == (128, 128) and (out["label.id"] == lab).all()
+    tiny = Plate({k: np.ascontiguousarray(v[:16, :16]) for k, v in src.channels.items()}, src.meta)
+    tiny = tiny.with_channels({"label.id": np.full((16, 16), lab, np.uint32)})
+    with pytest.raises(NodeInputError, match=r"^init: .*4x4 exemplar, smaller than a 5x5 neighbourhood at the "
+                                             r"coarsest level \(spacing 1: needs 5x5\); lower 'scale'"):
+        run_node("PatchInit", {}, {"guide": g, "source": tiny}, name="init")
 
 
 def test_nan_in_source_is_reported():
