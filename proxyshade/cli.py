@@ -62,23 +62,26 @@ def source_new(photo: Path = typer.Argument(..., help="the photo (8-bit sRGB)"),
                min_share: float = typer.Option(0.005, "--min-share", help="colours covering less of the map are noise"),
                force: bool = typer.Option(False, "--force", help="replace an existing file")):
     """Write a source.yaml for PHOTO and LABEL_MAP with the palette found in the map."""
+    from proxyshade.io.files import io_error, output_target, temp_for
     from proxyshade.io.source import load_source, new_table
 
     output = output or photo.parent / "source.yaml"
     if output.exists() and not force:
         raise UserError(f"{output}: exists; choose another -o path or pass --force to replace it")
-    text, rep = new_table(photo, label_map, output, min_share=min_share)
-    output.parent.mkdir(parents=True, exist_ok=True)
-    tmp = output.with_name(f".{output.name}.{os.getpid()}.tmp")
-    tmp.write_text(text)
+    target = output_target(output)
+    text, rep = new_table(photo, label_map, target, min_share=min_share)
+    target.parent.mkdir(parents=True, exist_ok=True)
+    tmp = temp_for(target, ".yaml")
     try:
+        tmp.write_text(text)
         load_source(tmp, where=str(output))  # the table must load as written
-    except UserError:
-        tmp.unlink()
-        raise
-    os.replace(tmp, output)
-    out.print(f"{output}: {rep['labels']} labels; {rep['snapped']} pixels ({rep['snapped_share']:.2%}) of other "
-              "colours will snap to the nearest label. Rename the labels after your scene's.", markup=False)
+        os.replace(tmp, target)
+    except OSError as e:
+        raise io_error(output, e) from None
+    finally:
+        tmp.unlink(missing_ok=True)
+    _say(out, f"{output}: {rep['labels']} labels; {rep['snapped']} pixels ({rep['snapped_share']:.2%}) of other "
+              "colours will snap to the nearest label. Rename the labels after your scene's.")
 
 
 class _BarHooks:
