@@ -141,7 +141,8 @@ def run(
     if explain:
         t = Table(title=f"{graph}", show_lines=False)
         for c in ("node", "frame", "status", "why", "seconds"):
-            t.add_column(c, justify="right" if c in ("frame", "seconds") else "left")
+            t.add_column(c, justify="right" if c in ("frame", "seconds") else "left",
+                         overflow="fold", no_wrap=False)  # reasons with paths fold, never cut
         for r in report.runs:
             t.add_row(Text(r.node), str(r.frame), r.status, Text(r.reason),
                       f"{r.seconds:.3f}" if r.status == "computed" else "")

@@ -158,8 +158,8 @@ def synthesize_guide(proxy: Plate, source: Plate, gp: SimpleNamespace) -> tuple[
     if lock_pairs:  # locked borders stay exactly as in the proxy at the output size
         keep = kg.locked_border(tgt, lock_pairs, radius=2 * f)
         out[keep] = tgt[keep]
-    note = (f"{levels} levels from {gp.start} to {gp.size}, exemplar {ex.shape[1]}x{ex.shape[0]}, magnified x{f}; "
-            f"{int((out != tgt).sum())} pixels changed label from the proxy")
+    note = (f"{levels} levels from {gp.start} to {gp.size}, label exemplar {ex.shape[1]}x{ex.shape[0]}, "
+            f"magnified x{f}; {int((out != tgt).sum())} pixels changed label from the proxy")
     ch = {"label.id": table[out].astype(np.uint32), "source.x": sx.astype(np.float32),
           "source.y": sy.astype(np.float32)}
     meta = {"labels": source.meta["labels"],
