@@ -37,6 +37,8 @@ COMPRESSIONS = {
     "dwaa": OpenEXR.DWAA_COMPRESSION,
 }
 _META = "proxyshade/meta"
+if OpenEXR.global_thread_count() == 0:  # compress/decompress chunks on every core (files are byte-identical)
+    OpenEXR.set_global_thread_count(os.cpu_count() or 1)
 # R,G,B are linear Rec.709 / sRGB primaries, D65 (sources are decoded from sRGB with
 # colour-science): the chromaticities attribute and the ASWF colour-interop id, which
 # OpenImageIO reports as oiio:ColorSpace and Nuke and OCIO configs understand
