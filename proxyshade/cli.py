@@ -91,8 +91,10 @@ class _BarHooks:
         self.progress = progress
         self.tasks = {}
         self.told_compiling = False
+        self.graph = None
 
     def plan(self, plan):
+        self.graph = plan.graph
         counts = {}
         for name, _ in plan.keys:
             counts[name] = counts.get(name, 0) + 1
@@ -101,11 +103,14 @@ class _BarHooks:
                 self.tasks[name] = self.progress.add_task(name, total=counts[name])
 
     def start(self, run):
-        if not self.told_compiling:
-            self.told_compiling = True
+        if not self.told_compiling and self.graph is not None:
+            from proxyshade.graph.keys import import_closure
             from proxyshade.kernels._config import kernels_cached
 
-            if not kernels_cached():
+            mods = [m for m in import_closure(type(self.graph.nodes[run.node]).__module__)
+                    if m.startswith("proxyshade.kernels.")]
+            if mods and not kernels_cached(mods):
+                self.told_compiling = True
                 _say(err, "compiling the numba kernels: once after an install or upgrade, about a minute on 2 cores "
                           "(later runs load them from numba's cache)")
 

@@ -98,9 +98,9 @@ def test_movie_of_a_partial_range_and_graph_listing(tmp_path, registry, capsys):
 def test_first_run_says_it_compiles_the_kernels(graph, capsys, monkeypatch):
     import proxyshade.kernels._config as config
 
-    monkeypatch.setattr(config, "kernels_cached", lambda: False)  # as right after an install
+    monkeypatch.setattr(config, "kernels_cached", lambda modules=(): False)  # as right after an install
     assert main(["run", str(graph), "-q"]) == 0
     assert "compiling the numba kernels" in capsys.readouterr().err
-    monkeypatch.setattr(config, "kernels_cached", lambda: True)
+    monkeypatch.setattr(config, "kernels_cached", lambda modules=(): True)
     assert main(["run", str(graph), "-q", "--force", "src"]) == 0
     assert "compiling" not in capsys.readouterr().err

@@ -21,10 +21,18 @@ JIT = dict(cache=True, nogil=True, fastmath=False)
 PJIT = dict(cache=True, nogil=True, fastmath=False, parallel=True)
 
 
-def kernels_cached() -> bool:
-    """Whether numba's on-disk cache holds compiled kernels (index files beside the kernel
-    modules): False on the first run after an install, when every kernel compiles."""
+def kernels_cached(modules=()) -> bool:
+    """Whether numba's on-disk cache holds compiled kernels of each of ``modules``
+    (``proxyshade.kernels.X`` names; index files beside the kernel modules): False on the
+    first run after an install, when they compile."""
     from pathlib import Path
 
-    cache = Path(__file__).parent / "__pycache__"
-    return cache.is_dir() and any(cache.glob("*.nbi"))
+    here = Path(__file__).parent
+    for m in modules:
+        stem = m.rpartition(".")[2]
+        src = here / f"{stem}.py"
+        if stem.startswith("_") or not src.is_file() or "@njit" not in src.read_text():
+            continue  # no compiled kernels there
+        if not any((here / "__pycache__").glob(f"{stem}.*.nbi")):
+            return False
+    return True

@@ -73,6 +73,30 @@ def _tap_start(x, size, bins, a):
     return x0 - a + 1, int(np.floor((x - x0) * bins + 0.5))
 
 
+@njit(inline="always", **JIT)
+def _lanczos_colour(img, xs, ys, bx, by, table, inside):
+    """The first three channels of ``img`` under the separable Lanczos taps from (ys, xs)
+    (rows of taps summed first, then weighted by row); taps clamped at the border unless
+    ``inside``."""
+    h, w = img.shape[0], img.shape[1]
+    n = table.shape[1]
+    r0 = r1 = r2 = 0.0
+    for r in range(n):
+        yy = ys + r if inside else min(max(ys + r, 0), h - 1)
+        t0 = t1 = t2 = 0.0
+        for t in range(n):
+            xx = xs + t if inside else min(max(xs + t, 0), w - 1)
+            wx = table[bx, t]
+            t0 += wx * img[yy, xx, 0]
+            t1 += wx * img[yy, xx, 1]
+            t2 += wx * img[yy, xx, 2]
+        wy = table[by, r]
+        r0 += wy * t0
+        r1 += wy * t1
+        r2 += wy * t2
+    return r0, r1, r2
+
+
 @njit(**PJIT)
 def _lanczos(img, sx, sy, table, out):
     h, w, c = img.shape
@@ -92,23 +116,7 @@ def _lanczos(img, sx, sy, table, out):
                 continue
             inside = xs >= 0 and ys >= 0 and xs + n <= w and ys + n <= h
             if c == 3:  # colour: scalar accumulators
-                r0 = r1 = r2 = 0.0
-                for r in range(n):
-                    yy = ys + r if inside else min(max(ys + r, 0), h - 1)
-                    t0 = t1 = t2 = 0.0
-                    for t in range(n):
-                        xx = xs + t if inside else min(max(xs + t, 0), w - 1)
-                        wx = table[bx, t]
-                        t0 += wx * img[yy, xx, 0]
-                        t1 += wx * img[yy, xx, 1]
-                        t2 += wx * img[yy, xx, 2]
-                    wy = table[by, r]
-                    r0 += wy * t0
-                    r1 += wy * t1
-                    r2 += wy * t2
-                out[i, j, 0] = r0
-                out[i, j, 1] = r1
-                out[i, j, 2] = r2
+                out[i, j, 0], out[i, j, 1], out[i, j, 2] = _lanczos_colour(img, xs, ys, bx, by, table, inside)
                 continue
             acc[:] = 0.0
             for r in range(n):
@@ -162,23 +170,7 @@ def _lanczos_rgb(img, rgbx, sx, sy, table, out):
                 out[i, j, 1] = r1
                 out[i, j, 2] = r2
                 continue
-            r0 = r1 = r2 = 0.0
-            for r in range(n):
-                yy = ys + r if inside else min(max(ys + r, 0), h - 1)
-                t0 = t1 = t2 = 0.0
-                for t in range(n):
-                    xx = xs + t if inside else min(max(xs + t, 0), w - 1)
-                    wx = table[bx, t]
-                    t0 += wx * rgbx[yy, xx, 0]
-                    t1 += wx * rgbx[yy, xx, 1]
-                    t2 += wx * rgbx[yy, xx, 2]
-                wy = table[by, r]
-                r0 += wy * t0
-                r1 += wy * t1
-                r2 += wy * t2
-            out[i, j, 0] = r0
-            out[i, j, 1] = r1
-            out[i, j, 2] = r2
+            out[i, j, 0], out[i, j, 1], out[i, j, 2] = _lanczos_colour(rgbx, xs, ys, bx, by, table, inside)
 
 
 @njit(**PJIT)

@@ -60,46 +60,12 @@ def _label_ok(S, guide, srclab, ok):
 
 
 @njit(**PJIT)
-def _repair_step(S, ok, guide, srclab, S_new, ok_new):
-    """One front step (reads S/ok, writes S_new/ok_new); returns how many were fixed."""
-    Ht, Wt = guide.shape
-    Hs, Ws = srclab.shape
-    rows = np.zeros(Ht, np.int64)
-    for i in prange(Ht):
-        for j in range(Wt):
-            S_new[i, j, 0] = S[i, j, 0]
-            S_new[i, j, 1] = S[i, j, 1]
-            ok_new[i, j] = ok[i, j]
-            if ok[i, j]:
-                continue
-            lab = guide[i, j]
-            for k in range(8):
-                di = (-1, 1, 0, 0, -1, -1, 1, 1)[k]
-                dj = (0, 0, -1, 1, -1, 1, -1, 1)[k]
-                ii = i + di
-                jj = j + dj
-                if ii < 0 or ii >= Ht or jj < 0 or jj >= Wt or not ok[ii, jj] or guide[ii, jj] != lab:
-                    continue
-                y = S[ii, jj, 0] - di
-                x = S[ii, jj, 1] - dj
-                if 0 <= y < Hs and 0 <= x < Ws and srclab[y, x] == lab:
-                    S_new[i, j, 0] = y
-                    S_new[i, j, 1] = x
-                    ok_new[i, j] = True
-                    rows[i] += 1
-                    break
-    n = 0
-    for i in range(Ht):
-        n += rows[i]
-    return n
-
-
-@njit(**PJIT)
 def _front_steps(S, ok, guide, srclab, ii, jj, max_steps):
-    """``_repair_step`` repeated (at most ``max_steps`` times, until a step fixes nothing),
-    visiting only the pixels still wrong (``ii``, ``jj``: the wrong pixels, scan order):
-    each step reads the state of the previous one, as ``_repair_step`` does, so the result
-    is the same at a cost proportional to the wrong pixels. Updates S, ok in place;
+    """Front steps (at most ``max_steps``, until a step fixes nothing), visiting only the
+    pixels still wrong (``ii``, ``jj``: the wrong pixels, scan order). In one step a wrong
+    pixel takes the first of its 8 neighbours (fixed order) that is right, of its label,
+    and whose translation continued lands on its label in the source; each step reads the
+    state of the previous one (whole-frame steps give the same result: the tests' reference). Updates S, ok in place;
     returns how many were fixed."""
     Ht, Wt = guide.shape
     Hs, Ws = srclab.shape

@@ -163,21 +163,8 @@ def _coarsen(diag, we, ws, mass, alpha):
 def _smooth_serial(diag, we, ws, x, b, color):
     """``_smooth`` on one thread (for the tiny coarsest level: no parallel launch). The
     cells of one colour do not neighbour each other, so the result is the same."""
-    h, w = diag.shape
-    for i in range(h):
-        j0 = (color + i) % 2
-        for j in range(j0, w, 2):
-            d = diag[i, j]
-            if d == 0.0:
-                continue
-            n0, n1, n2 = _neighbour_sum(x, we, ws, i, j, h, w)
-            s0 = b[i, j, 0] + n0
-            s1 = b[i, j, 1] + n1
-            s2 = b[i, j, 2] + n2
-            inv = 1.0 / d
-            x[i, j, 0] = s0 * inv
-            x[i, j, 1] = s1 * inv
-            x[i, j, 2] = s2 * inv
+    for i in range(diag.shape[0]):
+        _smooth_row(diag, we, ws, x, b, color, i)
 
 
 @njit(**JIT)
@@ -193,24 +180,30 @@ def _coarse_solve(diag, we, ws, x, b, sweeps):
         _smooth_serial(diag, we, ws, x, b, 0)
 
 
+@njit(inline="always", **JIT)
+def _smooth_row(diag, we, ws, x, b, color, i):
+    """Row i of a Gauss-Seidel half sweep on cells with (i + j) % 2 == color."""
+    h, w = diag.shape
+    j0 = (color + i) % 2
+    for j in range(j0, w, 2):
+        d = diag[i, j]
+        if d == 0.0:
+            continue
+        n0, n1, n2 = _neighbour_sum(x, we, ws, i, j, h, w)
+        s0 = b[i, j, 0] + n0
+        s1 = b[i, j, 1] + n1
+        s2 = b[i, j, 2] + n2
+        inv = 1.0 / d
+        x[i, j, 0] = s0 * inv
+        x[i, j, 1] = s1 * inv
+        x[i, j, 2] = s2 * inv
+
+
 @njit(**PJIT)
 def _smooth(diag, we, ws, x, b, color):
     """One Gauss-Seidel half sweep on cells with (i + j) % 2 == color, 3 channels."""
-    h, w = diag.shape
-    for i in prange(h):
-        j0 = (color + i) % 2
-        for j in range(j0, w, 2):
-            d = diag[i, j]
-            if d == 0.0:
-                continue
-            n0, n1, n2 = _neighbour_sum(x, we, ws, i, j, h, w)
-            s0 = b[i, j, 0] + n0
-            s1 = b[i, j, 1] + n1
-            s2 = b[i, j, 2] + n2
-            inv = 1.0 / d
-            x[i, j, 0] = s0 * inv
-            x[i, j, 1] = s1 * inv
-            x[i, j, 2] = s2 * inv
+    for i in prange(diag.shape[0]):
+        _smooth_row(diag, we, ws, x, b, color, i)
 
 
 @njit(**PJIT)
@@ -233,22 +226,26 @@ def _residual(diag, we, ws, x, b, r):
             r[i, j, 2] = s2
 
 
+@njit(inline="always", **JIT)
+def _jacobi_start_row(diag, x, b, color, i):
+    for j in range(diag.shape[1]):
+        d = diag[i, j]
+        if (i + j) % 2 == color and d != 0.0:
+            inv = 1.0 / d
+            x[i, j, 0] = b[i, j, 0] * inv
+            x[i, j, 1] = b[i, j, 1] * inv
+            x[i, j, 2] = b[i, j, 2] * inv
+        else:
+            x[i, j, 0] = 0.0
+            x[i, j, 1] = 0.0
+            x[i, j, 2] = 0.0
+
+
 @njit(**PJIT)
 def _jacobi_start(diag, x, b, color):
     """x = 0 except cells of ``color``: b / diag (a red half-sweep from zero)."""
-    h, w = diag.shape
-    for i in prange(h):
-        for j in range(w):
-            d = diag[i, j]
-            if (i + j) % 2 == color and d != 0.0:
-                inv = 1.0 / d
-                x[i, j, 0] = b[i, j, 0] * inv
-                x[i, j, 1] = b[i, j, 1] * inv
-                x[i, j, 2] = b[i, j, 2] * inv
-            else:
-                x[i, j, 0] = 0.0
-                x[i, j, 1] = 0.0
-                x[i, j, 2] = 0.0
+    for i in prange(diag.shape[0]):
+        _jacobi_start_row(diag, x, b, color, i)
 
 
 @njit(inline="always", **JIT)
@@ -282,25 +279,29 @@ def _apply_at(diag, we, ws, x, i, j):
     return s0, s1, s2
 
 
+@njit(inline="always", **JIT)
+def _residual_restrict_row(diag, we, ws, x, b, rc, I):
+    h, w = diag.shape
+    for J in range(rc.shape[1]):
+        rc[I, J, 0] = 0.0
+        rc[I, J, 1] = 0.0
+        rc[I, J, 2] = 0.0
+    for i in range(2 * I, min(2 * I + 2, h)):
+        for j in range(w):
+            if diag[i, j] == 0.0:
+                continue
+            a0, a1, a2 = _apply_at(diag, we, ws, x, i, j)
+            J = j >> 1
+            rc[I, J, 0] += b[i, j, 0] - a0
+            rc[I, J, 1] += b[i, j, 1] - a1
+            rc[I, J, 2] += b[i, j, 2] - a2
+
+
 @njit(**PJIT)
 def _residual_restrict(diag, we, ws, x, b, rc):
     """rc = P^T (b - A x): the residual summed over each 2x2 aggregate."""
-    h, w = diag.shape
-    hc, wc = rc.shape[0], rc.shape[1]
-    for I in prange(hc):
-        for J in range(wc):
-            rc[I, J, 0] = 0.0
-            rc[I, J, 1] = 0.0
-            rc[I, J, 2] = 0.0
-        for i in range(2 * I, min(2 * I + 2, h)):
-            for j in range(w):
-                if diag[i, j] == 0.0:
-                    continue
-                a0, a1, a2 = _apply_at(diag, we, ws, x, i, j)
-                J = j >> 1
-                rc[I, J, 0] += b[i, j, 0] - a0
-                rc[I, J, 1] += b[i, j, 1] - a1
-                rc[I, J, 2] += b[i, j, 2] - a2
+    for I in prange(rc.shape[0]):
+        _residual_restrict_row(diag, we, ws, x, b, rc, I)
 
 
 @njit(**PJIT)
@@ -357,18 +358,22 @@ def _cg_update(v, r, p, q, a, rr):
             rr[c] += part[i, c]
 
 
+@njit(inline="always", **JIT)
+def _prolong_add_row(xc, x, diag, alpha, i):
+    I = i // 2
+    for j in range(diag.shape[1]):
+        if diag[i, j] == 0.0:
+            continue
+        J = j // 2
+        x[i, j, 0] += alpha * xc[I, J, 0]
+        x[i, j, 1] += alpha * xc[I, J, 1]
+        x[i, j, 2] += alpha * xc[I, J, 2]
+
+
 @njit(**PJIT)
 def _prolong_add(xc, x, diag, alpha):
-    h, w = diag.shape
-    for i in prange(h):
-        I = i // 2
-        for j in range(w):
-            if diag[i, j] == 0.0:
-                continue
-            J = j // 2
-            x[i, j, 0] += alpha * xc[I, J, 0]
-            x[i, j, 1] += alpha * xc[I, J, 1]
-            x[i, j, 2] += alpha * xc[I, J, 2]
+    for i in prange(diag.shape[0]):
+        _prolong_add_row(xc, x, diag, alpha, i)
 
 
 # serial twins of the V-cycle kernels for small levels (one compiled call per V-cycle
@@ -381,53 +386,20 @@ SERIAL_CELLS = 1 << 15  # levels with fewer cells run their whole V-cycle serial
 
 @njit(**JIT)
 def _jacobi_start_serial(diag, x, b, color):
-    h, w = diag.shape
-    for i in range(h):
-        for j in range(w):
-            d = diag[i, j]
-            if (i + j) % 2 == color and d != 0.0:
-                inv = 1.0 / d
-                x[i, j, 0] = b[i, j, 0] * inv
-                x[i, j, 1] = b[i, j, 1] * inv
-                x[i, j, 2] = b[i, j, 2] * inv
-            else:
-                x[i, j, 0] = 0.0
-                x[i, j, 1] = 0.0
-                x[i, j, 2] = 0.0
+    for i in range(diag.shape[0]):
+        _jacobi_start_row(diag, x, b, color, i)
 
 
 @njit(**JIT)
 def _residual_restrict_serial(diag, we, ws, x, b, rc):
-    h, w = diag.shape
-    hc, wc = rc.shape[0], rc.shape[1]
-    for I in range(hc):
-        for J in range(wc):
-            rc[I, J, 0] = 0.0
-            rc[I, J, 1] = 0.0
-            rc[I, J, 2] = 0.0
-        for i in range(2 * I, min(2 * I + 2, h)):
-            for j in range(w):
-                if diag[i, j] == 0.0:
-                    continue
-                a0, a1, a2 = _apply_at(diag, we, ws, x, i, j)
-                J = j >> 1
-                rc[I, J, 0] += b[i, j, 0] - a0
-                rc[I, J, 1] += b[i, j, 1] - a1
-                rc[I, J, 2] += b[i, j, 2] - a2
+    for I in range(rc.shape[0]):
+        _residual_restrict_row(diag, we, ws, x, b, rc, I)
 
 
 @njit(**JIT)
 def _prolong_add_serial(xc, x, diag, alpha):
-    h, w = diag.shape
-    for i in range(h):
-        I = i // 2
-        for j in range(w):
-            if diag[i, j] == 0.0:
-                continue
-            J = j // 2
-            x[i, j, 0] += alpha * xc[I, J, 0]
-            x[i, j, 1] += alpha * xc[I, J, 1]
-            x[i, j, 2] += alpha * xc[I, J, 2]
+    for i in range(diag.shape[0]):
+        _prolong_add_row(xc, x, diag, alpha, i)
 
 
 @njit(**JIT)

@@ -280,24 +280,31 @@ def affine_transfer(M, k0) -> np.ndarray:
     return A
 
 
+@njit(inline="always", **JIT)
+def _corner(cw, i, j, k, wk, A, k1, near, P):
+    """Project corner k of quad (i, j) (inverse depth ``wk``) into P[k]; False when it is
+    behind the camera or nearer than the near plane."""
+    col = j + (1.0 if k % 2 == 1 else 0.0)
+    row = i + (1.0 if k >= 2 else 0.0)
+    X = A[0, 0] * col + A[0, 1] * row + A[0, 2] + A[0, 3] * wk
+    Y = A[1, 0] * col + A[1, 1] * row + A[1, 2] + A[1, 3] * wk
+    d = -(A[2, 0] * col + A[2, 1] * row + A[2, 2] + A[2, 3] * wk)
+    if d <= 0.0 or d <= near * wk:
+        return False
+    r = 1.0 / d
+    P[k, 0] = k1[2] + k1[0] * X * r
+    P[k, 1] = k1[3] - k1[1] * Y * r
+    P[k, 2] = wk * r
+    return True
+
+
 @njit(**JIT)
 def _quad(cw, i, j, A, k1, near, P):
     """Project quad (i, j)'s corners into P (4, 3); False when a corner is unusable."""
     for k in range(4):
         wk = cw[i, j, k]
-        if not np.isfinite(wk):
+        if not np.isfinite(wk) or not _corner(cw, i, j, k, wk, A, k1, near, P):
             return False
-        col = j + (1.0 if k % 2 == 1 else 0.0)
-        row = i + (1.0 if k >= 2 else 0.0)
-        X = A[0, 0] * col + A[0, 1] * row + A[0, 2] + A[0, 3] * wk
-        Y = A[1, 0] * col + A[1, 1] * row + A[1, 2] + A[1, 3] * wk
-        d = -(A[2, 0] * col + A[2, 1] * row + A[2, 2] + A[2, 3] * wk)
-        if d <= 0.0 or d <= near * wk:
-            return False
-        r = 1.0 / d
-        P[k, 0] = k1[2] + k1[0] * X * r
-        P[k, 1] = k1[3] - k1[1] * Y * r
-        P[k, 2] = wk * r
     return True
 
 
@@ -314,18 +321,8 @@ def _quad_after(cw, i, j, A, k1, near, P, prev):
             P[k, 0] = prev[k + 1, 0]
             P[k, 1] = prev[k + 1, 1]
             P[k, 2] = prev[k + 1, 2]
-            continue
-        col = j + (1.0 if k % 2 == 1 else 0.0)
-        row = i + (1.0 if k >= 2 else 0.0)
-        X = A[0, 0] * col + A[0, 1] * row + A[0, 2] + A[0, 3] * wk
-        Y = A[1, 0] * col + A[1, 1] * row + A[1, 2] + A[1, 3] * wk
-        d = -(A[2, 0] * col + A[2, 1] * row + A[2, 2] + A[2, 3] * wk)
-        if d <= 0.0 or d <= near * wk:
+        elif not _corner(cw, i, j, k, wk, A, k1, near, P):
             return False
-        r = 1.0 / d
-        P[k, 0] = k1[2] + k1[0] * X * r
-        P[k, 1] = k1[3] - k1[1] * Y * r
-        P[k, 2] = wk * r
     return True
 
 

@@ -49,16 +49,39 @@ def test_labels_all_right_is_identity():
     assert rep["wrong"] == 0 and np.array_equal(out, S)
 
 
+def _repair_step(S, ok, guide, srclab):
+    """One whole-frame front step, plain Python: every wrong pixel takes the first of its 8
+    neighbours (this order) that is right, of its label, and whose translation continued
+    lands on its label; all read the previous state. Returns the new S, ok and the count."""
+    Ht, Wt = guide.shape
+    Hs, Ws = srclab.shape
+    S2, ok2, n = S.copy(), ok.copy(), 0
+    for i in range(Ht):
+        for j in range(Wt):
+            if ok[i, j]:
+                continue
+            for di, dj in ((-1, 0), (1, 0), (0, -1), (0, 1), (-1, -1), (-1, 1), (1, -1), (1, 1)):
+                a, b = i + di, j + dj
+                if not (0 <= a < Ht and 0 <= b < Wt) or not ok[a, b] or guide[a, b] != guide[i, j]:
+                    continue
+                y, x = S[a, b, 0] - di, S[a, b, 1] - dj
+                if 0 <= y < Hs and 0 <= x < Ws and srclab[y, x] == guide[i, j]:
+                    S2[i, j] = (y, x)
+                    ok2[i, j] = True
+                    n += 1
+                    break
+    return S2, ok2, n
+
+
 def _repair_by_whole_frame_steps(S, guide, srclab, max_steps=64):
     """The front growth written with whole-frame steps (``_repair_step``), no fallback."""
     S = np.ascontiguousarray(S, np.int32).copy()
     ok = np.empty(guide.shape, np.bool_)
     km._label_ok(S, guide, srclab, ok)
-    S2, ok2 = np.empty_like(S), np.empty_like(ok)
     for _ in range(max_steps):
-        if int(km._repair_step(S, ok, guide, srclab, S2, ok2)) == 0:
+        S, ok, n = _repair_step(S, ok, guide, srclab)
+        if n == 0:
             break
-        S, S2, ok, ok2 = S2, S, ok2, ok
     return S, ok
 
 
