@@ -103,7 +103,7 @@ class _BarHooks:
                 self.tasks[name] = self.progress.add_task(name, total=counts[name])
 
     def start(self, run):
-        if not self.told_compiling and self.graph is not None:
+        if not self.told_compiling and self.graph is not None and err.is_terminal:  # a progress note: terminals only
             from proxyshade.graph.keys import import_closure
             from proxyshade.kernels._config import kernels_cached
 

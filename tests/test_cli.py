@@ -96,8 +96,10 @@ def test_movie_of_a_partial_range_and_graph_listing(tmp_path, registry, capsys):
 
 
 def test_first_run_says_it_compiles_the_kernels(graph, capsys, monkeypatch):
+    import proxyshade.cli as cli
     import proxyshade.kernels._config as config
 
+    monkeypatch.setattr(cli.err, "_force_terminal", True)  # said on a terminal, like the progress bars
     monkeypatch.setattr(config, "kernels_cached", lambda modules=(): False)  # as right after an install
     assert main(["run", str(graph), "-q"]) == 0
     assert "compiling the numba kernels" in capsys.readouterr().err

@@ -7,6 +7,9 @@ leaves nothing at the name, a symlink is written through, a device is refused.
 """
 from __future__ import annotations
 
+import contextlib
+import os
+
 from pathlib import Path
 
 import numpy as np
@@ -93,11 +96,29 @@ def write_png(path: str | Path, rgb8: np.ndarray) -> Path:
     except OSError as e:
         raise io_error(path, e, "cannot write PNG") from None
     finally:
-        if out is not None:
-            out.close()
+        if out is not None:  # interrupted mid-write: the half-written file is deleted below, so
+            with _quiet_stderr():  # libpng's complaint about it ("No IDATs written") is not shown
+                out.close()
         if tmp is not None and tmp.exists():
             tmp.unlink()
     return path
+
+
+@contextlib.contextmanager
+def _quiet_stderr():
+    """File descriptor 2 sent to the null device for the duration (C libraries print there)."""
+    try:
+        saved = os.dup(2)
+    except OSError:
+        yield
+        return
+    try:
+        with open(os.devnull, "w") as null:
+            os.dup2(null.fileno(), 2)
+        yield
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
 
 
 def resize_u8(rgb8: np.ndarray, max_size: int) -> np.ndarray:
