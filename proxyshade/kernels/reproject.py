@@ -649,6 +649,14 @@ def fill_from_neighbours(need, have, lab, sx, sy, patch, res, dist, radius, scal
     return osx, osy, opatch, ores, odist, filled
 
 
+@njit(inline="always", **JIT)
+def _world(z, i, j, C, k, m):
+    """World coordinate m of pixel (i, j)'s centre at camera depth z (``unproject``)."""
+    x = (j + 0.5 - k[2]) / k[0] * z
+    y = -(i + 0.5 - k[3]) / k[1] * z
+    return C[m, 0] * x + C[m, 1] * y - C[m, 2] * z + C[m, 3]
+
+
 @njit(**PJIT)
 def unproject(Z, C, k):
     """World position (H, W, 3) float32 of each pixel centre at camera depth ``Z`` (0 where
@@ -660,11 +668,68 @@ def unproject(Z, C, k):
             z = Z[i, j]
             if not np.isfinite(z):
                 continue
-            x = (j + 0.5 - k[2]) / k[0] * z
-            y = -(i + 0.5 - k[3]) / k[1] * z
             for m in range(3):
-                out[i, j, m] = C[m, 0] * x + C[m, 1] * y - C[m, 2] * z + C[m, 3]
+                out[i, j, m] = _world(z, i, j, C, k, m)
     return out
+
+
+@njit(**PJIT)
+def classify(src, wg, wp1, stale, occluded0, lab0, plab, pZ, pX, pY, pZw, C, k, tol):
+    """ConsistentDepth's pixel kinds and what each takes, in one pass.
+
+    src, wg : ``splat_grid`` (frame-0 index and inverse depth of the grid drawn, −1 where
+    none); wp1 : this frame's proxy inverse depth; stale : (H0, W0) bool, grid pixels
+    left to the proxy (``stale_winners``); occluded0 : (H0, W0) bool, hidden by the
+    frame-0 proxy; lab0 : (H0, W0) frame-0 labels; plab, pZ, pX, pY, pZw : the proxy's
+    labels, depth and world position; C, k : this camera (``unproject``).
+
+    A pixel is covered where the grid is drawn and not stale; covered and not behind the
+    proxy (wp1 <= wg (1 + tol)) is A (1); behind it, B (2) where frame 0 hid it too, else
+    C (3); not covered is D (4). A and B take the grid's label and depth (1 / wg) and the
+    world position of that depth; C and D the proxy's. Returns category (uint32),
+    label (uint32), Z (float32), P.X, P.Y, P.Z (float32) and per row the count of stale
+    pixels dropped."""
+    h, wd = src.shape
+    w0 = lab0.shape[1]
+    cat = np.empty((h, wd), np.uint32)
+    label = np.empty((h, wd), np.uint32)
+    Z = np.empty((h, wd), np.float32)
+    X = np.empty((h, wd), np.float32)
+    Y = np.empty((h, wd), np.float32)
+    W = np.empty((h, wd), np.float32)
+    gone = np.zeros(h, np.int64)
+    for i in prange(h):
+        for j in range(wd):
+            s = src[i, j]
+            c = 4
+            a = 0
+            b = 0
+            if s >= 0:
+                a = s // w0
+                b = s - a * w0
+                if stale[a, b]:
+                    gone[i] += 1
+                elif wp1[i, j] > wg[i, j] * (1.0 + tol):
+                    c = 2 if occluded0[a, b] else 3
+                else:
+                    c = 1
+            cat[i, j] = c
+            if c <= 2:
+                label[i, j] = lab0[a, b]
+                z = np.float32(1.0 / wg[i, j]) if wg[i, j] > 0 else np.float32(np.inf)
+                Z[i, j] = z
+                if np.isfinite(z):
+                    X[i, j] = _world(z, i, j, C, k, 0)
+                    Y[i, j] = _world(z, i, j, C, k, 1)
+                    W[i, j] = _world(z, i, j, C, k, 2)
+                    continue
+            else:
+                label[i, j] = plab[i, j]
+                Z[i, j] = pZ[i, j]
+            X[i, j] = pX[i, j]
+            Y[i, j] = pY[i, j]
+            W[i, j] = pZw[i, j]
+    return cat, label, Z, X, Y, W, gone
 
 
 @njit(**JIT)

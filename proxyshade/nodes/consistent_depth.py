@@ -69,8 +69,8 @@ class ConsistentDepth(SameSurface, Node):
         if depth.shape != guide.shape:
             raise ctx.error(f"depth is {depth.width}x{depth.height}, guide {guide.width}x{guide.height}; connect the "
                             "DepthExtend of this guide")
-        if np.isnan(depth["Z"]).any() or np.isnan(proxy["Z"]).any():
-            raise ctx.error("Z has NaN pixels; fix the upstream render (inf marks empty pixels)")
+        if ctx.depth is None and np.isnan(depth["Z"]).any():  # a connected depth and the proxy: checked by the engine
+            raise ctx.error("the guide's Z has NaN pixels; fix the upstream render (inf marks empty pixels)")
         cam1 = camera_of("proxy", proxy)
         cam0 = camera_of("depth", ctx.depth, guide, ctx.ref_proxy)
         if (cam1.width, cam1.height) != (proxy.width, proxy.height):
@@ -89,36 +89,23 @@ class ConsistentDepth(SameSurface, Node):
         M = kr.relative_matrix(cam0, cam1)
         wp1 = kr.inverse_depth(proxy["Z"])
         wg, src = kr.splat_grid(cw, keep, M, k0, k1, cam1.near, cam1.height, cam1.width, p.max_extent)
-        covered = src >= 0
-        if p.stale:  # grid pixels that lay on the proxy at frame 0 and float in front of it now: not covered
-            stale = kr.stale_winners(wg, src, wp1, on_proxy0, keep, p.stale_tolerance)
-            if stale.any():
-                gone = covered & stale.ravel()[np.where(covered, src, 0)]
-                covered &= ~gone
-                ctx.note(f"{int(gone.sum())} pixels of stale grid (on the proxy at the first frame, in front of it "
-                         "now: a moving object) left to the proxy")
-        s = np.where(covered, src, 0)
-        occl = covered & (wp1 > wg * (1.0 + tol))
-        prev = occluded0.ravel()[s]
-        cat = np.full(proxy.shape, CATEGORY["D"], np.uint32)
-        cat[covered & ~occl] = CATEGORY["A"]
-        cat[occl & prev] = CATEGORY["B"]
-        cat[occl & ~prev] = CATEGORY["C"]
-        grid = (cat == CATEGORY["A"]) | (cat == CATEGORY["B"])
-        label = np.where(grid, lab0.ravel()[s], proxy["label.id"]).astype(np.uint32, copy=False)
-        with np.errstate(divide="ignore"):
-            zg = np.where(wg > 0, 1.0 / np.where(wg > 0, wg, 1.0), np.inf)
-        Z = np.where(grid, zg, proxy["Z"]).astype(np.float32, copy=False)
-        P = kr.unproject(np.where(grid, Z, np.inf).astype(np.float32, copy=False), np.ascontiguousarray(cam1.camera_to_world), k1)
-        ch = {"label.id": label, "Z": Z, "category": cat}
-        for k, a in enumerate("XYZ"):
-            pp = "P." + a
-            base = proxy[pp] if pp in proxy else np.zeros(proxy.shape, np.float32)
-            ch[pp] = np.where(grid & np.isfinite(Z), P[..., k], base).astype(np.float32, copy=False)
+        stale = (kr.stale_winners(wg, src, wp1, on_proxy0, keep, p.stale_tolerance) if p.stale
+                 else np.zeros(keep.shape, bool))
+        zero = np.zeros(proxy.shape, np.float32)
+        base = [np.ascontiguousarray(proxy[c], np.float32) if c in proxy else zero for c in ("P.X", "P.Y", "P.Z")]
+        cat, label, Z, X, Y, Zw, gone = kr.classify(
+            src, wg, wp1, stale, np.ascontiguousarray(occluded0, np.bool_), lab0,
+            np.ascontiguousarray(proxy["label.id"], np.uint32), np.ascontiguousarray(proxy["Z"], np.float32), *base,
+            np.ascontiguousarray(cam1.camera_to_world, np.float64), k1, float(tol))
+        if gone.any():
+            ctx.note(f"{int(gone.sum())} pixels of stale grid (on the proxy at the first frame, in front of it "
+                     "now: a moving object) left to the proxy")
+        ch = {"label.id": label, "Z": Z, "category": cat, "P.X": X, "P.Y": Y, "P.Z": Zw}
         for c in ("N.X", "N.Y", "N.Z", "object.id"):
             if c in proxy:
                 ch[c] = proxy[c]
-        counts = {k: int((cat == v).sum()) for k, v in CATEGORY.items()}
+        n = np.bincount(cat.ravel(), minlength=len(CATEGORY) + 1)
+        counts = {k: int(n[v]) for k, v in CATEGORY.items()}
         ctx.note("categories " + ", ".join(f"{k} {100.0 * n / cat.size:.1f}%" for k, n in counts.items()))
         meta = dict(proxy.meta)
         meta["consistent_depth"] = {"categories": counts, "first_frame": cam0.frame}
