@@ -133,18 +133,23 @@ def _lanczos(img, sx, sy, table, out):
 
 
 @njit(**PJIT)
-def _lanczos_rgb(img, rgbx, sx, sy, table, out):
+def _lanczos_rgb(img, rgbx, sx, sy, table, mask, out):
     """``_lanczos`` of a colour image read from a float64 copy with its channels padded
     to four (``rgbx``, (M, N, 4): no conversion per tap, aligned pixels) and the
     Lanczos-4 taps unrolled; every sum in ``_lanczos``'s order (bit-identical output,
-    about a third faster on a 1024² read)."""
+    about a third faster on a 1024² read). Pixels where ``mask`` (when not empty) is
+    False are 0, not read."""
     h, w, c = img.shape
     oh, ow = sx.shape
     bins = table.shape[0] - 1
     n = table.shape[1]
     a = n // 2
+    masked = mask.size > 0
     for i in prange(oh):
         for j in range(ow):
+            if masked and not mask[i, j]:
+                out[i, j, 0] = out[i, j, 1] = out[i, j, 2] = 0.0
+                continue
             xs, bx = _tap_start(np.float64(sx[i, j]), w, bins, a)
             ys, by = _tap_start(np.float64(sy[i, j]), h, bins, a)
             if bx == 0 and by == 0:
@@ -190,7 +195,8 @@ def _nearest(img, sx, sy, out):
 FILTERS = ("bilinear", "lanczos3", "lanczos4")
 
 
-def lookup(image: np.ndarray, sx: np.ndarray, sy: np.ndarray, *, filter: str = "bilinear") -> np.ndarray:
+def lookup(image: np.ndarray, sx: np.ndarray, sy: np.ndarray, *, filter: str = "bilinear",
+           mask: np.ndarray | None = None) -> np.ndarray:
     """Sample ``image`` at source positions ``(sx, sy)``.
 
     Parameters
@@ -206,6 +212,8 @@ def lookup(image: np.ndarray, sx: np.ndarray, sy: np.ndarray, *, filter: str = "
         at integer positions; ``lanczos3`` / ``lanczos4`` (windowed sinc, 6×6 / 8×8 taps, phases to 1/4096
         pixel, clamp-to-edge) keeps the fine detail that bilinear blurs at fractional
         positions, at the cost of a slight ringing next to hard edges.
+    mask : (P, Q) bool ndarray, optional
+        Only these pixels are read; the others are 0.
 
     Returns
     -------
@@ -233,11 +241,15 @@ def lookup(image: np.ndarray, sx: np.ndarray, sy: np.ndarray, *, filter: str = "
             # many reads of a colour image: pad it to four float64 channels once (vector sums)
             rgbx = np.zeros(img.shape[:2] + (4,), np.float64)
             rgbx[..., :3] = img
-            _lanczos_rgb(img, rgbx, sx, sy, _LANCZOS[filter], out)
+            m = np.zeros((0, 0), np.bool_) if mask is None else np.ascontiguousarray(mask, np.bool_)
+            _lanczos_rgb(img, rgbx, sx, sy, _LANCZOS[filter], m, out)
+            mask = None  # applied
         elif filter in _LANCZOS:
             _lanczos(img, sx, sy, _LANCZOS[filter], out)
         else:
             _bilinear(img, sx, sy, out)
+    if mask is not None:
+        out[~np.asarray(mask, bool)] = 0
     return out[..., 0] if flat else out
 
 

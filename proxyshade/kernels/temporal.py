@@ -236,3 +236,54 @@ def components4(mask):
                         stack[top] = a * w + b
                         top += 1
     return lab, boxes[:n].copy()
+
+
+@njit(**PJIT)
+def keep_carried(flag, reanchored, D, ext, sx, sy, patch, rgb, res, correct):
+    """What a carried pixel keeps, by its flag (0: kept whole; ``reanchored``: its new map,
+    not its old correction; any other: nothing, resynthesized), in one pass.
+
+    With ``correct`` (the colour is the source read through the map plus the carried
+    correction ``res``): colour = ``rgb`` + ``res`` where kept whole, ``rgb`` where
+    re-anchored; without, colour = ``res`` (the previous colour) where kept. Returns
+    planar R, G, B, source.x, source.y, patch.id, distortion (kept whole only),
+    extension and the three correction planes (0 where not kept whole), all (H, W)."""
+    h, w = flag.shape
+    R = np.zeros((h, w), np.float32)
+    G = np.zeros((h, w), np.float32)
+    B = np.zeros((h, w), np.float32)
+    osx = np.zeros((h, w), np.float32)
+    osy = np.zeros((h, w), np.float32)
+    opatch = np.zeros((h, w), np.uint32)
+    oD = np.zeros((h, w), np.float32)
+    oext = np.zeros((h, w), np.float32)
+    c0 = np.zeros((h, w), np.float32)
+    c1 = np.zeros((h, w), np.float32)
+    c2 = np.zeros((h, w), np.float32)
+    for i in prange(h):
+        for j in range(w):
+            f = flag[i, j]
+            if f != 0 and f != reanchored:
+                continue
+            osx[i, j] = sx[i, j]
+            osy[i, j] = sy[i, j]
+            opatch[i, j] = patch[i, j]
+            oext[i, j] = ext[i, j]
+            if not correct:
+                R[i, j] = res[i, j, 0]
+                G[i, j] = res[i, j, 1]
+                B[i, j] = res[i, j, 2]
+            elif f == 0:
+                c0[i, j] = res[i, j, 0]
+                c1[i, j] = res[i, j, 1]
+                c2[i, j] = res[i, j, 2]
+                R[i, j] = rgb[i, j, 0] + res[i, j, 0]
+                G[i, j] = rgb[i, j, 1] + res[i, j, 1]
+                B[i, j] = rgb[i, j, 2] + res[i, j, 2]
+            else:  # + 0: the dropped correction (-0.0 reads as 0.0, as it did with it)
+                R[i, j] = rgb[i, j, 0] + np.float32(0.0)
+                G[i, j] = rgb[i, j, 1] + np.float32(0.0)
+                B[i, j] = rgb[i, j, 2] + np.float32(0.0)
+            if f == 0:
+                oD[i, j] = D[i, j]
+    return R, G, B, osx, osy, opatch, oD, oext, c0, c1, c2

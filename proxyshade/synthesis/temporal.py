@@ -306,23 +306,17 @@ def carry(cd: Plate, prev: Plate | None, first: Plate | None, source: Plate, p, 
         flag[:] = FLAG["disoccluded"]
     # re-anchored patches keep their (new) map; their old Poisson correction no longer fits
     keep = (flag == 0) | (flag == FLAG["reanchored"])
-    D = np.where(flag == 0, D, 0.0).astype(np.float32, copy=False)
-    ext = np.where(keep, ext, 0.0).astype(np.float32, copy=False)
-    if p.colour == "map":
-        res = np.where((flag == 0)[..., None], res, 0.0).astype(np.float32, copy=False)
-        rgb = lookup(src_rgb, sx, sy, filter=p.filter) + res
-    else:
-        rgb = res
-    rgb = np.where(keep[..., None], rgb, 0.0).astype(np.float32, copy=False)
-    sx = np.where(keep, sx, 0.0).astype(np.float32, copy=False)
-    sy = np.where(keep, sy, 0.0).astype(np.float32, copy=False)
-    patch = np.where(keep, patch, 0).astype(np.uint32, copy=False)
-    counts = {k: float((flag == v).mean()) for k, v in FLAG.items() if v}
+    correct = p.colour == "map"
+    rgb = lookup(src_rgb, sx, sy, filter=p.filter, mask=keep) if correct else res
+    R, G, B, sx, sy, patch, D, ext, *corr = kt.keep_carried(
+        flag, FLAG["reanchored"], D.astype(np.float32, copy=False), ext, sx, sy, patch, rgb, res, correct)
+    n = np.bincount(flag.ravel(), minlength=max(FLAG.values()) + 1) / flag.size
+    counts = {k: float(n[v]) for k, v in FLAG.items() if v}
     note(f"flagged {100 * share:.2f}%: " + ", ".join(f"{k} {100 * s:.2f}%" for k, s in counts.items()))
-    ch = {"R": rgb[..., 0].copy(), "G": rgb[..., 1].copy(), "B": rgb[..., 2].copy(), "source.x": sx,
-          "source.y": sy, "patch.id": patch, "distortion": D, "extension": ext, "flag": flag}
-    if p.colour == "map":
-        ch.update({c: res[..., k].copy() for k, c in enumerate(CORRECTION)})
+    ch = {"R": R, "G": G, "B": B, "source.x": sx, "source.y": sy, "patch.id": patch, "distortion": D,
+          "extension": ext, "flag": flag}
+    if correct:
+        ch.update(zip(CORRECTION, corr))
     ch.update(geo)
     meta = _carried_meta(prev, cd)
     meta["temporal"] = dict(counts, flagged=float((flag > 0).mean()), cut=bool(cut), frame=int(frame),

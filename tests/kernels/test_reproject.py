@@ -393,3 +393,47 @@ def test_inverse_depth_is_the_reciprocal_with_inf_as_zero(dtype):
     assert got.dtype == np.float64
     assert np.array_equal(got, want, equal_nan=True)
     assert np.array_equal(K.inverse_depth(Z[0]), want[0], equal_nan=True)  # 1-D: numpy
+
+
+# -- classify (ConsistentDepth's pixel kinds) ----------------------------------
+def test_classify_matches_numpy_reference():
+    """Each pixel's kind, label, depth and world position, against the plain array
+    expressions of §6.1's four cases."""
+    rng = np.random.default_rng(3)
+    h, w, h0, w0 = 13, 17, 9, 11
+    src = rng.integers(-1, h0 * w0, (h, w)).astype(np.int64)
+    wg = np.where(src >= 0, rng.uniform(0.01, 2.0, (h, w)), -1.0)
+    wg[0, :3] = 0.0  # drawn at infinity
+    wp1 = rng.uniform(0.0, 2.0, (h, w))
+    stale = rng.random((h0, w0)) < 0.2
+    occ0 = rng.random((h0, w0)) < 0.5
+    lab0 = rng.integers(1, 5, (h0, w0)).astype(np.uint32)
+    plab = rng.integers(1, 5, (h, w)).astype(np.uint32)
+    pZ = rng.uniform(1, 9, (h, w)).astype(np.float32)
+    pP = [rng.normal(size=(h, w)).astype(np.float32) for _ in range(3)]
+    c = cam(width=w, height=h, pos=(0.1, 0.2, 0.3), yaw=0.2)
+    k = K.intrinsics(c)
+    C = np.ascontiguousarray(c.camera_to_world, np.float64)
+    tol = 0.1
+    cat, lab, Z, X, Y, W, gone = K.classify(src, wg, wp1, stale, occ0, lab0, plab, pZ, *pP, C, k, tol)
+
+    drawn = src >= 0
+    s = np.where(drawn, src, 0)
+    dropped = drawn & stale.ravel()[s]
+    covered = drawn & ~dropped
+    behind = covered & (wp1 > wg * (1.0 + tol))
+    want = np.full((h, w), 4)
+    want[covered & ~behind] = 1
+    want[behind & occ0.ravel()[s]] = 2
+    want[behind & ~occ0.ravel()[s]] = 3
+    grid = want <= 2
+    with np.errstate(divide="ignore"):
+        zg = np.where(wg > 0, 1.0 / np.where(wg > 0, wg, 1.0), np.inf)
+    wantZ = np.where(grid, zg, pZ).astype(np.float32)
+    P = K.unproject(np.where(grid, wantZ, np.inf).astype(np.float32), C, k)
+    assert np.array_equal(cat, want)
+    assert np.array_equal(lab, np.where(grid, lab0.ravel()[s], plab))
+    assert np.array_equal(Z, wantZ)
+    for m, got in enumerate((X, Y, W)):
+        assert np.array_equal(got, np.where(grid & np.isfinite(wantZ), P[..., m], pP[m]))
+    assert gone.sum() == dropped.sum()

@@ -113,3 +113,27 @@ def test_map_deviation_matches_reference():
             if idn != iu:
                 J[:, 1] = [(sx[idn, j] - sx[iu, j]) / (idn - iu) / 2, (sy[idn, j] - sy[iu, j]) / (idn - iu) / 2]
             assert got[i, j] == pytest.approx(np.linalg.norm(J - np.eye(2)), rel=1e-5, abs=1e-6)
+
+
+@pytest.mark.parametrize("correct", [True, False])
+def test_keep_carried_matches_numpy_reference(correct):
+    """What a carried pixel keeps by its flag, against the plain array expressions."""
+    rng = np.random.default_rng(5)
+    h, w, RE = 11, 14, 4
+    flag = rng.choice(np.array([0, 0, 0, 1, 2, 3, RE], np.uint32), (h, w))
+    f32 = lambda *s: rng.normal(size=s).astype(np.float32)
+    D, ext, sx, sy = f32(h, w), f32(h, w), f32(h, w), f32(h, w)
+    patch = rng.integers(0, 50, (h, w)).astype(np.uint32)
+    rgb, res = f32(h, w, 3), f32(h, w, 3)
+    R, G, B, osx, osy, op, oD, oext, *corr = T.keep_carried(flag, RE, D, ext, sx, sy, patch, rgb, res, correct)
+    whole = flag == 0
+    keep = whole | (flag == RE)
+    r = np.where(whole[..., None], res, 0.0).astype(np.float32)
+    col = np.where(keep[..., None], rgb + r if correct else res, 0.0)
+    for k, got in enumerate((R, G, B)):
+        assert np.array_equal(got, col[..., k])
+    for got, a in ((osx, sx), (osy, sy), (op, patch), (oext, ext)):
+        assert np.array_equal(got, np.where(keep, a, 0))
+    assert np.array_equal(oD, np.where(whole, D, 0))
+    for k, got in enumerate(corr):
+        assert np.array_equal(got, r[..., k] if correct else np.zeros((h, w)))
