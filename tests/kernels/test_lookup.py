@@ -131,3 +131,15 @@ def test_many_colour_reads_take_the_padded_kernel_bit_identically(filt):
             a = 3 if filt == "lanczos3" else 4
             np.testing.assert_allclose(got[i, j], _lanczos_reference(img, float(sx[i, j]), float(sy[i, j]), a),
                                        atol=2e-3)
+
+
+@pytest.mark.parametrize("filter", ["bilinear", "lanczos4"])
+def test_mask_reads_only_masked_pixels(filter):
+    """``mask=``: the masked pixels are the plain lookup's, the others 0 (the colour
+    fast path, where the output is larger than the image, and the general one)."""
+    rng = np.random.default_rng(2)
+    img = rng.random((9, 12, 3)).astype(np.float32)
+    sx, sy = rng.uniform(-1, 12, (20, 21)), rng.uniform(-1, 9, (20, 21))
+    m = rng.random((20, 21)) < 0.6
+    got = lookup(img, sx, sy, filter=filter, mask=m)
+    assert np.array_equal(got, np.where(m[..., None], lookup(img, sx, sy, filter=filter), 0))
