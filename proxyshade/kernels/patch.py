@@ -18,9 +18,9 @@ patch ids (used to resynthesize flagged pixels of a later frame).
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
-from proxyshade.kernels._config import JIT, PJIT
+from proxyshade.kernels._config import JIT
 from proxyshade.kernels.random import permutation
 from proxyshade.kernels.features import NB2, chamfer_masks, dist_sq_D, gather_target
 
@@ -35,35 +35,71 @@ def _eq1(src_dist, src_masks, y, x, tD, tmask, w, bound):
     return dd + w * chamfer_masks(src_masks[y, x], tmask)
 
 
-@njit(**PJIT)
-def _best_match(cands, src_dist, src_masks, tD, tmask, w, nchunks):
-    """Exhaustive argmin of eq. 1 over ``cands`` (flat exemplar indices), in parallel
-    chunks; ties go to the earlier candidate whatever the thread count."""
-    n = cands.shape[0]
+@njit(**JIT)
+def _mask_hash(m):
+    """64-bit hash of a window's label masks (FNV-1a over the words)."""
+    h = np.uint64(14695981039346656037)
+    for l in range(m.shape[0]):
+        h = (h ^ np.uint64(m[l])) * np.uint64(1099511628211)
+    return h
+
+
+@njit(**JIT)
+def _best_match(cands, src_dist, src_masks, tD, tmask, w, bound, c0, same_window):
+    """Argmin of eq. 1 over ``cands`` (ascending flat exemplar indices), ties to the
+    lowest index, from ``bound``, eq. 1 at candidate ``c0`` (inf and −1 when none is
+    known): candidates stop after the first row of the 5×5 window that exceeds the best.
+    With ``same_window`` only the candidates whose label masks equal the target's are
+    taken (the others are hash collisions of ``_window_groups``)."""
     W = src_dist.shape[1]
-    best_d = np.full(nchunks, np.inf)
-    best_i = np.full(nchunks, -1, np.int64)
-    step = (n + nchunks - 1) // nchunks
-    for ch in prange(nchunks):
-        bd = np.inf
-        bi = -1
-        for t in range(ch * step, min((ch + 1) * step, n)):
-            c = cands[t]
-            d = _eq1(src_dist, src_masks, c // W, c % W, tD, tmask, w, bd)
-            if d < bd:
-                bd = d
-                bi = c
-                if bd == 0.0:  # nothing later in this chunk can win a tie
+    n = tmask.shape[0]
+    bd = bound
+    bi = c0
+    for t in range(cands.shape[0]):
+        c = cands[t]
+        if bd == 0.0 and c > bi:  # only a tie could win, and ties go to the lowest index
+            break
+        y = c // W
+        x = c % W
+        if same_window:
+            same = True
+            for l in range(n):
+                if src_masks[y, x, l] != tmask[l]:
+                    same = False
                     break
-        best_d[ch] = bd
-        best_i[ch] = bi
-    bd = np.inf
-    bi = -1
-    for ch in range(nchunks):
-        if best_d[ch] < bd:
-            bd = best_d[ch]
-            bi = best_i[ch]
+            if not same:
+                continue
+        d = _eq1(src_dist, src_masks, y, x, tD, tmask, w, bd)
+        if d < bd or (d == bd and c < bi):
+            bd = d
+            bi = c
     return bi, bd
+
+
+@njit(**JIT)
+def _continued_bound(src_lab, src_dist, src_masks, tgt_lab, free, S, i, j, tD, tmask, w):
+    """eq. 1 of the best continuation at target (i, j) of a covered 4-neighbour's
+    translation that lands on an exemplar pixel of (i, j)'s label (the lowest index
+    among equals), as (distance, flat index); (inf, −1) when there is none."""
+    Ht, Wt = tgt_lab.shape
+    He, We = src_lab.shape
+    bd = np.inf
+    bc = -1
+    for k in range(4):
+        ii = i + (k == 1) - (k == 0)
+        jj = j + (k == 3) - (k == 2)
+        if ii < 0 or ii >= Ht or jj < 0 or jj >= Wt or free[ii, jj]:
+            continue
+        y = S[ii, jj, 0] + i - ii
+        x = S[ii, jj, 1] + j - jj
+        if y < 0 or y >= He or x < 0 or x >= We or src_lab[y, x] != tgt_lab[i, j]:
+            continue
+        c = y * We + x
+        d = _eq1(src_dist, src_masks, y, x, tD, tmask, w, np.inf)
+        if d < bd or (d == bd and c < bc):
+            bd = d
+            bc = c
+    return bd, bc
 
 
 @njit(**JIT)
@@ -131,10 +167,90 @@ def _label_lists(src_lab, n):
 
 
 @njit(**JIT)
+def _window_groups(src_masks, starts, lists):
+    """Each label's candidates ordered by the hash of their label masks (``_mask_hash``;
+    by index among equal hashes), windows alike side by side: (flat indices, hashes,
+    the end of each position's run of equal hashes, whether the run's masks are all
+    equal (no hash collision))."""
+    We = src_masks.shape[1]
+    n = src_masks.shape[2]
+    grouped = lists.copy()
+    hashes = np.empty(lists.shape[0], np.uint64)
+    for l in range(starts.shape[0] - 1):
+        a, b = starts[l], starts[l + 1]
+        h = np.empty(b - a, np.uint64)
+        for t in range(b - a):
+            c = lists[a + t]
+            h[t] = _mask_hash(src_masks[c // We, c % We])
+        o = np.argsort(h, kind="mergesort")
+        for t in range(b - a):
+            grouped[a + t] = lists[a + o[t]]
+            hashes[a + t] = h[o[t]]
+    end = np.empty(lists.shape[0], np.int64)
+    uniform = np.ones(lists.shape[0], np.bool_)
+    for l in range(starts.shape[0] - 1):
+        r = starts[l]
+        while r < starts[l + 1]:
+            e = r + 1
+            while e < starts[l + 1] and hashes[e] == hashes[r]:
+                e += 1
+            c0 = grouped[r]
+            for t in range(r + 1, e):
+                c = grouped[t]
+                for k in range(n):
+                    if src_masks[c // We, c % We, k] != src_masks[c0 // We, c0 % We, k]:
+                        uniform[r] = False
+            end[r] = e
+            r = e
+    return grouped, hashes, end, uniform
+
+
+@njit(**JIT)
+def _best_by_window(grouped, end, uniform, a, b, src_dist, src_masks, tD, tmask, w, bound, c0):
+    """``_best_match`` over every candidate grouped[a:b], a run of alike windows at a
+    time: the run's Chamfer term is computed once, and a run whose term alone exceeds
+    the best is skipped whole (eq. 1 is at least its Chamfer term). The same answer as
+    the candidate-by-candidate scan."""
+    W = src_dist.shape[1]
+    bd = bound
+    bi = c0
+    r = a
+    while r < b:
+        e = end[r]
+        if not uniform[r]:  # a hash collision: candidate by candidate
+            c, d = _best_match(grouped[r:e], src_dist, src_masks, tD, tmask, w, bd, bi, False)
+            bd, bi = d, c
+            r = e
+            continue
+        c = grouped[r]
+        wc = w * chamfer_masks(src_masks[c // W, c % W], tmask)
+        if wc <= bd:
+            # eq. 1 = dd + wc <= bd needs dd <= bd − wc: the D sums stop past that (with a
+            # margin far above rounding, so no tie is lost)
+            lim = (bd - wc) * (1.0 + 1e-9) + 1e-9
+            for t in range(r, e):
+                c = grouped[t]
+                if bd == 0.0 and c > bi:
+                    break
+                dsq = dist_sq_D(src_dist, 1, c // W, c % W, tD, lim * lim)
+                dd = np.sqrt(dsq)
+                if dd > lim:
+                    continue
+                d = dd + wc
+                if d < bd or (d == bd and c < bi):
+                    bd = d
+                    bi = c
+                    lim = (bd - wc) * (1.0 + 1e-9) + 1e-9
+        r = e
+    return bi, bd
+
+
+@njit(**JIT)
 def _flood_fill(src_lab, src_dist, src_masks, tgt_lab, tgt_dist, tgt_masks, order, free, S, patch, first_id,
-                w, thr_scale, thr_offset, nchunks):
+                w, thr_scale, thr_offset):
     n = src_masks.shape[2]
     starts, lists = _label_lists(src_lab, n)
+    grouped, hashes, end, uniform = _window_groups(src_masks, starts, lists)
     Ht, Wt = tgt_lab.shape
     queue = np.empty(Ht * Wt, np.int64)
     stamp = np.zeros((Ht, Wt), np.int64)
@@ -152,7 +268,19 @@ def _flood_fill(src_lab, src_dist, src_masks, tgt_lab, tgt_dist, tgt_masks, orde
         if cands.shape[0] == 0:
             return -1 - l  # the exemplar lacks this label
         gather_target(tgt_dist, i, j, tD)
-        c, best = _best_match(cands, src_dist, src_masks, tD, tgt_masks[i, j], w, nchunks)
+        b0, c0 = _continued_bound(src_lab, src_dist, src_masks, tgt_lab, free, S, i, j, tD, tgt_masks[i, j], w)
+        # the candidates with the target's window of labels first (Chamfer term 0; every
+        # other candidate's is at least 1, integer distances): when one is closer than
+        # w, it is the exhaustive answer; otherwise every candidate is searched
+        tmask = tgt_masks[i, j]
+        hs = hashes[starts[l]:starts[l + 1]]
+        th = _mask_hash(tmask)
+        g0 = starts[l] + np.searchsorted(hs, th)
+        g1 = starts[l] + np.searchsorted(hs, th, side="right")
+        c, best = _best_match(grouped[g0:g1], src_dist, src_masks, tD, tmask, w, b0, c0, True)
+        if best >= w:
+            c, best = _best_by_window(grouped, end, uniform, starts[l], starts[l + 1], src_dist, src_masks, tD, tmask,
+                                      w, best, c)
         We = src_lab.shape[1]
         oy = c // We - i
         ox = c % We - j
@@ -166,7 +294,7 @@ def _flood_fill(src_lab, src_dist, src_masks, tgt_lab, tgt_dist, tgt_masks, orde
 def flood_fill(src_lab: np.ndarray, src_dist: np.ndarray, src_masks: np.ndarray, tgt_lab: np.ndarray,
                tgt_dist: np.ndarray, tgt_masks: np.ndarray, *, seed: int, w: float,
                threshold_scale: float, threshold_offset: float, mask: np.ndarray | None = None,
-               S: np.ndarray | None = None, patch: np.ndarray | None = None, chunks: int = 16):
+               S: np.ndarray | None = None, patch: np.ndarray | None = None):
     """Cover the guide with patches of the exemplar.
 
     Parameters
@@ -207,7 +335,7 @@ def flood_fill(src_lab: np.ndarray, src_dist: np.ndarray, src_masks: np.ndarray,
     r = _flood_fill(np.ascontiguousarray(src_lab, np.int32), np.ascontiguousarray(src_dist, np.float32),
                     np.ascontiguousarray(src_masks), np.ascontiguousarray(tgt_lab, np.int32),
                     np.ascontiguousarray(tgt_dist, np.float32), np.ascontiguousarray(tgt_masks), order, free, S,
-                    patch, first, float(w), float(threshold_scale), float(threshold_offset), int(chunks))
+                    patch, first, float(w), float(threshold_scale), float(threshold_offset))
     if r < 0:
         raise ValueError(f"label index {-1 - r} of the guide has no pixel in the exemplar")
     return S, patch, r

@@ -41,15 +41,18 @@ def eq1(src_lab, src_dist, tgt_lab, tgt_dist, y, x, i, j, w):
     return np.sqrt(s) + w * chamfer(window(src_lab, y, x), window(tgt_lab, i, j))
 
 
-def flood_fill(src_lab, src_dist, tgt_lab, tgt_dist, order, w, ts, to):
+def flood_fill(src_lab, src_dist, tgt_lab, tgt_dist, order, w, ts, to, mask=None, S0=None, patch0=None):
+    """The paper's flood fill, candidate by candidate; with ``mask``, only masked pixels
+    are covered, the others keep ``S0`` and ``patch0``."""
     He, We = src_lab.shape
     Ht, Wt = tgt_lab.shape
-    S = np.zeros((Ht, Wt, 2), int)
-    patch = np.zeros((Ht, Wt), int)
-    pid = 0
+    free = np.ones((Ht, Wt), bool) if mask is None else mask.copy()
+    S = np.zeros((Ht, Wt, 2), int) if mask is None else S0.astype(int).copy()
+    patch = np.zeros((Ht, Wt), int) if mask is None else patch0.astype(int).copy()
+    pid = 0 if mask is None else int(patch0.max())
     for p in order:
         i, j = divmod(int(p), Wt)
-        if patch[i, j]:
+        if not free[i, j]:
             continue
         pid += 1
         best, bc = np.inf, None
@@ -74,11 +77,12 @@ def flood_fill(src_lab, src_dist, tgt_lab, tgt_dist, order, w, ts, to):
                 if eq1(src_lab, src_dist, tgt_lab, tgt_dist, y, x, a, b, w) > thr:
                     continue
             first = False
+            free[a, b] = False
             patch[a, b] = pid
             S[a, b] = (y, x)
             for da, db in ((-1, 0), (1, 0), (0, -1), (0, 1)):
                 q = (a + da, b + db)
-                if 0 <= q[0] < Ht and 0 <= q[1] < Wt and not patch[q] and q not in seen:
+                if 0 <= q[0] < Ht and 0 <= q[1] < Wt and free[q] and q not in seen:
                     seen.add(q)
                     queue.append(q)
     return S, patch

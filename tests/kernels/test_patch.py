@@ -44,15 +44,55 @@ def test_chamfer_masks_match_paper_definition():
         assert kf.chamfer_masks(ma, mb) == naive.chamfer(a, b)
 
 
+@pytest.mark.parametrize("w", [90.0, 1.5])  # 1.5: the alike-window shortcut rarely decides
 @pytest.mark.parametrize("seed", range(4))
-def test_flood_fill_matches_reference(seed):
+def test_flood_fill_matches_reference(seed, w):
+    """The kernel's search (alike windows first, runs of alike windows skipped by their
+    Chamfer term, a neighbour's continuation as a head start) finds the exhaustive
+    argmin of eq. 1, ties to the lowest exemplar index: the same patches as the paper's
+    candidate-by-candidate search."""
     src, tgt = case(seed)
-    sd, td, (S, patch, npatch) = run_kernel(src, tgt, 3, seed)
+    sd, td, (S, patch, npatch) = run_kernel(src, tgt, 3, seed, w=w)
     order = permutation(seed, tgt.size)
-    S_ref, patch_ref = naive.flood_fill(src, sd, tgt, td, order, 90.0, 1.25, 5.0)
+    S_ref, patch_ref = naive.flood_fill(src, sd, tgt, td, order, w, 1.25, 5.0)
     assert np.array_equal(patch, patch_ref)
     assert np.array_equal(S, S_ref)
     assert npatch == patch.max()
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_masked_flood_fill_matches_reference(seed):
+    """Re-covering a mask next to kept patches (the update frame's case, where the kept
+    neighbours' continuations start the search) gives the reference's patches."""
+    src, tgt = case(seed + 20)
+    sd, td, (S, patch, n0) = run_kernel(src, tgt, 3, seed)
+    rng = np.random.default_rng(seed)
+    mask = rng.random(tgt.shape) < 0.3
+    _, _, (S2, patch2, _) = run_kernel(src, tgt, 3, seed + 5, mask=mask, S=S, patch=patch)
+    order = permutation(seed + 5, tgt.size)
+    S_ref, patch_ref = naive.flood_fill(src, sd, tgt, td, order, 90.0, 1.25, 5.0, mask=mask, S0=S, patch0=patch)
+    assert np.array_equal(S2, S_ref)
+    assert np.array_equal(patch2, patch_ref)
+
+
+def test_window_runs_with_a_hash_collision_are_searched_one_by_one():
+    """A run of equal hashes whose masks differ (a collision, forced here by marking every
+    run non-uniform) is searched candidate by candidate: the same argmin."""
+    src, tgt = case(4)
+    n = 3
+    sd = np.minimum(contour_distance(src), 4.0).astype(np.float32)
+    td = np.minimum(contour_distance(tgt), 4.0).astype(np.float32)
+    sm, tm = kf.window_masks(src, 1, n), kf.window_masks(tgt, 1, n)
+    starts, lists = kpatch._label_lists(src, n)
+    grouped, _, end, uniform = kpatch._window_groups(sm, starts, lists)
+    tD = np.empty(25, np.float32)
+    for i, j in [(0, 0), (4, 5), (8, 9), (3, 7)]:
+        l = tgt[i, j]
+        kf.gather_target(td, i, j, tD)
+        args = (grouped, end, uniform, starts[l], starts[l + 1], sd, sm, tD, tm[i, j], 90.0, np.inf, -1)
+        want = kpatch._best_match(lists[starts[l]:starts[l + 1]], sd, sm, tD, tm[i, j], 90.0, np.inf, -1, False)
+        assert kpatch._best_by_window(*args) == want
+        assert kpatch._best_by_window(*args[:2], np.zeros_like(uniform), *args[3:]) == want
 
 
 def test_patches_are_connected_translations_with_the_guide_labels():
