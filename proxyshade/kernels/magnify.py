@@ -114,7 +114,7 @@ def _front_steps(S, ok, guide, srclab, ii, jj, max_steps):
 
 
 def repair_labels(S: np.ndarray, guide: np.ndarray, srclab: np.ndarray, *, max_steps: int = 64,
-                  nearest: bool = True) -> tuple[np.ndarray, dict]:
+                  nearest: bool = True, sites_of=None) -> tuple[np.ndarray, dict]:
     """Move pixels whose source label differs from the guide's onto the right label.
 
     Parameters
@@ -122,6 +122,9 @@ def repair_labels(S: np.ndarray, guide: np.ndarray, srclab: np.ndarray, *, max_s
     S : (M, N, 2) int row/column into ``srclab``.
     guide : (M, N) int labels wanted; srclab : (Hs, Ws) int labels of the source grid.
     max_steps : front-growth steps before the nearest-source-pixel fallback.
+    sites_of : callable, optional
+        ``sites_of(label)``: ``distance.nearest_site(srclab == label)`` (a caller may
+        keep them between calls on one ``srclab``); computed here by default.
 
     Returns the repaired map and counts {"wrong", "extended", "nearest", "left"}.
     """
@@ -131,18 +134,26 @@ def repair_labels(S: np.ndarray, guide: np.ndarray, srclab: np.ndarray, *, max_s
     ok = np.empty(guide.shape, np.bool_)
     wrong = int(_label_ok(S, guide, srclab, ok))
     ii, jj = np.nonzero(~ok)
-    extended = int(_front_steps(S, ok, guide, srclab, ii.astype(np.int64), jj.astype(np.int64), int(max_steps)))
+    ii, jj = ii.astype(np.int64), jj.astype(np.int64)
+    extended = int(_front_steps(S, ok, guide, srclab, ii.copy(), jj.copy(), int(max_steps)))
     near = 0
     if nearest and extended < wrong:
-        for lab in np.unique(guide[~ok]):
-            sel = ~ok & (guide == lab)
-            sites = srclab == lab
-            if not sites.any():
+        left = ~ok[ii, jj]  # the wrong pixels the fronts did not reach, in scan order
+        ii, jj = ii[left], jj[left]
+        g = guide[ii, jj]
+        for lab in np.unique(g):
+            if sites_of is None:
+                sites = srclab == lab
+                ft = nearest_site(sites) if sites.any() else None
+            else:
+                ft = sites_of(int(lab))
+            if ft is None:
                 continue
-            ft = nearest_site(sites)
-            y = np.clip(S[sel][:, 0], 0, srclab.shape[0] - 1)
-            x = np.clip(S[sel][:, 1], 0, srclab.shape[1] - 1)
-            S[sel] = ft[y, x]
-            ok[sel] = True
-            near += int(sel.sum())
+            m = g == lab
+            a, b = ii[m], jj[m]
+            y = np.clip(S[a, b, 0], 0, srclab.shape[0] - 1)
+            x = np.clip(S[a, b, 1], 0, srclab.shape[1] - 1)
+            S[a, b] = ft[y, x]
+            ok[a, b] = True
+            near += int(m.sum())
     return S, {"wrong": wrong, "extended": extended, "nearest": near, "left": wrong - extended - near}

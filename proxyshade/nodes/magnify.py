@@ -53,7 +53,7 @@ class Magnify(Node):
         table = L.source_table(source)
         g = L.dense_guide(guide["label.id"], table)
         S = np.stack([source_to_grid(synth["source.y"], F), source_to_grid(synth["source.x"], F)], -1)
-        wl = L.working_labels(L.source_dense(source, table), scale, len(table))
+        wl = L.source_working_labels(source, table, scale)
         sx, sy, patch, npatch, rep = magnify_map(S.astype(np.int32), f, (Ho, Wo), scale=scale,
                                                  target=g if ctx.p.repair else None, labels=wl)
         if ctx.p.repair:

@@ -9,6 +9,9 @@ import numpy as np
 from proxyshade.errors import NodeInputError
 from proxyshade.graph.plate import Plate
 from proxyshade.kernels import features as kf
+from proxyshade.synthesis.memo import ArrayMemo
+
+_WORKING = ArrayMemo(2)  # the source labels on the output grid, for the newest sources
 
 
 def source_table(source: Plate) -> np.ndarray:
@@ -65,3 +68,14 @@ def working_labels(source_dense: np.ndarray, scale: float, n: int) -> np.ndarray
         return np.ascontiguousarray(source_dense, np.int32)
     _, lab = kf.build_exemplar(np.zeros(source_dense.shape + (3,), np.float32), source_dense, scale, n)
     return lab
+
+
+def source_working_labels(source: Plate, table: np.ndarray, scale: float) -> np.ndarray:
+    """``working_labels`` of the source's own label map, kept for the frames of a run that
+    pass the same source (``memo.ArrayMemo``; read-only)."""
+    def compute():
+        lab = working_labels(source_dense(source, table), scale, len(table))
+        lab.flags.writeable = False
+        return lab
+
+    return _WORKING.get((source["label.id"], table), (float(scale),), compute)

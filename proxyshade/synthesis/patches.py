@@ -14,9 +14,13 @@ from types import SimpleNamespace
 import numpy as np
 
 from proxyshade.kernels import correct as kcorrect
+from proxyshade.kernels.distance import nearest_site
 from proxyshade.kernels import magnify as kmag
 from proxyshade.kernels import patch as kpatch
 from proxyshade.synthesis.exemplar import SynthesisSetup, grid_to_source
+from proxyshade.synthesis.memo import ArrayMemo
+
+_SITES = ArrayMemo(32)  # nearest source pixel of each label, per working-label grid
 
 
 def fill_patches(st: SynthesisSetup, fill: SimpleNamespace, *, seed: int, mask: np.ndarray | None = None,
@@ -71,9 +75,23 @@ def magnify_map(S: np.ndarray, factor: int, shape: tuple[int, int], *, scale: fl
         if only is not None:
             here = labels[np.clip(Sw[..., 0], 0, labels.shape[0] - 1), np.clip(Sw[..., 1], 0, labels.shape[1] - 1)]
             target = np.where(only, target, here)
-        Sw, rep = kmag.repair_labels(Sw, target, labels)
+        Sw, rep = kmag.repair_labels(Sw, target, labels, sites_of=lambda lab: nearest_sites(labels, lab))
     patch, npatch = patch_ids(Sw)
     return grid_to_source(Sw[..., 1], scale), grid_to_source(Sw[..., 0], scale), patch, npatch, rep
+
+
+def nearest_sites(labels: np.ndarray, lab: int) -> np.ndarray | None:
+    """``distance.nearest_site(labels == lab)`` (None where the label is absent), kept while
+    ``labels`` lives: the same working-label grid serves every frame of a run."""
+    def compute():
+        sites = labels == lab
+        if not sites.any():
+            return None
+        ft = nearest_site(sites)
+        ft.flags.writeable = False
+        return ft
+
+    return _SITES.get((labels,), int(lab), compute)
 
 
 def patch_ids(S: np.ndarray) -> tuple[np.ndarray, int]:

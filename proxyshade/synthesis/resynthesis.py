@@ -141,7 +141,7 @@ def _synthesize(img: Plate, source: Plate, p, redo: np.ndarray, f: int, scale: f
     lap("corrections")
     # magnify to the output size and repair labels against the detailed labels; only redo
     # pixels take the new map: the others are told the label they land on (nothing to repair)
-    wl = L.working_labels(L.source_dense(source, table), scale, n)
+    wl = L.source_working_labels(source, table, scale)
     sx_new, sy_new, new_patch, _, rep = magnify_map(S, f, (H, W), scale=scale, target=g, labels=wl, only=redo)
     base = np.uint32(int(img["patch.id"].max()) + 1)
     sx = np.where(redo, sx_new, img["source.x"]).astype(np.float32, copy=False)
