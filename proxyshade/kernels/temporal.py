@@ -287,3 +287,54 @@ def keep_carried(flag, reanchored, D, ext, sx, sy, patch, rgb, res, correct):
             if f == 0:
                 oD[i, j] = D[i, j]
     return R, G, B, osx, osy, opatch, oD, oext, c0, c1, c2
+
+
+@njit(**JIT)
+def area_perimeter(have, ids, n):
+    """Per id < n over the ``have`` pixels: area (pixels) and perimeter (edges to a pixel
+    of another id, a pixel not in ``have`` or the image border), both int64 (n,)."""
+    h, w = ids.shape
+    area = np.zeros(n, np.int64)
+    per = np.zeros(n, np.int64)
+    for i in range(h):
+        for j in range(w):
+            if not have[i, j]:
+                continue
+            p = ids[i, j]
+            area[p] += 1
+            for k in range(4):
+                a = i + (k == 2) - (k == 3)
+                b = j + (k == 0) - (k == 1)
+                if a < 0 or a >= h or b < 0 or b >= w or not have[a, b] or ids[a, b] != p:
+                    per[p] += 1
+    return area, per
+
+
+@njit(**JIT)
+def patch_mean(have, ids, values, n):
+    """Mean of ``values`` per id < n over the ``have`` pixels (summed in scan order, as
+    ``np.bincount`` does; 0 for ids with none), float64 (n,)."""
+    h, w = ids.shape
+    s = np.zeros(n, np.float64)
+    c = np.zeros(n, np.float64)
+    for i in range(h):
+        for j in range(w):
+            if have[i, j]:
+                s[ids[i, j]] += values[i, j]
+                c[ids[i, j]] += 1.0
+    for k in range(n):
+        s[k] /= max(c[k], 1.0)
+    return s
+
+
+@njit(**PJIT)
+def in_ids(have, ids, chosen):
+    """``have`` pixels whose id is chosen (``chosen`` (n,) bool; ids >= n are not)."""
+    h, w = ids.shape
+    n = chosen.shape[0]
+    out = np.zeros((h, w), np.bool_)
+    for i in prange(h):
+        for j in range(w):
+            p = ids[i, j]
+            out[i, j] = have[i, j] and p < n and chosen[p]
+    return out

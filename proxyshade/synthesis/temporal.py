@@ -74,16 +74,15 @@ def reanchor_distorted(have, patch, D, sx, sy, scale, threshold, spread, seed):
     translation at the synthesis scale) through its mean position and mean source
     position, so its texture stays where it was near its middle and the distortion is
     gone. Returns (distorted (H, W) bool, sx, sy)."""
-    ids = patch[have].astype(np.int64, copy=False)
-    if ids.size == 0:
+    if not have.any():
         return np.zeros(have.shape, bool), sx, sy
+    ids = np.ascontiguousarray(patch, np.int64)
     n = int(ids.max()) + 1
-    count = np.bincount(ids, minlength=n).astype(np.float64)
-    mean_d = np.bincount(ids, weights=D[have], minlength=n) / np.maximum(count, 1)
+    mean_d = kt.patch_mean(np.ascontiguousarray(have, np.bool_), ids, np.ascontiguousarray(D, np.float32), n)
     ids_all = np.arange(n, dtype=np.uint32)[None]
     bad = mean_d > patch_thresholds(ids_all, threshold, spread, seed)[0]
     bad[0] = False  # patch 0: no patch
-    distorted = have & bad[np.minimum(patch, n - 1)]
+    distorted = kt.in_ids(np.ascontiguousarray(have, np.bool_), ids, bad)
     if not distorted.any():
         return distorted, sx, sy
     ii, jj = np.nonzero(distorted)
@@ -104,14 +103,8 @@ def patch_width(have: np.ndarray, ids: np.ndarray, n: int) -> tuple[np.ndarray, 
     """(area, width) of each patch id < n over the ``have`` pixels: width = 2 × area /
     perimeter (edges to another patch, an unkept pixel or the image border): a strip's
     width, half a square's side."""
-    area = np.bincount(ids[have], minlength=n)
-    m = np.pad(np.where(have, ids, -1), 1, constant_values=-1)
-    h, w = ids.shape
-    per = np.zeros(n)
-    for di, dj in ((0, 1), (0, -1), (1, 0), (-1, 0)):
-        edge = have & (m[1 + di:1 + di + h, 1 + dj:1 + dj + w] != ids)
-        per += np.bincount(ids[edge], minlength=n)
-    return area, 2.0 * area / np.maximum(per, 1.0)
+    area, per = kt.area_perimeter(np.ascontiguousarray(have, np.bool_), np.ascontiguousarray(ids, np.int64), int(n))
+    return area, 2.0 * area / np.maximum(per.astype(np.float64), 1.0)
 
 
 def absorb_fragments(have, patch, lab, sx, sy, scale, min_area, src_lab, min_width=0.0):

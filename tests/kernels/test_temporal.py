@@ -137,3 +137,30 @@ def test_keep_carried_matches_numpy_reference(correct):
     assert np.array_equal(oD, np.where(whole, D, 0))
     for k, got in enumerate(corr):
         assert np.array_equal(got, r[..., k] if correct else np.zeros((h, w)))
+
+
+def test_area_perimeter_matches_numpy_reference():
+    """Per-id area and perimeter (edges to another id, an unkept pixel or the border)."""
+    rng = np.random.default_rng(9)
+    ids = rng.integers(0, 6, (15, 19))
+    have = rng.random((15, 19)) < 0.8
+    area, per = T.area_perimeter(have, ids, 6)
+    m = np.pad(np.where(have, ids, -1), 1, constant_values=-1)
+    want = np.zeros(6, int)
+    for di, dj in ((0, 1), (0, -1), (1, 0), (-1, 0)):
+        edge = have & (m[1 + di:1 + di + 15, 1 + dj:1 + dj + 19] != ids)
+        want += np.bincount(ids[edge], minlength=6)
+    assert np.array_equal(area, np.bincount(ids[have], minlength=6))
+    assert np.array_equal(per, want)
+
+
+def test_patch_mean_and_in_ids_match_numpy():
+    rng = np.random.default_rng(4)
+    ids = rng.integers(0, 7, (13, 11))
+    have = rng.random((13, 11)) < 0.7
+    v = rng.normal(size=(13, 11)).astype(np.float32)
+    count = np.bincount(ids[have], minlength=7)
+    want = np.bincount(ids[have], weights=v[have], minlength=7) / np.maximum(count, 1)
+    assert np.array_equal(T.patch_mean(have, ids, v, 7), want)
+    chosen = rng.random(5) < 0.5  # ids 5 and 6 lie past the table: not chosen
+    assert np.array_equal(T.in_ids(have, ids, chosen), have & np.append(chosen, [False, False])[ids])
