@@ -188,9 +188,9 @@ def _vars(items: List[str]) -> dict:
 @app.command()
 def nodes():
     """Every node type with its inputs, parameters and docs."""
-    import proxyshade.nodes  # noqa: F401
-    from proxyshade.graph.node import REGISTRY
+    from proxyshade.nodes import load_all
 
+    REGISTRY = load_all()
     for name in sorted(REGISTRY):
         cls = REGISTRY[name]
         out.print(f"[bold]{name}[/bold] (v{cls.version}{', time-dependent' if cls.time_dependent else ''}{', writes files' if cls.sink else ''}{', whole sequence' if cls.sequence else ''})")
