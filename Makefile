@@ -16,7 +16,9 @@ $(STAMP): pyproject.toml
 # The first frame of each bundled scene (EXR + previews in out/first_frame), the farm
 # scene composited with its CG house, shadow, fog and Cryptomatte (out/composite), and the
 # first 12 frames of the lake's temporally coherent camera move (out/camera_move).
+# 'proxyshade compile' first: numba compiles the kernels once into its cache, with progress.
 demo: $(STAMP)
+	$(VENV)/bin/proxyshade compile
 	$(VENV)/bin/proxyshade run graphs/first_frame.yaml --frames 1 --var scene=lake --var source=renoir
 	$(VENV)/bin/proxyshade run graphs/first_frame.yaml --frames 1 --var scene=cliffs --var source=monet
 	$(VENV)/bin/proxyshade run graphs/first_frame.yaml --frames 1 --var scene=farm --var source=creek

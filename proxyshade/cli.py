@@ -167,6 +167,22 @@ def run(
     _say(out, f"{computed} computed, {reused} reused in {report.wall:.3f} s, peak memory {report.peak_rss_mb:.0f} MiB")
 
 
+@app.command("compile")
+def compile_kernels(quiet: bool = typer.Option(False, "--quiet", "-q", help="no progress bars")):
+    """Compile the numba kernels into numba's cache: once after an install or upgrade (make
+    demo runs it first). Runs the demo graphs without their writers; their results stay in
+    the graphs' caches for the demo."""
+    from proxyshade.graph.warmup import warm_up
+
+    _say(err, "compiling the numba kernels: once after an install or upgrade, a minute or more on 2 cores")
+    with Progress(TextColumn("{task.description:<14}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
+                  console=err, disable=quiet or not err.is_terminal, transient=True) as progress:
+        hooks = _BarHooks(progress)
+        hooks.told_compiling = True
+        r = warm_up(hooks)
+    _say(out, f"kernels ready in {r['seconds']:.1f} s ({r['signatures']} kernel signatures in numba's cache)")
+
+
 def _vars(items: List[str]) -> dict:
     out = {}
     for item in items:
@@ -188,9 +204,9 @@ def _vars(items: List[str]) -> dict:
 @app.command()
 def nodes():
     """Every node type with its inputs, parameters and docs."""
-    import proxyshade.nodes  # noqa: F401
-    from proxyshade.graph.node import REGISTRY
+    from proxyshade.nodes import load_all
 
+    REGISTRY = load_all()
     for name in sorted(REGISTRY):
         cls = REGISTRY[name]
         out.print(f"[bold]{name}[/bold] (v{cls.version}{', time-dependent' if cls.time_dependent else ''}{', writes files' if cls.sink else ''}{', whole sequence' if cls.sequence else ''})")

@@ -3,6 +3,9 @@ sample), `source new`, a bundled scene rendered through the first-frame graph wi
 --var, scene labels mapped onto the photo's."""
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -69,3 +72,25 @@ def test_own_photo_through_source_new_and_a_bundled_scene(tmp_path, monkeypatch,
                "--var", "source=shoot/source.yaml", "--var", "out=renders", "--cache", "cache"])
     err = capsys.readouterr().err
     assert rc == 2 and "map them with the labels parameter" in err
+
+
+HEAVY = ("numba", "llvmlite", "pxr", "scipy", "colour")  # kernels, USD, colour science
+
+
+def test_a_cached_rerun_imports_no_kernels_usd_or_colour_science(tmp_path, monkeypatch):
+    """Item 9: an unchanged re-run answers from the cache in a fraction of a second, so it
+    must not load numba, USD or colour-science (about 0.5 s of imports): keys come from
+    the sources and, for the scene, from its files' hashes."""
+    monkeypatch.setenv("PROXYSHADE_CODE_CACHE", str(tmp_path / "code"))
+    monkeypatch.chdir(tmp_path)
+    args = ["run", str(ROOT / "graphs" / "first_frame.yaml"), "--frames", "1", "--var", "out=renders",
+            "--set", "proxy.resolution=[96,64]", "--set", "guide.size=32", "--set", "guide.start=16",
+            "--set", "init.factor=2", "--cache", str(tmp_path / "cache"), "-q"]
+    assert main(args) == 0  # fills the cache
+    code = ("import sys; from proxyshade.cli import main; rc = main(sys.argv[1:]); "
+            f"print(rc, sorted(m for m in {HEAVY!r} if m in sys.modules))")
+    r = subprocess.run([sys.executable, "-c", code, *args], capture_output=True, text=True, cwd=tmp_path,
+                       env={**os.environ, "PYTHONPATH": str(ROOT)}, timeout=120)
+    assert r.returncode == 0, r.stderr
+    assert "0 computed, 13 reused" in r.stdout
+    assert r.stdout.strip().splitlines()[-1] == "0 []"

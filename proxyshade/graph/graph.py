@@ -25,7 +25,6 @@ from pathlib import Path
 from typing import Any
 
 import networkx as nx
-import numba
 
 from proxyshade.errors import CycleError, GraphFileError, ParamError, UserError
 from proxyshade.graph import keys as K
@@ -39,7 +38,10 @@ from proxyshade.io.graphfile import load_graph
 
 def set_kernel_threads(threads: int) -> int:
     """Threads the numba kernels called from this thread use: ``threads`` (0: every one
-    numba has, ``NUMBA_NUM_THREADS``), at most that many. Returns the count set."""
+    numba has, ``NUMBA_NUM_THREADS``), at most that many. Returns the count set. numba is
+    imported here, when a node computes: a fully cached run never imports it."""
+    import numba
+
     n = numba.config.NUMBA_NUM_THREADS
     n = min(threads, n) if threads > 0 else n
     numba.set_num_threads(n)
@@ -121,12 +123,13 @@ class Graph:
 
     def add(self, name: str, node_type: str | type[Node], params: dict | None = None,
             inputs: dict[str, str | InputRef] | None = None, enabled: bool = True) -> Node:
-        import proxyshade.nodes  # noqa: F401  (register node types)
+        from proxyshade.nodes import node_type as find_type
 
         if isinstance(node_type, str):
-            if node_type not in REGISTRY:
+            cls = find_type(node_type)
+            if cls is None:
                 raise GraphFileError(f"unknown node type {node_type!r}; known types: {', '.join(sorted(REGISTRY))}")
-            node_type = REGISTRY[node_type]
+            node_type = cls
         node = node_type(name, params or {})
         self.nodes[name] = node
         conns = {}
@@ -249,8 +252,6 @@ class Graph:
 
     def plan(self, frames: list[int] | None = None, force: tuple[str, ...] = ()) -> "Plan":
         """Keys and what would be computed, without computing anything."""
-        import proxyshade.nodes  # noqa: F401
-
         frames = list(frames) if frames else list(range(self.frames[0], self.frames[1] + 1))
         for f in force:
             if f not in self.nodes:

@@ -24,7 +24,7 @@ import sys
 import threading
 import tokenize
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 
 def canonical(obj: Any) -> str:
@@ -49,7 +49,11 @@ def _strip_comments(source: str) -> str:
 
 def module_file(module_name: str, root: Path | None = None) -> Path | None:
     """The source file of a module: under ``root`` (a folder holding the ``proxyshade``
-    package) when given, else where Python imports it from; None when it has none."""
+    package) when given, else where Python imports it from; None when it has none. Never
+    imports anything: a ``proxyshade`` module not imported yet is looked up beside the
+    imported package (``find_spec`` would import its parent, a kernel module and numba)."""
+    if root is None and module_name.split(".")[0] == "proxyshade" and module_name not in sys.modules:
+        root = Path(sys.modules["proxyshade"].__file__).parent.parent
     if root is not None:
         base = Path(root, *module_name.split("."))
         for cand in (base.with_suffix(".py"), base / "__init__.py"):
@@ -121,11 +125,15 @@ _FACTS_DIRTY = False
 _FACTS_LOCK = threading.Lock()
 
 
+def _user_cache() -> Path:
+    """The per-user folder of the code facts and the file-bound memos."""
+    return Path(os.environ.get("PROXYSHADE_CODE_CACHE") or os.path.join(
+        os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache"), "proxyshade"))
+
+
 def _facts_path() -> Path:
-    base = os.environ.get("PROXYSHADE_CODE_CACHE") or os.path.join(
-        os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache"), "proxyshade")
     me = hashlib.sha256(Path(__file__).read_bytes()).hexdigest()[:16]
-    return Path(base) / f"code-facts-{me}.json"
+    return _user_cache() / f"code-facts-{me}.json"
 
 
 def _save_facts() -> None:
@@ -237,6 +245,60 @@ def file_hash(path: Path) -> str:
     except OSError:
         return "missing"
     return _file_hash_cached(str(path), st.st_size, st.st_mtime_ns)
+
+
+def _dependency_state(deps: dict) -> dict:
+    """What each dependency is now: a file's sha256 ('missing'), an installed package's
+    version (None), an environment variable's value (None)."""
+    from importlib import metadata
+
+    def version(p):
+        try:
+            return metadata.version(p)
+        except metadata.PackageNotFoundError:
+            return None
+
+    return {"files": {str(f): file_hash(Path(f)) for f in deps.get("files", ())},
+            "packages": {p: version(p) for p in deps.get("packages", ())},
+            "env": {e: os.environ.get(e) for e in deps.get("env", ())}}
+
+
+def memo(what: Any, compute: Callable[[], tuple[Any, dict | None]]) -> Any:
+    """A value that depends only on ``what`` (plain data: the code hash of what computes
+    it, parameters) and on the dependencies ``compute`` names, kept on disk between
+    processes. ``compute()`` returns ``(value, deps)``: ``value`` plain JSON data,
+    ``deps`` ``{"files": [...], "packages": [...], "env": [...]}`` (every file it read,
+    the installed packages and the environment variables it depends on), or None for a
+    value not to keep (an error). A later call with an equal ``what`` returns the kept
+    value without calling ``compute`` while every dependency is as it was (a file's
+    sha256, a package's version, a variable's value, checked at every call): how a
+    node's ``key_extra`` that reads a USD scene avoids loading USD on a cached run."""
+    d = digest(what)
+    path = _user_cache() / "memo" / d[:2] / f"{d}.json"
+    try:
+        rec = json.loads(path.read_text())
+        if rec["what"] == d and _dependency_state({k: list(v) for k, v in rec["deps"].items()}) == rec["deps"]:
+            return rec["value"]
+    except (OSError, ValueError, KeyError, TypeError, AttributeError):
+        pass
+    value, deps = compute()
+    if deps is not None:
+        rec = {"what": d, "deps": _dependency_state(deps), "value": value}
+        tmp = path.with_name(f".{path.name}.{os.getpid()}.{threading.get_ident()}.tmp")
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            tmp.write_text(json.dumps(rec))
+            os.replace(tmp, path)
+        except OSError:
+            tmp.unlink(missing_ok=True)
+    return value
+
+
+def node_memo(node, parts: Any, compute: Callable[[], tuple[Any, dict | None]]) -> Any:
+    """``memo`` for a node's ``key_extra``: ``what`` is the node's type, version, code hash
+    and parameters, and ``parts`` (the frame, resolved paths)."""
+    cls = type(node)
+    return memo(["node_memo", cls.__name__, cls.version, code_hash(cls), node.params, parts], compute)
 
 
 def make_key(components: dict) -> str:

@@ -16,7 +16,8 @@ time, the content of the files it reads (``Param(Path, ...)``) and whatever
 ``key_extra`` adds. Keys never touch pixels.
 
 Node types register themselves by class name in ``REGISTRY`` when their module is
-imported (``proxyshade.nodes`` imports them all).
+imported: ``proxyshade.nodes.node_type`` imports the module of a type a graph names,
+``proxyshade.nodes.load_all`` every one.
 """
 from __future__ import annotations
 

@@ -14,9 +14,9 @@ def run_node(node_type: str | type[Node], params: dict | None = None, inputs: di
     """Validate ``params``, build the node and return ``compute``'s plate for ``frame``.
 
     A sequence input takes a list of plates, the frames ``first_frame`` onwards."""
-    import proxyshade.nodes  # noqa: F401  (registers node types)
+    from proxyshade.nodes import node_type as find_type
 
-    cls = REGISTRY[node_type] if isinstance(node_type, str) else node_type
+    cls = (find_type(node_type) or REGISTRY[node_type]) if isinstance(node_type, str) else node_type
     node = cls(name, params or {})
     ins = {k: None for k in cls.inputs_spec}
     ins.update(inputs or {})

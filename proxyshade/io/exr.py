@@ -23,7 +23,6 @@ from pathlib import Path
 
 import numpy as np
 import OpenEXR
-import OpenImageIO as oiio
 
 from proxyshade.errors import UserError, WriteError
 from proxyshade.graph.plate import Plate
@@ -130,6 +129,8 @@ def read_plate(path: str | Path, *, expect: dict[str, str] | None = None) -> Pla
 
 def read_header(path: str | Path) -> dict:
     """Header attributes of an EXR (OpenImageIO), plus its channels and their types."""
+    import OpenImageIO as oiio
+
     path = Path(path)
     inp = oiio.ImageInput.open(str(path))
     if inp is None:

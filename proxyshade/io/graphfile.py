@@ -274,7 +274,7 @@ def build_graph(data: Any, path: Path, graph_cls: type, *, cache=None, overrides
                 variables: dict[str, str] | None = None):
     """Validate plain graph data (as loaded from ``path``) and build a ``graph_cls``
     (``proxyshade.graph.graph.Graph``, which calls this through ``Graph.load``)."""
-    import proxyshade.nodes  # noqa: F401  (register node types)
+    from proxyshade.nodes import node_type
 
     f = str(path)
 
@@ -318,10 +318,10 @@ def build_graph(data: Any, path: Path, graph_cls: type, *, cache=None, overrides
             if k not in _NODE_KEYS:
                 raise err(_line(spec, k), f"{kp}.{k}", f"unknown key; valid keys are {', '.join(_NODE_KEYS)}")
         t = spec.get("type")
-        if t not in REGISTRY:
+        cls = node_type(t)
+        if cls is None:
             raise err(_line(spec, "type"), f"{kp}.type",
                       f"unknown node type {t!r}; known types: {', '.join(sorted(REGISTRY))}")
-        cls = REGISTRY[t]
         params = spec.get("params") or {}
         if not isinstance(params, dict):
             raise err(_line(spec, "params"), f"{kp}.params", "expected a mapping param -> value")

@@ -13,10 +13,11 @@ import os
 from pathlib import Path
 
 import numpy as np
-import OpenImageIO as oiio
 
 from proxyshade.errors import UserError, WriteError
 from proxyshade.io.files import io_error, output_target, temp_for
+
+# OpenImageIO is imported by the functions that read or write pictures: a cached run needs none
 
 
 def _msg(text: str) -> str:
@@ -47,6 +48,8 @@ def _png_problem(path: Path) -> str | None:
 
 def read_u8(path: str | Path) -> np.ndarray:
     """An 8-bit image as an (H, W, 3) uint8 array (alpha dropped, grey expanded)."""
+    import OpenImageIO as oiio
+
     path = Path(path)
     if not path.is_file():
         raise UserError(f"{path}: no such image file; check the path (relative paths resolve against the YAML file)")
@@ -74,6 +77,8 @@ def write_png(path: str | Path, rgb8: np.ndarray) -> Path:
 
     Every OpenImageIO step is checked (``close`` flushes the data: a full disk fails there);
     on any failure or interrupt the temporary is removed and nothing is left at ``path``."""
+    import OpenImageIO as oiio
+
     path = Path(path)
     target = output_target(path)
     h, w, c = rgb8.shape
@@ -124,6 +129,8 @@ def _quiet_stderr():
 def resize_u8(rgb8: np.ndarray, max_size: int) -> np.ndarray:
     """Downscale an (H, W, 3) uint8 picture so its long edge is at most ``max_size`` (OpenImageIO's
     ImageBufAlgo.resize, its default filter); a picture already small enough is returned as is."""
+    import OpenImageIO as oiio
+
     h, w = rgb8.shape[:2]
     if max(h, w) <= max_size:
         return rgb8
@@ -143,6 +150,8 @@ def write_gif(path: str | Path, frames: list[np.ndarray], fps: int) -> Path:
 
     GIF stores a frame's delay in hundredths of a second, so the rate plays as 100 / int(100 / fps)
     (24 fps plays at 25); colours are reduced to a 256-colour palette per frame, with dithering."""
+    import OpenImageIO as oiio
+
     path = Path(path)
     if not frames:
         raise UserError(f"{path}: no frames to write; give the movie at least one frame")

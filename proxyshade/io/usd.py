@@ -44,6 +44,17 @@ def open_stage(path: str | Path) -> Usd.Stage:
     return stage
 
 
+def dependencies(stage: Usd.Stage) -> dict | None:
+    """What USD data read from the stage depends on, for ``keys.memo``: the files its
+    composition read (root layer, sublayers, references, payloads, clips), the USD
+    library's version and the asset search path; None when the stage has composition
+    errors (a missing reference: a file appearing later would change the stage)."""
+    if stage.GetCompositionErrors():
+        return None
+    files = sorted({layer.realPath for layer in stage.GetUsedLayers() if not layer.anonymous and layer.realPath})
+    return {"files": files, "packages": ["usd-core"], "env": ["PXR_AR_DEFAULT_SEARCH_PATH"]}
+
+
 def tf_message(e: BaseException) -> str:
     """A pxr (Tf) error as one line: USD's own messages ('file.usda:8:3: parse error ...'), without
     the C++ function, source file and namespace of each."""
@@ -416,8 +427,9 @@ def validate(stage: Usd.Stage) -> list[str]:
             if e.GetType() == UsdValidation.ValidationErrorType.Error]
 
 
-def cg_digest(path: Path, frame: int, *, cg_only: bool = True) -> str | None:
-    """A digest of what a CG render or shadow sees at ``frame``: CG prims, light, cameras."""
+def cg_digest(path: Path, frame: int, *, cg_only: bool = True) -> tuple[str | None, dict | None]:
+    """A digest of what a CG render or shadow sees at ``frame`` (CG prims, light, cameras)
+    and the stage's ``dependencies`` (None, None when the stage cannot be read)."""
     try:
         stage = open_stage(path)
         prims = scene_prims(stage, frame)
@@ -431,9 +443,9 @@ def cg_digest(path: Path, frame: int, *, cg_only: bool = True) -> str | None:
             m = UsdGeom.Camera(stage.GetPrimAtPath(c)).GetCamera(Usd.TimeCode(frame))
             h.update(repr((c, m.focalLength, m.horizontalAperture, m.horizontalApertureOffset,
                            m.verticalApertureOffset, m.clippingRange, m.transform)).encode())
-        return h.hexdigest()
+        return h.hexdigest(), dependencies(stage)
     except Exception:  # noqa: BLE001 - reported properly by compute
-        return None
+        return None, None
 
 
 def no_light_message(prims: list, what: str) -> str:

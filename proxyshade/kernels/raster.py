@@ -122,37 +122,46 @@ def _setup(points, tris, fx, fy, cx, cy, near, ortho, width, height, nthreads):
     planes = _planes(fx, fy, cx, cy, near, ortho, width, height)
     chunk = (t + nthreads - 1) // nthreads
     counts = np.zeros(t + 1, np.int64)
-    empty2 = np.empty((0, 3, 2), np.int64)
-    empty3 = np.empty((0, 3), np.float64)
-    empty33 = np.empty((0, 3, 3), np.float64)
-    empty1 = np.empty(0, np.int64)
-    for th in prange(nthreads):
-        scratch = np.empty((4, 9, 3), np.float64)
-        sx = np.empty(9, np.int64)
-        sy = np.empty(9, np.int64)
-        sd = np.empty(9, np.float64)
-        for ti in range(th * chunk, min(t, (th + 1) * chunk)):
-            counts[ti + 1] = _setup_one(points, tris, ti, planes, fx, fy, cx, cy, ortho, width, height, scratch,
-                                        sx, sy, sd, False, 0, empty2, empty3, empty33, empty1, empty1, empty1)
-    for ti in range(t):
-        counts[ti + 1] += counts[ti]
-    total = counts[t]
-    xy = np.empty((total, 3, 2), np.int64)
-    dep = np.empty((total, 3), np.float64)
-    bar = np.empty((total, 3, 3), np.float64)
-    src = np.empty(total, np.int64)
-    r0 = np.empty(total, np.int64)
-    r1 = np.empty(total, np.int64)
-    for th in prange(nthreads):
-        scratch = np.empty((4, 9, 3), np.float64)
-        sx = np.empty(9, np.int64)
-        sy = np.empty(9, np.int64)
-        sd = np.empty(9, np.float64)
-        for ti in range(th * chunk, min(t, (th + 1) * chunk)):
-            if counts[ti + 1] > counts[ti]:
-                _setup_one(points, tris, ti, planes, fx, fy, cx, cy, ortho, width, height, scratch,
-                           sx, sy, sd, True, counts[ti], xy, dep, bar, src, r0, r1)
+    xy = np.empty((0, 3, 2), np.int64)
+    dep = np.empty((0, 3), np.float64)
+    bar = np.empty((0, 3, 3), np.float64)
+    src = np.empty(0, np.int64)
+    r0 = np.empty(0, np.int64)
+    r1 = np.empty(0, np.int64)
+    for p in range(2):  # count, then write; each pass one call per thread (short parallel loops compile fast)
+        write = p == 1
+        if write:
+            for ti in range(t):
+                counts[ti + 1] += counts[ti]
+            total = counts[t]
+            xy = np.empty((total, 3, 2), np.int64)
+            dep = np.empty((total, 3), np.float64)
+            bar = np.empty((total, 3, 3), np.float64)
+            src = np.empty(total, np.int64)
+            r0 = np.empty(total, np.int64)
+            r1 = np.empty(total, np.int64)
+        for th in prange(nthreads):
+            _setup_chunk(points, tris, th * chunk, min(t, (th + 1) * chunk), planes, fx, fy, cx, cy, ortho, width,
+                         height, write, counts, xy, dep, bar, src, r0, r1)
     return xy, dep, bar, src, r0, r1
+
+
+@njit(**JIT)
+def _setup_chunk(points, tris, t0, t1, planes, fx, fy, cx, cy, ortho, width, height, write, counts,
+                 xy, dep, bar, src, r0, r1):
+    """Source triangles ``t0`` to ``t1 - 1``: without ``write`` the screen triangles each
+    yields in ``counts[ti + 1]``, with it those triangles written from slot ``counts[ti]``."""
+    scratch = np.empty((4, 9, 3), np.float64)
+    sx = np.empty(9, np.int64)
+    sy = np.empty(9, np.int64)
+    sd = np.empty(9, np.float64)
+    for ti in range(t0, t1):
+        if write and counts[ti + 1] == counts[ti]:
+            continue
+        k = _setup_one(points, tris, ti, planes, fx, fy, cx, cy, ortho, width, height, scratch, sx, sy, sd,
+                       write, counts[ti] if write else 0, xy, dep, bar, src, r0, r1)
+        if not write:
+            counts[ti + 1] = k
 
 
 @njit(**JIT)

@@ -12,10 +12,9 @@ from pathlib import Path
 import numpy as np
 
 from proxyshade.errors import UserError
+from proxyshade.graph import keys
 from proxyshade.graph.node import Input, Node, Param, resolve_path
 from proxyshade.graph.plate import Plate
-from proxyshade.io import usd
-from proxyshade.kernels import raster
 
 
 def lambert(albedo: np.ndarray, normal: np.ndarray, light: dict, ambient: float) -> np.ndarray:
@@ -34,6 +33,8 @@ def lambert(albedo: np.ndarray, normal: np.ndarray, light: dict, ambient: float)
 def stage_and_camera(ctx):
     """The node's stage and the frame's camera: the ``proxy`` input's meta camera when it
     has one, else the ``camera``/``resolution`` params. Bad input -> one-line node error."""
+    from proxyshade.io import usd
+
     res = ctx.p.resolution
     if not all(isinstance(v, int) and not isinstance(v, bool) and v > 0 for v in res):
         raise ctx.error(f"resolution {res} must be two positive integers [width, height]")
@@ -78,9 +79,18 @@ class CgRender(Node):
     exposure = Param(float, 0.0, min=-16.0, max=16.0, doc="stops, to balance the CG against the plate")
 
     def key_extra(self, frame, graph_dir):
-        return usd.cg_digest(resolve_path(self.params["scene"], graph_dir, frame), frame)
+        path = resolve_path(self.params["scene"], graph_dir, frame)
+
+        def scene_digest():
+            from proxyshade.io import usd
+
+            return usd.cg_digest(path, frame)
+
+        return keys.node_memo(self, [str(path), frame], scene_digest)  # USD loaded only when the scene changes
 
     def compute(self, ctx) -> Plate:
+        from proxyshade.io import usd
+
         stage, cam = stage_and_camera(ctx)
         prims = sorted((p for p in usd.scene_prims(stage, ctx.frame) if p.cg), key=lambda p: p.path)
         light = usd.distant_light(stage, ctx.frame)
@@ -93,6 +103,9 @@ class CgRender(Node):
 
 def render_cg(prims: list, cam, light: dict | None, *, ambient: float, exposure: float = 0.0) -> Plate:
     """The CG plate of ``prims`` seen by ``cam`` (a ``usd.CameraInfo``); see ``CgRender``."""
+    from proxyshade.io import usd
+    from proxyshade.kernels import raster
+
     h, w = cam.height, cam.width
     wp, tris, nrm, owner = usd.world_meshes(prims, cam)
     depth, tri, bary, _ = raster.rasterize(cam.to_camera(wp), tris, width=w, height=h, fx=cam.fx, fy=cam.fy,

@@ -11,10 +11,7 @@ from __future__ import annotations
 
 from proxyshade.graph.node import Input, Node, Param
 from proxyshade.graph.plate import Plate
-from proxyshade.synthesis import labels as L
-from proxyshade.synthesis.exemplar import SYNTH_CHANNELS, setup
 from proxyshade.synthesis.params import Correction, source_input
-from proxyshade.synthesis.patches import correct_map, patch_ids
 
 
 class Correct(Correction, Node):
@@ -31,6 +28,10 @@ class Correct(Correction, Node):
     seed = Param(int, 0, doc="seed of the similarity-set search")
 
     def compute(self, ctx) -> Plate:
+        from proxyshade.synthesis import labels as L
+        from proxyshade.synthesis.exemplar import SYNTH_CHANNELS, setup
+        from proxyshade.synthesis.patches import correct_map, patch_ids
+
         p, init, source = ctx.p, ctx.init, ctx.source
         syn = init.meta.get("synthesis")
         if not isinstance(syn, dict) or "factor" not in syn or "scale" not in syn:

@@ -14,7 +14,6 @@ import numpy as np
 
 from proxyshade.graph.node import Input, Node, Param
 from proxyshade.graph.plate import Plate
-from proxyshade.kernels import cryptomatte as cm
 
 
 def crypto_channels(ids: np.ndarray, table: list[dict], type_name: str, *, levels: int,
@@ -30,6 +29,8 @@ def crypto_channels(ids: np.ndarray, table: list[dict], type_name: str, *, level
     type_name : str
         Layer name, e.g. ``CryptoLabel``.
     """
+    from proxyshade.kernels import cryptomatte as cm
+
     names = {int(t["id"]): str(t["name"]) for t in table}
     present = np.unique(ids)
     missing = [int(i) for i in present if i != 0 and int(i) not in names]

@@ -12,13 +12,13 @@ import numpy as np
 
 from proxyshade.graph.node import Input, Node, Param
 from proxyshade.graph.plate import Plate
-from proxyshade.io.usd import CameraInfo
-from proxyshade.kernels.jfa import jump_flood
 
 
 def extend_depth(proxy_labels: np.ndarray, guide_labels: np.ndarray, z: np.ndarray, *, penalty: float = 1024.0
                  ) -> tuple[np.ndarray, np.ndarray]:
     """Extended depth (H, W) float32 and the flat index of the pixel each depth came from."""
+    from proxyshade.kernels.jfa import jump_flood
+
     keep = proxy_labels == guide_labels
     src = jump_flood(keep, guide_labels, proxy_labels, penalty=penalty)
     flat = z.reshape(-1)
@@ -46,6 +46,8 @@ class DepthExtend(Node):
                         "a same-label seed up to 32 pixels further away")
 
     def compute(self, ctx) -> Plate:
+        from proxyshade.io.usd import CameraInfo
+
         proxy, guide = ctx.proxy, ctx.guide
         if proxy.shape != guide.shape:
             raise ctx.error(f"guide is {guide.width}x{guide.height} but proxy is {proxy.width}x{proxy.height}; "

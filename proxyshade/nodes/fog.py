@@ -10,7 +10,6 @@ import numpy as np
 
 from proxyshade.graph.node import Input, Node, Param
 from proxyshade.graph.plate import Plate
-from proxyshade.kernels import fog as kfog
 
 AXES = {"X": 0, "Y": 1, "Z": 2}
 
@@ -71,6 +70,8 @@ class Fog(Node):
                           doc="camera height along the up axis; default from meta camera")
 
     def compute(self, ctx) -> Plate:
+        from proxyshade.kernels import fog as kfog
+
         img: Plate = ctx.image
         p = ctx.p
         try:

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 from proxyshade.graph.node import Input, Node
 from proxyshade.graph.plate import Plate
-from proxyshade.synthesis.guide import synthesize_guide
 from proxyshade.synthesis.params import Guidance
 
 
@@ -28,6 +27,8 @@ class GuideSynth(Guidance, Node):
     source = Input("SourceRead plate (label.id and its label table)", channels=("label.id",))
 
     def compute(self, ctx) -> Plate:
+        from proxyshade.synthesis.guide import synthesize_guide
+
         plate, note = synthesize_guide(ctx.proxy, ctx.source, Guidance.of(ctx.p))
         ctx.note(note)
         return plate

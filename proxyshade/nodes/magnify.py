@@ -14,11 +14,7 @@ import numpy as np
 
 from proxyshade.graph.node import Input, Node, Param
 from proxyshade.graph.plate import Plate
-from proxyshade.kernels.lookup import lookup
-from proxyshade.synthesis import labels as L
-from proxyshade.synthesis.exemplar import provenance, source_to_grid
 from proxyshade.synthesis.params import source_input
-from proxyshade.synthesis.patches import magnify_map
 
 DEPTH_CHANNELS = ("Z", "P.X", "P.Y", "P.Z", "N.X", "N.Y", "N.Z", "object.id")  # geometry AOVs passed on
 
@@ -41,6 +37,11 @@ class Magnify(Node):
     repair = Param(bool, True, doc="move pixels whose source label differs from the guide's onto the right label")
 
     def compute(self, ctx) -> Plate:
+        from proxyshade.kernels.lookup import lookup
+        from proxyshade.synthesis import labels as L
+        from proxyshade.synthesis.exemplar import provenance, source_to_grid
+        from proxyshade.synthesis.patches import magnify_map
+
         synth, source, guide = ctx.synth, ctx.source, ctx.guide
         syn = synth.meta.get("synthesis")
         if not isinstance(syn, dict) or "factor" not in syn:

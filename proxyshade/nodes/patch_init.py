@@ -14,10 +14,7 @@ from __future__ import annotations
 
 from proxyshade.graph.node import Input, Node, Param
 from proxyshade.graph.plate import Plate
-from proxyshade.synthesis import labels as L
-from proxyshade.synthesis.exemplar import setup
 from proxyshade.synthesis.params import FloodFill, source_input
-from proxyshade.synthesis.patches import fill_patches
 
 class PatchInit(FloodFill, Node):
     """Cover the guide with source patches grown by flood fill (Bonneel et al. 2010, §5).
@@ -38,6 +35,10 @@ class PatchInit(FloodFill, Node):
     seed = Param(int, 0, doc="order of the patch seeds")
 
     def compute(self, ctx) -> Plate:
+        from proxyshade.synthesis import labels as L
+        from proxyshade.synthesis.exemplar import setup
+        from proxyshade.synthesis.patches import fill_patches
+
         p, guide, source = ctx.p, ctx.guide, ctx.source
         table = L.source_table(source)
         tgt = L.guide_at_synthesis(L.dense_guide(guide["label.id"], table), p.factor, len(table))

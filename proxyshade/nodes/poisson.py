@@ -18,7 +18,6 @@ from __future__ import annotations
 
 from proxyshade.graph.node import Input, Node, Param
 from proxyshade.graph.plate import Plate
-from proxyshade.synthesis.blend import blend_frame
 from proxyshade.synthesis.params import PoissonSolve
 
 
@@ -36,6 +35,8 @@ class Poisson(PoissonSolve, Node):
     mask_channel = Param(str, "flag", doc="channel of 'keep' whose non-zero pixels are solved for")
 
     def compute(self, ctx) -> Plate:
+        from proxyshade.synthesis.blend import blend_frame
+
         p, img = ctx.p, ctx.image
         labels = img["label.id"] if "label.id" in img else None
         if p.label_dirichlet and labels is None:

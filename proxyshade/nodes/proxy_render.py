@@ -16,17 +16,22 @@ import numpy as np
 from proxyshade.graph import keys
 from proxyshade.graph.node import Input, Node, Param, resolve_path
 from proxyshade.graph.plate import Plate
-from proxyshade.io import usd
-from proxyshade.kernels.raster import interpolate, rasterize
+
+# USD (pxr) and the kernels (numba) are imported where a render or a key reads a scene:
+# a cached run loads neither
 
 
 @functools.lru_cache(maxsize=8)
 def _stage(path: str, content: str):
+    from proxyshade.io import usd
+
     return usd.open_stage(path)
 
 
 def open_cached(path: Path):
     """The stage at ``path``, reopened only when the file's content changes."""
+    from proxyshade.io import usd
+
     if not path.is_file():
         return usd.open_stage(path)  # raises the one-line error
     return _stage(str(path), hashlib.sha256(path.read_bytes()).hexdigest())
@@ -34,6 +39,9 @@ def open_cached(path: Path):
 
 def render_prims(prims: list, cam, *, max_error_px: float = 0.25):
     """Rasterize prims through ``cam``: (depth, prim index (−1 empty), P, N) per pixel."""
+    from proxyshade.io import usd
+    from proxyshade.kernels.raster import interpolate, rasterize
+
     P, T, N, owner = usd.world_meshes(prims, cam, max_error_px)
     pc = cam.to_camera(P)
     depth, tri, bary, _ = rasterize(pc, T, width=cam.width, height=cam.height, fx=cam.fx, fy=cam.fy,
@@ -79,6 +87,8 @@ class ProxyRender(Node):
 
     @staticmethod
     def _size(params: dict, stage, frame: int) -> list:
+        from proxyshade.io import usd
+
         if params.get("format"):
             return FORMATS[params["format"]]
         w, h = params["resolution"]
@@ -90,10 +100,16 @@ class ProxyRender(Node):
         return resolve_path(self.params["scene"], graph_dir)
 
     def key_extra(self, frame, graph_dir):
-        """What the render sees at this frame: camera, and each proxy prim's data."""
+        """What the render sees at this frame: camera, and each proxy prim's data (kept
+        with the scene's files by ``keys.node_memo``: USD is loaded only when they change)."""
         path = self._scene_path(graph_dir)
         if not path.is_file():
             return "missing"
+        return keys.node_memo(self, [str(path), frame], lambda: self._scene_digest(path, frame))
+
+    def _scene_digest(self, path: Path, frame: int) -> tuple[str, dict | None]:
+        from proxyshade.io import usd
+
         try:
             stage = open_cached(path)
             w, h = self._size(self.params, stage, frame)
@@ -101,10 +117,12 @@ class ProxyRender(Node):
             prims = [(p.path, p.digest) for p in usd.scene_prims(stage, frame) if not p.cg]
             bg = stage.GetDefaultPrim().GetCustomDataByKey("proxyshade:background") if stage.GetDefaultPrim() else None
         except Exception as e:  # noqa: BLE001 - compute reports it properly
-            return f"error: {e}"
-        return keys.digest([cam.to_meta(), prims, bg])
+            return f"error: {e}", None
+        return keys.digest([cam.to_meta(), prims, bg]), usd.dependencies(stage)
 
     def compute(self, ctx) -> Plate:
+        from proxyshade.io import usd
+
         path = self._scene_path(ctx.graph_dir)
         stage = open_cached(path)
         w, h = self._size(ctx.params, stage, ctx.frame)

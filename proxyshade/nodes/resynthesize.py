@@ -11,7 +11,6 @@ from __future__ import annotations
 from proxyshade.graph.node import Input, Node, Param
 from proxyshade.graph.plate import Plate
 from proxyshade.synthesis.params import Correction, FloodFill, PoissonSolve, source_input
-from proxyshade.synthesis.resynthesis import resynthesize
 
 
 class Resynthesize(FloodFill, Correction, PoissonSolve, Node):
@@ -35,4 +34,6 @@ class Resynthesize(FloodFill, Correction, PoissonSolve, Node):
                                   "false leaves it to a Poisson node with keep")
 
     def compute(self, ctx) -> Plate:
+        from proxyshade.synthesis.resynthesis import resynthesize
+
         return resynthesize(ctx.image, ctx.source, ctx.p, ctx.frame, note=ctx.note)

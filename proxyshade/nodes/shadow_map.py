@@ -13,15 +13,17 @@ from pathlib import Path
 import numpy as np
 
 from proxyshade.errors import UserError
+from proxyshade.graph import keys
 from proxyshade.graph.node import Input, Node, Param, resolve_path
 from proxyshade.graph.plate import Plate
-from proxyshade.io import usd
-from proxyshade.kernels import raster, shadow
 
 
 def light_depth_map(prims: list, direction, size: int) -> tuple[np.ndarray, dict]:
     """(size, size) occluder depth of ``prims`` seen from a distant light, and its projection
     (see ``shadow.ortho_light_projection``)."""
+    from proxyshade.io import usd
+    from proxyshade.kernels import raster, shadow
+
     wp, tris, _, _ = usd.world_meshes(prims)
     proj = shadow.ortho_light_projection(direction, wp, size)
     m = proj["world_to_cam"]
@@ -55,9 +57,19 @@ class ShadowMap(Node):
     bias = Param(float, 0.0, min=0.0, doc="depth tolerance in world units along the light")
 
     def key_extra(self, frame, graph_dir):
-        return usd.cg_digest(resolve_path(self.params["scene"], graph_dir, frame), frame)
+        path = resolve_path(self.params["scene"], graph_dir, frame)
+
+        def scene_digest():
+            from proxyshade.io import usd
+
+            return usd.cg_digest(path, frame)
+
+        return keys.node_memo(self, [str(path), frame], scene_digest)  # USD loaded only when the scene changes
 
     def compute(self, ctx) -> Plate:
+        from proxyshade.io import usd
+        from proxyshade.kernels import shadow
+
         img: Plate = ctx.image
         p = ctx.p
         try:

@@ -234,10 +234,8 @@ class _FullDiskOutput:
 
 
 def test_full_disk_png_exits_74_and_leaves_nothing(tmp_path, registry, capsys, monkeypatch):
-    import proxyshade.io.images as images
-
     real_create = oiio.ImageOutput.create
-    monkeypatch.setattr(images.oiio.ImageOutput, "create", staticmethod(lambda p: _FullDiskOutput(real_create(p))))
+    monkeypatch.setattr(oiio.ImageOutput, "create", staticmethod(lambda p: _FullDiskOutput(real_create(p))))
     g = write_graph(tmp_path)
     code, _, err = cli(capsys, "run", g, "-q")
     assert code == EXIT_IO and len(err) == 1, err

@@ -9,11 +9,12 @@ from pathlib import Path
 import pytest
 
 import proxyshade
-import proxyshade.nodes  # noqa: F401  (registers the node types)
+import proxyshade.nodes
 from proxyshade.graph import keys
 from proxyshade.graph.node import REGISTRY
 
 PKG = Path(proxyshade.__file__).parent
+proxyshade.nodes.load_all()  # registers every node type
 
 
 @pytest.fixture
@@ -122,3 +123,55 @@ def test_no_circular_import():
                 g.add_edge(name, dep)
     cycles = list(nx.simple_cycles(g))
     assert not cycles, cycles[:3]
+
+
+def test_a_memo_is_kept_while_its_files_packages_and_environment_are_unchanged(tmp_path, monkeypatch):
+    monkeypatch.setenv("PROXYSHADE_CODE_CACHE", str(tmp_path / "code"))
+    monkeypatch.delenv("PROXYSHADE_TEST_VAR", raising=False)
+    f = tmp_path / "scene.txt"
+    f.write_text("a")
+    calls = []
+
+    def compute():
+        calls.append(1)
+        return f"value of {f.read_text()}", {"files": [f], "packages": ["numpy"], "env": ["PROXYSHADE_TEST_VAR"]}
+
+    assert keys.memo(["what", 1], compute) == "value of a"
+    assert keys.memo(["what", 1], compute) == "value of a" and len(calls) == 1  # kept: not computed again
+    assert keys.memo(["what", 2], compute) == "value of a" and len(calls) == 2  # another question
+    f.write_text("b")
+    assert keys.memo(["what", 1], compute) == "value of b" and len(calls) == 3  # a file changed
+    monkeypatch.setenv("PROXYSHADE_TEST_VAR", "x")
+    assert keys.memo(["what", 1], compute) == "value of b" and len(calls) == 4  # the environment changed
+    f.unlink()
+    assert keys.memo(["what", 1], lambda: ("gone", None)) == "gone"  # an error: not kept
+    assert keys.memo(["what", 1], lambda: ("again", None)) == "again"
+
+
+def test_the_proxy_render_key_follows_an_edit_of_a_sublayer_and_loads_no_usd_when_unchanged(tmp_path):
+    """ProxyRender's key is the USD data it renders, kept with the hashes of every layer
+    the stage used: a sublayer's edit changes the key; an unchanged scene needs no pxr."""
+    shutil.copy(Path(proxyshade.__file__).parents[1] / "samples" / "scenes" / "lake.usda", tmp_path / "geo.usda")
+    (tmp_path / "shot.usda").write_text('#usda 1.0\n(\n    subLayers = [@./geo.usda@]\n)\n')
+    code = ("import sys; from proxyshade.graph.graph import Graph; "
+            f"g = Graph.load({str(PKG.parent / 'graphs' / 'first_frame.yaml')!r}, cache=sys.argv[1], "
+            "variables={'scene': sys.argv[2]}); "
+            "print(g.plan([1]).keys[('proxy', 1)], 'pxr' in sys.modules)")
+    env = {**__import__("os").environ, "PROXYSHADE_CODE_CACHE": str(tmp_path / "code"), "PYTHONPATH": str(PKG.parent)}
+
+    def key():
+        import subprocess
+
+        r = subprocess.run([sys.executable, "-c", code, str(tmp_path / "cache"), str(tmp_path / "shot.usda")],
+                           capture_output=True, text=True, env=env, timeout=120)
+        assert r.returncode == 0, r.stderr
+        k, loaded = r.stdout.split()
+        return k, loaded == "True"
+
+    first = key()
+    assert first[1]  # the first key reads the scene
+    assert key() == (first[0], False)  # unchanged: the same key, USD not loaded
+    with open(tmp_path / "geo.usda", "a") as f:
+        f.write('\ndef Sphere "added"\n{\n    double radius = 3\n}\n')
+    edited = key()
+    assert edited[0] != first[0] and edited[1]

@@ -1,10 +1,11 @@
 """Parameter groups: each shared parameter declared once, the nodes inherit it."""
 import inspect
 
-import proxyshade.nodes  # noqa: F401  (registers the node types)
+import proxyshade.nodes
 from proxyshade.graph.node import REGISTRY, Param
 from proxyshade.synthesis import params as P
 
+proxyshade.nodes.load_all()  # registers every node type
 GROUPS = [g for g in vars(P).values() if inspect.isclass(g) and issubclass(g, P.ParamGroup) and g is not P.ParamGroup]
 
 
