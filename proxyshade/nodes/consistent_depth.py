@@ -26,9 +26,8 @@ import numpy as np
 
 from proxyshade.graph.node import Input, Node, Param
 from proxyshade.graph.plate import Plate
-from proxyshade.kernels import reproject as kr
 from proxyshade.synthesis.params import SameSurface
-from proxyshade.synthesis.temporal import CATEGORY, camera_of, frame0_grid
+from proxyshade.synthesis.state import CATEGORY
 
 
 class ConsistentDepth(SameSurface, Node):
@@ -60,6 +59,9 @@ class ConsistentDepth(SameSurface, Node):
                                 "(quads at grazing silhouettes are drawn up to ~10% off)")
 
     def compute(self, ctx) -> Plate:
+        from proxyshade.kernels import reproject as kr
+        from proxyshade.synthesis.temporal import camera_of, frame0_grid
+
         p = ctx.p
         proxy, guide = ctx.proxy, ctx.guide
         depth = ctx.depth if ctx.depth is not None else guide

@@ -48,7 +48,7 @@ from __future__ import annotations
 from proxyshade.graph.node import Input, Node
 from proxyshade.graph.plate import Plate
 from proxyshade.synthesis.params import Carry, source_input
-from proxyshade.synthesis.temporal import STATE, carry
+from proxyshade.synthesis.state import STATE
 
 
 class Reproject(Carry, Node):
@@ -77,5 +77,7 @@ class Reproject(Carry, Node):
     source = source_input("annotated source (SourceRead): colours are looked up through the carried map")
 
     def compute(self, ctx) -> Plate:
+        from proxyshade.synthesis.temporal import carry
+
         return carry(ctx.depth, ctx.prev, ctx.first, ctx.source, ctx.p, frame=ctx.frame, first_frame=ctx.first_frame,
                      note=ctx.note)

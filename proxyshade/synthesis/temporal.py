@@ -22,12 +22,7 @@ from proxyshade.kernels.lookup import lookup
 from proxyshade.kernels.random import uniform_field
 from proxyshade.synthesis.memo import ArrayMemo
 
-CATEGORY = {"A": 1, "B": 2, "C": 3, "D": 4}  # ConsistentDepth's pixel kinds (see that node)
-FLAG = {"none": 0, "disoccluded": 1, "newly_occluded": 2, "distorted": 3, "reanchored": 4}
-CATEGORY_C = CATEGORY["C"]
-STATE = ("R", "G", "B", "source.x", "source.y", "patch.id", "label.id")
-GEOMETRY = ("label.id", "Z", "P.X", "P.Y", "P.Z", "N.X", "N.Y", "N.Z", "object.id")  # this frame's, not carried
-CORRECTION = ("correction.R", "correction.G", "correction.B")  # colour minus the source through the map
+from proxyshade.synthesis.state import CATEGORY, CATEGORY_C, CORRECTION, FLAG, GEOMETRY, STATE  # noqa: F401
 
 
 def newly_occluded(cat, u, v, ok, lab, prev_lab) -> np.ndarray:
