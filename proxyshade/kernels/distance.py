@@ -67,9 +67,16 @@ def _sqrt_clamped(d2, cap, out):
                 out[i, j] = r if r < cap else cap
 
 
+def _as_int32(labels: np.ndarray) -> np.ndarray:
+    """uint32 ids seen as int32 (the same bits: equal stays equal), so label ids and dense
+    indices share one compiled signature."""
+    labels = np.ascontiguousarray(labels)
+    return labels.view(np.int32) if labels.dtype == np.uint32 else labels
+
+
 def contour_mask(labels: np.ndarray) -> np.ndarray:
     """(H, W) bool: pixels with a 4-neighbour of a different label."""
-    return _contour_mask(np.ascontiguousarray(labels))
+    return _contour_mask(_as_int32(labels))
 
 
 def squared_distance(sites: np.ndarray) -> np.ndarray:
@@ -96,7 +103,7 @@ def contour_distance(labels: np.ndarray, *, max_distance: float | None = None) -
     (M, N) float32 ndarray
         0 on contour pixels (those with a 4-neighbour of another label).
     """
-    labels = np.ascontiguousarray(labels)
+    labels = _as_int32(labels)
     if labels.ndim != 2:
         raise ValueError(f"labels must be 2-D (M, N), got shape {labels.shape}")
     d2 = _edt_sq(_contour_mask(labels))

@@ -72,10 +72,6 @@ def working_labels(source_dense: np.ndarray, scale: float, n: int) -> np.ndarray
 
 def source_working_labels(source: Plate, table: np.ndarray, scale: float) -> np.ndarray:
     """``working_labels`` of the source's own label map, kept for the frames of a run that
-    pass the same source (``memo.ArrayMemo``; read-only)."""
-    def compute():
-        lab = working_labels(source_dense(source, table), scale, len(table))
-        lab.flags.writeable = False
-        return lab
-
-    return _WORKING.get((source["label.id"], table), (float(scale),), compute)
+    pass the same source (``memo.ArrayMemo``; shared: not to be written to)."""
+    return _WORKING.get((source["label.id"], table), (float(scale),),
+                        lambda: working_labels(source_dense(source, table), scale, len(table)))
