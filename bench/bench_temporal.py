@@ -39,8 +39,7 @@ from harness import peak_rss_mb, table
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-import proxyshade.nodes  # noqa: E402,F401
-from proxyshade.graph.node import REGISTRY  # noqa: E402
+from proxyshade.nodes import node_type  # noqa: E402
 from proxyshade.graph.testing import run_node  # noqa: E402
 from tests.nodes import _temporal as T  # noqa: E402
 
@@ -63,7 +62,7 @@ def update_frames(scene: str, size: int, frames: int) -> tuple[dict, list[float]
     p0 = T.proxy(scene, 1, size)
     g0, d0 = T.detailed(scene, 1, size)
     prev = T.first_frame(scene, size, detail=True)
-    params = REGISTRY["Resynthesize"].validate_params({"seed": 1})
+    params = node_type("Resynthesize").validate_params({"seed": 1})
 
     class P:
         pass
