@@ -6,7 +6,14 @@ closest exemplar pixel A of the same label is found exhaustively under
     d(pA, pB) = ||N_DA(pA) − N_DB(pB)||_2 + w C(pA, pB)                     (eq. 1)
 
 (N the 5×5 neighbourhood of contour distances D, C the symmetric Chamfer distance of the
-label windows, w = 90). The best match seeds a flood fill that walks the guide B and the
+label windows, w = 90), the norm taken with one more term, ``height_weight`` times the
+difference of the two pixels' relative heights in their labels' vertical runs
+(``features.label_heights``; 0 = the paper's eq. 1). The exhaustive search scans the
+candidates from a random start (the seed and the pixel decide) and ties go to the first
+met: the interior of a large region, where every candidate is at distance 0 under the
+clamped contour distances, is drawn from anywhere in the source region, not always from
+its first pixel in scan order (which pasted one source patch dozens of times and gave
+the whole region that patch's colour). The best match seeds a flood fill that walks the guide B and the
 exemplar A together (one translation) and stops at covered pixels, at the exemplar's
 border, at exemplar pixels of another label than the guide's, and where d exceeds
 ``threshold_scale · best + threshold_offset`` (the paper: 25 % more than the closest
@@ -21,14 +28,17 @@ import numpy as np
 from numba import njit, prange
 
 from proxyshade.kernels._config import JIT, PJIT
-from proxyshade.kernels.random import permutation
-from proxyshade.kernels.features import NB2, chamfer_masks, dist_sq_D, gather_target
+from proxyshade.kernels.random import permutation, rand
+from proxyshade.kernels.features import NB2, chamfer_masks, dist_sq_D, gather_target, height_sq
 
 
 @njit(**JIT)
-def _eq1(src_dist, src_masks, y, x, tD, tmask, w, bound):
-    """eq. 1 for exemplar (y, x) against target features; early exit above ``bound``."""
-    dsq = dist_sq_D(src_dist, 1, y, x, tD, bound * bound)
+def _eq1(src_dist, src_masks, src_h, y, x, tD, tmask, th, hw, w, bound):
+    """eq. 1 (+ the height term) for exemplar (y, x) against target features; early
+    exit above ``bound``."""
+    b2 = bound * bound
+    hs = height_sq(src_h, y, x, th, hw)
+    dsq = hs if hs > b2 else hs + dist_sq_D(src_dist, 1, y, x, tD, b2 - hs)
     dd = np.sqrt(dsq)
     if dd > bound:
         return dd
@@ -36,9 +46,10 @@ def _eq1(src_dist, src_masks, y, x, tD, tmask, w, bound):
 
 
 @njit(**PJIT)
-def _best_match(cands, src_dist, src_masks, tD, tmask, w, nchunks):
-    """Exhaustive argmin of eq. 1 over ``cands`` (flat exemplar indices), in parallel
-    chunks; ties go to the earlier candidate whatever the thread count."""
+def _best_match(cands, src_dist, src_masks, src_h, tD, tmask, th, hw, w, start, nchunks):
+    """Exhaustive argmin of eq. 1 over ``cands`` (flat exemplar indices) scanned from
+    ``start`` (cyclically), in parallel chunks; ties go to the earlier candidate in that
+    order whatever the thread count."""
     n = cands.shape[0]
     W = src_dist.shape[1]
     best_d = np.full(nchunks, np.inf)
@@ -48,8 +59,8 @@ def _best_match(cands, src_dist, src_masks, tD, tmask, w, nchunks):
         bd = np.inf
         bi = -1
         for t in range(ch * step, min((ch + 1) * step, n)):
-            c = cands[t]
-            d = _eq1(src_dist, src_masks, c // W, c % W, tD, tmask, w, bd)
+            c = cands[(t + start) % n]
+            d = _eq1(src_dist, src_masks, src_h, c // W, c % W, tD, tmask, th, hw, w, bd)
             if d < bd:
                 bd = d
                 bi = c
@@ -67,8 +78,8 @@ def _best_match(cands, src_dist, src_masks, tD, tmask, w, nchunks):
 
 
 @njit(**JIT)
-def _grow(src_lab, src_dist, src_masks, tgt_lab, tgt_dist, tgt_masks, free, S, patch, pid, i0, j0, oy, ox,
-          thr, w, queue, stamp):
+def _grow(src_lab, src_dist, src_masks, src_h, tgt_lab, tgt_dist, tgt_masks, tgt_h, hw, free, S, patch, pid, i0,
+          j0, oy, ox, thr, w, queue, stamp):
     """Flood fill from target (i0, j0) with exemplar offset (oy, ox); returns pixel count."""
     Ht, Wt = tgt_lab.shape
     He, We = src_lab.shape
@@ -90,7 +101,7 @@ def _grow(src_lab, src_dist, src_masks, tgt_lab, tgt_dist, tgt_masks, free, S, p
             if y < 0 or y >= He or x < 0 or x >= We or src_lab[y, x] != tgt_lab[i, j]:
                 continue
             gather_target(tgt_dist, i, j, tD)
-            d = _eq1(src_dist, src_masks, y, x, tD, tgt_masks[i, j], w, thr)
+            d = _eq1(src_dist, src_masks, src_h, y, x, tD, tgt_masks[i, j], tgt_h[i, j], hw, w, thr)
             if d > thr:
                 continue
         free[i, j] = False
@@ -131,8 +142,8 @@ def _label_lists(src_lab, n):
 
 
 @njit(**JIT)
-def _flood_fill(src_lab, src_dist, src_masks, tgt_lab, tgt_dist, tgt_masks, order, free, S, patch, first_id,
-                w, thr_scale, thr_offset, nchunks):
+def _flood_fill(src_lab, src_dist, src_masks, src_h, tgt_lab, tgt_dist, tgt_masks, tgt_h, hw, order, free, S,
+                patch, first_id, w, thr_scale, thr_offset, seed, nchunks):
     n = src_masks.shape[2]
     starts, lists = _label_lists(src_lab, n)
     Ht, Wt = tgt_lab.shape
@@ -152,12 +163,14 @@ def _flood_fill(src_lab, src_dist, src_masks, tgt_lab, tgt_dist, tgt_masks, orde
         if cands.shape[0] == 0:
             return -1 - l  # the exemplar lacks this label
         gather_target(tgt_dist, i, j, tD)
-        c, best = _best_match(cands, src_dist, src_masks, tD, tgt_masks[i, j], w, nchunks)
+        start = rand(seed, p, 0x5CA7, 0) % cands.shape[0]
+        c, best = _best_match(cands, src_dist, src_masks, src_h, tD, tgt_masks[i, j], tgt_h[i, j], hw, w, start,
+                              nchunks)
         We = src_lab.shape[1]
         oy = c // We - i
         ox = c % We - j
-        _grow(src_lab, src_dist, src_masks, tgt_lab, tgt_dist, tgt_masks, free, S, patch, pid, i, j, oy, ox,
-              thr_scale * best + thr_offset, w, queue, stamp)
+        _grow(src_lab, src_dist, src_masks, src_h, tgt_lab, tgt_dist, tgt_masks, tgt_h, hw, free, S, patch, pid, i,
+              j, oy, ox, thr_scale * best + thr_offset, w, queue, stamp)
         pid += 1
         npatch += 1
     return npatch
@@ -166,7 +179,9 @@ def _flood_fill(src_lab, src_dist, src_masks, tgt_lab, tgt_dist, tgt_masks, orde
 def flood_fill(src_lab: np.ndarray, src_dist: np.ndarray, src_masks: np.ndarray, tgt_lab: np.ndarray,
                tgt_dist: np.ndarray, tgt_masks: np.ndarray, *, seed: int, w: float,
                threshold_scale: float, threshold_offset: float, mask: np.ndarray | None = None,
-               S: np.ndarray | None = None, patch: np.ndarray | None = None, chunks: int = 16):
+               S: np.ndarray | None = None, patch: np.ndarray | None = None, chunks: int = 16,
+               src_height: np.ndarray | None = None, tgt_height: np.ndarray | None = None,
+               height_weight: float = 0.0):
     """Cover the guide with patches of the exemplar.
 
     Parameters
@@ -175,9 +190,11 @@ def flood_fill(src_lab: np.ndarray, src_dist: np.ndarray, src_masks: np.ndarray,
         Chamfer window masks (He, We, n) at the synthesis resolution.
     tgt_lab, tgt_dist, tgt_masks : the same for the guide (Ht, Wt).
     seed : int
-        Order in which uncovered pixels seed patches.
+        Order in which uncovered pixels seed patches, and where each search starts.
     w, threshold_scale, threshold_offset : float
         Chamfer weight of eq. 1 and the flood-fill stopping rule.
+    src_height, tgt_height, height_weight : ``features.label_heights`` of the two sides
+        and the weight of their difference (none or 0: no height term).
     mask : (Ht, Wt) bool, optional
         Only these pixels are covered; the others keep ``S`` and ``patch``.
     S, patch : existing state (required with ``mask``).
@@ -204,10 +221,14 @@ def flood_fill(src_lab: np.ndarray, src_dist: np.ndarray, src_masks: np.ndarray,
         patch = np.ascontiguousarray(patch, dtype=np.int64).copy()
         first = int(patch.max()) + 1 if patch.size else 1
     order = permutation(seed, Ht * Wt)
+    if src_height is None or tgt_height is None:
+        src_height, tgt_height, height_weight = np.zeros(src_lab.shape, np.float32), np.zeros((Ht, Wt), np.float32), 0.0
     r = _flood_fill(np.ascontiguousarray(src_lab, np.int32), np.ascontiguousarray(src_dist, np.float32),
-                    np.ascontiguousarray(src_masks), np.ascontiguousarray(tgt_lab, np.int32),
-                    np.ascontiguousarray(tgt_dist, np.float32), np.ascontiguousarray(tgt_masks), order, free, S,
-                    patch, first, float(w), float(threshold_scale), float(threshold_offset), int(chunks))
+                    np.ascontiguousarray(src_masks), np.ascontiguousarray(src_height, np.float32),
+                    np.ascontiguousarray(tgt_lab, np.int32), np.ascontiguousarray(tgt_dist, np.float32),
+                    np.ascontiguousarray(tgt_masks), np.ascontiguousarray(tgt_height, np.float32),
+                    float(height_weight), order, free, S, patch, first, float(w), float(threshold_scale),
+                    float(threshold_offset), int(seed), int(chunks))
     if r < 0:
         raise ValueError(f"label index {-1 - r} of the guide has no pixel in the exemplar")
     return S, patch, r

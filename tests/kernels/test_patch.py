@@ -25,12 +25,13 @@ def case(seed, n=3):
     return src, tgt
 
 
-def run_kernel(src, tgt, n, seed, mask=None, S=None, patch=None, w=90.0, ts=1.25, to=5.0):
+def run_kernel(src, tgt, n, seed, mask=None, S=None, patch=None, w=90.0, ts=1.25, to=5.0, hw=0.0):
     sd = np.minimum(contour_distance(src), 4.0).astype(np.float32)
     td = np.minimum(contour_distance(tgt), 4.0).astype(np.float32)
     return sd, td, kpatch.flood_fill(src, sd, kf.window_masks(src, 1, n), tgt, td, kf.window_masks(tgt, 1, n),
                                      seed=seed, w=w, threshold_scale=ts, threshold_offset=to, mask=mask, S=S,
-                                     patch=patch)
+                                     patch=patch, src_height=kf.label_heights(src), tgt_height=kf.label_heights(tgt),
+                                     height_weight=hw)
 
 
 def test_chamfer_masks_match_paper_definition():
@@ -44,12 +45,13 @@ def test_chamfer_masks_match_paper_definition():
         assert kf.chamfer_masks(ma, mb) == naive.chamfer(a, b)
 
 
-@pytest.mark.parametrize("seed", range(4))
-def test_flood_fill_matches_reference(seed):
+@pytest.mark.parametrize("seed,hw", [(0, 0.0), (1, 0.0), (2, 16.0), (3, 40.0)])
+def test_flood_fill_matches_reference(seed, hw):
     src, tgt = case(seed)
-    sd, td, (S, patch, npatch) = run_kernel(src, tgt, 3, seed)
+    sd, td, (S, patch, npatch) = run_kernel(src, tgt, 3, seed, hw=hw)
     order = permutation(seed, tgt.size)
-    S_ref, patch_ref = naive.flood_fill(src, sd, tgt, td, order, 90.0, 1.25, 5.0)
+    S_ref, patch_ref = naive.flood_fill(src, sd, tgt, td, order, 90.0, 1.25, 5.0, seed,
+                                        (kf.label_heights(src), kf.label_heights(tgt)), hw)
     assert np.array_equal(patch, patch_ref)
     assert np.array_equal(S, S_ref)
     assert npatch == patch.max()
