@@ -20,18 +20,18 @@ from proxyshade.kernels._config import JIT, PJIT
 
 @njit(inline="always", **JIT)
 def _encode(x):
-    """IEC 61966-2-1 sRGB encoding of one linear value (negative values clamp to 0)."""
-    if x <= 0.0031308:
-        return 12.92 * max(x, 0.0)
-    return 1.055 * x ** (1.0 / 2.4) - 0.055
+    """IEC 61966-2-1 sRGB encoding of one linear float32 value (negative values clamp to 0)."""
+    if x <= np.float32(0.0031308):
+        return np.float32(12.92) * max(x, np.float32(0.0))
+    return np.float32(1.055) * x ** np.float32(1.0 / 2.4) - np.float32(0.055)
 
 
 @njit(inline="always", **JIT)
 def _decode(v):
-    """IEC 61966-2-1 sRGB decoding of one encoded value (negative values clamp to 0)."""
-    if v <= 0.04045:
-        return max(v, 0.0) / 12.92
-    return ((v + 0.055) / 1.055) ** 2.4
+    """IEC 61966-2-1 sRGB decoding of one encoded float32 value (negative values clamp to 0)."""
+    if v <= np.float32(0.04045):
+        return max(v, np.float32(0.0)) / np.float32(12.92)
+    return ((v + np.float32(0.055)) / np.float32(1.055)) ** np.float32(2.4)
 
 
 @njit(**PJIT)
@@ -40,7 +40,7 @@ def _encode_image(lin, out):
     for i in prange(h):
         for j in range(w):
             for k in range(c):
-                out[i, j, k] = _encode(np.float64(lin[i, j, k]))
+                out[i, j, k] = _encode(lin[i, j, k])
 
 
 def srgb_encode(lin: np.ndarray) -> np.ndarray:
@@ -57,7 +57,9 @@ def _add_encoded(lin, offset, out):
     for i in prange(h):
         for j in range(w):
             for k in range(c):
-                out[i, j, k] = _decode(_encode(np.float64(lin[i, j, k])) + offset[i, j, k])
+                o = offset[i, j, k]
+                x = lin[i, j, k]
+                out[i, j, k] = x if o == 0.0 else _decode(_encode(x) + o)
 
 
 def add_encoded(lin: np.ndarray, offset: np.ndarray) -> np.ndarray:
@@ -138,11 +140,16 @@ def _box_blocks(s, r):
     for I in range(H):
         for J in range(W):
             for d in range(max(J - r, 0), min(J + r + 1, W)):
-                tmp[I, J] += s[I, d]
+                for l in range(n):
+                    for c in range(k):
+                        tmp[I, J, l, c] += s[I, d, l, c]
     out = np.zeros_like(s)
     for I in range(H):
         for d in range(max(I - r, 0), min(I + r + 1, H)):
-            out[I] += tmp[d]
+            for J in range(W):
+                for l in range(n):
+                    for c in range(k):
+                        out[I, J, l, c] += tmp[d, J, l, c]
     return out
 
 

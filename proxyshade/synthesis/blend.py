@@ -39,11 +39,13 @@ def layout_offset(colors: np.ndarray, labels: np.ndarray, source_rgb: np.ndarray
     ``kernels.layout.add_encoded`` it keeps the contrast a viewer sees (a constant added to
     linear colours would flatten a brightened dark region) and moves only the low
     frequencies."""
-    ids, inv = np.unique(np.concatenate([np.asarray(labels).ravel(), np.asarray(source_labels).ravel()]),
-                         return_inverse=True)
-    n = len(ids)
-    out_lab = inv[:labels.size].reshape(labels.shape).astype(np.int32)
-    src_lab = inv[labels.size:].reshape(source_labels.shape).astype(np.int32)
+    top = int(max(labels.max(), source_labels.max()))
+    present = np.zeros(top + 1, bool)
+    present[source_labels.ravel()] = True  # dense indices of the ids present anywhere
+    present[labels.ravel()] = True
+    lut = (np.cumsum(present) - 1).astype(np.int32)
+    n = int(present.sum())
+    out_lab, src_lab = lut[labels], lut[source_labels]
     ps, cs = klayout.profile(klayout.srgb_encode(source_rgb), src_lab, label_heights(src_lab), n, LAYOUT_BINS)
     t, runs = label_heights(out_lab, lengths=True)
     po, co = klayout.profile(klayout.srgb_encode(colors), out_lab, t, n, LAYOUT_BINS)
