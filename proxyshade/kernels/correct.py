@@ -16,9 +16,12 @@ and carry the guide's label at p, and is rejected when
 * a non-coherent pixel of that window uses an exemplar pixel within ``radius`` of it
   (the paper: 2^(l−1) at level l, l = 1 the coarsest) — a near copy.
 
-The survivor closest to p's neighbourhood under eq. 1 augmented with colour
+The survivor closest to p's neighbourhood under eq. 1 augmented with colour and height
 
-    d = ||(N_D, N_RGB)(A) − (N_D, N_RGB)(B)||_2 + w C(A, B)
+    d = ||(N_D, N_RGB, h_w t)(A) − (N_D, N_RGB, h_w t)(B)||_2 + w C(A, B)
+
+(t the relative height in the label's vertical run, ``features.label_heights``, h_w
+``height_weight``)
 
 replaces S[p]; when every candidate is rejected S[p] stays.
 
@@ -35,7 +38,7 @@ from numba import njit, prange
 
 from proxyshade.kernels._config import JIT, PJIT
 from proxyshade.kernels.random import mix_seed, rand
-from proxyshade.kernels.features import NB2, chamfer_masks, dist_sq_D, dist_sq_rgb, gather_target
+from proxyshade.kernels.features import NB2, chamfer_masks, dist_sq_D, dist_sq_rgb, gather_target, height_sq
 
 WINDOW = 4  # half side of the 9x9 repetition window
 
@@ -49,10 +52,11 @@ WINDOW = 4  # half side of the 9x9 repetition window
 
 
 @njit(**JIT)
-def _ex_dist(src_dist, src_rgb, src_masks, h, y, x, yy, xx, w, bound):
-    """Distance between exemplar windows (y, x) and (yy, xx) (spacing h), eq. 1 + colour."""
+def _ex_dist(src_dist, src_rgb, src_masks, src_h, hw, h, y, x, yy, xx, w, bound):
+    """Distance between exemplar windows (y, x) and (yy, xx) (spacing h), eq. 1 + colour
+    + height."""
     H, W = src_dist.shape
-    s = 0.0
+    s = height_sq(src_h, y, x, src_h[yy, xx], hw)
     b2 = bound * bound
     for di in range(-2, 3):
         a0 = min(max(y + di * h, 0), H - 1)
@@ -93,7 +97,7 @@ def _insert(ly, lx, ld, k, cy, cx, d):
 
 
 @njit(**PJIT)
-def _knn_init(src_lab, src_dist, src_rgb, src_masks, h, k, excl, w, seed, starts, lists, ky, kx, kd):
+def _knn_init(src_lab, src_dist, src_rgb, src_masks, src_h, hw, h, k, excl, w, seed, starts, lists, ky, kx, kd):
     H, W = src_lab.shape
     for y in prange(H):
         for x in range(W):
@@ -109,12 +113,12 @@ def _knn_init(src_lab, src_dist, src_rgb, src_masks, h, k, excl, w, seed, starts
                 cx = c % W
                 if max(abs(cy - y), abs(cx - x)) <= excl:
                     continue
-                d = _ex_dist(src_dist, src_rgb, src_masks, h, y, x, cy, cx, w, kd[y, x, k - 1])
+                d = _ex_dist(src_dist, src_rgb, src_masks, src_h, hw, h, y, x, cy, cx, w, kd[y, x, k - 1])
                 _insert(ky[y, x], kx[y, x], kd[y, x], k, cy, cx, d)
 
 
 @njit(**PJIT)
-def _knn_iter(src_lab, src_dist, src_rgb, src_masks, h, k, excl, w, seed, it, oy, ox, od, ny, nx, nd):
+def _knn_iter(src_lab, src_dist, src_rgb, src_masks, src_h, hw, h, k, excl, w, seed, it, oy, ox, od, ny, nx, nd):
     """One PatchMatch k-NN iteration (reads o*, writes n*): propagation from the 4
     neighbours' lists, then random search around each entry with halving radius."""
     H, W = src_lab.shape
@@ -142,7 +146,7 @@ def _knn_iter(src_lab, src_dist, src_rgb, src_masks, h, k, excl, w, seed, it, oy
                         continue
                     if src_lab[cy, cx] != l or max(abs(cy - y), abs(cx - x)) <= excl:
                         continue
-                    d = _ex_dist(src_dist, src_rgb, src_masks, h, y, x, cy, cx, w, ld[k - 1])
+                    d = _ex_dist(src_dist, src_rgb, src_masks, src_h, hw, h, y, x, cy, cx, w, ld[k - 1])
                     _insert(ly, lx, ld, k, cy, cx, d)
             draw = 0
             for t in range(k):
@@ -159,12 +163,12 @@ def _knn_iter(src_lab, src_dist, src_rgb, src_masks, h, k, excl, w, seed, it, oy
                         continue
                     if src_lab[cy, cx] != l or max(abs(cy - y), abs(cx - x)) <= excl:
                         continue
-                    d = _ex_dist(src_dist, src_rgb, src_masks, h, y, x, cy, cx, w, ld[k - 1])
+                    d = _ex_dist(src_dist, src_rgb, src_masks, src_h, hw, h, y, x, cy, cx, w, ld[k - 1])
                     _insert(ly, lx, ld, k, cy, cx, d)
 
 
 def similarity_sets(level, k: int, *, seed: int, iterations: int, w: float,
-                    init: np.ndarray | None = None) -> np.ndarray:
+                    init: np.ndarray | None = None, height_weight: float = 0.0) -> np.ndarray:
     """(He, We, k, 2) int32: for each exemplar pixel, k similar exemplar pixels of the
     same label, more than ``2 h`` away (approximate k-NN by PatchMatch).
 
@@ -176,23 +180,24 @@ def similarity_sets(level, k: int, *, seed: int, iterations: int, w: float,
     H, W = lab.shape
     n = level.src_masks.shape[2]
     excl = 2 * level.h
+    hw = float(height_weight)
     ky = np.empty((H, W, k), np.int32)
     kx = np.empty((H, W, k), np.int32)
     kd = np.empty((H, W, k), np.float64)
     if init is None:
         starts, lists = _label_lists(lab, n)
-        _knn_init(lab, level.src_dist, level.src_rgb, level.src_masks, level.h, k, excl, float(w), seed, starts,
+        _knn_init(lab, level.src_dist, level.src_rgb, level.src_masks, level.src_height, hw, level.h, k, excl, float(w), seed, starts,
                   lists, ky, kx, kd)
     else:
         ky[...] = init[..., 0]
         kx[...] = init[..., 1]
         kd[...] = np.inf
-        _knn_rescore(lab, level.src_dist, level.src_rgb, level.src_masks, level.h, k, excl, float(w), ky, kx, kd)
+        _knn_rescore(lab, level.src_dist, level.src_rgb, level.src_masks, level.src_height, hw, level.h, k, excl, float(w), ky, kx, kd)
     ny = np.empty_like(ky)
     nx = np.empty_like(kx)
     nd = np.empty_like(kd)
     for it in range(iterations):
-        _knn_iter(lab, level.src_dist, level.src_rgb, level.src_masks, level.h, k, excl, float(w), seed, it + 1,
+        _knn_iter(lab, level.src_dist, level.src_rgb, level.src_masks, level.src_height, hw, level.h, k, excl, float(w), seed, it + 1,
                   ky, kx, kd, ny, nx, nd)
         ky, ny = ny, ky
         kx, nx = nx, kx
@@ -201,7 +206,7 @@ def similarity_sets(level, k: int, *, seed: int, iterations: int, w: float,
 
 
 @njit(**PJIT)
-def _knn_rescore(src_lab, src_dist, src_rgb, src_masks, h, k, excl, w, ky, kx, kd):
+def _knn_rescore(src_lab, src_dist, src_rgb, src_masks, src_h, hw, h, k, excl, w, ky, kx, kd):
     """Re-evaluate given lists at this level (entries breaking the rules become self with inf)."""
     H, W = src_lab.shape
     for y in prange(H):
@@ -217,12 +222,43 @@ def _knn_rescore(src_lab, src_dist, src_rgb, src_masks, h, k, excl, w, ky, kx, k
                 cx = lx[t]
                 if src_lab[cy, cx] != src_lab[y, x] or max(abs(cy - y), abs(cx - x)) <= excl:
                     continue
-                d = _ex_dist(src_dist, src_rgb, src_masks, h, y, x, cy, cx, w, kd[y, x, k - 1])
+                d = _ex_dist(src_dist, src_rgb, src_masks, src_h, hw, h, y, x, cy, cx, w, kd[y, x, k - 1])
                 _insert(ky[y, x], kx[y, x], kd[y, x], k, cy, cx, d)
 
 
 # ---------------------------------------------------------------------------
 # correction
+
+
+@njit(**JIT)
+def _usage_excess(S, src_lab, expected, R, out):
+    """For each exemplar pixel, how much its (2R+1)² window is over-used: max(0, uses /
+    expected uses − 1), uses = target pixels whose ``S`` falls in the window, expected =
+    Σ over the window's exemplar pixels of ``expected[label]`` (target pixels per exemplar
+    pixel of that label: the rate of a synthesis that draws on the whole source region
+    evenly). Window sums by integral images; deterministic."""
+    He, We = src_lab.shape
+    iu = np.zeros((He + 1, We + 1))
+    ie = np.zeros((He + 1, We + 1))
+    for i in range(S.shape[0]):
+        for j in range(S.shape[1]):
+            iu[S[i, j, 0] + 1, S[i, j, 1] + 1] += 1.0
+    for y in range(He):
+        for x in range(We):
+            ie[y + 1, x + 1] = expected[src_lab[y, x]]
+    for y in range(1, He + 1):
+        for x in range(1, We + 1):
+            iu[y, x] += iu[y - 1, x] + iu[y, x - 1] - iu[y - 1, x - 1]
+            ie[y, x] += ie[y - 1, x] + ie[y, x - 1] - ie[y - 1, x - 1]
+    for y in range(He):
+        y0 = max(y - R, 0)
+        y1 = min(y + R + 1, He)
+        for x in range(We):
+            x0 = max(x - R, 0)
+            x1 = min(x + R + 1, We)
+            u = iu[y1, x1] - iu[y0, x1] - iu[y1, x0] + iu[y0, x0]
+            e = ie[y1, x1] - ie[y0, x1] - ie[y1, x0] + ie[y0, x0]
+            out[y, x] = max(u / e - 1.0, 0.0) if e > 0 else 0.0
 
 
 @njit(**JIT)
@@ -251,10 +287,14 @@ def rejected(S, i, j, cy, cx, h, radius):
 
 
 @njit(**JIT)
-def _cand_dist(src_dist, src_rgb, src_masks, tgt_masks, i, j, cy, cx, h, tD, tRGB, w, use_rgb, best):
-    """Eq. 1 with colour for candidate (cy, cx) at target (i, j); early exit above best."""
+def _cand_dist(src_dist, src_rgb, src_masks, tgt_masks, src_h, th, hw, i, j, cy, cx, h, tD, tRGB, w, use_rgb,
+               best):
+    """Eq. 1 with colour and height for candidate (cy, cx) at target (i, j) (target
+    height ``th``); early exit above best."""
     b2 = best * best
-    s = dist_sq_D(src_dist, h, cy, cx, tD, b2)
+    s = height_sq(src_h, cy, cx, th, hw)
+    if s <= b2:
+        s += dist_sq_D(src_dist, h, cy, cx, tD, b2 - s)
     if use_rgb and s <= b2:
         s += dist_sq_rgb(src_rgb, h, cy, cx, tRGB, b2 - s)
     d = np.sqrt(s)
@@ -264,12 +304,13 @@ def _cand_dist(src_dist, src_rgb, src_masks, tgt_masks, i, j, cy, cx, h, tD, tRG
 
 
 @njit(**PJIT)
-def _subpass(src_lab, src_dist, src_rgb, src_masks, tgt_lab, tgt_dist, tgt_masks, knn, S_old, S_new, active,
-             pi, pj, h, radius, w, use_rgb, kappa, counts):
+def _subpass(src_lab, src_dist, src_rgb, src_masks, src_h, tgt_lab, tgt_dist, tgt_masks, tgt_h, hw, knn, S_old,
+             S_new, active, pi, pj, h, radius, w, use_rgb, kappa, over, uniformity, counts):
     """Correct pixels with (i % 2, j % 2) == (pi, pj), reading S_old, writing S_new.
 
     Candidates from similarity sets (not a neighbour's coherent continuation) have their
-    distance multiplied by 1 + kappa.
+    distance multiplied by 1 + kappa; every candidate's by 1 + uniformity × its exemplar
+    neighbourhood's over-use ``over`` (``usage_excess``).
 
     counts[i] accumulates (changed, all rejected) per row for reporting.
     """
@@ -338,9 +379,9 @@ def _subpass(src_lab, src_dist, src_rgb, src_masks, tgt_lab, tgt_dist, tgt_masks
             for u in range(nc):
                 cy = cyl[u]
                 cx = cxl[u]
-                m = 1.0 if coh[u] else 1.0 + kappa
-                d = m * _cand_dist(src_dist, src_rgb, src_masks, tgt_masks, i, j, cy, cx, h, tD, tRGB, w, use_rgb,
-                                   best / m)
+                m = (1.0 if coh[u] else 1.0 + kappa) * (1.0 + uniformity * over[cy, cx])
+                d = m * _cand_dist(src_dist, src_rgb, src_masks, tgt_masks, src_h, tgt_h[i, j], hw, i, j, cy, cx, h,
+                                   tD, tRGB, w, use_rgb, best / m)
                 # rejection is only tested for a candidate that would win (same result, cheaper)
                 if d < best and not rejected(S_old, i, j, cy, cx, h, radius):
                     best = d
@@ -350,9 +391,9 @@ def _subpass(src_lab, src_dist, src_rgb, src_masks, tgt_lab, tgt_dist, tgt_masks
                 # every candidate was rejected and the current position has the wrong
                 # label: label fidelity wins over repetition
                 for u in range(nc):
-                    m = 1.0 if coh[u] else 1.0 + kappa
-                    d = m * _cand_dist(src_dist, src_rgb, src_masks, tgt_masks, i, j, cyl[u], cxl[u], h, tD, tRGB,
-                                       w, use_rgb, best / m)
+                    m = (1.0 if coh[u] else 1.0 + kappa) * (1.0 + uniformity * over[cyl[u], cxl[u]])
+                    d = m * _cand_dist(src_dist, src_rgb, src_masks, tgt_masks, src_h, tgt_h[i, j], hw, i, j, cyl[u],
+                                       cxl[u], h, tD, tRGB, w, use_rgb, best / m)
                     if d < best:
                         best = d
                         by = cyl[u]
@@ -367,8 +408,8 @@ def _subpass(src_lab, src_dist, src_rgb, src_masks, tgt_lab, tgt_dist, tgt_masks
 
 
 def correct_level(level, S: np.ndarray, knn: np.ndarray, *, passes: int, radius: int, w: float,
-                  use_rgb: bool = True, kappa: float = 0.0,
-                  active: np.ndarray | None = None) -> tuple[np.ndarray, dict]:
+                  use_rgb: bool = True, kappa: float = 0.0, active: np.ndarray | None = None,
+                  height_weight: float = 0.0, uniformity: float = 0.0) -> tuple[np.ndarray, dict]:
     """``passes`` correction passes (4 parity sub-passes each) at one level."""
     Ht, Wt = level.tgt_lab.shape
     if active is None:
@@ -376,11 +417,17 @@ def correct_level(level, S: np.ndarray, knn: np.ndarray, *, passes: int, radius:
     S_old = np.ascontiguousarray(S, np.int32).copy()
     S_new = S_old.copy()
     counts = np.zeros((Ht, 2), np.int64)
+    n = level.src_masks.shape[2]
+    expected = (np.bincount(level.tgt_lab.ravel(), minlength=n)
+                / np.maximum(np.bincount(level.src_lab.ravel(), minlength=n), 1)).astype(np.float64)
+    over = np.zeros(level.src_lab.shape, np.float64)
     for _ in range(passes):
         for pi, pj in ((0, 0), (1, 1), (0, 1), (1, 0)):
-            _subpass(level.src_lab, level.src_dist, level.src_rgb, level.src_masks, level.tgt_lab, level.tgt_dist,
-                     level.tgt_masks, knn, S_old, S_new, active, pi, pj, level.h, radius, float(w), use_rgb,
-                     float(kappa), counts)
+            if uniformity > 0:
+                _usage_excess(S_old, level.src_lab, expected, 2 * level.h, over)
+            _subpass(level.src_lab, level.src_dist, level.src_rgb, level.src_masks, level.src_height, level.tgt_lab,
+                     level.tgt_dist, level.tgt_masks, level.tgt_height, float(height_weight), knn, S_old, S_new, active,
+                     pi, pj, level.h, radius, float(w), use_rgb, float(kappa), over, float(uniformity), counts)
             S_old[...] = S_new  # only this sub-set changed
     c = counts.sum(0)
     return S_old, {"changed": int(c[0]), "all_rejected": int(c[1])}
@@ -442,7 +489,8 @@ def downsample_mask(mask: np.ndarray, h: int, shape: tuple[int, int]) -> np.ndar
     return pad.reshape(shape[0], h, shape[1], h).any(axis=(1, 3))
 
 
-def level_similarity_sets(levels: list, k: int, *, seed: int, knn_iterations: int, w: float) -> list:
+def level_similarity_sets(levels: list, k: int, *, seed: int, knn_iterations: int, w: float,
+                          height_weight: float = 0.0) -> list:
     """``similarity_sets`` of every level (coarsest first), as ``synthesize`` uses them."""
     L = len(levels)
     ex_shape = levels[-1].src_lab.shape
@@ -450,13 +498,15 @@ def level_similarity_sets(levels: list, k: int, *, seed: int, knn_iterations: in
     for l in range(L - 1, -1, -1):  # finest first: coarser lists start from finer ones
         init = knns[l + 1] if l + 1 < L else None
         knns[l] = similarity_sets(levels[l], k, seed=mix_seed(seed, l), iterations=knn_iterations if init is None else 1,
-                                  w=w, init=init) if k > 0 else np.zeros(ex_shape + (0, 2), np.int32)
+                                  w=w, init=init, height_weight=height_weight) if k > 0 else \
+            np.zeros(ex_shape + (0, 2), np.int32)
     return knns
 
 
 def synthesize(levels: list, S_init: np.ndarray, *, passes: int, passes_finest: int, k: int, w: float, seed: int,
                knn_iterations: int, use_rgb: bool, kappa: float, mask: np.ndarray | None = None, timings: dict | None = None,
-               radius_rule: str = "spacing", similarity: list | None = None) -> tuple[np.ndarray, list[dict]]:
+               radius_rule: str = "spacing", similarity: list | None = None,
+               height_weight: float = 0.0, uniformity: float = 0.0) -> tuple[np.ndarray, list[dict]]:
     """Coarse-to-fine correction of an initial coordinate map.
 
     Parameters
@@ -467,6 +517,10 @@ def synthesize(levels: list, S_init: np.ndarray, *, passes: int, passes_finest: 
     passes, passes_finest : correction passes per level and at the finest level.
     k : size of the similarity sets (k-coherence).
     mask : (Ht, Wt) bool, optional; only these pixels change, the rest keep ``S_init``.
+    height_weight : weight of the relative-height term (0: none).
+    uniformity : candidates' distances are multiplied by 1 + uniformity × the over-use of
+        their exemplar neighbourhood (``_usage_excess``; 0: none): the synthesis draws on
+        the whole source region instead of converging on its blandest patch.
     similarity : optional per-level similarity sets from ``level_similarity_sets`` (they
         depend on the exemplar side of the levels, k, w, seed and knn_iterations only):
         passed again, the search is skipped (a later frame of one source).
@@ -480,7 +534,8 @@ def synthesize(levels: list, S_init: np.ndarray, *, passes: int, passes_finest: 
     S_init = np.ascontiguousarray(S_init, np.int32)
     t0 = time.perf_counter()
     if similarity is None:
-        knns = level_similarity_sets(levels, k, seed=seed, knn_iterations=knn_iterations, w=w)
+        knns = level_similarity_sets(levels, k, seed=seed, knn_iterations=knn_iterations, w=w,
+                                     height_weight=height_weight)
     else:
         knns = list(similarity)
         if len(knns) != L or any(a.shape[:3] != ex_shape + (k,) for a in knns):
@@ -505,7 +560,7 @@ def synthesize(levels: list, S_init: np.ndarray, *, passes: int, passes_finest: 
         radius = h if radius_rule == "spacing" else 2 ** l
         n = passes_finest if l == L - 1 else passes
         S, st = correct_level(lv, S, knns[l], passes=n, radius=radius, w=w, use_rgb=use_rgb, kappa=kappa,
-                              active=active)
+                              active=active, height_weight=height_weight, uniformity=uniformity)
         st.update(level=l, h=h, shape=shape, passes=n, radius=radius)
         stats.append(st)
     if mask is not None:

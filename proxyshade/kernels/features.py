@@ -5,7 +5,11 @@ A pixel is described by its 5×5 neighbourhood of
 * distances to the closest label contour (``kernels.distance``, after Lefebvre and Hoppe
   2006), compared with the L2 norm,
 * label ids, compared with the symmetric Chamfer distance (``kernels.chamfer``),
-* colours (correction passes only), compared with the L2 norm.
+* colours (correction passes only), compared with the L2 norm,
+* the pixel's relative height in its label's vertical run (``label_heights``: 0 at the
+  run's top, 1 at its bottom; a sky from the frame's top to the horizon), its difference
+  times a weight added to the L2 norm: the large-scale layout inside a label (a sky
+  darker at the top, haze toward the horizon) is matched, not only the contours.
 
 The source side is an *exemplar*: the source photo resampled so that one exemplar pixel
 is one synthesis pixel, with, per synthesis level, a stack (full exemplar resolution,
@@ -166,6 +170,7 @@ class Level:
     src_lab, src_dist, src_rgb : (He, We) int32, (He, We) float32, (He, We, 3) float32.
     src_masks : (He, We, n) uint32 Chamfer label masks of the 5x5 window, spacing h.
     tgt_lab, tgt_dist : (Ht, Wt) guide pyramid level; tgt_masks (Ht, Wt, n).
+    src_height, tgt_height : (He, We), (Ht, Wt) float32 ``label_heights`` of the two sides.
     """
 
     h: int
@@ -176,6 +181,35 @@ class Level:
     tgt_lab: np.ndarray
     tgt_dist: np.ndarray
     tgt_masks: np.ndarray
+    src_height: np.ndarray
+    tgt_height: np.ndarray
+
+
+@njit(**PJIT)
+def _heights(lab, out, length):
+    H, W = lab.shape
+    for j in prange(W):
+        i0 = 0
+        while i0 < H:
+            i1 = i0
+            while i1 + 1 < H and lab[i1 + 1, j] == lab[i0, j]:
+                i1 += 1
+            n = i1 - i0
+            for i in range(i0, i1 + 1):
+                out[i, j] = (i - i0) / n if n > 0 else 0.5
+                length[i, j] = n + 1
+            i0 = i1 + 1
+
+
+def label_heights(lab: np.ndarray, *, lengths: bool = False):
+    """(H, W) float32: each pixel's relative height in its vertical run of one label
+    (the pixels of its column between two other labels or the image border): 0 at the
+    run's top, 1 at its bottom, 0.5 for a run of one pixel. With ``lengths`` also the
+    run's length in pixels ((H, W) int32)."""
+    out = np.empty(lab.shape, np.float32)
+    n = np.empty(lab.shape, np.int32)
+    _heights(np.ascontiguousarray(lab, np.int32), out, n)
+    return (out, n) if lengths else out
 
 
 @njit(**PJIT)
@@ -215,14 +249,31 @@ def build_exemplar(rgb: np.ndarray, lab: np.ndarray, f: float, n: int) -> tuple[
     return ex_rgb, ex_lab
 
 
+def interior_caps(lab: np.ndarray, dist: np.ndarray, n: int, max_distance: float | None,
+                  interior: float) -> np.ndarray:
+    """(n,) float32 per-label clamp of contour distances: ``max_distance`` (None: none),
+    and at most the distance that an ``interior`` share of the label's exemplar pixels
+    reach (0: no such clamp): a region of the guide wider than its source region then
+    matches that whole share of it as "interior", not only the source region's deepest
+    middle."""
+    cap = np.full(n, np.float32(max_distance) if max_distance is not None else np.float32(1e6), np.float32)
+    if interior > 0:
+        for l in np.unique(lab):
+            d = dist[lab == l]
+            cap[l] = min(cap[l], max(np.float32(1.0), np.quantile(d, 1.0 - interior)))
+    return cap
+
+
 def build_levels(ex_rgb: np.ndarray, ex_lab: np.ndarray, tgt_lab: np.ndarray, n: int, nlevels: int, *,
-                 max_distance: float | None = None, with_rgb: bool = True, finest_only: bool = False) -> list[Level]:
+                 max_distance: float | None = None, with_rgb: bool = True, finest_only: bool = False,
+                 interior: float = 0.0) -> list[Level]:
     """Exemplar stack and guide pyramid, coarsest level first (only the finest with
     ``finest_only``: then the list has one level).
 
     ``tgt_lab`` is the guide at the finest synthesis size (dense labels). Level ``l``
     (0 = coarsest) has spacing ``h = 2 ** (nlevels - 1 - l)``; distances are in level
-    pixels (exemplar distances divided by h) and clamped at ``max_distance``.
+    pixels (exemplar distances divided by h) and clamped at ``max_distance`` and, per label,
+    by ``interior_caps``.
     """
     feat = srgb_features(ex_rgb) if with_rgb else np.zeros(ex_lab.shape + (3,), np.float32)
     if finest_only:
@@ -238,16 +289,16 @@ def build_levels(ex_rgb: np.ndarray, ex_lab: np.ndarray, tgt_lab: np.ndarray, n:
         t_lab = np.ascontiguousarray(tgt_pyr[l], np.int32)
         s_dist = contour_distance(s_lab, max_distance=None) / np.float32(h)
         t_dist = contour_distance(t_lab, max_distance=None)
-        cap = np.float32(max_distance) if max_distance is not None else np.float32(1e6)
-        s_dist = np.minimum(s_dist, cap).astype(np.float32)
-        t_dist = np.minimum(t_dist, cap).astype(np.float32)
+        cap = interior_caps(s_lab, s_dist, n, max_distance, interior)
+        s_dist = np.minimum(s_dist, cap[s_lab]).astype(np.float32)
+        t_dist = np.minimum(t_dist, cap[t_lab]).astype(np.float32)
         if h == 1 or not with_rgb:
             s_rgb = feat
         else:
             s_rgb = np.empty_like(feat)
             _box_blur_centred(feat, h, s_rgb)
         levels.append(Level(h, s_lab, s_dist, s_rgb, window_masks(s_lab, h, n), t_lab, t_dist,
-                            window_masks(t_lab, 1, n)))
+                            window_masks(t_lab, 1, n), label_heights(s_lab), label_heights(t_lab)))
     return levels
 
 
@@ -285,6 +336,13 @@ def dist_sq_D(src_dist, h, y, x, tD, bound):
         if s > bound:
             return s
     return s
+
+
+@njit(inline="always", **JIT)
+def height_sq(src_height, y, x, th, weight):
+    """(weight × (height of exemplar (y, x) − th))²: the height term of the metrics."""
+    d = weight * (np.float64(src_height[y, x]) - th)
+    return d * d
 
 
 @njit(**JIT)

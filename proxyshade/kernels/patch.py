@@ -6,7 +6,14 @@ closest exemplar pixel A of the same label is found exhaustively under
     d(pA, pB) = ||N_DA(pA) − N_DB(pB)||_2 + w C(pA, pB)                     (eq. 1)
 
 (N the 5×5 neighbourhood of contour distances D, C the symmetric Chamfer distance of the
-label windows, w = 90). The best match seeds a flood fill that walks the guide B and the
+label windows, w = 90), the norm taken with one more term, ``height_weight`` times the
+difference of the two pixels' relative heights in their labels' vertical runs
+(``features.label_heights``; 0 = the paper's eq. 1). The search is exhaustive in its
+answer: the closest candidate, ties going to the first met scanning the label's pixels
+from a random start (the seed and the pixel decide): the interior of a large region, where every candidate is at distance 0 under the
+clamped contour distances, is drawn from anywhere in the source region, not always from
+its first pixel in scan order (which pasted one source patch dozens of times and gave
+the whole region that patch's colour). The best match seeds a flood fill that walks the guide B and the
 exemplar A together (one translation) and stops at covered pixels, at the exemplar's
 border, at exemplar pixels of another label than the guide's, and where d exceeds
 ``threshold_scale · best + threshold_offset`` (the paper: 25 % more than the closest
@@ -21,14 +28,17 @@ import numpy as np
 from numba import njit
 
 from proxyshade.kernels._config import JIT
-from proxyshade.kernels.random import permutation
-from proxyshade.kernels.features import NB2, chamfer_masks, dist_sq_D, gather_target
+from proxyshade.kernels.random import permutation, rand
+from proxyshade.kernels.features import NB2, chamfer_masks, dist_sq_D, gather_target, height_sq
 
 
 @njit(**JIT)
-def _eq1(src_dist, src_masks, y, x, tD, tmask, w, bound):
-    """eq. 1 for exemplar (y, x) against target features; early exit above ``bound``."""
-    dsq = dist_sq_D(src_dist, 1, y, x, tD, bound * bound)
+def _eq1(src_dist, src_masks, src_h, y, x, tD, tmask, th, hw, w, bound):
+    """eq. 1 (+ the height term) for exemplar (y, x) against target features; early
+    exit above ``bound``."""
+    b2 = bound * bound
+    hs = height_sq(src_h, y, x, th, hw)
+    dsq = hs if hs > b2 else hs + dist_sq_D(src_dist, 1, y, x, tD, b2 - hs)
     dd = np.sqrt(dsq)
     if dd > bound:
         return dd
@@ -44,47 +54,60 @@ def _mask_hash(m):
     return h
 
 
+@njit(inline="always", **JIT)
+def _tie_key(c, posof, start, n):
+    """Where candidate c comes in its label's scan from ``start`` (ties go to the first)."""
+    k = posof[c] - start
+    return k + n if k < 0 else k
+
+
 @njit(**JIT)
-def _best_match(cands, src_dist, src_masks, tD, tmask, w, bound, c0, same_window):
-    """Argmin of eq. 1 over ``cands`` (ascending flat exemplar indices), ties to the
-    lowest index, from ``bound``, eq. 1 at candidate ``c0`` (inf and −1 when none is
-    known): candidates stop after the first row of the 5×5 window that exceeds the best.
-    With ``same_window`` only the candidates whose label masks equal the target's are
-    taken (the others are hash collisions of ``_window_groups``)."""
+def _best_match(cands, src_dist, src_masks, src_h, tD, tmask, th, hw, w, bound, c0, posof, start, n, same_window):
+    """Argmin of eq. 1 over ``cands`` (flat exemplar indices of one label), ties to the
+    first in the label's scan from ``start`` (``_tie_key``), from ``bound``, eq. 1 at
+    candidate ``c0`` (inf and −1 when none is known): candidates stop after the first row
+    of the 5×5 window that exceeds the best. With ``same_window`` only the candidates whose
+    label masks equal the target's are taken (the others are hash collisions of
+    ``_window_groups``)."""
     W = src_dist.shape[1]
-    n = tmask.shape[0]
+    nl = tmask.shape[0]
     bd = bound
     bi = c0
+    bk = _tie_key(c0, posof, start, n) if c0 >= 0 else n
     for t in range(cands.shape[0]):
         c = cands[t]
-        if bd == 0.0 and c > bi:  # only a tie could win, and ties go to the lowest index
-            break
+        k = _tie_key(c, posof, start, n)
+        if bd == 0.0 and k > bk:  # only a tie could win, and this one comes later
+            continue
         y = c // W
         x = c % W
         if same_window:
             same = True
-            for l in range(n):
+            for l in range(nl):
                 if src_masks[y, x, l] != tmask[l]:
                     same = False
                     break
             if not same:
                 continue
-        d = _eq1(src_dist, src_masks, y, x, tD, tmask, w, bd)
-        if d < bd or (d == bd and c < bi):
+        d = _eq1(src_dist, src_masks, src_h, y, x, tD, tmask, th, hw, w, bd)
+        if d < bd or (d == bd and k < bk):
             bd = d
             bi = c
+            bk = k
     return bi, bd
 
 
 @njit(**JIT)
-def _continued_bound(src_lab, src_dist, src_masks, tgt_lab, free, S, i, j, tD, tmask, w):
+def _continued_bound(src_lab, src_dist, src_masks, src_h, tgt_lab, free, S, i, j, tD, tmask, th, hw, w, posof, start,
+                     n):
     """eq. 1 of the best continuation at target (i, j) of a covered 4-neighbour's
-    translation that lands on an exemplar pixel of (i, j)'s label (the lowest index
-    among equals), as (distance, flat index); (inf, −1) when there is none."""
+    translation that lands on an exemplar pixel of (i, j)'s label (the first in the scan
+    order among equals), as (distance, flat index); (inf, −1) when there is none."""
     Ht, Wt = tgt_lab.shape
     He, We = src_lab.shape
     bd = np.inf
     bc = -1
+    bk = n
     for k in range(4):
         ii = i + (k == 1) - (k == 0)
         jj = j + (k == 3) - (k == 2)
@@ -95,16 +118,18 @@ def _continued_bound(src_lab, src_dist, src_masks, tgt_lab, free, S, i, j, tD, t
         if y < 0 or y >= He or x < 0 or x >= We or src_lab[y, x] != tgt_lab[i, j]:
             continue
         c = y * We + x
-        d = _eq1(src_dist, src_masks, y, x, tD, tmask, w, np.inf)
-        if d < bd or (d == bd and c < bc):
+        key = _tie_key(c, posof, start, n)
+        d = _eq1(src_dist, src_masks, src_h, y, x, tD, tmask, th, hw, w, np.inf)
+        if d < bd or (d == bd and key < bk):
             bd = d
             bc = c
+            bk = key
     return bd, bc
 
 
 @njit(**JIT)
-def _grow(src_lab, src_dist, src_masks, tgt_lab, tgt_dist, tgt_masks, free, S, patch, pid, i0, j0, oy, ox,
-          thr, w, queue, stamp):
+def _grow(src_lab, src_dist, src_masks, src_h, tgt_lab, tgt_dist, tgt_masks, tgt_h, hw, free, S, patch, pid, i0,
+          j0, oy, ox, thr, w, queue, stamp):
     """Flood fill from target (i0, j0) with exemplar offset (oy, ox); returns pixel count."""
     Ht, Wt = tgt_lab.shape
     He, We = src_lab.shape
@@ -126,7 +151,7 @@ def _grow(src_lab, src_dist, src_masks, tgt_lab, tgt_dist, tgt_masks, free, S, p
             if y < 0 or y >= He or x < 0 or x >= We or src_lab[y, x] != tgt_lab[i, j]:
                 continue
             gather_target(tgt_dist, i, j, tD)
-            d = _eq1(src_dist, src_masks, y, x, tD, tgt_masks[i, j], w, thr)
+            d = _eq1(src_dist, src_masks, src_h, y, x, tD, tgt_masks[i, j], tgt_h[i, j], hw, w, thr)
             if d > thr:
                 continue
         free[i, j] = False
@@ -206,7 +231,8 @@ def _window_groups(src_masks, starts, lists):
 
 
 @njit(**JIT)
-def _best_by_window(grouped, end, uniform, a, b, src_dist, src_masks, tD, tmask, w, bound, c0):
+def _best_by_window(grouped, end, uniform, a, b, src_dist, src_masks, src_h, tD, tmask, th, hw, w, bound, c0, posof,
+                    start, n):
     """``_best_match`` over every candidate grouped[a:b], a run of alike windows at a
     time: the run's Chamfer term is computed once, and a run whose term alone exceeds
     the best is skipped whole (eq. 1 is at least its Chamfer term). The same answer as
@@ -214,43 +240,63 @@ def _best_by_window(grouped, end, uniform, a, b, src_dist, src_masks, tD, tmask,
     W = src_dist.shape[1]
     bd = bound
     bi = c0
+    bk = _tie_key(c0, posof, start, n) if c0 >= 0 else n
     r = a
     while r < b:
         e = end[r]
         if not uniform[r]:  # a hash collision: candidate by candidate
-            c, d = _best_match(grouped[r:e], src_dist, src_masks, tD, tmask, w, bd, bi, False)
-            bd, bi = d, c
+            bi, bd = _best_match(grouped[r:e], src_dist, src_masks, src_h, tD, tmask, th, hw, w, bd, bi, posof,
+                                 start, n, False)
+            bk = _tie_key(bi, posof, start, n) if bi >= 0 else n
             r = e
             continue
         c = grouped[r]
         wc = w * chamfer_masks(src_masks[c // W, c % W], tmask)
         if wc <= bd:
-            # eq. 1 = dd + wc <= bd needs dd <= bd − wc: the D sums stop past that (with a
-            # margin far above rounding, so no tie is lost)
+            # eq. 1 = sqrt(height² + D sum) + wc <= bd needs the root <= bd − wc: the sums
+            # stop past that (with a margin far above rounding, so no tie is lost)
             lim = (bd - wc) * (1.0 + 1e-9) + 1e-9
             for t in range(r, e):
                 c = grouped[t]
-                if bd == 0.0 and c > bi:
-                    break
-                dsq = dist_sq_D(src_dist, 1, c // W, c % W, tD, lim * lim)
+                k = _tie_key(c, posof, start, n)
+                if bd == 0.0 and k > bk:
+                    continue
+                y = c // W
+                x = c % W
+                l2 = lim * lim
+                dsq = height_sq(src_h, y, x, th, hw)
+                if dsq <= l2:
+                    dsq += dist_sq_D(src_dist, 1, y, x, tD, l2 - dsq)
                 dd = np.sqrt(dsq)
                 if dd > lim:
                     continue
                 d = dd + wc
-                if d < bd or (d == bd and c < bi):
+                if d < bd or (d == bd and k < bk):
                     bd = d
                     bi = c
+                    bk = k
                     lim = (bd - wc) * (1.0 + 1e-9) + 1e-9
         r = e
     return bi, bd
 
 
 @njit(**JIT)
-def _flood_fill(src_lab, src_dist, src_masks, tgt_lab, tgt_dist, tgt_masks, order, free, S, patch, first_id,
-                w, thr_scale, thr_offset):
+def _positions(starts, lists, size):
+    """Each exemplar pixel's position in its label's list (``_label_lists``)."""
+    posof = np.zeros(size, np.int64)
+    for l in range(starts.shape[0] - 1):
+        for t in range(starts[l], starts[l + 1]):
+            posof[lists[t]] = t - starts[l]
+    return posof
+
+
+@njit(**JIT)
+def _flood_fill(src_lab, src_dist, src_masks, src_h, tgt_lab, tgt_dist, tgt_masks, tgt_h, hw, order, free, S,
+                patch, first_id, w, thr_scale, thr_offset, seed):
     n = src_masks.shape[2]
     starts, lists = _label_lists(src_lab, n)
     grouped, hashes, end, uniform = _window_groups(src_masks, starts, lists)
+    posof = _positions(starts, lists, lists.shape[0])
     Ht, Wt = tgt_lab.shape
     queue = np.empty(Ht * Wt, np.int64)
     stamp = np.zeros((Ht, Wt), np.int64)
@@ -264,28 +310,32 @@ def _flood_fill(src_lab, src_dist, src_masks, tgt_lab, tgt_dist, tgt_masks, orde
         if not free[i, j]:
             continue
         l = tgt_lab[i, j]
-        cands = lists[starts[l]:starts[l + 1]]
-        if cands.shape[0] == 0:
+        nl = starts[l + 1] - starts[l]
+        if nl == 0:
             return -1 - l  # the exemplar lacks this label
         gather_target(tgt_dist, i, j, tD)
-        b0, c0 = _continued_bound(src_lab, src_dist, src_masks, tgt_lab, free, S, i, j, tD, tgt_masks[i, j], w)
-        # the candidates with the target's window of labels first (Chamfer term 0; every
-        # other candidate's is at least 1, integer distances): when one is closer than
-        # w, it is the exhaustive answer; otherwise every candidate is searched
+        start = rand(seed, p, 0x5CA7, 0) % nl
         tmask = tgt_masks[i, j]
+        th = tgt_h[i, j]
+        b0, c0 = _continued_bound(src_lab, src_dist, src_masks, src_h, tgt_lab, free, S, i, j, tD, tmask, th, hw, w,
+                                  posof, start, nl)
+        # the candidates with the target's window of labels first (Chamfer term 0; every
+        # other's at least 1, integer distances): when one is closer than w, it is the
+        # exhaustive answer; otherwise every candidate is searched
         hs = hashes[starts[l]:starts[l + 1]]
-        th = _mask_hash(tmask)
-        g0 = starts[l] + np.searchsorted(hs, th)
-        g1 = starts[l] + np.searchsorted(hs, th, side="right")
-        c, best = _best_match(grouped[g0:g1], src_dist, src_masks, tD, tmask, w, b0, c0, True)
+        tk = _mask_hash(tmask)
+        g0 = starts[l] + np.searchsorted(hs, tk)
+        g1 = starts[l] + np.searchsorted(hs, tk, side="right")
+        c, best = _best_match(grouped[g0:g1], src_dist, src_masks, src_h, tD, tmask, th, hw, w, b0, c0, posof, start,
+                              nl, True)
         if best >= w:
-            c, best = _best_by_window(grouped, end, uniform, starts[l], starts[l + 1], src_dist, src_masks, tD, tmask,
-                                      w, best, c)
+            c, best = _best_by_window(grouped, end, uniform, starts[l], starts[l + 1], src_dist, src_masks, src_h, tD,
+                                      tmask, th, hw, w, best, c, posof, start, nl)
         We = src_lab.shape[1]
         oy = c // We - i
         ox = c % We - j
-        _grow(src_lab, src_dist, src_masks, tgt_lab, tgt_dist, tgt_masks, free, S, patch, pid, i, j, oy, ox,
-              thr_scale * best + thr_offset, w, queue, stamp)
+        _grow(src_lab, src_dist, src_masks, src_h, tgt_lab, tgt_dist, tgt_masks, tgt_h, hw, free, S, patch, pid, i,
+              j, oy, ox, thr_scale * best + thr_offset, w, queue, stamp)
         pid += 1
         npatch += 1
     return npatch
@@ -294,7 +344,9 @@ def _flood_fill(src_lab, src_dist, src_masks, tgt_lab, tgt_dist, tgt_masks, orde
 def flood_fill(src_lab: np.ndarray, src_dist: np.ndarray, src_masks: np.ndarray, tgt_lab: np.ndarray,
                tgt_dist: np.ndarray, tgt_masks: np.ndarray, *, seed: int, w: float,
                threshold_scale: float, threshold_offset: float, mask: np.ndarray | None = None,
-               S: np.ndarray | None = None, patch: np.ndarray | None = None):
+               S: np.ndarray | None = None, patch: np.ndarray | None = None,
+               src_height: np.ndarray | None = None, tgt_height: np.ndarray | None = None,
+               height_weight: float = 0.0):
     """Cover the guide with patches of the exemplar.
 
     Parameters
@@ -303,9 +355,11 @@ def flood_fill(src_lab: np.ndarray, src_dist: np.ndarray, src_masks: np.ndarray,
         Chamfer window masks (He, We, n) at the synthesis resolution.
     tgt_lab, tgt_dist, tgt_masks : the same for the guide (Ht, Wt).
     seed : int
-        Order in which uncovered pixels seed patches.
+        Order in which uncovered pixels seed patches, and where each search starts.
     w, threshold_scale, threshold_offset : float
         Chamfer weight of eq. 1 and the flood-fill stopping rule.
+    src_height, tgt_height, height_weight : ``features.label_heights`` of the two sides
+        and the weight of their difference (none or 0: no height term).
     mask : (Ht, Wt) bool, optional
         Only these pixels are covered; the others keep ``S`` and ``patch``.
     S, patch : existing state (required with ``mask``).
@@ -332,10 +386,14 @@ def flood_fill(src_lab: np.ndarray, src_dist: np.ndarray, src_masks: np.ndarray,
         patch = np.ascontiguousarray(patch, dtype=np.int64).copy()
         first = int(patch.max()) + 1 if patch.size else 1
     order = permutation(seed, Ht * Wt)
+    if src_height is None or tgt_height is None:
+        src_height, tgt_height, height_weight = np.zeros(src_lab.shape, np.float32), np.zeros((Ht, Wt), np.float32), 0.0
     r = _flood_fill(np.ascontiguousarray(src_lab, np.int32), np.ascontiguousarray(src_dist, np.float32),
-                    np.ascontiguousarray(src_masks), np.ascontiguousarray(tgt_lab, np.int32),
-                    np.ascontiguousarray(tgt_dist, np.float32), np.ascontiguousarray(tgt_masks), order, free, S,
-                    patch, first, float(w), float(threshold_scale), float(threshold_offset))
+                    np.ascontiguousarray(src_masks), np.ascontiguousarray(src_height, np.float32),
+                    np.ascontiguousarray(tgt_lab, np.int32), np.ascontiguousarray(tgt_dist, np.float32),
+                    np.ascontiguousarray(tgt_masks), np.ascontiguousarray(tgt_height, np.float32),
+                    float(height_weight), order, free, S, patch, first, float(w), float(threshold_scale),
+                    float(threshold_offset), int(seed))
     if r < 0:
         raise ValueError(f"label index {-1 - r} of the guide has no pixel in the exemplar")
     return S, patch, r

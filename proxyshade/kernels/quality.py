@@ -111,3 +111,160 @@ def repetition(sx: np.ndarray, sy: np.ndarray, source_shape: tuple[int, int], *,
     counts = np.bincount((r * ws + c).ravel(), minlength=hs * ws)
     k = max(1, int(round(top * hs * ws)))
     return float(np.sort(counts)[-k:].sum() / counts.sum())
+
+
+# ---- fidelity to the photo, label by label (bench/bench_fidelity.py) -------------------------
+# Colours are sRGB-encoded in [0, 1] (what a viewer compares); a label's pixels in the
+# output are compared with the same label's pixels in the source photo.
+
+def chi2(p: np.ndarray, q: np.ndarray) -> float:
+    """χ² distance ½ Σ (p − q)² / (p + q) of two histograms, each normalised to sum 1
+    (0: identical, 1: disjoint)."""
+    p = np.asarray(p, np.float64).ravel()
+    q = np.asarray(q, np.float64).ravel()
+    p = p / max(p.sum(), 1e-300)
+    q = q / max(q.sum(), 1e-300)
+    s = p + q
+    nz = s > 0
+    return float(0.5 * np.sum((p[nz] - q[nz]) ** 2 / s[nz]))
+
+
+def colour_histogram(srgb: np.ndarray, bins: int = 8) -> np.ndarray:
+    """``bins``³ joint histogram of (n, 3) sRGB colours in [0, 1] (counts)."""
+    q = np.clip((np.asarray(srgb, np.float64) * bins).astype(np.int64), 0, bins - 1)
+    return np.bincount((q[:, 0] * bins + q[:, 1]) * bins + q[:, 2], minlength=bins ** 3).astype(np.float64)
+
+
+def pair_gradient(img: np.ndarray, mask: np.ndarray) -> float:
+    """Mean absolute difference (summed over channels) of 4-adjacent pixel pairs both in
+    ``mask``: ``detail`` restricted to one label."""
+    img = np.asarray(img, np.float64)
+    if img.ndim == 2:
+        img = img[..., None]
+    tot, n = 0.0, 0
+    for a, b, ma, mb in ((img[:, 1:], img[:, :-1], mask[:, 1:], mask[:, :-1]),
+                         (img[1:], img[:-1], mask[1:], mask[:-1])):
+        m = ma & mb
+        tot += float(np.abs(a - b)[m].sum())
+        n += int(m.sum())
+    return tot / n if n else 0.0
+
+
+def luma(srgb: np.ndarray) -> np.ndarray:
+    """Rec. 709 weights on sRGB-encoded values (a display luma), (H, W)."""
+    return srgb[..., 0] * 0.2126 + srgb[..., 1] * 0.7152 + srgb[..., 2] * 0.0722
+
+
+def window_histograms(lum: np.ndarray, mask: np.ndarray, *, win: int = 11, bins: int = 16,
+                      stride: int = 1) -> np.ndarray:
+    """Normalised ``bins``-bin histograms of ``lum`` (in [0, 1]) over the ``mask`` pixels of
+    the ``win``×``win`` windows centred on ``mask`` pixels of a ``stride`` grid; (n, bins)
+    float32. Windows with fewer than half their pixels in ``mask`` are left out (a window
+    straddling a label border says little about the label's texture)."""
+    h, w = lum.shape
+    r = win // 2
+    q = np.clip((lum * bins).astype(np.int64), 0, bins - 1)
+    ys, xs = np.mgrid[r:h - r:stride, r:w - r:stride]
+    keep = mask[ys, xs]
+    ys, xs = ys[keep], xs[keep]
+    out = np.empty((len(ys), bins), np.float64)
+    for b in range(bins):
+        ind = np.pad(((q == b) & mask).astype(np.int64), ((1, 0), (1, 0))).cumsum(0).cumsum(1)
+        out[:, b] = (ind[ys + r + 1, xs + r + 1] - ind[ys - r, xs + r + 1] - ind[ys + r + 1, xs - r]
+                     + ind[ys - r, xs - r])
+    n = out.sum(1)
+    ok = n >= 0.5 * win * win
+    return (out[ok] / n[ok, None]).astype(np.float32)
+
+
+@njit(**PJIT)
+def _nearest_chi2(a, b):
+    n, k = a.shape
+    out = np.empty(n, np.float64)
+    for i in prange(n):
+        best = np.inf
+        for j in range(b.shape[0]):
+            d = 0.0
+            for t in range(k):
+                s = a[i, t] + b[j, t]
+                if s > 0:
+                    e = a[i, t] - b[j, t]
+                    d += e * e / s
+                if d >= best:
+                    break
+            if d < best:
+                best = d
+        out[i] = 0.5 * best
+    return out
+
+
+def nearest_window_chi2(out_hist: np.ndarray, src_hist: np.ndarray) -> float:
+    """Mean over the output's window histograms of the χ² to the nearest source window
+    histogram (rows of ``window_histograms``); nan when either side has none."""
+    if len(out_hist) == 0 or len(src_hist) == 0:
+        return float("nan")
+    return float(_nearest_chi2(np.ascontiguousarray(out_hist, np.float32),
+                               np.ascontiguousarray(src_hist, np.float32)).mean())
+
+
+def copies(sx: np.ndarray, sy: np.ndarray, source_shape: tuple[int, int], *, size: int = 16,
+           scale: float = 1.0) -> float:
+    """The largest number of copies of one ``size``×``size`` source patch in the output:
+    output pixels per source pixel (``source.x/y`` rounded; ``scale`` source pixels per
+    output pixel), averaged over each ``size``² source window, maximum over windows. Each
+    output pixel reads one source position, so a patch pasted n times counts n there
+    (a lone repaired pixel does not make a copy)."""
+    hs, ws = source_shape
+    c = np.clip(np.rint(sx), 0, ws - 1).astype(np.int64)
+    r = np.clip(np.rint(sy), 0, hs - 1).astype(np.int64)
+    counts = np.bincount((r * ws + c).ravel(), minlength=hs * ws).reshape(hs, ws) * (scale * scale)
+    s = min(size, hs, ws)
+    ii = np.pad(counts, ((1, 0), (1, 0))).cumsum(0).cumsum(1)
+    box = ii[s:, s:] - ii[:-s, s:] - ii[s:, :-s] + ii[:-s, :-s]
+    return float(box.max() / (s * s))
+
+
+def vertical_profile(img: np.ndarray, mask: np.ndarray, *, bins: int = 10) -> np.ndarray:
+    """Mean of ``img`` (H, W) over ``mask`` by relative height: in each column the mask's
+    pixels from its first row (t = 0, the top) to its last (t = 1, the horizon for a sky),
+    ``bins`` bins of t; nan for empty bins."""
+    h, w = mask.shape
+    rows = np.arange(h)[:, None].repeat(w, 1)
+    any_ = mask.any(0)
+    top = np.where(any_, np.argmax(mask, 0), 0)
+    bottom = np.where(any_, h - 1 - np.argmax(mask[::-1], 0), 0)
+    t = (rows - top) / np.maximum(bottom - top, 1)
+    k = np.clip((t[mask] * bins).astype(np.int64), 0, bins - 1)
+    s = np.bincount(k, weights=np.asarray(img, np.float64)[mask], minlength=bins)
+    n = np.bincount(k, minlength=bins)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(n > 0, s / np.maximum(n, 1), np.nan)
+
+
+def profile_correlation(a: np.ndarray, b: np.ndarray) -> float:
+    """Pearson correlation of two profiles over the bins both have (nan when fewer than 3)."""
+    ok = np.isfinite(a) & np.isfinite(b)
+    if ok.sum() < 3 or np.std(a[ok]) == 0 or np.std(b[ok]) == 0:
+        return float("nan")
+    return float(np.corrcoef(a[ok], b[ok])[0, 1])
+
+
+def label_fidelity(out_srgb: np.ndarray, out_lab: np.ndarray, src_srgb: np.ndarray, src_lab: np.ndarray,
+                   label: int, *, window_stride: tuple[int, int] = (16, 3)) -> dict:
+    """Per-label figures of an output against its source photo (both sRGB in [0, 1],
+    (H, W, 3), and label ids): ``shift`` (mean colour difference per channel, output −
+    source), ``std_ratio`` (√ of the summed channel variances, output over source),
+    ``hist_chi2`` (8×8×8 colour histograms), ``window_chi2`` (11×11-window 16-bin luma
+    histograms, each output window to its nearest same-label source window; output and
+    source windows taken every ``window_stride`` pixels), ``grad_ratio`` (``pair_gradient``
+    output over source)."""
+    mo, ms = out_lab == label, src_lab == label
+    o, s = out_srgb[mo].astype(np.float64), src_srgb[ms].astype(np.float64)
+    so, ss = np.sqrt(o.var(0).sum()), np.sqrt(s.var(0).sum())
+    go, gs = pair_gradient(out_srgb, mo), pair_gradient(src_srgb, ms)
+    wo = window_histograms(luma(out_srgb), mo, stride=window_stride[0])
+    ws = window_histograms(luma(src_srgb), ms, stride=window_stride[1])
+    return {"shift": o.mean(0) - s.mean(0), "std_ratio": so / ss if ss > 0 else float("nan"),
+            "hist_chi2": chi2(colour_histogram(o), colour_histogram(s)),
+            "window_chi2": nearest_window_chi2(wo, ws), "grad_ratio": go / gs if gs > 0 else float("nan"),
+            "share": float(mo.mean())}

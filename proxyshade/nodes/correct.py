@@ -39,7 +39,7 @@ class Correct(Correction, Node):
         table = L.source_table(source)
         tgt = L.dense_guide(init["label.id"], table, "init")
         st = setup(source, tgt, table, factor=int(syn["factor"]), scale=float(syn["scale"]),
-                   coarse_size=p.coarse_size, max_distance=p.max_distance, with_rgb=p.use_rgb)
+                   coarse_size=p.coarse_size, max_distance=p.max_distance, interior=p.interior, with_rgb=p.use_rgb)
         S, stats, rep = correct_map(st, st.from_source(init["source.x"], init["source.y"]), Correction.of(p),
                                     seed=p.seed)
         patch, npatch = patch_ids(S)

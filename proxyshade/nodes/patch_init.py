@@ -43,7 +43,7 @@ class PatchInit(FloodFill, Node):
         table = L.source_table(source)
         tgt = L.guide_at_synthesis(L.dense_guide(guide["label.id"], table), p.factor, len(table))
         st = setup(source, tgt, table, factor=p.factor, scale=p.scale, coarse_size=p.coarse_size,
-                   max_distance=p.max_distance, with_rgb=False, finest_only=True)
+                   max_distance=p.max_distance, interior=p.interior, with_rgb=False, finest_only=True)
         S, patch, npatch = fill_patches(st, FloodFill.of(p), seed=p.seed)
         ctx.note(f"{npatch} patches over {tgt.shape[1]}x{tgt.shape[0]} synthesis pixels "
                  f"(exemplar {st.ex_lab.shape[1]}x{st.ex_lab.shape[0]})")

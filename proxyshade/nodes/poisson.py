@@ -54,6 +54,11 @@ class Poisson(PoissonSolve, Node):
             fixed = keep[p.mask_channel] == 0
             values = keep.rgb()
         source_rgb = None
+        if p.layout:
+            if ctx.source is None or "label.id" not in ctx.source or labels is None:
+                raise ctx.error("layout: true needs the 'source' input (SourceRead: R,G,B, label.id) and the image's "
+                                "label.id; connect SourceRead and Magnify's output or set layout: false")
+            source_rgb = ctx.source.rgb()
         if p.seams == "source":
             if ctx.source is None:
                 raise ctx.error("seams: source needs the 'source' input; connect SourceRead or set seams: zero")
@@ -63,9 +68,10 @@ class Poisson(PoissonSolve, Node):
             source_rgb = ctx.source.rgb()
         scale = float(img.meta.get("synthesis", {}).get("scale", 1.0))
         u, info = blend_frame(img.rgb(), img["patch.id"], labels, PoissonSolve.of(p), source_rgb=source_rgb,
-                              sx=img["source.x"] if source_rgb is not None else None,
-                              sy=img["source.y"] if source_rgb is not None else None, scale=scale,
-                              fixed=fixed, values=values)
+                              sx=img["source.x"] if p.seams == "source" else None,
+                              sy=img["source.y"] if p.seams == "source" else None, scale=scale,
+                              fixed=fixed, values=values,
+                              source_labels=ctx.source["label.id"] if p.layout else None)
         ctx.note(f"{info['iterations']} iterations, relative residual {info['residual']:.1e}, "
                  f"{info['fixed']} fixed pixels")
         return img.with_channels({"R": u[..., 0].copy(), "G": u[..., 1].copy(), "B": u[..., 2].copy()})

@@ -7,6 +7,11 @@ boundaries between label ids (Γ2). The restricted solve (``poisson_regions``) s
 the free pixels into their 4-connected regions: narrow ones by SOR on their own pixels,
 the others in windows by multigrid-preconditioned CG. Kernels:
 ``proxyshade.kernels.poisson``, ``proxyshade.kernels.temporal.components4``.
+
+With ``layout`` (``layout_offset``) the synthesized colours are first moved, label by
+label and by relative height in the label, onto the source photo's mean colours there:
+the solve keeps the texture's gradients and takes the low frequencies (a region's mean,
+a sky's top-to-horizon gradient) from the photo.
 """
 from __future__ import annotations
 
@@ -14,17 +19,63 @@ from types import SimpleNamespace
 
 import numpy as np
 
+from proxyshade.kernels import layout as klayout
 from proxyshade.kernels import poisson as kpoisson
 from proxyshade.kernels import temporal as kt
+from proxyshade.kernels.features import label_heights
+
+LAYOUT_BINS = 8          # height bins of a label's colour profile
+LAYOUT_MIN_PIXELS = 64   # a bin with fewer pixels (either side) takes its neighbours' value
+LAYOUT_MIN_RUN = 64      # runs shorter than this (pixels) take the label's mean offset: in a band a few
+                         # pixels high the height bins are the texture's own rows, not a gradient
+
+
+def layout_offset(colors: np.ndarray, labels: np.ndarray, source_rgb: np.ndarray,
+                  source_labels: np.ndarray) -> np.ndarray:
+    """(H, W, 3) float32: what moves each label's mean colour, by relative height in
+    its vertical runs (``features.label_heights``, ``LAYOUT_BINS`` bins), from the
+    synthesized ``colors`` onto the source photo's, on the sRGB-encoded scale (both given
+    linear), smoothed within each label (``kernels.layout.smooth_offset``). Added with
+    ``kernels.layout.add_encoded`` it keeps the contrast a viewer sees (a constant added to
+    linear colours would flatten a brightened dark region) and moves only the low
+    frequencies."""
+    top = int(max(labels.max(), source_labels.max()))
+    present = np.zeros(top + 1, bool)
+    present[source_labels.ravel()] = True  # dense indices of the ids present anywhere
+    present[labels.ravel()] = True
+    lut = (np.cumsum(present) - 1).astype(np.int32)
+    n = int(present.sum())
+    out_lab, src_lab = lut[labels], lut[source_labels]
+    ps, cs = klayout.profile(klayout.srgb_encode(source_rgb), src_lab, label_heights(src_lab), n, LAYOUT_BINS)
+    t, runs = label_heights(out_lab, lengths=True)
+    po, co = klayout.profile(klayout.srgb_encode(colors), out_lab, t, n, LAYOUT_BINS)
+    d = ps - po
+    ok = (cs >= LAYOUT_MIN_PIXELS) & (co >= LAYOUT_MIN_PIXELS)
+    centres = np.arange(LAYOUT_BINS)
+    table = np.zeros_like(d)
+    for l in range(n):
+        if ok[l].any():
+            for c in range(3):
+                table[l, :, c] = np.interp(centres, centres[ok[l]], d[l, ok[l], c])
+    off = klayout.at_height(table, out_lab, t)
+    short = runs < LAYOUT_MIN_RUN
+    if short.any():  # the label's mean offset (over its output pixels)
+        w = np.where(np.isfinite(d[..., 0]), co, 0.0)
+        mean = (np.nan_to_num(d) * w[..., None]).sum(1) / np.maximum(w.sum(1), 1.0)[:, None]
+        off[short] = mean[out_lab[short]]
+    return klayout.smooth_offset(off, out_lab, n)
 
 
 def blend_frame(rgb: np.ndarray, patch: np.ndarray, labels: np.ndarray | None, solve: SimpleNamespace, *,
                 source_rgb: np.ndarray | None = None, sx: np.ndarray | None = None, sy: np.ndarray | None = None,
                 scale: float = 1.0, fixed: np.ndarray | None = None,
-                values: np.ndarray | None = None) -> tuple[np.ndarray, dict]:
+                values: np.ndarray | None = None, source_labels: np.ndarray | None = None) -> tuple[np.ndarray, dict]:
     """The whole-frame solve (``fixed`` pixels keep ``values``). ``solve``: the
     ``PoissonSolve`` parameters; ``seams: source`` reads ``source_rgb`` through ``sx, sy``
-    (source pixels; ``scale`` source pixels per output pixel)."""
+    (source pixels; ``scale`` source pixels per output pixel); ``layout`` moves ``rgb``
+    by ``layout_offset`` first (needs ``labels``, ``source_rgb``, ``source_labels``)."""
+    if solve.layout:
+        rgb = klayout.add_encoded(rgb, layout_offset(rgb, labels, source_rgb, source_labels))
     gx = gy = None
     if solve.seams == "source":
         gx, gy = kpoisson.seam_gradients(source_rgb, sx, sy, scale)
@@ -37,7 +88,9 @@ def blend_regions(rgb: np.ndarray, patch: np.ndarray, labels: np.ndarray, free: 
                   *, source_rgb: np.ndarray | None, sx: np.ndarray, sy: np.ndarray, scale: float,
                   filter: str) -> tuple[np.ndarray, dict]:
     """The solve restricted to the ``free`` pixels, the rest Dirichlet (§6.3), region by
-    region; seam gradients read with ``filter`` (the reconstruction the colours used)."""
+    region; seam gradients read with ``filter`` (the reconstruction the colours used).
+    ``solve.layout`` is not applied here (yet): a later frame's new pixels keep their
+    synthesized low frequencies."""
     return poisson_regions(rgb, patch, labels, free, source=source_rgb if solve.seams == "source" else None,
                               sx=sx, sy=sy, step=scale, label_dirichlet=solve.label_dirichlet, screen=solve.screen,
                               tol=solve.tol, max_iter=solve.max_iter, filter=filter)

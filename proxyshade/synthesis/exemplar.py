@@ -86,7 +86,8 @@ class SynthesisSetup:
 
 
 def setup(source: Plate, tgt_lab_synth: np.ndarray, table: np.ndarray, *, factor: int, scale: float,
-          coarse_size: int, max_distance: float | None, with_rgb: bool, finest_only: bool = False) -> SynthesisSetup:
+          coarse_size: int, max_distance: float | None, with_rgb: bool, finest_only: bool = False,
+          interior: float = 0.0) -> SynthesisSetup:
     """Exemplar and levels for a guide already at the synthesis size (dense labels)."""
     src_dense = source_dense(source, table)
     n = len(table)
@@ -115,5 +116,5 @@ def setup(source: Plate, tgt_lab_synth: np.ndarray, table: np.ndarray, *, factor
         raise NodeInputError(f"guide label(s) {which} have no pixel in the source at this scale; paint them in the "
                              "source's label map, lower 'scale', or relabel the proxy")
     levels = kf.build_levels(ex_rgb, ex_lab, tgt_lab_synth, n, nlev, max_distance=max_distance, with_rgb=with_rgb,
-                             finest_only=finest_only)
+                             finest_only=finest_only, interior=interior)
     return SynthesisSetup(table, factor, float(scale), F, ex_rgb, ex_lab, tgt_lab_synth, levels)

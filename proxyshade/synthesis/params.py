@@ -40,6 +40,14 @@ class PatchMetric(ParamGroup):
     w = Param(float, 90.0, min=0.0, doc="weight of the Chamfer distance in eq. 1")
     max_distance = Param(float, 8.0, min=0.0, optional=True,
                          doc="clamp contour distances (level pixels); null = unclamped")
+    interior = Param(float, 0.5, min=0.0, max=1.0,
+                     doc="per label, contour distances are also clamped where this share of the label's source "
+                         "pixels counts as interior: a guide region wider than its source region draws on that "
+                         "share, not only on the source region's deepest middle; 0 = max_distance only")
+    height_weight = Param(float, 16.0, min=0.0,
+                          doc="weight of the difference of relative heights in the label's vertical run (0 at its "
+                              "top, 1 at its bottom), in contour-distance units: keeps a sky's top-to-horizon "
+                              "gradient; 0 = the paper's eq. 1")
 
 
 class FloodFill(PatchMetric):
@@ -59,6 +67,10 @@ class Correction(PatchMetric):
     k = Param(int, 2, min=0, max=16, doc="similarity set size (k-coherence); 0 = coherent candidates only")
     kappa = Param(float, 0.0, min=0.0, doc="penalty (x 1 + kappa) on similarity-set candidates; favours coherence")
     knn_iterations = Param(int, 2, min=0, doc="PatchMatch iterations for the similarity sets")
+    uniformity = Param(float, 0.25, min=0.0,
+                       doc="candidates' distances x (1 + uniformity x over-use of their source neighbourhood "
+                           "relative to an even use of the label's source region): keeps the correction from "
+                           "converging on the source's blandest patch; 0 = the paper")
     use_rgb = Param(bool, True, doc="add the colour neighbourhood to the metric (the paper does)")
     radius = Param(str, "spacing", choices=("spacing", "level"),
                    doc="near-copy radius: one level pixel (spacing h) or 2^l exemplar pixels at level l")
@@ -72,6 +84,9 @@ class PoissonSolve(ParamGroup):
     screen = Param(float, 0.01, min=0.0,
                    doc="λ of a data term λ(u - f)²: 0 = pure Poisson (the paper; drifts far from label borders)")
     label_dirichlet = Param(bool, True, doc="keep pixels on boundaries between label ids (Γ2) unchanged")
+    layout = Param(bool, True, doc="first move each label's mean colour, by relative height in the label, onto the "
+                                   "source photo's (low frequencies from the photo: a region's hue, a sky's "
+                                   "top-to-horizon gradient); false = the synthesized colours' own")
     tol = Param(float, 1e-5, min=1e-12, max=1.0, doc="relative residual at which the solver stops")
     max_iter = Param(int, 100, min=1, doc="most conjugate-gradient iterations")
 

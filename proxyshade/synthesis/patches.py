@@ -31,13 +31,14 @@ def fill_patches(st: SynthesisSetup, fill: SimpleNamespace, *, seed: int, mask: 
     fin = st.levels[-1]
     return kpatch.flood_fill(fin.src_lab, fin.src_dist, fin.src_masks, fin.tgt_lab, fin.tgt_dist, fin.tgt_masks,
                              seed=seed, w=fill.w, threshold_scale=fill.threshold_scale,
-                             threshold_offset=fill.threshold_offset, mask=mask, S=S, patch=patch)
+                             threshold_offset=fill.threshold_offset, mask=mask, S=S, patch=patch,
+                             src_height=fin.src_height, tgt_height=fin.tgt_height, height_weight=fill.height_weight)
 
 
 def similarity_sets(st: SynthesisSetup, corr: SimpleNamespace, *, seed: int) -> list:
     """The exemplar's similarity sets per level (k nearest windows), for ``correct_map``."""
     return kcorrect.level_similarity_sets(st.levels, corr.k, seed=seed, knn_iterations=corr.knn_iterations,
-                                          w=corr.w)
+                                          w=corr.w, height_weight=corr.height_weight)
 
 
 def correct_map(st: SynthesisSetup, S0: np.ndarray, corr: SimpleNamespace, *, seed: int,
@@ -47,7 +48,8 @@ def correct_map(st: SynthesisSetup, S0: np.ndarray, corr: SimpleNamespace, *, se
     ``Correction`` parameters. Returns (S, per-level stats, the repair's counts)."""
     S, stats = kcorrect.synthesize(st.levels, S0, passes=corr.passes, passes_finest=corr.passes_finest, k=corr.k,
                                    w=corr.w, seed=seed, knn_iterations=corr.knn_iterations, use_rgb=corr.use_rgb,
-                                   kappa=corr.kappa, mask=mask, radius_rule=corr.radius, similarity=similarity)
+                                   kappa=corr.kappa, mask=mask, radius_rule=corr.radius, similarity=similarity,
+                                   height_weight=corr.height_weight, uniformity=corr.uniformity)
     S, rep = repair_map(st, S)
     return S, stats, rep
 

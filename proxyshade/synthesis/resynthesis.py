@@ -121,7 +121,7 @@ def _synthesize(img: Plate, source: Plate, p, redo: np.ndarray, f: int, scale: f
     g = L.dense_guide(img["label.id"], table, "image")
     tgt = L.guide_at_synthesis(g, f, n)
     st = setup(source, tgt, table, factor=f, scale=scale, coarse_size=p.coarse_size, max_distance=p.max_distance,
-               with_rgb=p.use_rgb)
+               interior=p.interior, with_rgb=p.use_rgb)
     shape = tgt.shape
     lap("features")
     active = downsample_mask(redo, f, shape)

@@ -30,20 +30,24 @@ def dist_window(d, i, j, h=1):
     return window(d, i, j, h).astype(np.float32)
 
 
-def eq1(src_lab, src_dist, tgt_lab, tgt_dist, y, x, i, j, w):
-    """eq. 1 as the kernels compute it: float32 differences, float64 row-major sum."""
+def eq1(src_lab, src_dist, tgt_lab, tgt_dist, y, x, i, j, w, heights=None, hw=0.0):
+    """eq. 1 as the kernels compute it: float32 differences, float64 row-major sum, after
+    the height term (hw × (height difference))² (``heights`` = (source, target))."""
     a = dist_window(src_dist, y, x)
     b = dist_window(tgt_dist, i, j)
-    s = 0.0
+    s = 0.0 if heights is None else (hw * (float(heights[0][y, x]) - float(heights[1][i, j]))) ** 2
     for t in range(25):
         d = np.float32(a.flat[t] - b.flat[t])
         s += float(np.float32(d * d))
     return np.sqrt(s) + w * chamfer(window(src_lab, y, x), window(tgt_lab, i, j))
 
 
-def flood_fill(src_lab, src_dist, tgt_lab, tgt_dist, order, w, ts, to, mask=None, S0=None, patch0=None):
-    """The paper's flood fill, candidate by candidate; with ``mask``, only masked pixels
-    are covered, the others keep ``S0`` and ``patch0``."""
+def flood_fill(src_lab, src_dist, tgt_lab, tgt_dist, order, w, ts, to, seed, heights=None, hw=0.0, mask=None,
+               S0=None, patch0=None):
+    """Patches grown from the pixels in ``order``; each search scans the same-label
+    exemplar pixels (row-major) from a start drawn from (seed, pixel), ties to the first.
+    With ``mask``, only masked pixels are covered, the others keep ``S0`` and ``patch0``."""
+    from proxyshade.kernels.random import rand
     He, We = src_lab.shape
     Ht, Wt = tgt_lab.shape
     free = np.ones((Ht, Wt), bool) if mask is None else mask.copy()
@@ -56,13 +60,12 @@ def flood_fill(src_lab, src_dist, tgt_lab, tgt_dist, order, w, ts, to, mask=None
             continue
         pid += 1
         best, bc = np.inf, None
-        for y in range(He):
-            for x in range(We):
-                if src_lab[y, x] != tgt_lab[i, j]:
-                    continue
-                d = eq1(src_lab, src_dist, tgt_lab, tgt_dist, y, x, i, j, w)
-                if d < best:
-                    best, bc = d, (y, x)
+        cands = [(y, x) for y in range(He) for x in range(We) if src_lab[y, x] == tgt_lab[i, j]]
+        start = int(rand(seed, int(p), 0x5CA7, 0)) % len(cands)
+        for y, x in cands[start:] + cands[:start]:
+            d = eq1(src_lab, src_dist, tgt_lab, tgt_dist, y, x, i, j, w, heights, hw)
+            if d < best:
+                best, bc = d, (y, x)
         oy, ox = bc[0] - i, bc[1] - j
         thr = ts * best + to
         queue = [(i, j)]
@@ -74,7 +77,7 @@ def flood_fill(src_lab, src_dist, tgt_lab, tgt_dist, order, w, ts, to, mask=None
             if not first:
                 if not (0 <= y < He and 0 <= x < We) or src_lab[y, x] != tgt_lab[a, b]:
                     continue
-                if eq1(src_lab, src_dist, tgt_lab, tgt_dist, y, x, a, b, w) > thr:
+                if eq1(src_lab, src_dist, tgt_lab, tgt_dist, y, x, a, b, w, heights, hw) > thr:
                     continue
             first = False
             free[a, b] = False
@@ -103,8 +106,9 @@ def rejected(S, i, j, cy, cx, h, radius, half=4):
     return False
 
 
-def correct_pixel(lv, knn, S, i, j, radius, w, kappa):
-    """One pixel of a correction sub-pass, written out."""
+def correct_pixel(lv, knn, S, i, j, radius, w, kappa, hw=0.0, over=None, uniformity=0.0):
+    """One pixel of a correction sub-pass, written out (height term weight ``hw``;
+    distances x (1 + uniformity x over[candidate]))."""
     h = lv.h
     He, We = lv.src_lab.shape
     Ht, Wt = lv.tgt_lab.shape
@@ -137,7 +141,7 @@ def correct_pixel(lv, knn, S, i, j, radius, w, kappa):
 
     def dist(cy, cx):
         a = dist_window(lv.src_dist, cy, cx, h)
-        sd = 0.0
+        sd = (hw * (float(lv.src_height[cy, cx]) - float(lv.tgt_height[i, j]))) ** 2
         for t in range(25):
             d = np.float32(a.flat[t] - tD.flat[t])
             sd += float(np.float32(d * d))
@@ -150,16 +154,19 @@ def correct_pixel(lv, knn, S, i, j, radius, w, kappa):
                 sr += float(np.float32(e * e))
         return np.sqrt(sd + sr) + w * chamfer(window(lv.src_lab, cy, cx, h), tW)
 
+    def mult(cy, cx, coh):
+        return (1.0 if coh else 1.0 + kappa) * (1.0 + uniformity * (0.0 if over is None else over[cy, cx]))
+
     best, by = np.inf, tuple(S[i, j])
     for cy, cx, coh in cands:
         if rejected(S, i, j, cy, cx, h, radius):
             continue
-        d = (1.0 if coh else 1.0 + kappa) * dist(cy, cx)
+        d = mult(cy, cx, coh) * dist(cy, cx)
         if d < best:
             best, by = d, (cy, cx)
     if best == np.inf and lv.src_lab[by] != lab:
         for cy, cx, coh in cands:
-            d = (1.0 if coh else 1.0 + kappa) * dist(cy, cx)
+            d = mult(cy, cx, coh) * dist(cy, cx)
             if d < best:
                 best, by = d, (cy, cx)
     return by

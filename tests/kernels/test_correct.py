@@ -50,22 +50,32 @@ def test_rejected_matches_reference():
         assert kc.rejected(S, i, j, cy, cx, h, r) == naive.rejected(S, i, j, cy, cx, h, r)
 
 
-@pytest.mark.parametrize("seed,kappa,use_level", [(0, 0.0, -1), (1, 0.5, -1), (2, 0.0, 0)])
-def test_subpass_matches_reference(seed, kappa, use_level):
+def subpass(lv, knn, S, S_new, active, pi, pj, radius, kappa, counts, hw=0.0, over=None, uniformity=0.0):
+    over = np.zeros(lv.src_lab.shape) if over is None else over
+    kc._subpass(lv.src_lab, lv.src_dist, lv.src_rgb, lv.src_masks, lv.src_height, lv.tgt_lab, lv.tgt_dist,
+                lv.tgt_masks, lv.tgt_height, hw, knn, S, S_new, active, pi, pj, lv.h, radius, 90.0, True, kappa, over,
+                uniformity, counts)
+
+
+@pytest.mark.parametrize("seed,kappa,use_level,hw,uniformity",
+                         [(0, 0.0, -1, 0.0, 0.0), (1, 0.5, -1, 0.0, 0.0), (2, 0.0, 0, 0.0, 0.0),
+                          (3, 0.0, -1, 16.0, 1.0), (4, 0.5, 0, 40.0, 3.0)])
+def test_subpass_matches_reference(seed, kappa, use_level, hw, uniformity):
     rng, levels = small_case(seed)
     lv = levels[use_level]
-    knn = kc.similarity_sets(lv, 2, seed=seed, iterations=2, w=SYN['w'])
+    knn = kc.similarity_sets(lv, 2, seed=seed, iterations=2, w=SYN['w'], height_weight=hw)
     S = random_state(rng, lv)
     radius = lv.h
+    over = rng.random(lv.src_lab.shape) * (rng.random(lv.src_lab.shape) < 0.5)
     for pi, pj in ((0, 0), (1, 0)):
         S_new = S.copy()
         active = np.ones(lv.tgt_lab.shape, bool)
         counts = np.zeros((S.shape[0], 2), np.int64)
-        kc._subpass(lv.src_lab, lv.src_dist, lv.src_rgb, lv.src_masks, lv.tgt_lab, lv.tgt_dist, lv.tgt_masks, knn,
-                    S, S_new, active, pi, pj, lv.h, radius, 90.0, True, kappa, counts)
+        subpass(lv, knn, S, S_new, active, pi, pj, radius, kappa, counts, hw, over, uniformity)
         for i in range(pi, S.shape[0], 2):
             for j in range(pj, S.shape[1], 2):
-                assert tuple(S_new[i, j]) == naive.correct_pixel(lv, knn, S, i, j, radius, 90.0, kappa), (i, j)
+                assert tuple(S_new[i, j]) == naive.correct_pixel(lv, knn, S, i, j, radius, 90.0, kappa, hw, over,
+                                                                 uniformity), (i, j)
         # pixels outside the sub-set are untouched
         other = np.ones(S.shape[:2], bool)
         other[pi::2, pj::2] = False
@@ -88,8 +98,7 @@ def test_no_accepted_candidate_already_in_the_window():
         for pi, pj in ((0, 0), (1, 1), (0, 1), (1, 0)):
             S_new = S.copy()
             counts = np.zeros((Ht, 2), np.int64)
-            kc._subpass(lv.src_lab, lv.src_dist, lv.src_rgb, lv.src_masks, lv.tgt_lab, lv.tgt_dist, lv.tgt_masks,
-                        knn, S, S_new, np.ones((Ht, Wt), bool), pi, pj, 1, 1, 90.0, True, 0.0, counts)
+            subpass(lv, knn, S, S_new, np.ones((Ht, Wt), bool), pi, pj, 1, 0.0, counts)
             for i, j in zip(*np.nonzero((S_new != S).any(-1))):
                 win = S[max(i - 4, 0):i + 5, max(j - 4, 0):j + 5].reshape(-1, 2).tolist()
                 win.remove(S[i, j].tolist())
@@ -115,8 +124,10 @@ def test_similarity_sets_are_valid_and_close_to_brute_force():
                 for xx in range(We):
                     if lv.src_lab[yy, xx] != lv.src_lab[y, x] or max(abs(yy - y), abs(xx - x)) <= 2 * lv.h:
                         continue
-                    d_all.append(kc._ex_dist(lv.src_dist, lv.src_rgb, lv.src_masks, lv.h, y, x, yy, xx, 90.0, np.inf))
-            got = [kc._ex_dist(lv.src_dist, lv.src_rgb, lv.src_masks, lv.h, y, x, cy, cx, 90.0, np.inf)
+                    d_all.append(kc._ex_dist(lv.src_dist, lv.src_rgb, lv.src_masks, lv.src_height, 0.0, lv.h, y, x, yy, xx, 90.0,
+                                            np.inf))
+            got = [kc._ex_dist(lv.src_dist, lv.src_rgb, lv.src_masks, lv.src_height, 0.0, lv.h, y, x, cy, cx, 90.0,
+                               np.inf)
                    for cy, cx in knn[y, x] if (cy, cx) != (y, x)]
             for cy, cx in knn[y, x]:
                 if (cy, cx) != (y, x):

@@ -25,12 +25,13 @@ def case(seed, n=3):
     return src, tgt
 
 
-def run_kernel(src, tgt, n, seed, mask=None, S=None, patch=None, w=90.0, ts=1.25, to=5.0):
+def run_kernel(src, tgt, n, seed, mask=None, S=None, patch=None, w=90.0, ts=1.25, to=5.0, hw=0.0):
     sd = np.minimum(contour_distance(src), 4.0).astype(np.float32)
     td = np.minimum(contour_distance(tgt), 4.0).astype(np.float32)
     return sd, td, kpatch.flood_fill(src, sd, kf.window_masks(src, 1, n), tgt, td, kf.window_masks(tgt, 1, n),
                                      seed=seed, w=w, threshold_scale=ts, threshold_offset=to, mask=mask, S=S,
-                                     patch=patch)
+                                     patch=patch, src_height=kf.label_heights(src), tgt_height=kf.label_heights(tgt),
+                                     height_weight=hw)
 
 
 def test_chamfer_masks_match_paper_definition():
@@ -44,17 +45,18 @@ def test_chamfer_masks_match_paper_definition():
         assert kf.chamfer_masks(ma, mb) == naive.chamfer(a, b)
 
 
-@pytest.mark.parametrize("w", [90.0, 1.5])  # 1.5: the alike-window shortcut rarely decides
-@pytest.mark.parametrize("seed", range(4))
-def test_flood_fill_matches_reference(seed, w):
+@pytest.mark.parametrize("seed,hw,w", [(0, 0.0, 90.0), (1, 0.0, 90.0), (2, 16.0, 90.0), (3, 40.0, 90.0),
+                                       (0, 0.0, 1.5), (2, 16.0, 1.5)])  # w 1.5: the alike-window shortcut rarely decides
+def test_flood_fill_matches_reference(seed, hw, w):
     """The kernel's search (alike windows first, runs of alike windows skipped by their
     Chamfer term, a neighbour's continuation as a head start) finds the exhaustive
-    argmin of eq. 1, ties to the lowest exemplar index: the same patches as the paper's
-    candidate-by-candidate search."""
+    argmin of eq. 1 (height term included), ties to the first met from the random
+    start: the same patches as the candidate-by-candidate search."""
     src, tgt = case(seed)
-    sd, td, (S, patch, npatch) = run_kernel(src, tgt, 3, seed, w=w)
+    sd, td, (S, patch, npatch) = run_kernel(src, tgt, 3, seed, hw=hw, w=w)
     order = permutation(seed, tgt.size)
-    S_ref, patch_ref = naive.flood_fill(src, sd, tgt, td, order, w, 1.25, 5.0)
+    S_ref, patch_ref = naive.flood_fill(src, sd, tgt, td, order, w, 1.25, 5.0, seed,
+                                        (kf.label_heights(src), kf.label_heights(tgt)), hw)
     assert np.array_equal(patch, patch_ref)
     assert np.array_equal(S, S_ref)
     assert npatch == patch.max()
@@ -70,7 +72,9 @@ def test_masked_flood_fill_matches_reference(seed):
     mask = rng.random(tgt.shape) < 0.3
     _, _, (S2, patch2, _) = run_kernel(src, tgt, 3, seed + 5, mask=mask, S=S, patch=patch)
     order = permutation(seed + 5, tgt.size)
-    S_ref, patch_ref = naive.flood_fill(src, sd, tgt, td, order, 90.0, 1.25, 5.0, mask=mask, S0=S, patch0=patch)
+    S_ref, patch_ref = naive.flood_fill(src, sd, tgt, td, order, 90.0, 1.25, 5.0, seed + 5,
+                                        (kf.label_heights(src), kf.label_heights(tgt)), 0.0, mask=mask, S0=S,
+                                        patch0=patch)
     assert np.array_equal(S2, S_ref)
     assert np.array_equal(patch2, patch_ref)
 
@@ -83,18 +87,19 @@ def test_window_runs_with_a_hash_collision_are_searched_one_by_one():
     sd = np.minimum(contour_distance(src), 4.0).astype(np.float32)
     td = np.minimum(contour_distance(tgt), 4.0).astype(np.float32)
     sm, tm = kf.window_masks(src, 1, n), kf.window_masks(tgt, 1, n)
+    sh, th = kf.label_heights(src).astype(np.float32), kf.label_heights(tgt).astype(np.float32)
     starts, lists = kpatch._label_lists(src, n)
     grouped, _, end, uniform = kpatch._window_groups(sm, starts, lists)
+    posof = kpatch._positions(starts, lists, lists.shape[0])
     tD = np.empty(25, np.float32)
     for i, j in [(0, 0), (4, 5), (8, 9), (3, 7)]:
         l = tgt[i, j]
+        nl = starts[l + 1] - starts[l]
         kf.gather_target(td, i, j, tD)
-        args = (grouped, end, uniform, starts[l], starts[l + 1], sd, sm, tD, tm[i, j], 90.0, np.inf, -1)
-        want = kpatch._best_match(lists[starts[l]:starts[l + 1]], sd, sm, tD, tm[i, j], 90.0, np.inf, -1, False)
-        assert kpatch._best_by_window(*args) == want
-        assert kpatch._best_by_window(*args[:2], np.zeros_like(uniform), *args[3:]) == want
-
-
+        feats = (sd, sm, sh, tD, tm[i, j], th[i, j], 16.0, 90.0, np.inf, -1, posof, 3 % nl, nl)
+        want = kpatch._best_match(lists[starts[l]:starts[l + 1]], *feats, False)
+        assert kpatch._best_by_window(grouped, end, uniform, starts[l], starts[l + 1], *feats) == want
+        assert kpatch._best_by_window(grouped, end, np.zeros_like(uniform), starts[l], starts[l + 1], *feats) == want
 def test_patches_are_connected_translations_with_the_guide_labels():
     src, tgt = case(7)
     _, _, (S, patch, npatch) = run_kernel(src, tgt, 3, 7)
