@@ -55,6 +55,12 @@ def _mask_hash(m):
 
 
 @njit(inline="always", **JIT)
+def _better(d, k, bd, bk):
+    """Distance d at tie key k beats the best so far (bd, bk)."""
+    return d < bd or (d == bd and k < bk)
+
+
+@njit(inline="always", **JIT)
 def _tie_key(c, posof, start, n):
     """Where candidate c comes in its label's scan from ``start`` (ties go to the first)."""
     k = posof[c] - start
@@ -90,7 +96,7 @@ def _best_match(cands, src_dist, src_masks, src_h, tD, tmask, th, hw, w, bound, 
             if not same:
                 continue
         d = _eq1(src_dist, src_masks, src_h, y, x, tD, tmask, th, hw, w, bd)
-        if d < bd or (d == bd and k < bk):
+        if _better(d, k, bd, bk):
             bd = d
             bi = c
             bk = k
@@ -120,7 +126,7 @@ def _continued_bound(src_lab, src_dist, src_masks, src_h, tgt_lab, free, S, i, j
         c = y * We + x
         key = _tie_key(c, posof, start, n)
         d = _eq1(src_dist, src_masks, src_h, y, x, tD, tmask, th, hw, w, np.inf)
-        if d < bd or (d == bd and key < bk):
+        if _better(d, key, bd, bk):
             bd = d
             bc = c
             bk = key
@@ -271,7 +277,7 @@ def _best_by_window(grouped, end, uniform, a, b, src_dist, src_masks, src_h, tD,
                 if dd > lim:
                     continue
                 d = dd + wc
-                if d < bd or (d == bd and k < bk):
+                if _better(d, k, bd, bk):
                     bd = d
                     bi = c
                     bk = k
