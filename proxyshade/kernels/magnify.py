@@ -41,6 +41,30 @@ def magnify(S: np.ndarray, f: int, shape: tuple[int, int]) -> np.ndarray:
 
 
 @njit(**PJIT)
+def _only_target(S, srclab, only, guide):
+    """``guide`` where ``only``, elsewhere the label each pixel lands on (row/column of
+    ``S`` clamped into ``srclab``): the target under which only ``only`` pixels move."""
+    Ht, Wt = guide.shape
+    Hs, Ws = srclab.shape
+    out = np.empty((Ht, Wt), np.int32)
+    for i in prange(Ht):
+        for j in range(Wt):
+            if only[i, j]:
+                out[i, j] = guide[i, j]
+            else:
+                out[i, j] = srclab[min(max(S[i, j, 0], 0), Hs - 1), min(max(S[i, j, 1], 0), Ws - 1)]
+    return out
+
+
+def only_target(S: np.ndarray, srclab: np.ndarray, only: np.ndarray, guide: np.ndarray) -> np.ndarray:
+    """(M, N) int32: ``guide`` on the ``only`` pixels, the source label under ``S``
+    elsewhere (``repair_labels`` then moves only the ``only`` pixels, and those whose
+    ``S`` leaves the source)."""
+    return _only_target(np.ascontiguousarray(S, np.int32), np.ascontiguousarray(srclab, np.int32),
+                        np.ascontiguousarray(only, np.bool_), np.ascontiguousarray(guide, np.int32))
+
+
+@njit(**PJIT)
 def _label_ok(S, guide, srclab, ok):
     Ht, Wt = guide.shape
     Hs, Ws = srclab.shape

@@ -130,14 +130,9 @@ def region_thickness(mask: np.ndarray, comp: np.ndarray, n: int) -> np.ndarray:
     (edges to a pixel outside ``mask`` or to the image border), at least 1: a band's
     width, half a square's side. (no distance transform of the
     frame needed)."""
-    h, w = mask.shape
-    area = np.bincount(comp[mask], minlength=n + 1)[1:].astype(np.float64)
-    m = np.pad(mask, 1)
-    per = np.zeros(n + 1)
-    for di, dj in ((0, 1), (0, -1), (1, 0), (-1, 0)):
-        edge = mask & ~m[1 + di:1 + di + h, 1 + dj:1 + dj + w]
-        per += np.bincount(comp[edge], minlength=n + 1)
-    return np.maximum(2.0 * area / np.maximum(per[1:], 1.0), 1.0)
+    area, per = kt.area_perimeter(np.ascontiguousarray(mask, np.bool_), np.ascontiguousarray(comp, np.int64), n + 1)
+    # a 4-neighbour in the mask is in the same component: every edge counted is to the outside
+    return np.maximum(2.0 * area[1:] / np.maximum(per[1:].astype(np.float64), 1.0), 1.0)
 
 
 def poisson_regions(colors: np.ndarray, patch: np.ndarray, labels: np.ndarray | None, free: np.ndarray, *,

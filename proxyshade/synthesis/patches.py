@@ -75,8 +75,7 @@ def magnify_map(S: np.ndarray, factor: int, shape: tuple[int, int], *, scale: fl
     rep = {"wrong": 0, "extended": 0, "nearest": 0}
     if target is not None:
         if only is not None:
-            here = labels[np.clip(Sw[..., 0], 0, labels.shape[0] - 1), np.clip(Sw[..., 1], 0, labels.shape[1] - 1)]
-            target = np.where(only, target, here)
+            target = kmag.only_target(Sw, labels, only, target)
         Sw, rep = kmag.repair_labels(Sw, target, labels, sites_of=lambda lab: nearest_sites(labels, lab))
     patch, npatch = patch_ids(Sw)
     return grid_to_source(Sw[..., 1], scale), grid_to_source(Sw[..., 0], scale), patch, npatch, rep

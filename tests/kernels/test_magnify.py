@@ -96,3 +96,15 @@ def test_front_over_wrong_pixels_equals_whole_frame_steps():
         got, info = km.repair_labels(S, guide, srclab, max_steps=3 + trial, nearest=False)
         assert np.array_equal(got, want)
         assert info["extended"] == info["wrong"] - int((~ok).sum()) > 0
+
+
+def test_only_target_matches_numpy():
+    """The guide on the ``only`` pixels, the (clamped) source label under the map elsewhere."""
+    rng = np.random.default_rng(11)
+    srclab = rng.integers(0, 4, (9, 12)).astype(np.int32)
+    S = rng.integers(-3, 14, (7, 8, 2)).astype(np.int32)
+    only = rng.random((7, 8)) < 0.4
+    guide = rng.integers(0, 4, (7, 8)).astype(np.int32)
+    here = srclab[np.clip(S[..., 0], 0, 8), np.clip(S[..., 1], 0, 11)]
+    from proxyshade.kernels.magnify import only_target
+    assert np.array_equal(only_target(S, srclab, only, guide), np.where(only, guide, here))
