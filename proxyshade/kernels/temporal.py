@@ -338,3 +338,24 @@ def in_ids(have, ids, chosen):
             p = ids[i, j]
             out[i, j] = have[i, j] and p < n and chosen[p]
     return out
+
+
+@njit(**PJIT)
+def merge_redo(redo, sx_new, sy_new, patch_new, base, sx, sy, patch):
+    """The new map where ``redo`` (its patch ids moved past the carried ones by ``base``),
+    the carried one elsewhere: (source.x, source.y float32, patch.id uint32)."""
+    h, w = redo.shape
+    osx = np.empty((h, w), np.float32)
+    osy = np.empty((h, w), np.float32)
+    op = np.empty((h, w), np.uint32)
+    for i in prange(h):
+        for j in range(w):
+            if redo[i, j]:
+                osx[i, j] = sx_new[i, j]
+                osy[i, j] = sy_new[i, j]
+                op[i, j] = patch_new[i, j] + base
+            else:
+                osx[i, j] = sx[i, j]
+                osy[i, j] = sy[i, j]
+                op[i, j] = patch[i, j]
+    return osx, osy, op

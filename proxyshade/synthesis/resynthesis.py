@@ -26,6 +26,7 @@ import numpy as np
 from proxyshade.graph.plate import Plate
 from proxyshade.kernels.correct import downsample_mask
 from proxyshade.kernels.lookup import lookup
+from proxyshade.kernels import temporal as kt
 from proxyshade.kernels.random import mix_seed
 from proxyshade.synthesis import labels as L
 from proxyshade.synthesis.blend import blend_regions
@@ -144,9 +145,11 @@ def _synthesize(img: Plate, source: Plate, p, redo: np.ndarray, f: int, scale: f
     wl = L.source_working_labels(source, table, scale)
     sx_new, sy_new, new_patch, _, rep = magnify_map(S, f, (H, W), scale=scale, target=g, labels=wl, only=redo)
     base = np.uint32(int(img["patch.id"].max()) + 1)
-    sx = np.where(redo, sx_new, img["source.x"]).astype(np.float32, copy=False)
-    sy = np.where(redo, sy_new, img["source.y"]).astype(np.float32, copy=False)
-    patch = np.where(redo, new_patch + base, img["patch.id"]).astype(np.uint32, copy=False)
+    sx, sy, patch = kt.merge_redo(np.ascontiguousarray(redo, np.bool_), sx_new, sy_new,
+                                  np.ascontiguousarray(new_patch, np.uint32), base,
+                                  np.ascontiguousarray(img["source.x"], np.float32),
+                                  np.ascontiguousarray(img["source.y"], np.float32),
+                                  np.ascontiguousarray(img["patch.id"], np.uint32))
     rgb = img.rgb()
     ii, jj = np.nonzero(redo)
     rgb[ii, jj] = lookup(source.rgb(), sx[ii, jj][None], sy[ii, jj][None], filter=filt)[0]

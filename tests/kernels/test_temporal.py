@@ -164,3 +164,14 @@ def test_patch_mean_and_in_ids_match_numpy():
     assert np.array_equal(T.patch_mean(have, ids, v, 7), want)
     chosen = rng.random(5) < 0.5  # ids 5 and 6 lie past the table: not chosen
     assert np.array_equal(T.in_ids(have, ids, chosen), have & np.append(chosen, [False, False])[ids])
+
+
+def test_merge_redo_matches_numpy():
+    rng = np.random.default_rng(6)
+    redo = rng.random((8, 9)) < 0.3
+    f = lambda: rng.normal(size=(8, 9)).astype(np.float32)
+    pn, po = (rng.integers(0, 9, (8, 9)).astype(np.uint32) for _ in range(2))
+    a, b, c, d = f(), f(), f(), f()
+    sx, sy, p = T.merge_redo(redo, a, b, pn, np.uint32(20), c, d, po)
+    assert np.array_equal(sx, np.where(redo, a, c)) and np.array_equal(sy, np.where(redo, b, d))
+    assert np.array_equal(p, np.where(redo, pn + np.uint32(20), po))
