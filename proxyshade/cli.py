@@ -129,7 +129,7 @@ class Executor(str, Enum):
 
 @app.command()
 def run(
-    graphs: List[Path] = typer.Argument(..., metavar="GRAPH...", help="YAML graph file(s): several are several shots"),
+    graphs: List[Path] = typer.Argument(..., metavar="GRAPH", help="YAML graph file(s): several are several shots"),
     frames: Optional[str] = typer.Option(None, "--frames", help="frames to compute: 1-48, 30 or 1,5,9-12 (default: the graph's range)"),
     set_: List[str] = typer.Option([], "--set", help="override a parameter: node.param=value (repeatable)"),
     var: List[str] = typer.Option([], "--var", help="set a graph variable: name=value (repeatable), used as ${name}"),
@@ -162,16 +162,16 @@ def run(
             label = f"{path}" + (f" [{' '.join(f'{k}={v}' for k, v in combo.items())}]" if combo else "")
             shots.append((label, g, parse_frame_list(frames, bounds=g.frames) if frames is not None else None))
     several = len(shots) > 1
-    prefixes = {id(g): (f"{Path(label).stem if not several else label.rpartition('/')[2]}: " if several else "")
-                for label, g, _ in shots}
+    prefixes = {id(g): f"{label.rpartition('/')[2]}: " if several else "" for label, g, _ in shots}
     ex = DaskExecutor(scheduler, workers) if scheduler or executor is Executor.dask else make_executor(jobs)
     with Progress(TextColumn("{task.description:<14}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
                   console=err, disable=quiet or not err.is_terminal, transient=True) as progress:
         with ex if isinstance(ex, DaskExecutor) else contextlib.nullcontext():
             reports = run_graphs([(g, fl) for _, g, fl in shots], executor=ex, force=tuple(force),
-                                 hooks=lambda g: _BarHooks(progress, prefixes[id(g)]), threads=threads)
+                                 hooks=lambda g: _BarHooks(progress, prefixes[id(g)]), threads=threads,
+                                 labels=[label for label, _, _ in shots])
     for (label, g, _), report in zip(shots, reports):
-        _report(label if several else str(label), report, explain, several)
+        _report(label, report, explain, several)
 
 
 def _report(label: str, report, explain: bool, several: bool) -> None:
@@ -181,7 +181,7 @@ def _report(label: str, report, explain: bool, several: bool) -> None:
     if several:
         _say(out, label)
     if explain:
-        t = Table(title=label, show_lines=False)
+        t = Table(title=Text(label), show_lines=False)
         for c in ("node", "frame", "status", "why", "seconds"):
             t.add_column(c, justify="right" if c in ("frame", "seconds") else "left",
                          overflow="fold", no_wrap=False)  # reasons with paths fold, never cut

@@ -96,7 +96,7 @@ class DaskExecutor:
         logging.getLogger("distributed.scheduler").addFilter(_SameKeyFilter())
         if self.scheduler:
             try:
-                self.client = d.Client(self.scheduler, timeout="10s")
+                self.client = d.Client(self.scheduler)  # waits distributed.comm.timeouts.connect (30 s)
             except (OSError, TimeoutError, ValueError) as e:
                 raise UserError(f"--scheduler {self.scheduler}: cannot connect ({str(e).splitlines()[0] if str(e) else type(e).__name__}); "
                                 "start one (dask scheduler) and give its address, e.g. tcp://host:8786") from None
@@ -155,8 +155,8 @@ class DaskExecutor:
             client.cancel(list(futures.values()))
             raise
         finally:
-            futures.clear()
-            client.cancel(plans)
+            for f in [*futures.values(), *plans]:
+                f.release()  # the scheduler forgets them once no run wants them
         for job in jobs:
             if job.workers:
                 job.notes.append(f"computed on Dask ({self.address}): "
@@ -165,33 +165,39 @@ class DaskExecutor:
 
 
 def run_graphs(items, *, executor=None, jobs: int = 1, force: tuple[str, ...] = (), hooks=None,
-               threads: int = 0) -> list:
+               threads: int = 0, labels: list[str] | None = None) -> list:
     """Run several graphs (shots, variants; ``items``: (graph, frames or None) pairs):
     prepared together and computed at once on a distributed executor (a key two graphs
     share is computed once), one after the other on a local one. ``hooks``: a function of
-    the graph giving its ``Hooks`` (progress), or None."""
+    the graph giving its ``Hooks`` (progress), or None; ``labels``: the graphs' names in
+    messages (default: their files). Two graphs writing one file is an error before anything runs."""
     from proxyshade.graph.executor import make_executor
 
+    labels = labels or [g.source or g.name for g, _ in items]
+    check_outputs([(label, g, f) for label, (g, f) in zip(labels, items)])
     executor = executor or make_executor(jobs)
     hooks = hooks or (lambda g: None)
     if not getattr(executor, "distributed", False):
         return [g.run(f, executor=executor, force=force, hooks=hooks(g), threads=threads) for g, f in items]
     prepared = [g.prepare(f, force=force, hooks=hooks(g), threads=threads) for g, f in items]
-    _check_outputs(prepared)
+    for job, label in zip(prepared, labels):
+        job.label = label
     executor.run_jobs(prepared)
     return [job.finish() for job in prepared]
 
 
-def _check_outputs(jobs) -> None:
-    """Two graphs of one run writing the same file is a one-line error naming both."""
+def check_outputs(shots) -> None:
+    """Two of ``shots`` ((label, graph, frames or None)) writing one file: a one-line error naming both."""
+    if len(shots) < 2:
+        return
     seen: dict[str, str] = {}
-    for job in jobs:
-        g = job.graph
-        for path in g.output_files(job.plan):
-            other = seen.setdefault(str(path), g.source or g.name)
-            if other != (g.source or g.name):
-                raise UserError(f"{other} and {g.source or g.name} both write {path}; give each graph its own "
-                                "output (a variable in the output path, e.g. --var out=...)")
+    for label, g, frames in shots:
+        dag = g.instances(list(frames) if frames else list(range(g.frames[0], g.frames[1] + 1)))
+        for path in sorted(set(g.output_files(dag))):
+            other = seen.setdefault(str(path), label)
+            if other != label:
+                raise UserError(f"{other} and {label} both write {path}; give each its own output "
+                                "(a variable in the output path, e.g. --var out=... or --sweep out=a,b)")
 
 
 def _dask_key(key: str) -> str:
@@ -212,7 +218,7 @@ def _apply(job, inst, res: dict, by_token: dict) -> None:
             warnings.warn(w, _warning_class(), stacklevel=2)
     else:
         other = by_token.get(token)
-        who = f"{other.graph.source or other.graph.name}: " if other is not None and other is not job else ""
+        who = f"{other.label or other.graph.source or other.graph.name}: " if other not in (None, job) else ""
         nr.status = "reused"
         nr.reason = (f"same key as {who}{name}@{frame}" if other is not None
                      else f"computed by another run on the scheduler ({name}@{frame})")

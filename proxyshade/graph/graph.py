@@ -392,10 +392,10 @@ class Graph:
                 self.cache.forget(nr.key)
         job.hooks.done(nr)
 
-    def output_files(self, plan: "Plan") -> list[Path]:
-        """The files the run's writers (sinks) write (symlinks followed), in plan order."""
+    def output_files(self, dag: nx.DiGraph) -> list[Path]:
+        """The files the writers (sinks) among ``dag``'s instances write (symlinks followed)."""
         out = []
-        for name, frame in plan.dag:
+        for name, frame in dag:
             node = self.nodes[name]
             if not node.sink or not self.enabled[name]:
                 continue
@@ -411,7 +411,7 @@ class Graph:
         """Delete temporaries that killed runs left in the cache and beside this run's outputs."""
         removed = self.cache.remove_stale_temps()
         outputs: dict[Path, set[str]] = {}  # folder -> names of this run's outputs in it
-        for target in self.output_files(plan):
+        for target in self.output_files(plan.dag):
             outputs.setdefault(target.parent, set()).add(target.name)
         for folder, names in outputs.items():
             removed += remove_stale_temps(folder, names)
@@ -553,6 +553,7 @@ class RunJob:
         self.cleaned = cleaned
         self.t0 = t0
         self.notes: list[str] = []  # about the run as a whole, from the executor
+        self.label: str | None = None  # the graph's name in messages where several run together
         self.peak_rss_mb = 0.0  # of the processes that computed elsewhere (Dask workers)
         consumers: dict[str, int] = {}
         for inst in todo:
