@@ -77,6 +77,7 @@ class Cache:
         # ``flush`` waits for them (the engine calls it at the end of every run)
         self._writer = ThreadPoolExecutor(max_workers=1, thread_name_prefix="proxyshade-cache") if background else None
         self._pending: list[Future] = []
+        self._writing: dict[str, Future] = {}  # key -> its background write, until done
         self._pinned: set[str] = set()
         self._forgotten: set[str] = set()
         self.read_only = False  # set when a write fails with EROFS/EACCES: hits are served, results kept in memory
@@ -171,7 +172,14 @@ class Cache:
         if self._writer is None:
             self._write(key, plate, record, replace)
         else:
-            self._pending.append(self._writer.submit(self._write, key, plate, record, replace))
+            fut = self._writer.submit(self._write, key, plate, record, replace)
+            self._pending.append(fut)
+            self._writing[key] = fut
+            fut.add_done_callback(lambda f, k=key: self._writing.pop(k, None))
+
+    def writing(self, key: str) -> Future | None:
+        """The background write of ``key`` while it is not done (None once done, or never begun)."""
+        return self._writing.get(key)
 
     def _write(self, key: str, plate: Plate, record: dict, replace: bool = False) -> None:
         exr, js = self._paths(key)

@@ -36,6 +36,7 @@ import threading
 import time
 import uuid
 import warnings
+import weakref
 
 import networkx as nx
 
@@ -81,6 +82,7 @@ class DaskExecutor:
         self.workers = max(1, workers or os.cpu_count() or 1)
         self.client = None
         self.cluster = None
+        self.records: list[dict] = []  # the last run_jobs' task records (worker, pid, start, end, seconds)
 
     def __enter__(self) -> "DaskExecutor":
         self.start()
@@ -146,11 +148,14 @@ class DaskExecutor:
                 owners[key].append((job, inst))
                 job.hooks.start(job.runs[inst])
         by_token = {job.token: job for job in jobs}
+        self.records = []
         try:
             for fut in d.as_completed(list(futures.values())):
                 res = fut.result()  # re-raises the task's error
+                self.records.append(dict(res, key=fut.key))
                 for job, inst in owners[fut.key]:
                     _apply(job, inst, res, by_token)
+            client.run(_flush_all)  # every entry on disk before the run reports (a write's failure raised)
         except BaseException:
             client.cancel(list(futures.values()))
             raise
@@ -242,6 +247,12 @@ def _warning_class():
 _GUARD = threading.Lock()
 _LOCAL = threading.local()  # this task's warnings and recomputed inputs
 _USING: dict[int, set[str]] = {}  # thread -> keys its task reads or writes (kept in memory)
+# plates kept in a worker's memory between tasks, most recently used last: the next task there
+# often reads them again (the source, the first frame, the previous frame), without loading
+# them from the cache, and the same arrays keep synthesis.memo's results
+_RECENT: "collections.OrderedDict[tuple[int, str], object]" = collections.OrderedDict()  # (cache id, key) -> cache
+_CACHES: "weakref.WeakSet" = weakref.WeakSet()  # the caches this worker's tasks wrote to
+KEEP_MB = float(os.environ.get("PROXYSHADE_WORKER_KEEP_MB", "1024"))
 
 
 @contextlib.contextmanager
@@ -276,6 +287,25 @@ def _capture_warnings() -> None:
         warnings.showwarning = show
 
 
+_CODE: dict[type, str] = {}  # node type -> its code hash in this worker
+
+
+def _check_code(cls: type, want: str) -> None:
+    """A worker whose proxyshade code differs from the client's would store results under keys
+    that name other code: a one-line error instead."""
+    from proxyshade.graph.keys import code_hash
+
+    have = _CODE.get(cls) or _CODE.setdefault(cls, code_hash(cls))
+    if have != want:
+        try:
+            where = f"Dask worker {_distributed().get_worker().address}"
+        except ValueError:  # not on a worker
+            where = f"process {os.getpid()}"
+        raise UserError(f"{where} runs other proxyshade code for "
+                        f"{cls.__name__} than this run (code hash {have[:12]}, the run's {want[:12]}); install the "
+                        "same proxyshade on every worker")
+
+
 def _task(plan, by: tuple, inst: tuple[str, int], forced: bool, *deps) -> dict:
     """Compute one instance on a worker (its inputs from the cache, its entry to the cache)
     unless another run stored its key meanwhile; returns its record for the client. ``plan``
@@ -287,6 +317,7 @@ def _task(plan, by: tuple, inst: tuple[str, int], forced: bool, *deps) -> dict:
     g = plan.graph
     g.key_lock, g.on_recompute = _key_lock, _recomputed
     key = plan.keys[inst]
+    _check_code(type(g.nodes[inst[0]]), plan.components[inst]["code"])
     nr = NodeRun(inst[0], inst[1], key, "computed", "")
     me = threading.get_ident()
     _LOCAL.warnings, _LOCAL.recomputed = [], []
@@ -299,8 +330,8 @@ def _task(plan, by: tuple, inst: tuple[str, int], forced: bool, *deps) -> dict:
         else:
             t = time.perf_counter()
             g._compute(plan, inst, nr)
-            g.cache.flush()
             nr.seconds = time.perf_counter() - t
+            _hand_over(g.cache, key)
         return {"by": by, "status": nr.status, "reason": nr.reason, "seconds": nr.seconds, "notes": list(nr.notes),
                 "warnings": _LOCAL.warnings, "recomputed": _LOCAL.recomputed, "worker": _distributed().get_worker().address,
                 "pid": os.getpid(), "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
@@ -309,7 +340,54 @@ def _task(plan, by: tuple, inst: tuple[str, int], forced: bool, *deps) -> dict:
         _LOCAL.warnings = _LOCAL.recomputed = None
         with _GUARD:
             _USING.pop(me, None)
-            keep = set().union(*_USING.values()) | {key} | plan.held_keys(inst)
-        for k in list(g.cache.memory):  # the plates the next task most likely reads: this one's
-            if k not in keep:
-                g.cache.forget(k)
+            _keep_recent(g.cache, [*plan.held_keys(inst), key], set().union(*_USING.values()))
+
+
+def _hand_over(cache, key: str) -> None:
+    """The task is done before its entry is written: the entry's Dask lock is held until the
+    write ends, so a task on another worker that reads the key waits for it (``Graph._value``
+    loads an entry missing at first under that lock) while this worker computes on."""
+    _CACHES.add(cache)
+    fut = cache.writing(key)
+    if fut is None:
+        return
+    lock = _distributed().Lock(f"proxyshade-lock-{key}")
+    lock.acquire()
+    fut.add_done_callback(lambda f: _release(lock))
+
+
+def _release(lock) -> None:
+    try:
+        lock.release()
+    except Exception:  # noqa: BLE001 - a lease already expired: nothing is held
+        pass
+
+
+def _flush_all() -> int:
+    """Wait for this worker's background writes (every run's), re-raising the first failure."""
+    caches = list(_CACHES)
+    for c in caches:
+        c.flush()
+    return len(caches)
+
+
+def _keep_recent(cache, used: list[str], busy: set[str]) -> None:
+    """Mark ``used`` plates as the most recent of ``cache``'s, then drop the least recent
+    plates of every cache beyond ``KEEP_MB`` (never one a running task reads: ``busy``)."""
+    for k in used:
+        if k in cache.memory:
+            _RECENT[(id(cache), k)] = cache
+            _RECENT.move_to_end((id(cache), k))
+    for (cid, k), c in list(_RECENT.items()):
+        if k not in c.memory:
+            del _RECENT[(cid, k)]  # forgotten by the engine (a sequence's plates)
+    total = sum(c.memory[k].nbytes() for (_, k), c in _RECENT.items()) / 2**20
+    for (cid, k), c in list(_RECENT.items()):
+        if total <= KEEP_MB:
+            break
+        if k not in busy:
+            total -= c.memory[k].nbytes() / 2**20
+            c.forget(k)
+            del _RECENT[(cid, k)]
+    for k in [k for k in cache.memory if (id(cache), k) not in _RECENT and k not in busy]:
+        cache.forget(k)  # loaded by the engine but not among this task's inputs or output

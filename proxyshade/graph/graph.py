@@ -130,10 +130,8 @@ class Graph:
         return dict(self.__dict__, cache=str(self.cache.root.absolute()), _locks=None, _locks_guard=None)
 
     def __setstate__(self, state: dict) -> None:
-        """An unpickled graph opens the same cache folder, writing entries synchronously
-        (a worker's task is done once its entry is stored)."""
-        self.__dict__.update(state, cache=Cache(state["cache"], background=False), _locks={},
-                             _locks_guard=threading.Lock())
+        """An unpickled graph opens the same cache folder (its writes in the background)."""
+        self.__dict__.update(state, cache=Cache(state["cache"]), _locks={}, _locks_guard=threading.Lock())
 
     # -- building ----------------------------------------------------------
     @classmethod

@@ -257,3 +257,15 @@ def test_an_unreachable_scheduler_is_a_one_line_error(tmp_path, registry, capsys
         rc = main(["run", "g.yaml", "-q", "--scheduler", f"tcp://127.0.0.1:{port}"])
     err = capsys.readouterr().err.strip().splitlines()
     assert rc == 2 and len(err) == 1 and f"--scheduler tcp://127.0.0.1:{port}: cannot connect" in err[0], err
+
+
+def test_a_worker_on_other_code_is_a_one_line_error():
+    """A worker whose proxyshade differs from the client's (another version on a farm node)
+    refuses to store results under keys that name the client's code."""
+    from proxyshade.errors import UserError
+    from proxyshade.graph.dask_executor import _check_code
+    from proxyshade.graph.keys import code_hash
+
+    _check_code(_TSlow, code_hash(_TSlow))
+    with pytest.raises(UserError, match=r"runs other proxyshade code for _TSlow .*install the same proxyshade"):
+        _check_code(_TSlow, "0" * 64)
