@@ -53,12 +53,28 @@ def shot(scene: str, source: str, seed: int, size: int, cache: Path, out: Path) 
                       variables={"scene": scene, "source": source, "out": str(out / f"seed{seed}")})
 
 
-def shots_wall(executor, size: int, frames: list[int]) -> float:
+def cpu_seconds(executor) -> float:
+    """CPU seconds used so far by this process and, on Dask, by the workers."""
+    import resource
+
+    def own() -> float:
+        r = resource.getrusage(resource.RUSAGE_SELF)
+        return r.ru_utime + r.ru_stime
+
+    workers = executor.client.run(own).values() if isinstance(executor, DaskExecutor) else ()
+    return own() + sum(workers)
+
+
+def shots_wall(executor, size: int, frames: list[int], cpu: list | None = None) -> float:
     with tempfile.TemporaryDirectory() as d:
         gs = [(shot(*s, size, Path(d) / "cache", Path(d) / "out"), frames) for s in SHOTS]
+        c = cpu_seconds(executor)
         t = time.perf_counter()
         run_graphs(gs, executor=executor)
-        return time.perf_counter() - t
+        wall = time.perf_counter() - t
+        if cpu is not None:
+            cpu.append(cpu_seconds(executor) - c)
+        return wall
 
 
 def bench_shots(size: int, repeat: int, frames: int) -> None:
@@ -66,16 +82,18 @@ def bench_shots(size: int, repeat: int, frames: int) -> None:
     print(f"\n## 4 shots x {frames} frames, camera_move at {size} wide (synthesis {size // 4})")
     local = make_executor(1)
     shots_wall(local, size, fl[:2])  # warm-up: numba kernels loaded in this process
-    t_local = [shots_wall(local, size, fl) for _ in range(repeat)]
+    c_local, c_dask = [], []
+    t_local = [shots_wall(local, size, fl, c_local) for _ in range(repeat)]
     print(f"local executor (1 job, every core per kernel): median {statistics.median(t_local):7.2f} s "
-          f"(min {min(t_local):.2f}, max {max(t_local):.2f}; {load()})")
+          f"(min {min(t_local):.2f}, max {max(t_local):.2f}; CPU {statistics.median(c_local):.1f} s; {load()})")
     t0 = time.perf_counter()
     with DaskExecutor(workers=2) as ex:
         print(f"LocalCluster of 2 workers started in {time.perf_counter() - t0:.2f} s")
         shots_wall(ex, size, fl[:2])  # warm-up: each worker loads the kernels from numba's cache
-        t_dask = [shots_wall(ex, size, fl) for _ in range(repeat)]
+        t_dask = [shots_wall(ex, size, fl, c_dask) for _ in range(repeat)]
     print(f"dask, 2 workers:                            median {statistics.median(t_dask):7.2f} s "
-          f"(min {min(t_dask):.2f}, max {max(t_dask):.2f}; {load()})")
+          f"(min {min(t_dask):.2f}, max {max(t_dask):.2f}; CPU {statistics.median(c_dask):.1f} s, client and "
+          f"workers; {load()})")
     print(f"ratio local / dask: {statistics.median(t_local) / statistics.median(t_dask):.2f}x (bar >= 1.6x)")
 
 
