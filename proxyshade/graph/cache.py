@@ -4,7 +4,9 @@ Layout: ``<root>/<key[:2]>/<key>.exr`` holds the plate and ``<key>.json`` a smal
 (its key, node, type, frame, params, upstream keys, compute time, the EXR's size and
 sha256); the EXR's header carries the key too (``proxyshade/key``). Both are written to
 temporary names and renamed into place, the record last, so a killed write leaves no
-entry. An entry is used only when its record is a JSON object naming the key asked for,
+entry; the renames happen under an exclusive lock of the shard folder and the first writer
+wins (an intact entry stored meanwhile by another process is kept), so processes sharing
+the folder (Dask workers) never mix two writers' files in one entry. An entry is used only when its record is a JSON object naming the key asked for,
 its size matches, and (when loaded) its sha256 and header key match: anything else (a
 truncated file, another entry's files copied under the key, a damaged record) is reported
 with a warning and recomputed.

@@ -26,7 +26,9 @@ naming ``pip install 'proxyshade[dask]'``.
 """
 from __future__ import annotations
 
+import asyncio
 import collections
+import concurrent.futures
 import contextlib
 import dataclasses
 import logging
@@ -252,6 +254,7 @@ _USING: dict[int, set[str]] = {}  # thread -> keys its task reads or writes (kep
 # them from the cache, and the same arrays keep synthesis.memo's results
 _RECENT: "collections.OrderedDict[tuple[int, str], object]" = collections.OrderedDict()  # (cache id, key) -> cache
 _CACHES: "weakref.WeakSet" = weakref.WeakSet()  # the caches this worker's tasks wrote to
+_RELEASER = concurrent.futures.ThreadPoolExecutor(1, thread_name_prefix="proxyshade-unlock")
 KEEP_MB = float(os.environ.get("PROXYSHADE_WORKER_KEEP_MB", "1024"))
 
 
@@ -353,7 +356,7 @@ def _hand_over(cache, key: str) -> None:
         return
     lock = _distributed().Lock(f"proxyshade-lock-{key}")
     lock.acquire()
-    fut.add_done_callback(lambda f: _release(lock))
+    fut.add_done_callback(lambda f: _RELEASER.submit(_release, lock))  # the writer thread writes on
 
 
 def _release(lock) -> None:
@@ -363,12 +366,16 @@ def _release(lock) -> None:
         pass
 
 
-def _flush_all() -> int:
-    """Wait for this worker's background writes (every run's), re-raising the first failure."""
-    caches = list(_CACHES)
-    for c in caches:
-        c.flush()
-    return len(caches)
+async def _flush_all() -> int:
+    """Wait for this worker's background writes (every run's), re-raising the first failure;
+    on a thread, so the worker's event loop stays free to release the entries' locks."""
+    def flush() -> int:
+        caches = list(_CACHES)
+        for c in caches:
+            c.flush()
+        return len(caches)
+
+    return await asyncio.get_running_loop().run_in_executor(None, flush)
 
 
 def _keep_recent(cache, used: list[str], busy: set[str]) -> None:
