@@ -6,12 +6,14 @@ disk, an I/O error); 130 interrupted (Ctrl-C: "interrupted", no partial output).
 """
 from __future__ import annotations
 
+import contextlib
 import os
 import signal
 import sys
 import threading
 import warnings
 from pathlib import Path
+from enum import Enum
 from typing import List, Optional
 
 import typer
@@ -85,10 +87,11 @@ def source_new(photo: Path = typer.Argument(..., help="the photo (8-bit sRGB)"),
 
 
 class _BarHooks:
-    """One progress bar per node, advancing once per frame."""
+    """One progress bar per node (per graph and node when several run), advancing once per frame."""
 
-    def __init__(self, progress: Progress):
+    def __init__(self, progress: Progress, prefix: str = ""):
         self.progress = progress
+        self.prefix = prefix
         self.tasks = {}
         self.told_compiling = False
         self.graph = None
@@ -100,7 +103,7 @@ class _BarHooks:
             counts[name] = counts.get(name, 0) + 1
         for name in plan.graph.nodes:
             if name in counts:
-                self.tasks[name] = self.progress.add_task(name, total=counts[name])
+                self.tasks[name] = self.progress.add_task(self.prefix + name, total=counts[name])
 
     def start(self, run):
         if not self.told_compiling and self.graph is not None and err.is_terminal:  # a progress note: terminals only
@@ -119,32 +122,66 @@ class _BarHooks:
             self.progress.advance(self.tasks[run.node])
 
 
+class Executor(str, Enum):
+    local = "local"
+    dask = "dask"
+
+
 @app.command()
 def run(
-    graph: Path = typer.Argument(..., metavar="GRAPH", help="YAML graph file"),
+    graphs: List[Path] = typer.Argument(..., metavar="GRAPH", help="YAML graph file(s): several are several shots"),
     frames: Optional[str] = typer.Option(None, "--frames", help="frames to compute: 1-48, 30 or 1,5,9-12 (default: the graph's range)"),
     set_: List[str] = typer.Option([], "--set", help="override a parameter: node.param=value (repeatable)"),
     var: List[str] = typer.Option([], "--var", help="set a graph variable: name=value (repeatable), used as ${name}"),
+    sweep: List[str] = typer.Option([], "--sweep", help="run the graph once per value of a variable: name=a,b,c "
+                                    "(repeatable: every combination)"),
     cache: Optional[Path] = typer.Option(None, "--cache", help="cache folder (default .proxyshade/cache beside the graph, or $PROXYSHADE_CACHE)"),
     explain: bool = typer.Option(False, "--explain", help="print per node whether it was computed or reused, and why"),
-    jobs: int = typer.Option(1, "--jobs", min=1, help="nodes run concurrently"),
+    jobs: int = typer.Option(1, "--jobs", min=1, help="nodes run concurrently (local executor)"),
     force: List[str] = typer.Option([], "--force", help="recompute this node (repeatable)"),
-    threads: int = typer.Option(0, "--threads", min=0, help="numba threads per kernel (0: all cores)"),
+    threads: int = typer.Option(0, "--threads", min=0, help="numba threads per kernel (0: all cores; on a local "
+                                "Dask cluster, cores / workers)"),
+    executor: Executor = typer.Option(Executor.local, "--executor", help="local: this process; dask: Dask workers "
+                                      "(a local cluster, or --scheduler)"),
+    scheduler: Optional[str] = typer.Option(None, "--scheduler", help="a running Dask scheduler, tcp://host:port "
+                                            "(implies --executor dask)"),
+    workers: Optional[int] = typer.Option(None, "--workers", min=1, help="worker processes of the local Dask cluster "
+                                          "(default: one per core)"),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="no progress bars"),
 ):
-    """Run GRAPH: compute what the cache lacks, reuse the rest."""
+    """Run GRAPH(s): compute what the cache lacks, reuse the rest."""
+    from proxyshade.graph.dask_executor import DaskExecutor, run_graphs
+    from proxyshade.graph.executor import make_executor
     from proxyshade.graph.graph import Graph
     from proxyshade.io.graphfile import parse_frame_list
 
-    g = Graph.load(graph, cache=cache, overrides=list(set_), variables=_vars(var))
-    fl = parse_frame_list(frames, bounds=g.frames) if frames is not None else None
+    shots = []  # (label, graph, frames)
+    for path in graphs:
+        for combo in _sweep(sweep):
+            g = Graph.load(path, cache=cache, overrides=list(set_), variables=dict(_vars(var), **combo))
+            label = f"{path}" + (f" [{' '.join(f'{k}={v}' for k, v in combo.items())}]" if combo else "")
+            shots.append((label, g, parse_frame_list(frames, bounds=g.frames) if frames is not None else None))
+    several = len(shots) > 1
+    prefixes = {id(g): f"{label.rpartition('/')[2]}: " if several else "" for label, g, _ in shots}
+    ex = DaskExecutor(scheduler, workers) if scheduler or executor is Executor.dask else make_executor(jobs)
     with Progress(TextColumn("{task.description:<14}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
                   console=err, disable=quiet or not err.is_terminal, transient=True) as progress:
-        report = g.run(fl, jobs=jobs, force=tuple(force), hooks=_BarHooks(progress), threads=threads)
+        with ex if isinstance(ex, DaskExecutor) else contextlib.nullcontext():
+            reports = run_graphs([(g, fl) for _, g, fl in shots], executor=ex, force=tuple(force),
+                                 hooks=lambda g: _BarHooks(progress, prefixes[id(g)]), threads=threads,
+                                 labels=[label for label, _, _ in shots])
+    for (label, g, _), report in zip(shots, reports):
+        _report(label, report, explain, several)
+
+
+def _report(label: str, report, explain: bool, several: bool) -> None:
+    """A run's summary: per node seconds (or the --explain table), notes, the totals line."""
     computed = sum(r.status == "computed" for r in report.runs)
     reused = sum(r.status != "computed" for r in report.runs)
+    if several:
+        _say(out, label)
     if explain:
-        t = Table(title=f"{graph}", show_lines=False)
+        t = Table(title=Text(label), show_lines=False)
         for c in ("node", "frame", "status", "why", "seconds"):
             t.add_column(c, justify="right" if c in ("frame", "seconds") else "left",
                          overflow="fold", no_wrap=False)  # reasons with paths fold, never cut
@@ -181,6 +218,18 @@ def compile_kernels(quiet: bool = typer.Option(False, "--quiet", "-q", help="no 
         hooks.told_compiling = True
         r = warm_up(hooks)
     _say(out, f"kernels ready in {r['seconds']:.1f} s ({r['signatures']} kernel signatures in numba's cache)")
+
+
+def _sweep(items: List[str]) -> list[dict]:
+    """Every combination of the --sweep variables' values ([{}] without --sweep)."""
+    combos = [{}]
+    for item in items:
+        name, eq, values = item.partition("=")
+        vals = [v.strip() for v in values.split(",") if v.strip()]
+        if not eq or not name.strip() or not vals:
+            raise UserError(f"--sweep {item}: expected name=value1,value2,...")
+        combos = [dict(c, **{name.strip(): v}) for c in combos for v in vals]
+    return combos
 
 
 def _vars(items: List[str]) -> dict:

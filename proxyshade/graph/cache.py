@@ -4,7 +4,9 @@ Layout: ``<root>/<key[:2]>/<key>.exr`` holds the plate and ``<key>.json`` a smal
 (its key, node, type, frame, params, upstream keys, compute time, the EXR's size and
 sha256); the EXR's header carries the key too (``proxyshade/key``). Both are written to
 temporary names and renamed into place, the record last, so a killed write leaves no
-entry. An entry is used only when its record is a JSON object naming the key asked for,
+entry; the renames happen under an exclusive lock of the shard folder and the first writer
+wins (an intact entry stored meanwhile by another process is kept), so processes sharing
+the folder (Dask workers) never mix two writers' files in one entry. An entry is used only when its record is a JSON object naming the key asked for,
 its size matches, and (when loaded) its sha256 and header key match: anything else (a
 truncated file, another entry's files copied under the key, a damaged record) is reported
 with a warning and recomputed.
@@ -19,6 +21,8 @@ kept in memory only, with a note. Temporaries of killed runs are removed by
 """
 from __future__ import annotations
 
+import contextlib
+import fcntl
 import hashlib
 import json
 import os
@@ -31,7 +35,7 @@ from pathlib import Path
 
 from proxyshade.errors import WriteError
 from proxyshade.graph.plate import Plate
-from proxyshade.io.exr import read_plate, write_plate
+from proxyshade.io.exr import read_header, read_plate, write_plate
 from proxyshade.io.files import READ_ONLY, io_error, remove_stale_temps, stale_temps, temp_for
 
 
@@ -75,6 +79,7 @@ class Cache:
         # ``flush`` waits for them (the engine calls it at the end of every run)
         self._writer = ThreadPoolExecutor(max_workers=1, thread_name_prefix="proxyshade-cache") if background else None
         self._pending: list[Future] = []
+        self._writing: dict[str, Future] = {}  # key -> its background write, until done
         self._pinned: set[str] = set()
         self._forgotten: set[str] = set()
         self.read_only = False  # set when a write fails with EROFS/EACCES: hits are served, results kept in memory
@@ -159,37 +164,74 @@ class Cache:
         return None
 
     # -- writes ------------------------------------------------------------
-    def store(self, key: str, plate: Plate, record: dict) -> None:
+    def store(self, key: str, plate: Plate, record: dict, *, replace: bool = False) -> None:
+        """Keep ``plate`` in memory and write its entry (on the writer thread when in the
+        background). An intact entry stored meanwhile by another process is kept unless
+        ``replace`` (a forced recompute)."""
         with self._lock:
             self.memory[key] = plate
             self._pinned.add(key)  # kept in memory until written
         if self._writer is None:
-            self._write(key, plate, record)
+            self._write(key, plate, record, replace)
         else:
-            self._pending.append(self._writer.submit(self._write, key, plate, record))
+            fut = self._writer.submit(self._write, key, plate, record, replace)
+            self._pending.append(fut)
+            self._writing[key] = fut
+            fut.add_done_callback(lambda f, k=key: self._writing.pop(k, None))
 
-    def _write(self, key: str, plate: Plate, record: dict) -> None:
+    def writing(self, key: str) -> Future | None:
+        """The background write of ``key`` while it is not done (None once done, or never begun)."""
+        return self._writing.get(key)
+
+    def _write(self, key: str, plate: Plate, record: dict, replace: bool = False) -> None:
         exr, js = self._paths(key)
+        tmp = None
         try:
             if self.read_only:
                 self.unstored += 1
                 return
             exr.parent.mkdir(parents=True, exist_ok=True)
-            write_plate(exr, plate, extra={"proxyshade/node": str(record.get("node")), "proxyshade/key": key,
+            tmp = temp_for(exr, ".exr")
+            write_plate(tmp, plate, extra={"proxyshade/node": str(record.get("node")), "proxyshade/key": key,
                                            "proxyshade/frame": str(record.get("frame"))})
-            rec = dict(record, key=key, size=exr.stat().st_size, sha256=_sha256(exr), created=time.time())
-            self._write_record(js, rec)
+            rec = dict(record, key=key, size=tmp.stat().st_size, sha256=_sha256(tmp), created=time.time())
+            self._publish(key, tmp, rec, replace)
         except (OSError, WriteError) as e:
             if not _read_only(e):
                 raise e if isinstance(e, WriteError) else io_error(exr, e, "cannot write cache entry") from None
             self.read_only = True
             self.unstored += 1
         finally:
+            if tmp is not None and os.path.lexists(tmp):
+                tmp.unlink()
             with self._lock:
                 self._pinned.discard(key)
                 if key in self._forgotten:
                     self._forgotten.discard(key)
                     self.memory.pop(key, None)
+
+    def _publish(self, key: str, tmp: Path, rec: dict, replace: bool) -> None:
+        """Rename a written EXR and its record into place under the shard's lock: the first
+        writer wins (an intact entry another process stored meanwhile is kept, ours dropped:
+        same key, same plate), so an entry's EXR and record always come from one writer."""
+        exr, js = self._paths(key)
+        with _shard_lock(exr.parent):
+            if not replace and self.intact(key):
+                return
+            os.replace(tmp, exr)
+            self._write_record(js, rec)
+
+    def intact(self, key: str) -> bool:
+        """Whether a whole entry is stored under ``key``: its record names it, the EXR's size
+        and sha256 are the record's and its header names the key (quietly: no warning)."""
+        rec = self.record(key)
+        exr, _ = self._paths(key)
+        try:
+            return (rec is not None and rec.get("key") == key and not rec.get("sink")
+                    and exr.stat().st_size == rec.get("size") and _sha256(exr) == rec.get("sha256")
+                    and read_header(exr)["attributes"].get("proxyshade/key") == key)
+        except Exception:  # noqa: BLE001 - unreadable: not intact
+            return False
 
     def _write_record(self, js: Path, rec: dict) -> None:
         try:
@@ -296,6 +338,18 @@ class Cache:
             if not _read_only(e):
                 raise io_error(p, e, "cannot write the run record") from None
             self.read_only = True
+
+
+@contextlib.contextmanager
+def _shard_lock(folder: Path):
+    """An exclusive lock on one shard folder of the cache (``flock`` on its ``.lock`` file),
+    between the threads and processes of every machine that shares the folder."""
+    fd = os.open(folder / ".lock", os.O_RDWR | os.O_CREAT, 0o666)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX)
+        yield
+    finally:
+        os.close(fd)  # releases the lock
 
 
 def _file_state(path: Path) -> dict:

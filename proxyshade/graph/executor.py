@@ -1,9 +1,10 @@
 """Executors: run a function on every vertex of a DAG once its predecessors are done.
 
-The engine hands an executor a networkx DiGraph and a function; that is the whole
-interface, so another scheduler (Dask, a render farm) can replace the thread pool.
-Results do not depend on scheduling order: every vertex's work is a pure function of
-its inputs.
+The engine hands an executor prepared runs (``run_jobs``: ``graph.RunJob``, each a
+networkx DiGraph of instances and the function computing one in this process); the
+executors here run each job's DAG in this process, ``dask_executor.DaskExecutor`` on
+Dask workers. Results do not depend on scheduling order: every vertex's work is a pure
+function of its inputs.
 """
 from __future__ import annotations
 
@@ -13,7 +14,21 @@ from typing import Callable, Hashable
 import networkx as nx
 
 
-class SerialExecutor:
+class LocalExecutor:
+    """Runs the jobs one after another in this process (``run``: one DAG)."""
+
+    def run(self, dag: nx.DiGraph, fn: Callable[[Hashable], None]) -> None:
+        raise NotImplementedError
+
+    def run_jobs(self, jobs) -> None:
+        for job in jobs:
+            try:
+                self.run(job.todo, job.work)
+            finally:
+                job.graph.cache.flush()  # every background cache write done (or failed)
+
+
+class SerialExecutor(LocalExecutor):
     """One vertex at a time, in a deterministic topological order."""
 
     def run(self, dag: nx.DiGraph, fn: Callable[[Hashable], None]) -> None:
@@ -21,7 +36,7 @@ class SerialExecutor:
             fn(v)
 
 
-class ThreadExecutor:
+class ThreadExecutor(LocalExecutor):
     """Independent vertices run concurrently on ``jobs`` threads (numba kernels release the GIL)."""
 
     def __init__(self, jobs: int = 2):

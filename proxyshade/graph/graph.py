@@ -15,6 +15,7 @@ several frames) are computed once.
 """
 from __future__ import annotations
 
+import contextlib
 import functools
 import os
 import resource
@@ -22,7 +23,7 @@ import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable, ContextManager
 
 import networkx as nx
 
@@ -34,6 +35,14 @@ from proxyshade.graph.node import REGISTRY, Context, InputRef, Node, PlateSequen
 from proxyshade.graph.plate import Plate
 from proxyshade.io.files import output_target, remove_stale_temps
 from proxyshade.io.graphfile import load_graph
+
+
+def _no_lock(key: str) -> ContextManager:
+    return contextlib.nullcontext()
+
+
+def _ignore(run: "NodeRun") -> None:
+    pass
 
 
 def set_kernel_threads(threads: int) -> int:
@@ -113,6 +122,18 @@ class Graph:
             self.cache = Cache(Path(cache) if cache else default_cache_dir(self.graph_dir))
         self._locks: dict[str, threading.Lock] = {}
         self._locks_guard = threading.Lock()
+        # held while computing a key that an input's load found missing or corrupt: a lock
+        # shared between processes where several compute (a Dask worker sets one)
+        self.key_lock: Callable[[str], ContextManager] = _no_lock
+        self.on_recompute: Callable[[NodeRun], None] = _ignore  # an input computed again (its entry missing or corrupt)
+
+    def __getstate__(self) -> dict:
+        """A graph pickles (to a Dask worker) with its cache's folder, not its memory or locks."""
+        return dict(self.__dict__, cache=str(self.cache.root.absolute()), _locks=None, _locks_guard=None)
+
+    def __setstate__(self, state: dict) -> None:
+        """An unpickled graph opens the same cache folder (its writes in the background)."""
+        self.__dict__.update(state, cache=Cache(state["cache"]), _locks={}, _locks_guard=threading.Lock())
 
     # -- building ----------------------------------------------------------
     @classmethod
@@ -304,8 +325,18 @@ class Graph:
             return self._locks.setdefault(key, threading.Lock())
 
     def run(self, frames: list[int] | None = None, *, jobs: int = 1, force: tuple[str, ...] = (),
-            hooks: "Hooks | None" = None, threads: int = 0) -> RunReport:
-        """Compute what the cache lacks for ``frames`` (default: all); returns the report."""
+            hooks: "Hooks | None" = None, threads: int = 0, executor=None) -> RunReport:
+        """Compute what the cache lacks for ``frames`` (default: all); returns the report.
+        ``executor``: where the instances run (default: ``make_executor(jobs)``, this process;
+        ``proxyshade.graph.dask_executor.DaskExecutor`` for Dask workers)."""
+        job = self.prepare(frames, force=force, hooks=hooks, threads=threads)
+        (executor or make_executor(jobs)).run_jobs([job])
+        return job.finish()
+
+    def prepare(self, frames: list[int] | None = None, *, force: tuple[str, ...] = (),
+                hooks: "Hooks | None" = None, threads: int = 0) -> "RunJob":
+        """A run up to its computing: the plan, a row per instance, stale temporaries removed
+        and the DAG of the instances the cache lacks (``RunJob.todo``)."""
         t0 = time.perf_counter()
         plan = self.plan(frames, force)
         plan.threads = threads
@@ -341,60 +372,46 @@ class Graph:
                 p = key_owner.get(plan.keys[pred], pred)
                 if p in todo:
                     todo.add_edge(p, inst)
-        consumers: dict[str, int] = {}
-        for inst in todo:
+        return RunJob(self, plan, runs, todo, hooks, cleaned, t0)
+
+    def _work(self, job: "RunJob", consumers: dict[str, int], guard: threading.Lock, inst) -> None:
+        """Compute one instance in this process, then drop from memory the plates no
+        instance still to compute reads."""
+        plan, nr = job.plan, job.runs[inst]
+        job.hooks.start(nr)
+        t = time.perf_counter()
+        self._compute(plan, inst, nr)
+        nr.seconds = time.perf_counter() - t
+        with guard:
             for k in plan.held_keys(inst):
-                consumers[k] = consumers.get(k, 0) + 1
-        guard = threading.Lock()
+                consumers[k] -= 1
+                if consumers[k] == 0 and k not in plan.keep:
+                    self.cache.forget(k)
+            if consumers.get(nr.key, 0) == 0 and nr.key not in plan.keep:
+                self.cache.forget(nr.key)
+        job.hooks.done(nr)
 
-        def work(inst):
-            nr = runs[inst]
-            hooks.start(nr)
-            t = time.perf_counter()
-            self._compute(plan, inst, nr)
-            nr.seconds = time.perf_counter() - t
-            with guard:
-                for k in plan.held_keys(inst):
-                    consumers[k] -= 1
-                    if consumers[k] == 0 and k not in plan.keep:
-                        self.cache.forget(k)
-                if consumers.get(nr.key, 0) == 0 and nr.key not in plan.keep:
-                    self.cache.forget(nr.key)
-            hooks.done(nr)
-
-        try:
-            make_executor(jobs).run(todo, work)
-        finally:
-            self.cache.flush()
-        for inst, nr in runs.items():
-            if nr.status != "computed":
-                hooks.done(nr)
-        self.cache.save_run(self._graph_id(), {f"{n}@{f}": c for (n, f), c in plan.components.items()})
-        order = {inst: i for i, inst in enumerate(nx.lexicographical_topological_sort(plan.dag, key=str))}
-        rows = sorted(runs.values(), key=lambda r: (r.frame, order[(r.node, r.frame)]))
-        peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
-        notes = []
-        if self.cache.unstored:
-            notes.append(f"cache {self.cache.root} is read-only: {self.cache.unstored} result(s) computed by this "
-                         "run were not stored")
-            self.cache.unstored = 0
-        return RunReport(rows, time.perf_counter() - t0, peak, cleaned, notes)
+    def output_files(self, dag: nx.DiGraph) -> list[Path]:
+        """The files the writers (sinks) among ``dag``'s instances write (symlinks followed)."""
+        out = []
+        for name, frame in dag:
+            node = self.nodes[name]
+            if not node.sink or not self.enabled[name]:
+                continue
+            for k, spec in type(node).params_spec.items():
+                if spec.type is Path and node.params.get(k):
+                    try:
+                        out.append(output_target(resolve_path(node.params[k], self.graph_dir, frame)))
+                    except UserError:
+                        continue  # refused when the writer runs, with its message
+        return out
 
     def _remove_stale_temps(self, plan: "Plan") -> list[tuple[Path, int]]:
         """Delete temporaries that killed runs left in the cache and beside this run's outputs."""
         removed = self.cache.remove_stale_temps()
         outputs: dict[Path, set[str]] = {}  # folder -> names of this run's outputs in it
-        for name, frame in plan.dag:
-            node = self.nodes[name]
-            if not node.sink:
-                continue
-            for k, spec in type(node).params_spec.items():
-                if spec.type is Path and node.params.get(k):
-                    try:
-                        target = output_target(resolve_path(node.params[k], self.graph_dir, frame))
-                    except UserError:
-                        continue  # refused when the writer runs, with its message
-                    outputs.setdefault(target.parent, set()).add(target.name)
+        for target in self.output_files(plan.dag):
+            outputs.setdefault(target.parent, set()).add(target.name)
         for folder, names in outputs.items():
             removed += remove_stale_temps(folder, names)
         return removed
@@ -419,15 +436,19 @@ class Graph:
                 problem = self.cache.load_problem(key)
                 if problem is None:
                     return self.cache.memory[key]
-            nr = plan.rows.get(key)
-            if nr is not None and nr.status == "reused":  # the report says what happened, not what was planned
-                nr.status, nr.reason = "computed", problem
-            else:
-                nr = NodeRun(inst[0], inst[1], key, "computed", problem)
-            t = time.perf_counter()
-            plate = self._compute_locked(plan, inst, nr)
-            nr.seconds = time.perf_counter() - t
-            return plate
+            with self.key_lock(key):  # a process computing this key meanwhile (a Dask worker) finishes first
+                if not self.nodes[inst[0]].sink and self.cache.intact(key) and self.cache.load_problem(key) is None:
+                    return self.cache.memory[key]
+                nr = plan.rows.get(key)
+                if nr is not None and nr.status == "reused":  # the report says what happened, not what was planned
+                    nr.status, nr.reason = "computed", problem
+                else:
+                    nr = NodeRun(inst[0], inst[1], key, "computed", problem)
+                t = time.perf_counter()
+                plate = self._compute_locked(plan, inst, nr)
+                nr.seconds = time.perf_counter() - t
+                self.on_recompute(nr)
+                return plate
 
     def _sequence_plate(self, plan: "Plan", name: str, frame: int) -> Plate:
         """One plate of a sequence input, dropped from memory again unless it was held there."""
@@ -481,7 +502,7 @@ class Graph:
             self.cache.store_sink(nr.key, node.written_files(ctx), record)
             self.cache.memory[nr.key] = plate
         else:
-            self.cache.store(nr.key, plate, record)
+            self.cache.store(nr.key, plate, record, replace=name in plan.force)
         return plate
 
     def value(self, name: str, frame: int | None = None, *, jobs: int = 1) -> Plate:
@@ -518,6 +539,43 @@ class Plan:
         """Upstream keys whose plates the instance's compute reads at once: its one-frame inputs
         (a sequence input reads its plates one at a time, from disk once they are dropped)."""
         return {k for k in self.input_keys(inst).values() if isinstance(k, str)}
+
+
+class RunJob:
+    """One graph's run, prepared (``Graph.prepare``): the plan, a row per instance, and
+    ``todo``, the DAG of the instances to compute. An executor computes them, in this
+    process (``work``) or elsewhere (filling the rows); ``finish`` makes the report."""
+
+    def __init__(self, graph: Graph, plan: Plan, runs: dict[tuple[str, int], NodeRun], todo: nx.DiGraph,
+                 hooks: "Hooks", cleaned: list[tuple[Path, int]], t0: float):
+        self.graph, self.plan, self.runs, self.todo, self.hooks = graph, plan, runs, todo, hooks
+        self.cleaned = cleaned
+        self.t0 = t0
+        self.notes: list[str] = []  # about the run as a whole, from the executor
+        self.label: str | None = None  # the graph's name in messages where several run together
+        self.peak_rss_mb = 0.0  # of the processes that computed elsewhere (Dask workers)
+        consumers: dict[str, int] = {}
+        for inst in todo:
+            for k in plan.held_keys(inst):
+                consumers[k] = consumers.get(k, 0) + 1
+        self.work = functools.partial(graph._work, self, consumers, threading.Lock())
+
+    def finish(self) -> RunReport:
+        """Report hooks for what was not computed, remember the key components, the report."""
+        g, plan = self.graph, self.plan
+        for nr in self.runs.values():
+            if nr.status != "computed":
+                self.hooks.done(nr)
+        g.cache.save_run(g._graph_id(), {f"{n}@{f}": c for (n, f), c in plan.components.items()})
+        order = {inst: i for i, inst in enumerate(nx.lexicographical_topological_sort(plan.dag, key=str))}
+        rows = sorted(self.runs.values(), key=lambda r: (r.frame, order[(r.node, r.frame)]))
+        peak = max(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0, self.peak_rss_mb)
+        notes = list(self.notes)
+        if g.cache.unstored:
+            notes.append(f"cache {g.cache.root} is read-only: {g.cache.unstored} result(s) computed by this "
+                         "run were not stored")
+            g.cache.unstored = 0
+        return RunReport(rows, time.perf_counter() - self.t0, peak, self.cleaned, notes)
 
 
 class Hooks:

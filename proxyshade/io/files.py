@@ -1,25 +1,29 @@
 """Output files written atomically: where a write lands, temporary names, stale temporaries.
 
 Every file proxyshade writes (cache entries, EXR, PNG and GIF outputs, run records) is
-written to ``.<name>.<pid>.<n>.tmp<.ext>`` beside its target and renamed over it, so a
+written to ``.<name>.<pid>-<host>.<n>.tmp<.ext>`` beside its target and renamed over it, so a
 reader sees the old file or the new one, never a part. A symlink is written through to
 its target; a device, FIFO or folder at the output path is refused. A process killed
 mid-write leaves its temporary behind: ``stale_temps`` finds those whose process is gone
-(or that are older than a day) and ``remove_stale_temps`` deletes them.
+(or that are older than a day) and ``remove_stale_temps`` deletes them. Whether a process is
+gone is known only on its own machine: another machine's temporaries in a shared folder (a
+farm's cache) are removed only once a day old.
 """
 from __future__ import annotations
 
 import errno
+import hashlib
 import itertools
 import os
 import re
+import socket
 import stat
 import time
 from pathlib import Path
 
 from proxyshade.errors import UserError, WriteError
 
-_TMP = re.compile(r"^\.(?P<name>.+)\.(?P<pid>\d+)\.(?P<n>\d+)\.tmp(?:\.[A-Za-z0-9]+)?$")
+_TMP = re.compile(r"^\.(?P<name>.+)\.(?P<pid>\d+)(?:-(?P<host>[0-9a-f]{8}))?\.(?P<n>\d+)\.tmp(?:\.[A-Za-z0-9]+)?$")
 _OLD_TMP = re.compile(r"^\.(?P<name>.+)\.tmp\d+\.png$")  # PNG temporaries before pids were in the name
 _counter = itertools.count()
 MAX_AGE_S = 24 * 3600.0
@@ -48,9 +52,18 @@ def output_target(path: str | Path) -> Path:
     return target
 
 
+def _host() -> str:
+    """This machine, in temporaries' names: 8 hex digits of a hash of its host name."""
+    return hashlib.sha256(socket.gethostname().encode()).hexdigest()[:8]
+
+
+HOST = _host()
+
+
 def temp_for(target: Path, suffix: str = "") -> Path:
-    """A temporary name beside ``target`` for this process (``suffix``: the format's extension)."""
-    return target.with_name(f".{target.name}.{os.getpid()}.{next(_counter)}.tmp{suffix}")
+    """A temporary name beside ``target`` for this process on this machine (``suffix``: the
+    format's extension): ``.<name>.<pid>-<host>.<n>.tmp<suffix>``."""
+    return target.with_name(f".{target.name}.{os.getpid()}-{HOST}.{next(_counter)}.tmp{suffix}")
 
 
 def io_error(path: Path | str, e: BaseException, what: str = "cannot write") -> WriteError:
@@ -89,6 +102,8 @@ def stale_temps(folder: Path, names: set[str] | None = None, *, max_age: float =
         except OSError:
             continue
         pid = int(m.group("pid")) if "pid" in m.groupdict() else None
+        if m.groupdict().get("host") not in (None, HOST):
+            pid = None  # another machine's (a farm sharing the folder): only its age tells
         if age > max_age or (pid is not None and not _alive(pid)):
             out.append(Path(e.path))
     return sorted(out)

@@ -1,0 +1,400 @@
+"""Run graphs on Dask's distributed scheduler: instances (node x frame) of one or several
+graphs (shots, variants) as tasks on worker processes sharing one cache folder.
+
+    with DaskExecutor() as ex:                      # a LocalCluster on loopback, closed at the end
+        report = graph.run(executor=ex)
+    with DaskExecutor("tcp://farm:8786") as ex:     # a running scheduler
+        reports = run_graphs([(shot_a, None), (shot_b, None)], executor=ex)
+
+Every instance the cache lacks is one task whose Dask key is ``proxyshade-<cache key>``,
+depending on the tasks of the instances it reads: what needs the previous frame waits for
+it, everything else (proxy renders of all frames, independent shots) spreads over the
+workers. The scheduler runs a key once however many graphs or clients (other runs on the
+same scheduler) submit it: the others wait for it. Plates never travel through Dask: a task
+reads its inputs from the cache, stores its result there and returns a small record (its
+row of the report, warnings, the worker's peak memory), so the cache folder must be one
+folder for every worker (a shared filesystem on a farm).
+
+A worker that dies mid-task leaves at most a temporary (removed once its process is gone)
+and never an entry (entries are renamed into place, the record last, first writer wins);
+the scheduler runs the task again on another worker. An input found missing or corrupt by
+a task is computed under a Dask lock named by its key, so two workers never compute it
+together (the second loads the first's result).
+
+Dask is an optional extra: without it, ``DaskExecutor`` raises a one-line ``UserError``
+naming ``pip install 'proxyshade[dask]'``.
+"""
+from __future__ import annotations
+
+import asyncio
+import collections
+import concurrent.futures
+import contextlib
+import dataclasses
+import logging
+import os
+import resource
+import threading
+import time
+import uuid
+import warnings
+import weakref
+
+import networkx as nx
+
+from proxyshade.errors import UserError
+
+EXTRA = "pip install 'proxyshade[dask]'"
+
+
+def _distributed():
+    """The ``distributed`` module, or a one-line error naming the extra to install."""
+    try:
+        import distributed
+    except ImportError as e:
+        raise UserError(f"--executor dask needs Dask's distributed scheduler, which is not installed ({e}); "
+                        f"install the extra: {EXTRA}") from None
+    return distributed
+
+
+class _SameKeyFilter(logging.Filter):
+    """The scheduler warns when a key is submitted again with other dependencies; for
+    proxyshade keys that is two runs on one scheduler that found different parts of the
+    cache done when they planned, and the key's result is the same: not a problem."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        msg = record.getMessage()
+        return not (msg.startswith("Detected different `run_spec`") and "proxyshade-" in msg)
+
+
+class DaskExecutor:
+    """Runs prepared runs (``graph.RunJob``) on Dask workers.
+
+    ``scheduler``: the address of a running scheduler (``tcp://host:8786``); None starts a
+    ``LocalCluster`` of ``workers`` processes (default: one per core) on 127.0.0.1 with
+    random ports and no dashboard, closed by ``close``. On a local cluster, a run's
+    ``threads`` of 0 becomes cores // workers numba threads per task (each worker computes
+    one task at a time); on a scheduler of one's own, 0 keeps every thread numba has on the
+    worker."""
+
+    distributed = True
+
+    def __init__(self, scheduler: str | None = None, workers: int | None = None):
+        self.scheduler = scheduler
+        self.workers = max(1, workers or os.cpu_count() or 1)
+        self.client = None
+        self.cluster = None
+        self.records: list[dict] = []  # the last run_jobs' task records (worker, pid, start, end, seconds)
+
+    def __enter__(self) -> "DaskExecutor":
+        self.start()
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def start(self) -> None:
+        if self.client is not None:
+            return
+        d = _distributed()
+        logging.getLogger("distributed.scheduler").addFilter(_SameKeyFilter())
+        if self.scheduler:
+            try:
+                self.client = d.Client(self.scheduler)  # waits distributed.comm.timeouts.connect (30 s)
+            except (OSError, TimeoutError, ValueError) as e:
+                raise UserError(f"--scheduler {self.scheduler}: cannot connect ({str(e).splitlines()[0] if str(e) else type(e).__name__}); "
+                                "start one (dask scheduler) and give its address, e.g. tcp://host:8786") from None
+            return
+        self.cluster = d.LocalCluster(n_workers=self.workers, threads_per_worker=1, processes=True,
+                                      host="127.0.0.1", scheduler_port=0, dashboard_address=None,
+                                      silence_logs=logging.CRITICAL)
+        self.client = d.Client(self.cluster)
+
+    def close(self) -> None:
+        if self.client is not None:
+            self.client.close()
+            self.client = None
+        if self.cluster is not None:
+            self.cluster.close()
+            self.cluster = None
+
+    @property
+    def address(self) -> str:
+        return self.client.scheduler.address if self.client is not None else str(self.scheduler)
+
+    def run_jobs(self, jobs) -> None:
+        """Submit every job's instances to compute, wait for all, fill the jobs' rows (a
+        failure cancels the rest and is raised here)."""
+        self.start()
+        d = _distributed()
+        client = self.client
+        futures: dict[str, object] = {}  # Dask key -> future, once per key over every job
+        owners: dict[str, list] = collections.defaultdict(list)  # Dask key -> [(job, instance)]
+        plans = []
+        for job in jobs:
+            plan = job.plan
+            if self.cluster is not None and plan.threads == 0:
+                plan.threads = max(1, (os.cpu_count() or 1) // self.workers)
+            job.token = uuid.uuid4().hex
+            job.workers = collections.Counter()  # worker -> instances of this job it computed
+            if not len(job.todo):
+                continue
+            shipped = dataclasses.replace(plan, rows={})  # the rows are the client's report
+            plans.append(client.scatter(shipped, broadcast=True, hash=False))
+            for inst in nx.lexicographical_topological_sort(job.todo, key=str):
+                key = _dask_key(plan.keys[inst])
+                if key not in futures:
+                    deps = [futures[_dask_key(plan.keys[p])] for p in job.todo.predecessors(inst)]
+                    futures[key] = client.submit(_task, plans[-1], (job.token, inst), inst, inst[0] in plan.force,
+                                                 *deps, key=key, pure=False)
+                owners[key].append((job, inst))
+                job.hooks.start(job.runs[inst])
+        by_token = {job.token: job for job in jobs}
+        self.records = []
+        try:
+            for fut in d.as_completed(list(futures.values())):
+                res = fut.result()  # re-raises the task's error
+                self.records.append(dict(res, key=fut.key))
+                for job, inst in owners[fut.key]:
+                    _apply(job, inst, res, by_token)
+            client.run(_flush_all)  # every entry on disk before the run reports (a write's failure raised)
+        except BaseException:
+            client.cancel(list(futures.values()))
+            raise
+        finally:
+            for f in [*futures.values(), *plans]:
+                f.release()  # the scheduler forgets them once no run wants them
+        for job in jobs:
+            if job.workers:
+                job.notes.append(f"computed on Dask ({self.address}): "
+                                 + ", ".join(f"{n} on {w}" for w, n in sorted(job.workers.items())))
+            job.cleaned += job.graph.cache.remove_stale_temps()  # of workers lost mid-write
+
+
+def run_graphs(items, *, executor=None, jobs: int = 1, force: tuple[str, ...] = (), hooks=None,
+               threads: int = 0, labels: list[str] | None = None) -> list:
+    """Run several graphs (shots, variants; ``items``: (graph, frames or None) pairs):
+    prepared together and computed at once on a distributed executor (a key two graphs
+    share is computed once), one after the other on a local one. ``hooks``: a function of
+    the graph giving its ``Hooks`` (progress), or None; ``labels``: the graphs' names in
+    messages (default: their files). Two graphs writing one file is an error before anything runs."""
+    from proxyshade.graph.executor import make_executor
+
+    labels = labels or [g.source or g.name for g, _ in items]
+    check_outputs([(label, g, f) for label, (g, f) in zip(labels, items)])
+    executor = executor or make_executor(jobs)
+    hooks = hooks or (lambda g: None)
+    if not getattr(executor, "distributed", False):
+        return [g.run(f, executor=executor, force=force, hooks=hooks(g), threads=threads) for g, f in items]
+    prepared = [g.prepare(f, force=force, hooks=hooks(g), threads=threads) for g, f in items]
+    for job, label in zip(prepared, labels):
+        job.label = label
+    executor.run_jobs(prepared)
+    return [job.finish() for job in prepared]
+
+
+def check_outputs(shots) -> None:
+    """Two of ``shots`` ((label, graph, frames or None)) writing one file: a one-line error naming both."""
+    if len(shots) < 2:
+        return
+    seen: dict[str, str] = {}
+    for label, g, frames in shots:
+        dag = g.instances(list(frames) if frames else list(range(g.frames[0], g.frames[1] + 1)))
+        for path in sorted(set(g.output_files(dag))):
+            other = seen.setdefault(str(path), label)
+            if other != label:
+                raise UserError(f"{other} and {label} both write {path}; give each its own output "
+                                "(a variable in the output path, e.g. --var out=... or --sweep out=a,b)")
+
+
+def _dask_key(key: str) -> str:
+    return f"proxyshade-{key}"
+
+
+def _apply(job, inst, res: dict, by_token: dict) -> None:
+    """Fill a job's row from a task's record (computed by this job, or by another job or run
+    that submitted the same key), re-raise the worker's warnings, call the progress hook."""
+    nr = job.runs[inst]
+    token, (name, frame) = res["by"]
+    if (token, (name, frame)) == (job.token, inst):
+        nr.status, nr.seconds, nr.notes[:] = res["status"], res["seconds"], res["notes"]
+        job.workers[res["worker"]] += res["status"] == "computed"
+        if res["status"] != "computed":
+            nr.reason = res["reason"]
+        for w in res["warnings"]:
+            warnings.warn(w, _warning_class(), stacklevel=2)
+    else:
+        other = by_token.get(token)
+        who = f"{other.label or other.graph.source or other.graph.name}: " if other not in (None, job) else ""
+        nr.status = "reused"
+        nr.reason = (f"same key as {who}{name}@{frame}" if other is not None
+                     else f"computed by another run on the scheduler ({name}@{frame})")
+    for node, f, key, reason, seconds in res["recomputed"]:
+        row = job.plan.rows.get(key)
+        if row is not None and row.status == "reused":
+            row.status, row.reason, row.seconds = "computed", reason, seconds
+        else:
+            nr.notes.append(f"input {node}@{f} computed again: {reason}")
+    job.peak_rss_mb = max(job.peak_rss_mb, res["peak_rss_mb"])
+    job.hooks.done(nr)
+
+
+def _warning_class():
+    from proxyshade.graph.cache import CacheWarning
+
+    return CacheWarning
+
+
+# -- on the workers ------------------------------------------------------------
+_GUARD = threading.Lock()
+_LOCAL = threading.local()  # this task's warnings and recomputed inputs
+_USING: dict[int, set[str]] = {}  # thread -> keys its task reads or writes (kept in memory)
+# plates kept in a worker's memory between tasks, most recently used last: the next task there
+# often reads them again (the source, the first frame, the previous frame), without loading
+# them from the cache, and the same arrays keep synthesis.memo's results
+_RECENT: "collections.OrderedDict[tuple[int, str], object]" = collections.OrderedDict()  # (cache id, key) -> cache
+_CACHES: "weakref.WeakSet" = weakref.WeakSet()  # the caches this worker's tasks wrote to
+_RELEASER = concurrent.futures.ThreadPoolExecutor(1, thread_name_prefix="proxyshade-unlock")
+KEEP_MB = float(os.environ.get("PROXYSHADE_WORKER_KEEP_MB", "1024"))
+
+
+@contextlib.contextmanager
+def _key_lock(key: str):
+    """A Dask lock named by the cache key: one worker computes a key at a time."""
+    with _distributed().Lock(f"proxyshade-lock-{key}"):
+        yield
+
+
+def _recomputed(run) -> None:
+    getattr(_LOCAL, "recomputed", []).append((run.node, run.frame, run.key, run.reason, run.seconds))
+
+
+_SHOW = []  # warnings.showwarning before _capture_warnings replaced it
+
+
+def _capture_warnings() -> None:
+    """Warnings raised by a task (a corrupt cache entry) go back to the client with its
+    record, per thread (a worker may run several tasks at once)."""
+    with _GUARD:
+        if _SHOW:
+            return
+        _SHOW.append(warnings.showwarning)
+        warnings.simplefilter("always", _warning_class())  # every corrupt entry is told, not once per process
+
+        def show(message, category, filename, lineno, file=None, line=None):
+            caught = getattr(_LOCAL, "warnings", None)
+            if caught is None:
+                return _SHOW[0](message, category, filename, lineno, file, line)
+            caught.append(str(message))
+
+        warnings.showwarning = show
+
+
+_CODE: dict[type, str] = {}  # node type -> its code hash in this worker
+
+
+def _check_code(cls: type, want: str) -> None:
+    """A worker whose proxyshade code differs from the client's would store results under keys
+    that name other code: a one-line error instead."""
+    from proxyshade.graph.keys import code_hash
+
+    have = _CODE.get(cls) or _CODE.setdefault(cls, code_hash(cls))
+    if have != want:
+        try:
+            where = f"Dask worker {_distributed().get_worker().address}"
+        except ValueError:  # not on a worker
+            where = f"process {os.getpid()}"
+        raise UserError(f"{where} runs other proxyshade code for "
+                        f"{cls.__name__} than this run (code hash {have[:12]}, the run's {want[:12]}); install the "
+                        "same proxyshade on every worker")
+
+
+def _task(plan, by: tuple, inst: tuple[str, int], forced: bool, *deps) -> dict:
+    """Compute one instance on a worker (its inputs from the cache, its entry to the cache)
+    unless another run stored its key meanwhile; returns its record for the client. ``plan``
+    is the run's (one copy per worker), ``deps`` the records of the tasks it waits for."""
+    from proxyshade.graph.graph import NodeRun
+
+    t_start = time.time()
+    _capture_warnings()
+    g = plan.graph
+    g.key_lock, g.on_recompute = _key_lock, _recomputed
+    key = plan.keys[inst]
+    _check_code(type(g.nodes[inst[0]]), plan.components[inst]["code"])
+    nr = NodeRun(inst[0], inst[1], key, "computed", "")
+    me = threading.get_ident()
+    _LOCAL.warnings, _LOCAL.recomputed = [], []
+    with _GUARD:
+        _USING[me] = {key} | plan.held_keys(inst)
+    try:
+        ok, why = (False, "") if forced else g.cache.has(key)
+        if ok:
+            nr.status, nr.reason = "reused", f"stored meanwhile by another run ({why})"
+        else:
+            t = time.perf_counter()
+            g._compute(plan, inst, nr)
+            nr.seconds = time.perf_counter() - t
+            _hand_over(g.cache, key)
+        return {"by": by, "status": nr.status, "reason": nr.reason, "seconds": nr.seconds, "notes": list(nr.notes),
+                "warnings": _LOCAL.warnings, "recomputed": _LOCAL.recomputed, "worker": _distributed().get_worker().address,
+                "pid": os.getpid(), "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
+                "start": t_start, "end": time.time()}
+    finally:
+        _LOCAL.warnings = _LOCAL.recomputed = None
+        with _GUARD:
+            _USING.pop(me, None)
+            _keep_recent(g.cache, [*plan.held_keys(inst), key], set().union(*_USING.values()))
+
+
+def _hand_over(cache, key: str) -> None:
+    """The task is done before its entry is written: the entry's Dask lock is held until the
+    write ends, so a task on another worker that reads the key waits for it (``Graph._value``
+    loads an entry missing at first under that lock) while this worker computes on."""
+    _CACHES.add(cache)
+    fut = cache.writing(key)
+    if fut is None:
+        return
+    lock = _distributed().Lock(f"proxyshade-lock-{key}")
+    lock.acquire()
+    fut.add_done_callback(lambda f: _RELEASER.submit(_release, lock))  # the writer thread writes on
+
+
+def _release(lock) -> None:
+    try:
+        lock.release()
+    except Exception:  # noqa: BLE001 - a lease already expired: nothing is held
+        pass
+
+
+async def _flush_all() -> int:
+    """Wait for this worker's background writes (every run's), re-raising the first failure;
+    on a thread, so the worker's event loop stays free to release the entries' locks."""
+    def flush() -> int:
+        caches = list(_CACHES)
+        for c in caches:
+            c.flush()
+        return len(caches)
+
+    return await asyncio.get_running_loop().run_in_executor(None, flush)
+
+
+def _keep_recent(cache, used: list[str], busy: set[str]) -> None:
+    """Mark ``used`` plates as the most recent of ``cache``'s, then drop the least recent
+    plates of every cache beyond ``KEEP_MB`` (never one a running task reads: ``busy``)."""
+    for k in used:
+        if k in cache.memory:
+            _RECENT[(id(cache), k)] = cache
+            _RECENT.move_to_end((id(cache), k))
+    for (cid, k), c in list(_RECENT.items()):
+        if k not in c.memory:
+            del _RECENT[(cid, k)]  # forgotten by the engine (a sequence's plates)
+    total = sum(c.memory[k].nbytes() for (_, k), c in _RECENT.items()) / 2**20
+    for (cid, k), c in list(_RECENT.items()):
+        if total <= KEEP_MB:
+            break
+        if k not in busy:
+            total -= c.memory[k].nbytes() / 2**20
+            c.forget(k)
+            del _RECENT[(cid, k)]
+    for k in [k for k in cache.memory if (id(cache), k) not in _RECENT and k not in busy]:
+        cache.forget(k)  # loaded by the engine but not among this task's inputs or output

@@ -1,0 +1,271 @@
+"""The Dask executor on a LocalCluster of 2 worker processes (loopback): outputs bit-identical
+to the local executor, a worker killed mid-task (the run completes, every cache entry
+whole), concurrent runs on one cache, several graphs at once, and the one-line error
+without Dask installed."""
+from __future__ import annotations
+
+import json
+import os
+import signal
+import sys
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from proxyshade.cli import main
+from proxyshade.graph.cache import Cache
+from proxyshade.graph.graph import Graph
+from proxyshade.graph.node import InputRef, Node, Param
+from proxyshade.graph.plate import Plate
+
+pytest.importorskip("distributed")
+from proxyshade.graph.dask_executor import DaskExecutor, run_graphs  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+class _TSlow(Node, register=False):
+    """R = value + frame, after ``seconds``; appends 'frame pid' to ``log`` when it starts
+    (the test's record of every compute, on whichever worker)."""
+
+    time_dependent = True
+    value = Param(float, 1.0)
+    seconds = Param(float, 0.5, hashed=False)
+    log = Param(str, "", hashed=False)
+
+    def compute(self, ctx):
+        if ctx.p.log:
+            with open(ctx.p.log, "a") as f:
+                f.write(f"{self.name} {ctx.frame} {os.getpid()}\n")
+        time.sleep(ctx.p.seconds)
+        rng = np.random.default_rng(ctx.frame)
+        return Plate({"R": (ctx.p.value + ctx.frame + rng.random((16, 16))).astype(np.float32)})
+
+
+@pytest.fixture(scope="module")
+def dask_ex():
+    """One LocalCluster of 2 worker processes for the module (closed at the end)."""
+    with DaskExecutor(workers=2) as ex:
+        assert len(ex.client.scheduler_info()["workers"]) in (1, 2) and ex.address.startswith("tcp://127.0.0.1:")
+        yield ex
+
+
+def outputs(folder: Path) -> dict[str, bytes]:
+    return {str(p.relative_to(folder)): p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+def entries_intact(cache: Path) -> dict[str, bool]:
+    """Every entry of the cache (by its record) -> whether its EXR, record and header agree."""
+    c = Cache(cache, background=False)
+    return {js.stem: c.intact(js.stem) for js in cache.glob("??/*.json") if not json.loads(js.read_text()).get("sink")}
+
+
+def small_move(cache: Path, out: Path) -> Graph:
+    return Graph.load(ROOT / "graphs" / "camera_move.yaml", cache=cache,
+                      overrides=["proxy.resolution=[64,64]", "guide.size=32", "guide.start=16"],
+                      variables={"out": str(out)})
+
+
+def test_camera_move_on_dask_is_bit_identical_to_local(tmp_path, dask_ex):
+    """Frames 1-4 of the camera move (64x64): the same 16 EXRs and PNGs, GIF and cache entries as
+    the local executor; a re-run computes nothing."""
+    local = small_move(tmp_path / "c_local", tmp_path / "local").run([1, 2, 3, 4])  # compiles the kernels if needed
+    r = small_move(tmp_path / "c_dask", tmp_path / "dask").run([1, 2, 3, 4], executor=dask_ex)
+    assert outputs(tmp_path / "dask") == outputs(tmp_path / "local") and len(outputs(tmp_path / "local")) == 17
+    assert [(x.node, x.frame, x.status) for x in r.runs] == [(x.node, x.frame, x.status) for x in local.runs]
+    assert {(x.node, x.frame) for x in r.runs if x.status == "computed"} >= {("final", 4), ("first", 1), ("movie", 4)}
+    assert sum(x.seconds for x in r.runs) > 0 and any(n.startswith("computed on Dask (tcp://127.0.0.1:") for n in r.notes)
+    assert any("flagged" in n for n in r.notes)  # the nodes' notes come back from the workers
+    intact = entries_intact(tmp_path / "c_dask")
+    assert intact and all(intact.values()) and set(intact) == set(entries_intact(tmp_path / "c_local"))
+    again = small_move(tmp_path / "c_dask", tmp_path / "dask").run([1, 2, 3, 4], executor=dask_ex)
+    assert not again.computed
+
+
+def slow_graph(tmp_path: Path, name: str = "slow", seconds: float = 0.5, frames: int = 4) -> Graph:
+    g = Graph(frames=(1, frames), cache=tmp_path / "cache", name=name)
+    g.add("slow", _TSlow, {"value": 0.5, "seconds": seconds, "log": str(tmp_path / f"{name}.log")})
+    g.add("sum", "TAdd", {"gain": 0.5}, {"a": "slow", "prev": InputRef("sum", -1)})
+    g.add("write", "ExrWrite", {"path": str(tmp_path / "out" / f"{name}.####.exr")}, {"image": "sum"})
+    return g
+
+
+def computes(log: Path) -> list[tuple[str, int, int]]:
+    """(node, frame, pid) of every compute logged (none when the log was never written)."""
+    if not log.exists():
+        return []
+    return [(n, int(f), int(p)) for n, f, p in (line.split() for line in log.read_text().splitlines())]
+
+
+def test_a_killed_worker_is_replaced_and_the_run_completes(tmp_path, dask_ex, registry):
+    """kill -9 of the worker computing frame 1: the scheduler runs the task again on
+    another worker; outputs equal a local run's and every cache entry is whole."""
+    ref = tmp_path / "ref"
+    ref.mkdir()
+    slow_graph(ref, seconds=0.0).run()
+    log = tmp_path / "slow.log"
+    killed = []
+
+    def kill_first_compute():
+        while not log.exists() or not log.read_text():
+            time.sleep(0.02)
+        _, _, pid = computes(log)[0]
+        os.kill(pid, signal.SIGKILL)
+        killed.append(pid)
+
+    killer = threading.Thread(target=kill_first_compute)
+    killer.start()
+    r = slow_graph(tmp_path, seconds=1.5).run(executor=dask_ex)
+    killer.join()
+    assert killed and all(x.status == "computed" for x in r.runs)
+    done = computes(log)
+    assert done[0][2] == killed[0] and [c[:2] for c in done].count(done[0][:2]) == 2  # its task ran again
+    assert killed[0] not in {p for _, _, p in done[1:]}  # elsewhere
+    assert outputs(tmp_path / "out") == outputs(ref / "out")
+    intact = entries_intact(tmp_path / "cache")
+    assert len(intact) == 8 and all(intact.values())
+    assert not [p for p in (tmp_path / "cache").rglob(".*") if ".tmp" in p.name]
+    for _ in range(100):  # the nanny restarts the worker: back to 2 for the next tests
+        if len(dask_ex.client.scheduler_info()["workers"]) == 2:
+            break
+        time.sleep(0.1)
+
+
+def test_two_concurrent_runs_on_one_scheduler_compute_each_key_once(tmp_path, dask_ex, registry):
+    """Two clients run the same graph on one cache at once: both complete with correct
+    outputs, each key computed once (the scheduler runs a key once; the other run waits)."""
+    ref = tmp_path / "ref"
+    ref.mkdir()
+    slow_graph(ref, seconds=0.0).run()
+    reports = {}
+
+    def second():
+        with DaskExecutor(dask_ex.address) as other:
+            reports["b"] = slow_graph(tmp_path, seconds=0.4).run(executor=other)
+
+    t = threading.Thread(target=second)
+    t.start()
+    reports["a"] = slow_graph(tmp_path, seconds=0.4).run(executor=dask_ex)
+    t.join()
+    done = [c[:2] for c in computes(tmp_path / "slow.log")]
+    assert sorted(done) == [("slow", f) for f in (1, 2, 3, 4)]  # once each over both runs
+    for r in reports.values():
+        assert {(x.node, x.frame) for x in r.runs} == {(n, f) for n in ("slow", "sum", "write") for f in (1, 2, 3, 4)}
+    assert outputs(tmp_path / "out") == outputs(ref / "out")
+    assert all(entries_intact(tmp_path / "cache").values())
+
+
+def test_a_local_and_a_dask_run_at_once_on_one_cache_both_correct(tmp_path, dask_ex, registry):
+    """Without a shared scheduler (a local run beside a Dask one) keys may be computed twice,
+    but the first stored entry stays and no entry is ever mixed from two writers."""
+    ref = tmp_path / "ref"
+    ref.mkdir()
+    slow_graph(ref, seconds=0.0).run()
+    reports = {}
+    t = threading.Thread(target=lambda: reports.setdefault("local", slow_graph(tmp_path, seconds=0.2).run()))
+    t.start()
+    reports["dask"] = slow_graph(tmp_path, seconds=0.2).run(executor=dask_ex)
+    t.join()
+    assert outputs(tmp_path / "out") == outputs(ref / "out")
+    intact = entries_intact(tmp_path / "cache")
+    assert len(intact) == 8 and all(intact.values())
+    for name in ("local", "dask"):
+        assert {(x.node, x.frame) for x in reports[name].runs} == {(n, f) for n in ("slow", "sum", "write")
+                                                                  for f in (1, 2, 3, 4)}
+
+
+def test_several_graphs_share_their_common_keys(tmp_path, dask_ex, registry):
+    """Two shots submitted together: a key both have is computed once, the second's row
+    says whose it is; a third writing the first's files is refused before anything runs."""
+    a, b = slow_graph(tmp_path, "a", 0.0), slow_graph(tmp_path, "b", 0.0)
+    ra, rb = run_graphs([(a, None), (b, None)], executor=dask_ex, labels=["shot a", "shot b"])
+    assert len(computes(tmp_path / "a.log")) + len(computes(tmp_path / "b.log")) == 4  # same keys: 'slow' once per frame
+    shared = [x for x in ra.runs + rb.runs if x.node == "slow" and x.status == "reused"]
+    assert len(shared) == 4 and all("same key as" in x.reason for x in shared)
+    assert (tmp_path / "out" / "a.0004.exr").read_bytes() == (tmp_path / "out" / "b.0004.exr").read_bytes()
+    c = slow_graph(tmp_path, "c", 0.0)
+    c.set("write.path", str(tmp_path / "out" / "a.####.exr"))
+    from proxyshade.errors import UserError
+
+    with pytest.raises(UserError, match=r"shot a and shot c both write .*a\.0001\.exr"):
+        run_graphs([(a, None), (c, None)], executor=dask_ex, labels=["shot a", "shot c"])
+
+
+GRAPH = """\
+format: proxyshade/1
+frames: 1-3
+vars:
+  v: {default: "1"}
+nodes:
+  a: {type: TRead, params: {path: "in/${v}.txt"}}
+  f: {type: TFrame}
+  s: {type: TAdd, inputs: {a: f, b: a, prev: {node: s, frame: -1}}}
+  w: {type: ExrWrite, inputs: {image: a}, params: {path: "out/${v}/a.####.exr"}}
+  x: {type: ExrWrite, inputs: {image: s}, params: {path: "out/${v}/s.####.exr"}}
+"""
+
+
+def write_sweep_graph(folder: Path) -> None:
+    (folder / "g.yaml").write_text(GRAPH)
+    (folder / "in").mkdir()
+    (folder / "in" / "1.txt").write_text("1.0")
+    (folder / "in" / "2.txt").write_text("2.5")
+
+
+def test_cli_runs_a_sweep_on_a_scheduler(tmp_path, dask_ex, registry, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    write_sweep_graph(tmp_path)
+    rc = main(["run", "g.yaml", "--sweep", "v=1,2", "-q", "--scheduler", dask_ex.address])
+    out, err = capsys.readouterr()
+    assert rc == 0, err
+    assert "g.yaml [v=1]" in out and "g.yaml [v=2]" in out and out.count("computed on Dask") == 2
+    # a once, f, s, w and x at 3 frames; the second shot's f is the first's (no variable in it)
+    assert "13 computed, 2 reused" in out and "10 computed, 5 reused" in out
+    from proxyshade.io.exr import read_plate
+
+    assert read_plate(tmp_path / "out" / "2" / "a.0002.exr")["R"][0, 0] == 2.5
+    assert read_plate(tmp_path / "out" / "1" / "s.0003.exr")["R"][0, 0] == 9.0  # (1 + 1) + (2 + 1) + (3 + 1)
+    rc = main(["run", "g.yaml", "--sweep", "v=1,2", "-q", "--executor", "local"])
+    out, _ = capsys.readouterr()
+    assert rc == 0 and out.count("0 computed, ") == 2  # the same keys: all in the cache
+
+
+def test_without_dask_the_executor_is_a_one_line_error(tmp_path, registry, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    write_sweep_graph(tmp_path)
+    monkeypatch.setitem(sys.modules, "distributed", None)  # import distributed -> ImportError
+    rc = main(["run", "g.yaml", "-q", "--executor", "dask"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1 and "pip install 'proxyshade[dask]'" in err[0], err
+    assert not (tmp_path / "out").exists()
+
+
+def test_an_unreachable_scheduler_is_a_one_line_error(tmp_path, registry, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    write_sweep_graph(tmp_path)
+    import socket
+
+    with socket.socket() as s:  # a port nobody listens on
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    import dask
+
+    with dask.config.set({"distributed.comm.timeouts.connect": "1s"}):
+        rc = main(["run", "g.yaml", "-q", "--scheduler", f"tcp://127.0.0.1:{port}"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1 and f"--scheduler tcp://127.0.0.1:{port}: cannot connect" in err[0], err
+
+
+def test_a_worker_on_other_code_is_a_one_line_error():
+    """A worker whose proxyshade differs from the client's (another version on a farm node)
+    refuses to store results under keys that name the client's code."""
+    from proxyshade.errors import UserError
+    from proxyshade.graph.dask_executor import _check_code
+    from proxyshade.graph.keys import code_hash
+
+    _check_code(_TSlow, code_hash(_TSlow))
+    with pytest.raises(UserError, match=r"runs other proxyshade code for _TSlow .*install the same proxyshade"):
+        _check_code(_TSlow, "0" * 64)
