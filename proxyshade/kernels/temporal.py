@@ -359,3 +359,33 @@ def merge_redo(redo, sx_new, sy_new, patch_new, base, sx, sy, patch):
                 osy[i, j] = sy[i, j]
                 op[i, j] = patch[i, j]
     return osx, osy, op
+
+
+@njit(**PJIT)
+def colour_planes(rgb, flagged, before, c0, c1, c2, correct):
+    """Planar R, G, B of ``rgb`` (H, W, 3) and, with ``correct``, the carried correction
+    updated by the solve: ``rgb`` − ``before`` on ``flagged`` pixels, the old planes
+    (c0, c1, c2) elsewhere (empty planes without ``correct``)."""
+    h, w = rgb.shape[0], rgb.shape[1]
+    R = np.empty((h, w), np.float32)
+    G = np.empty((h, w), np.float32)
+    B = np.empty((h, w), np.float32)
+    n = h if correct else 0
+    o0 = np.empty((n, w), np.float32)
+    o1 = np.empty((n, w), np.float32)
+    o2 = np.empty((n, w), np.float32)
+    for i in prange(h):
+        for j in range(w):
+            R[i, j] = rgb[i, j, 0]
+            G[i, j] = rgb[i, j, 1]
+            B[i, j] = rgb[i, j, 2]
+            if correct:
+                if flagged[i, j]:
+                    o0[i, j] = rgb[i, j, 0] - before[i, j, 0]
+                    o1[i, j] = rgb[i, j, 1] - before[i, j, 1]
+                    o2[i, j] = rgb[i, j, 2] - before[i, j, 2]
+                else:
+                    o0[i, j] = c0[i, j]
+                    o1[i, j] = c1[i, j]
+                    o2[i, j] = c2[i, j]
+    return R, G, B, o0, o1, o2

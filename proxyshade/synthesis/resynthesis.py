@@ -86,35 +86,41 @@ def resynthesize(img: Plate, source: Plate, p, frame: int, *, note: Callable[[st
     ex_factor = syn.get("exemplar_factor")
     filt = img.meta.get("temporal", {}).get("filter", "bilinear")  # Reproject's, so kept and new pixels match
     if redo.any():
-        sx, sy, patch, rgb, ex_factor = _synthesize(img, source, p, redo, f, scale, mix_seed(p.seed, frame),
-                                                    info, lap, filt)
+        sx, sy, patch, ex_factor = _synthesize(img, source, p, redo, f, scale, mix_seed(p.seed, frame), info, lap,
+                                               filt, rgb)
     lap("magnify")
     out = {}
+    before = rgb
+    correct = False
     if p.solve:
-        before = rgb
         rgb, pinfo = blend_regions(rgb, patch, img["label.id"], flagged, PoissonSolve.of(p),
                                    source_rgb=source.rgb(), sx=sx, sy=sy, scale=scale, filter=filt)
-        if all(c in img for c in CORRECTION):  # flagged pixels were the source through the map: add the solve's change
-            corr = np.where(flagged[..., None], rgb - before, img.layer(CORRECTION))
-            out.update({c: corr[..., k].astype(np.float32) for k, c in enumerate(CORRECTION)})
+        # flagged pixels were the source through the map: the correction adds the solve's change
+        correct = all(c in img for c in CORRECTION)
         note(f"Poisson on {pinfo['windows']} windows ({pinfo['window_pixels']} px), at most "
              f"{pinfo['iterations']} iterations, residual {pinfo['residual']:.1e}")
+    old = [np.ascontiguousarray(img[c], np.float32) if correct else np.zeros((0, 0), np.float32) for c in CORRECTION]
+    R, G, B, *corr = kt.colour_planes(np.ascontiguousarray(rgb, np.float32), np.ascontiguousarray(flagged),
+                                      np.ascontiguousarray(before, np.float32), *old, correct)
+    if correct:
+        out.update(zip(CORRECTION, corr))
     lap("Poisson")
     note(f"flagged {100 * info['share']:.2f}% ({nflag} px; {info['resynthesized']} resynthesized, "
          f"{info['synthesis_pixels']} synthesis px, {info['flood_filled']} flood-filled)")
     meta = dict(img.meta)
     meta["resynthesis"] = info
     meta["synthesis"] = dict(syn, factor=f, scale=scale, exemplar_factor=ex_factor)
-    out.update({"R": rgb[..., 0].copy(), "G": rgb[..., 1].copy(), "B": rgb[..., 2].copy(), "source.x": sx,
-                "source.y": sy, "patch.id": patch})
+    out.update({"R": R, "G": G, "B": B, "source.x": sx, "source.y": sy, "patch.id": patch})
     # without the solve here the correction is a later Poisson node's: drop it rather than carry it stale
     return img.with_channels(out, meta=meta, drop=() if p.solve else CORRECTION)
 
 
 def _synthesize(img: Plate, source: Plate, p, redo: np.ndarray, f: int, scale: float, seed: int, info: dict, lap,
-                filt: str):
+                filt: str, rgb: np.ndarray):
     """The first frame's steps on the pixels in ``redo``; the rest keep the carried map.
-    Returns source.x, source.y, patch.id, RGB and the exemplar factor."""
+    The ``redo`` pixels of ``rgb`` (the carried colours, (H, W, 3)) take the source
+    through their new map, in place. Returns source.x, source.y, patch.id and the
+    exemplar factor."""
     flag = img["flag"]
     table = L.source_table(source)
     n = len(table)
@@ -150,9 +156,8 @@ def _synthesize(img: Plate, source: Plate, p, redo: np.ndarray, f: int, scale: f
                                   np.ascontiguousarray(img["source.x"], np.float32),
                                   np.ascontiguousarray(img["source.y"], np.float32),
                                   np.ascontiguousarray(img["patch.id"], np.uint32))
-    rgb = img.rgb()
     ii, jj = np.nonzero(redo)
     rgb[ii, jj] = lookup(source.rgb(), sx[ii, jj][None], sy[ii, jj][None], filter=filt)[0]
     info.update(synthesis_pixels=int(active.sum()), flood_filled=int(fresh.sum()), patches=int(npatch),
                 repaired=int(rep["wrong"]))
-    return sx, sy, patch, rgb, st.ex_factor
+    return sx, sy, patch, st.ex_factor

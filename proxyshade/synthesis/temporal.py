@@ -249,13 +249,12 @@ def carry(cd: Plate, prev: Plate | None, first: Plate | None, source: Plate, p, 
     u, v, q, ok = kr.transfer(w1, kr.relative_matrix(cam1, cam0), kr.intrinsics(cam1), kr.intrinsics(cam0),
                               cam0.near)
     src_rgb = source.rgb()
-    prev_rgb = prev.rgb()
     if p.colour == "map" and all(c in prev for c in CORRECTION):
         prev_res = prev.layer(CORRECTION)  # carried by Resynthesize: no second read of the source
     elif p.colour == "map":
-        prev_res = prev_rgb - lookup(src_rgb, prev["source.x"], prev["source.y"], filter=p.filter)
+        prev_res = prev.rgb() - lookup(src_rgb, prev["source.x"], prev["source.y"], filter=p.filter)
     else:
-        prev_res = prev_rgb
+        prev_res = prev.rgb()
     prev_ext = prev["extension"].astype(np.float32, copy=False) if "extension" in prev else np.zeros(prev.shape, np.float32)
     valid, sx, sy, patch, res, ext = kr.gather_prev(
         u, v, q, ok, lab, kr.inverse_depth(prev["Z"]), np.ascontiguousarray(prev["label.id"], np.uint32),

@@ -175,3 +175,20 @@ def test_merge_redo_matches_numpy():
     sx, sy, p = T.merge_redo(redo, a, b, pn, np.uint32(20), c, d, po)
     assert np.array_equal(sx, np.where(redo, a, c)) and np.array_equal(sy, np.where(redo, b, d))
     assert np.array_equal(p, np.where(redo, pn + np.uint32(20), po))
+
+
+@pytest.mark.parametrize("correct", [True, False])
+def test_colour_planes_match_numpy(correct):
+    rng = np.random.default_rng(8)
+    rgb, before = (rng.normal(size=(6, 7, 3)).astype(np.float32) for _ in range(2))
+    flagged = rng.random((6, 7)) < 0.4
+    old = [rng.normal(size=(6, 7)).astype(np.float32) for _ in range(3)]
+    if not correct:
+        old = [np.zeros((0, 0), np.float32)] * 3
+    R, G, B, *corr = T.colour_planes(rgb, flagged, before, *old, correct)
+    for k, got in enumerate((R, G, B)):
+        assert np.array_equal(got, rgb[..., k])
+    if correct:
+        want = np.where(flagged[..., None], rgb - before, np.stack(old, -1))
+        for k in range(3):
+            assert np.array_equal(corr[k], want[..., k])
