@@ -481,12 +481,23 @@ def upsample_state(S: np.ndarray, h: int, shape: tuple[int, int], ex_shape: tupl
     return out
 
 
-def downsample_mask(mask: np.ndarray, h: int, shape: tuple[int, int]) -> np.ndarray:
-    """A level pixel is active when any of its h x h fine pixels is."""
+@njit(**PJIT)
+def _block_any(mask, h, out):
     Ht, Wt = mask.shape
-    pad = np.zeros((shape[0] * h, shape[1] * h), bool)
-    pad[:Ht, :Wt] = mask
-    return pad.reshape(shape[0], h, shape[1], h).any(axis=(1, 3))
+    for I in prange(out.shape[0]):
+        for i in range(I * h, min((I + 1) * h, Ht)):
+            for j in range(Wt):
+                if mask[i, j]:
+                    out[I, j // h] = True
+
+
+def downsample_mask(mask: np.ndarray, h: int, shape: tuple[int, int]) -> np.ndarray:
+    """A level pixel is active when any of its h x h fine pixels is (fine pixels past
+    ``shape`` × h are ignored)."""
+    out = np.zeros(shape, np.bool_)
+    m = np.ascontiguousarray(mask, np.bool_)[:shape[0] * h, :shape[1] * h]
+    _block_any(np.ascontiguousarray(m), int(h), out)
+    return out
 
 
 def level_similarity_sets(levels: list, k: int, *, seed: int, knn_iterations: int, w: float,

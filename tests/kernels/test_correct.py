@@ -188,3 +188,14 @@ def test_mask_limits_changes():
     S, _ = kc.synthesize(levels, S0, **dict(SYN, k=2), mask=mask)
     assert np.array_equal(S[~mask], S0[~mask])
     assert (S[mask] != S0[mask]).any()
+
+
+def test_downsample_mask_is_any_of_each_block():
+    from proxyshade.kernels.correct import downsample_mask
+
+    rng = np.random.default_rng(12)
+    for (H, W), h, shape in [((13, 17), 4, (4, 5)), ((16, 16), 2, (8, 8)), ((9, 6), 8, (2, 1))]:
+        m = rng.random((H, W)) < 0.05
+        pad = np.zeros((shape[0] * h, shape[1] * h), bool)
+        pad[:H, :W] = m
+        assert np.array_equal(downsample_mask(m, h, shape), pad.reshape(shape[0], h, shape[1], h).any(axis=(1, 3)))
