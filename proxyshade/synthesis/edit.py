@@ -76,8 +76,8 @@ def update_guide(prev: Plate, region: np.ndarray, proxy: Plate, source: Plate, g
     block, the long one ``magnify`` × a power of two, so the window is synthesized with the
     frame's magnification and levels) and its labels and source positions replace
     ``prev``'s inside the region. Every other pixel keeps ``prev``'s labels and positions;
-    the other channels are the new proxy's. A window as large as the frame is the whole
-    synthesis."""
+    the other channels are the new proxy's. A window that would be as large as the frame is
+    the frame's whole synthesis, still pasted inside the region only."""
     H, W = proxy.shape
     g = prev.meta.get("guide", {})
     f = int(g.get("magnify", 1))
@@ -91,15 +91,18 @@ def update_guide(prev: Plate, region: np.ndarray, proxy: Plate, source: Plate, g
         long_side *= 2
     hh = long_side if need_h >= need_w else -(-need_h // block) * block
     ww = long_side if need_w > need_h else -(-need_w // block) * block
-    if hh >= H and ww >= W or long_side >= max(H, W):
-        plate, _ = synthesize_guide(proxy, source, gp)
-        return plate, {"window": [W, H], "window_pixels": H * W, "region": int(region.sum()), "whole": True}
-    hh, ww = min(hh, H), min(ww, W)
-    r0, r1 = _span(rows[0], rows[-1] + 1, hh, H)
-    c0, c1 = _span(cols[0], cols[-1] + 1, ww, W)
+    whole = long_side >= max(H, W) or (hh >= H and ww >= W)
+    if whole:  # the window is the frame: the whole synthesis, as the frame's own
+        r0, r1, c0, c1 = 0, H, 0, W
+        sub, _ = synthesize_guide(proxy, source, gp)
+    else:
+        hh, ww = min(hh, H), min(ww, W)
+        r0, r1 = _span(rows[0], rows[-1] + 1, hh, H)
+        c0, c1 = _span(cols[0], cols[-1] + 1, ww, W)
+        crop = Plate({"label.id": np.ascontiguousarray(proxy["label.id"][r0:r1, c0:c1])},
+                     {"labels": proxy.meta.get("labels", [])})
+        sub, _ = synthesize_guide(crop, source, SimpleNamespace(**dict(vars(gp), size=long_side // f)))
     win = (slice(r0, r1), slice(c0, c1))
-    crop = Plate({"label.id": np.ascontiguousarray(proxy["label.id"][win])}, {"labels": proxy.meta.get("labels", [])})
-    sub, _ = synthesize_guide(crop, source, SimpleNamespace(**dict(vars(gp), size=long_side // f)))
     sel = region[win]
     out = {}
     for c in ("label.id", "source.x", "source.y"):
@@ -107,7 +110,7 @@ def update_guide(prev: Plate, region: np.ndarray, proxy: Plate, source: Plate, g
         a[win][sel] = sub[c][sel]
         out[c] = a
     info = {"window": [int(c1 - c0), int(r1 - r0)], "window_pixels": int((r1 - r0) * (c1 - c0)),
-            "region": int(region.sum()), "whole": False}
+            "region": int(region.sum()), "whole": whole}
     return proxy.with_channels(out, meta={"labels": prev.meta.get("labels"), "guide": g}), info
 
 
