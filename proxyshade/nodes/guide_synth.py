@@ -44,8 +44,8 @@ class GuideSynth(Guidance, Progressive, Node):
             if region is not None:
                 plate, info = update_guide(prev.plate, region, ctx.proxy, ctx.source, Guidance.of(ctx.p),
                                            context=ctx.p.context)
-                ctx.note(f"progressive: {info['region']} pixels changed, synthesized on a {info['window'][0]}x"
-                         f"{info['window'][1]} window" + (" (the whole frame)" if info["whole"] else ""))
+                ctx.note(f"progressive: {info['region']} pixels changed, synthesized on window(s) "
+                         + ", ".join(f"{w}x{h}" for w, h in info["windows"]) + (" (the whole frame)" if info["whole"] else ""))
                 return plate
         plate, note = synthesize_guide(ctx.proxy, ctx.source, Guidance.of(ctx.p))
         ctx.note(note)

@@ -24,7 +24,9 @@ from typing import Callable
 import numpy as np
 
 from proxyshade.graph.plate import Plate
+from proxyshade.kernels import temporal as kt
 from proxyshade.kernels.temporal import dilate
+from proxyshade.synthesis.blend import group_boxes
 from proxyshade.synthesis.exemplar import provenance
 from proxyshade.synthesis.guide import synthesize_guide
 from proxyshade.synthesis.resynthesis import resynthesize
@@ -70,47 +72,49 @@ def _span(lo: int, hi: int, size: int, limit: int) -> tuple[int, int]:
 
 def update_guide(prev: Plate, region: np.ndarray, proxy: Plate, source: Plate, gp: SimpleNamespace, *,
                  context: int) -> tuple[Plate, dict]:
-    """The detailed guide ``prev`` updated inside ``region`` for the edited ``proxy``: the
-    guidance synthesis (``gp``: the ``Guidance`` parameters) runs on a window around the
-    region (grown by ``context`` output pixels, its sides multiples of the synthesis's
-    block, the long one ``magnify`` × a power of two, so the window is synthesized with the
-    frame's magnification and levels) and its labels and source positions replace
-    ``prev``'s inside the region. Every other pixel keeps ``prev``'s labels and positions;
-    the other channels are the new proxy's. A window that would be as large as the frame is
-    the frame's whole synthesis, still pasted inside the region only."""
+    """The detailed guide ``prev`` updated inside ``region`` for the edited ``proxy``.
+
+    The region's 4-connected parts are grouped into windows (``blend.group_boxes``: boxes
+    grown by ``context`` output pixels, merged when they overlap or when one window costs
+    little more than two), and the guidance synthesis (``gp``: the ``Guidance``
+    parameters) runs on each window (its sides multiples of the synthesis's block, the long
+    one ``magnify`` × a power of two, so it is synthesized with the frame's magnification
+    and levels); its labels and source positions replace ``prev``'s inside the region.
+    Every other pixel keeps ``prev``'s labels and positions; the other channels are the new
+    proxy's. A window that would be as large as the frame is the frame's whole synthesis,
+    still pasted inside the region only."""
     H, W = proxy.shape
     g = prev.meta.get("guide", {})
     f = int(g.get("magnify", 1))
     levels = int(np.log2(gp.size // gp.start)) + 1
     block = f * 2 ** (levels - 1)
-    rows, cols = np.nonzero(region.any(1))[0], np.nonzero(region.any(0))[0]
-    need_h = rows[-1] + 1 - rows[0] + 2 * context
-    need_w = cols[-1] + 1 - cols[0] + 2 * context
-    long_side = f * gp.start
-    while long_side < max(need_h, need_w):
-        long_side *= 2
-    hh = long_side if need_h >= need_w else -(-need_h // block) * block
-    ww = long_side if need_w > need_h else -(-need_w // block) * block
-    whole = long_side >= max(H, W) or (hh >= H and ww >= W)
-    if whole:  # the window is the frame: the whole synthesis, as the frame's own
-        r0, r1, c0, c1 = 0, H, 0, W
-        sub, _ = synthesize_guide(proxy, source, gp)
-    else:
-        hh, ww = min(hh, H), min(ww, W)
-        r0, r1 = _span(rows[0], rows[-1] + 1, hh, H)
-        c0, c1 = _span(cols[0], cols[-1] + 1, ww, W)
-        crop = Plate({"label.id": np.ascontiguousarray(proxy["label.id"][r0:r1, c0:c1])},
-                     {"labels": proxy.meta.get("labels", [])})
-        sub, _ = synthesize_guide(crop, source, SimpleNamespace(**dict(vars(gp), size=long_side // f)))
-    win = (slice(r0, r1), slice(c0, c1))
-    sel = region[win]
-    out = {}
-    for c in ("label.id", "source.x", "source.y"):
-        a = prev[c].copy()
-        a[win][sel] = sub[c][sel]
-        out[c] = a
-    info = {"window": [int(c1 - c0), int(r1 - r0)], "window_pixels": int((r1 - r0) * (c1 - c0)),
-            "region": int(region.sum()), "whole": whole}
+    out = {c: prev[c].copy() for c in ("label.id", "source.x", "source.y")}
+    _, boxes = kt.components4(np.ascontiguousarray(region, np.bool_))
+    info = {"windows": [], "window_pixels": 0, "region": int(region.sum()), "whole": False}
+    for r0, r1, c0, c1, _ in group_boxes(boxes, (H, W), margin=context, slack=(4 * context) ** 2):
+        long_side = f * gp.start
+        while long_side < max(r1 - r0, c1 - c0):
+            long_side *= 2
+        hh = long_side if r1 - r0 >= c1 - c0 else -(-(r1 - r0) // block) * block
+        ww = long_side if c1 - c0 > r1 - r0 else -(-(c1 - c0) // block) * block
+        if long_side >= max(H, W) or (hh >= H and ww >= W):  # the window is the frame: its whole synthesis
+            sub, _ = synthesize_guide(proxy, source, gp)
+            r0, r1, c0, c1 = 0, H, 0, W
+            info["whole"] = True
+        else:
+            r0, r1 = _span(r0, r1, min(hh, H), H)
+            c0, c1 = _span(c0, c1, min(ww, W), W)
+            crop = Plate({"label.id": np.ascontiguousarray(proxy["label.id"][r0:r1, c0:c1])},
+                         {"labels": proxy.meta.get("labels", [])})
+            sub, _ = synthesize_guide(crop, source, SimpleNamespace(**dict(vars(gp), size=long_side // f)))
+        win = (slice(r0, r1), slice(c0, c1))
+        sel = region[win]
+        for c in out:
+            out[c][win][sel] = sub[c][sel]
+        info["windows"].append([int(c1 - c0), int(r1 - r0)])
+        info["window_pixels"] += int((r1 - r0) * (c1 - c0))
+        if info["whole"]:
+            break
     return proxy.with_channels(out, meta={"labels": prev.meta.get("labels"), "guide": g}), info
 
 
