@@ -21,7 +21,8 @@ from proxyshade.graph.graph import Graph
 from proxyshade.graph.testing import run_node
 from proxyshade.scene.edit import add_stroke
 from proxyshade.synthesis.depth import depth_plate
-from proxyshade.synthesis.edit import changed_region, edit_synthesis, update_guide
+from proxyshade.synthesis.edit import changed_region, update_guide
+from proxyshade.synthesis.edit_colour import edit_synthesis
 from proxyshade.synthesis.guide import synthesize_guide
 from proxyshade.synthesis.params import Guidance
 

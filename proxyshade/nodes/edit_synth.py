@@ -6,13 +6,14 @@ the first frame's steps, run as the restricted steps of ``synthesis.resynthesis`
 every pixel in the region); a later run after an edit of the proxy (the engine hands it
 its last result and the guide it was made from, ``graph.node.Progressive``) diffs the
 guide's labels, dilates the difference and synthesizes only that region again, every other
-pixel kept bit for bit. Layer: ``proxyshade.synthesis.edit``.
+pixel kept bit for bit. Layer: ``proxyshade.synthesis.edit_colour``.
 """
 from __future__ import annotations
 
 from proxyshade.graph.node import Input, Node, Param, Progressive
 from proxyshade.graph.plate import Plate
-from proxyshade.synthesis.edit import changed_region, edit_synthesis
+from proxyshade.synthesis.edit import changed_region
+from proxyshade.synthesis.edit_colour import edit_synthesis
 from proxyshade.synthesis.params import Correction, FloodFill, PoissonSolve, source_input
 
 
