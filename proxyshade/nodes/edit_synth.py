@@ -31,7 +31,8 @@ class EditSynth(FloodFill, Correction, PoissonSolve, Progressive, Node):
     source = source_input()
     progressive = Param(bool, True, doc="after an edit, synthesize only where the guide's labels changed")
     factor = Param(int, 4, min=1, max=64, doc="output pixels per synthesis pixel")
-    scale = Param(float, 1.0, min=0.01, max=100.0, doc="source pixels per output pixel")
+    scale = Param(float, 1.0, min=0.01, max=100.0,
+                  doc="source pixels per output pixel (the texture scale, as PatchInit's)")
     seed = Param(int, 0, doc="seed of the flood fill and of the similarity sets")
     dilate = Param(int, 8, min=0, max=256, doc="output pixels around a changed guide label that are synthesized again")
 
