@@ -24,7 +24,8 @@ demo: $(STAMP)
 	$(VENV)/bin/proxyshade run graphs/first_frame.yaml --frames 1 --var scene=farm --var source=creek
 	$(VENV)/bin/proxyshade run graphs/composite.yaml --frames 1
 	$(VENV)/bin/proxyshade run graphs/camera_move.yaml --frames 1-12
-	@echo "demo output: out/first_frame/*.png, out/composite/farm_creek.0001.png, out/camera_move/lake_renoir/*.png (and move.gif, the shot as a movie) and their EXRs"
+	$(VENV)/bin/proxyshade run graphs/relight.yaml --frames 1
+	@echo "demo output: out/first_frame/*.png, out/composite/farm_creek.0001.png, out/camera_move/lake_renoir/*.png (and move.gif, the shot as a movie), out/relight/lake_renoir_relit.0001.png (the lake relit from a graded photo) and their EXRs"
 
 test: $(STAMP)
 	$(PY) -m pytest

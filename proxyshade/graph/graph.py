@@ -31,7 +31,7 @@ from proxyshade.errors import CycleError, GraphFileError, ParamError, UserError
 from proxyshade.graph import keys as K
 from proxyshade.graph.cache import Cache
 from proxyshade.graph.executor import make_executor
-from proxyshade.graph.node import REGISTRY, Context, InputRef, Node, PlateSequence, resolve_path
+from proxyshade.graph.node import REGISTRY, Context, InputRef, Node, PlateSequence, Previous, resolve_path
 from proxyshade.graph.plate import Plate
 from proxyshade.io.files import output_target, remove_stale_temps
 from proxyshade.io.graphfile import load_graph
@@ -279,6 +279,8 @@ class Graph:
                 raise ParamError(f"--force {f}: no node {f!r}; nodes are {', '.join(self.nodes)}")
         dag = self.instances(frames)
         first = self.frames[0]
+        last = self.cache.last_run(self._graph_id()) if any(n.is_progressive() for n in self.nodes.values()) else {}
+        previous: dict[tuple[str, int], tuple[str, dict]] = {}
         inst_key: dict[tuple[str, int], str] = {}
         comps: dict[tuple[str, int], dict] = {}
         passthrough: dict[tuple[str, int], tuple[str, int] | None] = {}
@@ -315,9 +317,34 @@ class Graph:
                 inst_key[inst] = input_keys[pin]
                 continue
             c = self._components(name, frame, input_keys)
+            if node.is_progressive() and name not in force:
+                prev = self._previous(last.get(f"{name}@{frame}"), c)
+                if prev:
+                    previous[inst] = prev
             comps[inst] = c
             inst_key[inst] = K.make_key(c)
-        return Plan(self, dag, frames, inst_key, comps, passthrough, set(force))
+        return Plan(self, dag, frames, inst_key, comps, passthrough, set(force), previous=previous)
+
+    def _previous(self, old: dict | None, c: dict) -> tuple[str, dict] | None:
+        """For a progressive instance with components ``c``: its last run's key and input keys
+        when that run differs only in its inputs and its result and inputs are in the cache
+        (``c`` then gets ``previous``: that key); when the inputs are the same as then, ``c``
+        becomes the last run's components (the same key: a cache hit). None otherwise."""
+        if not isinstance(old, dict) or not isinstance(old.get("inputs"), dict):
+            return None
+        rest = lambda d: K.canonical({k: v for k, v in d.items() if k not in ("inputs", "previous")})  # noqa: E731
+        if rest(old) != rest(c):
+            return None  # new code, parameters, files or data: recompute whole
+        if K.canonical(old["inputs"]) == K.canonical(c["inputs"]):
+            if "previous" in old:
+                c["previous"] = old["previous"]
+            return None
+        key = K.make_key(old)
+        needed = [key] + [k for k in old["inputs"].values() if isinstance(k, str)]
+        if not all(self.cache.has(k)[0] for k in needed):
+            return None
+        c["previous"] = key
+        return key, {n: k for n, k in old["inputs"].items() if isinstance(k, str)}
 
     # -- running -----------------------------------------------------------
     def _lock(self, key: str) -> threading.Lock:
@@ -364,6 +391,8 @@ class Graph:
                 plan.rows[key] = runs[inst]  # turned into "computed" if loading it finds it corrupt
             else:
                 reason = why if why not in ("not in cache",) else K.diff_components(last.get(f"{name}@{frame}"), plan.components[inst])
+                if inst in plan.previous:
+                    reason += "; progressive: updates the last run's result"
                 runs[inst] = NodeRun(name, frame, key, "computed", reason)
                 todo.add_node(inst)
         # edges between instances to compute, through reused/passthrough ones
@@ -479,6 +508,8 @@ class Graph:
             src = (ref.node, ref.frame(frame, first)) if ref else None
             inputs[inp] = self._value(plan, src) if src in plan.keys else None
         ctx = Context(node, frame, first, inputs, dict(node.params), self.graph_dir, plan.threads, nr.notes)
+        if inst in plan.previous:
+            ctx.previous = self._load_previous(*plan.previous[inst])
         set_kernel_threads(plan.threads)  # numba's thread count is per calling thread: set it in this worker
         t = time.perf_counter()
         try:
@@ -505,6 +536,20 @@ class Graph:
             self.cache.store(nr.key, plate, record, replace=name in plan.force)
         return plate
 
+    def _load_previous(self, key: str, input_keys: dict[str, str]) -> Previous:
+        """The last run's result and inputs of a progressive instance, read from the cache."""
+        plates = {}
+        for k in [key, *input_keys.values()]:
+            held = k in self.cache.memory
+            problem = self.cache.load_problem(k)
+            if problem is not None:
+                raise NodeError(f"the last run's result {k[:12]} could not be read back ({problem}); "
+                                "run again to recompute it whole")
+            plates[k] = self.cache.memory[k]
+            if not held:
+                self.cache.forget(k)
+        return Previous(plates[key], {n: plates[k] for n, k in input_keys.items()})
+
     def value(self, name: str, frame: int | None = None, *, jobs: int = 1) -> Plate:
         """The plate a node produces at ``frame`` (running what is missing first)."""
         frame = self.frames[0] if frame is None else frame
@@ -530,6 +575,7 @@ class Plan:
     threads: int = 0
     keep: set[str] = field(default_factory=set)
     rows: dict[str, NodeRun] = field(default_factory=dict)  # key -> the run's row of its reused instance
+    previous: dict[tuple[str, int], tuple[str, dict]] = field(default_factory=dict)  # progressive: last key, input keys
 
     def input_keys(self, inst) -> dict[str, str | list[str] | None]:
         c = self.components.get(inst)

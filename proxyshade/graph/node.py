@@ -173,8 +173,33 @@ class Param:
         return value
 
 
+@dataclass
+class Previous:
+    """What a progressive node gets from the engine (``ctx.previous``): its own result at
+    this frame in the last run of the graph and the input plates that run read, by input
+    name (one-frame inputs only). The node diffs those inputs against this run's and
+    recomputes only where they differ."""
+
+    plate: Plate
+    inputs: dict[str, Plate]
+
+
+class Progressive:
+    """Mixin of the nodes that can update their last result where their inputs changed
+    (Bonneel et al. 2010, §7: progressive update after an edit of the proxy). With
+    ``progressive: true`` the engine hands ``compute`` the last run's result at this frame
+    (``ctx.previous``) when the node's code, parameters, frame, files and extra key data
+    are the same as then and only its inputs changed; the key then includes that result's
+    key, so a cached result is always the one this history computes."""
+
+    progressive = Param(bool, False, doc="update the last run's result at this frame where the inputs changed "
+                                         "(after a proxy edit) instead of recomputing it whole; the result then "
+                                         "depends on the edit history")
+
+
 class Context:
-    """What ``compute`` sees: input plates, parameter values, the frame and the run."""
+    """What ``compute`` sees: input plates, parameter values, the frame and the run
+    (``previous``: a progressive node's last result and inputs, or None)."""
 
     def __init__(self, node: "Node", frame: int, first_frame: int, inputs: dict[str, Plate | None],
                  params: dict[str, Any], graph_dir: Path, threads: int, notes: list[str]):
@@ -187,6 +212,7 @@ class Context:
         self.graph_dir = graph_dir
         self.threads = threads
         self._notes = notes
+        self.previous: Previous | None = None
 
     def __getattr__(self, item):
         inputs = self.__dict__.get("inputs", {})
@@ -331,6 +357,10 @@ class Node:
             spec.type is Path and isinstance(self.params.get(k), str) and "#" in self.params[k]
             for k, spec in self.params_spec.items()
         )
+
+    def is_progressive(self) -> bool:
+        """Whether the engine hands this instance its last result (``Progressive``)."""
+        return bool(self.params.get("progressive", False))
 
     def key_extra(self, frame: int, graph_dir: Path) -> str | None:
         """Extra content for the key (e.g. the USD data seen at this frame). Default none."""

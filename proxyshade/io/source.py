@@ -64,7 +64,35 @@ def load_table(path: Path) -> dict:
     for field in ("image", "labels_map", "layout"):
         if field in data and data[field]:
             out[field] = str((base / data[field]).resolve())
+    out["images"] = photo_series(path, data.get("images"))
     return out
+
+
+def photo_series(path: Path, images) -> dict[str, str]:
+    """The optional ``images`` field of a source table: other photos of the same view (a
+    time-lapse series, ``images: {noon: a.jpg, dusk: b.jpg}``), name -> absolute path.
+    They share the label map and its pixel grid: a map made on one photo reads any of them."""
+    if images is None:
+        return {}
+    if not isinstance(images, dict) or not images:
+        raise UserError(f"{path}: images: expected a mapping name -> photo (e.g. {{noon: a.jpg, dusk: b.jpg}})")
+    out = {}
+    for name, rel in images.items():
+        if not isinstance(rel, str) or not rel:
+            raise UserError(f"{path}: images.{name}: expected a photo file name, got {rel!r}")
+        out[str(name)] = str((path.parent / rel).resolve())
+    return out
+
+
+def series_photo(t: dict, table_path: Path, photo: str | None) -> str:
+    """The photo a source reads: the table's ``image``, or the ``images`` entry ``photo``."""
+    if photo is None:
+        return t["image"]
+    if photo not in t["images"]:
+        known = ", ".join(t["images"]) or "none"
+        raise UserError(f"{table_path}: images.{photo}: no such photo in the table (its images: {known}); add it "
+                        f"under 'images' or pick one of those")
+    return t["images"][photo]
 
 
 def srgb_to_linear(rgb8: np.ndarray) -> np.ndarray:
@@ -110,27 +138,32 @@ def labels_from_map(path: Path, table: list[dict], *, far_distance: float, max_f
 
 
 def load_source(table_path: str | Path, *, far_distance: float = 100.0, max_far_fraction: float = 0.02,
-                where: str = "source") -> Plate:
+                where: str = "source", photo: str | None = None) -> Plate:
     """An annotated source as a plate: linear ``R,G,B`` (float32) and ``label.id`` (uint32).
+    ``photo`` names one of the table's ``images`` (another photo of the same view) to read
+    instead of ``image``; the label map is the same.
 
-    Metadata: ``labels`` (list of {name, id, color}), ``source`` (paths), ``snap`` (counts).
+    Metadata: ``labels`` (list of {name, id, color}), ``source`` (paths; ``photo`` the name
+    read, or null), ``snap`` (counts).
     """
     table_path = Path(table_path)
     t = load_table(table_path)
-    rgb8 = read_u8(t["image"])
+    image = series_photo(t, table_path, photo)
+    rgb8 = read_u8(image)
     ids, stats = labels_from_map(Path(t["labels_map"]), t["labels"], far_distance=far_distance,
                                  max_far_fraction=max_far_fraction, where=where)
     if ids.shape != rgb8.shape[:2]:
+        field = f"images.{photo}" if photo is not None else "image"
         raise UserError(
-            f"{table_path}: labels_map is {ids.shape[1]}x{ids.shape[0]} but image is "
-            f"{rgb8.shape[1]}x{rgb8.shape[0]}; they must be the same size"
+            f"{table_path}: labels_map is {ids.shape[1]}x{ids.shape[0]} but {field} is "
+            f"{rgb8.shape[1]}x{rgb8.shape[0]}; they must be the same size (photos of one view, one label map)"
         )
     lin = srgb_to_linear(rgb8)
     ch = {"R": lin[..., 0].copy(), "G": lin[..., 1].copy(), "B": lin[..., 2].copy(), "label.id": ids}
     meta = {
         "labels": t["labels"],
-        "source": {"table": str(table_path.resolve()), "image": t["image"], "labels_map": t["labels_map"],
-                   "credit": t.get("credit", "")},
+        "source": {"table": str(table_path.resolve()), "image": image, "labels_map": t["labels_map"],
+                   "credit": t.get("credit", ""), "photo": photo, "size": [int(rgb8.shape[1]), int(rgb8.shape[0])]},
         "snap": stats,
     }
     if t.get("layout"):

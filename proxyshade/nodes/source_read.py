@@ -13,15 +13,19 @@ class SourceRead(Node):
     """Read an annotated source: linear ``R,G,B`` (sRGB decoded with colour-science) and
     ``label.id`` (uint32 ids of the label table, the map snapped to the nearest table colour).
 
-    The label table YAML names the photo, the label map and each label's id and colour;
-    the plate's metadata carries the table (``labels``), the paths (``source``) and how
-    many pixels were snapped (``snap``).
+    The label table YAML names the photo, the label map and each label's id and colour,
+    and optionally other photos of the same view (``images: {noon: a.jpg, dusk: b.jpg}``, a
+    time-lapse series sharing the label map); ``photo`` reads one of those instead of
+    ``image``. The plate's metadata carries the table (``labels``), the paths (``source``)
+    and how many pixels were snapped (``snap``).
     """
 
     version = 1
     table = Param(Path, doc="label table YAML (source.yaml) naming the photo and label map")
     far_distance = Param(float, 100.0, min=0.0, doc="8-bit RGB distance beyond which a map pixel is 'far' from every label colour")
     max_far_fraction = Param(float, 0.02, min=0.0, max=1.0, doc="fail when more pixels than this are far from every label colour")
+    photo = Param(str, None, doc="name of one of the table's 'images' (a photo of the same view at another time) "
+                                 "to read instead of 'image'")
 
     def key_extra(self, frame, graph_dir):
         # the table's own content is hashed by the engine; add the files it names
@@ -29,7 +33,10 @@ class SourceRead(Node):
             t = load_table(self._table_path(graph_dir, frame))
         except Exception:  # noqa: BLE001 - reported properly by compute
             return None
-        return {k: keys.file_hash(Path(t[k])) for k in ("image", "labels_map") if t.get(k)}
+        out = {k: keys.file_hash(Path(t[k])) for k in ("image", "labels_map") if t.get(k)}
+        if self.params["photo"] is not None and self.params["photo"] in t["images"]:
+            out["photo"] = keys.file_hash(Path(t["images"][self.params["photo"]]))
+        return out
 
     def _table_path(self, graph_dir, frame):
         from proxyshade.graph.node import resolve_path
@@ -38,7 +45,7 @@ class SourceRead(Node):
 
     def compute(self, ctx) -> Plate:
         plate = load_source(ctx.path(ctx.p.table), far_distance=ctx.p.far_distance,
-                            max_far_fraction=ctx.p.max_far_fraction, where=self.name)
+                            max_far_fraction=ctx.p.max_far_fraction, where=self.name, photo=ctx.p.photo)
         s = plate.meta["snap"]
         ctx.note(f"snapped {s['snapped']} of {s['pixels']} label-map pixels to the nearest table colour "
                  f"({s['far']} far from every colour)")

@@ -30,30 +30,15 @@ cameras:
 
 
 def _load(spec: Path) -> dict:
-    import yaml
+    from proxyshade.scene.edit import load_spec
 
-    from proxyshade.errors import UserError
-
-    if not spec.is_file():
-        raise UserError(f"{spec}: no such scene description; create one with `proxyshade scene new {spec}`")
-    try:
-        data = yaml.safe_load(spec.read_text())
-    except yaml.YAMLError as e:
-        raise UserError(f"{spec}: not valid YAML: {getattr(e, 'problem', e)}") from None
-    if not isinstance(data, dict):
-        raise UserError(f"{spec}: expected a mapping with terrains, spheres, cg, cameras, light")
-    return data
+    return load_spec(spec)
 
 
 def _save_and_build(spec: Path, data: dict) -> None:
-    """Build first (so a bad edit leaves the YAML untouched), then write YAML and .usda."""
-    import yaml
+    from proxyshade.scene.edit import save_and_build
 
-    from proxyshade.scene.build import build_stage, write_usda
-
-    stage = build_stage(data, where=str(spec))
-    spec.write_text(yaml.safe_dump(data, sort_keys=False, default_flow_style=None))
-    typer.echo(str(write_usda(stage, spec.with_suffix(".usda"))))
+    typer.echo(str(save_and_build(spec, data)))
 
 
 def _floats(text: str, n: int | None, what: str) -> list[float]:
@@ -99,15 +84,9 @@ def stroke(spec: Path = typer.Argument(..., help="scene description YAML"),
            centre: str = typer.Option(..., help="x,z"), radius: float = typer.Option(..., help="Gaussian sigma"),
            amount: float = typer.Option(..., help="> 0 pushes up, < 0 pulls down")):
     """Append a Gaussian push/pull stroke to a terrain of a scene description, then rebuild."""
-    from proxyshade.errors import UserError
+    from proxyshade.scene.edit import add_stroke
 
-    data = _load(spec)
-    ts = {t.get("name"): t for t in data.get("terrains") or []}
-    if terrain not in ts:
-        raise UserError(f"{spec}: terrains: no terrain {terrain!r}; terrains are {', '.join(map(str, ts)) or 'none'}")
-    x, z = _floats(centre, 2, "--centre")
-    ts[terrain].setdefault("strokes", []).append({"centre": [x, z], "radius": radius, "amount": amount})
-    _save_and_build(spec, data)
+    typer.echo(str(add_stroke(spec, terrain, _floats(centre, 2, "--centre"), radius, amount)))
 
 
 @scene_app.command("spheres")

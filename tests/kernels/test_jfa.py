@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from proxyshade.kernels.jfa import jump_flood
-from proxyshade.nodes.depth_extend import extend_depth
+from proxyshade.synthesis.depth import extend_depth
 
 
 def brute(is_seed, labels, seed_labels, penalty):

@@ -1,0 +1,91 @@
+"""Depth extension (Bonneel et al. 2010, §4.3, §7): the proxy depth carried out to the
+detailed guide's new borders by jump flooding (``kernels.jfa``), over the whole frame or,
+after an edit of the proxy, over a region (the rest kept from the previous result)."""
+from __future__ import annotations
+
+import numpy as np
+
+from proxyshade.errors import NodeInputError
+from proxyshade.graph.plate import Plate
+from proxyshade.io.usd import CameraInfo
+from proxyshade.kernels.jfa import jump_flood
+
+FOLLOW = ("N.X", "N.Y", "N.Z", "object.id")  # proxy channels taken from the pixel the depth came from
+
+
+def extend_depth(proxy_labels: np.ndarray, guide_labels: np.ndarray, z: np.ndarray, *, penalty: float = 1024.0
+                 ) -> tuple[np.ndarray, np.ndarray]:
+    """Extended depth (H, W) float32 and the flat index of the pixel each depth came from."""
+    keep = proxy_labels == guide_labels
+    src = jump_flood(keep, guide_labels, proxy_labels, penalty=penalty)
+    flat = z.reshape(-1)
+    out = np.where(src >= 0, flat[np.maximum(src, 0)], np.inf).astype(np.float32)
+    out[keep] = z[keep]
+    return out, src
+
+
+def box(region: np.ndarray, margin: int) -> tuple[int, int, int, int]:
+    """The bounding box (row0, row1, col0, col1, exclusive ends) of ``region`` grown by
+    ``margin`` and clipped to it."""
+    rows, cols = np.nonzero(region.any(1))[0], np.nonzero(region.any(0))[0]
+    h, w = region.shape
+    return (max(0, rows[0] - margin), min(h, rows[-1] + 1 + margin),
+            max(0, cols[0] - margin), min(w, cols[-1] + 1 + margin))
+
+
+def depth_plate(proxy: Plate, guide: Plate, *, penalty: float, region: np.ndarray | None = None,
+                previous: Plate | None = None, margin: int = 64) -> Plate:
+    """``guide`` with ``Z`` extended, ``P.X/Y/Z`` unprojected from it through the proxy's
+    camera (or, without one, the proxy's P of the pixel the depth came from), ``N.*`` and
+    ``object.id`` of that pixel, and ``depth.src`` (1 + its flat index).
+
+    With ``region`` and ``previous``: jump flooding runs on the region's bounding box grown
+    by ``margin`` (the seeds around it), only the region's pixels take the new values and
+    every other pixel keeps ``previous``'s."""
+    H, W = proxy.shape
+    if proxy.shape != guide.shape:
+        raise NodeInputError(f"guide is {guide.width}x{guide.height} but proxy is {proxy.width}x{proxy.height}; "
+                             "synthesize the guide at the proxy's size")
+    z = proxy["Z"].astype(np.float32)
+    if np.isnan(z).any():
+        raise NodeInputError("proxy Z has NaN values; re-render the proxy")
+    cam = proxy.meta.get("camera")
+    meta = {"camera": cam} if cam else None
+    if region is not None and not region.any():
+        return guide.with_channels({c: previous[c] for c in ("Z", "depth.src", "P.X", "P.Y", "P.Z") + FOLLOW
+                                    if c in previous}, meta=meta)
+    r0, r1, c0, c1 = (0, H, 0, W) if region is None else box(region, margin)
+    win = (slice(r0, r1), slice(c0, c1))
+    ext, src = extend_depth(proxy["label.id"][win], guide["label.id"][win], np.ascontiguousarray(z[win]),
+                            penalty=penalty)
+    cw = c1 - c0
+    src = np.where(src >= 0, (r0 + src // cw) * W + c0 + src % cw, -1)  # flat index in the frame
+    sel = None if region is None else region[win]
+
+    def put(name: str, values: np.ndarray) -> np.ndarray:
+        if sel is None:
+            return values
+        out = previous[name].copy()
+        out[win][sel] = values[sel]
+        return out
+
+    ch = {"Z": put("Z", ext), "depth.src": put("depth.src", (src + 1).astype(np.uint32))}
+    flat = np.maximum(src, 0)
+    if cam:
+        c = CameraInfo.from_meta(cam)
+        cols, rows = c.pixel_grid()
+        finite = np.isfinite(ext)
+        P = c.unproject(cols[win], rows[win], np.where(finite, ext, 1.0))
+        for k, a in enumerate("XYZ"):
+            ch[f"P.{a}"] = put(f"P.{a}", np.where(finite, P[..., k], 0.0).astype(np.float32))
+    elif all(f"P.{a}" in proxy for a in "XYZ"):
+        # no camera to unproject with: P of the pixel the depth came from
+        for a in "XYZ":
+            pa = proxy[f"P.{a}"].astype(np.float32)
+            ch[f"P.{a}"] = put(f"P.{a}", np.where(src >= 0, pa.reshape(-1)[flat], pa[win]).astype(np.float32))
+    # normals and object ids follow the depth: those of the pixel it came from
+    for name in FOLLOW:
+        if name in proxy:
+            a = proxy[name]
+            ch[name] = put(name, np.where(src >= 0, a.reshape(-1)[flat], a[win]).astype(a.dtype, copy=False))
+    return guide.with_channels(ch, meta=meta)

@@ -1,0 +1,113 @@
+"""Progressive update after an edit of the proxy (Bonneel et al. 2010, §7): "the guide,
+depth and colour are recomputed only in the region the edit changed".
+
+A progressive node (``graph.node.Progressive``) gets its last result and the inputs it was
+computed from (``ctx.previous``); ``changed_region`` diffs those inputs against this run's
+and dilates the difference; the node then recomputes that region only and keeps every
+other pixel of its last result bit for bit:
+
+* the detailed guide (``update_guide``): the guidance synthesis re-run on a window around
+  the changed proxy labels, pasted inside the region;
+* the depth (``synthesis.depth.depth_plate`` with a region): jump flooding on a window;
+* the colours (``edit_colour.edit_synthesis``): the first frame's steps restricted to the region
+  (``resynthesis.resynthesize``: flood fill, correction, magnification, restricted
+  Poisson solve), as for the flagged pixels of a camera move.
+
+For the first frame the region is in the first frame's camera already: the proxy renders
+are diffed there.
+"""
+from __future__ import annotations
+
+from types import SimpleNamespace
+import numpy as np
+
+from proxyshade.graph.plate import Plate
+from proxyshade.kernels import temporal as kt
+from proxyshade.kernels.temporal import dilate
+from proxyshade.synthesis.blend import group_boxes
+from proxyshade.synthesis.guide import synthesize_guide
+
+
+def changed_region(before: dict[str, Plate], after: dict[str, Plate], channels: dict[str, tuple[str, ...]],
+                   radius: int) -> np.ndarray | None:
+    """Pixels where any of ``channels`` (input name -> channel names) differs between the
+    ``before`` and ``after`` plates (bit for bit; NaN equal to NaN), dilated by ``radius``
+    pixels (square), on the first input's pixel grid. None (recompute whole) when a plate
+    is missing, the first input changed size, or another input of another size (the
+    source) changed at all."""
+    diff = None
+    for name, names in channels.items():
+        a, b = before.get(name), after.get(name)
+        if a is None or b is None or a.shape != b.shape:
+            return None
+        d = np.zeros(a.shape, bool)
+        for c in names:
+            if (c in a) != (c in b):
+                return None
+            if c in a:
+                d |= a[c] != b[c]
+                if np.issubdtype(a[c].dtype, np.floating):
+                    d &= ~(np.isnan(a[c]) & np.isnan(b[c]))
+        if diff is None:
+            diff = d
+        elif d.shape == diff.shape:
+            diff |= d
+        elif d.any():
+            return None
+    if diff is None:
+        return None
+    return dilate(np.ascontiguousarray(diff), int(radius)) if radius > 0 and diff.any() else diff
+
+
+def _span(lo: int, hi: int, size: int, limit: int) -> tuple[int, int]:
+    """[a, a + size) covering [lo, hi) as centred as the limit [0, limit) allows."""
+    a = max(0, min(limit - size, (lo + hi - size) // 2))
+    return a, a + size
+
+
+def update_guide(prev: Plate, region: np.ndarray, proxy: Plate, source: Plate, gp: SimpleNamespace, *,
+                 context: int) -> tuple[Plate, dict]:
+    """The detailed guide ``prev`` updated inside ``region`` for the edited ``proxy``.
+
+    The region's 4-connected parts are grouped into windows (``blend.group_boxes``: boxes
+    grown by ``context`` output pixels, merged when they overlap or when one window costs
+    little more than two), and the guidance synthesis (``gp``: the ``Guidance``
+    parameters) runs on each window (its sides multiples of the synthesis's block, the long
+    one ``magnify`` × a power of two, so it is synthesized with the frame's magnification
+    and levels); its labels and source positions replace ``prev``'s inside the region.
+    Every other pixel keeps ``prev``'s labels and positions; the other channels are the new
+    proxy's. A window that would be as large as the frame is the frame's whole synthesis,
+    still pasted inside the region only."""
+    H, W = proxy.shape
+    g = prev.meta.get("guide", {})
+    f = int(g.get("magnify", 1))
+    levels = int(np.log2(gp.size // gp.start)) + 1
+    block = f * 2 ** (levels - 1)
+    out = {c: prev[c].copy() for c in ("label.id", "source.x", "source.y")}
+    _, boxes = kt.components4(np.ascontiguousarray(region, np.bool_))
+    info = {"windows": [], "window_pixels": 0, "region": int(region.sum()), "whole": False}
+    for r0, r1, c0, c1, _ in group_boxes(boxes, (H, W), margin=context, slack=(4 * context) ** 2):
+        long_side = f * gp.start
+        while long_side < max(r1 - r0, c1 - c0):
+            long_side *= 2
+        hh = long_side if r1 - r0 >= c1 - c0 else -(-(r1 - r0) // block) * block
+        ww = long_side if c1 - c0 > r1 - r0 else -(-(c1 - c0) // block) * block
+        if long_side >= max(H, W) or (hh >= H and ww >= W):  # the window is the frame: its whole synthesis
+            sub, _ = synthesize_guide(proxy, source, gp)
+            r0, r1, c0, c1 = 0, H, 0, W
+            info["whole"] = True
+        else:
+            r0, r1 = _span(r0, r1, min(hh, H), H)
+            c0, c1 = _span(c0, c1, min(ww, W), W)
+            crop = Plate({"label.id": np.ascontiguousarray(proxy["label.id"][r0:r1, c0:c1])},
+                         {"labels": proxy.meta.get("labels", [])})
+            sub, _ = synthesize_guide(crop, source, SimpleNamespace(**dict(vars(gp), size=long_side // f)))
+        win = (slice(r0, r1), slice(c0, c1))
+        sel = region[win]
+        for c in out:
+            out[c][win][sel] = sub[c][sel]
+        info["windows"].append([int(c1 - c0), int(r1 - r0)])
+        info["window_pixels"] += int((r1 - r0) * (c1 - c0))
+        if info["whole"]:
+            break
+    return proxy.with_channels(out, meta={"labels": prev.meta.get("labels"), "guide": g}), info

@@ -1,0 +1,51 @@
+"""The edit layer: changed regions, and the guide updated on a window around them."""
+from types import SimpleNamespace
+
+import numpy as np
+
+from proxyshade.graph.plate import Plate
+from proxyshade.synthesis.edit import changed_region, update_guide
+from proxyshade.synthesis.guide import synthesize_guide
+from proxyshade.synthesis.params import Guidance
+from tests.nodes import _synthesis as T
+
+
+def test_changed_region_is_the_dilated_difference():
+    a = Plate({"label.id": np.zeros((32, 32), np.uint32), "Z": np.full((32, 32), np.inf, np.float32)})
+    lab = a["label.id"].copy()
+    lab[10, 12] = 3
+    z = a["Z"].copy()
+    z[20, 5] = 1.0
+    b = Plate({"label.id": lab, "Z": z})
+    r = changed_region({"p": a}, {"p": b}, {"p": ("label.id",)}, 2)
+    assert r.sum() == 25 and r[8:13, 10:15].all()
+    r = changed_region({"p": a}, {"p": b}, {"p": ("label.id", "Z")}, 0)
+    assert r.sum() == 2 and r[10, 12] and r[20, 5]  # inf == inf: unchanged
+    assert not changed_region({"p": a}, {"p": a}, {"p": ("label.id", "Z")}, 3).any()
+    # an input of another size (the source) that changed at all: recompute whole
+    s0 = Plate({"label.id": np.zeros((8, 8), np.uint32)})
+    s1 = Plate({"label.id": np.ones((8, 8), np.uint32)})
+    assert changed_region({"p": a, "s": s0}, {"p": b, "s": s1}, {"p": ("label.id",), "s": ("label.id",)}, 1) is None
+    assert changed_region({"p": a, "s": s0}, {"p": b, "s": s0}, {"p": ("label.id",), "s": ("label.id",)}, 0).sum() == 1
+
+
+def test_update_guide_synthesizes_a_window_and_keeps_the_rest():
+    src = T.source("renoir")
+    proxy = T.guide("renoir", (512, 512))
+    gp = SimpleNamespace(**dict(vars(Guidance.defaults()), size=128, start=32, seed=2))
+    prev, _ = synthesize_guide(proxy, src, gp)
+    lab = proxy["label.id"].copy()
+    water = int(next(t["id"] for t in src.meta["labels"] if t["name"] == "water"))
+    lab[300:340, 200:260] = water  # a pond painted into the proxy
+    edited = proxy.with_channels({"label.id": lab})
+    region = changed_region({"proxy": proxy}, {"proxy": edited}, {"proxy": ("label.id",)}, 16)
+    out, info = update_guide(prev, region, edited, src, gp, context=32)
+    assert not info["whole"] and info["window_pixels"] < 0.3 * region.size
+    for c in ("label.id", "source.x", "source.y"):
+        assert np.array_equal(out[c][~region], prev[c][~region])
+    # inside, the pond is there about as well as a whole synthesis of the edited proxy puts it
+    whole, _ = synthesize_guide(edited, src, gp)
+    pond = np.zeros(region.shape, bool)
+    pond[300:340, 200:260] = True
+    assert (out["label.id"][pond] == water).mean() > 0.8
+    assert (out["label.id"][pond] == water).mean() >= (whole["label.id"][pond] == water).mean() - 0.1
