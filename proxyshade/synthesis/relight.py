@@ -49,7 +49,8 @@ def relight(img: Plate, photo: Plate, solve: SimpleNamespace, *, filter: str = "
         raise NodeInputError("the frame has no label.id for the label-boundary condition; relight a synthesized "
                              "frame (Poisson's or Resynthesize's output) or set label_dirichlet: false")
     u, info = blend_frame(lookup(rgb, sx, sy, filter=filter), img["patch.id"], labels, solve, source_rgb=rgb,
-                          sx=sx, sy=sy, scale=scale)
+                          sx=sx, sy=sy, scale=scale,
+                          source_labels=photo["label.id"] if solve.layout and "label.id" in photo else None)
     meta = dict(img.meta)
     meta["source"] = provenance(photo)["source"]
     meta["relight"] = {"photo": photo.meta.get("source", {}).get("photo"), "filter": filter,
