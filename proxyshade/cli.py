@@ -148,8 +148,46 @@ def run(
     workers: Optional[int] = typer.Option(None, "--workers", min=1, help="worker processes of the local Dask cluster "
                                           "(default: one per core)"),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="no progress bars"),
+    watch: bool = typer.Option(False, "--watch", help="after the run, run again whenever a graph file or a file "
+                               "its nodes read (scene, source table, ...) changes; Ctrl-C stops"),
+    poll: float = typer.Option(0.5, "--poll", min=0.01, help="--watch: seconds between checks for changed files"),
+    watch_runs: int = typer.Option(0, "--watch-runs", min=0, hidden=True, help="--watch: stop after this many runs"),
 ):
     """Run GRAPH(s): compute what the cache lacks, reuse the rest."""
+    runs = 0
+    while True:
+        watched = _run_once(graphs, frames, set_, var, sweep, cache, explain, jobs, force, threads, executor,
+                            scheduler, workers, quiet)
+        runs += 1
+        if not watch or (watch_runs and runs >= watch_runs):
+            return
+        _say(err, f"watching {len(watched)} file(s) for changes (Ctrl-C stops)")
+        _wait_for_change(watched, poll)
+
+
+def _snapshot(paths) -> dict:
+    """Each path's (mtime, size), None where it does not exist."""
+    snap = {}
+    for p in paths:
+        try:
+            st = os.stat(p)
+            snap[p] = (st.st_mtime_ns, st.st_size)
+        except OSError:
+            snap[p] = None
+    return snap
+
+
+def _wait_for_change(paths, poll: float) -> None:
+    import time
+
+    before = _snapshot(paths)
+    while _snapshot(paths) == before:
+        time.sleep(poll)
+
+
+def _run_once(graphs, frames, set_, var, sweep, cache, explain, jobs, force, threads, executor, scheduler, workers,
+              quiet) -> set:
+    """One run of every shot, reported; returns the files a watch looks at."""
     from proxyshade.graph.dask_executor import DaskExecutor, run_graphs
     from proxyshade.graph.executor import make_executor
     from proxyshade.graph.graph import Graph
@@ -172,6 +210,7 @@ def run(
                                  labels=[label for label, _, _ in shots])
     for (label, g, _), report in zip(shots, reports):
         _report(label, report, explain, several)
+    return {Path(p).resolve() for p in graphs} | {f for _, g, fl in shots for f in g.input_files(fl)}
 
 
 def _report(label: str, report, explain: bool, several: bool) -> None:
