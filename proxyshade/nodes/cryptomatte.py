@@ -32,7 +32,9 @@ def crypto_channels(ids: np.ndarray, table: list[dict], type_name: str, *, level
     from proxyshade.kernels import cryptomatte as cm
 
     names = {int(t["id"]): str(t["name"]) for t in table}
-    present = np.unique(ids)
+    top = int(ids.max()) if ids.size else 0
+    # the distinct ids, sorted: counted in one pass where they are small (np.unique sorts the frame)
+    present = np.flatnonzero(np.bincount(ids.ravel(), minlength=1)) if top < (1 << 24) else np.unique(ids)
     missing = [int(i) for i in present if i != 0 and int(i) not in names]
     if missing:
         known = ", ".join(f"{n}={i}" for i, n in sorted(names.items())) or "none"
