@@ -55,6 +55,15 @@ def _mask_hash(m):
 
 
 @njit(inline="always", **JIT)
+def _same_masks(a, b):
+    """Two windows' label masks (n,) are equal."""
+    for l in range(a.shape[0]):
+        if a[l] != b[l]:
+            return False
+    return True
+
+
+@njit(inline="always", **JIT)
 def _better(d, k, bd, bk):
     """Distance d at tie key k beats the best so far (bd, bk)."""
     return d < bd or (d == bd and k < bk)
@@ -76,7 +85,6 @@ def _best_match(cands, src_dist, src_masks, src_h, tD, tmask, th, hw, w, bound, 
     label masks equal the target's are taken (the others are hash collisions of
     ``_window_groups``)."""
     W = src_dist.shape[1]
-    nl = tmask.shape[0]
     bd = bound
     bi = c0
     bk = _tie_key(c0, posof, start, n) if c0 >= 0 else n
@@ -87,14 +95,8 @@ def _best_match(cands, src_dist, src_masks, src_h, tD, tmask, th, hw, w, bound, 
             continue
         y = c // W
         x = c % W
-        if same_window:
-            same = True
-            for l in range(nl):
-                if src_masks[y, x, l] != tmask[l]:
-                    same = False
-                    break
-            if not same:
-                continue
+        if same_window and not _same_masks(src_masks[y, x], tmask):
+            continue
         d = _eq1(src_dist, src_masks, src_h, y, x, tD, tmask, th, hw, w, bd)
         if _better(d, k, bd, bk):
             bd = d
@@ -204,7 +206,6 @@ def _window_groups(src_masks, starts, lists):
     the end of each position's run of equal hashes, whether the run's masks are all
     equal (no hash collision))."""
     We = src_masks.shape[1]
-    n = src_masks.shape[2]
     grouped = lists.copy()
     hashes = np.empty(lists.shape[0], np.uint64)
     for l in range(starts.shape[0] - 1):
@@ -228,9 +229,8 @@ def _window_groups(src_masks, starts, lists):
             c0 = grouped[r]
             for t in range(r + 1, e):
                 c = grouped[t]
-                for k in range(n):
-                    if src_masks[c // We, c % We, k] != src_masks[c0 // We, c0 % We, k]:
-                        uniform[r] = False
+                if not _same_masks(src_masks[c // We, c % We], src_masks[c0 // We, c0 % We]):
+                    uniform[r] = False
             end[r] = e
             r = e
     return grouped, hashes, end, uniform

@@ -1,7 +1,8 @@
 """Edits of a scene description (the YAML the ``.usda`` is built from), as functions: each
 changes the description and rebuilds the ``.usda`` beside it, or refuses a bad edit
-before anything is written. ``proxyshade scene stroke`` and ``proxyshade edit`` call
-them; ``graphs/edit.yaml`` then updates only the region the edit changed (docs/editing.md).
+before anything is written. ``proxyshade scene stroke`` and ``spheres`` call them;
+``graphs/edit.yaml`` (under ``proxyshade run --watch``) then updates only the region the
+edit changed (docs/editing.md).
 """
 from __future__ import annotations
 
