@@ -63,6 +63,8 @@ class Terrain:
     def from_dict(cls, d: dict) -> "Terrain":
         t = cls(cells=tuple(d.get("cells", (128, 128))), extent=tuple(tuple(e) for e in d.get("extent", ((-50, -50), (50, 50)))),
                 height=float(d.get("height", 0.0)))
-        for s in d.get("strokes", []):
+        from proxyshade.scene.bumps import bump_strokes
+
+        for s in list(d.get("strokes", [])) + bump_strokes(d):
             t.stroke(s["centre"], s["radius"], s["amount"])
         return t

@@ -1,0 +1,276 @@
+"""Kernels of view-consistent BTF stack synthesis.
+
+Neubeck, Zalesny and Van Gool, "Viewpoint consistent texture synthesis" (3DPVT 2004).
+
+* ``disk_distance`` (eq. 3): Σ_N w·‖out − in‖² over the disk 0 < u² + v² ≤ r² (offsets
+  scaled by the level's factor); ``pair_distance`` the other-view form
+  Σ w‖B′ − B‖² + c(1 − w)‖A′ − A‖². An input neighbour outside the input costs the
+  maximal difference (``MAXV`` per channel, the paper's "maximal value of 255"); an
+  output neighbour outside the output is no neighbour (weight 0).
+* ``synth_level``: one level of the confidence-weighted sequential synthesis. A pixel is
+  drawn with probability P = (1 − w) / Σ(1 − w) (integer weights T − k in a Fenwick
+  tree, k = visits so far, w = k / T); its candidates are the current source and, for
+  every disk neighbour, the input pixel that puts the neighbour's source "in the same
+  relative neighbourhood position" (Ashikhmin 2001); it is updated only by a strictly
+  better one; w += 1/T. Every pixel is visited until w = 1: T times from w = 0, T − k0
+  from k0. Draws come from ``kernels.random.rand(seed, step, level, 0)``.
+* ``synth_others``: every non-support view given the support, in parallel over views
+  (each view sequential, its own seed): the same loop with ``pair_distance`` and the
+  support's sources as extra candidates.
+* ``edge_distance``: the alignment measure, the mean Euclidean distance between the
+  intensities of two views over a crop, for each neighbouring pair of the view grid.
+* ``plane_shift``: where a view rectified to one plane reads to be rectified to another.
+
+Pure functions on arrays; the serial loops are deterministic, the parallel ones write
+only their own view or pair, so 1 and 2 threads give identical results.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit, prange
+
+from proxyshade.kernels._config import JIT, PJIT
+from proxyshade.kernels.random import rand
+
+MAXV = 1.0  # the maximal channel difference (linear images in [0, 1])
+
+
+def disk_offsets(r: int) -> np.ndarray:
+    """(K, 2) int64 offsets (dy, dx) with 0 < dy² + dx² ≤ r², in row-major order."""
+    r = int(r)
+    return np.array([(dy, dx) for dy in range(-r, r + 1) for dx in range(-r, r + 1)
+                     if 0 < dy * dy + dx * dx <= r * r], np.int64).reshape(-1, 2)
+
+
+@njit(**JIT)
+def disk_distance(out, k, T, inp, py, px, cy, cx, offs, s, bound):
+    """eq. 3 at output pixel (py, px) against input pixel (cy, cx): Σ w‖out − in‖² over the
+    disk ``offs`` scaled by ``s``, w = k / T; stops once the sum exceeds ``bound``."""
+    H, W = out.shape[0], out.shape[1]
+    h, w = inp.shape[0], inp.shape[1]
+    acc = 0.0
+    for o in range(offs.shape[0]):
+        dy = offs[o, 0] * s
+        dx = offs[o, 1] * s
+        qy = py + dy
+        qx = px + dx
+        if qy < 0 or qy >= H or qx < 0 or qx >= W:
+            continue
+        wt = k[qy, qx] / T
+        if wt == 0.0:
+            continue
+        iy = cy + dy
+        ix = cx + dx
+        if iy < 0 or iy >= h or ix < 0 or ix >= w:
+            acc += wt * 3.0 * MAXV * MAXV
+        else:
+            d = 0.0
+            for c in range(3):
+                e = np.float64(out[qy, qx, c]) - np.float64(inp[iy, ix, c])
+                d += e * e
+            acc += wt * d
+        if acc > bound:
+            return acc
+    return acc
+
+
+@njit(**JIT)
+def pair_distance(out_b, k, T, inp_b, out_a, inp_a, cw, py, px, cy, cx, offs, s, bound):
+    """Other-view distance at (py, px) against input (cy, cx): Σ w‖B′ − B‖² +
+    cw (1 − w)‖A′ − A‖² over the scaled disk (A the support view, B this view)."""
+    H, W = out_b.shape[0], out_b.shape[1]
+    h, w = inp_b.shape[0], inp_b.shape[1]
+    acc = 0.0
+    for o in range(offs.shape[0]):
+        dy = offs[o, 0] * s
+        dx = offs[o, 1] * s
+        qy = py + dy
+        qx = px + dx
+        if qy < 0 or qy >= H or qx < 0 or qx >= W:
+            continue
+        wt = k[qy, qx] / T
+        iy = cy + dy
+        ix = cx + dx
+        if iy < 0 or iy >= h or ix < 0 or ix >= w:
+            acc += (wt + cw * (1.0 - wt)) * 3.0 * MAXV * MAXV
+        else:
+            db = 0.0
+            da = 0.0
+            for c in range(3):
+                e = np.float64(out_b[qy, qx, c]) - np.float64(inp_b[iy, ix, c])
+                db += e * e
+                f = np.float64(out_a[qy, qx, c]) - np.float64(inp_a[iy, ix, c])
+                da += f * f
+            acc += wt * db + cw * (1.0 - wt) * da
+        if acc > bound:
+            return acc
+    return acc
+
+
+@njit(**JIT)
+def _fenwick_add(tree, i, v):
+    i += 1
+    n = tree.shape[0]
+    while i < n:
+        tree[i] += v
+        i += i & (-i)
+
+
+@njit(**JIT)
+def _fenwick_find(tree, r):
+    """The index whose cumulative weight range holds ``r`` (0 <= r < total)."""
+    n = tree.shape[0] - 1
+    pos = 0
+    step = 1
+    while step * 2 <= n:
+        step *= 2
+    while step > 0:
+        nxt = pos + step
+        if nxt <= n and tree[nxt] <= r:
+            pos = nxt
+            r -= tree[nxt]
+        step //= 2
+    return pos
+
+
+@njit(**JIT)
+def _dist(pair, out, k, T, inp, out_a, inp_a, cw, py, px, cy, cx, offs, s, bound):
+    if pair:
+        return pair_distance(out, k, T, inp, out_a, inp_a, cw, py, px, cy, cx, offs, s, bound)
+    return disk_distance(out, k, T, inp, py, px, cy, cx, offs, s, bound)
+
+
+@njit(**JIT)
+def synth_level(inp, out, qy, qx, k, T, offs, s, seed, level, pair, out_a, inp_a, qay, qax, cw, visits):
+    """One level of sequential synthesis, in place: ``out`` (H, W, 3) = ``inp`` at the
+    sources (``qy``, ``qx``), confidences ``k`` (visits, w = k / T) raised to T.
+    With ``pair``, the other-view distance against the support (``out_a`` = A′, ``inp_a``
+    = A, its sources ``qay``/``qax`` as extra candidates). ``visits`` counts the visits.
+    Returns the number of updates."""
+    H, W = out.shape[0], out.shape[1]
+    h, w = inp.shape[0], inp.shape[1]
+    n = H * W
+    tree = np.zeros(n + 1, np.int64)
+    total = 0
+    for p in range(n):
+        wt = T - k[p // W, p % W]
+        if wt > 0:
+            _fenwick_add(tree, p, wt)
+            total += wt
+    nc = offs.shape[0]
+    step = 0
+    changed = 0
+    while total > 0:
+        r = rand(seed, step, level, 0) % total
+        step += 1
+        p = _fenwick_find(tree, r)
+        py = p // W
+        px = p % W
+        by = qy[py, px]
+        bx = qx[py, px]
+        best = _dist(pair, out, k, T, inp, out_a, inp_a, cw, py, px, by, bx, offs, s, np.inf)
+        ncand = 2 * nc + 1 if pair else nc
+        for m in range(ncand):
+            if m < nc:
+                ny = py + offs[m, 0] * s
+                nx = px + offs[m, 1] * s
+                if ny < 0 or ny >= H or nx < 0 or nx >= W:
+                    continue
+                cy = qy[ny, nx] - offs[m, 0] * s
+                cx = qx[ny, nx] - offs[m, 1] * s
+            elif m < 2 * nc:
+                mm = m - nc
+                ny = py + offs[mm, 0] * s
+                nx = px + offs[mm, 1] * s
+                if ny < 0 or ny >= H or nx < 0 or nx >= W:
+                    continue
+                cy = qay[ny, nx] - offs[mm, 0] * s
+                cx = qax[ny, nx] - offs[mm, 1] * s
+            else:
+                cy = qay[py, px]
+                cx = qax[py, px]
+            if cy < 0 or cy >= h or cx < 0 or cx >= w:
+                continue
+            if cy == by and cx == bx:
+                continue
+            d = _dist(pair, out, k, T, inp, out_a, inp_a, cw, py, px, cy, cx, offs, s, best)
+            if d < best:
+                best = d
+                by = cy
+                bx = cx
+        if by != qy[py, px] or bx != qx[py, px]:
+            qy[py, px] = by
+            qx[py, px] = bx
+            for c in range(3):
+                out[py, px, c] = inp[by, bx, c]
+            changed += 1
+        k[py, px] += 1
+        visits[py, px] += 1
+        _fenwick_add(tree, p, -1)
+        total -= 1
+    return changed
+
+
+@njit(**JIT)
+def gather(inp, qy, qx):
+    """(H, W, 3) float32: ``inp`` at integer sources (qy, qx)."""
+    H, W = qy.shape
+    out = np.empty((H, W, 3), np.float32)
+    for i in range(H):
+        for j in range(W):
+            for c in range(3):
+                out[i, j, c] = inp[qy[i, j], qx[i, j], c]
+    return out
+
+
+@njit(**PJIT)
+def synth_others(inp_b, inp_a, out_a, qay, qax, T, k0, offs, seeds, cw, qy, qx, visits):
+    """Every other view given the support, in parallel over views: view v starts from the
+    support's sources with w = k0 / T and runs ``synth_level`` with ``pair_distance``
+    (seed ``seeds[v]``). Writes ``qy[v]``, ``qx[v]``, ``visits[v]``; returns updates per view."""
+    V = inp_b.shape[0]
+    H, W = qay.shape
+    changed = np.zeros(V, np.int64)
+    for v in prange(V):
+        for i in range(H):
+            for j in range(W):
+                qy[v, i, j] = qay[i, j]
+                qx[v, i, j] = qax[i, j]
+        k = np.full((H, W), k0, np.int64)
+        out = gather(inp_b[v], qy[v], qx[v])
+        changed[v] = synth_level(inp_b[v], out, qy[v], qx[v], k, T, offs, 1, seeds[v], 0, True, out_a, inp_a,
+                                 qay, qax, cw, visits[v])
+    return changed
+
+
+@njit(**PJIT)
+def edge_distance(stack, edges, y0, y1, x0, x1):
+    """(E,) mean over the crop rows y0:y1, columns x0:x1 of ‖stack[a] − stack[b]‖ (the
+    Euclidean distance of the RGB intensities) for each pair (a, b) of ``edges``."""
+    E = edges.shape[0]
+    out = np.zeros(E, np.float64)
+    for e in prange(E):
+        a = edges[e, 0]
+        b = edges[e, 1]
+        acc = 0.0
+        for i in range(y0, y1):
+            row = 0.0
+            for j in range(x0, x1):
+                d = 0.0
+                for c in range(3):
+                    t = np.float64(stack[a, i, j, c]) - np.float64(stack[b, i, j, c])
+                    d += t * t
+                row += math.sqrt(d)
+            acc += row
+        out[e] = acc / max((y1 - y0) * (x1 - x0), 1)
+    return out
+
+
+def plane_shift(slant_deg: float, tilt_deg: float, dh: float, pixel: float) -> tuple[float, float]:
+    """(dx, dy) in pixels: a view rectified to a plane reads at (col + dx, row + dy) to be
+    rectified to the parallel plane ``dh`` world units higher (columns along x, rows along
+    z, the camera toward (sin θ cos φ, cos θ, sin θ sin φ)): −dh tan θ (cos φ, sin φ) / pixel."""
+    t = math.tan(math.radians(slant_deg)) * dh / pixel
+    return -t * math.cos(math.radians(tilt_deg)), -t * math.sin(math.radians(tilt_deg))

@@ -1,0 +1,372 @@
+"""BTF stacks: capture, checks, alignment, view-consistent synthesis and its measures.
+
+Neubeck, Zalesny and Van Gool, "Viewpoint consistent texture synthesis" (3DPVT 2004).
+A BTF stack is one plate: views ``v{n}.R/G/B`` of one planar sample, each rectified to
+the same plane (``meta["btf"]["plane"]``, world height; ``pixel`` world units per pixel),
+described by ``meta["views"]`` = ``[{"slant", "tilt", "light"}]`` (degrees; the light's
+direction of travel). Views lie on a regular grid: one frontal view (slant 0) and, for
+each slant k·Δ (k = 1..m), the same tilts. Synthesis adds ``v{n}.sx/sy``: each output
+pixel's source in the input views, the same map the measures read.
+
+Shared by the nodes BtfRender, BtfRead, BtfAlign, BtfSynth and bench/bench_btf.py.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from proxyshade.errors import NodeInputError
+from proxyshade.graph.plate import Plate
+
+GRID_TOL = 1e-6  # degrees
+
+
+# ---------------------------------------------------------------- views and stacks
+
+def view_grid(slant_step: float, slant_max: float, tilts) -> list[dict]:
+    """The frontal view, then for each slant k·``slant_step`` up to ``slant_max`` every tilt."""
+    views = [{"slant": 0.0, "tilt": 0.0}]
+    m = int(math.floor(slant_max / slant_step + 1e-9))
+    for k in range(1, m + 1):
+        for t in tilts:
+            views.append({"slant": float(k * slant_step), "tilt": float(t)})
+    return views
+
+
+def check_views(views: list[dict], field: str = "views") -> dict:
+    """The grid of ``views`` (``{"step", "slants", "tilts", "index": {(k, t): n}}``) or a
+    one-line ``NodeInputError`` naming ``field``: a slant outside [0°, 90°), no frontal
+    view, slants not multiples of one step, slants missing a tilt the others have."""
+    if not views:
+        raise NodeInputError(f"{field}: the stack has no views; give at least a frontal view")
+    for n, v in enumerate(views):
+        s, t = v.get("slant"), v.get("tilt")
+        if not all(isinstance(x, (int, float)) and math.isfinite(x) for x in (s, t)):
+            raise NodeInputError(f"{field}[{n}]: slant and tilt must be numbers (degrees), got {s!r}, {t!r}")
+        if not 0.0 <= s < 90.0:
+            raise NodeInputError(f"{field}[{n}]: slant {s}° is outside [0°, 90°); a view at 90° or more sees "
+                                 "the sample edge-on or from below: drop it")
+    frontal = [n for n, v in enumerate(views) if abs(v["slant"]) <= GRID_TOL]
+    if len(frontal) != 1:
+        raise NodeInputError(f"{field}: the stack has {len(frontal)} frontal views (slant 0°); it needs exactly "
+                             "one: add a view at slant 0 (or drop the duplicates)")
+    slants = sorted({round(v["slant"], 6) for v in views if v["slant"] > GRID_TOL})
+    index = {(0, 0.0): frontal[0]}
+    if not slants:
+        return {"step": 0.0, "slants": [0.0], "tilts": [], "index": index}
+    step = slants[0]
+    for k, s in enumerate(slants, 1):
+        if abs(s - k * step) > 1e-4:
+            raise NodeInputError(f"{field}: slants {slants} are off a regular grid ({s}° is not {k} × {step}°); "
+                                 "give slants 0, Δ, 2Δ, ... with no gaps")
+    tilts = sorted({round(v["tilt"], 6) for v in views if v["slant"] > GRID_TOL})
+    for n, v in enumerate(views):
+        if n == frontal[0]:
+            continue
+        key = (int(round(v["slant"] / step)), round(v["tilt"], 6))
+        if key in index:
+            raise NodeInputError(f"{field}[{n}]: slant {v['slant']}°, tilt {v['tilt']}° is given twice; drop one")
+        index[key] = n
+    for k in range(1, len(slants) + 1):
+        missing = [t for t in tilts if (k, t) not in index]
+        if missing:
+            raise NodeInputError(f"{field}: views are off a regular grid: slant {k * step:g}° has no view at tilt "
+                                 f"{missing[0]:g}° (the tilts are {tilts}); add it or drop that tilt everywhere")
+    return {"step": step, "slants": [0.0] + slants, "tilts": tilts, "index": index}
+
+
+def grid_edges(views: list[dict]) -> np.ndarray:
+    """(E, 2) pairs of neighbouring views on the grid: the same tilt at neighbouring slants
+    (slant 1 with the frontal view) and neighbouring tilts at one slant."""
+    g = check_views(views)
+    idx, tilts, edges = g["index"], g["tilts"], []
+    for k in range(1, len(g["slants"])):
+        for a, t in enumerate(tilts):
+            here = idx[(k, t)]
+            edges.append((idx[(k - 1, t)] if k > 1 else idx[(0, 0.0)], here))
+            if a + 1 < len(tilts):
+                edges.append((here, idx[(k, tilts[a + 1])]))
+    return np.array(edges, np.int64).reshape(-1, 2)
+
+
+def stack_arrays(plate: Plate, field: str = "stack") -> tuple[list[dict], np.ndarray]:
+    """(views, (V, H, W, 3) float32 images) of a stack plate; one-line errors for a plate
+    that is not one (no ``meta['views']``, a view's channels missing, NaN or Inf)."""
+    views = plate.meta.get("views")
+    if not isinstance(views, list) or not isinstance(plate.meta.get("btf"), dict):
+        raise NodeInputError(f"{field}: the plate has no meta['views'] / meta['btf']; connect a BtfRender or "
+                             "BtfRead node")
+    check_views(views, f"{field} views")
+    imgs = np.empty((len(views),) + plate.shape + (3,), np.float32)
+    for n in range(len(views)):
+        for c, ch in enumerate("RGB"):
+            name = f"v{n}.{ch}"
+            if name not in plate:
+                raise NodeInputError(f"{field}: channel {name} is missing for view {n}; connect a BtfRender or "
+                                     "BtfRead stack")
+            imgs[n, ..., c] = plate[name]
+    bad = ~np.isfinite(imgs)
+    if bad.any():
+        n, y, x, _ = np.argwhere(bad)[0]
+        raise NodeInputError(f"{field}: view {n} has {int(bad.sum())} NaN/Inf value(s), first at x={x} y={y}; "
+                             "clean the images (clamp or inpaint them)")
+    return views, imgs
+
+
+def stack_plate(images: np.ndarray, views: list[dict], btf: dict, extra: dict | None = None) -> Plate:
+    """The stack plate of (V, H, W, 3) ``images`` (plus ``extra`` channels)."""
+    ch = {}
+    for n in range(images.shape[0]):
+        for c, name in enumerate("RGB"):
+            ch[f"v{n}.{name}"] = np.ascontiguousarray(images[n, ..., c], np.float32)
+    ch.update(extra or {})
+    return Plate(ch, {"views": [dict(v) for v in views], "btf": dict(btf)})
+
+
+# ---------------------------------------------------------------- capture
+
+def view_direction(slant: float, tilt: float) -> np.ndarray:
+    """Unit vector from the sample toward a camera at ``slant``, ``tilt`` (degrees; Y up,
+    tilt measured from +x toward +z)."""
+    s, t = math.radians(slant), math.radians(tilt)
+    return np.array([math.sin(s) * math.cos(t), math.cos(s), math.sin(s) * math.sin(t)])
+
+
+def render_views(points, tris, normals, light: dict, views: list[dict], *, size: int, window: float,
+                 centre=(0.0, 0.0), plane: float = 0.0, ambient: float, albedo: np.ndarray,
+                 shadow_size: int, bias: float) -> np.ndarray:
+    """(V, size, size, 3) float32 orthographic views of a Y-up heightfield mesh, each
+    rectified to the plane y = ``plane``: pixel (row i, column j) shows what the view ray
+    through plane point (x0 + (j + ½)p, plane, z0 + (i + ½)p) meets first (p =
+    ``window`` / ``size``). Lambert, ``albedo`` (V,) per vertex RGB (N, 3), lit by the
+    distant ``light`` with percentage-closer shadows (``kernels.shadow``) and an ambient
+    term. An oblique projection is affine, so ``raster.rasterize(..., ortho=True)`` of the
+    sheared points is exact."""
+    from proxyshade.kernels import raster, shadow
+
+    points = np.asarray(points, np.float64)
+    L = np.asarray(light["direction"], np.float64)
+    E = np.asarray(light.get("color", (1, 1, 1)), np.float64) * float(light.get("intensity", 1.0))
+    proj = shadow.ortho_light_projection(L, points, shadow_size)
+    m = proj["world_to_cam"]
+    ldepth, _, _, _ = raster.rasterize(points @ m[:, :3].T + m[:, 3], tris, width=shadow_size, height=shadow_size,
+                                       fx=proj["fx"], fy=proj["fy"], cx=proj["cx"], cy=proj["cy"], near=0.5,
+                                       ortho=True)
+    p = window / size
+    x0, z0 = centre[0] - window / 2, centre[1] - window / 2
+    out = np.zeros((len(views), size, size, 3), np.float32)
+    for n, v in enumerate(views):
+        t = math.tan(math.radians(v["slant"]))
+        ct, st = math.cos(math.radians(v["tilt"])), math.sin(math.radians(v["tilt"]))
+        lift = points[:, 1] - plane
+        d = points @ view_direction(v["slant"], v["tilt"])
+        cam = np.column_stack([points[:, 0] - lift * t * ct, -(points[:, 2] - lift * t * st), d - (d.max() + 1.0)])
+        _, tri, bary, _ = raster.rasterize(cam, tris, width=size, height=size, fx=1 / p, fy=1 / p, cx=-x0 / p,
+                                           cy=-z0 / p, near=0.5, ortho=True)
+        cover = tri >= 0
+        P = raster.interpolate(points, tris, tri, bary, empty=np.nan).astype(np.float64)
+        N = raster.interpolate(normals, tris, tri, bary, normalize=True).astype(np.float64)
+        N[N[..., 1] < 0] *= -1.0
+        s = shadow.pcf_shadow(P, proj["world_to_map"], ldepth, radius=1, bias=bias).astype(np.float64)
+        a = raster.interpolate(albedo, tris, tri, bary).astype(np.float64)
+        cos = np.clip(-(N @ L), 0.0, None) * (1.0 - s)
+        rgb = a * (ambient + cos[..., None] * E / np.pi)
+        out[n] = np.where(cover[..., None], rgb, 0.0)
+    return out
+
+
+def height_albedo(points: np.ndarray, low=(0.16, 0.12, 0.09), high=(0.62, 0.52, 0.40)) -> np.ndarray:
+    """(V, 3) albedo ramping from ``low`` at the lowest vertex to ``high`` at the highest."""
+    y = points[:, 1]
+    t = (y - y.min()) / max(float(y.max() - y.min()), 1e-12)
+    return np.asarray(low)[None] + t[:, None] * (np.asarray(high) - np.asarray(low))[None]
+
+
+def texture_albedo(points: np.ndarray, texture: np.ndarray, extent) -> np.ndarray:
+    """(V, 3) albedo from a linear (H, W, 3) ``texture`` stretched over ``extent``
+    ((x0, z0), (x1, z1)), read bilinearly (``kernels.lookup``)."""
+    from proxyshade.kernels.lookup import lookup
+
+    (ex0, ez0), (ex1, ez1) = extent
+    h, w = texture.shape[:2]
+    sx = ((points[:, 0] - ex0) / (ex1 - ex0) * w - 0.5)[None]
+    sy = ((points[:, 2] - ez0) / (ez1 - ez0) * h - 0.5)[None]
+    return lookup(texture, sx, sy)[0].astype(np.float64)
+
+
+# ---------------------------------------------------------------- alignment
+
+def rectify(images: np.ndarray, views: list[dict], dh: float, pixel: float, *, filter: str = "lanczos3") -> np.ndarray:
+    """The views (rectified to one plane) rectified to the parallel plane ``dh`` higher:
+    each view read through ``kernels.btf.plane_shift`` with ``kernels.lookup``."""
+    from proxyshade.kernels.btf import plane_shift
+    from proxyshade.kernels.lookup import lookup
+
+    V, H, W = images.shape[:3]
+    rows, cols = np.mgrid[0:H, 0:W].astype(np.float64)
+    out = np.empty_like(images)
+    for n, v in enumerate(views):
+        dx, dy = plane_shift(v["slant"], v["tilt"], dh, pixel)
+        out[n] = lookup(images[n], cols + dx, rows + dy, filter=filter)
+    return out
+
+
+def max_shift(views: list[dict], dh: float, pixel: float) -> int:
+    """The largest shift in whole pixels (rounded up) any view reads at for plane offset ``dh``."""
+    return int(math.ceil(max(abs(math.tan(math.radians(v["slant"]))) for v in views) * abs(dh) / pixel))
+
+
+def alignment_costs(images: np.ndarray, views: list[dict], pixel: float, offsets) -> np.ndarray:
+    """For each plane offset, the mean over neighbouring views of the grid (``grid_edges``)
+    of their mean Euclidean intensity distance, over the crop no view reads outside of
+    for any of the offsets. (len(offsets),) float64."""
+    from proxyshade.kernels.btf import edge_distance
+
+    edges = grid_edges(views)
+    V, H, W = images.shape[:3]
+    mg = max(max_shift(views, dh, pixel) for dh in offsets) + 3
+    if 2 * mg >= min(H, W):
+        raise NodeInputError(f"the plane search shifts views by up to {mg} pixels, more than half the {W}x{H} "
+                             "views; narrow the search range")
+    if not len(edges):
+        raise NodeInputError("views: alignment needs views at more than one slant; add slanted views")
+    costs = np.empty(len(offsets))
+    for k, dh in enumerate(offsets):
+        rect = rectify(images, views, float(dh), pixel)
+        costs[k] = float(edge_distance(rect, edges, mg, H - mg, mg, W - mg).mean())
+    return costs
+
+
+# ---------------------------------------------------------------- synthesis
+
+def check_synthesis_size(shape, radius: int, levels: int, field: str = "stack") -> None:
+    """One-line error when an (H, W) input is smaller than the disk at the coarsest level."""
+    d = 2 * radius * 2 ** (levels - 1) + 1
+    if min(shape) < d:
+        raise NodeInputError(f"{field}: the {shape[1]}x{shape[0]} views are smaller than the disk at the coarsest "
+                             f"level ({d} pixels across: radius {radius} × 2^{levels - 1}); use fewer levels, a "
+                             "smaller radius or larger views")
+
+
+def synthesize_view(image: np.ndarray, size, *, radius: int, T: int, levels: int, seed: int):
+    """One view on its own, coarse to fine: (qy, qx) int64 sources (H, W) and the visit
+    counts per level (list of (H, W)). The coarsest level starts from a random
+    permutation of the input's pixels (so the output's histogram is the input's when the
+    sizes divide) at w = 0; each finer level starts from the last one's sources at w = ½."""
+    from proxyshade.kernels.btf import disk_offsets, gather, synth_level
+    from proxyshade.kernels.random import mix_seed, permutation
+
+    H, W = size
+    h, w = image.shape[:2]
+    check_synthesis_size((h, w), radius, levels)
+    image = np.ascontiguousarray(image, np.float32)
+    perm = permutation(mix_seed(seed, 1), h * w)
+    src = perm[np.arange(H * W) % (h * w)]
+    qy = np.ascontiguousarray((src // w).reshape(H, W), np.int64)
+    qx = np.ascontiguousarray((src % w).reshape(H, W), np.int64)
+    offs = disk_offsets(radius)
+    dummy_img = np.zeros((1, 1, 3), np.float32)
+    dummy_q = np.zeros((1, 1), np.int64)
+    visits = []
+    for lv in range(levels - 1, -1, -1):
+        k = np.full((H, W), 0 if lv == levels - 1 else T // 2, np.int64)
+        out = gather(image, qy, qx)
+        vis = np.zeros((H, W), np.int64)
+        synth_level(image, out, qy, qx, k, int(T), offs, 2 ** lv, mix_seed(seed, 2), lv, False, dummy_img,
+                    dummy_img, dummy_q, dummy_q, 0.0, vis)
+        visits.append(vis)
+    return qy, qx, visits
+
+
+def synthesize_others(images: np.ndarray, support: int, qay: np.ndarray, qax: np.ndarray, *, radius: int, T: int,
+                      c: float, seed: int):
+    """Every view but ``support`` given the support's sources: (qy, qx, visits), each
+    (V, H, W) int64 (the support's own entries are its sources, visits 0)."""
+    from proxyshade.kernels.btf import disk_offsets, gather, synth_others
+    from proxyshade.kernels.random import mix_seed
+
+    images = np.ascontiguousarray(images, np.float32)
+    V = images.shape[0]
+    others = [n for n in range(V) if n != support]
+    H, W = qay.shape
+    inp_a = images[support]
+    out_a = gather(inp_a, qay, qax)
+    qy = np.zeros((len(others), H, W), np.int64)
+    qx = np.zeros_like(qy)
+    vis = np.zeros_like(qy)
+    seeds = np.array([mix_seed(seed, 3, n) for n in others], np.int64)
+    synth_others(np.ascontiguousarray(images[others]), inp_a, out_a, qay, qax, int(T), int(T) // 2,
+                 disk_offsets(radius), seeds, float(c), qy, qx, vis)
+    QY = np.empty((V, H, W), np.int64)
+    QX = np.empty_like(QY)
+    VIS = np.zeros_like(QY)
+    QY[support], QX[support] = qay, qax
+    QY[others], QX[others], VIS[others] = qy, qx, vis
+    return QY, QX, VIS
+
+
+MODES = ("sequential", "independent", "columns")
+
+
+def synthesize_stack(images: np.ndarray, support: int, size, *, mode: str = "sequential", radius: int = 3,
+                     radius_other: int = 2, T: int = 4, levels: int = 3, c: float = 0.25, seed: int = 0):
+    """Sources (qy, qx) (V, H, W) int64 of a synthesized stack.
+
+    ``sequential`` (the paper): the support view, then every other view given it
+    (``synthesize_others``). ``independent``: every view on its own, like the support.
+    ``columns``: every view copies the support's sources (whole columns of the stack)."""
+    if mode not in MODES:
+        raise NodeInputError(f"mode {mode!r} is not valid; valid modes are {', '.join(MODES)}")
+    V = images.shape[0]
+    check_synthesis_size(images.shape[1:3], radius, levels)
+    qay, qax, _ = synthesize_view(images[support], size, radius=radius, T=T, levels=levels, seed=seed)
+    if mode == "sequential":
+        qy, qx, _ = synthesize_others(images, support, qay, qax, radius=radius_other, T=T, c=c, seed=seed)
+        return qy, qx
+    qy = np.repeat(qay[None], V, 0)
+    qx = np.repeat(qax[None], V, 0)
+    if mode == "independent":
+        from proxyshade.kernels.random import mix_seed
+
+        for n in range(V):
+            if n != support:
+                qy[n], qx[n], _ = synthesize_view(images[n], size, radius=radius, T=T, levels=levels,
+                                                  seed=mix_seed(seed, 4, n))
+    return qy, qx
+
+
+def gather_stack(images: np.ndarray, qy: np.ndarray, qx: np.ndarray) -> np.ndarray:
+    """(V, H, W, 3): each view's input at its own sources."""
+    from proxyshade.kernels.btf import gather
+
+    return np.stack([gather(np.ascontiguousarray(images[n], np.float32), qy[n], qx[n])
+                     for n in range(images.shape[0])])
+
+
+# ---------------------------------------------------------------- measures
+
+def consistency_error(images: np.ndarray, support: int, qy: np.ndarray, qx: np.ndarray) -> np.ndarray:
+    """E_c per view: mean ‖A(q_v(p)) − A′(p)‖, A the support's input, A′ its synthesis,
+    q_v the input position copied into view v (0 for views that copy the support's)."""
+    A = images[support].astype(np.float64)
+    Ap = A[qy[support], qx[support]]
+    return np.array([np.sqrt(((A[qy[n], qx[n]] - Ap) ** 2).sum(-1)).mean() for n in range(len(qy))])
+
+
+def seam_error(images: np.ndarray, qy: np.ndarray, qx: np.ndarray) -> np.ndarray:
+    """E_s per view: the mean colour jump ‖B′(p) − B′(p′)‖ over 4-neighbour edges (p, p′)
+    whose sources are not neighbours the same way (q(p′) − q(p) ≠ p′ − p); 0 with no seam."""
+    out = np.zeros(len(qy))
+    for n in range(len(qy)):
+        B = images[n].astype(np.float64)[qy[n], qx[n]]
+        jumps = []
+        for ax in (0, 1):
+            dy, dx = (1, 0) if ax == 0 else (0, 1)
+            a = (slice(None, -1), slice(None)) if ax == 0 else (slice(None), slice(None, -1))
+            b = (slice(1, None), slice(None)) if ax == 0 else (slice(None), slice(1, None))
+            seam = (qy[n][b] - qy[n][a] != dy) | (qx[n][b] - qx[n][a] != dx)
+            jumps.append(np.sqrt(((B[b] - B[a]) ** 2).sum(-1))[seam])
+        j = np.concatenate(jumps)
+        out[n] = j.mean() if j.size else 0.0
+    return out
