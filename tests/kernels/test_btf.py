@@ -1,0 +1,244 @@
+"""kernels/btf against slow, obvious references: eq. 3 (single and pair form), the
+sequential confidence-weighted synthesis, the alignment measure and rectification."""
+import math
+
+import numba
+import numpy as np
+import pytest
+
+from proxyshade.kernels import btf as K
+from proxyshade.kernels.random import rand
+
+
+@pytest.fixture
+def rng():
+    return np.random.default_rng(7)
+
+
+def _img(rng, h, w):
+    return rng.random((h, w, 3)).astype(np.float32)
+
+
+def naive_disk(r):
+    return {(dy, dx) for dy in range(-r, r + 1) for dx in range(-r, r + 1) if 0 < dy * dy + dx * dx <= r * r}
+
+
+def naive_distance(out, k, T, inp, p, c, r, s, pair=None, cw=0.0):
+    """Σ over the disk of w‖out − in‖² (+ cw (1 − w)‖A′ − A‖² with ``pair`` = (A′, A));
+    input neighbours outside the input cost 1 per channel, output ones outside are skipped."""
+    total = 0.0
+    for dy, dx in sorted(naive_disk(r)):
+        qy, qx = p[0] + dy * s, p[1] + dx * s
+        iy, ix = c[0] + dy * s, c[1] + dx * s
+        if not (0 <= qy < out.shape[0] and 0 <= qx < out.shape[1]):
+            continue
+        w = k[qy, qx] / T
+        inside = 0 <= iy < inp.shape[0] and 0 <= ix < inp.shape[1]
+        db = sum((float(out[qy, qx, ch]) - float(inp[iy, ix, ch])) ** 2 for ch in range(3)) if inside else 3.0
+        total += w * db
+        if pair is not None:
+            Ao, Ai = pair
+            da = sum((float(Ao[qy, qx, ch]) - float(Ai[iy, ix, ch])) ** 2 for ch in range(3)) if inside else 3.0
+            total += cw * (1 - w) * da
+    return total
+
+
+@pytest.mark.parametrize("r", [1, 2, 3, 4])
+def test_disk_offsets_are_the_disk(r):
+    offs = K.disk_offsets(r)
+    assert {tuple(o) for o in offs} == naive_disk(r) and len(offs) == len(naive_disk(r))
+
+
+@pytest.mark.parametrize("s", [1, 2])
+def test_disk_distance_matches_eq3(rng, s):
+    out, inp = _img(rng, 9, 11), _img(rng, 7, 8)
+    k = rng.integers(0, 5, (9, 11)).astype(np.int64)
+    for _ in range(60):
+        p = (int(rng.integers(0, 9)), int(rng.integers(0, 11)))
+        c = (int(rng.integers(0, 7)), int(rng.integers(0, 8)))
+        for r in (2, 3):
+            want = naive_distance(out, k, 4, inp, p, c, r, s)
+            got = K.disk_distance(out, k, 4, inp, p[0], p[1], c[0], c[1], K.disk_offsets(r), s, np.inf)
+            assert got == pytest.approx(want, rel=1e-12, abs=1e-12)
+            # a bound below the distance stops early but still says "worse than the bound"
+            if want > 0:
+                assert K.disk_distance(out, k, 4, inp, p[0], p[1], c[0], c[1], K.disk_offsets(r), s,
+                                       want * 0.5) > want * 0.5
+
+
+def test_pair_distance_matches_the_other_view_form(rng):
+    ob, ib, oa, ia = _img(rng, 8, 8), _img(rng, 6, 7), _img(rng, 8, 8), _img(rng, 6, 7)
+    k = rng.integers(0, 5, (8, 8)).astype(np.int64)
+    for _ in range(60):
+        p = (int(rng.integers(0, 8)), int(rng.integers(0, 8)))
+        c = (int(rng.integers(0, 6)), int(rng.integers(0, 7)))
+        want = naive_distance(ob, k, 4, ib, p, c, 2, 1, pair=(oa, ia), cw=0.25)
+        got = K.pair_distance(ob, k, 4, ib, oa, ia, 0.25, p[0], p[1], c[0], c[1], K.disk_offsets(2), 1, np.inf)
+        assert got == pytest.approx(want, rel=1e-12, abs=1e-12)
+
+
+def naive_level(inp, qy, qx, k, T, r, s, seed, level, pair=None, cw=0.0):
+    """The sequential loop written plainly: draw a pixel with probability ∝ T − k by walking
+    the pixels in order, try the current source, every neighbour's shifted source (and the
+    support's, in the pair form), keep the first strictly better one, raise k."""
+    qy, qx, k = qy.copy(), qx.copy(), k.copy()
+    H, W = qy.shape
+    out = inp[qy, qx].copy()
+    visits = np.zeros((H, W), np.int64)
+    offs = sorted(naive_disk(r))
+    step = 0
+    while (T - k).sum() > 0:
+        total = int((T - k).sum())
+        x = int(rand(seed, step, level, 0)) % total
+        step += 1
+        for p in range(H * W):
+            wgt = T - k[p // W, p % W]
+            if x < wgt:
+                break
+            x -= wgt
+        py, px = divmod(p, W)
+        args = dict(pair=None if pair is None else (pair[0], pair[1]), cw=cw)
+        best_c = (qy[py, px], qx[py, px])
+        best = naive_distance(out, k, T, inp, (py, px), best_c, r, s, **args)
+        cands = []
+        for dy, dx in offs:
+            ny, nx = py + dy * s, px + dx * s
+            if 0 <= ny < H and 0 <= nx < W:
+                cands.append((qy[ny, nx] - dy * s, qx[ny, nx] - dx * s))
+        if pair is not None:
+            qay, qax = pair[2], pair[3]
+            for dy, dx in offs:
+                ny, nx = py + dy * s, px + dx * s
+                if 0 <= ny < H and 0 <= nx < W:
+                    cands.append((qay[ny, nx] - dy * s, qax[ny, nx] - dx * s))
+            cands.append((qay[py, px], qax[py, px]))
+        cur = best_c
+        for c in cands:
+            if not (0 <= c[0] < inp.shape[0] and 0 <= c[1] < inp.shape[1]) or c == cur:
+                continue
+            d = naive_distance(out, k, T, inp, (py, px), c, r, s, **args)
+            if d < best:
+                best, best_c = d, c
+        qy[py, px], qx[py, px] = best_c
+        out[py, px] = inp[best_c]
+        k[py, px] += 1
+        visits[py, px] += 1
+    return qy, qx, visits
+
+
+def _level(inp, qy, qx, k, T, r, s, seed, level, pair=None, cw=0.0):
+    qy, qx, k = qy.copy(), qx.copy(), k.copy()
+    vis = np.zeros(qy.shape, np.int64)
+    out = K.gather(inp, qy, qx)
+    dimg, dq = np.zeros((1, 1, 3), np.float32), np.zeros((1, 1), np.int64)
+    oa, ia, qay, qax = pair if pair is not None else (dimg, dimg, dq, dq)
+    K.synth_level(inp, out, qy, qx, k, T, K.disk_offsets(r), s, seed, level, pair is not None, oa, ia, qay, qax,
+                  cw, vis)
+    assert np.array_equal(out, inp[qy, qx])  # the output is always the input at the sources
+    return qy, qx, vis
+
+
+@pytest.mark.parametrize("r,s,k0", [(1, 1, 0), (2, 1, 0), (1, 2, 2)])
+def test_sequential_level_matches_the_plain_loop(rng, r, s, k0):
+    inp = _img(rng, 6, 7)
+    inp[..., 1] = inp[..., 0]  # some structure: equal channels make ties likelier
+    qy = rng.integers(0, 6, (8, 9)).astype(np.int64)
+    qx = rng.integers(0, 7, (8, 9)).astype(np.int64)
+    k = np.full((8, 9), k0, np.int64)
+    got = _level(inp, qy, qx, k, 4, r, s, 11, 1)
+    want = naive_level(inp, qy, qx, k, 4, r, s, 11, 1)
+    for a, b in zip(got, want):
+        assert np.array_equal(a, b)
+    assert (got[2] == 4 - k0).all()  # every pixel visited exactly T times from w = 0, T − k0 from k0
+    assert not np.array_equal(got[0], qy) or not np.array_equal(got[1], qx)  # it did change something
+
+
+def test_other_view_level_matches_the_plain_loop(rng):
+    ia, ib = _img(rng, 6, 7), _img(rng, 6, 7)
+    qay = rng.integers(0, 6, (8, 8)).astype(np.int64)
+    qax = rng.integers(0, 7, (8, 8)).astype(np.int64)
+    oa = K.gather(ia, qay, qax)
+    k = np.full((8, 8), 2, np.int64)
+    got = _level(ib, qay, qax, k, 4, 2, 1, 5, 0, pair=(oa, ia, qay, qax), cw=0.25)
+    want = naive_level(ib, qay, qax, k, 4, 2, 1, 5, 0, pair=(oa, ia, qay, qax), cw=0.25)
+    for a, b in zip(got, want):
+        assert np.array_equal(a, b)
+    assert (got[2] == 2).all()
+
+
+def test_other_views_in_parallel_equal_each_view_alone_with_one_or_two_threads(rng):
+    ia = _img(rng, 10, 10)
+    views = np.stack([_img(rng, 10, 10) for _ in range(3)])
+    qay = rng.integers(0, 10, (12, 12)).astype(np.int64)
+    qax = rng.integers(0, 10, (12, 12)).astype(np.int64)
+    oa = K.gather(ia, qay, qax)
+    seeds = np.array([3, 9, 27], np.int64)
+    res = []
+    for threads in (1, 2):
+        numba.set_num_threads(threads)
+        qy, qx, vis = (np.zeros((3, 12, 12), np.int64) for _ in range(3))
+        K.synth_others(views, ia, oa, qay, qax, 4, 2, K.disk_offsets(2), seeds, 0.25, qy, qx, vis)
+        res.append((qy, qx, vis))
+    for a, b in zip(*res):
+        assert np.array_equal(a, b)
+    for v in range(3):
+        alone = _level(views[v], qay, qax, np.full((12, 12), 2, np.int64), 4, 2, 1, seeds[v], 0,
+                       pair=(oa, ia, qay, qax), cw=0.25)
+        assert np.array_equal(res[0][0][v], alone[0]) and np.array_equal(res[0][1][v], alone[1])
+    assert (res[0][2] == 2).all()
+
+
+def test_edge_distance_is_the_mean_euclidean_distance(rng):
+    stack = rng.random((4, 9, 10, 3)).astype(np.float32)
+    edges = np.array([[0, 1], [1, 2], [3, 0]], np.int64)
+    got = K.edge_distance(stack, edges, 2, 7, 1, 8)
+    s = stack.astype(np.float64)[:, 2:7, 1:8]
+    want = [np.sqrt(((s[a] - s[b]) ** 2).sum(-1)).mean() for a, b in edges]
+    np.testing.assert_allclose(got, want, rtol=1e-12)
+
+
+def _ray_to_plane(slant, tilt, h_from, h_to, x, z):
+    """Follow the view ray through (x, h_from, z) to the plane y = h_to (plain vectors)."""
+    s, t = math.radians(slant), math.radians(tilt)
+    omega = np.array([math.sin(s) * math.cos(t), math.cos(s), math.sin(s) * math.sin(t)])  # toward the camera
+    p = np.array([x, h_from, z])
+    lam = (h_to - h_from) / omega[1]
+    q = p + lam * omega
+    assert abs(q[1] - h_to) < 1e-12
+    return q[0], q[2]
+
+
+@pytest.mark.parametrize("slant,tilt,dh", [(0, 0, 0.3), (25, 0, 0.1), (40, 30, -0.2), (70, 90, 0.05), (55, 75, 0.4)])
+def test_plane_shift_follows_the_view_ray(slant, tilt, dh):
+    pixel = 0.02
+    # a view rectified to plane 0 shows at plane point q what the ray through q meets; to show the
+    # plane dh instead, pixel (x, z) must read where the ray through (x, dh, z) crosses plane 0
+    x, z = 0.37, -0.21
+    qx, qz = _ray_to_plane(slant, tilt, dh, 0.0, x, z)
+    dx, dy = K.plane_shift(slant, tilt, dh, pixel)
+    assert dx == pytest.approx((qx - x) / pixel, abs=1e-9)
+    assert dy == pytest.approx((qz - z) / pixel, abs=1e-9)
+
+
+@pytest.mark.parametrize("slant,tilt", [(30, 0), (50, 45), (65, 90)])
+def test_rectification_is_exact_on_a_plane(slant, tilt):
+    """A textured plane at height h photographed rectified to plane 0, then rectified to
+    plane h, is the frontal texture: exact for a texture bilinear interpolation reproduces."""
+    from proxyshade.synthesis.btf import rectify
+
+    H = W = 40
+    pixel, h = 0.01, 0.06
+    rows, cols = np.mgrid[0:H, 0:W].astype(np.float64)
+    tex = lambda x, z: np.stack([0.2 + 0.5 * x + 0.1 * z, 0.3 + 0.2 * z, 0.1 + 0.3 * x - 0.2 * z], -1)  # noqa: E731
+    # the view: plane point (col, row) sees the texture where the ray crosses the plane y = h
+    t = math.tan(math.radians(slant)) * h
+    xs = cols * pixel + t * math.cos(math.radians(tilt))
+    zs = rows * pixel + t * math.sin(math.radians(tilt))
+    view = tex(xs, zs).astype(np.float32)
+    frontal = tex(cols * pixel, rows * pixel)
+    out = rectify(view[None], [{"slant": slant, "tilt": tilt}], h, pixel, filter="bilinear")[0]
+    m = int(math.ceil(t / pixel)) + 1
+    np.testing.assert_allclose(out[m:-m, m:-m], frontal[m:-m, m:-m], atol=2e-6)
+    # and at the wrong plane it is not
+    wrong = rectify(view[None], [{"slant": slant, "tilt": tilt}], 0.0, pixel, filter="bilinear")[0]
+    assert np.abs(wrong[m:-m, m:-m] - frontal[m:-m, m:-m]).max() > 1e-3
