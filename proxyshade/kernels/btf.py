@@ -45,24 +45,23 @@ def disk_offsets(r: int) -> np.ndarray:
 
 
 @njit(**JIT)
-def disk_distance(out, k, T, inp, py, px, cy, cx, offs, s, bound):
+def disk_distance(out, k, T, inp, py, px, cy, cx, offs, so, si, bound):
     """eq. 3 at output pixel (py, px) against input pixel (cy, cx): Σ w‖out − in‖² over the
-    disk ``offs`` scaled by ``s``, w = k / T; stops once the sum exceeds ``bound``."""
+    disk ``offs``, stepped by ``so`` in the output and ``si`` in the input (a level's
+    scale), w = k / T; stops once the sum exceeds ``bound``."""
     H, W = out.shape[0], out.shape[1]
     h, w = inp.shape[0], inp.shape[1]
     acc = 0.0
     for o in range(offs.shape[0]):
-        dy = offs[o, 0] * s
-        dx = offs[o, 1] * s
-        qy = py + dy
-        qx = px + dx
+        qy = py + offs[o, 0] * so
+        qx = px + offs[o, 1] * so
         if qy < 0 or qy >= H or qx < 0 or qx >= W:
             continue
         wt = k[qy, qx] / T
         if wt == 0.0:
             continue
-        iy = cy + dy
-        ix = cx + dx
+        iy = cy + offs[o, 0] * si
+        ix = cx + offs[o, 1] * si
         if iy < 0 or iy >= h or ix < 0 or ix >= w:
             acc += wt * 3.0 * MAXV * MAXV
         else:
@@ -77,22 +76,20 @@ def disk_distance(out, k, T, inp, py, px, cy, cx, offs, s, bound):
 
 
 @njit(**JIT)
-def pair_distance(out_b, k, T, inp_b, out_a, inp_a, cw, py, px, cy, cx, offs, s, bound):
+def pair_distance(out_b, k, T, inp_b, out_a, inp_a, cw, py, px, cy, cx, offs, so, si, bound):
     """Other-view distance at (py, px) against input (cy, cx): Σ w‖B′ − B‖² +
-    cw (1 − w)‖A′ − A‖² over the scaled disk (A the support view, B this view)."""
+    cw (1 − w)‖A′ − A‖² over the stepped disk (A the support view, B this view)."""
     H, W = out_b.shape[0], out_b.shape[1]
     h, w = inp_b.shape[0], inp_b.shape[1]
     acc = 0.0
     for o in range(offs.shape[0]):
-        dy = offs[o, 0] * s
-        dx = offs[o, 1] * s
-        qy = py + dy
-        qx = px + dx
+        qy = py + offs[o, 0] * so
+        qx = px + offs[o, 1] * so
         if qy < 0 or qy >= H or qx < 0 or qx >= W:
             continue
         wt = k[qy, qx] / T
-        iy = cy + dy
-        ix = cx + dx
+        iy = cy + offs[o, 0] * si
+        ix = cx + offs[o, 1] * si
         if iy < 0 or iy >= h or ix < 0 or ix >= w:
             acc += (wt + cw * (1.0 - wt)) * 3.0 * MAXV * MAXV
         else:
@@ -136,16 +133,18 @@ def _fenwick_find(tree, r):
 
 
 @njit(**JIT)
-def _dist(pair, out, k, T, inp, out_a, inp_a, cw, py, px, cy, cx, offs, s, bound):
+def _dist(pair, out, k, T, inp, out_a, inp_a, cw, py, px, cy, cx, offs, so, si, bound):
     if pair:
-        return pair_distance(out, k, T, inp, out_a, inp_a, cw, py, px, cy, cx, offs, s, bound)
-    return disk_distance(out, k, T, inp, py, px, cy, cx, offs, s, bound)
+        return pair_distance(out, k, T, inp, out_a, inp_a, cw, py, px, cy, cx, offs, so, si, bound)
+    return disk_distance(out, k, T, inp, py, px, cy, cx, offs, so, si, bound)
 
 
 @njit(**JIT)
-def synth_level(inp, out, qy, qx, k, T, offs, s, seed, level, pair, out_a, inp_a, qay, qax, cw, visits):
+def synth_level(inp, out, qy, qx, k, T, offs, so, si, seed, level, pair, out_a, inp_a, qay, qax, cw, visits):
     """One level of sequential synthesis, in place: ``out`` (H, W, 3) = ``inp`` at the
-    sources (``qy``, ``qx``), confidences ``k`` (visits, w = k / T) raised to T.
+    sources (``qy``, ``qx``), confidences ``k`` (visits, w = k / T) raised to T; the disk
+    steps ``so`` output pixels and ``si`` input pixels (the neighbour n = p + o·so
+    proposes q(n) − o·si).
     With ``pair``, the other-view distance against the support (``out_a`` = A′, ``inp_a``
     = A, its sources ``qay``/``qax`` as extra candidates). ``visits`` counts the visits.
     Returns the number of updates."""
@@ -170,24 +169,24 @@ def synth_level(inp, out, qy, qx, k, T, offs, s, seed, level, pair, out_a, inp_a
         px = p % W
         by = qy[py, px]
         bx = qx[py, px]
-        best = _dist(pair, out, k, T, inp, out_a, inp_a, cw, py, px, by, bx, offs, s, np.inf)
+        best = _dist(pair, out, k, T, inp, out_a, inp_a, cw, py, px, by, bx, offs, so, si, np.inf)
         ncand = 2 * nc + 1 if pair else nc
         for m in range(ncand):
             if m < nc:
-                ny = py + offs[m, 0] * s
-                nx = px + offs[m, 1] * s
+                ny = py + offs[m, 0] * so
+                nx = px + offs[m, 1] * so
                 if ny < 0 or ny >= H or nx < 0 or nx >= W:
                     continue
-                cy = qy[ny, nx] - offs[m, 0] * s
-                cx = qx[ny, nx] - offs[m, 1] * s
+                cy = qy[ny, nx] - offs[m, 0] * si
+                cx = qx[ny, nx] - offs[m, 1] * si
             elif m < 2 * nc:
                 mm = m - nc
-                ny = py + offs[mm, 0] * s
-                nx = px + offs[mm, 1] * s
+                ny = py + offs[mm, 0] * so
+                nx = px + offs[mm, 1] * so
                 if ny < 0 or ny >= H or nx < 0 or nx >= W:
                     continue
-                cy = qay[ny, nx] - offs[mm, 0] * s
-                cx = qax[ny, nx] - offs[mm, 1] * s
+                cy = qay[ny, nx] - offs[mm, 0] * si
+                cx = qax[ny, nx] - offs[mm, 1] * si
             else:
                 cy = qay[py, px]
                 cx = qax[py, px]
@@ -195,7 +194,7 @@ def synth_level(inp, out, qy, qx, k, T, offs, s, seed, level, pair, out_a, inp_a
                 continue
             if cy == by and cx == bx:
                 continue
-            d = _dist(pair, out, k, T, inp, out_a, inp_a, cw, py, px, cy, cx, offs, s, best)
+            d = _dist(pair, out, k, T, inp, out_a, inp_a, cw, py, px, cy, cx, offs, so, si, best)
             if d < best:
                 best = d
                 by = cy
@@ -240,7 +239,7 @@ def synth_others(inp_b, inp_a, out_a, qay, qax, T, k0, offs, seeds, cw, qy, qx, 
                 qx[v, i, j] = qax[i, j]
         k = np.full((H, W), k0, np.int64)
         out = gather(inp_b[v], qy[v], qx[v])
-        changed[v] = synth_level(inp_b[v], out, qy[v], qx[v], k, T, offs, 1, seeds[v], 0, True, out_a, inp_a,
+        changed[v] = synth_level(inp_b[v], out, qy[v], qx[v], k, T, offs, 1, 1, seeds[v], 0, True, out_a, inp_a,
                                  qay, qax, cw, visits[v])
     return changed
 

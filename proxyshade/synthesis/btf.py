@@ -251,9 +251,14 @@ def check_synthesis_size(shape, radius: int, levels: int, field: str = "stack") 
 
 def synthesize_view(image: np.ndarray, size, *, radius: int, T: int, levels: int, seed: int):
     """One view on its own, coarse to fine: (qy, qx) int64 sources (H, W) and the visit
-    counts per level (list of (H, W)). The coarsest level starts from a random
-    permutation of the input's pixels (so the output's histogram is the input's when the
-    sizes divide) at w = 0; each finer level starts from the last one's sources at w = ½."""
+    counts per level (list, coarsest first).
+
+    Level l synthesizes every 2^l-th output pixel with the disk scaled up by 2^l in the
+    input (its neighbours are the level's own pixels; a neighbour at offset o proposes
+    its source − o·2^l). The coarsest level starts from a random permutation of the
+    input's pixels (the output's histogram is the input's when the sizes divide) at
+    w = 0; each finer level inherits the sources of the coarser one (pixel p from
+    p // 2, shifted by the remainder) at w = ½."""
     from proxyshade.kernels.btf import disk_offsets, gather, synth_level
     from proxyshade.kernels.random import mix_seed, permutation
 
@@ -261,20 +266,29 @@ def synthesize_view(image: np.ndarray, size, *, radius: int, T: int, levels: int
     h, w = image.shape[:2]
     check_synthesis_size((h, w), radius, levels)
     image = np.ascontiguousarray(image, np.float32)
-    perm = permutation(mix_seed(seed, 1), h * w)
-    src = perm[np.arange(H * W) % (h * w)]
-    qy = np.ascontiguousarray((src // w).reshape(H, W), np.int64)
-    qx = np.ascontiguousarray((src % w).reshape(H, W), np.int64)
     offs = disk_offsets(radius)
     dummy_img = np.zeros((1, 1, 3), np.float32)
     dummy_q = np.zeros((1, 1), np.int64)
     visits = []
+    qy = qx = None
     for lv in range(levels - 1, -1, -1):
-        k = np.full((H, W), 0 if lv == levels - 1 else T // 2, np.int64)
-        out = gather(image, qy, qx)
-        vis = np.zeros((H, W), np.int64)
-        synth_level(image, out, qy, qx, k, int(T), offs, 2 ** lv, mix_seed(seed, 2), lv, False, dummy_img,
-                    dummy_img, dummy_q, dummy_q, 0.0, vis)
+        s = 2 ** lv
+        Hl, Wl = -(-H // s), -(-W // s)
+        if qy is None:
+            perm = permutation(mix_seed(seed, 1), h * w)
+            src = perm[np.arange(Hl * Wl) % (h * w)]
+            qy, qx = (src // w).reshape(Hl, Wl), (src % w).reshape(Hl, Wl)
+            k0 = 0
+        else:
+            rows, cols = np.mgrid[0:Hl, 0:Wl]
+            qy = np.clip(qy[rows // 2, cols // 2] + (rows % 2) * s, 0, h - 1)
+            qx = np.clip(qx[rows // 2, cols // 2] + (cols % 2) * s, 0, w - 1)
+            k0 = T // 2
+        qy, qx = np.ascontiguousarray(qy, np.int64), np.ascontiguousarray(qx, np.int64)
+        k = np.full((Hl, Wl), k0, np.int64)
+        vis = np.zeros((Hl, Wl), np.int64)
+        synth_level(image, gather(image, qy, qx), qy, qx, k, int(T), offs, 1, s, mix_seed(seed, 2), lv, False,
+                    dummy_img, dummy_img, dummy_q, dummy_q, 0.0, vis)
         visits.append(vis)
     return qy, qx, visits
 

@@ -23,13 +23,14 @@ def naive_disk(r):
     return {(dy, dx) for dy in range(-r, r + 1) for dx in range(-r, r + 1) if 0 < dy * dy + dx * dx <= r * r}
 
 
-def naive_distance(out, k, T, inp, p, c, r, s, pair=None, cw=0.0):
+def naive_distance(out, k, T, inp, p, c, r, so, si=None, pair=None, cw=0.0):
     """Σ over the disk of w‖out − in‖² (+ cw (1 − w)‖A′ − A‖² with ``pair`` = (A′, A));
     input neighbours outside the input cost 1 per channel, output ones outside are skipped."""
+    si = so if si is None else si
     total = 0.0
     for dy, dx in sorted(naive_disk(r)):
-        qy, qx = p[0] + dy * s, p[1] + dx * s
-        iy, ix = c[0] + dy * s, c[1] + dx * s
+        qy, qx = p[0] + dy * so, p[1] + dx * so
+        iy, ix = c[0] + dy * si, c[1] + dx * si
         if not (0 <= qy < out.shape[0] and 0 <= qx < out.shape[1]):
             continue
         w = k[qy, qx] / T
@@ -49,20 +50,20 @@ def test_disk_offsets_are_the_disk(r):
     assert {tuple(o) for o in offs} == naive_disk(r) and len(offs) == len(naive_disk(r))
 
 
-@pytest.mark.parametrize("s", [1, 2])
-def test_disk_distance_matches_eq3(rng, s):
+@pytest.mark.parametrize("so,si", [(1, 1), (2, 2), (1, 2)])
+def test_disk_distance_matches_eq3(rng, so, si):
     out, inp = _img(rng, 9, 11), _img(rng, 7, 8)
     k = rng.integers(0, 5, (9, 11)).astype(np.int64)
     for _ in range(60):
         p = (int(rng.integers(0, 9)), int(rng.integers(0, 11)))
         c = (int(rng.integers(0, 7)), int(rng.integers(0, 8)))
         for r in (2, 3):
-            want = naive_distance(out, k, 4, inp, p, c, r, s)
-            got = K.disk_distance(out, k, 4, inp, p[0], p[1], c[0], c[1], K.disk_offsets(r), s, np.inf)
+            want = naive_distance(out, k, 4, inp, p, c, r, so, si)
+            got = K.disk_distance(out, k, 4, inp, p[0], p[1], c[0], c[1], K.disk_offsets(r), so, si, np.inf)
             assert got == pytest.approx(want, rel=1e-12, abs=1e-12)
             # a bound below the distance stops early but still says "worse than the bound"
             if want > 0:
-                assert K.disk_distance(out, k, 4, inp, p[0], p[1], c[0], c[1], K.disk_offsets(r), s,
+                assert K.disk_distance(out, k, 4, inp, p[0], p[1], c[0], c[1], K.disk_offsets(r), so, si,
                                        want * 0.5) > want * 0.5
 
 
@@ -73,11 +74,11 @@ def test_pair_distance_matches_the_other_view_form(rng):
         p = (int(rng.integers(0, 8)), int(rng.integers(0, 8)))
         c = (int(rng.integers(0, 6)), int(rng.integers(0, 7)))
         want = naive_distance(ob, k, 4, ib, p, c, 2, 1, pair=(oa, ia), cw=0.25)
-        got = K.pair_distance(ob, k, 4, ib, oa, ia, 0.25, p[0], p[1], c[0], c[1], K.disk_offsets(2), 1, np.inf)
+        got = K.pair_distance(ob, k, 4, ib, oa, ia, 0.25, p[0], p[1], c[0], c[1], K.disk_offsets(2), 1, 1, np.inf)
         assert got == pytest.approx(want, rel=1e-12, abs=1e-12)
 
 
-def naive_level(inp, qy, qx, k, T, r, s, seed, level, pair=None, cw=0.0):
+def naive_level(inp, qy, qx, k, T, r, si, seed, level, pair=None, cw=0.0):
     """The sequential loop written plainly: draw a pixel with probability ∝ T − k by walking
     the pixels in order, try the current source, every neighbour's shifted source (and the
     support's, in the pair form), keep the first strictly better one, raise k."""
@@ -99,24 +100,24 @@ def naive_level(inp, qy, qx, k, T, r, s, seed, level, pair=None, cw=0.0):
         py, px = divmod(p, W)
         args = dict(pair=None if pair is None else (pair[0], pair[1]), cw=cw)
         best_c = (qy[py, px], qx[py, px])
-        best = naive_distance(out, k, T, inp, (py, px), best_c, r, s, **args)
+        best = naive_distance(out, k, T, inp, (py, px), best_c, r, 1, si, **args)
         cands = []
         for dy, dx in offs:
-            ny, nx = py + dy * s, px + dx * s
+            ny, nx = py + dy, px + dx
             if 0 <= ny < H and 0 <= nx < W:
-                cands.append((qy[ny, nx] - dy * s, qx[ny, nx] - dx * s))
+                cands.append((qy[ny, nx] - dy * si, qx[ny, nx] - dx * si))
         if pair is not None:
             qay, qax = pair[2], pair[3]
             for dy, dx in offs:
-                ny, nx = py + dy * s, px + dx * s
+                ny, nx = py + dy, px + dx
                 if 0 <= ny < H and 0 <= nx < W:
-                    cands.append((qay[ny, nx] - dy * s, qax[ny, nx] - dx * s))
+                    cands.append((qay[ny, nx] - dy * si, qax[ny, nx] - dx * si))
             cands.append((qay[py, px], qax[py, px]))
         cur = best_c
         for c in cands:
             if not (0 <= c[0] < inp.shape[0] and 0 <= c[1] < inp.shape[1]) or c == cur:
                 continue
-            d = naive_distance(out, k, T, inp, (py, px), c, r, s, **args)
+            d = naive_distance(out, k, T, inp, (py, px), c, r, 1, si, **args)
             if d < best:
                 best, best_c = d, c
         qy[py, px], qx[py, px] = best_c
@@ -126,27 +127,27 @@ def naive_level(inp, qy, qx, k, T, r, s, seed, level, pair=None, cw=0.0):
     return qy, qx, visits
 
 
-def _level(inp, qy, qx, k, T, r, s, seed, level, pair=None, cw=0.0):
+def _level(inp, qy, qx, k, T, r, si, seed, level, pair=None, cw=0.0):
     qy, qx, k = qy.copy(), qx.copy(), k.copy()
     vis = np.zeros(qy.shape, np.int64)
     out = K.gather(inp, qy, qx)
     dimg, dq = np.zeros((1, 1, 3), np.float32), np.zeros((1, 1), np.int64)
     oa, ia, qay, qax = pair if pair is not None else (dimg, dimg, dq, dq)
-    K.synth_level(inp, out, qy, qx, k, T, K.disk_offsets(r), s, seed, level, pair is not None, oa, ia, qay, qax,
+    K.synth_level(inp, out, qy, qx, k, T, K.disk_offsets(r), 1, si, seed, level, pair is not None, oa, ia, qay, qax,
                   cw, vis)
     assert np.array_equal(out, inp[qy, qx])  # the output is always the input at the sources
     return qy, qx, vis
 
 
-@pytest.mark.parametrize("r,s,k0", [(1, 1, 0), (2, 1, 0), (1, 2, 2)])
-def test_sequential_level_matches_the_plain_loop(rng, r, s, k0):
+@pytest.mark.parametrize("r,si,k0", [(1, 1, 0), (2, 1, 0), (1, 2, 2)])
+def test_sequential_level_matches_the_plain_loop(rng, r, si, k0):
     inp = _img(rng, 6, 7)
     inp[..., 1] = inp[..., 0]  # some structure: equal channels make ties likelier
     qy = rng.integers(0, 6, (8, 9)).astype(np.int64)
     qx = rng.integers(0, 7, (8, 9)).astype(np.int64)
     k = np.full((8, 9), k0, np.int64)
-    got = _level(inp, qy, qx, k, 4, r, s, 11, 1)
-    want = naive_level(inp, qy, qx, k, 4, r, s, 11, 1)
+    got = _level(inp, qy, qx, k, 4, r, si, 11, 1)
+    want = naive_level(inp, qy, qx, k, 4, r, si, 11, 1)
     for a, b in zip(got, want):
         assert np.array_equal(a, b)
     assert (got[2] == 4 - k0).all()  # every pixel visited exactly T times from w = 0, T − k0 from k0
@@ -242,3 +243,18 @@ def test_rectification_is_exact_on_a_plane(slant, tilt):
     # and at the wrong plane it is not
     wrong = rectify(view[None], [{"slant": slant, "tilt": tilt}], 0.0, pixel, filter="bilinear")[0]
     assert np.abs(wrong[m:-m, m:-m] - frontal[m:-m, m:-m]).max() > 1e-3
+
+
+def test_multigrid_visits_each_pixel_T_times_then_twice_per_finer_level(rng):
+    from proxyshade.synthesis.btf import synthesize_view
+
+    img = _img(rng, 20, 20)
+    qy, qx, visits = synthesize_view(img, (24, 24), radius=2, T=4, levels=3, seed=3)
+    assert [v.shape for v in visits] == [(6, 6), (12, 12), (24, 24)]
+    assert (visits[0] == 4).all() and (visits[1] == 2).all() and (visits[2] == 2).all()
+    assert qy.shape == (24, 24) and qy.min() >= 0 and qy.max() < 20 and qx.min() >= 0 and qx.max() < 20
+    # the same seed gives the same map, another seed another one
+    again = synthesize_view(img, (24, 24), radius=2, T=4, levels=3, seed=3)
+    other = synthesize_view(img, (24, 24), radius=2, T=4, levels=3, seed=4)
+    assert np.array_equal(again[0], qy) and np.array_equal(again[1], qx)
+    assert not np.array_equal(other[0], qy)
