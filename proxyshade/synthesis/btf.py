@@ -384,3 +384,17 @@ def seam_error(images: np.ndarray, qy: np.ndarray, qx: np.ndarray) -> np.ndarray
         j = np.concatenate(jumps)
         out[n] = j.mean() if j.size else 0.0
     return out
+
+
+def contact_sheet(images: np.ndarray, views: list[dict], *, gap: int = 2) -> np.ndarray:
+    """(rows, cols, 3) float32 picture of a stack: a row per slant, a column per tilt (the
+    frontal view alone in the first row), ``gap`` black pixels between cells."""
+    g = check_views(views)
+    V, H, W = images.shape[:3]
+    ncol = max(len(g["tilts"]), 1)
+    nrow = len(g["slants"])
+    out = np.zeros((nrow * H + (nrow - 1) * gap, ncol * W + (ncol - 1) * gap, 3), np.float32)
+    for (k, t), n in g["index"].items():
+        c = 0 if k == 0 else g["tilts"].index(t)
+        out[k * (H + gap):k * (H + gap) + H, c * (W + gap):c * (W + gap) + W] = images[n]
+    return out
