@@ -45,7 +45,7 @@ def check_views(views: list[dict], field: str = "views") -> dict:
         if not all(isinstance(x, (int, float)) and math.isfinite(x) for x in (s, t)):
             raise NodeInputError(f"{field}[{n}]: slant and tilt must be numbers (degrees), got {s!r}, {t!r}")
         if not 0.0 <= s < 90.0:
-            raise NodeInputError(f"{field}[{n}]: slant {s}° is outside [0°, 90°); a view at 90° or more sees "
+            raise NodeInputError(f"{field}[{n}]: slant {s:g}° is outside [0°, 90°); a view at 90° or more sees "
                                  "the sample edge-on or from below: drop it")
     frontal = [n for n, v in enumerate(views) if abs(v["slant"]) <= GRID_TOL]
     if len(frontal) != 1:
@@ -58,7 +58,8 @@ def check_views(views: list[dict], field: str = "views") -> dict:
     step = slants[0]
     for k, s in enumerate(slants, 1):
         if abs(s - k * step) > 1e-4:
-            raise NodeInputError(f"{field}: slants {slants} are off a regular grid ({s}° is not {k} × {step}°); "
+            raise NodeInputError(f"{field}: slants {', '.join(f'{x:g}' for x in slants)} are off a regular grid "
+                                 f"({s:g}° is not {k} × {step:g}°); "
                                  "give slants 0, Δ, 2Δ, ... with no gaps")
     tilts = sorted({round(v["tilt"], 6) for v in views if v["slant"] > GRID_TOL})
     for n, v in enumerate(views):
@@ -72,7 +73,7 @@ def check_views(views: list[dict], field: str = "views") -> dict:
         missing = [t for t in tilts if (k, t) not in index]
         if missing:
             raise NodeInputError(f"{field}: views are off a regular grid: slant {k * step:g}° has no view at tilt "
-                                 f"{missing[0]:g}° (the tilts are {tilts}); add it or drop that tilt everywhere")
+                                 f"{missing[0]:g}° (the tilts are {', '.join(f'{x:g}' for x in tilts)}); add it or drop that tilt everywhere")
     return {"step": step, "slants": [0.0] + slants, "tilts": tilts, "index": index}
 
 
