@@ -1,0 +1,111 @@
+"""BtfSynth: sources and colours agree, the support comes first and the others follow it,
+the three modes differ as the method says, bad inputs, and 1 vs 2 threads (CLI, EXR)."""
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from proxyshade.errors import UserError
+from proxyshade.graph.plate import Plate
+from proxyshade.graph.testing import run_node
+from proxyshade.io.exr import read_plate
+from proxyshade.synthesis import btf
+
+ROOT = Path(__file__).resolve().parents[2]
+SCENE = str(ROOT / "samples/scenes/btf_bumps.usda")
+SMALL = {"size": [64, 64], "levels": 2, "seed": 5}
+
+
+@pytest.fixture(scope="module")
+def stack():
+    return run_node("BtfRender", {"scene": SCENE, "size": 48, "slant_step": 35, "slant_max": 70,
+                                  "tilts": [0, 90], "shadow_size": 256})
+
+
+@pytest.fixture(scope="module")
+def results(stack):
+    return {m: run_node("BtfSynth", dict(SMALL, mode=m), {"stack": stack}) for m in btf.MODES}
+
+
+def _maps(plate):
+    V = len(plate.meta["views"])
+    return (np.stack([plate[f"v{n}.sy"] for n in range(V)]).astype(np.int64),
+            np.stack([plate[f"v{n}.sx"] for n in range(V)]).astype(np.int64))
+
+
+def test_each_view_is_its_input_at_its_sources(stack, results):
+    views, imgs = btf.stack_arrays(stack)
+    for plate in results.values():
+        assert plate.shape == (64, 64) and plate.meta["views"] == views
+        qy, qx = _maps(plate)
+        for n in range(len(views)):
+            for c, ch in enumerate("RGB"):
+                assert np.array_equal(plate[f"v{n}.{ch}"], imgs[n, qy[n], qx[n], c])
+
+
+def test_modes_share_the_support_and_differ_as_the_method_says(stack, results):
+    views, imgs = btf.stack_arrays(stack)
+    maps = {m: _maps(p) for m, p in results.items()}
+    s = results["sequential"].meta["btf"]["support"]
+    assert views[s]["slant"] == 0  # the frontal view by default
+    for m in btf.MODES:  # the support is synthesized first, the same way in every mode
+        assert np.array_equal(maps[m][0][s], maps["sequential"][0][s])
+    cy, cx = maps["columns"]
+    assert all(np.array_equal(cy[n], cy[s]) and np.array_equal(cx[n], cx[s]) for n in range(len(views)))
+    others = [n for n in range(len(views)) if n != s]
+    ec = {m: btf.consistency_error(imgs, s, *maps[m])[others].mean() for m in btf.MODES}
+    es = {m: btf.seam_error(imgs, *maps[m])[others].mean() for m in btf.MODES}
+    assert ec["columns"] == 0.0
+    assert ec["sequential"] < 0.5 * ec["independent"], ec
+    assert es["sequential"] < es["columns"], es
+    # sequential views are their own: not the support's sources everywhere
+    qy, qx = maps["sequential"]
+    assert any((qy[n] != qy[s]).any() or (qx[n] != qx[s]).any() for n in others)
+
+
+def test_measures_on_hand_made_maps():
+    img = np.zeros((1, 4, 4, 3), np.float32)
+    img[0, :, 2:] = 1.0  # right half white
+    qy = np.zeros((1, 2, 2), np.int64)
+    qx = np.array([[[0, 1], [2, 2]]], np.int64)  # top row coherent, bottom row repeats a pixel
+    es = btf.seam_error(img, qy, qx)
+    # seams: both vertical edges (source rows differ by 0, not 1: black over white, a jump of √3 each)
+    # and the bottom horizontal edge (source columns differ by 0, not 1: white next to white)
+    assert es[0] == pytest.approx((np.sqrt(3) + np.sqrt(3) + 0) / 3)
+    assert btf.consistency_error(img, 0, qy, qx)[0] == 0.0
+
+
+def test_bad_inputs_are_one_line_errors(stack):
+    tiny = run_node("BtfRender", {"scene": SCENE, "size": 16, "slant_step": 35, "slant_max": 70, "tilts": [0],
+                                  "shadow_size": 64})
+    with pytest.raises(UserError, match=r"node: stack: the 16x16 views are smaller than the disk at the coarsest "
+                                        r"level \(25 pixels across.*use fewer levels"):
+        run_node("BtfSynth", {"levels": 3, "radius": 3}, {"stack": tiny})
+    bad = stack.with_channels({"v2.G": np.where(np.arange(48)[None] == 7, np.nan, stack["v2.G"]).astype(np.float32)})
+    with pytest.raises(UserError, match=r"node: stack: view 2 has 48 NaN/Inf value\(s\), first at x=7 y=0; clean"):
+        run_node("BtfSynth", SMALL, {"stack": bad})
+    with pytest.raises(UserError, match=r"meta\['views'\].*connect a BtfRender or BtfRead"):
+        run_node("BtfSynth", SMALL, {"stack": Plate({"R": stack["v0.R"]})})
+
+
+def test_same_stack_exr_with_one_and_two_threads(tmp_path):
+    graph = tmp_path / "g.yaml"
+    graph.write_text(yaml.safe_dump({"format": "proxyshade/1", "frames": 1, "nodes": {
+        "capture": {"type": "BtfRender", "params": {"scene": SCENE, "size": 40, "slant_step": 35, "slant_max": 70,
+                                                    "tilts": [0, 45, 90], "shadow_size": 256}},
+        "align": {"type": "BtfAlign", "inputs": {"stack": "capture"}, "params": {"steps": 5}},
+        "synth": {"type": "BtfSynth", "inputs": {"stack": "align"}, "params": {"size": [48, 40], "levels": 2}},
+        "write": {"type": "ExrWrite", "inputs": {"image": "synth"}, "params": {"path": "out/s.exr"}}}}))
+    plates = []
+    for threads in (1, 2):
+        r = subprocess.run([sys.executable, "-m", "proxyshade.cli", "run", str(graph), "--threads", str(threads),
+                            "--cache", str(tmp_path / f"c{threads}")], capture_output=True, text=True, cwd=ROOT,
+                           env={"PYTHONPATH": str(ROOT), "PATH": "/usr/bin:/bin"})
+        assert r.returncode == 0, r.stderr
+        plates.append(read_plate(tmp_path / "out/s.exr"))
+        (tmp_path / "out/s.exr").unlink()
+    assert plates[0].names() == plates[1].names() and "v6.sx" in plates[0].names()
+    assert all(np.array_equal(plates[0][c], plates[1][c]) for c in plates[0].names())
