@@ -45,10 +45,10 @@ def disk_offsets(r: int) -> np.ndarray:
 
 
 @njit(**JIT)
-def disk_distance(out, k, T, inp, py, px, cy, cx, offs, so, si, bound):
-    """eq. 3 at output pixel (py, px) against input pixel (cy, cx): Σ w‖out − in‖² over the
-    disk ``offs``, stepped by ``so`` in the output and ``si`` in the input (a level's
-    scale), w = k / T; stops once the sum exceeds ``bound``."""
+def _disk_sum(out, k, T, inp, out_a, inp_a, cw, pair, py, px, cy, cx, offs, so, si, bound):
+    """Σ over the disk ``offs`` (stepped ``so`` in the output, ``si`` in the input) of
+    w‖out − in‖², plus cw (1 − w)‖A′ − A‖² with ``pair``; w = k / T. Stops once the sum
+    exceeds ``bound``."""
     H, W = out.shape[0], out.shape[1]
     h, w = inp.shape[0], inp.shape[1]
     acc = 0.0
@@ -58,52 +58,41 @@ def disk_distance(out, k, T, inp, py, px, cy, cx, offs, so, si, bound):
         if qy < 0 or qy >= H or qx < 0 or qx >= W:
             continue
         wt = k[qy, qx] / T
-        if wt == 0.0:
+        wa = cw * (1.0 - wt) if pair else 0.0
+        if wt == 0.0 and wa == 0.0:
             continue
         iy = cy + offs[o, 0] * si
         ix = cx + offs[o, 1] * si
         if iy < 0 or iy >= h or ix < 0 or ix >= w:
-            acc += wt * 3.0 * MAXV * MAXV
+            acc += (wt + wa) * 3.0 * MAXV * MAXV
         else:
-            d = 0.0
+            db = 0.0
+            da = 0.0
             for c in range(3):
                 e = np.float64(out[qy, qx, c]) - np.float64(inp[iy, ix, c])
-                d += e * e
-            acc += wt * d
+                db += e * e
+                if pair:
+                    f = np.float64(out_a[qy, qx, c]) - np.float64(inp_a[iy, ix, c])
+                    da += f * f
+            acc += wt * db + wa * da
         if acc > bound:
             return acc
     return acc
 
 
 @njit(**JIT)
+def disk_distance(out, k, T, inp, py, px, cy, cx, offs, so, si, bound):
+    """eq. 3 at output pixel (py, px) against input pixel (cy, cx): Σ w‖out − in‖² over the
+    disk ``offs``, stepped by ``so`` in the output and ``si`` in the input (a level's
+    scale), w = k / T; stops once the sum exceeds ``bound``."""
+    return _disk_sum(out, k, T, inp, out, inp, 0.0, False, py, px, cy, cx, offs, so, si, bound)
+
+
+@njit(**JIT)
 def pair_distance(out_b, k, T, inp_b, out_a, inp_a, cw, py, px, cy, cx, offs, so, si, bound):
     """Other-view distance at (py, px) against input (cy, cx): Σ w‖B′ − B‖² +
     cw (1 − w)‖A′ − A‖² over the stepped disk (A the support view, B this view)."""
-    H, W = out_b.shape[0], out_b.shape[1]
-    h, w = inp_b.shape[0], inp_b.shape[1]
-    acc = 0.0
-    for o in range(offs.shape[0]):
-        qy = py + offs[o, 0] * so
-        qx = px + offs[o, 1] * so
-        if qy < 0 or qy >= H or qx < 0 or qx >= W:
-            continue
-        wt = k[qy, qx] / T
-        iy = cy + offs[o, 0] * si
-        ix = cx + offs[o, 1] * si
-        if iy < 0 or iy >= h or ix < 0 or ix >= w:
-            acc += (wt + cw * (1.0 - wt)) * 3.0 * MAXV * MAXV
-        else:
-            db = 0.0
-            da = 0.0
-            for c in range(3):
-                e = np.float64(out_b[qy, qx, c]) - np.float64(inp_b[iy, ix, c])
-                db += e * e
-                f = np.float64(out_a[qy, qx, c]) - np.float64(inp_a[iy, ix, c])
-                da += f * f
-            acc += wt * db + cw * (1.0 - wt) * da
-        if acc > bound:
-            return acc
-    return acc
+    return _disk_sum(out_b, k, T, inp_b, out_a, inp_a, cw, True, py, px, cy, cx, offs, so, si, bound)
 
 
 @njit(**JIT)
@@ -130,13 +119,6 @@ def _fenwick_find(tree, r):
             r -= tree[nxt]
         step //= 2
     return pos
-
-
-@njit(**JIT)
-def _dist(pair, out, k, T, inp, out_a, inp_a, cw, py, px, cy, cx, offs, so, si, bound):
-    if pair:
-        return pair_distance(out, k, T, inp, out_a, inp_a, cw, py, px, cy, cx, offs, so, si, bound)
-    return disk_distance(out, k, T, inp, py, px, cy, cx, offs, so, si, bound)
 
 
 @njit(**JIT)
@@ -169,24 +151,18 @@ def synth_level(inp, out, qy, qx, k, T, offs, so, si, seed, level, pair, out_a, 
         px = p % W
         by = qy[py, px]
         bx = qx[py, px]
-        best = _dist(pair, out, k, T, inp, out_a, inp_a, cw, py, px, by, bx, offs, so, si, np.inf)
+        best = _disk_sum(out, k, T, inp, out_a, inp_a, cw, pair, py, px, by, bx, offs, so, si, np.inf)
         ncand = 2 * nc + 1 if pair else nc
         for m in range(ncand):
-            if m < nc:
-                ny = py + offs[m, 0] * so
-                nx = px + offs[m, 1] * so
-                if ny < 0 or ny >= H or nx < 0 or nx >= W:
-                    continue
-                cy = qy[ny, nx] - offs[m, 0] * si
-                cx = qx[ny, nx] - offs[m, 1] * si
-            elif m < 2 * nc:
-                mm = m - nc
+            if m < 2 * nc:  # a neighbour's source shifted back: this view's map, then the support's
+                mm = m % nc
                 ny = py + offs[mm, 0] * so
                 nx = px + offs[mm, 1] * so
                 if ny < 0 or ny >= H or nx < 0 or nx >= W:
                     continue
-                cy = qay[ny, nx] - offs[mm, 0] * si
-                cx = qax[ny, nx] - offs[mm, 1] * si
+                own = m < nc
+                cy = (qy[ny, nx] if own else qay[ny, nx]) - offs[mm, 0] * si
+                cx = (qx[ny, nx] if own else qax[ny, nx]) - offs[mm, 1] * si
             else:
                 cy = qay[py, px]
                 cx = qax[py, px]
@@ -194,7 +170,7 @@ def synth_level(inp, out, qy, qx, k, T, offs, so, si, seed, level, pair, out_a, 
                 continue
             if cy == by and cx == bx:
                 continue
-            d = _dist(pair, out, k, T, inp, out_a, inp_a, cw, py, px, cy, cx, offs, so, si, best)
+            d = _disk_sum(out, k, T, inp, out_a, inp_a, cw, pair, py, px, cy, cx, offs, so, si, best)
             if d < best:
                 best = d
                 by = cy

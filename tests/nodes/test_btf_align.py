@@ -1,22 +1,16 @@
 """BtfAlign on btf_bumps: the chosen plane lies within the sample's heights, and it makes
 an interpolated in-between view closer to the real one than a plane outside them (Fig. 10)."""
-from pathlib import Path
-
 import numpy as np
 import pytest
 
 from proxyshade.graph.testing import run_node
 from proxyshade.synthesis import btf
-
-ROOT = Path(__file__).resolve().parents[2]
-SCENE = str(ROOT / "samples/scenes/btf_bumps.usda")
+from tests.nodes._btf import capture
 
 
 @pytest.fixture(scope="module")
 def stack():
-    # slants 0..30 step 2.5 (25°, 27.5°, 30° among them), tilts 0 and 90
-    return run_node("BtfRender", {"scene": SCENE, "size": 96, "slant_step": 2.5, "slant_max": 30,
-                                  "tilts": [0, 90], "shadow_size": 512})
+    return capture(96, 2.5, 30, [0, 90], 512)  # slants 0..30 step 2.5 (25°, 27.5°, 30° among them)
 
 
 @pytest.fixture(scope="module")

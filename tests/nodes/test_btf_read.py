@@ -13,15 +13,13 @@ from proxyshade.graph.testing import run_node
 from proxyshade.io.exr import write_plate
 from proxyshade.io.images import write_png
 from proxyshade.kernels.display import to_display
+from tests.nodes._btf import ROOT, capture
 
-ROOT = Path(__file__).resolve().parents[2]
-SCENE = str(ROOT / "samples/scenes/btf_bumps.usda")
 
 
 @pytest.fixture(scope="module")
 def render():
-    return run_node("BtfRender", {"scene": SCENE, "size": 32, "slant_step": 30, "slant_max": 60,
-                                  "tilts": [0, 90], "shadow_size": 256})
+    return capture(32, 30, 60, [0, 90])
 
 
 def _write(folder: Path, render, fmt: str, edit=None) -> Path:

@@ -2,7 +2,6 @@
 the three modes differ as the method says, bad inputs, and 1 vs 2 threads (CLI, EXR)."""
 import subprocess
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -13,16 +12,14 @@ from proxyshade.graph.plate import Plate
 from proxyshade.graph.testing import run_node
 from proxyshade.io.exr import read_plate
 from proxyshade.synthesis import btf
+from tests.nodes._btf import ROOT, SCENE, capture
 
-ROOT = Path(__file__).resolve().parents[2]
-SCENE = str(ROOT / "samples/scenes/btf_bumps.usda")
 SMALL = {"size": [64, 64], "levels": 2, "seed": 5}
 
 
 @pytest.fixture(scope="module")
 def stack():
-    return run_node("BtfRender", {"scene": SCENE, "size": 48, "slant_step": 35, "slant_max": 70,
-                                  "tilts": [0, 90], "shadow_size": 256})
+    return capture(48, 35, 70, [0, 90])
 
 
 @pytest.fixture(scope="module")
@@ -79,8 +76,7 @@ def test_measures_on_hand_made_maps():
 
 
 def test_bad_inputs_are_one_line_errors(stack):
-    tiny = run_node("BtfRender", {"scene": SCENE, "size": 16, "slant_step": 35, "slant_max": 70, "tilts": [0],
-                                  "shadow_size": 64})
+    tiny = capture(16, 35, 70, [0], 64)
     with pytest.raises(UserError, match=r"node: stack: the 16x16 views are smaller than the disk at the coarsest "
                                         r"level \(25 pixels across.*use fewer levels"):
         run_node("BtfSynth", {"levels": 3, "radius": 3}, {"stack": tiny})
