@@ -78,8 +78,9 @@ def check_views(views: list[dict], field: str = "views") -> dict:
 
 
 def grid_edges(views: list[dict]) -> np.ndarray:
-    """(E, 2) pairs of neighbouring views on the grid: the same tilt at neighbouring slants
-    (slant 1 with the frontal view) and neighbouring tilts at one slant."""
+    """(E, 2) pairs of neighbouring views on the grid sharing a lighting direction: the
+    same tilt at neighbouring slants (slant 1 with the frontal view) and neighbouring
+    tilts at one slant; views without a ``light`` count as sharing it."""
     g = check_views(views)
     idx, tilts, edges = g["index"], g["tilts"], []
     for k in range(1, len(g["slants"])):
@@ -88,7 +89,13 @@ def grid_edges(views: list[dict]) -> np.ndarray:
             edges.append((idx[(k - 1, t)] if k > 1 else idx[(0, 0.0)], here))
             if a + 1 < len(tilts):
                 edges.append((here, idx[(k, tilts[a + 1])]))
+    edges = [(a, b) for a, b in edges if _same_light(views[a], views[b])]
     return np.array(edges, np.int64).reshape(-1, 2)
+
+
+def _same_light(a: dict, b: dict) -> bool:
+    la, lb = a.get("light"), b.get("light")
+    return la is None or lb is None or bool(np.allclose(la, lb, atol=1e-6))
 
 
 def stack_arrays(plate: Plate, field: str = "stack") -> tuple[list[dict], np.ndarray]:
@@ -231,7 +238,8 @@ def alignment_costs(images: np.ndarray, views: list[dict], pixel: float, offsets
         raise NodeInputError(f"the plane search shifts views by up to {mg} pixels, more than half the {W}x{H} "
                              "views; narrow the search range")
     if not len(edges):
-        raise NodeInputError("views: alignment needs views at more than one slant; add slanted views")
+        raise NodeInputError("views: alignment needs neighbouring views lit from one direction; add slanted views "
+                             "with the frontal view's light")
     costs = np.empty(len(offsets))
     for k, dh in enumerate(offsets):
         rect = rectify(images, views, float(dh), pixel)

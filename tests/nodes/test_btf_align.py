@@ -48,3 +48,13 @@ def test_interpolated_view_is_closer_with_the_chosen_plane(stack, aligned):
     chosen = aligned.meta["btf"]["plane"]
     for outside in (hi + 0.5 * (hi - lo), lo - 0.5 * (hi - lo)):
         assert rmse(chosen) < rmse(outside), (chosen, outside, rmse(chosen), rmse(outside))
+
+
+def test_only_neighbours_sharing_a_light_are_compared():
+    views = btf.view_grid(30, 60, [0, 90])  # 0; (30, 0) (30, 90); (60, 0) (60, 90)
+    sun = [0.0, -1.0, 0.0]
+    for v in views:
+        v["light"] = sun
+    assert sorted(map(tuple, btf.grid_edges(views).tolist())) == [(0, 1), (0, 2), (1, 2), (1, 3), (2, 4), (3, 4)]
+    views[3]["light"] = [0.0, -0.8, 0.6]  # (60, 0) lit otherwise: its three pairs drop out
+    assert sorted(map(tuple, btf.grid_edges(views).tolist())) == [(0, 1), (0, 2), (1, 2), (2, 4)]
