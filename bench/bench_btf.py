@@ -9,6 +9,7 @@ Alignment: the chosen plane against the sample's heights, and the RMSE of a 27.5
 interpolated from 25° and 30° with that plane and with planes outside the heights.
 """
 import os
+import sys
 from pathlib import Path
 
 import numba
@@ -72,6 +73,13 @@ def main():
         (f"{V}-view stack 256² (sequential)",
          measure(lambda: btf.synthesize_stack(imgs, s, out, seed=1), repeat=3), 30.0),
     ]
+    big = run_node("BtfRender", {"scene": SCENE, "size": 288, "window": 2.16 * 288 / 320, "slant_step": 70,
+                                 "slant_max": 70, "tilts": [0]})
+    _, bimgs = btf.stack_arrays(big)
+    bimgs = bimgs[:, 16:-16, 16:-16]
+    rows.append((f"paper size: support 512² (r = 3), input {bimgs.shape[2]}²",
+                 measure(lambda: btf.synthesize_view(bimgs[0], (512, 512), radius=3, T=4, levels=3, seed=1),
+                         repeat=3), None))
     table("BTF synthesis speed", rows)
 
     others = [n for n in range(V) if n != s]
@@ -90,5 +98,44 @@ def main():
     alignment()
 
 
+def figures(folder: Path):
+    """The images of docs/btf.md: three views (input, then sequential, columns,
+    independent) as 120² crops at 100%, and the contact sheet of a sequential stack
+    (80² crops)."""
+    from proxyshade.graph.plate import Plate
+    from proxyshade.io.images import write_png
+    from proxyshade.kernels.display import to_display
+
+    def png(path, rgb):
+        write_png(path, to_display(Plate({c: np.ascontiguousarray(rgb[..., i]) for i, c in enumerate("RGB")}),
+                                   ["R", "G", "B"]))
+
+    stack = run_node("BtfRender", {"scene": SCENE, "size": 160, "slant_step": 10, "slant_max": 70,
+                                   "tilts": [0, 90]})
+    aligned = run_node("BtfAlign", {}, {"stack": stack})
+    views, imgs = btf.stack_arrays(aligned)
+    idx = {(v["slant"], v["tilt"]): n for n, v in enumerate(views)}
+    pick = [idx[(0.0, 0.0)], idx[(40.0, 0.0)], idx[(70.0, 90.0)]]
+    s = pick[0]
+    gap = np.zeros((128, 4, 3), np.float32)
+    rows = [np.concatenate(sum([[imgs[n, :120, :120], gap[:120]] for n in pick], [])[:-1], 1)]
+    for mode in btf.MODES:
+        qy, qx = btf.synthesize_stack(imgs, s, (256, 256), mode=mode, seed=1)
+        out = btf.gather_stack(imgs, qy, qx)
+        rows.append(np.concatenate(sum([[out[n, 64:184, 64:184], gap[:120]] for n in pick], [])[:-1], 1))
+    hgap = np.zeros((4, rows[0].shape[1], 3), np.float32)
+    png(folder / "btf_modes.png", np.concatenate(sum([[r, hgap] for r in rows], [])[:-1], 0))
+    # the graph's grid (tilts 0, 30, 60, 90), sequential: 80² crops of every view
+    stack = run_node("BtfRender", {"scene": SCENE, "size": 160, "slant_step": 10, "slant_max": 70,
+                                   "tilts": [0, 30, 60, 90]})
+    views, imgs = btf.stack_arrays(run_node("BtfAlign", {}, {"stack": stack}))
+    qy, qx = btf.synthesize_stack(imgs, 0, (256, 256), seed=1)
+    out = btf.gather_stack(imgs, qy, qx)
+    png(folder / "btf_sheet.png", btf.contact_sheet(out[:, 80:160, 80:160], views, gap=2))
+
+
 if __name__ == "__main__":
-    main()
+    if len(sys.argv) > 2 and sys.argv[1] == "--figures":
+        figures(Path(sys.argv[2]))
+    else:
+        main()
