@@ -13,7 +13,9 @@ from proxyshade.graph.plate import Plate
 
 
 class BtfAlign(Node):
-    """Try ``steps`` planes parallel to the stack's, from ``-search`` to ``+search`` times
+    """Rectify a BTF stack to the plane that makes neighbouring views agree.
+
+    Tries ``steps`` planes parallel to the stack's, from ``-search`` to ``+search`` times
     the views' width (world units) around it; keep the one with the least mean distance
     between neighbouring views of the grid and rectify every view to it (``filter``),
     cropped by the largest shift (no view reads past its border).

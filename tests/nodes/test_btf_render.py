@@ -1,5 +1,6 @@
 """BtfRender: a synthetic BTF capture of a heightfield (views, drift, shadows, meta)."""
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -23,7 +24,7 @@ def _view(plate, n):
 
 
 def test_views_follow_the_grid_and_a_point_drifts_by_its_height(tmp_path):
-    # one tall narrow bump, lit by a sun of no intensity: the image is the albedo, brightest at the peak
+    # one tall narrow bump, lit from high up, albedo rising with height: brightest at the peak
     h, c = 0.3, (0.1, -0.05)
     scene = _scene(tmp_path, [{"centre": list(c), "radius": 0.08, "amount": h}],
                    {"name": "Sun", "elevation": 60, "azimuth": 0, "intensity": 0.0})
@@ -108,3 +109,23 @@ def test_bundled_btf_bumps_is_what_its_yaml_builds():
         assert abs(s["centre"][1] - (-1 + (i + 0.5) * cell)) <= b["jitter"] * cell + 1e-12
         assert b["radius"][0] <= s["radius"] <= b["radius"][1] and b["amount"][0] <= s["amount"] <= b["amount"][1]
     assert len({round(s["radius"], 9) for s in strokes}) == len(strokes)  # random widths
+
+
+def test_gravel_albedo_is_the_texture_over_the_sample(tmp_path):
+    from proxyshade.io.images import read_u8
+    from proxyshade.io.source import srgb_to_linear
+    from proxyshade.kernels.lookup import lookup
+
+    # a flat sample under a sun straight above (E = 1, white), no ambient: each pixel is albedo / π
+    scene = _scene(tmp_path, [], {"name": "Sun", "elevation": 90, "azimuth": 0, "intensity": 1.0,
+                                  "color": [1, 1, 1]}, "flat")
+    # pixel centres on the mesh's vertices (80 cells over 2 m, 0.025 m apart): each pixel is one vertex's albedo
+    out = run_node("BtfRender", {"scene": scene, "slant_step": 30, "slant_max": 30, "tilts": [0], "size": 64,
+                                 "window": 1.6, "centre": [0.0125, 0.0125], "ambient": 0.0, "albedo": "gravel"})
+    tex = srgb_to_linear(read_u8(Path(__file__).resolve().parents[2] / "samples/textures/gravel.png"))
+    pix, (x0, z0) = out.meta["btf"]["pixel"], out.meta["btf"]["origin"]
+    cols = (x0 + (np.arange(64) + 0.5) * pix + 1.0) / 2.0 * tex.shape[1] - 0.5  # the 2 m sample spans the texture
+    rows = (z0 + (np.arange(64) + 0.5) * pix + 1.0) / 2.0 * tex.shape[0] - 0.5
+    want = lookup(tex, *np.meshgrid(cols, rows))
+    np.testing.assert_allclose(_view(out, 0) * np.pi, want, atol=1e-5)
+    assert want.std() > 0.02  # a texture, not a constant
