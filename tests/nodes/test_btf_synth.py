@@ -105,3 +105,21 @@ def test_same_stack_exr_with_one_and_two_threads(tmp_path):
         (tmp_path / "out/s.exr").unlink()
     assert plates[0].names() == plates[1].names() and "v6.sx" in plates[0].names()
     assert all(np.array_equal(plates[0][c], plates[1][c]) for c in plates[0].names())
+
+
+def test_the_graph_writes_the_stack_exr_and_a_contact_sheet(tmp_path):
+    from proxyshade.io.images import read_u8
+
+    small = ["--set", "capture.size=48", "--set", "capture.slant_step=35", "--set", "capture.tilts=[0,90]",
+             "--set", "synth.size=[64,64]", "--set", "synth.levels=2", "--set", "sheet.crop=32"]
+    r = subprocess.run([sys.executable, "-m", "proxyshade.cli", "run", str(ROOT / "graphs/btf.yaml"), "--var",
+                        f"out={tmp_path / 'out'}", "--cache", str(tmp_path / "c"), *small], capture_output=True,
+                       text=True, cwd=ROOT, env={"PYTHONPATH": str(ROOT), "PATH": "/usr/bin:/bin"})
+    assert r.returncode == 0, r.stderr
+    stack = read_plate(tmp_path / "out/btf_stack.exr")
+    views, imgs = btf.stack_arrays(stack)
+    assert len(views) == 5 and imgs.shape == (5, 64, 64, 3) and "v4.sx" in stack and "v4.sy" in stack
+    sheet = read_u8(tmp_path / "out/btf_sheet.png")
+    assert sheet.shape == (3 * 32 + 2 * 2, 2 * 32 + 2, 3)  # slants 0, 35, 70 by tilts 0, 90
+    assert sheet[:32, :32].std() > 2  # a picture of the frontal view
+    assert (tmp_path / "out/btf_input_sheet.png").is_file()
