@@ -3,7 +3,7 @@
 Neubeck, Zalesny and Van Gool, "Viewpoint consistent texture synthesis" (3DPVT 2004).
 
 * ``disk_distance`` (eq. 3): Σ_N w·‖out − in‖² over the disk 0 < u² + v² ≤ r² (offsets
-  scaled by the level's factor); ``pair_distance`` the other-view form
+  stepped by a level's factor in the input); ``pair_distance`` the other-view form
   Σ w‖B′ − B‖² + c(1 − w)‖A′ − A‖². An input neighbour outside the input costs the
   maximal difference (``MAXV`` per channel, the paper's "maximal value of 255"); an
   output neighbour outside the output is no neighbour (weight 0).
