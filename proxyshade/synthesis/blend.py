@@ -31,14 +31,17 @@ LAYOUT_MIN_RUN = 64      # runs shorter than this (pixels) take the label's mean
 
 
 def layout_offset(colors: np.ndarray, labels: np.ndarray, source_rgb: np.ndarray,
-                  source_labels: np.ndarray) -> np.ndarray:
+                  source_labels: np.ndarray, *, keep: float) -> np.ndarray:
     """(H, W, 3) float32: what moves each label's mean colour, by relative height in
     its vertical runs (``features.label_heights``, ``LAYOUT_BINS`` bins), from the
     synthesized ``colors`` onto the source photo's, on the sRGB-encoded scale (both given
     linear), smoothed within each label (``kernels.layout.smooth_offset``). Added with
     ``kernels.layout.add_encoded`` it keeps the contrast a viewer sees (a constant added to
     linear colours would flatten a brightened dark region) and moves only the low
-    frequencies."""
+    frequencies. ``keep`` is the share of the synthesized colours' own profile (about
+    their mean) that stays: 0 gives the photo's profile exactly, 1 adds the photo's to
+    it (a pond's dark band under its bank stays while the pond's mean moves onto the
+    photo's water; a synthesis that already follows the photo's profile gets it twice)."""
     top = int(max(labels.max(), source_labels.max()))
     present = np.zeros(top + 1, bool)
     present[source_labels.ravel()] = True  # dense indices of the ids present anywhere
@@ -49,8 +52,10 @@ def layout_offset(colors: np.ndarray, labels: np.ndarray, source_rgb: np.ndarray
     ps, cs = klayout.profile(klayout.srgb_encode(source_rgb), src_lab, label_heights(src_lab), n, LAYOUT_BINS)
     t, runs = label_heights(out_lab, lengths=True)
     po, co = klayout.profile(klayout.srgb_encode(colors), out_lab, t, n, LAYOUT_BINS)
-    d = ps - po
     ok = (cs >= LAYOUT_MIN_PIXELS) & (co >= LAYOUT_MIN_PIXELS)
+    w = np.where(ok, co, 0.0)
+    own_mean = (np.nan_to_num(po) * w[..., None]).sum(1) / np.maximum(w.sum(1), 1.0)[:, None]
+    d = ps - po + keep * (po - own_mean[:, None, :])  # keep: the own profile stays, about its mean
     centres = np.arange(LAYOUT_BINS)
     table = np.zeros_like(d)
     for l in range(n):
@@ -75,7 +80,8 @@ def blend_frame(rgb: np.ndarray, patch: np.ndarray, labels: np.ndarray | None, s
     (source pixels; ``scale`` source pixels per output pixel); ``layout`` moves ``rgb``
     by ``layout_offset`` first (needs ``labels``, ``source_rgb``, ``source_labels``)."""
     if solve.layout:
-        rgb = klayout.add_encoded(rgb, layout_offset(rgb, labels, source_rgb, source_labels))
+        rgb = klayout.add_encoded(rgb, layout_offset(rgb, labels, source_rgb, source_labels,
+                                                                keep=solve.layout_keep))
     gx = gy = None
     if solve.seams == "source":
         gx, gy = kpoisson.seam_gradients(source_rgb, sx, sy, scale)

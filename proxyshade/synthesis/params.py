@@ -87,6 +87,11 @@ class PoissonSolve(ParamGroup):
     layout = Param(bool, True, doc="first move each label's mean colour, by relative height in the label, onto the "
                                    "source photo's (low frequencies from the photo: a region's hue, a sky's "
                                    "top-to-horizon gradient); false = the synthesized colours' own")
+    layout_keep = Param(float, 1.0, min=0.0, max=1.0,
+                        doc="share of the synthesized colours' own top-to-bottom profile (about its mean) kept "
+                            "under the photo's: 1 = kept (a pond's dark band under its bank), 0 = replaced by "
+                            "the photo's (flattens such a region; exact where the synthesis already follows "
+                            "the photo's profile, which 1 doubles)")
     tol = Param(float, 1e-5, min=1e-12, max=1.0, doc="relative residual at which the solver stops")
     max_iter = Param(int, 100, min=1, doc="most conjugate-gradient iterations")
 

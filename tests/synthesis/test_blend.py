@@ -63,3 +63,33 @@ def test_region_thickness_is_twice_area_over_perimeter():
     comp, boxes = T.components4(mask)
     got = B.region_thickness(mask, comp, len(boxes))
     np.testing.assert_allclose(got, [2 * 90 / 66, 2 * 100 / 40, 1.0])  # the last: 10 / 12, clamped to 1
+
+
+@pytest.mark.parametrize("keep", [0.0, 1.0])
+def test_layout_moves_a_region_mean_onto_the_photo_and_keeps_its_own_profile_as_asked(keep):
+    """A pond synthesized darker than the photo's water, with a dark band at its top of its
+    own (a bank's reflection); the photo's water is brighter and darkens downward."""
+    from proxyshade.kernels import layout as KL
+
+    h, w = 128, 64
+    rows = ((np.arange(h) + 0.5) / h).astype(np.float32)[:, None, None]
+    rng = np.random.default_rng(3)
+    labels = np.ones((h, w), np.uint32)
+    photo_enc = 0.65 - 0.2 * rows + 0.02 * rng.standard_normal((h, w, 3)).astype(np.float32)
+    own_enc = 0.15 + 0.25 * (rows > 0.25) + 0.02 * rng.standard_normal((h, w, 3)).astype(np.float32)
+    dec = lambda e: np.where(e <= 0.04045, e / 12.92, ((np.clip(e, 0, None) + 0.055) / 1.055) ** 2.4).astype(np.float32)
+    out = KL.srgb_encode(KL.add_encoded(dec(own_enc), B.layout_offset(dec(own_enc), labels, dec(photo_enc), labels,
+                                                                       keep=keep)))
+    # the mean goes onto the photo's whatever ``keep``
+    np.testing.assert_allclose(out.mean((0, 1)), photo_enc.mean((0, 1)), atol=0.01)
+    prof = lambda e: e.mean((1, 2))
+    x = prof(own_enc) - prof(own_enc).mean()
+    want = prof(photo_enc) + keep * x  # the photo's profile, plus the own one if kept
+    got = prof(out)
+    away = np.abs(rows[:, 0, 0] - 0.25) > 0.2  # the offset is smooth: not near the own step
+    assert np.abs(got - want)[away][4:-4].max() < 0.03  # row profile: the photo's, plus the own one if kept
+    step = lambda p: p[int(0.4 * h):].mean() - p[:int(0.15 * h)].mean()
+    assert abs(step(got) - step(want)) < 0.04
+    band = step(got) - step(prof(photo_enc))  # what the output's own band adds to the photo's profile
+    assert band > 0.15 if keep else abs(band) < 0.04
+
