@@ -43,6 +43,31 @@ class BtfRender(Node):
     shadow_size = Param(int, 1024, min=16, max=8192, doc="shadow-map texels per side")
     bias = Param(float, 0.004, min=0.0, doc="shadow depth tolerance in world units")
 
+    def key_extra(self, frame, graph_dir):
+        """What the capture sees: the scene's meshes and its sun, from every file the stage
+        composes (sublayers, references); kept by ``keys.node_memo`` with those files, so
+        USD is loaded only when one of them changes."""
+        from proxyshade.graph import keys
+        from proxyshade.graph.node import resolve_path
+
+        path = resolve_path(self.params["scene"], graph_dir)
+        if not path.is_file():
+            return "missing"
+        return keys.node_memo(self, [str(path), frame], lambda: self._scene_digest(path, frame))
+
+    @staticmethod
+    def _scene_digest(path: Path, frame: int):
+        from proxyshade.graph import keys
+        from proxyshade.io import usd
+
+        try:
+            stage = usd.open_stage(path)
+            prims = [(q.path, q.digest) for q in usd.scene_prims(stage, frame) if not q.cg]
+            light = usd.distant_light(stage, frame)
+        except Exception as e:  # noqa: BLE001 - compute reports it properly
+            return f"error: {e}", None
+        return keys.digest([prims, light]), usd.dependencies(stage)
+
     def compute(self, ctx) -> Plate:
         import numpy as np
 

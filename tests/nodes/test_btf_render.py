@@ -129,3 +129,25 @@ def test_gravel_albedo_is_the_texture_over_the_sample(tmp_path):
     want = lookup(tex, *np.meshgrid(cols, rows))
     np.testing.assert_allclose(_view(out, 0) * np.pi, want, atol=1e-5)
     assert want.std() > 0.02  # a texture, not a constant
+
+
+def test_the_key_follows_an_edit_of_a_sublayer(tmp_path):
+    """The capture's cache key covers the meshes and sun of every layer the stage composes:
+    moving a bump in a sublayer changes it; an unchanged scene keeps it."""
+    from proxyshade.graph.graph import Graph
+
+    geo = _scene(tmp_path, [{"centre": [0.0, 0.0], "radius": 0.1, "amount": 0.1}],
+                 {"name": "Sun", "elevation": 40, "azimuth": 0}, name="geo")
+    (tmp_path / "shot.usda").write_text('#usda 1.0\n(\n    subLayers = [@./geo.usda@]\n)\n')
+    root = Path(__file__).resolve().parents[2]
+
+    def key():
+        g = Graph.load(root / "graphs" / "btf.yaml", cache=str(tmp_path / "cache"),
+                       variables={"scene": str(tmp_path / "shot.usda"), "out": str(tmp_path / "out")})
+        return g.plan([1]).keys[("capture", 1)]
+
+    first = key()
+    assert key() == first
+    _scene(tmp_path, [{"centre": [0.2, 0.0], "radius": 0.1, "amount": 0.1}],
+           {"name": "Sun", "elevation": 40, "azimuth": 0}, name="geo")
+    assert Path(geo).is_file() and key() != first
