@@ -18,6 +18,9 @@ from proxyshade.kernels import guide as kg
 from proxyshade.kernels.random import mix_seed
 from proxyshade.kernels.voting import vote_down, vote_filter
 from proxyshade.synthesis.labels import dense_guide, source_table
+from proxyshade.synthesis.memo import ArrayMemo
+
+_SIMILARITY = ArrayMemo(8)  # the exemplar's similarity sets per level, for the newest sources
 
 
 def _pow2(v: int) -> bool:
@@ -134,7 +137,13 @@ def synthesize_guide(proxy: Plate, source: Plate, gp: SimpleNamespace) -> tuple[
         else:
             ex_col = np.zeros((1, 1, 3))
             tgt_col = np.zeros((1, 1, 75))
-        sim = kg.similarity_sets(e_l, masks, ex_col, h, gp.k, gp.sample, mix_seed(gp.seed, l), metric)
+        # they depend on the source and the parameters only: an edit's update or a later
+        # frame of the run finds them (shared: not written to)
+        sim = _SIMILARITY.get((source["label.id"],),
+                              (tuple(table.tolist()), float(g), h, gp.k, gp.sample, mix_seed(gp.seed, l), metric,
+                               pal.tobytes() if metric == 1 else None),
+                              lambda: kg.similarity_sets(e_l, masks, ex_col, h, gp.k, gp.sample, mix_seed(gp.seed, l),
+                                                         metric))
         if S is None:
             S = kg.init_state(t_l, e_l, gp.seed)
         else:
