@@ -74,7 +74,9 @@ def update_guide(prev: Plate, region: np.ndarray, proxy: Plate, source: Plate, g
     little more than two), and the guidance synthesis (``gp``: the ``Guidance``
     parameters) runs on each window (its sides multiples of the synthesis's block, the long
     one ``magnify`` × a power of two, so it is synthesized with the frame's magnification
-    and levels); its labels and source positions replace ``prev``'s inside the region.
+    and levels; or, when that power of two would reach the frame, the frame's long side
+    and ``size``: a band across the frame); its labels and source positions replace
+    ``prev``'s inside the region.
     Every other pixel keeps ``prev``'s labels and positions; the other channels are the new
     proxy's. A window that would be as large as the frame is the frame's whole synthesis,
     still pasted inside the region only."""
@@ -84,15 +86,19 @@ def update_guide(prev: Plate, region: np.ndarray, proxy: Plate, source: Plate, g
     levels = int(np.log2(gp.size // gp.start)) + 1
     block = f * 2 ** (levels - 1)
     out = {c: prev[c].copy() for c in ("label.id", "source.x", "source.y")}
-    _, boxes = kt.components4(np.ascontiguousarray(region, np.bool_))
+    comp, boxes = kt.components4(np.ascontiguousarray(region, np.bool_))
     info = {"windows": [], "window_pixels": 0, "region": int(region.sum()), "whole": False}
-    for r0, r1, c0, c1, _ in group_boxes(boxes, (H, W), margin=context, slack=(4 * context) ** 2):
-        long_side = f * gp.start
+    for r0, r1, c0, c1, ids in group_boxes(boxes, (H, W), margin=context, slack=(4 * context) ** 2):
+        long_side, size = f * gp.start, None
         while long_side < max(r1 - r0, c1 - c0):
             long_side *= 2
+        if long_side >= max(H, W):  # past the frame: the frame's long side, synthesized with its size and levels
+            long_side, size = max(H, W), gp.size
         hh = long_side if r1 - r0 >= c1 - c0 else -(-(r1 - r0) // block) * block
         ww = long_side if c1 - c0 > r1 - r0 else -(-(c1 - c0) // block) * block
-        if long_side >= max(H, W) or (hh >= H and ww >= W):  # the window is the frame: its whole synthesis
+        crop_long = max(min(hh, H), min(ww, W))
+        whole = size is not None and 2 ** round(np.log2(crop_long / gp.size)) != f  # would magnify otherwise
+        if whole or (hh >= H and ww >= W):  # the window is the frame: its whole synthesis
             sub, _ = synthesize_guide(proxy, source, gp)
             r0, r1, c0, c1 = 0, H, 0, W
             info["whole"] = True
@@ -101,9 +107,9 @@ def update_guide(prev: Plate, region: np.ndarray, proxy: Plate, source: Plate, g
             c0, c1 = _span(c0, c1, min(ww, W), W)
             crop = Plate({"label.id": np.ascontiguousarray(proxy["label.id"][r0:r1, c0:c1])},
                          {"labels": proxy.meta.get("labels", [])})
-            sub, _ = synthesize_guide(crop, source, SimpleNamespace(**dict(vars(gp), size=long_side // f)))
+            sub, _ = synthesize_guide(crop, source, SimpleNamespace(**dict(vars(gp), size=size or long_side // f)))
         win = (slice(r0, r1), slice(c0, c1))
-        sel = region[win]
+        sel = region[win] if info["whole"] else np.isin(comp[win], ids)  # this window's parts only
         for c in out:
             out[c][win][sel] = sub[c][sel]
         info["windows"].append([int(c1 - c0), int(r1 - r0)])

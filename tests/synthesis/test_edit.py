@@ -49,3 +49,24 @@ def test_update_guide_synthesizes_a_window_and_keeps_the_rest():
     pond[300:340, 200:260] = True
     assert (out["label.id"][pond] == water).mean() > 0.8
     assert (out["label.id"][pond] == water).mean() >= (whole["label.id"][pond] == water).mean() - 0.1
+
+
+def test_a_band_across_the_frame_is_synthesized_on_a_band_not_the_whole_frame():
+    """A shoreline moved across the whole width: the window is the frame's width but only
+    the band's height, synthesized at the frame's magnification."""
+    src = T.source("renoir")
+    proxy = T.guide("renoir", (512, 512))
+    gp = SimpleNamespace(**dict(vars(Guidance.defaults()), size=128, start=32, seed=2))
+    prev, _ = synthesize_guide(proxy, src, gp)
+    lab = proxy["label.id"].copy()
+    water = int(next(t["id"] for t in src.meta["labels"] if t["name"] == "water"))
+    lab[300:316, 4:508] = water  # a band of water across the frame
+    edited = proxy.with_channels({"label.id": lab})
+    region = changed_region({"proxy": proxy}, {"proxy": edited}, {"proxy": ("label.id",)}, 8)
+    out, info = update_guide(prev, region, edited, src, gp, context=16)
+    assert not info["whole"] and info["windows"][0][0] == 512 and info["windows"][0][1] < 128
+    for c in ("label.id", "source.x", "source.y"):
+        assert np.array_equal(out[c][~region], prev[c][~region])
+    band = np.zeros(region.shape, bool)
+    band[302:314, 8:504] = True
+    assert (out["label.id"][band] == water).mean() > 0.8
