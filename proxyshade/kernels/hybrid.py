@@ -20,7 +20,8 @@ The exemplars sit side by side in an *atlas*: equal boxes of ``bw`` columns in a
   For pixel p, the synthesized neighbourhood Ñ_S(p) is the PCA projection of the stack
   colours at the 5 × 5 neighbours' pointers; the candidates are, for each 3 × 3
   neighbour q, S[q] − h (q − p) and its candidate set shifted the same way (staying in
-  the pointer's box); d_i = ‖Ñ_S(p) − Ñ_E(c_i)‖² / weight(exemplar of c_i). Correction
+  the pointer's box); d_i = ‖Ñ_S(p) − Ñ_E(c_i)‖² / weight(exemplar of c_i) (weight 0:
+  never a candidate). Correction
   takes the first smallest d_i; jitter drops candidates with
   (d_i − d_min) / (d_max − d_min) > J and picks uniformly among the rest (duplicates
   count once per occurrence) with ``random.rand``;
@@ -429,7 +430,7 @@ def _subpass(stack, mean, basis, P, cand, inv_w, S_old, S_new, pi, pj, h, bw, J,
                         cy = py - h * di
                         cx = px - h * dj
                         x0 = (px // bw) * bw
-                        if cy < 0 or cy >= Ha or cx < x0 or cx >= x0 + bw:
+                        if cy < 0 or cy >= Ha or cx < x0 or cx >= x0 + bw or inv_w[px // bw] == np.inf:
                             continue
                         s = 0.0
                         for a in range(dims):

@@ -21,6 +21,7 @@ import numpy as np
 
 from proxyshade.errors import NodeInputError
 from proxyshade.graph.plate import Plate
+from proxyshade.synthesis.memo import ArrayMemo
 
 MAX_EXEMPLARS = 8
 
@@ -215,12 +216,15 @@ def analyse(rgb: np.ndarray, bw: int, *, levels: int, L: int, q: int, iterations
 
 
 def synthesize(an: Analysis, shape: tuple[int, int], *, J: float, seed: int, weights: np.ndarray, passes: int,
-               jitter: str = "structure", r: float = 0.0) -> np.ndarray:
+               jitter: str = "structure", r: float = 0.0, jitter_levels: int | None = None) -> np.ndarray:
     """A hybrid's state: (Ht, Wt, 2) int32 atlas (row, column), coarse to fine: identity
     pointers at the coarsest level into exemplars drawn by ``weights``; per level upsample
     (``correct.upsample_state`` on box-local coordinates), jitter (``structure``: one pass
     of the structure-preserving jitter with threshold J; ``spatial``: the baseline's
-    ⌊h r ξ + ½⌋), then ``passes`` correction passes."""
+    ⌊h r ξ + ½⌋), then ``passes`` correction passes. The coarsest exemplars are one fixed
+    draw (by ``weights``): the seed acts through the jitter only, and J = 0 (or r = 0) gives
+    one result whatever the seed. ``jitter_levels``: jitter only the finest that many levels
+    (None: all); the coarser keep the exemplars' layout exactly."""
     from proxyshade.kernels import hybrid as kh
     from proxyshade.kernels.correct import upsample_state
     from proxyshade.kernels.random import mix_seed, uniform_field
@@ -228,7 +232,7 @@ def synthesize(an: Analysis, shape: tuple[int, int], *, J: float, seed: int, wei
     Ht, Wt = shape
     levels = len(an.stacks)
     w = np.asarray(weights, np.float64)
-    inv_w = np.where(w > 0, 1.0 / np.maximum(w, 1e-300), 1e30)
+    inv_w = np.where(w > 0, 1.0 / np.maximum(w, 1e-300), np.inf)  # weight 0: never a candidate
     cum = np.cumsum(w) / w.sum()
     S = None
     for s in range(levels - 1, -1, -1):
@@ -236,7 +240,8 @@ def synthesize(an: Analysis, shape: tuple[int, int], *, J: float, seed: int, wei
         sh = (-(-Ht // h), -(-Wt // h))
         if S is None:
             ii, jj = np.mgrid[0:sh[0], 0:sh[1]]
-            u = uniform_field(mix_seed(seed, 0xE7), (ii * sh[1] + jj).astype(np.int64))
+            # one fixed draw, not the seed's: with J = 0 every seed gives the same result
+            u = uniform_field(0xE7, (ii * sh[1] + jj).astype(np.int64))
             e = np.minimum(np.searchsorted(cum, u, side="right"), an.nb - 1)
             S = np.stack([np.minimum(h * ii + h // 2, an.bh - 1),
                           np.minimum(h * jj + h // 2, an.bw - 1) + e * an.bw], -1).astype(np.int32)
@@ -251,7 +256,9 @@ def synthesize(an: Analysis, shape: tuple[int, int], *, J: float, seed: int, wei
             S = up
         args = (an.stacks[s], an.means[s], an.bases[s], an.P[s], an.cands[s], inv_w)
         lseed = mix_seed(seed, s)
-        if jitter == "structure":
+        if jitter_levels is not None and s >= jitter_levels:
+            pass  # only the finest ``jitter_levels`` levels are jittered
+        elif jitter == "structure":
             S = kh.run_pass(*args, S, h=h, bw=an.bw, J=J, seed=lseed, salt=0)
         elif r > 0:
             S = kh.spatial_jitter(S, h=h, r=r, bw=an.bw, atlas_height=an.bh, seed=lseed)
@@ -271,3 +278,19 @@ def hybrid_plate(atlas: Plate, S: np.ndarray, extra: dict) -> Plate:
             "atlas": atlas.meta.get("atlas", []), "hybrid": extra}
     meta["source"]["size"] = [int(S.shape[1]), int(S.shape[0])]
     return Plate(ch, meta)
+
+
+_ANALYSES = ArrayMemo(2)  # analyses of the newest atlases
+
+
+def analysis_of(atlas: Plate, bw: int, *, levels: int, L: int, q: int, iterations: int) -> Analysis:
+    """``analyse`` of an atlas plate, kept in memory while its arrays live (every frame of
+    a run passes the same atlas: the analysis runs once)."""
+    arrays = (atlas["R"], atlas["G"], atlas["B"])
+    key = ("hybrid", bw, levels, L, q, iterations)
+
+    def run():
+        rgb = np.stack(arrays, -1).astype(np.float32)
+        return analyse(rgb, bw, levels=levels, L=L, q=q, iterations=iterations, seed=0)
+
+    return _ANALYSES.get(arrays, key, run)
