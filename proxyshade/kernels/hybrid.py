@@ -41,6 +41,7 @@ import numpy as np
 from numba import njit, prange
 
 from proxyshade.kernels._config import JIT, PJIT
+from proxyshade.kernels.chamfer import chamfer_masks
 from proxyshade.kernels.features import _box_blur_centred
 from proxyshade.kernels.random import rand
 
@@ -506,3 +507,28 @@ def spatial_jitter(S: np.ndarray, *, h: int, r: float, bw: int, atlas_height: in
     out = np.empty_like(S, dtype=np.int32)
     _spatial(np.ascontiguousarray(S, np.int32), int(h), float(r), int(bw), int(atlas_height), int(seed), out)
     return out
+
+
+# ---------------------------------------------------------------------------
+# measures (bench): label error
+
+
+@njit(**PJIT)
+def _nearest_chamfer(out_masks, ex_masks, best):
+    for a in prange(out_masks.shape[0]):
+        b = np.inf
+        for e in range(ex_masks.shape[0]):
+            d = chamfer_masks(out_masks[a], ex_masks[e])
+            if d < b:
+                b = d
+        best[a] = b
+
+
+def nearest_chamfer(out_masks: np.ndarray, ex_masks: np.ndarray) -> np.ndarray:
+    """(M, n) and (E, n) uint32 label-window masks (``features.window_masks`` rows) ->
+    (M,) float64: each output window's symmetric Chamfer distance
+    (``chamfer.chamfer_masks``) to its nearest exemplar window, by exhaustive search (the
+    bench passes the distinct windows only)."""
+    best = np.empty(out_masks.shape[0])
+    _nearest_chamfer(np.ascontiguousarray(out_masks, np.uint32), np.ascontiguousarray(ex_masks, np.uint32), best)
+    return best

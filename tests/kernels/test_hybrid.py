@@ -236,3 +236,16 @@ def test_hybrid_is_bit_identical_with_1_and_2_threads():
         np.testing.assert_array_equal(x, y)
     np.testing.assert_array_equal(S1, S2)
     assert ((S1[..., 1] // 32) == 1).any() and ((S1[..., 1] // 32) == 0).any()  # both exemplars used
+
+
+def test_nearest_chamfer_is_the_minimum_over_exemplar_windows():
+    from proxyshade.kernels.chamfer import chamfer_ring
+    from proxyshade.kernels.features import window_masks
+
+    rng = np.random.default_rng(8)
+    out = window_masks(rng.integers(0, 3, (6, 6)).astype(np.int32), 1, 3).reshape(-1, 3)
+    ex = window_masks((np.arange(64).reshape(8, 8) // 24 % 3).astype(np.int32), 1, 3).reshape(-1, 3)
+    got = kh.nearest_chamfer(out, ex)
+    want = [min(chamfer_ring(o, e) for e in ex) for o in out]
+    np.testing.assert_allclose(got, want)
+    assert kh.nearest_chamfer(ex[:5], ex).tolist() == [0.0] * 5
