@@ -15,10 +15,13 @@ SIGGRAPH 2010.
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from proxyshade.errors import NodeInputError
 from proxyshade.graph.plate import Plate
+from proxyshade.synthesis.memo import ArrayMemo
 
 MAX_EXEMPLARS = 8
 
@@ -109,3 +112,185 @@ def atlas_boxes(atlas: Plate) -> tuple[int, int, int]:
     if atlas.shape != (h, w * len(boxes)):
         raise NodeInputError("input 'atlas': its size does not match meta['atlas']; connect an ExemplarAtlas node")
     return len(boxes), h, w
+
+
+# ---------------------------------------------------------------------------
+# analysis and synthesis
+
+
+def coarsest_span(levels: int) -> int:
+    """Exemplar pixels a 5 × 5 neighbourhood spans at the coarsest of ``levels`` levels."""
+    return 4 * 2 ** (levels - 1) + 1
+
+
+def check_levels(levels: int, bh: int, bw: int) -> None:
+    span = coarsest_span(levels)
+    if span > min(bh, bw):
+        fit = max(l for l in range(1, 16) if coarsest_span(l) <= min(bh, bw)) if min(bh, bw) >= 5 else 0
+        fix = f"lower levels to {fit} or " if fit else ""
+        raise NodeInputError(f"the exemplars are {bw}x{bh}, too small for a 5x5 neighbourhood at the coarsest of "
+                             f"{levels} levels (spacing {2 ** (levels - 1)} spans {span} px); {fix}raise "
+                             f"ExemplarAtlas size")
+
+
+def check_weights(weights, n: int) -> np.ndarray:
+    """Per-exemplar weights (empty: all 1) -> float64 (n,); negative, NaN, all-zero or a
+    wrong count are errors."""
+    if not weights:
+        return np.ones(n)
+    w = np.array([float(v) for v in weights])
+    if len(w) != n:
+        raise NodeInputError(f"weights: {len(w)} given for {n} exemplars; give one per exemplar (or none)")
+    if not np.isfinite(w).all() or (w < 0).any():
+        raise NodeInputError(f"weights: {list(weights)} holds a negative or non-finite value; use weights >= 0")
+    if not (w > 0).any():
+        raise NodeInputError("weights: all zero; give at least one exemplar a positive weight")
+    return w
+
+
+def standardised(rgb: np.ndarray, bw: int) -> np.ndarray:
+    """Per exemplar box: 255 sRGB colour, centred and divided by the square root of the
+    dominant eigenvalue of its colour covariance (the paper's standardisation), float32."""
+    from proxyshade.kernels.features import srgb_features
+
+    f = srgb_features(rgb).astype(np.float64)
+    out = np.empty(f.shape, np.float32)
+    for x0 in range(0, f.shape[1], bw):
+        box = f[:, x0:x0 + bw].reshape(-1, 3)
+        c = box - box.mean(0)
+        lam = float(np.linalg.eigvalsh(c.T @ c / len(c))[-1])
+        out[:, x0:x0 + bw] = (c / np.sqrt(max(lam, 1e-12))).reshape(f.shape[0], -1, 3)
+    return out
+
+
+@dataclass
+class Analysis:
+    """What the synthesis needs of an atlas, per level s (h = 2^s, s = 0 finest): the
+    standardised stack level, its PCA (mean, basis), the projected 6-D descriptors and the
+    candidate sets (from the descriptor of ``L`` successive finer levels)."""
+
+    bw: int
+    bh: int
+    nb: int
+    L: int
+    q: int
+    sep: int
+    stacks: list
+    means: list
+    bases: list
+    P: list
+    cands: list
+    seconds: float = 0.0
+
+
+def analyse(rgb: np.ndarray, bw: int, *, levels: int, L: int, q: int, iterations: int, seed: int,
+            separation: float = 0.05) -> Analysis:
+    """The analysis of an (H, nb bw, 3) linear atlas (``levels`` stack levels)."""
+    import time
+
+    from proxyshade.kernels import hybrid as kh
+    from proxyshade.kernels.random import mix_seed
+
+    t0 = time.perf_counter()
+    bh = rgb.shape[0]
+    nb = rgb.shape[1] // bw
+    sep = max(1, int(np.ceil(separation * max(bh, bw))))
+    base = standardised(rgb, bw)
+    stacks, means, bases, P = [], [], [], []
+    for s in range(levels):
+        h = 2 ** s
+        st = kh.stack_level(base, bw, h)
+        N = kh.gather(st, bw, h)
+        mean, basis = kh.pca_basis(N[::4, ::4].reshape(-1, N.shape[2]))
+        stacks.append(st)
+        means.append(mean)
+        bases.append(basis)
+        P.append(kh.project(N, mean, basis))
+    cands = []
+    for s in range(levels):  # finest first; each level's search starts from the finer level's lists
+        D = kh.multiscale(P, s, L)
+        c, _ = kh.candidates(D, D, bw, q, sep, own_box=True, iterations=iterations if s == 0 else 1,
+                             seed=mix_seed(seed, s), init=cands[-1] if cands else None)
+        cands.append(np.ascontiguousarray(c))
+    return Analysis(bw, bh, nb, L, q, sep, stacks, means, bases, P, cands, time.perf_counter() - t0)
+
+
+def synthesize(an: Analysis, shape: tuple[int, int], *, J: float, seed: int, weights: np.ndarray, passes: int,
+               jitter: str = "structure", r: float = 0.0, jitter_levels: int | None = None) -> np.ndarray:
+    """A hybrid's state: (Ht, Wt, 2) int32 atlas (row, column), coarse to fine: identity
+    pointers at the coarsest level into exemplars drawn by ``weights``; per level upsample
+    (``correct.upsample_state`` on box-local coordinates), jitter (``structure``: one pass
+    of the structure-preserving jitter with threshold J; ``spatial``: the baseline's
+    ⌊h r ξ + ½⌋), then ``passes`` correction passes. The coarsest exemplars are one fixed
+    draw (by ``weights``): the seed acts through the jitter only, and J = 0 (or r = 0) gives
+    one result whatever the seed. ``jitter_levels``: jitter only the finest that many levels
+    (None: all); the coarser keep the exemplars' layout exactly."""
+    from proxyshade.kernels import hybrid as kh
+    from proxyshade.kernels.correct import upsample_state
+    from proxyshade.kernels.random import mix_seed, uniform_field
+
+    Ht, Wt = shape
+    levels = len(an.stacks)
+    w = np.asarray(weights, np.float64)
+    inv_w = np.where(w > 0, 1.0 / np.maximum(w, 1e-300), np.inf)  # weight 0: never a candidate
+    cum = np.cumsum(w) / w.sum()
+    S = None
+    for s in range(levels - 1, -1, -1):
+        h = 2 ** s
+        sh = (-(-Ht // h), -(-Wt // h))
+        if S is None:
+            ii, jj = np.mgrid[0:sh[0], 0:sh[1]]
+            # one fixed draw, not the seed's: with J = 0 every seed gives the same result
+            u = uniform_field(0xE7, (ii * sh[1] + jj).astype(np.int64))
+            e = np.minimum(np.searchsorted(cum, u, side="right"), an.nb - 1)
+            S = np.stack([np.minimum(h * ii + h // 2, an.bh - 1),
+                          np.minimum(h * jj + h // 2, an.bw - 1) + e * an.bw], -1).astype(np.int32)
+        else:
+            e = S[..., 1] // an.bw
+            local = S.copy()
+            local[..., 1] -= e * an.bw
+            up = upsample_state(local, h, sh, (an.bh, an.bw))
+            Hp, Wp = e.shape
+            ec = e[np.minimum(np.arange(sh[0]) // 2, Hp - 1)][:, np.minimum(np.arange(sh[1]) // 2, Wp - 1)]
+            up[..., 1] += ec * an.bw
+            S = up
+        args = (an.stacks[s], an.means[s], an.bases[s], an.P[s], an.cands[s], inv_w)
+        lseed = mix_seed(seed, s)
+        if jitter_levels is not None and s >= jitter_levels:
+            pass  # only the finest ``jitter_levels`` levels are jittered
+        elif jitter == "structure":
+            S = kh.run_pass(*args, S, h=h, bw=an.bw, J=J, seed=lseed, salt=0)
+        elif r > 0:
+            S = kh.spatial_jitter(S, h=h, r=r, bw=an.bw, atlas_height=an.bh, seed=lseed)
+        for k in range(passes):
+            S = kh.run_pass(*args, S, h=h, bw=an.bw, J=0.0, seed=lseed, salt=k + 1)
+    return S
+
+
+def hybrid_plate(atlas: Plate, S: np.ndarray, extra: dict) -> Plate:
+    """The hybrid as an annotated source: colour and labels looked up at the pointers,
+    ``exemplar.id``, ``atlas.x/y`` (float32 atlas column, row) and the atlas's label table."""
+    y, x = S[..., 0], S[..., 1]
+    ch = {c: np.ascontiguousarray(atlas[c][y, x]) for c in ("R", "G", "B", "label.id", "exemplar.id")}
+    ch["atlas.x"] = x.astype(np.float32)
+    ch["atlas.y"] = y.astype(np.float32)
+    meta = {"labels": atlas.meta.get("labels", []), "source": dict(atlas.meta.get("source", {})),
+            "atlas": atlas.meta.get("atlas", []), "hybrid": extra}
+    meta["source"]["size"] = [int(S.shape[1]), int(S.shape[0])]
+    return Plate(ch, meta)
+
+
+_ANALYSES = ArrayMemo(2)  # analyses of the newest atlases
+
+
+def analysis_of(atlas: Plate, bw: int, *, levels: int, L: int, q: int, iterations: int) -> Analysis:
+    """``analyse`` of an atlas plate, kept in memory while its arrays live (every frame of
+    a run passes the same atlas: the analysis runs once)."""
+    arrays = (atlas["R"], atlas["G"], atlas["B"])
+    key = ("hybrid", bw, levels, L, q, iterations)
+
+    def run():
+        rgb = np.stack(arrays, -1).astype(np.float32)
+        return analyse(rgb, bw, levels=levels, L=L, q=q, iterations=iterations, seed=0)
+
+    return _ANALYSES.get(arrays, key, run)

@@ -1,0 +1,205 @@
+"""Structured image hybrids (Risser et al. 2010): variation D, quality C and label error of
+structure-preserving jitter against the baseline (spatial jitter, single-scale
+descriptor), L = 8 against L = 1 on brick, and the speed bars on 2 cores:
+
+* analysis of 2 exemplars at 256²: ≤ 10 s;
+* one 256² hybrid: ≤ 1 s;
+* overhead over the baseline: ≤ 1.5×.
+
+Measures (over seeds 1..8 of one configuration):
+
+* D: the share of pixels whose (exemplar, position) differs by more than 2 px between two
+  seeds, averaged over the 28 pairs;
+* C: mean distance from each output 5×5 sRGB patch to its nearest exemplar patch (RMS
+  per value, 8-bit units; PatchMatch ``kernels.hybrid.candidates``, tested against
+  exhaustive search), at full and ½ size; on seeds 1..4;
+* label error: mean symmetric Chamfer (``kernels.chamfer``) of each output 5×5 label
+  window to its nearest exemplar window (exhaustive over the distinct windows); seeds 1..4.
+
+A baseline point is matched to a structure-preserving one by D: for the same number of
+jittered levels, the baseline radius r (of a grid) whose D is nearest.
+
+Run: PYTHONPATH=. .venv/bin/python bench/bench_hybrids.py [--quick]
+"""
+from __future__ import annotations
+
+import os
+import statistics
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from harness import measure, table
+
+ROOT = Path(__file__).resolve().parents[1]
+SIZE = 256
+LEVELS, L, Q, ITERATIONS, PASSES = 6, 8, 2, 4, 2  # HybridSynth's defaults
+SP_POINTS = [(1, 0.05), (2, 0.05), (3, 0.05)]  # (jitter levels, J)
+BASE_R = (0.5, 0.75, 1.0, 2.0)  # baseline radii per jitter-levels value
+
+
+def renoir_creek():
+    from proxyshade.io.source import load_source
+    from proxyshade.synthesis.hybrid import pack_atlas
+
+    plates = [(n, load_source(ROOT / f"samples/{n}/source.yaml")) for n in ("renoir", "creek")]
+    return pack_atlas(plates, (SIZE, SIZE))
+
+
+def brick():
+    """Two 256² crops at 100% of the bundled brick (grey, one label)."""
+    from proxyshade.graph.plate import Plate
+    from proxyshade.io.images import read_u8
+    from proxyshade.io.source import srgb_to_linear
+    from proxyshade.synthesis.hybrid import pack_atlas
+
+    img = srgb_to_linear(read_u8(ROOT / "samples/textures/brick.png"))
+    table_ = [{"name": "brick", "id": 1, "color": "#ff0000"}]
+    plates = []
+    for k, (y, x) in enumerate(((0, 0), (256, 256))):
+        c = img[y:y + SIZE, x:x + SIZE]
+        plates.append((f"exemplar{k + 1}", Plate({"R": c[..., 0].copy(), "G": c[..., 1].copy(), "B": c[..., 2].copy(),
+                                                  "label.id": np.ones(c.shape[:2], np.uint32)}, {"labels": table_})))
+    return pack_atlas(plates, (SIZE, SIZE))
+
+
+def atlas_rgb(atlas):
+    return np.stack([atlas["R"], atlas["G"], atlas["B"]], -1).astype(np.float32)
+
+
+def variation(states) -> float:
+    v = []
+    for a in range(len(states)):
+        for b in range(a + 1, len(states)):
+            v.append((np.abs(states[a].astype(np.int64) - states[b]).max(-1) > 2).mean())
+    return float(np.mean(v))
+
+
+def half(rgb, bw):
+    """2 × 2 box mean (linear), box by box (sizes are even)."""
+    H, W, _ = rgb.shape
+    return rgb.reshape(H // 2, 2, W // 2, 2, 3).mean((1, 3)).astype(np.float32)
+
+
+def patch_distance(out_rgb, ex_rgb, bw) -> float:
+    from proxyshade.kernels import hybrid as kh
+    from proxyshade.kernels.features import srgb_features
+
+    Qd = kh.gather(srgb_features(out_rgb), out_rgb.shape[1], 1)
+    Ad = kh.gather(srgb_features(ex_rgb), bw, 1)
+    _, d = kh.candidates(Qd, Ad, bw, 1, 1, own_box=False, iterations=4, seed=0)
+    return float(np.sqrt(d[..., 0].min(-1) / Qd.shape[2]).mean())
+
+
+class Measures:
+    def __init__(self, atlas):
+        from proxyshade.kernels.features import dense_labels, window_masks
+
+        self.atlas = atlas
+        self.rgb = atlas_rgb(atlas)
+        self.bw = SIZE
+        self.table = np.array([t["id"] for t in atlas.meta["labels"]])
+        self.n = len(self.table)
+        dense, _ = dense_labels(atlas["label.id"], self.table)
+        ex = np.concatenate([window_masks(dense[:, x:x + SIZE], 1, self.n) for x in range(0, dense.shape[1], SIZE)], 1)
+        self.ex_windows = np.unique(ex.reshape(-1, self.n), axis=0)
+        self.half_rgb = half(self.rgb, SIZE)
+
+    def quality(self, S):
+        from proxyshade.kernels import hybrid as kh
+        from proxyshade.kernels.features import dense_labels, window_masks
+
+        out = self.rgb[S[..., 0], S[..., 1]]
+        c_full = patch_distance(out, self.rgb, SIZE)
+        c_half = patch_distance(half(out, None), self.half_rgb, SIZE // 2)
+        dense, _ = dense_labels(self.atlas["label.id"][S[..., 0], S[..., 1]], self.table)
+        win, counts = np.unique(window_masks(dense, 1, self.n).reshape(-1, self.n), axis=0, return_counts=True)
+        lab = float((kh.nearest_chamfer(win, self.ex_windows) * counts).sum() / counts.sum())
+        return c_full, c_half, lab
+
+
+def run_config(an, meas, seeds, **kw):
+    from proxyshade.synthesis.hybrid import synthesize
+
+    states = [synthesize(an, (SIZE, SIZE), seed=s, weights=np.ones(an.nb), passes=PASSES, **kw) for s in seeds]
+    q = np.array([meas.quality(S) for S in states[:len(seeds) // 2]])
+    return variation(states), *q.mean(0)
+
+
+def compare(name, atlas, seeds, out):
+    from proxyshade.synthesis.hybrid import analyse
+
+    rgb = atlas_rgb(atlas)
+    an8 = analyse(rgb, SIZE, levels=LEVELS, L=L, q=Q, iterations=ITERATIONS, seed=0)
+    an1 = analyse(rgb, SIZE, levels=LEVELS, L=1, q=Q, iterations=ITERATIONS, seed=0)
+    meas = Measures(atlas)
+    print(f"\n## {name}: structure-preserving jitter (L = {L}) vs baseline (spatial jitter, L = 1), seeds {seeds[0]}-{seeds[-1]}")
+    print(f"{'config':<34} {'D':>6} {'C full':>8} {'C half':>8} {'label err':>10}")
+    wins = []
+    for jl, J in SP_POINTS:
+        sp = run_config(an8, meas, seeds, J=J, jitter_levels=jl)
+        base = [(r, run_config(an1, meas, seeds, J=0.0, jitter="spatial", r=r, jitter_levels=jl)) for r in BASE_R]
+        r, b = min(base, key=lambda rb: abs(rb[1][0] - sp[0]))
+        print(f"{f'SP  J={J} levels<{jl}':<34} {sp[0]:6.3f} {sp[1]:8.2f} {sp[2]:8.2f} {sp[3]:10.3f}")
+        print(f"{f'base r={r} levels<{jl} (matched D)':<34} {b[0]:6.3f} {b[1]:8.2f} {b[2]:8.2f} {b[3]:10.3f}")
+        wins.append((sp, b))
+        out.append((name, jl, J, r, sp, b))
+    lower_c = sum(sp[1] < b[1] for sp, b in wins)
+    lower_l = sum(sp[3] < b[3] for sp, b in wins)
+    print(f"SP lower C at {lower_c}/3 matched D, lower label error at {lower_l}/3 "
+          f"(ties at 0 count as not lower)")
+    return an8, an1, meas
+
+
+def l8_vs_l1(an8, an1, meas, seeds):
+    print("\n## brick: L = 8 vs L = 1, structure-preserving jitter, same J and levels")
+    print(f"{'config':<34} {'D':>6} {'C full':>8} {'C half':>8}")
+    better = 0
+    for jl, J in SP_POINTS:
+        a = run_config(an8, meas, seeds, J=J, jitter_levels=jl)
+        b = run_config(an1, meas, seeds, J=J, jitter_levels=jl)
+        print(f"{f'L=8 J={J} levels<{jl}':<34} {a[0]:6.3f} {a[1]:8.2f} {a[2]:8.2f}")
+        print(f"{f'L=1 J={J} levels<{jl}':<34} {b[0]:6.3f} {b[1]:8.2f} {b[2]:8.2f}")
+        better += a[1] < b[1]
+    print(f"L = 8 lower C (full) at {better}/3")
+
+
+def speed(atlas):
+    from proxyshade.synthesis.hybrid import analyse, synthesize
+
+    rgb = atlas_rgb(atlas)
+    an8 = analyse(rgb, SIZE, levels=LEVELS, L=L, q=Q, iterations=ITERATIONS, seed=0)
+    an1 = analyse(rgb, SIZE, levels=LEVELS, L=1, q=Q, iterations=ITERATIONS, seed=0)
+    w = np.ones(2)
+    a8 = measure(lambda: analyse(rgb, SIZE, levels=LEVELS, L=L, q=Q, iterations=ITERATIONS, seed=0), repeat=3, warmup=0)
+    a1 = measure(lambda: analyse(rgb, SIZE, levels=LEVELS, L=1, q=Q, iterations=ITERATIONS, seed=0), repeat=3, warmup=0)
+    seeds = iter(range(1000))
+    h_sp = measure(lambda: synthesize(an8, (SIZE, SIZE), J=0.3, seed=next(seeds), weights=w, passes=PASSES), repeat=7)
+    h_base = measure(lambda: synthesize(an1, (SIZE, SIZE), J=0.0, seed=next(seeds), weights=w, passes=PASSES,
+                                        jitter="spatial", r=1.0), repeat=7)
+    table("hybrids: speed (renoir + creek, 2 exemplars at 256²)", [
+        ("analysis, 2 exemplars 256², L=8", a8, 10.0),
+        ("analysis, baseline L=1", a1, None),
+        ("one 256² hybrid, SP jitter J=0.3", h_sp, 1.0),
+        ("one 256² hybrid, baseline spatial r=1", h_base, None),
+    ])
+    print(f"overhead over the baseline: hybrid {h_sp['median'] / h_base['median']:.2f}x, analysis "
+          f"{a8['median'] / a1['median']:.2f}x, analysis + 8 hybrids "
+          f"{(a8['median'] + 8 * h_sp['median']) / (a1['median'] + 8 * h_base['median']):.2f}x (target <= 1.5x)")
+    print(f"load: {os.getloadavg()[0]:.2f} (1-min average, 2 cores shared)")
+
+
+def main():
+    quick = "--quick" in sys.argv
+    seeds = list(range(1, 5 if quick else 9))
+    rc = renoir_creek()
+    speed(rc)
+    out = []
+    compare("renoir + creek", rc, seeds, out)
+    an8, an1, meas = compare("brick (two 256² crops)", brick(), seeds, out)
+    l8_vs_l1(an8, an1, meas, seeds)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,63 @@
+"""HybridSynth: one structured image hybrid per frame from an exemplar atlas.
+
+Risser, Han, Dumas, Lefebvre 2010, "Synthesizing structured image hybrids": coarse to
+fine, the pointers into the exemplars are upsampled, jittered among candidates whose
+neighbourhoods match (structure-preserving jitter, threshold ``J``) and corrected
+(Lefebvre and Hoppe 2005). Layer: ``proxyshade.synthesis.hybrid``; kernels
+``proxyshade.kernels.hybrid``.
+"""
+from __future__ import annotations
+
+from proxyshade.graph.node import Input, Node, Param
+
+
+class HybridSynth(Node):
+    """A hybrid of the atlas's exemplars, seeded by the frame (``--frames 1-8``: 8 hybrids).
+
+    Output, an annotated source for PatchInit/Correct/Magnify/Poisson: ``R,G,B`` and
+    ``label.id`` looked up at the pointers, ``exemplar.id`` (which exemplar each pixel
+    came from), ``atlas.x/y`` (the pointer: atlas column and row), the atlas's label table
+    in ``meta["labels"]``. The analysis (stack, PCA, candidate sets) is computed once per
+    atlas and kept in memory for the run.
+    """
+
+    version = 1
+    time_dependent = True
+    atlas = Input("exemplar atlas: R,G,B, label.id, exemplar.id and meta['atlas']",
+                  channels=("R", "G", "B", "label.id", "exemplar.id"), finite=("R", "G", "B"),
+                  dtype={"label.id": "uint32", "exemplar.id": "uint32"}, fix="connect an ExemplarAtlas node")
+    J = Param(float, 0.3, min=0.0, max=1.0, doc="jitter threshold: 0 keeps the best match, 1 any candidate")
+    weights = Param(list, [], doc="one weight >= 0 per exemplar biasing the mix (d_i / weight); empty: all 1")
+    size = Param(list, None, optional=True, length=2, doc="[width, height] of the hybrid; default the exemplar size")
+    levels = Param(int, 6, min=1, max=12, doc="synthesis levels (coarsest spacing 2^(levels-1))")
+    descriptor_levels = Param(int, 8, min=1, max=12, doc="L: finer levels concatenated in the candidates' descriptor")
+    candidates = Param(int, 2, min=1, max=4, doc="candidates per exemplar and pixel")
+    jitter_levels = Param(int, None, optional=True, min=1, max=12,
+                          doc="jitter only the finest this many levels (less variation; default: every level)")
+    passes = Param(int, 2, min=0, max=8, doc="correction passes per level")
+    iterations = Param(int, 4, min=1, max=16, doc="PatchMatch iterations of the candidate search (finest level)")
+
+    def compute(self, ctx):
+        import numpy as np
+
+        from proxyshade.synthesis import hybrid as H
+
+        p, atlas = ctx.p, ctx.atlas
+        nb, bh, bw = H.atlas_boxes(atlas)
+        H.check_levels(p.levels, bh, bw)
+        w = H.check_weights(p.weights, nb)
+        if p.size is not None:
+            if not all(isinstance(v, int) and not isinstance(v, bool) and v >= 1 for v in p.size):
+                raise ctx.error(f"size: expected [width, height] of positive integers, got {p.size}; write e.g. [256, 256]")
+            shape = (p.size[1], p.size[0])
+        else:
+            shape = (bh, bw)
+        an = H.analysis_of(atlas, bw, levels=p.levels, L=p.descriptor_levels, q=p.candidates,
+                           iterations=p.iterations)
+        S = H.synthesize(an, shape, J=p.J, seed=ctx.frame, weights=w, passes=p.passes,
+                         jitter_levels=p.jitter_levels)
+        out = H.hybrid_plate(atlas, S, {"J": p.J, "seed": ctx.frame, "weights": [float(v) for v in w]})
+        share = np.bincount(S[..., 1].ravel() // bw, minlength=nb) / S[..., 0].size
+        ctx.note(f"hybrid {shape[1]}x{shape[0]} from {nb} exemplars (shares "
+                 + ", ".join(f"{s:.0%}" for s in share) + f"); analysis {an.seconds:.1f} s")
+        return out
