@@ -33,7 +33,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from proxyshade.graph.dask_executor import DaskExecutor, run_graphs  # noqa: E402
+from proxyshade.graph.dask_executor import DaskExecutor
+from proxyshade.graph.shots import run_graphs  # noqa: E402
 from proxyshade.graph.executor import make_executor  # noqa: E402
 from proxyshade.graph.graph import Graph  # noqa: E402
 from proxyshade.graph.node import REGISTRY, InputRef  # noqa: E402

@@ -188,9 +188,9 @@ def _wait_for_change(paths, poll: float) -> None:
 def _run_once(graphs, frames, set_, var, sweep, cache, explain, jobs, force, threads, executor, scheduler, workers,
               quiet) -> set:
     """One run of every shot, reported; returns the files a watch looks at."""
-    from proxyshade.graph.dask_executor import DaskExecutor, run_graphs
     from proxyshade.graph.executor import make_executor
     from proxyshade.graph.graph import Graph
+    from proxyshade.graph.shots import run_graphs
     from proxyshade.io.graphfile import parse_frame_list
 
     shots = []  # (label, graph, frames)
@@ -201,10 +201,16 @@ def _run_once(graphs, frames, set_, var, sweep, cache, explain, jobs, force, thr
             shots.append((label, g, parse_frame_list(frames, bounds=g.frames) if frames is not None else None))
     several = len(shots) > 1
     prefixes = {id(g): f"{label.rpartition('/')[2]}: " if several else "" for label, g, _ in shots}
-    ex = DaskExecutor(scheduler, workers) if scheduler or executor is Executor.dask else make_executor(jobs)
+    distributed = bool(scheduler) or executor is Executor.dask
+    if distributed:
+        from proxyshade.graph.dask_executor import DaskExecutor
+
+        ex = DaskExecutor(scheduler, workers)
+    else:
+        ex = make_executor(jobs)
     with Progress(TextColumn("{task.description:<14}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
                   console=err, disable=quiet or not err.is_terminal, transient=True) as progress:
-        with ex if isinstance(ex, DaskExecutor) else contextlib.nullcontext():
+        with ex if distributed else contextlib.nullcontext():
             reports = run_graphs([(g, fl) for _, g, fl in shots], executor=ex, force=tuple(force),
                                  hooks=lambda g: _BarHooks(progress, prefixes[id(g)]), threads=threads,
                                  labels=[label for label, _, _ in shots])

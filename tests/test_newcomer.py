@@ -74,12 +74,12 @@ def test_own_photo_through_source_new_and_a_bundled_scene(tmp_path, monkeypatch,
     assert rc == 2 and "map them with the labels parameter" in err
 
 
-HEAVY = ("numba", "llvmlite", "pxr", "scipy", "colour")  # kernels, USD, colour science
+HEAVY = ("numba", "llvmlite", "pxr", "scipy", "colour", "asyncio")  # kernels, USD, colour science, Dask's runtime
 
 
 def test_a_cached_rerun_imports_no_kernels_usd_or_colour_science(tmp_path, monkeypatch):
     """Item 9: an unchanged re-run answers from the cache in a fraction of a second, so it
-    must not load numba, USD or colour-science (about 0.5 s of imports): keys come from
+    must not load numba, USD, colour-science or asyncio (Dask's) (about 0.5 s of imports): keys come from
     the sources and, for the scene, from its files' hashes."""
     monkeypatch.setenv("PROXYSHADE_CODE_CACHE", str(tmp_path / "code"))
     monkeypatch.chdir(tmp_path)

@@ -22,7 +22,8 @@ from proxyshade.graph.node import InputRef, Node, Param
 from proxyshade.graph.plate import Plate
 
 pytest.importorskip("distributed")
-from proxyshade.graph.dask_executor import DaskExecutor, run_graphs  # noqa: E402
+from proxyshade.graph.dask_executor import DaskExecutor
+from proxyshade.graph.shots import run_graphs  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
 
