@@ -47,6 +47,7 @@ def _strip_comments(source: str) -> str:
     return " ".join(out)
 
 
+@functools.lru_cache(maxsize=None)  # per process, as ``import_closure`` and ``module_hash``
 def module_file(module_name: str, root: Path | None = None) -> Path | None:
     """The source file of a module: under ``root`` (a folder holding the ``proxyshade``
     package) when given, else where Python imports it from; None when it has none. Never
