@@ -117,8 +117,8 @@ def _mean_shift(pts, counts, h, iters, tol, out):
         out[p] = x
 
 
-def mean_shift(pts: np.ndarray, counts: np.ndarray, bandwidth: float, *, iters: int = 500,
-               tol: float = 1e-6) -> np.ndarray:
+def mean_shift(pts: np.ndarray, counts: np.ndarray, bandwidth: float, *, iters: int = 100,
+               tol: float = 1e-5) -> np.ndarray:
     """Gaussian mean shift: each point (with multiplicity ``counts``) moved to its mode.
 
     Returns (U, d) float64 modes (the iteration stops when a step is below ``tol``)."""
@@ -189,34 +189,55 @@ def patch_distance(src, tgt, hw, i, j, cy, cx):
 
 
 @njit(**PJIT)
-def _nearest_init(tgt_ann, bins, bin_start, bin_count, order, W, inv_eps, seed, oy, ox):
-    h, w, _ = tgt_ann.shape
-    nb = bins.shape[0]
+def _nearest_bins(bins, targets, inv_eps, out):
+    for t in prange(targets.shape[0]):
+        best = 0
+        bd = np.inf
+        for b in range(bins.shape[0]):
+            d = _sdist2(bins[b], targets[t], inv_eps)
+            if d < bd:
+                bd = d
+                best = b
+        out[t] = best
+
+
+def nearest_bins(bins, targets, eps) -> np.ndarray:
+    """Index of the nearest of ``bins`` (B, d) to each of ``targets`` (M, d) in the
+    ε-scaled metric (the first on ties). Returns (M,) int64."""
+    out = np.empty(len(targets), np.int64)
+    _nearest_bins(np.ascontiguousarray(bins, np.float64), np.ascontiguousarray(targets, np.float64),
+                  1.0 / np.asarray(eps, np.float64), out)
+    return out
+
+
+@njit(**PJIT)
+def _draw(tb, bin_start, bin_count, order, W, seed, oy, ox):
+    h, w = tb.shape
     for i in prange(h):
         for j in range(w):
-            best = 0
-            bd = np.inf
-            for b in range(nb):
-                d = _sdist2(bins[b], tgt_ann[i, j], inv_eps)
-                if d < bd:
-                    bd = d
-                    best = b
-            c = order[bin_start[best] + rand(seed, i * w + j, 0x1417, 0) % bin_count[best]]
+            b = tb[i, j]
+            c = order[bin_start[b] + rand(seed, i * w + j, 0x1417, 0) % bin_count[b]]
             oy[i, j] = c // W
             ox[i, j] = c % W
 
 
-def nearest_init(tgt_ann, bins, bin_start, bin_count, order, src_width, eps, seed):
-    """Each target pixel starts at a source pixel whose annotation is the most similar:
-    a random pixel (``order[bin_start[b]:bin_start[b]+bin_count[b]]``, flat indices) of
-    the nearest annotation bin ``b`` in the ε-scaled metric. Returns (y, x) int32 maps."""
-    h, w = tgt_ann.shape[:2]
+def draw_members(tb, bin_start, bin_count, order, src_width, seed):
+    """For each target pixel a random source pixel of its bin ``tb`` (h, w): one of
+    ``order[bin_start[b]:bin_start[b]+bin_count[b]]`` (flat indices). Returns (y, x) int32."""
+    h, w = tb.shape
     oy = np.empty((h, w), np.int32)
     ox = np.empty((h, w), np.int32)
-    _nearest_init(np.ascontiguousarray(tgt_ann, np.float64), np.ascontiguousarray(bins, np.float64),
-                  bin_start.astype(np.int64), bin_count.astype(np.int64), order.astype(np.int64),
-                  int(src_width), 1.0 / np.asarray(eps, np.float64), int(seed), oy, ox)
+    _draw(np.ascontiguousarray(tb, np.int64), bin_start.astype(np.int64), bin_count.astype(np.int64),
+          order.astype(np.int64), int(src_width), int(seed), oy, ox)
     return oy, ox
+
+
+def nearest_init(tgt_ann, bins, bin_start, bin_count, order, src_width, eps, seed):
+    """Each target pixel starts at a source pixel whose annotation is the most similar:
+    a random pixel of the nearest annotation bin (``nearest_bins``, ``draw_members``)."""
+    h, w, d = tgt_ann.shape
+    tb = nearest_bins(bins, np.asarray(tgt_ann).reshape(-1, d), eps).reshape(h, w)
+    return draw_members(tb, bin_start, bin_count, order, src_width, seed)
 
 
 @njit(**PJIT)

@@ -44,7 +44,7 @@ def test_eq2_weights_with_the_clip():
     assert np.all(w[:5, 0] > w[:5, 1:].max(1))  # inside its ball, a cluster dominates
 
 
-def _mean_shift_ref(pts, counts, h, iters=500, tol=1e-6):
+def _mean_shift_ref(pts, counts, h, iters=100, tol=1e-5):
     out = []
     for p in pts:
         x = p.astype(float).copy()
