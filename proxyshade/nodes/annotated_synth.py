@@ -60,14 +60,23 @@ class AnnotatedSynth(Node):
         alpha = src["A"].astype(np.float32) if "A" in src else np.ones(src.shape, np.float32)
         p = AnnotatedParams(eps=ctx.p.eps, patch=ctx.p.patch, levels=ctx.p.levels, em=ctx.p.em,
                             iterations=ctx.p.iterations, bandwidth=ctx.p.bandwidth, mode=ctx.p.mode, seed=ctx.p.seed)
+        tgt_ann = tgt.layer(["ann." + n for n in names], np.float64)
+        tmask = tgt["mask"] > 0.5 if "mask" in tgt else None
+        if tmask is not None:  # only the masked pixels are a target; the others take the masked mean
+            if not tmask.any():
+                raise ctx.error("target mask is empty; render a label the view shows")
+            tgt_ann = np.where(tmask[..., None], tgt_ann, tgt_ann[tmask].mean(axis=0))
         try:
             r = synthesize(src.rgb(), alpha, src.layer(["ann." + n for n in names], np.float64), usable,
-                           tgt.layer(["ann." + n for n in names], np.float64), p, names=names)
+                           tgt_ann, p, names=names)
         except NodeInputError as e:
             raise ctx.error(str(e)) from None
         ctx.note(f"{r['n_clusters']} clusters; {100 * r['missing'].mean():.1f}% of the target outside every "
                  f"cluster's ε-ball (interpolated)")
         rgb = r["rgb"]
+        if tmask is not None:
+            rgb = rgb * tmask[..., None]
+            r["alpha"] = r["alpha"] * tmask
         ch = {"R": rgb[..., 0].copy(), "G": rgb[..., 1].copy(), "B": rgb[..., 2].copy(), "A": r["alpha"],
               "source.x": r["sx"], "source.y": r["sy"], "cluster.id": r["cluster"], "missing": r["missing"]}
         meta = {k: v for k, v in src.meta.items() if k in ("labels", "source")}
