@@ -132,26 +132,12 @@ def _rgb(lab):
     return c.XYZ_to_RGB(c.Lab_to_XYZ(lab, cs.whitepoint), cs, apply_cctf_encoding=False)
 
 
-def synthesize(src_rgb, src_alpha, src_ann, usable, tgt_ann, p: AnnotatedParams, names=None) -> dict:
-    """Fill a target with the source's material following the annotations.
-
-    src_rgb (H, W, 3) linear; src_alpha (H, W); src_ann (H, W, d) and tgt_ann (h, w, d) in
-    [0, 1]; usable (H, W) bool. Returns a dict of arrays: rgb (h, w, 3), alpha, sx, sy
-    (source pixel of the heaviest cluster), cluster (h, w) uint32 (1..C, heaviest),
-    missing (h, w) float32 (1 where no cluster holds N_i points inside the ε-ball:
-    interpolated appearance), weights (h, w, C), and n_clusters.
-    """
+def analyse(src_ann, usable, tgt_ann, p: AnnotatedParams):
+    """Clusters of the usable source pixels, eq. 2 weights of each target pixel and the
+    missing map: ((H, W) int32 clusters, C, (h, w, C) weights, (h, w) float32 missing)."""
     from proxyshade.kernels import annotated as ka
 
-    if p.mode not in MODES:
-        raise NodeInputError(f"mode {p.mode!r} is not one of {', '.join(MODES)}")
-    names = names or [str(k) for k in range(src_ann.shape[2])]
-    H, W, d = src_ann.shape
-    h, w = tgt_ann.shape[:2]
-    hw = p.patch // 2
-    check_annotations(src_ann, usable, tgt_ann, names, min_pixels=p.min_pixels)
-    usable = usable.copy()  # patch centres: whole patches inside the source
-    usable[:hw], usable[H - hw:], usable[:, :hw], usable[:, W - hw:] = False, False, False, False
+    h, w, d = tgt_ann.shape
     eps = np.full(d, p.eps)
     if p.mode in ("single", "analogies"):
         cl = np.where(usable, 0, -1).astype(np.int32)
@@ -175,6 +161,31 @@ def synthesize(src_rgb, src_alpha, src_ann, usable, tgt_ann, p: AnnotatedParams,
             Wt = np.eye(C)[np.argmax(Wt, axis=2)]
     missing = (S.min(axis=2) > 1.0).astype(np.float32)
 
+    return cl, C, Wt, missing
+
+
+def synthesize(src_rgb, src_alpha, src_ann, usable, tgt_ann, p: AnnotatedParams, names=None) -> dict:
+    """Fill a target with the source's material following the annotations.
+
+    src_rgb (H, W, 3) linear; src_alpha (H, W); src_ann (H, W, d) and tgt_ann (h, w, d) in
+    [0, 1]; usable (H, W) bool. Returns a dict of arrays: rgb (h, w, 3), alpha, sx, sy
+    (source pixel of the heaviest cluster), cluster (h, w) uint32 (1..C, heaviest),
+    missing (h, w) float32 (1 where no cluster holds N_i points inside the ε-ball:
+    interpolated appearance), weights (h, w, C), and n_clusters.
+    """
+    from proxyshade.kernels import annotated as ka
+
+    if p.mode not in MODES:
+        raise NodeInputError(f"mode {p.mode!r} is not one of {', '.join(MODES)}")
+    names = names or [str(k) for k in range(src_ann.shape[2])]
+    H, W, d = src_ann.shape
+    h, w = tgt_ann.shape[:2]
+    hw = p.patch // 2
+    check_annotations(src_ann, usable, tgt_ann, names, min_pixels=p.min_pixels)
+    usable = usable.copy()  # patch centres: whole patches inside the source
+    usable[:hw], usable[H - hw:], usable[:, :hw], usable[:, W - hw:] = False, False, False, False
+    eps = np.full(d, p.eps)
+    cl, C, Wt, missing = analyse(src_ann, usable, tgt_ann, p)
     lab_src = _lab(src_rgb)
     Lg = np.zeros((H, W, 2), np.float32)
     Lg[:, :-1, 0] = lab_src[:, 1:, 0] - lab_src[:, :-1, 0]
