@@ -1,7 +1,7 @@
 """Paint creek's annotation maps for annotated-exemplar synthesis (docs/annotated.md):
 
-- ``scale.png``: a near (0, bottom row) -> far (1, top row) ramp: the grass blades shrink
-  towards the top of the photo;
+- ``scale.png``: a near (0) -> far (1) ramp from the lowest to the highest row of the
+  vegetation label: the grass blades shrink towards the top of the photo;
 - ``light.png``: the photo's luminance blurred over ~25 px (lit vs shaded patches, not the
   grain), stretched so the 2nd..98th percentile of the vegetation spans 0..1;
 - ``vegetation.png``: the usable pixels (the vegetation label of creek_mask.jpg).
@@ -33,7 +33,9 @@ def main() -> None:
     light = box_blur(box_blur(lum.astype(np.float64), 12), 12)
     lo, hi = np.percentile(light[veg], [2, 98])
     light = np.clip((light - lo) / (hi - lo), 0, 1)
-    scale = np.repeat(np.linspace(1.0, 0.0, h)[:, None], w, axis=1)
+    rows = np.flatnonzero(veg.any(axis=1))
+    ramp = np.clip((rows[-1] - np.arange(h)) / (rows[-1] - rows[0]), 0, 1)
+    scale = np.repeat(ramp[:, None], w, axis=1)
     for name, v in (("light", light), ("scale", scale), ("vegetation", veg.astype(float))):
         g = np.round(v * 255).astype(np.uint8)
         write_png(HERE / f"{name}.png", np.repeat(g[..., None], 3, axis=2))
