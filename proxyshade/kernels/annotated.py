@@ -258,6 +258,17 @@ def repair(src_ann, src_cluster, cluster, usable, eps, tgt_ann, tgt_s, ny, nx, i
             np.ascontiguousarray(tgt_s, np.float64), ny, nx, iy, ix)
 
 
+@njit(inline="always", **JIT)
+def _try(src, tgt, src_ann, src_cluster, cluster, usable, inv_eps, a, smax, hw, i, j, cy, cx, by, bx, bd):
+    """The candidate (cy, cx) if it is allowed (cluster, ball) and nearer, else the best."""
+    if not _ok(src_ann, src_cluster, cluster, usable, inv_eps, cy, cx, a, smax):
+        return by, bx, bd
+    d = _pdist(src, tgt, hw, i, j, cy, cx, bd)
+    if d < bd:
+        return cy, cx, d
+    return by, bx, bd
+
+
 @njit(**PJIT)
 def _pm_iter(src, tgt, src_ann, src_cluster, cluster, usable, inv_eps, tgt_ann, tgt_s, members, hw, seed, it,
              oy, ox, od, ny, nx, nd):
@@ -282,13 +293,8 @@ def _pm_iter(src, tgt, src_ann, src_cluster, cluster, usable, inv_eps, tgt_ann, 
                 cx = ox[yy, xx] - dx
                 if cy == by and cx == bx:
                     continue
-                if not _ok(src_ann, src_cluster, cluster, usable, inv_eps, cy, cx, a, smax):
-                    continue
-                d = _pdist(src, tgt, hw, i, j, cy, cx, bd)
-                if d < bd:
-                    bd = d
-                    by = cy
-                    bx = cx
+                by, bx, bd = _try(src, tgt, src_ann, src_cluster, cluster, usable, inv_eps, a, smax, hw, i, j, cy, cx,
+                                  by, bx, bd)
             draw = 0
             R = max(H, W) // 2
             while R >= 1:
@@ -296,24 +302,14 @@ def _pm_iter(src, tgt, src_ann, src_cluster, cluster, usable, inv_eps, tgt_ann, 
                 cx = bx + rand(seed, i * w + j, it * 4096 + draw, 2) % (2 * R + 1) - R
                 draw += 1
                 R //= 2
-                if not _ok(src_ann, src_cluster, cluster, usable, inv_eps, cy, cx, a, smax):
-                    continue
-                d = _pdist(src, tgt, hw, i, j, cy, cx, bd)
-                if d < bd:
-                    bd = d
-                    by = cy
-                    bx = cx
+                by, bx, bd = _try(src, tgt, src_ann, src_cluster, cluster, usable, inv_eps, a, smax, hw, i, j, cy, cx,
+                                  by, bx, bd)
             for t in range(2):  # jumps anywhere in the cluster (kept only inside the ball)
                 c = members[rand(seed, i * w + j, it * 4096 + 2048 + t, 3) % nm]
                 cy = c // W
                 cx = c % W
-                if not _ok(src_ann, src_cluster, cluster, usable, inv_eps, cy, cx, a, smax):
-                    continue
-                d = _pdist(src, tgt, hw, i, j, cy, cx, bd)
-                if d < bd:
-                    bd = d
-                    by = cy
-                    bx = cx
+                by, bx, bd = _try(src, tgt, src_ann, src_cluster, cluster, usable, inv_eps, a, smax, hw, i, j, cy, cx,
+                                  by, bx, bd)
             ny[i, j] = by
             nx[i, j] = bx
             nd[i, j] = bd
