@@ -41,15 +41,37 @@ def test_output_follows_the_target_annotation():
     assert np.abs(light_src - target()["ann.light"]).mean() < 0.15
 
 
+def two_clusters(n=N):
+    """Two materials (light 0 left, 1 right) and a target ramp between them: two clusters,
+    eq. 2 weights, the CIELAB merge and the screened Poisson solve all run."""
+    s = source(n=n)
+    light = (np.mgrid[0:n, 0:n][1] >= n // 2).astype(np.float32)
+    return (s.with_channels({"ann.light": light, "G": s["G"] * (0.5 + light)}),
+            target(n).with_channels({"ann.light": np.repeat(np.linspace(0, 1, n, dtype=np.float32)[None], n, 0)}))
+
+
 def test_same_plate_with_one_and_two_threads():
+    src, tgt = two_clusters()
     outs = []
     for t in (1, 2):
         numba.set_num_threads(t)
         try:
-            outs.append(run_node("AnnotatedSynth", FAST, {"source": source(), "target": target()}))
+            outs.append(run_node("AnnotatedSynth", FAST, {"source": src, "target": tgt}))
         finally:
             numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
+    assert set(np.unique(outs[0]["cluster.id"])) == {1, 2}
     assert outs[0].equals(outs[1])
+
+
+def test_target_mask_limits_the_output_and_the_range_check():
+    src, tgt = two_clusters()
+    mask = np.zeros((N, N), np.float32)
+    mask[10:30, 5:40] = 1
+    light = tgt["ann.light"].copy()
+    light[~(mask > 0)] = 7.0  # outside the mask: not a target, not checked
+    out = run_node("AnnotatedSynth", FAST, {"source": src, "target": tgt.with_channels({"ann.light": light, "mask": mask})})
+    assert np.all(out["A"][mask == 0] == 0) and np.all(out["G"][mask == 0] == 0)
+    assert out["A"][mask > 0].min() > 0.99 and out["G"][mask > 0].min() > 0
 
 
 def _err(src, tgt, match, params=FAST):
