@@ -62,3 +62,14 @@ def test_creek_sample_reads():
     assert np.array_equal(out["mask"] > 0.5, veg)
     rows = np.flatnonzero(veg.any(axis=1))  # the scale ramp spans the vegetation rows
     assert out["ann.scale"][rows[0]].min() == 1 and out["ann.scale"][rows[-1]].max() == 0
+
+
+def test_cli_exits_2_with_one_line_naming_the_node(tmp_path, capsys):
+    from proxyshade.cli import main
+
+    table(tmp_path, "annotations: {light: light.png}\n", light_shape=(20, 32))
+    g = tmp_path / "g.yaml"
+    g.write_text("format: proxyshade/1\nframes: 1\nnodes:\n  src: {type: AnnotatedSourceRead, params: {table: source.yaml}}\n")
+    assert main(["run", str(g), "-q"]) == 2
+    err = [line for line in capsys.readouterr().err.splitlines() if "annotations.light" in line]
+    assert len(err) == 1 and "src" in err[0] and "paint it on the photo's pixel grid" in err[0]
