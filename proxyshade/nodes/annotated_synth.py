@@ -23,7 +23,9 @@ class AnnotatedSynth(Node):
     per-cluster results are merged in CIELAB with a screened Poisson solve of L*.
     Out: ``R,G,B,A``, ``source.x/y`` (of the heaviest cluster), ``cluster.id`` (uint32,
     heaviest, 1..C) and ``missing`` (1 where no cluster holds N_i source pixels inside the
-    ε-ball: appearance interpolated). See docs/annotated.md.
+    ε-ball: appearance interpolated). A source with ``exemplar.id`` (an atlas of several
+    exemplars, given ``ann.*`` channels) copies only patches lying inside one exemplar.
+    See docs/annotated.md.
     """
 
     version = 1
@@ -57,6 +59,10 @@ class AnnotatedSynth(Node):
         usable = np.ones(src.shape, bool)
         if "mask" in src:
             usable &= src["mask"] > 0.5
+        if "exemplar.id" in src:  # an ExemplarAtlas plate: patches stay inside one exemplar
+            from proxyshade.synthesis.annotated import within_one_exemplar
+
+            usable &= within_one_exemplar(src["exemplar.id"], ctx.p.patch // 2)
         alpha = src["A"].astype(np.float32) if "A" in src else np.ones(src.shape, np.float32)
         p = AnnotatedParams(eps=ctx.p.eps, patch=ctx.p.patch, levels=ctx.p.levels, em=ctx.p.em,
                             iterations=ctx.p.iterations, bandwidth=ctx.p.bandwidth, mode=ctx.p.mode, seed=ctx.p.seed)

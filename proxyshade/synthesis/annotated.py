@@ -59,6 +59,18 @@ def check_annotations(src_ann, usable, tgt_ann, names, *, min_pixels=1000, where
                                  f"target map or annotate a source that covers it")
 
 
+def within_one_exemplar(ids: np.ndarray, hw: int) -> np.ndarray:
+    """(H, W) bool: pixels whose (2·hw+1)² patch lies in one exemplar of an atlas
+    (``exemplar.id`` all equal and non-zero), so no copied patch straddles two exemplars."""
+    H, W = ids.shape
+    pad = np.pad(ids, hw, mode="edge")
+    ok = ids > 0
+    for dy in range(2 * hw + 1):
+        for dx in range(2 * hw + 1):
+            ok &= pad[dy:dy + H, dx:dx + W] == ids
+    return ok
+
+
 def _quant(a):
     return np.round(np.asarray(a, np.float64) * QUANTUM) / QUANTUM
 

@@ -113,3 +113,13 @@ def test_too_few_usable_pixels():
     mask = np.zeros((N, N), np.float32)
     mask[:20, :20] = 1
     _err(s.with_channels({"mask": mask}), target(), "fewer than 1000")
+
+
+def test_atlas_patches_stay_inside_one_exemplar():
+    src, tgt = two_clusters()
+    ex = np.where(np.mgrid[0:N, 0:N][1] < 12, 1, 2).astype(np.uint32)  # boundary at column 12
+    free = run_node("AnnotatedSynth", FAST, {"source": src, "target": tgt})["source.x"]
+    assert np.any((free >= 10) & (free <= 13))  # without exemplar.id, copies straddle it
+    out = run_node("AnnotatedSynth", FAST, {"source": src.with_channels({"exemplar.id": ex}), "target": tgt})
+    sx = out["source.x"]
+    assert np.all((sx <= 9) | (sx >= 14))  # no 5x5 patch centred within 2 px of the boundary

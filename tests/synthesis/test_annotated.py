@@ -70,3 +70,14 @@ def test_binary_weights_are_one_hot_and_baselines_use_one_cluster():
     for mode in ("single", "analogies"):
         r = sa.synthesize(rgb, one, ann, use, target(), sa.AnnotatedParams(mode=mode, **P))
         assert r["n_clusters"] == 1 and np.all(r["cluster"] == 1)
+
+
+def test_within_one_exemplar_against_a_window_loop():
+    rng = np.random.default_rng(3)
+    ids = np.repeat(np.repeat(rng.integers(0, 3, (4, 5)), 5, 0), 4, 1).astype(np.uint32)
+    got = sa.within_one_exemplar(ids, 1)
+    H, W = ids.shape
+    for i in range(H):
+        for j in range(W):
+            win = ids[max(i - 1, 0):i + 2, max(j - 1, 0):j + 2]
+            assert got[i, j] == (ids[i, j] > 0 and np.all(win == ids[i, j]))
