@@ -207,3 +207,29 @@ def new_table(photo: Path, label_map: Path, out: Path, *, min_share: float = 0.0
     for i, (c, count) in enumerate(colours, 1):
         lines.append(f"  label_{i}: {{id: {i}, color: \"#{c[0]:02x}{c[1]:02x}{c[2]:02x}\"}}   # {count / n:.1%} of the map")
     return "\n".join(lines) + "\n", {"labels": len(colours), "snapped": other, "snapped_share": other / n}
+
+
+def load_annotations(table_path: str | Path, shape: tuple[int, int]) -> dict[str, np.ndarray]:
+    """The optional ``annotations: {name: map.png}`` of a source table (grey maps, 0..255 ->
+    0..1, not sRGB-decoded: they are data), with ``mask`` (pixels > 127 usable) and
+    ``alpha`` (0..1) when given: ``{"ann.<name>": (H, W) float32, "mask": bool, "A": float32}``."""
+    table_path = Path(table_path)
+    t = load_table(table_path)
+    ann = t.get("annotations")
+    if not isinstance(ann, dict) or not ann:
+        raise UserError(f"{table_path}: annotations: expected a mapping name -> grey map (e.g. "
+                        f"{{light: light.png, scale: scale.png}})")
+    files = {f"ann.{k}": v for k, v in ann.items()}
+    files.update({k: t[k] for k in ("mask", "alpha") if t.get(k)})
+    out = {}
+    for name, rel in files.items():
+        where = f"annotations.{name[4:]}" if name.startswith("ann.") else name
+        if not isinstance(rel, str) or not rel:
+            raise UserError(f"{table_path}: {where}: expected an image file name, got {rel!r}")
+        px = read_u8(table_path.parent / rel)
+        if px.shape[:2] != tuple(shape):
+            raise UserError(f"{table_path}: {where} is {px.shape[1]}x{px.shape[0]} but the photo is "
+                            f"{shape[1]}x{shape[0]}; paint it on the photo's pixel grid")
+        v = px[..., 0].astype(np.float32) / 255.0
+        out[name] = v > 0.5 if name == "mask" else v
+    return out

@@ -1,0 +1,427 @@
+"""Kernels of annotated-exemplar synthesis (Diamanti, Barnes, Paris, Shechtman and
+Sorkine-Hornung, "Synthesis of complex image appearance from limited exemplars", TOG 2015).
+
+Annotation points are vectors in [0, 1]^d. Distances in annotation space are measured in
+the ε-scaled metric ``sqrt(sum(((p_k - a_k) / eps_k)^2))``: an axis-aligned ellipsoid with
+semi-axes ``s * eps_k`` around ``a`` is the set of points at scaled distance <= s.
+
+- ``ball_scale``: for each target point, the smallest scaling ``s`` of the ε-ellipsoid that
+  holds ``N`` source points (points given once with a multiplicity): R⁰_ik = s·ε_k, and the
+  paper's R_ik = max(ε_k, R⁰_ik) = ε_k·max(1, s).
+- ``eq2_weights``: W_i(a) = (1/Z) Σ_k ε_k / g(R_ik(a) − ε_k) with the clip of g.
+- ``mean_shift``: Gaussian mean shift of weighted points (every point to its mode).
+- ``nearest_init`` / ``patchmatch`` / ``vote``: generalized PatchMatch restricted to one
+  cluster and to each target pixel's ε-ball (candidates outside are rejected), Jacobi
+  iterations (read old, write new: the result does not depend on the thread count), and
+  the average of overlapping patches.
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, prange
+
+from proxyshade.kernels._config import JIT, PJIT
+from proxyshade.kernels.random import rand
+
+
+@njit(inline="always", **JIT)
+def _sdist2(p, a, inv_eps):
+    s = 0.0
+    for k in range(p.shape[0]):
+        t = (np.float64(p[k]) - np.float64(a[k])) * inv_eps[k]
+        s += t * t
+    return s
+
+
+@njit(**PJIT)
+def _ball_scale(pts, counts, inv_eps, targets, n_hold, out):
+    u = pts.shape[0]
+    for t in prange(targets.shape[0]):
+        d = np.empty(u)
+        for p in range(u):
+            d[p] = _sdist2(pts[p], targets[t], inv_eps)
+        order = np.argsort(d, kind="mergesort")
+        acc = 0
+        r = np.inf
+        for q in range(u):
+            acc += counts[order[q]]
+            if acc >= n_hold:
+                r = np.sqrt(d[order[q]])
+                break
+        out[t] = r
+
+
+def ball_scale(pts: np.ndarray, counts: np.ndarray, eps: np.ndarray, targets: np.ndarray, n_hold: int) -> np.ndarray:
+    """The smallest scaling ``s`` of the ε-ellipsoid around each target point that holds
+    ``n_hold`` source points.
+
+    pts (U, d) distinct source points with ``counts`` (U,) pixels each; targets (M, d).
+    Returns (M,) float64: the ``n_hold``-th smallest scaled distance counting
+    multiplicities (inf when fewer points exist).
+    """
+    pts = np.ascontiguousarray(pts, np.float64)
+    targets = np.ascontiguousarray(targets, np.float64)
+    out = np.empty(targets.shape[0], np.float64)
+    _ball_scale(pts, np.ascontiguousarray(counts, np.int64), 1.0 / np.asarray(eps, np.float64),
+                targets, int(n_hold), out)
+    return out
+
+
+def eq2_weights(s: np.ndarray, eps: np.ndarray) -> np.ndarray:
+    """Eq. 2: W_i(a) = (1/Z) Σ_k ε_k / g(R_ik(a) − ε_k), R_ik = ε_k·max(1, s_i(a)).
+
+    s (M, C): the ball scales of M target points for C clusters. g(x) = x for x > 0;
+    at or below zero g is clipped to 0.8·min_a{R_ik(a) − ε_k | R_ik(a) − ε_k > 0} (per
+    cluster and dimension; the minimum over all clusters where a cluster has no positive
+    value, 1 where none has). Returns (M, C) float64 summing to 1 over the clusters.
+    """
+    s = np.asarray(s, np.float64)
+    eps = np.asarray(eps, np.float64)
+    x = eps[None, None, :] * np.maximum(s[:, :, None] - 1.0, 0.0)  # (M, C, d) R_ik - eps_k
+    pos = x > 0
+    big = np.where(pos, x, np.inf)
+    clip = big.min(axis=0)  # (C, d)
+    glob = clip.min(axis=0)  # (d,)
+    glob = np.where(np.isfinite(glob), glob, 1.0)
+    clip = 0.8 * np.where(np.isfinite(clip), clip, glob[None, :])
+    g = np.where(pos, x, clip[None, :, :])
+    w = (eps[None, None, :] / g).sum(axis=2)
+    return w / w.sum(axis=1, keepdims=True)
+
+
+@njit(**PJIT)
+def _mean_shift(pts, counts, h, iters, tol, out):
+    u, d = pts.shape
+    inv = 1.0 / (2.0 * h * h)
+    for p in prange(u):
+        x = pts[p].copy()
+        for _ in range(iters):
+            num = np.zeros(d)
+            den = 0.0
+            for q in range(u):
+                r2 = 0.0
+                for k in range(d):
+                    t = x[k] - pts[q, k]
+                    r2 += t * t
+                wq = counts[q] * np.exp(-r2 * inv)
+                den += wq
+                for k in range(d):
+                    num[k] += wq * pts[q, k]
+            step = 0.0
+            for k in range(d):
+                nk = num[k] / den
+                step += (nk - x[k]) ** 2
+                x[k] = nk
+            if step < tol * tol:
+                break
+        out[p] = x
+
+
+def mean_shift(pts: np.ndarray, counts: np.ndarray, bandwidth: float, *, iters: int = 100,
+               tol: float = 1e-5) -> np.ndarray:
+    """Gaussian mean shift: each point (with multiplicity ``counts``) moved to its mode.
+
+    Returns (U, d) float64 modes (the iteration stops when a step is below ``tol``)."""
+    pts = np.ascontiguousarray(pts, np.float64)
+    out = np.empty_like(pts)
+    _mean_shift(pts, np.ascontiguousarray(counts, np.float64), float(bandwidth), int(iters), float(tol), out)
+    return out
+
+
+def group_modes(modes: np.ndarray, counts: np.ndarray, radius: float) -> tuple[np.ndarray, np.ndarray]:
+    """Group converged modes closer than ``radius``: returns (labels (U,) int32 from 0,
+    centres (C, d)); clusters ordered by decreasing pixel count (ties: first point)."""
+    centres: list[np.ndarray] = []
+    lab = np.empty(len(modes), np.int32)
+    for p, m in enumerate(modes):
+        for c, z in enumerate(centres):
+            if np.sqrt(((m - z) ** 2).sum()) < radius:
+                lab[p] = c
+                break
+        else:
+            lab[p] = len(centres)
+            centres.append(m)
+    size = np.bincount(lab, weights=counts, minlength=len(centres))
+    order = np.argsort(-size, kind="stable")
+    rank = np.empty_like(order)
+    rank[order] = np.arange(len(order))
+    return rank[lab].astype(np.int32), np.array(centres)[order]
+
+
+@njit(inline="always", **JIT)
+def _ok(src_ann, src_cluster, cluster, usable, inv_eps, cy, cx, a, s_max):
+    H, W = src_cluster.shape
+    if cy < 0 or cy >= H or cx < 0 or cx >= W:
+        return False
+    if not usable[cy, cx] or src_cluster[cy, cx] != cluster:
+        return False
+    return _sdist2(src_ann[cy, cx], a, inv_eps) <= s_max * s_max * (1.0 + 1e-9)
+
+
+@njit(inline="always", **JIT)
+def _pdist(src, tgt, hw, i, j, cy, cx, bound):
+    H, W, F = src.shape
+    h, w, _ = tgt.shape
+    d = 0.0
+    for dy in range(-hw, hw + 1):
+        ti = i + dy
+        if ti < 0 or ti >= h:
+            continue
+        sy = min(max(cy + dy, 0), H - 1)
+        for dx in range(-hw, hw + 1):
+            tj = j + dx
+            if tj < 0 or tj >= w:
+                continue
+            sx = min(max(cx + dx, 0), W - 1)
+            for f in range(F):
+                t = np.float64(src[sy, sx, f]) - np.float64(tgt[ti, tj, f])
+                d += t * t
+        if d > bound:
+            return d
+    return d
+
+
+def patch_distance(src, tgt, hw, i, j, cy, cx):
+    """Sum of squared feature differences between the target patch at (i, j) and the
+    source patch at (cy, cx) (target pixels outside the image skipped, source clamped)."""
+    return _pdist(np.ascontiguousarray(src, np.float32), np.ascontiguousarray(tgt, np.float32), int(hw),
+                  int(i), int(j), int(cy), int(cx), np.inf)
+
+
+@njit(**PJIT)
+def _nearest_bins(bins, targets, inv_eps, out):
+    for t in prange(targets.shape[0]):
+        best = 0
+        bd = np.inf
+        for b in range(bins.shape[0]):
+            d = _sdist2(bins[b], targets[t], inv_eps)
+            if d < bd:
+                bd = d
+                best = b
+        out[t] = best
+
+
+def nearest_bins(bins, targets, eps) -> np.ndarray:
+    """Index of the nearest of ``bins`` (B, d) to each of ``targets`` (M, d) in the
+    ε-scaled metric (the first on ties). Returns (M,) int64."""
+    out = np.empty(len(targets), np.int64)
+    _nearest_bins(np.ascontiguousarray(bins, np.float64), np.ascontiguousarray(targets, np.float64),
+                  1.0 / np.asarray(eps, np.float64), out)
+    return out
+
+
+@njit(**PJIT)
+def _draw(tb, bin_start, bin_count, order, W, seed, oy, ox):
+    h, w = tb.shape
+    for i in prange(h):
+        for j in range(w):
+            b = tb[i, j]
+            c = order[bin_start[b] + rand(seed, i * w + j, 0x1417, 0) % bin_count[b]]
+            oy[i, j] = c // W
+            ox[i, j] = c % W
+
+
+def draw_members(tb, bin_start, bin_count, order, src_width, seed):
+    """For each target pixel a random source pixel of its bin ``tb`` (h, w): one of
+    ``order[bin_start[b]:bin_start[b]+bin_count[b]]`` (flat indices). Returns (y, x) int32."""
+    h, w = tb.shape
+    oy = np.empty((h, w), np.int32)
+    ox = np.empty((h, w), np.int32)
+    _draw(np.ascontiguousarray(tb, np.int64), bin_start.astype(np.int64), bin_count.astype(np.int64),
+          order.astype(np.int64), int(src_width), int(seed), oy, ox)
+    return oy, ox
+
+
+def nearest_init(tgt_ann, bins, bin_start, bin_count, order, src_width, eps, seed):
+    """Each target pixel starts at a source pixel whose annotation is the most similar:
+    a random pixel of the nearest annotation bin (``nearest_bins``, ``draw_members``)."""
+    h, w, d = tgt_ann.shape
+    tb = nearest_bins(bins, np.asarray(tgt_ann).reshape(-1, d), eps).reshape(h, w)
+    return draw_members(tb, bin_start, bin_count, order, src_width, seed)
+
+
+@njit(**PJIT)
+def _repair(src_ann, src_cluster, cluster, usable, inv_eps, tgt_ann, tgt_s, ny, nx, iy, ix):
+    h, w = ny.shape
+    for i in prange(h):
+        for j in range(w):
+            smax = max(1.0, tgt_s[i, j])
+            if not _ok(src_ann, src_cluster, cluster, usable, inv_eps, ny[i, j], nx[i, j], tgt_ann[i, j], smax):
+                ny[i, j] = iy[i, j]
+                nx[i, j] = ix[i, j]
+
+
+def repair(src_ann, src_cluster, cluster, usable, eps, tgt_ann, tgt_s, ny, nx, iy, ix):
+    """Replace (in place) every entry of (ny, nx) outside the cluster or the target
+    pixel's ε-ball by the start (iy, ix)."""
+    _repair(src_ann, src_cluster, np.int32(cluster), usable, 1.0 / np.asarray(eps, np.float64), tgt_ann,
+            np.ascontiguousarray(tgt_s, np.float64), ny, nx, iy, ix)
+
+
+@njit(inline="always", **JIT)
+def _try(src, tgt, src_ann, src_cluster, cluster, usable, inv_eps, a, smax, hw, i, j, cy, cx, by, bx, bd):
+    """The candidate (cy, cx) if it is allowed (cluster, ball) and nearer, else the best."""
+    if not _ok(src_ann, src_cluster, cluster, usable, inv_eps, cy, cx, a, smax):
+        return by, bx, bd
+    d = _pdist(src, tgt, hw, i, j, cy, cx, bd)
+    if d < bd:
+        return cy, cx, d
+    return by, bx, bd
+
+
+@njit(**PJIT)
+def _pm_iter(src, tgt, src_ann, src_cluster, cluster, usable, inv_eps, tgt_ann, tgt_s, members, hw, seed, it,
+             oy, ox, od, ny, nx, nd):
+    H, W, _ = src.shape
+    h, w, _ = tgt.shape
+    nm = members.shape[0]
+    for i in prange(h):
+        for j in range(w):
+            a = tgt_ann[i, j]
+            smax = max(1.0, tgt_s[i, j])
+            by = oy[i, j]
+            bx = ox[i, j]
+            bd = od[i, j]
+            for q in range(4):
+                dy = (q == 1) - (q == 0)
+                dx = (q == 3) - (q == 2)
+                yy = i + dy
+                xx = j + dx
+                if yy < 0 or yy >= h or xx < 0 or xx >= w:
+                    continue
+                cy = oy[yy, xx] - dy
+                cx = ox[yy, xx] - dx
+                if cy == by and cx == bx:
+                    continue
+                by, bx, bd = _try(src, tgt, src_ann, src_cluster, cluster, usable, inv_eps, a, smax, hw, i, j, cy, cx,
+                                  by, bx, bd)
+            draw = 0
+            R = max(H, W) // 2
+            while R >= 1:
+                cy = by + rand(seed, i * w + j, it * 4096 + draw, 1) % (2 * R + 1) - R
+                cx = bx + rand(seed, i * w + j, it * 4096 + draw, 2) % (2 * R + 1) - R
+                draw += 1
+                R //= 2
+                by, bx, bd = _try(src, tgt, src_ann, src_cluster, cluster, usable, inv_eps, a, smax, hw, i, j, cy, cx,
+                                  by, bx, bd)
+            for t in range(2):  # jumps anywhere in the cluster (kept only inside the ball)
+                c = members[rand(seed, i * w + j, it * 4096 + 2048 + t, 3) % nm]
+                cy = c // W
+                cx = c % W
+                by, bx, bd = _try(src, tgt, src_ann, src_cluster, cluster, usable, inv_eps, a, smax, hw, i, j, cy, cx,
+                                  by, bx, bd)
+            ny[i, j] = by
+            nx[i, j] = bx
+            nd[i, j] = bd
+
+
+@njit(**PJIT)
+def _pm_score(src, tgt, hw, ny, nx, nd):
+    h, w = ny.shape
+    for i in prange(h):
+        for j in range(w):
+            nd[i, j] = _pdist(src, tgt, hw, i, j, ny[i, j], nx[i, j], np.inf)
+
+
+def patchmatch(src, tgt, src_ann, src_cluster, cluster, usable, eps, tgt_ann, tgt_s, ny, nx, *, hw, iterations,
+               seed, members=None):
+    """Generalized PatchMatch in one cluster: for each target pixel the source patch centre
+    (ny, nx) minimising the feature distance (``patch_distance``) among source pixels that
+    are ``usable``, in ``cluster`` and inside the pixel's ε-ball (scaled annotation
+    distance <= max(1, tgt_s)). (ny, nx) must start valid (``nearest_init``, ``repair``).
+
+    src (H, W, F), tgt (h, w, F) float32 features; src_ann (H, W, d), tgt_ann (h, w, d)
+    float64; src_cluster (H, W) int32; usable (H, W) bool. Returns (ny, nx, nd).
+    """
+    src = np.ascontiguousarray(src, np.float32)
+    tgt = np.ascontiguousarray(tgt, np.float32)
+    inv_eps = 1.0 / np.asarray(eps, np.float64)
+    tgt_s = np.ascontiguousarray(tgt_s, np.float64)
+    if members is None:
+        members = np.flatnonzero(usable & (src_cluster == cluster)).astype(np.int64)
+    oy = np.ascontiguousarray(ny, np.int32).copy()
+    ox = np.ascontiguousarray(nx, np.int32).copy()
+    od = np.empty(oy.shape, np.float64)
+    _pm_score(src, tgt, int(hw), oy, ox, od)
+    n_y, n_x, n_d = np.empty_like(oy), np.empty_like(ox), np.empty_like(od)
+    for it in range(int(iterations)):
+        _pm_iter(src, tgt, src_ann, src_cluster, np.int32(cluster), usable, inv_eps, tgt_ann, tgt_s, members,
+                 int(hw), int(seed), it, oy, ox, od, n_y, n_x, n_d)
+        oy, n_y = n_y, oy
+        ox, n_x = n_x, ox
+        od, n_d = n_d, od
+    return oy, ox, od
+
+
+@njit(**PJIT)
+def _vote(src, ny, nx, hw, out):
+    H, W, F = src.shape
+    h, w = ny.shape
+    for i in prange(h):
+        for j in range(w):
+            acc = np.zeros(F)
+            n = 0
+            for dy in range(-hw, hw + 1):
+                qi = i - dy
+                if qi < 0 or qi >= h:
+                    continue
+                for dx in range(-hw, hw + 1):
+                    qj = j - dx
+                    if qj < 0 or qj >= w:
+                        continue
+                    sy = min(max(ny[qi, qj] + dy, 0), H - 1)
+                    sx = min(max(nx[qi, qj] + dx, 0), W - 1)
+                    for f in range(F):
+                        acc[f] += src[sy, sx, f]
+                    n += 1
+            for f in range(F):
+                out[i, j, f] = acc[f] / n
+
+
+def vote(src: np.ndarray, ny: np.ndarray, nx: np.ndarray, hw: int) -> np.ndarray:
+    """Voting: each target pixel is the mean of what the (2·hw+1)² patches covering it
+    say (the patch of target pixel q at offset o reads source ``nnf(q) + o``, clamped).
+    src (H, W, F); returns (h, w, F) float32."""
+    src = np.ascontiguousarray(src, np.float32)
+    out = np.empty(ny.shape + (src.shape[2],), np.float32)
+    _vote(src, np.ascontiguousarray(ny, np.int32), np.ascontiguousarray(nx, np.int32), int(hw), out)
+    return out
+
+
+def merge_system(L: np.ndarray, gx: np.ndarray, gy: np.ndarray, screen: float) -> np.ndarray:
+    """Right-hand side of the screened Poisson reconstruction of u from a target gradient
+    field (gx[i, j] ≈ u[i, j+1] − u[i, j], gy[i, j] ≈ u[i+1, j] − u[i, j]) and the values
+    L (weight ``screen``): (Δ_graph + screen·I) u = screen·L − div g, with the graph
+    Laplacian of the 4-connected grid (``kernels.poisson.solve_system``'s A, no fixed
+    pixel)."""
+    b = screen * L.astype(np.float64)
+    b[:, :-1] -= gx[:, :-1]
+    b[:, 1:] += gx[:, :-1]
+    b[:-1, :] -= gy[:-1, :]
+    b[1:, :] += gy[:-1, :]
+    return b
+
+
+def screened_poisson(L: np.ndarray, gx: np.ndarray, gy: np.ndarray, screen: float, *, tol: float = 1e-6,
+                     max_iter: int = 200) -> np.ndarray:
+    """u minimising Σ_edges (u_q − u_p − g_pq)² + screen·Σ (u − L)² (one channel), solved
+    with ``kernels.poisson.solve_system``. Returns (h, w) float32."""
+    from proxyshade.kernels.poisson import solve_system
+
+    b = merge_system(L, gx, gy, screen)
+    b3 = np.zeros(L.shape + (3,), np.float32)
+    b3[..., 0] = b
+    v, _ = solve_system(np.zeros(L.shape, np.bool_), b3, screen=float(screen), tol=tol, max_iter=max_iter)
+    return v[..., 0]
+
+
+def merge_channels(values: np.ndarray, grads: np.ndarray, weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The merge of C per-cluster results: values (C, h, w, V) (L*, a*, b*, α) averaged
+    with the weights (h, w, C); gradients (C, h, w, 2) (∂L*/∂x, ∂L*/∂y): that of the cluster
+    with the largest ‖W_i ∇L*_i‖ (the first on ties). Returns ((h, w, V), (h, w, 2))."""
+    w = np.moveaxis(np.asarray(weights, np.float64), 2, 0)  # (C, h, w)
+    mean = (w[..., None] * values).sum(axis=0)
+    norm = w * np.sqrt((grads.astype(np.float64) ** 2).sum(axis=3))
+    pick = np.argmax(norm, axis=0)
+    g = np.take_along_axis(grads, pick[None, :, :, None], axis=0)[0]
+    return mean, g

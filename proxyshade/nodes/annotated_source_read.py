@@ -1,0 +1,55 @@
+"""AnnotatedSourceRead: a source photo with per-pixel annotation maps (Diamanti et al. 2015)."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from proxyshade.graph import keys
+from proxyshade.graph.node import Node, Param
+from proxyshade.graph.plate import Plate
+from proxyshade.io.source import load_source, load_table
+
+
+class AnnotatedSourceRead(Node):
+    """Read an annotated source: ``R,G,B``, ``label.id`` (as ``SourceRead``), one
+    ``ann.<name>`` channel per entry of the table's ``annotations: {light: light.png, ...}``
+    (grey maps, 0..255 -> [0, 1]), ``A`` from the optional ``alpha`` map (1 without one)
+    and ``mask`` (float 1/0; pixels > 127 of the optional ``mask`` map, all without one).
+    """
+
+    version = 1
+    table = Param(Path, doc="label table YAML (source.yaml) with an 'annotations' mapping")
+    far_distance = Param(float, 100.0, min=0.0, doc="8-bit RGB distance beyond which a label-map pixel is 'far'")
+    max_far_fraction = Param(float, 0.02, min=0.0, max=1.0, doc="fail when more label-map pixels than this are far")
+
+    def key_extra(self, frame, graph_dir):
+        from proxyshade.graph.node import resolve_path
+
+        try:
+            path = resolve_path(self.params["table"], graph_dir, frame)
+            t = load_table(path)
+        except Exception:  # noqa: BLE001 - reported properly by compute
+            return None
+        files = [t["image"], t["labels_map"]] + [str(path.parent / v) for v in (t.get("annotations") or {}).values()
+                                                 if isinstance(v, str)]
+        files += [str(path.parent / t[k]) for k in ("mask", "alpha") if isinstance(t.get(k), str)]
+        return {f: keys.file_hash(Path(f)) for f in files if Path(f).is_file()}
+
+    def compute(self, ctx) -> Plate:
+        from proxyshade.errors import UserError
+        from proxyshade.io.source import load_annotations
+
+        path = ctx.path(ctx.p.table)
+        plate = load_source(path, far_distance=ctx.p.far_distance, max_far_fraction=ctx.p.max_far_fraction,
+                            where=self.name)
+        try:
+            extra = load_annotations(path, plate.shape)
+        except UserError as e:
+            raise ctx.error(str(e)) from None
+        ch = {k: v for k, v in extra.items() if k.startswith("ann.")}
+        ch["A"] = extra.get("A", np.ones(plate.shape, np.float32))
+        ch["mask"] = extra.get("mask", np.ones(plate.shape, bool)).astype(np.float32)
+        meta = dict(plate.meta)
+        meta["annotations"] = [k[4:] for k in ch if k.startswith("ann.")]
+        return plate.with_channels(ch, meta=meta)
