@@ -260,16 +260,15 @@ def _cand_init(Q, A, bw, nb, q, sep, own_box, seed, init, cy_, cx_, cd_):
                 ly = cy_[i, j, b]
                 lx = cx_[i, j, b]
                 ld = cd_[i, j, b]
-                for t in range(q):
-                    ly[t] = -1
-                    lx[t] = -1
-                    ld[t] = np.inf
+                ly[:] = -1
+                lx[:] = -1
+                ld[:] = np.inf
                 same = own_box and j // bw == b
                 if init.shape[0] > 0:
                     for t in range(q):
                         _try(Q, A, i, j, same, bw, b, q, sep, init[i, j, b, t, 0], init[i, j, b, t, 1], ly, lx, ld)
                 else:
-                    for t in range(4 * q + 4):
+                    for t in range(4 * q + 4):  # random draws in the box
                         r = rand(seed, i * Wq + j, b, t)
                         _try(Q, A, i, j, same, bw, b, q, sep, (r >> 20) % Ha, b * bw + r % bw, ly, lx, ld)
                 _fill(Q, A, i, j, same, bw, b, q, sep, ly, lx, ld)
@@ -289,10 +288,9 @@ def _cand_iter(Q, A, bw, nb, q, sep, own_box, seed, it, step, oy, ox, od, ny, nx
                 ly = ny[i, j, b]
                 lx = nx[i, j, b]
                 ld = nd[i, j, b]
-                for t in range(q):
-                    ly[t] = oy[i, j, b, t]
-                    lx[t] = ox[i, j, b, t]
-                    ld[t] = od[i, j, b, t]
+                ly[:] = oy[i, j, b]
+                lx[:] = ox[i, j, b]
+                ld[:] = od[i, j, b]
                 same = own_box and j // bw == b
                 for m in range(8):
                     k = m % 4
