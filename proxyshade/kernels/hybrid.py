@@ -18,7 +18,8 @@ The exemplars sit side by side in an *atlas*: equal boxes of ``bw`` columns in a
   also a nearest-patch search from another image (the bench's C measure);
 * ``subpass``: one parity sub-set of a jitter (``J`` > 0) or correction (``J`` = 0) pass.
   For pixel p, the synthesized neighbourhood Ñ_S(p) is the PCA projection of the stack
-  colours at the 5 × 5 neighbours' pointers; the candidates are, for each 3 × 3
+  colours at the 5 × 5 neighbours' pointers (past the grid's border: the nearest pointer
+  continued by h per pixel, clamped into its box); the candidates are, for each 3 × 3
   neighbour q, S[q] − h (q − p) and its candidate set shifted the same way (staying in
   the pointer's box); d_i = ‖Ñ_S(p) − Ñ_E(c_i)‖² / weight(exemplar of c_i) (weight 0:
   never a candidate). Correction
@@ -366,17 +367,21 @@ def candidates(Q: np.ndarray, A: np.ndarray, bw: int, q: int, sep: int, *, own_b
 
 
 @njit(**JIT)
-def _neigh_desc(stack, mean, basis, S, i, j, x, out):
-    """Ñ_S(i, j): the stack colours at the 5 × 5 neighbours' pointers, projected."""
+def _neigh_desc(stack, mean, basis, S, i, j, h, bw, x, out):
+    """Ñ_S(i, j): the stack colours at the 5 × 5 neighbours' pointers, projected. A
+    neighbour outside the grid continues the nearest inside one's pointer by h per pixel,
+    clamped into its box (as ``gather`` clamps): an exemplar's own map matches exactly."""
     Ht, Wt = S.shape[0], S.shape[1]
+    Ha = stack.shape[0]
     C = stack.shape[2]
     t = 0
     for di in range(-2, 3):
         ii = min(max(i + di, 0), Ht - 1)
         for dj in range(-2, 3):
             jj = min(max(j + dj, 0), Wt - 1)
-            sy = S[ii, jj, 0]
-            sx = S[ii, jj, 1]
+            sy = min(max(S[ii, jj, 0] + h * (i + di - ii), 0), Ha - 1)
+            x0 = (S[ii, jj, 1] // bw) * bw
+            sx = min(max(S[ii, jj, 1] + h * (j + dj - jj), x0), x0 + bw - 1)
             for c in range(C):
                 x[t] = np.float64(stack[sy, sx, c]) - mean[t]
                 t += 1
@@ -403,7 +408,7 @@ def _subpass(stack, mean, basis, P, cand, inv_w, S_old, S_new, pi, pj, h, bw, J,
         cxl = np.empty(ncand, np.int64)
         dl = np.empty(ncand)
         for j in range(pj, Wt, 2):
-            _neigh_desc(stack, mean, basis, S_old, i, j, x, nd)
+            _neigh_desc(stack, mean, basis, S_old, i, j, h, bw, x, nd)
             nc = 0
             dmin = np.inf
             dmax = -np.inf
