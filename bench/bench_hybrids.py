@@ -19,8 +19,8 @@ Measures (over seeds 1..8 of one configuration):
 A baseline point is matched to a structure-preserving one by D: for the same number of
 jittered levels, the baseline radius r (of a grid) whose D is nearest.
 
-Run: PYTHONPATH=.:bench .venv/bin/python bench/bench_hybrids.py [--quick | --sheet]
-(``--sheet`` writes docs/img/hybrids_sheet.png)
+Run: .venv/bin/python bench/run.py hybrids, or .venv/bin/python bench/bench_hybrids.py [--quick | --sheet]
+(``--quick``: seeds 1-4; ``--sheet`` writes docs/img/hybrids_sheet.png instead)
 """
 from __future__ import annotations
 
