@@ -19,7 +19,8 @@ Measures (over seeds 1..8 of one configuration):
 A baseline point is matched to a structure-preserving one by D: for the same number of
 jittered levels, the baseline radius r (of a grid) whose D is nearest.
 
-Run: PYTHONPATH=. .venv/bin/python bench/bench_hybrids.py [--quick]
+Run: .venv/bin/python bench/run.py hybrids, or .venv/bin/python bench/bench_hybrids.py [--quick | --sheet]
+(``--quick``: seeds 1-4; ``--sheet`` writes docs/img/hybrids_sheet.png instead)
 """
 from __future__ import annotations
 
@@ -190,7 +191,37 @@ def speed(atlas):
     print(f"load: {os.getloadavg()[0]:.2f} (1-min average, 2 cores shared)")
 
 
+def sheet(path: Path):
+    """The docs' contact sheet, all at 100%: renoir and creek, then hybrids of seeds 1-8
+    (J = 0.3, every level jittered: HybridSynth's defaults); brick's two crops, 2 hybrids
+    at J = 0.3, then 1 at J = 0.05 jittering the finest 2 levels only."""
+    from proxyshade.io.images import write_png
+    from proxyshade.kernels.features import srgb_features
+    from proxyshade.synthesis.hybrid import analyse, synthesize
+
+    rows = []
+    # (atlas, [(J, jitter levels, seeds)]): rows of 5 tiles, the two exemplars first
+    for atlas, runs in ((renoir_creek(), [(0.3, None, range(1, 9))]),
+                        (brick(), [(0.3, None, range(1, 3)), (0.05, 2, range(1, 2))])):
+        rgb = atlas_rgb(atlas)
+        an = analyse(rgb, SIZE, levels=LEVELS, L=L, q=Q, iterations=ITERATIONS, seed=0)
+        tiles = [rgb[:, :SIZE], rgb[:, SIZE:]]
+        for J, jl, seeds in runs:
+            for s in seeds:
+                S = synthesize(an, (SIZE, SIZE), J=J, seed=s, weights=np.ones(2), passes=PASSES, jitter_levels=jl)
+                tiles.append(rgb[S[..., 0], S[..., 1]])
+        for k in range(0, len(tiles), 5):
+            rows.append(np.concatenate([np.pad(t, ((2, 2), (2, 2), (0, 0)), constant_values=1.0)
+                                        for t in tiles[k:k + 5]], 1))
+    img = np.concatenate(rows, 0)
+    write_png(path, np.clip(srgb_features(img) + 0.5, 0, 255).astype(np.uint8))
+    print(f"wrote {path}")
+
+
 def main():
+    if "--sheet" in sys.argv:
+        sheet(ROOT / "docs/img/hybrids_sheet.png")
+        return
     quick = "--quick" in sys.argv
     seeds = list(range(1, 5 if quick else 9))
     rc = renoir_creek()

@@ -18,7 +18,8 @@ The exemplars sit side by side in an *atlas*: equal boxes of ``bw`` columns in a
   also a nearest-patch search from another image (the bench's C measure);
 * ``subpass``: one parity sub-set of a jitter (``J`` > 0) or correction (``J`` = 0) pass.
   For pixel p, the synthesized neighbourhood Ñ_S(p) is the PCA projection of the stack
-  colours at the 5 × 5 neighbours' pointers; the candidates are, for each 3 × 3
+  colours at the 5 × 5 neighbours' pointers (past the grid's border: the nearest pointer
+  continued by h per pixel, clamped into its box); the candidates are, for each 3 × 3
   neighbour q, S[q] − h (q − p) and its candidate set shifted the same way (staying in
   the pointer's box); d_i = ‖Ñ_S(p) − Ñ_E(c_i)‖² / weight(exemplar of c_i) (weight 0:
   never a candidate). Correction
@@ -260,16 +261,15 @@ def _cand_init(Q, A, bw, nb, q, sep, own_box, seed, init, cy_, cx_, cd_):
                 ly = cy_[i, j, b]
                 lx = cx_[i, j, b]
                 ld = cd_[i, j, b]
-                for t in range(q):
-                    ly[t] = -1
-                    lx[t] = -1
-                    ld[t] = np.inf
+                ly[:] = -1
+                lx[:] = -1
+                ld[:] = np.inf
                 same = own_box and j // bw == b
                 if init.shape[0] > 0:
                     for t in range(q):
                         _try(Q, A, i, j, same, bw, b, q, sep, init[i, j, b, t, 0], init[i, j, b, t, 1], ly, lx, ld)
                 else:
-                    for t in range(4 * q + 4):
+                    for t in range(4 * q + 4):  # random draws in the box
                         r = rand(seed, i * Wq + j, b, t)
                         _try(Q, A, i, j, same, bw, b, q, sep, (r >> 20) % Ha, b * bw + r % bw, ly, lx, ld)
                 _fill(Q, A, i, j, same, bw, b, q, sep, ly, lx, ld)
@@ -289,10 +289,9 @@ def _cand_iter(Q, A, bw, nb, q, sep, own_box, seed, it, step, oy, ox, od, ny, nx
                 ly = ny[i, j, b]
                 lx = nx[i, j, b]
                 ld = nd[i, j, b]
-                for t in range(q):
-                    ly[t] = oy[i, j, b, t]
-                    lx[t] = ox[i, j, b, t]
-                    ld[t] = od[i, j, b, t]
+                ly[:] = oy[i, j, b]
+                lx[:] = ox[i, j, b]
+                ld[:] = od[i, j, b]
                 same = own_box and j // bw == b
                 for m in range(8):
                     k = m % 4
@@ -368,17 +367,21 @@ def candidates(Q: np.ndarray, A: np.ndarray, bw: int, q: int, sep: int, *, own_b
 
 
 @njit(**JIT)
-def _neigh_desc(stack, mean, basis, S, i, j, x, out):
-    """Ñ_S(i, j): the stack colours at the 5 × 5 neighbours' pointers, projected."""
+def _neigh_desc(stack, mean, basis, S, i, j, h, bw, x, out):
+    """Ñ_S(i, j): the stack colours at the 5 × 5 neighbours' pointers, projected. A
+    neighbour outside the grid continues the nearest inside one's pointer by h per pixel,
+    clamped into its box (as ``gather`` clamps): an exemplar's own map matches exactly."""
     Ht, Wt = S.shape[0], S.shape[1]
+    Ha = stack.shape[0]
     C = stack.shape[2]
     t = 0
     for di in range(-2, 3):
         ii = min(max(i + di, 0), Ht - 1)
         for dj in range(-2, 3):
             jj = min(max(j + dj, 0), Wt - 1)
-            sy = S[ii, jj, 0]
-            sx = S[ii, jj, 1]
+            sy = min(max(S[ii, jj, 0] + h * (i + di - ii), 0), Ha - 1)
+            x0 = (S[ii, jj, 1] // bw) * bw
+            sx = min(max(S[ii, jj, 1] + h * (j + dj - jj), x0), x0 + bw - 1)
             for c in range(C):
                 x[t] = np.float64(stack[sy, sx, c]) - mean[t]
                 t += 1
@@ -405,7 +408,7 @@ def _subpass(stack, mean, basis, P, cand, inv_w, S_old, S_new, pi, pj, h, bw, J,
         cxl = np.empty(ncand, np.int64)
         dl = np.empty(ncand)
         for j in range(pj, Wt, 2):
-            _neigh_desc(stack, mean, basis, S_old, i, j, x, nd)
+            _neigh_desc(stack, mean, basis, S_old, i, j, h, bw, x, nd)
             nc = 0
             dmin = np.inf
             dmax = -np.inf

@@ -154,8 +154,16 @@ def reference_subpass(an, s, inv_w, S, pi, pj, h, J, seed, salt):
     out = S.copy()
     for i in range(pi, Ht, 2):
         for j in range(pj, Wt, 2):
-            x = np.concatenate([st[tuple(S[min(max(i + a, 0), Ht - 1), min(max(j + b, 0), Wt - 1)])].astype(np.float64)
-                                for a in range(-2, 3) for b in range(-2, 3)])
+            x = []
+            for a in range(-2, 3):
+                for b in range(-2, 3):
+                    ii, jj = min(max(i + a, 0), Ht - 1), min(max(j + b, 0), Wt - 1)
+                    y0, x0 = S[ii, jj]  # continued by h per pixel past the grid, clamped into its box
+                    box = x0 // bw * bw
+                    y1 = min(max(y0 + h * (i + a - ii), 0), Ha - 1)
+                    x1 = min(max(x0 + h * (j + b - jj), box), box + bw - 1)
+                    x.append(st[y1, x1].astype(np.float64))
+            x = np.concatenate(x)
             nd = (x - mean) @ B
             cands = []
             for di in (-1, 0, 1):
@@ -197,6 +205,17 @@ def test_subpass_matches_the_written_out_reference(J, weights):
         S2 = kh.run_pass(an.stacks[0], an.means[0], an.bases[0], an.P[0], an.cands[0], inv_w, S, h=1, bw=an.bw, J=J,
                          seed=2, salt=0)
         assert (S1 != S2).any()  # the seed matters when J > 0
+
+
+def test_an_exemplars_own_map_is_a_fixed_point_of_the_correction():
+    rng = np.random.default_rng(10)
+    rgb = rng.random((32, 64, 3)).astype(np.float32)
+    an = sh.analyse(rgb, 32, levels=3, L=8, q=2, iterations=2, seed=1)
+    for s, h in ((0, 1), (2, 4)):
+        ii, jj = np.mgrid[0:32 // h, 0:32 // h]
+        S = np.stack([ii * h + h // 2, jj * h + h // 2 + 32], -1).astype(np.int32)  # exemplar 2's own map
+        args = (an.stacks[s], an.means[s], an.bases[s], an.P[s], an.cands[s], np.ones(2))
+        np.testing.assert_array_equal(kh.run_pass(*args, S, h=h, bw=32, J=0.0, seed=0, salt=1), S)
 
 
 def test_jitter_with_J_0_is_exactly_the_correction_pass():
