@@ -20,7 +20,7 @@ A baseline point is matched to a structure-preserving one by D: for the same num
 jittered levels, the baseline radius r (of a grid) whose D is nearest.
 
 Run: .venv/bin/python bench/run.py hybrids, or .venv/bin/python bench/bench_hybrids.py [--quick | --sheet]
-(``--quick``: seeds 1-4; ``--sheet`` writes docs/img/hybrids_sheet.png instead)
+(``--quick``: seeds 1-4; ``--sheet`` writes docs/img/hybrids_sheet.jpg instead)
 """
 from __future__ import annotations
 
@@ -195,7 +195,6 @@ def sheet(path: Path):
     """The docs' contact sheet, all at 100%: renoir and creek, then hybrids of seeds 1-8
     (J = 0.3, every level jittered: HybridSynth's defaults); brick's two crops, 2 hybrids
     at J = 0.3, then 1 at J = 0.05 jittering the finest 2 levels only."""
-    from proxyshade.io.images import write_png
     from proxyshade.kernels.features import srgb_features
     from proxyshade.synthesis.hybrid import analyse, synthesize
 
@@ -213,14 +212,20 @@ def sheet(path: Path):
         for k in range(0, len(tiles), 5):
             rows.append(np.concatenate([np.pad(t, ((2, 2), (2, 2), (0, 0)), constant_values=1.0)
                                         for t in tiles[k:k + 5]], 1))
-    img = np.concatenate(rows, 0)
-    write_png(path, np.clip(srgb_features(img) + 0.5, 0, 255).astype(np.uint8))
+    img = np.ascontiguousarray(np.clip(srgb_features(np.concatenate(rows, 0)) + 0.5, 0, 255).astype(np.uint8))
+    import OpenImageIO as oiio
+
+    buf = oiio.ImageBuf(oiio.ImageSpec(img.shape[1], img.shape[0], 3, oiio.UINT8))
+    buf.set_pixels(oiio.ROI(), img)
+    buf.specmod().attribute("Compression", "jpeg:88")  # a docs image: JPEG keeps it small
+    if not buf.write(str(path)):
+        raise SystemExit(f"{path}: {buf.geterror()}")
     print(f"wrote {path}")
 
 
 def main():
     if "--sheet" in sys.argv:
-        sheet(ROOT / "docs/img/hybrids_sheet.png")
+        sheet(ROOT / "docs/img/hybrids_sheet.jpg")
         return
     quick = "--quick" in sys.argv
     seeds = list(range(1, 5 if quick else 9))
