@@ -31,8 +31,9 @@ def _table_key(labels) -> list[tuple[str, int]]:
 
 
 def fit_exemplar(rgb: np.ndarray, dense: np.ndarray, n: int, size: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
-    """(M, N, 3) float32 colour and (M, N) dense labels -> ``size`` = (h, w): the centred
-    crop of the source with the aspect of ``size``, box-filtered to it (labels: majority)."""
+    """(M, N, C) float32 colour (and any other continuous channels) and (M, N) dense
+    labels -> ``size`` = (h, w): the centred crop of the source with the aspect of
+    ``size``, box-filtered to it (labels: majority)."""
     from proxyshade.kernels.features import _area_resample, _mode_resample
 
     oh, ow = size
@@ -42,7 +43,7 @@ def fit_exemplar(rgb: np.ndarray, dense: np.ndarray, n: int, size: tuple[int, in
     x0 = int((N - f * ow) // 2)
     crop_rgb = np.ascontiguousarray(rgb[y0:, x0:], np.float32)
     crop_lab = np.ascontiguousarray(dense[y0:, x0:], np.int32)
-    out_rgb = np.empty((oh, ow, 3), np.float32)
+    out_rgb = np.empty((oh, ow, rgb.shape[2]), np.float32)
     out_lab = np.empty((oh, ow), np.int32)
     _area_resample(crop_rgb, oh, ow, float(f), out_rgb)
     _mode_resample(crop_lab, oh, ow, float(f), n, out_lab)
@@ -53,7 +54,9 @@ def pack_atlas(plates: list[tuple[str, Plate]], size: tuple[int, int]) -> Plate:
     """Pack named source plates (R, G, B, label.id and meta['labels']) into one atlas plate
     of ``size`` = (h, w) boxes in a row.
 
-    Channels ``R, G, B`` (float32), ``label.id`` and ``exemplar.id`` (uint32, 1..n); meta
+    Channels ``R, G, B`` (float32), ``label.id`` and ``exemplar.id`` (uint32, 1..n), and
+    the exemplars' annotation maps ``ann.*`` (box-filtered like the colour; every exemplar
+    must have the same ones, AnnotatedSourceRead's plates for annotated synthesis); meta
     ``labels`` (the shared table), ``atlas`` (one box per exemplar: ``id``, ``input``,
     ``x``, ``y``, ``w``, ``h``, ``source`` provenance) and ``source`` (the first
     exemplar's provenance, with the atlas size).
@@ -73,8 +76,14 @@ def pack_atlas(plates: list[tuple[str, Plate]], size: tuple[int, int]) -> Plate:
     key = _table_key(labels)
     table = np.array([int(t["id"]) for t in labels], np.int64)
     n = len(table)
+    anns = sorted(c for c in first.channels if c.startswith("ann."))
     rgbs, labs, boxes = [], [], []
     for k, (name, p) in enumerate(plates):
+        mine = sorted(c for c in p.channels if c.startswith("ann."))
+        if mine != anns:
+            raise NodeInputError(f"input '{name}': its annotations ({', '.join(mine) or 'none'}) differ from "
+                                 f"'{first_name}''s ({', '.join(anns) or 'none'}); give every exemplar the same "
+                                 "annotation maps")
         other = p.meta.get("labels")
         if not other or _table_key(other) != key:
             have = ", ".join(f"{a}={b}" for a, b in _table_key(other or []))
@@ -83,7 +92,7 @@ def pack_atlas(plates: list[tuple[str, Plate]], size: tuple[int, int]) -> Plate:
                                  f"'{first_name}' ({want}); give every exemplar the same label names and ids")
         dense, missing = dense_labels(p["label.id"], table)
         dense[missing] = 0
-        rgb = np.stack([p["R"], p["G"], p["B"]], -1).astype(np.float32)
+        rgb = np.stack([p["R"], p["G"], p["B"], *(p[c] for c in anns)], -1).astype(np.float32)
         r, l = fit_exemplar(rgb, dense, n, (h, w))
         rgbs.append(r)
         labs.append(l)
@@ -95,8 +104,10 @@ def pack_atlas(plates: list[tuple[str, Plate]], size: tuple[int, int]) -> Plate:
     source = dict(boxes[0]["source"])
     source["size"] = [int(w * len(plates)), int(h)]
     meta = {"labels": [dict(t) for t in labels], "atlas": boxes, "source": source}
-    return Plate({"R": rgb[..., 0].copy(), "G": rgb[..., 1].copy(), "B": rgb[..., 2].copy(), "label.id": lab,
-                  "exemplar.id": np.ascontiguousarray(ex)}, meta)
+    channels = {"R": rgb[..., 0].copy(), "G": rgb[..., 1].copy(), "B": rgb[..., 2].copy(), "label.id": lab,
+                "exemplar.id": np.ascontiguousarray(ex)}
+    channels.update({c: rgb[..., 3 + i].copy() for i, c in enumerate(anns)})
+    return Plate(channels, meta)
 
 
 def atlas_boxes(atlas: Plate) -> tuple[int, int, int]:

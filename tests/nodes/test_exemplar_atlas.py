@@ -86,3 +86,28 @@ def test_cli_exits_2_on_disagreeing_tables_and_a_ninth_exemplar(tmp_path, capsys
     assert main(["run", str(g), "-q", "--cache", str(tmp_path / "cache")]) == 2
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and "ExemplarAtlas has no input 'exemplar9'" in err and "exemplar8" in err
+
+
+def annotated(rgb, ids, light):
+    return plate(rgb, ids).with_channels({"ann.light": light.astype(np.float32)})
+
+
+def test_annotations_travel_box_filtered_and_an_atlas_feeds_annotated_synthesis():
+    rng = np.random.default_rng(4)
+    n = 48
+    light = np.tile(np.linspace(0, 1, n), (n, 1))
+    a = annotated((rng.random((n, n, 3)) * light[..., None]).astype(np.float32), np.ones((n, n)), light)
+    b = annotated(rng.random((2 * n, 2 * n, 3)).astype(np.float32), np.ones((2 * n, 2 * n)),
+                  np.tile(np.linspace(0, 1, 2 * n), (2 * n, 1)))
+    atlas = run_node("ExemplarAtlas", {"size": [n, n]}, {"exemplar1": a, "exemplar2": b})
+    np.testing.assert_allclose(atlas["ann.light"][:, :n], light, atol=1e-6)  # same size: as is
+    box = b["ann.light"].reshape(n, 2, n, 2).mean((1, 3))  # 2x: 2x2 box means
+    np.testing.assert_allclose(atlas["ann.light"][:, n:], box, atol=1e-5)
+    tgt = Plate({"ann.light": np.tile(np.linspace(0, 1, 32), (32, 1)).T.astype(np.float32).copy()}, {})
+    out = run_node("AnnotatedSynth", dict(levels=2, em=1, iterations=3, bandwidth=0.3),
+                   {"source": atlas, "target": tgt})
+    sx = out["source.x"]
+    assert not np.any((sx > n - 3) & (sx < n + 2))  # no patch straddles the two boxes
+    with pytest.raises(UserError, match=r"^atlas: input 'exemplar2': its annotations \(none\) differ"):
+        run_node("ExemplarAtlas", {"size": [n, n]}, {"exemplar1": a, "exemplar2": plate(np.zeros((n, n, 3), np.float32),
+                                                                                    np.ones((n, n)))}, name="atlas")
