@@ -29,15 +29,21 @@ def test_changed_region_is_the_dilated_difference():
     assert changed_region({"p": a, "s": s0}, {"p": b, "s": s0}, {"p": ("label.id",), "s": ("label.id",)}, 0).sum() == 1
 
 
-def test_update_guide_synthesizes_a_window_and_keeps_the_rest():
+def painted(rows, cols):
+    """renoir's 512² guide and the same proxy with water painted into ``rows, cols``:
+    (source, proxy, parameters, the guide before, the edited proxy, water's id)."""
     src = T.source("renoir")
     proxy = T.guide("renoir", (512, 512))
     gp = SimpleNamespace(**dict(vars(Guidance.defaults()), size=128, start=32, seed=2))
     prev, _ = synthesize_guide(proxy, src, gp)
     lab = proxy["label.id"].copy()
     water = int(next(t["id"] for t in src.meta["labels"] if t["name"] == "water"))
-    lab[300:340, 200:260] = water  # a pond painted into the proxy
-    edited = proxy.with_channels({"label.id": lab})
+    lab[rows, cols] = water
+    return src, proxy, gp, prev, proxy.with_channels({"label.id": lab}), water
+
+
+def test_update_guide_synthesizes_a_window_and_keeps_the_rest():
+    src, proxy, gp, prev, edited, water = painted(slice(300, 340), slice(200, 260))  # a pond
     region = changed_region({"proxy": proxy}, {"proxy": edited}, {"proxy": ("label.id",)}, 16)
     out, info = update_guide(prev, region, edited, src, gp, context=32)
     assert not info["whole"] and info["window_pixels"] < 0.3 * region.size
@@ -54,14 +60,7 @@ def test_update_guide_synthesizes_a_window_and_keeps_the_rest():
 def test_a_band_across_the_frame_is_synthesized_on_a_band_not_the_whole_frame():
     """A shoreline moved across the whole width: the window is the frame's width but only
     the band's height, synthesized at the frame's magnification."""
-    src = T.source("renoir")
-    proxy = T.guide("renoir", (512, 512))
-    gp = SimpleNamespace(**dict(vars(Guidance.defaults()), size=128, start=32, seed=2))
-    prev, _ = synthesize_guide(proxy, src, gp)
-    lab = proxy["label.id"].copy()
-    water = int(next(t["id"] for t in src.meta["labels"] if t["name"] == "water"))
-    lab[300:316, 4:508] = water  # a band of water across the frame
-    edited = proxy.with_channels({"label.id": lab})
+    src, proxy, gp, prev, edited, water = painted(slice(300, 316), slice(4, 508))  # a band across the frame
     region = changed_region({"proxy": proxy}, {"proxy": edited}, {"proxy": ("label.id",)}, 8)
     out, info = update_guide(prev, region, edited, src, gp, context=16)
     assert not info["whole"] and info["windows"][0][0] == 512 and info["windows"][0][1] < 128
