@@ -40,7 +40,7 @@ class AnnotatedSynth(Node):
     bandwidth = Param(float, 0.5, min=0.01, max=2.0, doc="mean-shift bandwidth of the clusters (the paper's 0.5)")
     mode = Param(str, "full", choices=("full", "binary", "single", "analogies"),
                  doc="full method, or a baseline: binary weights, a single cluster, image analogies")
-    seed = Param(int, 0, min=0)
+    seed = Param(int, 0, min=0, doc="seed of the PatchMatch initialisation and searches")
 
     def compute(self, ctx) -> Plate:
         from proxyshade.errors import NodeInputError
