@@ -80,8 +80,8 @@ def blend_frame(rgb: np.ndarray, patch: np.ndarray, labels: np.ndarray | None, s
     (source pixels; ``scale`` source pixels per output pixel); ``layout`` moves ``rgb``
     by ``layout_offset`` first (needs ``labels``, ``source_rgb``, ``source_labels``)."""
     if solve.layout:
-        rgb = klayout.add_encoded(rgb, layout_offset(rgb, labels, source_rgb, source_labels,
-                                                                keep=solve.layout_keep))
+        off = layout_offset(rgb, labels, source_rgb, source_labels, keep=solve.layout_keep)
+        rgb = klayout.add_encoded(rgb, off)
     gx = gy = None
     if solve.seams == "source":
         gx, gy = kpoisson.seam_gradients(source_rgb, sx, sy, scale)
