@@ -121,8 +121,33 @@ def transition(H=384, W=512, h=512, w=512):
     return rgb, ann, tgt
 
 
+def figure(path: Path) -> None:
+    """docs/img/annotated_topiary.png: the whole source sphere with the box cut (scaled to
+    the box), then inside the box: the render (truth), the full method, (a) analogies,
+    (b) binary, (c) single cluster; 2x nearest, sRGB."""
+    from proxyshade.io.images import write_png
+    from proxyshade.kernels.layout import srgb_encode
+
+    sc = render_topiary()
+    r0, r1, c0, c1 = sc["cut"]
+    res = quality()
+    src = sc["rgb"] * sc["sphere"][..., None]
+    src[r0:r1, c0:c1] = 0.0  # the source the synthesis was given: the sphere less the box
+    n = src.shape[0]
+    idx = np.arange(r1 - r0) * n // (r1 - r0)
+    tiles = [src[idx][:, idx], res["truth"]] + [res[m]["rgb"] for m in ("full", "analogies", "binary", "single")]
+    pad = lambda t: np.pad(np.repeat(np.repeat(t, 2, 0), 2, 1), ((0, 0), (0, 6), (0, 0)), constant_values=1.0)
+    img = np.ascontiguousarray(np.concatenate([pad(t) for t in tiles], 1), np.float32)
+    write_png(path, np.clip(srgb_encode(img) * 255 + 0.5, 0, 255).astype(np.uint8))
+    print(f"wrote {path}")
+
+
 def main() -> None:
     from proxyshade.synthesis import annotated as sa
+
+    if "--figure" in sys.argv:
+        figure(ROOT / "docs/img/annotated_topiary.png")
+        return
 
     print(f"load: {os.getloadavg()}")
     res = quality()

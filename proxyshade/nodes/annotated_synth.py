@@ -38,6 +38,9 @@ class AnnotatedSynth(Node):
     em = Param(int, 2, min=1, max=10, doc="search + vote rounds per scale")
     iterations = Param(int, 4, min=1, max=20, doc="PatchMatch iterations per round")
     bandwidth = Param(float, 0.5, min=0.01, max=2.0, doc="mean-shift bandwidth of the clusters (the paper's 0.5)")
+    ann_distance = Param(float, 1.5, min=0.0, max=100.0,
+                         doc="weight of the annotations in the patch distance (copies stay near their annotation "
+                             "inside an ε-ball); 0 = the paper: annotations only through the ε-balls")
     mode = Param(str, "full", choices=("full", "binary", "single", "analogies"),
                  doc="full method, or a baseline: binary weights, a single cluster, image analogies")
     seed = Param(int, 0, min=0, doc="seed of the PatchMatch initialisation and searches")
@@ -65,7 +68,8 @@ class AnnotatedSynth(Node):
             usable &= within_one_exemplar(src["exemplar.id"], ctx.p.patch // 2)
         alpha = src["A"].astype(np.float32) if "A" in src else np.ones(src.shape, np.float32)
         p = AnnotatedParams(eps=ctx.p.eps, patch=ctx.p.patch, levels=ctx.p.levels, em=ctx.p.em,
-                            iterations=ctx.p.iterations, bandwidth=ctx.p.bandwidth, mode=ctx.p.mode, seed=ctx.p.seed)
+                            iterations=ctx.p.iterations, bandwidth=ctx.p.bandwidth, mode=ctx.p.mode, seed=ctx.p.seed,
+                            ann_distance=ctx.p.ann_distance)
         tgt_ann = tgt.layer(["ann." + n for n in names], np.float64)
         tmask = tgt["mask"] > 0.5 if "mask" in tgt else None
         if tmask is not None:  # only the masked pixels are a target; the others take the masked mean

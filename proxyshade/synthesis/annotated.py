@@ -31,6 +31,10 @@ class AnnotatedParams:
     alpha_weight: float = 10.0
     gradient_screen: float = 0.2
     ann_weight: float = 1.0  # analogies baseline only
+    # the annotations in the patch distance of the full method (and the binary and single
+    # ablations), weight against the CIELAB/alpha/gradient features: copies stay near
+    # their annotation inside an ε-ball; 0 = the paper (annotations only through the balls)
+    ann_distance: float = 1.5
     mode: str = "full"
     min_pixels: int = 1000
     seed: int = 0
@@ -218,8 +222,9 @@ def synthesize(src_rgb, src_alpha, src_ann, usable, tgt_ann, p: AnnotatedParams,
             t_ann = _quant(_down(tgt_ann, f))
             hl, wl = t_ann.shape[:2]
             feat = _features(s_rgb, s_a, p)
-            if p.mode == "analogies":
-                feat = np.concatenate([feat, p.ann_weight * s_ann.astype(np.float32)], axis=2)
+            aw = p.ann_weight if p.mode == "analogies" else p.ann_distance
+            if aw:
+                feat = np.concatenate([feat, aw * s_ann.astype(np.float32)], axis=2)
             bins, cnt, order, start = _bins(s_ann, sel)
             n_i = int(sel.sum())
             n_hold = max(1, min(n_i, max(1000, n_i // 30) // (f * f)))
@@ -242,8 +247,8 @@ def synthesize(src_rgb, src_alpha, src_ann, usable, tgt_ann, p: AnnotatedParams,
                 ka.repair(s_ann, s_cl, i, sel, eps, t_ann, s_l, ny, nx, iy, ix)
             for e in range(p.em):
                 tgt = ka.vote(feat, ny, nx, hw)
-                if p.mode == "analogies":
-                    tgt[..., -d:] = p.ann_weight * t_ann
+                if aw:
+                    tgt[..., -d:] = aw * t_ann
                 ny, nx, _ = ka.patchmatch(feat, tgt, s_ann, s_cl, i, sel, eps, t_ann, s_l, ny, nx, hw=hw,
                                           iterations=p.iterations, seed=seed * 16 + e, members=order)
         out = ka.vote(np.concatenate([src_rgb, src_alpha[..., None], Lg], axis=2), ny, nx, hw)
