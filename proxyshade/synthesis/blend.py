@@ -30,6 +30,12 @@ LAYOUT_MIN_RUN = 64      # runs shorter than this (pixels) take the label's mean
                          # pixels high the height bins are the texture's own rows, not a gradient
 
 
+def _bin_mean(v: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """(labels, 3): each label's mean of ``v`` (labels, bins, 3) over its bins, weighted by
+    ``w`` (labels, bins; 0 = left out, NaN values then ignored)."""
+    return (np.nan_to_num(v) * w[..., None]).sum(1) / np.maximum(w.sum(1), 1.0)[:, None]
+
+
 def layout_offset(colors: np.ndarray, labels: np.ndarray, source_rgb: np.ndarray,
                   source_labels: np.ndarray, *, keep: float) -> np.ndarray:
     """(H, W, 3) float32: what moves each label's mean colour, by relative height in
@@ -53,8 +59,7 @@ def layout_offset(colors: np.ndarray, labels: np.ndarray, source_rgb: np.ndarray
     t, runs = label_heights(out_lab, lengths=True)
     po, co = klayout.profile(klayout.srgb_encode(colors), out_lab, t, n, LAYOUT_BINS)
     ok = (cs >= LAYOUT_MIN_PIXELS) & (co >= LAYOUT_MIN_PIXELS)
-    w = np.where(ok, co, 0.0)
-    own_mean = (np.nan_to_num(po) * w[..., None]).sum(1) / np.maximum(w.sum(1), 1.0)[:, None]
+    own_mean = _bin_mean(po, np.where(ok, co, 0.0))
     d = ps - po + keep * (po - own_mean[:, None, :])  # keep: the own profile stays, about its mean
     centres = np.arange(LAYOUT_BINS)
     table = np.zeros_like(d)
@@ -65,9 +70,7 @@ def layout_offset(colors: np.ndarray, labels: np.ndarray, source_rgb: np.ndarray
     off = klayout.at_height(table, out_lab, t)
     short = runs < LAYOUT_MIN_RUN
     if short.any():  # the label's mean offset (over its output pixels)
-        w = np.where(np.isfinite(d[..., 0]), co, 0.0)
-        mean = (np.nan_to_num(d) * w[..., None]).sum(1) / np.maximum(w.sum(1), 1.0)[:, None]
-        off[short] = mean[out_lab[short]]
+        off[short] = _bin_mean(d, np.where(np.isfinite(d[..., 0]), co, 0.0))[out_lab[short]]
     return klayout.smooth_offset(off, out_lab, n)
 
 
