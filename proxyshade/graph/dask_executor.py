@@ -131,6 +131,7 @@ class DaskExecutor:
         futures: dict[str, object] = {}  # Dask key -> future, once per key over every job
         owners: dict[str, list] = collections.defaultdict(list)  # Dask key -> [(job, instance)]
         plans = []
+        home = self._homes(jobs)
         for job in jobs:
             plan = job.plan
             if self.cluster is not None and plan.threads == 0:
@@ -146,7 +147,7 @@ class DaskExecutor:
                 if key not in futures:
                     deps = [futures[_dask_key(plan.keys[p])] for p in job.todo.predecessors(inst)]
                     futures[key] = client.submit(_task, plans[-1], (job.token, inst), inst, inst[0] in plan.force,
-                                                 *deps, key=key, pure=False)
+                                                 *deps, key=key, pure=False, **home.get(id(job), {}))
                 owners[key].append((job, inst))
                 job.hooks.start(job.runs[inst])
         by_token = {job.token: job for job in jobs}
@@ -169,6 +170,20 @@ class DaskExecutor:
                 job.notes.append(f"computed on Dask ({self.address}): "
                                  + ", ".join(f"{n} on {w}" for w, n in sorted(job.workers.items())))
             job.cleaned += job.graph.cache.remove_stale_temps()  # of workers lost mid-write
+
+    def _homes(self, jobs) -> dict:
+        """id(job) -> submit options placing its instances on one worker, when there are at
+        least as many jobs with work as workers (independent shots): job i prefers worker
+        i mod n, so a shot's chain stays where its source, first frame, previous frame and
+        memoised analyses are in memory. A preference only (``allow_other_workers``): a
+        lost worker's tasks run elsewhere. Fewer jobs than workers: no preference, so one
+        shot's independent instances (proxy renders of every frame) spread."""
+        busy = [job for job in jobs if len(job.todo)]
+        workers = sorted(self.client.scheduler_info().get("workers", {}))
+        if len(workers) < 2 or len(busy) < len(workers):
+            return {}
+        return {id(job): {"workers": [workers[i % len(workers)]], "allow_other_workers": True}
+                for i, job in enumerate(busy)}
 
 
 def _dask_key(key: str) -> str:

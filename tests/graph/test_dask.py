@@ -195,6 +195,20 @@ def test_several_graphs_share_their_common_keys(tmp_path, dask_ex, registry):
         run_graphs([(a, None), (c, None)], executor=dask_ex, labels=["shot a", "shot c"])
 
 
+def test_independent_shots_each_stay_on_one_worker(tmp_path, dask_ex, registry):
+    """As many shots as workers: each shot's chain runs on one worker (its plates and
+    memoised analyses stay in that worker's memory), the shots on different workers."""
+    a, b = slow_graph(tmp_path, "a", 0.05), slow_graph(tmp_path, "b", 0.05)
+    b.set("slow.value", 1.5)
+    run_graphs([(a, None), (b, None)], executor=dask_ex, labels=["shot a", "shot b"])
+    pa = {pid for _, _, pid in computes(tmp_path / "a.log")}
+    pb = {pid for _, _, pid in computes(tmp_path / "b.log")}
+    assert len(computes(tmp_path / "a.log")) == len(computes(tmp_path / "b.log")) == 4
+    assert len(pa) == len(pb) == 1
+    if len(dask_ex.client.scheduler_info()["workers"]) == 2:
+        assert pa != pb
+
+
 GRAPH = """\
 format: proxyshade/1
 frames: 1-3
