@@ -51,24 +51,64 @@ def srgb_encode(lin: np.ndarray) -> np.ndarray:
     return out
 
 
+# Rec. 709 luminance weights (linear RGB), as colour-science's RGB_luminance for sRGB primaries
+LUMA = (0.2126, 0.7152, 0.0722)
+
+
 @njit(**PJIT)
-def _add_encoded(lin, offset, out):
-    h, w, c = lin.shape
+def _luma_encoded(lin, out):
+    h, w, _ = lin.shape
+    wr, wg, wb = np.float32(LUMA[0]), np.float32(LUMA[1]), np.float32(LUMA[2])
     for i in prange(h):
         for j in range(w):
-            for k in range(c):
-                o = offset[i, j, k]
-                x = lin[i, j, k]
-                out[i, j, k] = x if o == 0.0 else _decode(_encode(x) + o)
+            y = _encode(wr * lin[i, j, 0] + wg * lin[i, j, 1] + wb * lin[i, j, 2])
+            out[i, j, 0] = y
+            out[i, j, 1] = y
+            out[i, j, 2] = y
 
 
-def add_encoded(lin: np.ndarray, offset: np.ndarray) -> np.ndarray:
-    """Linear colours moved by ``offset`` on the sRGB-encoded scale (where the offset is
-    constant, encoded differences, i.e. the contrast a viewer sees, are unchanged):
-    decode(encode(lin) + offset), (H, W, 3) float32."""
+def luma_encoded(lin: np.ndarray) -> np.ndarray:
+    """(H, W, 3) float32: each pixel's sRGB-encoded luminance (Rec. 709 weights of the
+    linear colour), in all three channels (for ``profile``)."""
     lin = np.ascontiguousarray(lin, np.float32)
     out = np.empty(lin.shape, np.float32)
-    _add_encoded(lin, np.ascontiguousarray(offset, np.float32), out)
+    _luma_encoded(lin, out)
+    return out
+
+
+@njit(**PJIT)
+def _move_luma_chroma(lin, field, out):
+    h, w, _ = lin.shape
+    wr, wg, wb = np.float32(LUMA[0]), np.float32(LUMA[1]), np.float32(LUMA[2])
+    for i in prange(h):
+        for j in range(w):
+            r, g, b = lin[i, j, 0], lin[i, j, 1], lin[i, j, 2]
+            y = wr * r + wg * g + wb * b
+            yn = _decode(_encode(y) + field[i, j, 0])
+            xr = r * np.exp(field[i, j, 1])
+            xb = b * np.exp(field[i, j, 2])
+            yx = wr * xr + wg * g + wb * xb
+            if y > np.float32(1e-8) and yx > np.float32(1e-8):
+                s = yn / yx
+                out[i, j, 0] = xr * s
+                out[i, j, 1] = g * s
+                out[i, j, 2] = xb * s
+            else:  # black (or negative): the luminance offset alone, neutral
+                d = yn - max(y, np.float32(0.0))
+                out[i, j, 0] = r + d
+                out[i, j, 1] = g + d
+                out[i, j, 2] = b + d
+
+
+def move_luma_chroma(lin: np.ndarray, field: np.ndarray) -> np.ndarray:
+    """Linear colours moved by ``field`` (H, W, 3): channel 0 an offset of the luminance on
+    the sRGB-encoded scale (the contrast a viewer sees stays where it is constant),
+    channels 1 and 2 the logs of gains of R and B relative to G (a white balance: every
+    pixel's chromaticity scaled alike, so shadows and highlights keep one hue). Each
+    pixel's luminance becomes decode(encode(Y) + field[..., 0]) exactly. (H, W, 3) float32."""
+    lin = np.ascontiguousarray(lin, np.float32)
+    out = np.empty(lin.shape, np.float32)
+    _move_luma_chroma(lin, np.ascontiguousarray(field, np.float32), out)
     return out
 
 

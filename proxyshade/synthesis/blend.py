@@ -8,7 +8,7 @@ the free pixels into their 4-connected regions: narrow ones by SOR on their own 
 the others in windows by multigrid-preconditioned CG. Kernels:
 ``proxyshade.kernels.poisson``, ``proxyshade.kernels.temporal.components4``.
 
-With ``layout`` (``layout_offset``) the synthesized colours are first moved, label by
+With ``layout`` (``layout_move``) the synthesized colours are first moved, label by
 label and by relative height in the label, onto the source photo's mean colours there:
 the solve keeps the texture's gradients and takes the low frequencies (a region's mean,
 a sky's top-to-horizon gradient) from the photo.
@@ -36,18 +36,33 @@ def _bin_mean(v: np.ndarray, w: np.ndarray) -> np.ndarray:
     return (np.nan_to_num(v) * w[..., None]).sum(1) / np.maximum(w.sum(1), 1.0)[:, None]
 
 
-def layout_offset(colors: np.ndarray, labels: np.ndarray, source_rgb: np.ndarray,
-                  source_labels: np.ndarray, *, keep: float) -> np.ndarray:
-    """(H, W, 3) float32: what moves each label's mean colour, by relative height in
-    its vertical runs (``features.label_heights``, ``LAYOUT_BINS`` bins), from the
-    synthesized ``colors`` onto the source photo's, on the sRGB-encoded scale (both given
-    linear), smoothed within each label (``kernels.layout.smooth_offset``). Added with
-    ``kernels.layout.add_encoded`` it keeps the contrast a viewer sees (a constant added to
-    linear colours would flatten a brightened dark region) and moves only the low
-    frequencies. ``keep`` is the share of the synthesized colours' own profile (about
-    their mean) that stays: 0 gives the photo's profile exactly, 1 adds the photo's to
-    it (a pond's dark band under its bank stays while the pond's mean moves onto the
-    photo's water; a synthesis that already follows the photo's profile gets it twice)."""
+def _tables(d: np.ndarray, ok: np.ndarray) -> np.ndarray:
+    """``d`` (labels, bins, 3) with each label's bins outside ``ok`` interpolated from its
+    ``ok`` ones (labels with none: 0)."""
+    centres = np.arange(d.shape[1])
+    table = np.zeros_like(d)
+    for l in range(len(d)):
+        if ok[l].any():
+            for c in range(3):
+                table[l, :, c] = np.interp(centres, centres[ok[l]], d[l, ok[l], c])
+    return table
+
+
+def layout_move(colors: np.ndarray, labels: np.ndarray, source_rgb: np.ndarray,
+                source_labels: np.ndarray, *, keep: float) -> np.ndarray:
+    """The linear ``colors`` (H, W, 3) with each label's mean colour moved, by relative
+    height in its vertical runs (``features.label_heights``, ``LAYOUT_BINS`` bins), onto
+    the source photo's, as a smooth field within each label
+    (``kernels.layout.smooth_offset``) applied by ``kernels.layout.move_luma_chroma``:
+    the luminance by an offset on the sRGB-encoded scale (it keeps the contrast a viewer
+    sees: a constant added to linear colours would flatten a brightened dark region),
+    the hue by a white balance of R and B against G (the photo's chromaticity; an offset
+    per channel would tint a region's shadows: dark vegetation turned blue where the
+    photo's is less yellow). ``keep`` is the share of the synthesized luminance's own
+    profile (about its mean) that stays: 0 gives the photo's profile exactly, 1 adds the
+    photo's to it (a pond's dark band under its bank stays while the pond's mean moves
+    onto the photo's water; a synthesis that already follows the photo's profile gets
+    it twice)."""
     top = int(max(labels.max(), source_labels.max()))
     present = np.zeros(top + 1, bool)
     present[source_labels.ravel()] = True  # dense indices of the ids present anywhere
@@ -55,23 +70,26 @@ def layout_offset(colors: np.ndarray, labels: np.ndarray, source_rgb: np.ndarray
     lut = (np.cumsum(present) - 1).astype(np.int32)
     n = int(present.sum())
     out_lab, src_lab = lut[labels], lut[source_labels]
-    ps, cs = klayout.profile(klayout.srgb_encode(source_rgb), src_lab, label_heights(src_lab), n, LAYOUT_BINS)
+    ts = label_heights(src_lab)
     t, runs = label_heights(out_lab, lengths=True)
-    po, co = klayout.profile(klayout.srgb_encode(colors), out_lab, t, n, LAYOUT_BINS)
+    ys, cs = klayout.profile(klayout.luma_encoded(source_rgb), src_lab, ts, n, LAYOUT_BINS)
+    yo, co = klayout.profile(klayout.luma_encoded(colors), out_lab, t, n, LAYOUT_BINS)
+    ms = klayout.profile(source_rgb, src_lab, ts, n, LAYOUT_BINS)[0]
+    mo = klayout.profile(colors, out_lab, t, n, LAYOUT_BINS)[0]
     ok = (cs >= LAYOUT_MIN_PIXELS) & (co >= LAYOUT_MIN_PIXELS)
-    own_mean = _bin_mean(po, np.where(ok, co, 0.0))
-    d = ps - po + keep * (po - own_mean[:, None, :])  # keep: the own profile stays, about its mean
-    centres = np.arange(LAYOUT_BINS)
-    table = np.zeros_like(d)
-    for l in range(n):
-        if ok[l].any():
-            for c in range(3):
-                table[l, :, c] = np.interp(centres, centres[ok[l]], d[l, ok[l], c])
-    off = klayout.at_height(table, out_lab, t)
+    own_mean = _bin_mean(yo, np.where(ok, co, 0.0))
+    d = np.empty_like(ys)
+    d[..., 0] = (ys - yo + keep * (yo - own_mean[:, None, :]))[..., 0]  # keep: the own profile stays
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ratio = lambda m, c: np.log(np.maximum(m[..., c], 1e-6) / np.maximum(m[..., 1], 1e-6))
+        for k, c in ((1, 0), (2, 2)):  # log of (R/G, B/G) of the photo over the synthesis's
+            d[..., k] = ratio(ms, c) - ratio(mo, c)
+    finite = np.isfinite(d).all(-1)  # both sides have pixels in the bin
+    off = klayout.at_height(_tables(d, ok & finite), out_lab, t)
     short = runs < LAYOUT_MIN_RUN
-    if short.any():  # the label's mean offset (over its output pixels)
-        off[short] = _bin_mean(d, np.where(np.isfinite(d[..., 0]), co, 0.0))[out_lab[short]]
-    return klayout.smooth_offset(off, out_lab, n)
+    if short.any():  # the label's mean (over its output pixels)
+        off[short] = _bin_mean(d, np.where(finite, co, 0.0))[out_lab[short]]
+    return klayout.move_luma_chroma(colors, klayout.smooth_offset(off, out_lab, n))
 
 
 def blend_frame(rgb: np.ndarray, patch: np.ndarray, labels: np.ndarray | None, solve: SimpleNamespace, *,
@@ -81,10 +99,9 @@ def blend_frame(rgb: np.ndarray, patch: np.ndarray, labels: np.ndarray | None, s
     """The whole-frame solve (``fixed`` pixels keep ``values``). ``solve``: the
     ``PoissonSolve`` parameters; ``seams: source`` reads ``source_rgb`` through ``sx, sy``
     (source pixels; ``scale`` source pixels per output pixel); ``layout`` moves ``rgb``
-    by ``layout_offset`` first (needs ``labels``, ``source_rgb``, ``source_labels``)."""
+    by ``layout_move`` first (needs ``labels``, ``source_rgb``, ``source_labels``)."""
     if solve.layout:
-        off = layout_offset(rgb, labels, source_rgb, source_labels, keep=solve.layout_keep)
-        rgb = klayout.add_encoded(rgb, off)
+        rgb = layout_move(rgb, labels, source_rgb, source_labels, keep=solve.layout_keep)
     gx = gy = None
     if solve.seams == "source":
         gx, gy = kpoisson.seam_gradients(source_rgb, sx, sy, scale)

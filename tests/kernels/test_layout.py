@@ -10,12 +10,36 @@ from proxyshade.kernels.features import label_heights
 def test_srgb_scale_matches_colour_science():
     rng = np.random.default_rng(0)
     lin = rng.random((17, 19, 3)).astype(np.float32) * 1.2
-    off = ((rng.random((17, 19, 3)) - 0.5) * 0.2).astype(np.float32)
     c = colour_science()
     enc = c.cctf_encoding(lin.astype(np.float64), function="sRGB")
     np.testing.assert_allclose(kl.srgb_encode(lin), enc, atol=1e-6)
-    ref = c.cctf_decoding(np.clip(enc + off, 0, None), function="sRGB")
-    np.testing.assert_allclose(kl.add_encoded(lin, off), ref, atol=2e-6)
+
+
+def test_luma_and_its_move_match_colour_science_and_a_slow_reference():
+    rng = np.random.default_rng(1)
+    lin = (rng.random((13, 11, 3)) * 1.1).astype(np.float32)
+    lin[0, 0] = 0.0  # black takes the luminance offset alone
+    field = np.stack([(rng.random((13, 11)) - 0.5) * 0.3, (rng.random((13, 11)) - 0.5),
+                      (rng.random((13, 11)) - 0.5)], -1).astype(np.float32)
+    c = colour_science()
+    weights = c.RGB_COLOURSPACES["sRGB"].matrix_RGB_to_XYZ[1]
+    np.testing.assert_allclose(kl.LUMA, weights, atol=1e-4)
+    y = lin.astype(np.float64) @ weights
+    np.testing.assert_allclose(kl.luma_encoded(lin)[..., 1], c.cctf_encoding(y, function="sRGB"), atol=2e-6)
+    out = kl.move_luma_chroma(lin, field)
+    for i in range(13):
+        for j in range(11):
+            yn = c.cctf_decoding(max(c.cctf_encoding(y[i, j], function="sRGB") + field[i, j, 0], 0.0), function="sRGB")
+            if y[i, j] > 1e-8:
+                x = lin[i, j] * np.exp([field[i, j, 1], 0.0, field[i, j, 2]])
+                want = x * yn / (x @ weights)
+            else:
+                want = lin[i, j] + yn
+            np.testing.assert_allclose(out[i, j], want, rtol=2e-5, atol=2e-6)
+    # the luminance lands on its moved value and the hue on the gains
+    np.testing.assert_allclose(out.astype(np.float64) @ weights,
+                               c.cctf_decoding(np.clip(c.cctf_encoding(y, function="sRGB") + field[..., 0], 0, None),
+                                               function="sRGB"), rtol=1e-4, atol=1e-6)
 
 
 def test_profile_and_heights_match_a_slow_reference():

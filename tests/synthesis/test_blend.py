@@ -78,8 +78,7 @@ def test_layout_moves_a_region_mean_onto_the_photo_and_keeps_its_own_profile_as_
     photo_enc = 0.65 - 0.2 * rows + 0.02 * rng.standard_normal((h, w, 3)).astype(np.float32)
     own_enc = 0.15 + 0.25 * (rows > 0.25) + 0.02 * rng.standard_normal((h, w, 3)).astype(np.float32)
     dec = lambda e: np.where(e <= 0.04045, e / 12.92, ((np.clip(e, 0, None) + 0.055) / 1.055) ** 2.4).astype(np.float32)
-    out = KL.srgb_encode(KL.add_encoded(dec(own_enc), B.layout_offset(dec(own_enc), labels, dec(photo_enc), labels,
-                                                                       keep=keep)))
+    out = KL.srgb_encode(B.layout_move(dec(own_enc), labels, dec(photo_enc), labels, keep=keep))
     # the mean goes onto the photo's whatever ``keep``
     np.testing.assert_allclose(out.mean((0, 1)), photo_enc.mean((0, 1)), atol=0.01)
     prof = lambda e: e.mean((1, 2))
@@ -93,3 +92,28 @@ def test_layout_moves_a_region_mean_onto_the_photo_and_keeps_its_own_profile_as_
     band = step(got) - step(prof(photo_enc))  # what the output's own band adds to the photo's profile
     assert band > 0.15 if keep else abs(band) < 0.04
 
+
+
+def test_layout_gives_a_region_the_photo_hue_in_its_shadows_and_highlights_alike():
+    """Vegetation synthesized too yellow, from deep shadow to sunlit, against a photo whose
+    vegetation is greener: after the layout step every pixel has the photo's R/G and B/G
+    (no blue or magenta cast in the shadows, as a per-channel offset gives), and the
+    texture's light and shade stay."""
+    from proxyshade.kernels import layout as KL
+
+    h, w = 96, 96
+    rng = np.random.default_rng(5)
+    labels = np.ones((h, w), np.uint32)
+    lum = (0.005 + 0.6 * rng.random((h, w)) ** 2).astype(np.float32)[..., None]
+    own = lum * np.array([1.0, 0.9, 0.35], np.float32)  # yellow
+    photo = (0.004 + 0.5 * rng.random((h, w)) ** 2).astype(np.float32)[..., None] * np.array([0.7, 0.9, 0.45],
+                                                                                             np.float32)
+    out = B.layout_move(own, labels, photo, labels, keep=1.0)
+    ratio = out / out[..., 1:2]
+    want = photo.mean((0, 1)) / photo.mean((0, 1))[1]
+    dark, bright = lum[..., 0] < 0.02, lum[..., 0] > 0.3
+    for m in (dark, bright):
+        np.testing.assert_allclose(ratio[m].mean(0), want, rtol=0.02)
+    assert ratio.std((0, 1)).max() < 1e-3  # one hue everywhere
+    y = lambda x: KL.luma_encoded(x)[..., 0].ravel()
+    assert np.corrcoef(y(out), y(own))[0, 1] > 0.99  # the texture's light and shade stay
