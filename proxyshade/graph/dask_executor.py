@@ -72,7 +72,8 @@ class DaskExecutor:
 
     ``scheduler``: the address of a running scheduler (``tcp://host:8786``); None starts a
     ``LocalCluster`` of ``workers`` processes (default: one per core) on 127.0.0.1 with
-    random ports and no dashboard, closed by ``close``. On a local cluster, a run's
+    random ports (the scheduler's HTTP server too: distributed starts it even without a
+    dashboard, on port 8787 of every interface unless told), closed by ``close``. On a local cluster, a run's
     ``threads`` of 0 becomes cores // workers numba threads per task (each worker computes
     one task at a time); on a scheduler of one's own, 0 keeps every thread numba has on the
     worker."""
@@ -106,7 +107,7 @@ class DaskExecutor:
                                 "start one (dask scheduler) and give its address, e.g. tcp://host:8786") from None
             return
         self.cluster = d.LocalCluster(n_workers=self.workers, threads_per_worker=1, processes=True,
-                                      host="127.0.0.1", scheduler_port=0, dashboard_address=None,
+                                      host="127.0.0.1", scheduler_port=0, dashboard_address="127.0.0.1:0",
                                       silence_logs=logging.CRITICAL)
         self.client = d.Client(self.cluster)
 
@@ -310,8 +311,11 @@ def _task(plan, by: tuple, inst: tuple[str, int], forced: bool, *deps) -> dict:
         if ok:
             nr.status, nr.reason = "reused", f"stored meanwhile by another run ({why})"
         else:
+            from proxyshade.synthesis.tiles import running
+
             t = time.perf_counter()
-            g._compute(plan, inst, nr)
+            with running(_tiles(plan.threads)):
+                g._compute(plan, inst, nr)
             nr.seconds = time.perf_counter() - t
             _hand_over(g.cache, key)
         return {"by": by, "status": nr.status, "reason": nr.reason, "seconds": nr.seconds, "notes": list(nr.notes),
@@ -323,6 +327,18 @@ def _task(plan, by: tuple, inst: tuple[str, int], forced: bool, *deps) -> dict:
         with _GUARD:
             _USING.pop(me, None)
             _keep_recent(g.cache, [*plan.held_keys(inst), key], set().union(*_USING.values()))
+
+
+def _tiles(threads: int):
+    """The row-band runner of the correction's sub-passes (``synthesis.tiles``) for a task
+    here: one band per worker of the cluster (counted when a level large enough first
+    asks), each band a task with this run's numba threads."""
+    import functools
+
+    from proxyshade.graph.graph import set_kernel_threads
+    from proxyshade.synthesis.tiles import DaskTiles
+
+    return DaskTiles(setup=functools.partial(set_kernel_threads, threads))
 
 
 def _hand_over(cache, key: str) -> None:

@@ -33,6 +33,8 @@ C. Barnes et al. The generalized PatchMatch correspondence algorithm. ECCV 2010 
 """
 from __future__ import annotations
 
+import os
+
 import numpy as np
 from numba import njit, prange
 
@@ -407,10 +409,38 @@ def _subpass(src_lab, src_dist, src_rgb, src_masks, src_h, tgt_lab, tgt_dist, tg
             S_new[i, j, 1] = bx
 
 
+# levels smaller than this (512² synthesis pixels) are corrected whole even with a band runner
+# (the environment variable lets a test band small levels on Dask workers; results are the same)
+TILE_MIN_PIXELS = int(os.environ.get("PROXYSHADE_TILE_MIN_PIXELS", 1 << 18))
+
+
+def subpass_rows(level, knn, S_old, active, over, r0: int, r1: int, pi: int, pj: int, radius: int, w: float,
+                 use_rgb: bool, kappa: float, uniformity: float, height_weight: float):
+    """One parity sub-pass on rows r0..r1 of the target only: (the new S of those rows,
+    their counts). Every pixel of a sub-pass reads only the state before it (``S_old``)
+    and the usage term ``over`` computed from it, so the rows of a band come out exactly
+    as in the whole sub-pass: a tile of ``correct_level``."""
+    S_new = S_old.copy()
+    band = np.zeros(active.shape, np.bool_)
+    band[r0:r1] = active[r0:r1]
+    counts = np.zeros((S_old.shape[0], 2), np.int64)
+    _subpass(level.src_lab, level.src_dist, level.src_rgb, level.src_masks, level.src_height, level.tgt_lab,
+             level.tgt_dist, level.tgt_masks, level.tgt_height, float(height_weight), knn, S_old, S_new, band,
+             pi, pj, level.h, radius, float(w), use_rgb, float(kappa), over, float(uniformity), counts)
+    return S_new[r0:r1], counts[r0:r1]
+
+
 def correct_level(level, S: np.ndarray, knn: np.ndarray, *, passes: int, radius: int, w: float,
                   use_rgb: bool = True, kappa: float = 0.0, active: np.ndarray | None = None,
-                  height_weight: float = 0.0, uniformity: float = 0.0) -> tuple[np.ndarray, dict]:
-    """``passes`` correction passes (4 parity sub-passes each) at one level."""
+                  height_weight: float = 0.0, uniformity: float = 0.0, tiles=None) -> tuple[np.ndarray, dict]:
+    """``passes`` correction passes (4 parity sub-passes each) at one level.
+
+    ``tiles``: None (every sub-pass whole, numba's threads over its rows), or a runner
+    ``tiles(fn, shared, jobs) -> [fn(*shared, *job) for job in jobs]`` that may run the
+    jobs elsewhere (Dask workers: ``synthesis.tiles``); then, at a level of at least
+    ``TILE_MIN_PIXELS``, each sub-pass runs as ``tiles.bands`` row bands of
+    ``subpass_rows`` (shared: the level and the similarity sets), exactly the whole
+    sub-pass's result."""
     Ht, Wt = level.tgt_lab.shape
     if active is None:
         active = np.ones((Ht, Wt), np.bool_)
@@ -421,13 +451,23 @@ def correct_level(level, S: np.ndarray, knn: np.ndarray, *, passes: int, radius:
     expected = (np.bincount(level.tgt_lab.ravel(), minlength=n)
                 / np.maximum(np.bincount(level.src_lab.ravel(), minlength=n), 1)).astype(np.float64)
     over = np.zeros(level.src_lab.shape, np.float64)
+    nb = min(getattr(tiles, "bands", 1), Ht // 8) if tiles is not None and Ht * Wt >= TILE_MIN_PIXELS else 1
+    edges = np.linspace(0, Ht, nb + 1).astype(int)
     for _ in range(passes):
         for pi, pj in ((0, 0), (1, 1), (0, 1), (1, 0)):
             if uniformity > 0:
                 _usage_excess(S_old, level.src_lab, expected, 2 * level.h, over)
-            _subpass(level.src_lab, level.src_dist, level.src_rgb, level.src_masks, level.src_height, level.tgt_lab,
-                     level.tgt_dist, level.tgt_masks, level.tgt_height, float(height_weight), knn, S_old, S_new, active,
-                     pi, pj, level.h, radius, float(w), use_rgb, float(kappa), over, float(uniformity), counts)
+            if nb > 1:
+                jobs = [(S_old, active, over, int(a), int(b), pi, pj, radius, float(w), use_rgb, float(kappa),
+                         float(uniformity), float(height_weight)) for a, b in zip(edges[:-1], edges[1:])]
+                for (a, b), (rows, cnt) in zip(zip(edges[:-1], edges[1:]), tiles(subpass_rows, (level, knn), jobs)):
+                    S_new[a:b] = rows
+                    counts[a:b] += cnt
+            else:
+                _subpass(level.src_lab, level.src_dist, level.src_rgb, level.src_masks, level.src_height,
+                         level.tgt_lab, level.tgt_dist, level.tgt_masks, level.tgt_height, float(height_weight), knn,
+                         S_old, S_new, active, pi, pj, level.h, radius, float(w), use_rgb, float(kappa), over,
+                         float(uniformity), counts)
             S_old[...] = S_new  # only this sub-set changed
     c = counts.sum(0)
     return S_old, {"changed": int(c[0]), "all_rejected": int(c[1])}
@@ -517,7 +557,7 @@ def level_similarity_sets(levels: list, k: int, *, seed: int, knn_iterations: in
 def synthesize(levels: list, S_init: np.ndarray, *, passes: int, passes_finest: int, k: int, w: float, seed: int,
                knn_iterations: int, use_rgb: bool, kappa: float, mask: np.ndarray | None = None, timings: dict | None = None,
                radius_rule: str = "spacing", similarity: list | None = None,
-               height_weight: float = 0.0, uniformity: float = 0.0) -> tuple[np.ndarray, list[dict]]:
+               height_weight: float = 0.0, uniformity: float = 0.0, tiles=None) -> tuple[np.ndarray, list[dict]]:
     """Coarse-to-fine correction of an initial coordinate map.
 
     Parameters
@@ -535,6 +575,7 @@ def synthesize(levels: list, S_init: np.ndarray, *, passes: int, passes_finest: 
     similarity : optional per-level similarity sets from ``level_similarity_sets`` (they
         depend on the exemplar side of the levels, k, w, seed and knn_iterations only):
         passed again, the search is skipped (a later frame of one source).
+    tiles : optional runner of row bands of the large levels' sub-passes (``correct_level``).
 
     Returns the corrected map and per-level statistics.
     """
@@ -571,7 +612,7 @@ def synthesize(levels: list, S_init: np.ndarray, *, passes: int, passes_finest: 
         radius = h if radius_rule == "spacing" else 2 ** l
         n = passes_finest if l == L - 1 else passes
         S, st = correct_level(lv, S, knns[l], passes=n, radius=radius, w=w, use_rgb=use_rgb, kappa=kappa,
-                              active=active, height_weight=height_weight, uniformity=uniformity)
+                              active=active, height_weight=height_weight, uniformity=uniformity, tiles=tiles)
         st.update(level=l, h=h, shape=shape, passes=n, radius=radius)
         stats.append(st)
     if mask is not None:

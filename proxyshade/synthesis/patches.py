@@ -18,6 +18,7 @@ from proxyshade.kernels.distance import nearest_site
 from proxyshade.kernels import magnify as kmag
 from proxyshade.kernels import patch as kpatch
 from proxyshade.synthesis.exemplar import SynthesisSetup, grid_to_source
+from proxyshade.synthesis import tiles
 from proxyshade.synthesis.memo import ArrayMemo
 
 _SITES = ArrayMemo(32)  # nearest source pixel of each label, per working-label grid
@@ -45,11 +46,13 @@ def correct_map(st: SynthesisSetup, S0: np.ndarray, corr: SimpleNamespace, *, se
                 mask: np.ndarray | None = None, similarity: list | None = None) -> tuple[np.ndarray, list, dict]:
     """k-coherent correction of the map ``S0`` (or of its ``mask`` pixels) from the
     coarsest level up to the synthesis size, then ``repair_map``. ``corr``: the
-    ``Correction`` parameters. Returns (S, per-level stats, the repair's counts)."""
+    ``Correction`` parameters. Large levels' sub-passes run in row bands on other workers
+    when the executor set a runner (``synthesis.tiles``; bit-identical). Returns (S,
+    per-level stats, the repair's counts)."""
     S, stats = kcorrect.synthesize(st.levels, S0, passes=corr.passes, passes_finest=corr.passes_finest, k=corr.k,
                                    w=corr.w, seed=seed, knn_iterations=corr.knn_iterations, use_rgb=corr.use_rgb,
                                    kappa=corr.kappa, mask=mask, radius_rule=corr.radius, similarity=similarity,
-                                   height_weight=corr.height_weight, uniformity=corr.uniformity)
+                                   height_weight=corr.height_weight, uniformity=corr.uniformity, tiles=tiles.current())
     S, rep = repair_map(st, S)
     return S, stats, rep
 

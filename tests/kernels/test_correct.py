@@ -190,6 +190,31 @@ def test_mask_limits_changes():
     assert (S[mask] != S0[mask]).any()
 
 
+@pytest.mark.parametrize("bands", [2, 3])
+def test_sub_passes_in_row_bands_are_exactly_the_whole_ones(monkeypatch, bands):
+    """Each sub-pass's rows computed apart (as Dask workers do, ``synthesis.tiles``), with
+    the usage term and a mask: the same map as the whole synthesis, bit for bit."""
+    from proxyshade.synthesis.tiles import InProcess
+
+    rng, levels = small_case(12, ex=(40, 48), tgt=(48, 40), nlev=3)
+    S0 = random_state(rng, levels[-1])
+    mask = np.ones((48, 40), bool)
+    mask[30:, :12] = False
+    kw = dict(SYN, k=2, seed=4, uniformity=0.25, height_weight=4.0, mask=mask)
+    a, _ = kc.synthesize(levels, S0, **kw)
+    calls = []
+
+    class Counting(InProcess):
+        def __call__(self, fn, shared, jobs):
+            calls.append(len(jobs))
+            return super().__call__(fn, shared, jobs)
+
+    monkeypatch.setattr(kc, "TILE_MIN_PIXELS", 0)
+    b, _ = kc.synthesize(levels, S0, **kw, tiles=Counting(bands))
+    assert calls and set(calls) == {bands}  # every sub-pass of every level went through the bands
+    assert np.array_equal(a, b)
+
+
 def test_downsample_mask_is_any_of_each_block():
     from proxyshade.kernels.correct import downsample_mask
 
