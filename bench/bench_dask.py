@@ -10,6 +10,9 @@
              run): per task, the time between a task's end and the next one's start on the
              workers (the scheduler's round trip), median. Bar: <= 5 ms. The wall time per task
              (with the engine's own work: inputs loaded, entry stored) is printed beside it.
+  tiles      the lake's first frame at 4096x2160: its correction on the local executor (2
+             numba threads) against 2 Dask workers of 1 thread with the sub-passes in row
+             bands over both (``synthesis.tiles``) and without (bit-identical results).
   farm       8 worker processes on this machine, 3 shots x 12 frames, each shot submitted by
              two clients at once with overlapping frame ranges (1-8 and 5-12), one cache
              folder: every computed key is counted from the runs' rows and from the cache's
@@ -161,12 +164,49 @@ def bench_farm(size: int, frames: int) -> None:
     print(f"computed on {len(workers)} of the 8 workers")
 
 
+def first_frame_4k(cache: Path, out: Path) -> Graph:
+    return Graph.load(ROOT / "graphs" / "first_frame.yaml", cache=cache,
+                      overrides=["preview.enabled=false", "proxy_labels.enabled=false",
+                                 "detail_labels.enabled=false", "write.enabled=false"],
+                      variables={"scene": "lake", "source": "renoir", "format": "4k", "out": str(out)})
+
+
+def tiles_run(executor) -> tuple[float, float]:
+    """(wall of the lake's 4K first frame, seconds of its Correct node), fresh cache."""
+    with tempfile.TemporaryDirectory() as d:
+        t = time.perf_counter()
+        r = first_frame_4k(Path(d) / "cache", Path(d) / "out").run([1], executor=executor)
+        return time.perf_counter() - t, sum(x.seconds for x in r.runs if x.node == "correct")
+
+
+def bench_tiles(repeat: int) -> None:
+    """The 4K first frame's correction: the local executor (2 numba threads), and 2 Dask
+    workers of 1 thread each with its sub-passes in row bands over both, and without."""
+    print("\n## tiles: the lake's first frame at 4096x2160, its correction's sub-passes in row bands")
+    local = make_executor(1)
+    tiles_run(local)  # warm-up: kernels loaded in this process
+    rows = [("local executor, 2 numba threads", [tiles_run(local) for _ in range(repeat)])]
+    for label, threshold in (("dask, 2 workers x 1 thread, bands", None),
+                             ("dask, 2 workers x 1 thread, whole sub-passes", str(10 ** 12))):
+        if threshold:
+            os.environ["PROXYSHADE_TILE_MIN_PIXELS"] = threshold  # the workers read it when they start
+        try:
+            with DaskExecutor(workers=2) as ex:
+                tiles_run(ex)  # warm-up
+                rows.append((label, [tiles_run(ex) for _ in range(repeat)]))
+        finally:
+            os.environ.pop("PROXYSHADE_TILE_MIN_PIXELS", None)
+    for label, runs in rows:
+        print(f"{label:<46} frame median {statistics.median(r[0] for r in runs):6.2f} s, correction median "
+              f"{statistics.median(r[1] for r in runs):6.2f} s ({load()})")
+
+
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--size", type=int, default=256)
     ap.add_argument("--frames", type=int, default=12)
     ap.add_argument("--repeat", type=int, default=3)
-    ap.add_argument("--only", choices=("shots", "overhead", "farm"), action="append")
+    ap.add_argument("--only", choices=("shots", "overhead", "farm", "tiles"), action="append")
     a = ap.parse_known_args(argv)[0]  # bench/run.py passes bench names too
     only = set(a.only or ("shots", "overhead", "farm"))
     if "overhead" in only:
@@ -175,6 +215,8 @@ def main(argv=None) -> None:
         bench_shots(a.size, a.repeat, a.frames)
     if "farm" in only:
         bench_farm(a.size, a.frames)
+    if "tiles" in only:
+        bench_tiles(max(1, a.repeat // 2))
 
 
 if __name__ == "__main__":
