@@ -30,7 +30,7 @@ from proxyshade.kernels import temporal as kt
 from proxyshade.kernels.random import mix_seed
 from proxyshade.synthesis import labels as L
 from proxyshade.synthesis.blend import blend_regions
-from proxyshade.synthesis.exemplar import setup
+from proxyshade.synthesis.exemplar import levels_for, setup
 from proxyshade.synthesis.memo import ArrayMemo
 from proxyshade.synthesis.params import Correction, FloodFill, PoissonSolve
 from proxyshade.synthesis.patches import correct_map, fill_patches, magnify_map, repair_map, similarity_sets
@@ -55,12 +55,82 @@ def block_sample(a: np.ndarray, f: int, shape: tuple[int, int]) -> np.ndarray:
     return np.ascontiguousarray(a[rows][:, cols])
 
 
+def synthesis_window(flagged: np.ndarray, f: int, nlev: int, margin: int) -> tuple[int, int, int, int] | None:
+    """The window (row0, row1, col0, col1) of the output frame a restricted synthesis of
+    ``flagged`` runs on: the flagged pixels' bounding box grown by ``margin`` output pixels
+    of context, its corners on the grid of the coarsest level (``f`` × 2^(nlev − 1) output
+    pixels, or the frame's edge), so the window's synthesis pixels and levels are those of
+    the frame. None when the window would cover most of the frame (no gain)."""
+    H, W = flagged.shape
+    rows, cols = np.nonzero(flagged.any(1))[0], np.nonzero(flagged.any(0))[0]
+    b = f * 2 ** (nlev - 1)
+    r0, c0 = max(0, rows[0] - margin) // b * b, max(0, cols[0] - margin) // b * b
+    r1, c1 = min(H, -(-(rows[-1] + 1 + margin) // b) * b), min(W, -(-(cols[-1] + 1 + margin) // b) * b)
+    if (r1 - r0) * (c1 - c0) > 0.75 * H * W:
+        return None
+    return int(r0), int(r1), int(c0), int(c1)
+
+
 def resynthesize(img: Plate, source: Plate, p, frame: int, *, note: Callable[[str], None] = lambda s: None,
-                 timings: dict | None = None) -> Plate:
+                 timings: dict | None = None, window: int | None = None) -> Plate:
     """The flagged pixels of Reproject's plate ``img`` resynthesized. ``p``: the
     parameters (``FloodFill``, ``Correction``, ``PoissonSolve`` groups, ``factor``,
     ``scale``, ``seed``, ``solve``); per-stage seconds are added to ``timings`` (features,
-    flood fill, corrections, magnify, Poisson) for the bench."""
+    flood fill, corrections, magnify, Poisson) for the bench.
+
+    With ``window`` (output pixels of context), every step runs on a window of the frame
+    around the flagged pixels (``synthesis_window``) instead of the whole frame, with the
+    frame's number of levels and new patch ids above the frame's: the unflagged pixels
+    are the same, the flagged ones differ from a whole-frame run only by what the window
+    leaves out (the correction's over-use statistics count the window's pixels, the flood
+    fill's random draws are the window's). The edit path (``edit_colour``) uses it."""
+    if window is not None:
+        out = _windowed(img, source, p, frame, note, timings, int(window))
+        if out is not None:
+            return out
+    return _resynthesize(img, source, p, frame, note=note, timings=timings)
+
+
+def _windowed(img: Plate, source: Plate, p, frame: int, note, timings, margin: int) -> Plate | None:
+    """``resynthesize`` on ``synthesis_window``'s window, pasted into the frame; None when
+    there is no gain (nothing flagged or a window of most of the frame)."""
+    flagged = img["flag"] != 0
+    if not flagged.any():
+        return None
+    syn = img.meta.get("synthesis", {}) if isinstance(img.meta.get("synthesis"), dict) else {}
+    f = p.factor if p.factor is not None else int(syn.get("factor", 4))
+    H, W = img.shape
+    long_syn = max(-(-H // f), -(-W // f))
+    nlev = levels_for(long_syn, p.coarse_size)
+    box = synthesis_window(flagged, f, nlev, margin)
+    if box is None:
+        return None
+    r0, r1, c0, c1 = box
+    win = (slice(r0, r1), slice(c0, c1))
+    crop = Plate({c: np.ascontiguousarray(img[c][win]) for c in img.names()}, dict(img.meta))
+    # the window's levels are the frame's: its coarsest level as many halvings below its long side
+    long_win = max(-(-(r1 - r0) // f), -(-(c1 - c0) // f))
+    coarse = long_win / 2 ** (nlev - 1) if nlev > 1 else max(long_win, p.coarse_size)
+    q = SimpleNamespace(**dict(vars(p), coarse_size=coarse))
+    sub = _resynthesize(crop, source, q, frame, note=note, timings=timings,
+                        patch_base=int(img["patch.id"].max()) + 1)
+    out = {}
+    for c in sub.names():
+        if c in img and img[c].dtype == sub[c].dtype:
+            a = img[c].copy()
+        else:  # a channel the window's run added (the Poisson correction): zero outside the flagged pixels
+            a = np.zeros((H, W), sub[c].dtype)
+        a[win] = sub[c]
+        out[c] = a
+    meta = dict(sub.meta)
+    info = dict(meta.get("resynthesis", {}))
+    info.update(share=info.get("pixels", 0) / (H * W), window=[c1 - c0, r1 - r0])
+    meta["resynthesis"] = info
+    return Plate(out, meta)
+
+
+def _resynthesize(img: Plate, source: Plate, p, frame: int, *, note: Callable[[str], None] = lambda s: None,
+                  timings: dict | None = None, patch_base: int | None = None) -> Plate:
     tm = timings if timings is not None else {}
     t = time.perf_counter()
 
@@ -87,7 +157,7 @@ def resynthesize(img: Plate, source: Plate, p, frame: int, *, note: Callable[[st
     filt = img.meta.get("temporal", {}).get("filter", "bilinear")  # Reproject's, so kept and new pixels match
     if redo.any():
         sx, sy, patch, ex_factor = _synthesize(img, source, p, redo, f, scale, mix_seed(p.seed, frame), info, lap,
-                                               filt, rgb)
+                                               filt, rgb, patch_base)
     lap("magnify")
     out = {}
     before = rgb
@@ -116,7 +186,7 @@ def resynthesize(img: Plate, source: Plate, p, frame: int, *, note: Callable[[st
 
 
 def _synthesize(img: Plate, source: Plate, p, redo: np.ndarray, f: int, scale: float, seed: int, info: dict, lap,
-                filt: str, rgb: np.ndarray):
+                filt: str, rgb: np.ndarray, patch_base: int | None = None):
     """The first frame's steps on the pixels in ``redo``; the rest keep the carried map.
     The ``redo`` pixels of ``rgb`` (the carried colours, (H, W, 3)) take the source
     through their new map, in place. Returns source.x, source.y, patch.id and the
@@ -150,7 +220,7 @@ def _synthesize(img: Plate, source: Plate, p, redo: np.ndarray, f: int, scale: f
     # pixels take the new map: the others are told the label they land on (nothing to repair)
     wl = L.source_working_labels(source, table, scale)
     sx_new, sy_new, new_patch, _, rep = magnify_map(S, f, (H, W), scale=scale, target=g, labels=wl, only=redo)
-    base = np.uint32(int(img["patch.id"].max()) + 1)
+    base = np.uint32(int(img["patch.id"].max()) + 1 if patch_base is None else patch_base)
     sx, sy, patch = kt.merge_redo(np.ascontiguousarray(redo, np.bool_), sx_new, sy_new,
                                   np.ascontiguousarray(new_patch, np.uint32), base,
                                   np.ascontiguousarray(img["source.x"], np.float32),
