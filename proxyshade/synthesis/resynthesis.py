@@ -36,6 +36,7 @@ from proxyshade.synthesis.params import Correction, FloodFill, PoissonSolve
 from proxyshade.synthesis.patches import correct_map, fill_patches, magnify_map, repair_map, similarity_sets
 from proxyshade.synthesis.temporal import CORRECTION, FLAG
 
+SYNTHESIZED = ("R", "G", "B", "source.x", "source.y", "patch.id")  # what the resynthesis writes
 _SIMILARITY = ArrayMemo(2)  # similarity sets of the newest sources
 
 
@@ -231,3 +232,45 @@ def _synthesize(img: Plate, source: Plate, p, redo: np.ndarray, f: int, scale: f
     info.update(synthesis_pixels=int(active.sum()), flood_filled=int(fresh.sum()), patches=int(npatch),
                 repaired=int(rep["wrong"]))
     return sx, sy, patch, st.ex_factor
+
+
+def resynthesize_update(old: Plate, old_image: Plate | None, img: Plate, source: Plate, old_source: Plate | None, p,
+                        frame: int, *, note: Callable[[str], None] = lambda s: None, window: int = 64
+                        ) -> Plate | None:
+    """Resynthesize after an edit of the first frame (Bonneel et al. 2010, §7, carried
+    through a camera move): ``old`` is this frame's last result, made from ``old_image``.
+    Pixels whose input (Reproject's state: ``SYNTHESIZED``, label, flag, correction) is the
+    same as then keep ``old``'s values bit for bit (the channels passed through, this frame's
+    geometry, are the new input's); the changed ones take the new input's, and those of them that are flagged are
+    resynthesized (on a window around them, ``window`` pixels of context) with every other
+    pixel as fixed context and Dirichlet values. None where it is done whole (another size,
+    other channels, another source)."""
+    from proxyshade.synthesis.edit import changed_region
+
+    if old_image is None or set(old_image.names()) != set(img.names()) or old.shape != img.shape:
+        return None
+    if old_source is not None:
+        same = changed_region({"s": old_source}, {"s": source}, {"s": ("R", "G", "B", "label.id")}, 0)
+        if same is None or same.any():
+            return None
+    synth = tuple(c for c in SYNTHESIZED + CORRECTION + ("label.id", "flag") if c in img)
+    diff = changed_region({"i": old_image}, {"i": img}, {"i": synth}, 0)
+    if diff is None or any(c not in old for c in img.names()):
+        return None
+    passed = {c: img[c] for c in img.names() if c not in synth}  # this frame's geometry and Reproject's AOVs
+    if not diff.any():
+        note("progressive: the edit does not reach this frame")
+        return old.with_channels(passed)
+    ch = dict(passed)
+    for c in synth:
+        a = old[c].copy()
+        a[diff] = img[c][diff]
+        ch[c] = a
+    flag = ch["flag"]
+    ch["flag"] = np.where(diff, flag, np.uint32(0)).astype(np.uint32)
+    out = resynthesize(Plate(ch, dict(img.meta)), source, p, frame, note=note, window=window)
+    info = dict(out.meta.get("resynthesis", {}))
+    info["edit"] = {"pixels": int(diff.sum()), "share": float(diff.mean())}
+    note(f"progressive: {int(diff.sum())} pixels ({100 * diff.mean():.2f}%) changed by the edit, "
+         f"{info.get('pixels', 0)} of them resynthesized")
+    return out.with_channels({"flag": flag}, meta={"resynthesis": info})

@@ -342,3 +342,92 @@ def _first_frame(cd: Plate, first: Plate | None, geo: dict, frame: int, first_fr
     meta = _carried_meta(first, cd)
     meta["temporal"] = dict(flagged=0.0, cut=False, frame=int(frame))
     return Plate(ch, meta)
+
+
+def carry_margin(p) -> int:
+    """Pixels around a changed input pixel whose carry can change: the neighbours' patch
+    continued into a disocclusion (``fill_radius``), the map's deviation (1), the isolated-
+    flag window and the flags' dilation (``isolated_radius``, ``dilate``), the bilinear
+    gather (1), and 1 to spare."""
+    return int(p.fill_radius) + int(p.isolated_radius) + int(p.dilate) + 3
+
+
+ZTOL = 1e-3  # relative depth change under which ConsistentDepth's pixel counts as the same for an update
+
+
+def _carried(prev: Plate) -> tuple[str, ...]:
+    """The previous frame's channels the carry reads."""
+    return tuple(c for c in STATE + ("Z", "extension") + CORRECTION if c in prev)
+
+
+def carry_update(old: Plate, old_inputs: dict, cd: Plate, prev: Plate | None, first: Plate | None, source: Plate, p,
+                 *, frame: int, first_frame: int, note=lambda s: None) -> tuple[Plate, np.ndarray] | None:
+    """Reproject after an edit of the first frame (Bonneel et al. 2010, §7, carried
+    through a camera move): ``old`` is this frame's last carry, made from ``old_inputs``
+    (``depth``, ``prev``, ``source``). The pixels the edit reaches here are those whose
+    ConsistentDepth changed (label, category, or depth by more than ``ZTOL`` relative: the
+    rebuilt proxy's depth moves by float noise far from a stroke) and those that read a
+    changed pixel of the previous final frame (its changed pixels reprojected into this
+    frame's camera), grown by ``carry_margin``; they take the carry of this run's inputs,
+    every other pixel keeps ``old``'s state bit for bit. This frame's geometry (``GEOMETRY``,
+    ``category``) is ConsistentDepth's everywhere, as in a whole carry.
+    Returns (plate, the region), or None where the carry is computed whole (the first
+    frame, an input of another size or with other channels, a changed source)."""
+    from proxyshade.synthesis.edit import changed_region
+
+    b_cd, b_prev = old_inputs.get("depth"), old_inputs.get("prev")
+    if prev is None or b_cd is None or b_prev is None or set(b_cd.names()) != set(cd.names()) \
+            or set(b_prev.names()) != set(prev.names()) or old.shape != cd.shape or b_cd.shape != cd.shape:
+        return None
+    if "source" in old_inputs:
+        same = changed_region({"s": old_inputs["source"]}, {"s": source}, {"s": ("R", "G", "B", "label.id")}, 0)
+        if same is None or same.any():
+            return None
+    dcd = changed_region({"d": b_cd}, {"d": cd}, {"d": ("label.id", "category")}, 0)
+    dprev = changed_region({"p": b_prev}, {"p": prev}, {"p": _carried(prev)}, 0)
+    if dcd is None or dprev is None:
+        return None
+    z0, z1 = b_cd["Z"], cd["Z"]
+    with np.errstate(invalid="ignore"):
+        dz = ~((z0 == z1) | (np.abs(z1 - z0) <= ZTOL * np.minimum(np.abs(z0), np.abs(z1))))
+    reach = dcd | dz
+    if dprev.any():
+        cam1, cam0 = camera_of("depth", cd), camera_of("prev", prev)
+        u, v, q, ok = kr.transfer(kr.inverse_depth(cd["Z"]), kr.relative_matrix(cam1, cam0), kr.intrinsics(cam1),
+                                  kr.intrinsics(cam0), cam0.near)
+        hp, wp = prev.shape
+        near = kt.dilate(np.ascontiguousarray(dprev), 1)  # the bilinear gather's 2x2 footprint
+        ii, jj = np.nonzero(ok)
+        c = np.floor(u[ii, jj]).astype(np.int64)
+        r = np.floor(v[ii, jj]).astype(np.int64)
+        inside = (c >= 0) & (r >= 0) & (c < wp) & (r < hp)
+        hit = np.zeros(len(ii), bool)
+        hit[inside] = near[r[inside], c[inside]]
+        reach[ii[hit], jj[hit]] = True
+    geometry = tuple(c for c in GEOMETRY if c in cd) + ("category",)
+    if not reach.any():
+        note("progressive: the edit does not reach this frame")
+        return old.with_channels({c: cd[c] if c in cd else old[c] for c in geometry}), reach
+    region = kt.dilate(np.ascontiguousarray(reach), carry_margin(p))
+    new = carry(cd, prev, first, source, p, frame=frame, first_frame=first_frame, note=lambda s: None)
+    if bool(new.meta["temporal"].get("cut")) != bool(old.meta.get("temporal", {}).get("cut")) \
+            or set(new.names()) != set(old.names()):
+        note("progressive: a camera cut comes or goes with the edit: the whole frame carried again")
+        return new, np.ones(cd.shape, bool)
+    ch = {}
+    for name in new.names():
+        if name in geometry:
+            ch[name] = new[name]
+            continue
+        a = old[name].copy()
+        a[region] = new[name][region]
+        ch[name] = a
+    flag = ch["flag"]
+    n = np.bincount(flag.ravel(), minlength=max(FLAG.values()) + 1) / flag.size
+    meta = dict(new.meta)
+    meta["temporal"] = dict(new.meta["temporal"], **{k: float(n[v]) for k, v in FLAG.items() if v},
+                            flagged=float((flag > 0).mean()), edit={"pixels": int(region.sum()),
+                                                                    "share": float(region.mean())})
+    note(f"progressive: {int(region.sum())} pixels ({100 * region.mean():.2f}%) carried again where the edit "
+         f"reaches this frame")
+    return Plate(ch, meta), region
