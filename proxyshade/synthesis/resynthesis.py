@@ -44,9 +44,23 @@ def exemplar_similarity(source: Plate, st, corr: SimpleNamespace, *, seed: int) 
     """``patches.similarity_sets`` of the exemplar: they depend on the source, the
     exemplar geometry (factor, scale, levels) and the correction parameters, not on the
     frame, so within one run they are searched once per source and reused."""
-    key = (st.factor, st.scale, len(st.levels), st.ex_lab.shape, tuple(sorted(vars(corr).items())), seed)
+    # coarse_size only sets the number of levels (in the key): a window's run shares the frame's sets
+    key = (st.factor, st.scale, len(st.levels), st.ex_lab.shape,
+           tuple(sorted((k, v) for k, v in vars(corr).items() if k != "coarse_size")), seed)
     return _SIMILARITY.get((source["R"], source["label.id"]), key,
                            lambda: similarity_sets(st, corr, seed=seed))
+
+
+_TABLE = ArrayMemo(4)  # the source's label table, one array per source: the memos keyed by it then find it
+
+
+def source_table(source: Plate) -> np.ndarray:
+    """``labels.source_table``, the same array for every frame that passes the same source,
+    so that what is kept by the table's identity (``labels.source_working_labels``, and by
+    that grid the nearest sites of ``patches.magnify_map``'s repair) is found again instead
+    of being rebuilt for each frame."""
+    ids = tuple(int(t["id"]) for t in source.meta.get("labels") or ())
+    return _TABLE.get((source["label.id"],), ids, lambda: L.source_table(source))
 
 
 def block_sample(a: np.ndarray, f: int, shape: tuple[int, int]) -> np.ndarray:
@@ -193,7 +207,7 @@ def _synthesize(img: Plate, source: Plate, p, redo: np.ndarray, f: int, scale: f
     through their new map, in place. Returns source.x, source.y, patch.id and the
     exemplar factor."""
     flag = img["flag"]
-    table = L.source_table(source)
+    table = source_table(source)
     n = len(table)
     H, W = img.shape
     g = L.dense_guide(img["label.id"], table, "image")

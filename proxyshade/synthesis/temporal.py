@@ -11,6 +11,8 @@ the map. Kernels: ``proxyshade.kernels.reproject``, ``proxyshade.kernels.tempora
 """
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import numpy as np
 
 from proxyshade.errors import NodeInputError
@@ -227,11 +229,20 @@ def camera_of(name: str, *plates) -> CameraInfo:
 
 
 def carry(cd: Plate, prev: Plate | None, first: Plate | None, source: Plate, p, *, frame: int, first_frame: int,
-          note=lambda s: None) -> Plate:
+          note=lambda s: None, window: tuple[int, int, int, int] | None = None) -> Plate:
     """The previous frame's synthesis state ``prev`` carried into the camera of ``cd``
     (this frame's ConsistentDepth), with its flags; at the first frame (no ``prev``) the
     ``first`` plate with no flags, or everything flagged without one. ``p``: the
-    ``Carry`` parameters. See ``nodes.reproject`` for the channels."""
+    ``Carry`` parameters. See ``nodes.reproject`` for the channels.
+
+    ``window`` (row0, row1, col0, col1): only that part of the frame is carried (a plate of
+    its size; ``carry_update`` pastes it): pixels near the window's edge, patch-level
+    decisions of patches it cuts and the camera-cut test see the window only."""
+    offset = None
+    if window is not None and prev is not None:
+        r0, r1, c0, c1 = window
+        cd = Plate({c: np.ascontiguousarray(cd[c][r0:r1, c0:c1]) for c in cd.names()}, cd.meta)
+        offset = np.array([0.0, 0.0, c0, r0])
     H, W = cd.shape
     cat = cd["category"] if "category" in cd else np.zeros((H, W), np.uint32)
     geo = {c: cd[c] for c in GEOMETRY if c in cd}
@@ -246,8 +257,8 @@ def carry(cd: Plate, prev: Plate | None, first: Plate | None, source: Plate, p, 
     tol = p.depth_tolerance
     w1 = kr.inverse_depth(cd["Z"])
     lab = np.ascontiguousarray(cd["label.id"], np.uint32)
-    u, v, q, ok = kr.transfer(w1, kr.relative_matrix(cam1, cam0), kr.intrinsics(cam1), kr.intrinsics(cam0),
-                              cam0.near)
+    k1 = kr.intrinsics(cam1) if offset is None else kr.intrinsics(cam1) - offset  # the window's principal point
+    u, v, q, ok = kr.transfer(w1, kr.relative_matrix(cam1, cam0), k1, kr.intrinsics(cam0), cam0.near)
     src_rgb = source.rgb()
     if p.colour == "map" and all(c in prev for c in CORRECTION):
         prev_res = prev.layer(CORRECTION)  # carried by Resynthesize: no second read of the source
@@ -408,21 +419,33 @@ def carry_update(old: Plate, old_inputs: dict, cd: Plate, prev: Plate | None, fi
     if not reach.any():
         note("progressive: the edit does not reach this frame")
         return old.with_channels({c: cd[c] if c in cd else old[c] for c in geometry}), reach
-    region = kt.dilate(np.ascontiguousarray(reach), carry_margin(p))
-    new = carry(cd, prev, first, source, p, frame=frame, first_frame=first_frame, note=lambda s: None)
-    if bool(new.meta["temporal"].get("cut")) != bool(old.meta.get("temporal", {}).get("cut")) \
-            or set(new.names()) != set(old.names()):
-        note("progressive: a camera cut comes or goes with the edit: the whole frame carried again")
-        return new, np.ones(cd.shape, bool)
+    if old.meta.get("temporal", {}).get("cut"):
+        return None  # the last run's frame was a camera cut: carried whole again
+    m = carry_margin(p)
+    region = kt.dilate(np.ascontiguousarray(reach), m)
+    H, W = cd.shape
+    rows, cols = np.nonzero(region.any(1))[0], np.nonzero(region.any(0))[0]
+    r0, r1 = max(0, rows[0] - m), min(H, rows[-1] + 1 + m)
+    c0, c1 = max(0, cols[0] - m), min(W, cols[-1] + 1 + m)
+    win = (slice(r0, r1), slice(c0, c1))
+    # the carry of the region's window (its pixels' whole neighbourhoods), the camera cut decided on the frame below
+    new = carry(cd, prev, first, source, SimpleNamespace(**dict(vars(p), cut_threshold=1.0)), frame=frame,
+                first_frame=first_frame, window=(r0, r1, c0, c1))
+    if set(new.names()) != set(old.names()):
+        return None
+    sel = region[win]
     ch = {}
     for name in new.names():
         if name in geometry:
-            ch[name] = new[name]
+            ch[name] = cd[name] if name in cd else old[name]
             continue
         a = old[name].copy()
-        a[region] = new[name][region]
+        a[win][sel] = new[name][sel]
         ch[name] = a
     flag = ch["flag"]
+    if (flag > 0).mean() > p.cut_threshold:
+        note("progressive: the edit makes this frame a camera cut: carried whole")
+        return None
     n = np.bincount(flag.ravel(), minlength=max(FLAG.values()) + 1) / flag.size
     meta = dict(new.meta)
     meta["temporal"] = dict(new.meta["temporal"], **{k: float(n[v]) for k, v in FLAG.items() if v},
