@@ -14,7 +14,7 @@ carry_update``, ``resynthesis.resynthesize_update``) against a whole re-run of t
 later frames from the edited first frame: seconds, pixels carried again / changed /
 resynthesized, and the edited shot's seams and detail relative to its first frame (issue
 #10's bars: seams <= 1.5x, detail >= 0.9). ``python bench/run.py edit`` runs both;
-``python bench/bench_edit.py move [size] [frames]`` the move only."""
+``python bench/bench_edit.py move [size] [frames]`` the move only, ``first`` the first frame only."""
 import shutil
 import statistics
 import sys
@@ -45,6 +45,8 @@ EDITS = [("island", (5, -40), 7.0, 9.0), ("hill in the lake", (0, -38), 10.0, 9.
 def main():
     if len(sys.argv) > 1 and sys.argv[1] == "move":
         return move(*(int(a) for a in sys.argv[2:4]))
+    if len(sys.argv) > 1 and sys.argv[1] == "first":
+        return first_frame()
     first_frame()
     move()
 
@@ -68,6 +70,7 @@ def first_frame():
 
         guide0, depth0, final0 = whole()
         rows = []
+        cpu_upd = {}
         for name, centre, radius, amount in EDITS:
             shutil.copy(tmp / "lake.yaml", tmp / "before.yaml")
             add_stroke(tmp / "lake.yaml", "Ground", centre, radius, amount)
@@ -89,6 +92,7 @@ def first_frame():
             print(f"{name}: proxy labels changed {100 * changed:.2f}%, colour synthesized {100 * e['share']:.2f}% "
                   f"({e['synthesis_pixels']} synthesis px), guide windows {ginfo['windows']}")
             rows.append((f"update: {name} (wall, all threads)", measure(update, repeat=5), 0.3))
+            cpu_upd[name] = _cpu(update)
             rows.append((f"update: render alone", measure(render, repeat=5), None))
             shutil.copy(tmp / "before.yaml", tmp / "lake.yaml")
             add_stroke(tmp / "lake.yaml", "Ground", (150, 150), 1.0, 0.0)
@@ -107,7 +111,8 @@ def first_frame():
                 fn()
                 ts.append(time.process_time() - t)
             cpu[label] = float(np.median(ts))
-        print(f"CPU, one numba thread: whole first frame {cpu['whole']:.3f} s")
+        print(f"CPU, one numba thread: whole first frame {cpu['whole']:.3f} s; "
+              + ", ".join(f"update {k} {v:.3f} s ({v / cpu['whole']:.1%})" for k, v in cpu_upd.items()))
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
 
@@ -225,6 +230,21 @@ def move(size: int = 512, frames: int = 12):
             print(f"edited shot, {name}: seams max {s:.2f}x frame 1's (bar 1.5), detail min {d:.3f} (bar 0.9)")
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
+
+
+def _cpu(fn, repeat: int = 3) -> float:
+    """Median CPU seconds of ``fn`` with one numba thread (steadier than wall time on a shared machine)."""
+    threads = numba.get_num_threads()
+    numba.set_num_threads(1)
+    try:
+        ts = []
+        for _ in range(repeat):
+            t = time.process_time()
+            fn()
+            ts.append(time.process_time() - t)
+        return float(np.median(ts))
+    finally:
+        numba.set_num_threads(threads)
 
 
 def _timed(fn) -> float:
