@@ -212,7 +212,7 @@ def move(size: int = 512, frames: int = 12):
         reached = [r for r in rows if r["frame"] > 1 and r["carried"] > 0]
         print(f"\n## the island stroke through the lake's move, {size}², frames 1-{frames} (bench_edit move)")
         print(f"proxy renders of the edited scene: {t_render:.3f} s ({frames} frames; the same for both)")
-        print(f"frames 2-{frames}, ConsistentDepth + Reproject + Resynthesize (medians of 3): whole re-run "
+        print(f"frames 1-{frames} (the first passes through), ConsistentDepth + Reproject + Resynthesize (medians of 3): whole re-run "
               f"{t_whole:.3f} s wall / {c_whole:.3f} s CPU (one thread), progressive {t_prog:.3f} s wall "
               f"({t_prog / t_whole:.0%}) / {c_prog:.3f} s CPU ({c_prog / c_whole:.0%})")
         print(f"frames the edit reaches: {len(reached)} of {frames - 1}; pixels per later frame (median): carried again "

@@ -122,7 +122,8 @@ def _windowed(img: Plate, source: Plate, p, frame: int, note, timings, margin: i
         return None
     r0, r1, c0, c1 = box
     win = (slice(r0, r1), slice(c0, c1))
-    crop = Plate({c: np.ascontiguousarray(img[c][win]) for c in img.names()}, dict(img.meta))
+    read = SYNTHESIZED + CORRECTION + ("flag", "label.id")  # what _resynthesize reads; the rest passes through
+    crop = Plate({c: np.ascontiguousarray(img[c][win]) for c in read if c in img}, dict(img.meta))
     # the window's levels are the frame's: its coarsest level as many halvings below its long side
     long_win = max(-(-(r1 - r0) // f), -(-(c1 - c0) // f))
     coarse = long_win / 2 ** (nlev - 1) if nlev > 1 else max(long_win, p.coarse_size)
@@ -131,6 +132,8 @@ def _windowed(img: Plate, source: Plate, p, frame: int, note, timings, margin: i
                         patch_base=int(img["patch.id"].max()) + 1)
     out = {}
     for c in sub.names():
+        if c in img and img[c].dtype == sub[c].dtype and np.array_equal(img[c][win], sub[c]):
+            continue  # unchanged (flag, label.id): img's array
         if c in img and img[c].dtype == sub[c].dtype:
             a = img[c].copy()
         else:  # a channel the window's run added (the Poisson correction): zero outside the flagged pixels
@@ -141,7 +144,8 @@ def _windowed(img: Plate, source: Plate, p, frame: int, note, timings, margin: i
     info = dict(meta.get("resynthesis", {}))
     info.update(share=info.get("pixels", 0) / (H * W), window=[c1 - c0, r1 - r0])
     meta["resynthesis"] = info
-    return Plate(out, meta)
+    dropped = [c for c in img.names() if c not in sub.names() and c in read]  # CORRECTION without the solve
+    return img.with_channels(out, meta=meta, drop=dropped)
 
 
 def _resynthesize(img: Plate, source: Plate, p, frame: int, *, note: Callable[[str], None] = lambda s: None,
