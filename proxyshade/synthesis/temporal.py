@@ -399,21 +399,24 @@ def carry_update(old: Plate, old_inputs: dict, cd: Plate, prev: Plate | None, fi
     if dcd is None or dprev is None:
         return None
     z0, z1 = b_cd["Z"], cd["Z"]
-    with np.errstate(invalid="ignore"):
-        dz = ~((z0 == z1) | (np.abs(z1 - z0) <= ZTOL * np.minimum(np.abs(z0), np.abs(z1))))
-    reach = dcd | dz
+    reach = dcd
+    zi = np.flatnonzero(z0 != z1)  # then, of those, the ones that moved by more than ZTOL (inf: both inf, or a change)
+    if len(zi):
+        a, b = z0.reshape(-1)[zi], z1.reshape(-1)[zi]
+        with np.errstate(invalid="ignore"):
+            moved = ~(np.abs(b - a) <= ZTOL * np.minimum(np.abs(a), np.abs(b)))
+        reach.reshape(-1)[zi[moved]] = True
     if dprev.any():
         cam1, cam0 = camera_of("depth", cd), camera_of("prev", prev)
         u, v, q, ok = kr.transfer(kr.inverse_depth(cd["Z"]), kr.relative_matrix(cam1, cam0), kr.intrinsics(cam1),
                                   kr.intrinsics(cam0), cam0.near)
-        hp, wp = prev.shape
         near = kt.dilate(np.ascontiguousarray(dprev), 1)  # the bilinear gather's 2x2 footprint
-        ii, jj = np.nonzero(ok)
-        c = np.floor(u[ii, jj]).astype(np.int64)
-        r = np.floor(v[ii, jj]).astype(np.int64)
-        inside = (c >= 0) & (r >= 0) & (c < wp) & (r < hp)
-        hit = np.zeros(len(ii), bool)
-        hit[inside] = near[r[inside], c[inside]]
+        rows, cols = np.nonzero(near.any(1))[0], np.nonzero(near.any(0))[0]
+        # only the pixels that land in the changed pixels' box are looked up
+        with np.errstate(invalid="ignore"):
+            box = ok & (u >= cols[0]) & (u < cols[-1] + 1) & (v >= rows[0]) & (v < rows[-1] + 1)
+        ii, jj = np.nonzero(box)
+        hit = near[np.floor(v[ii, jj]).astype(np.int64), np.floor(u[ii, jj]).astype(np.int64)]
         reach[ii[hit], jj[hit]] = True
     geometry = tuple(c for c in GEOMETRY if c in cd) + ("category",)
     if not reach.any():
