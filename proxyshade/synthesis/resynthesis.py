@@ -17,6 +17,7 @@ equation on the flagged pixels. Unflagged pixels keep Reproject's colours and ma
 """
 from __future__ import annotations
 
+import hashlib
 import time
 from types import SimpleNamespace
 from typing import Callable
@@ -38,6 +39,7 @@ from proxyshade.synthesis.temporal import CORRECTION, FLAG
 
 SYNTHESIZED = ("R", "G", "B", "source.x", "source.y", "patch.id")  # what the resynthesis writes
 _SIMILARITY = ArrayMemo(2)  # similarity sets of the newest sources
+_SIMILARITY_BY_CONTENT = ArrayMemo(2)
 
 
 def exemplar_similarity(source: Plate, st, corr: SimpleNamespace, *, seed: int) -> list:
@@ -47,8 +49,20 @@ def exemplar_similarity(source: Plate, st, corr: SimpleNamespace, *, seed: int) 
     # coarse_size only sets the number of levels (in the key): a window's run shares the frame's sets
     key = (st.factor, st.scale, len(st.levels), st.ex_lab.shape,
            tuple(sorted((k, v) for k, v in vars(corr).items() if k != "coarse_size")), seed)
+    # by the arrays' identity (the frames of one run), else by their content (a later run that read
+    # the same source back from the cache, as each re-run of an interactive edit loop does)
     return _SIMILARITY.get((source["R"], source["label.id"]), key,
-                           lambda: similarity_sets(st, corr, seed=seed))
+                           lambda: _SIMILARITY_BY_CONTENT.get((), key + (_digest(source["R"], source["label.id"]),),
+                                                              lambda: similarity_sets(st, corr, seed=seed)))
+
+
+def _digest(*arrays: np.ndarray) -> str:
+    h = hashlib.blake2b(digest_size=16)
+    for a in arrays:
+        a = np.ascontiguousarray(a)
+        h.update(str((a.dtype.str, a.shape)).encode())
+        h.update(a.view(np.uint8).reshape(-1))
+    return h.hexdigest()
 
 
 _TABLE = ArrayMemo(4)  # the source's label table, one array per source: the memos keyed by it then find it

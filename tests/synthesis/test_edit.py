@@ -99,3 +99,27 @@ def test_a_windowed_resynthesis_keeps_every_other_pixel_and_numbers_new_patches_
     for c in ("R", "G", "B", "source.x", "source.y", "patch.id"):
         assert np.array_equal(out[c][keep], img[c][keep]), c
     assert (out["patch.id"][~keep] > img["patch.id"].max()).all()
+
+
+def test_the_colour_similarity_sets_are_found_again_for_a_source_read_back(monkeypatch):
+    """Each re-run of an edit loop reads the source back from the cache (new arrays, same
+    content): the exemplar's similarity sets are not searched again."""
+    from types import SimpleNamespace
+
+    from proxyshade.nodes.resynthesize import Resynthesize
+    from proxyshade.synthesis import resynthesis as RS
+    from tests.nodes import _temporal as TT
+
+    rp = TT.run_move("lake", [1, 2], size=128)[1]["reproject"]
+    flag = np.zeros(rp.shape, np.uint32)
+    flag[60:80, 30:60] = 1
+    img = rp.with_channels({"flag": flag})
+    p = SimpleNamespace(**Resynthesize.validate_params({"seed": 3}))
+    src = TT.source("renoir")
+    first = RS.resynthesize(img, src, p, 2)
+    searched = []
+    monkeypatch.setattr(RS, "similarity_sets", lambda *a, **k: searched.append(1))
+    again = Plate({c: src[c].copy() for c in src.names()}, dict(src.meta))
+    out = RS.resynthesize(img, again, p, 2)
+    assert not searched
+    assert all(np.array_equal(out[c], first[c]) for c in ("R", "G", "B", "source.x", "source.y", "patch.id"))
