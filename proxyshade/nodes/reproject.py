@@ -40,18 +40,24 @@ from, 2 before 1). When more than ``cut_threshold`` of the frame is flagged the 
 treated as a camera cut: everything is flagged for a full synthesis (noted in the run
 report).
 
+Progressive (``progressive: true``, after an edit of the first frame, Bonneel et al. 2010,
+§7): only the pixels the edit reaches in this frame (ConsistentDepth changed, or the
+previous final frame's changed pixels reprojected here, grown by the carry's margins) are
+carried again; every other pixel keeps the last run's result bit for bit, and a frame the
+edit does not reach keeps it whole (``temporal.carry_update``).
+
 Layer: ``proxyshade.synthesis.temporal``; kernels ``proxyshade.kernels.reproject``,
 ``proxyshade.kernels.temporal``.
 """
 from __future__ import annotations
 
-from proxyshade.graph.node import Input, Node
+from proxyshade.graph.node import Input, Node, Progressive
 from proxyshade.graph.plate import Plate
 from proxyshade.synthesis.params import Carry, source_input
 from proxyshade.synthesis.state import STATE
 
 
-class Reproject(Carry, Node):
+class Reproject(Carry, Progressive, Node):
     """The previous final frame warped into this frame's camera, with flags.
 
     Output at the ConsistentDepth's size: ``R,G,B``, ``source.x/y``, ``patch.id`` (the
@@ -77,7 +83,12 @@ class Reproject(Carry, Node):
     source = source_input("annotated source (SourceRead): colours are looked up through the carried map")
 
     def compute(self, ctx) -> Plate:
-        from proxyshade.synthesis.temporal import carry
+        from proxyshade.synthesis.temporal import carry, carry_update
 
+        if ctx.previous is not None:
+            up = carry_update(ctx.previous.plate, ctx.previous.inputs, ctx.depth, ctx.prev, ctx.first, ctx.source,
+                              ctx.p, frame=ctx.frame, first_frame=ctx.first_frame, note=ctx.note)
+            if up is not None:
+                return up[0]
         return carry(ctx.depth, ctx.prev, ctx.first, ctx.source, ctx.p, frame=ctx.frame, first_frame=ctx.first_frame,
                      note=ctx.note)

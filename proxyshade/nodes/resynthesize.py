@@ -5,15 +5,20 @@ flagged pixels only, with the unflagged ones as fixed context and Dirichlet valu
 ``proxyshade.synthesis.resynthesis`` for how. Unflagged pixels keep Reproject's colours
 and map exactly. With ``solve: false``, follow with ``Poisson`` with ``keep`` = this plate
 (mask channel ``flag``) for the restricted solve.
+
+Progressive (``progressive: true``, after an edit of the first frame, Bonneel et al. 2010,
+§7): pixels whose input is the same as in the last run keep that run's result bit for bit;
+the changed ones take the new input and those flagged are resynthesized with the rest as
+context (``resynthesis.resynthesize_update``).
 """
 from __future__ import annotations
 
-from proxyshade.graph.node import Input, Node, Param
+from proxyshade.graph.node import Input, Node, Param, Progressive
 from proxyshade.graph.plate import Plate
 from proxyshade.synthesis.params import Correction, FloodFill, PoissonSolve, source_input
 
 
-class Resynthesize(FloodFill, Correction, PoissonSolve, Node):
+class Resynthesize(FloodFill, Correction, PoissonSolve, Progressive, Node):
     """Flagged pixels resynthesized with the first-frame steps; the rest kept.
 
     Output at the input's size: the input's channels with ``R,G,B`` (the source through
@@ -34,6 +39,12 @@ class Resynthesize(FloodFill, Correction, PoissonSolve, Node):
                                   "false leaves it to a Poisson node with keep")
 
     def compute(self, ctx) -> Plate:
-        from proxyshade.synthesis.resynthesis import resynthesize
+        from proxyshade.synthesis.resynthesis import resynthesize, resynthesize_update
 
+        if ctx.previous is not None and ctx.p.solve:
+            prev = ctx.previous
+            out = resynthesize_update(prev.plate, prev.inputs.get("image"), ctx.image, ctx.source,
+                                      prev.inputs.get("source"), ctx.p, ctx.frame, note=ctx.note)
+            if out is not None:
+                return out
         return resynthesize(ctx.image, ctx.source, ctx.p, ctx.frame, note=ctx.note)

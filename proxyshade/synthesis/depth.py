@@ -73,9 +73,11 @@ def depth_plate(proxy: Plate, guide: Plate, *, penalty: float, region: np.ndarra
     flat = np.maximum(src, 0)
     if cam:
         c = CameraInfo.from_meta(cam)
-        cols, rows = c.pixel_grid()
+        # the window's pixel centres (CameraInfo.pixel_grid's values, without the whole frame's grid)
+        cols = np.broadcast_to(np.arange(c0, c1, dtype=np.float64)[None] + 0.5, ext.shape)
+        rows = np.broadcast_to(np.arange(r0, r1, dtype=np.float64)[:, None] + 0.5, ext.shape)
         finite = np.isfinite(ext)
-        P = c.unproject(cols[win], rows[win], np.where(finite, ext, 1.0))
+        P = c.unproject(cols, rows, np.where(finite, ext, 1.0))
         for k, a in enumerate("XYZ"):
             ch[f"P.{a}"] = put(f"P.{a}", np.where(finite, P[..., k], 0.0).astype(np.float32))
     elif all(f"P.{a}" in proxy for a in "XYZ"):

@@ -45,9 +45,13 @@ def changed_region(before: dict[str, Plate], after: dict[str, Plate], channels: 
             if (c in a) != (c in b):
                 return None
             if c in a:
-                d |= a[c] != b[c]
+                dc = a[c] != b[c]
                 if np.issubdtype(a[c].dtype, np.floating):
-                    d &= ~(np.isnan(a[c]) & np.isnan(b[c]))
+                    ii = np.flatnonzero(dc)  # NaN != NaN: only the differing pixels can be two NaNs
+                    if len(ii):
+                        x, y = a[c].reshape(-1)[ii], b[c].reshape(-1)[ii]
+                        dc.reshape(-1)[ii[np.isnan(x) & np.isnan(y)]] = False
+                d |= dc
         if diff is None:
             diff = d
         elif d.shape == diff.shape:

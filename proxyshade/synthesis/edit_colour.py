@@ -14,6 +14,7 @@ from proxyshade.synthesis.exemplar import provenance
 from proxyshade.synthesis.resynthesis import resynthesize
 from proxyshade.synthesis.temporal import FLAG
 
+WINDOW = 64  # output pixels of context around the region of an update (resynthesis.synthesis_window)
 GEOMETRY = ("Z", "P.X", "P.Y", "P.Z", "N.X", "N.Y", "N.Z", "object.id")  # follow the depth input as they are
 
 
@@ -38,7 +39,8 @@ def edit_synthesis(guide: Plate, source: Plate, p, *, previous: Plate | None, re
         img = previous
     flag = np.where(region, np.uint32(FLAG["disoccluded"]), np.uint32(0)).astype(np.uint32)
     img = img.with_channels(dict(geometry, **{"label.id": guide["label.id"].astype(np.uint32), "flag": flag}))
-    out = resynthesize(img, source, SimpleNamespace(**dict(vars(p), solve=True)), 0, note=note, timings=timings)
+    out = resynthesize(img, source, SimpleNamespace(**dict(vars(p), solve=True)), 0, note=note, timings=timings,
+                       window=None if previous is None else WINDOW)
     info = dict(out.meta.get("resynthesis", {}))
     meta = dict(out.meta)
     meta.pop("resynthesis", None)

@@ -17,6 +17,7 @@ equation on the flagged pixels. Unflagged pixels keep Reproject's colours and ma
 """
 from __future__ import annotations
 
+import hashlib
 import time
 from types import SimpleNamespace
 from typing import Callable
@@ -30,22 +31,50 @@ from proxyshade.kernels import temporal as kt
 from proxyshade.kernels.random import mix_seed
 from proxyshade.synthesis import labels as L
 from proxyshade.synthesis.blend import blend_regions
-from proxyshade.synthesis.exemplar import setup
+from proxyshade.synthesis.exemplar import levels_for, setup
 from proxyshade.synthesis.memo import ArrayMemo
 from proxyshade.synthesis.params import Correction, FloodFill, PoissonSolve
 from proxyshade.synthesis.patches import correct_map, fill_patches, magnify_map, repair_map, similarity_sets
 from proxyshade.synthesis.temporal import CORRECTION, FLAG
 
+SYNTHESIZED = ("R", "G", "B", "source.x", "source.y", "patch.id")  # what the resynthesis writes
 _SIMILARITY = ArrayMemo(2)  # similarity sets of the newest sources
+_SIMILARITY_BY_CONTENT = ArrayMemo(2)
 
 
 def exemplar_similarity(source: Plate, st, corr: SimpleNamespace, *, seed: int) -> list:
     """``patches.similarity_sets`` of the exemplar: they depend on the source, the
     exemplar geometry (factor, scale, levels) and the correction parameters, not on the
     frame, so within one run they are searched once per source and reused."""
-    key = (st.factor, st.scale, len(st.levels), st.ex_lab.shape, tuple(sorted(vars(corr).items())), seed)
+    # coarse_size only sets the number of levels (in the key): a window's run shares the frame's sets
+    key = (st.factor, st.scale, len(st.levels), st.ex_lab.shape,
+           tuple(sorted((k, v) for k, v in vars(corr).items() if k != "coarse_size")), seed)
+    # by the arrays' identity (the frames of one run), else by their content (a later run that read
+    # the same source back from the cache, as each re-run of an interactive edit loop does)
     return _SIMILARITY.get((source["R"], source["label.id"]), key,
-                           lambda: similarity_sets(st, corr, seed=seed))
+                           lambda: _SIMILARITY_BY_CONTENT.get((), key + (_digest(source["R"], source["label.id"]),),
+                                                              lambda: similarity_sets(st, corr, seed=seed)))
+
+
+def _digest(*arrays: np.ndarray) -> str:
+    h = hashlib.blake2b(digest_size=16)
+    for a in arrays:
+        a = np.ascontiguousarray(a)
+        h.update(str((a.dtype.str, a.shape)).encode())
+        h.update(a.view(np.uint8).reshape(-1))
+    return h.hexdigest()
+
+
+_TABLE = ArrayMemo(4)  # the source's label table, one array per source: the memos keyed by it then find it
+
+
+def source_table(source: Plate) -> np.ndarray:
+    """``labels.source_table``, the same array for every frame that passes the same source,
+    so that what is kept by the table's identity (``labels.source_working_labels``, and by
+    that grid the nearest sites of ``patches.magnify_map``'s repair) is found again instead
+    of being rebuilt for each frame."""
+    ids = tuple(int(t["id"]) for t in source.meta.get("labels") or ())
+    return _TABLE.get((source["label.id"],), ids, lambda: L.source_table(source))
 
 
 def block_sample(a: np.ndarray, f: int, shape: tuple[int, int]) -> np.ndarray:
@@ -55,12 +84,86 @@ def block_sample(a: np.ndarray, f: int, shape: tuple[int, int]) -> np.ndarray:
     return np.ascontiguousarray(a[rows][:, cols])
 
 
+def synthesis_window(flagged: np.ndarray, f: int, nlev: int, margin: int) -> tuple[int, int, int, int] | None:
+    """The window (row0, row1, col0, col1) of the output frame a restricted synthesis of
+    ``flagged`` runs on: the flagged pixels' bounding box grown by ``margin`` output pixels
+    of context, its corners on the grid of the coarsest level (``f`` × 2^(nlev − 1) output
+    pixels, or the frame's edge), so the window's synthesis pixels and levels are those of
+    the frame. None when the window would cover most of the frame (no gain)."""
+    H, W = flagged.shape
+    rows, cols = np.nonzero(flagged.any(1))[0], np.nonzero(flagged.any(0))[0]
+    b = f * 2 ** (nlev - 1)
+    r0, c0 = max(0, rows[0] - margin) // b * b, max(0, cols[0] - margin) // b * b
+    r1, c1 = min(H, -(-(rows[-1] + 1 + margin) // b) * b), min(W, -(-(cols[-1] + 1 + margin) // b) * b)
+    if (r1 - r0) * (c1 - c0) > 0.75 * H * W:
+        return None
+    return int(r0), int(r1), int(c0), int(c1)
+
+
 def resynthesize(img: Plate, source: Plate, p, frame: int, *, note: Callable[[str], None] = lambda s: None,
-                 timings: dict | None = None) -> Plate:
+                 timings: dict | None = None, window: int | None = None) -> Plate:
     """The flagged pixels of Reproject's plate ``img`` resynthesized. ``p``: the
     parameters (``FloodFill``, ``Correction``, ``PoissonSolve`` groups, ``factor``,
     ``scale``, ``seed``, ``solve``); per-stage seconds are added to ``timings`` (features,
-    flood fill, corrections, magnify, Poisson) for the bench."""
+    flood fill, corrections, magnify, Poisson) for the bench.
+
+    With ``window`` (output pixels of context), every step runs on a window of the frame
+    around the flagged pixels (``synthesis_window``) instead of the whole frame, with the
+    frame's number of levels and new patch ids above the frame's: the unflagged pixels
+    are the same, the flagged ones differ from a whole-frame run only by what the window
+    leaves out (the correction's over-use statistics count the window's pixels, the flood
+    fill's random draws are the window's). The edit path (``edit_colour``) uses it."""
+    if window is not None:
+        out = _windowed(img, source, p, frame, note, timings, int(window))
+        if out is not None:
+            return out
+    return _resynthesize(img, source, p, frame, note=note, timings=timings)
+
+
+def _windowed(img: Plate, source: Plate, p, frame: int, note, timings, margin: int) -> Plate | None:
+    """``resynthesize`` on ``synthesis_window``'s window, pasted into the frame; None when
+    there is no gain (nothing flagged or a window of most of the frame)."""
+    flagged = img["flag"] != 0
+    if not flagged.any():
+        return None
+    syn = img.meta.get("synthesis", {}) if isinstance(img.meta.get("synthesis"), dict) else {}
+    f = p.factor if p.factor is not None else int(syn.get("factor", 4))
+    H, W = img.shape
+    long_syn = max(-(-H // f), -(-W // f))
+    nlev = levels_for(long_syn, p.coarse_size)
+    box = synthesis_window(flagged, f, nlev, margin)
+    if box is None:
+        return None
+    r0, r1, c0, c1 = box
+    win = (slice(r0, r1), slice(c0, c1))
+    read = SYNTHESIZED + CORRECTION + ("flag", "label.id")  # what _resynthesize reads; the rest passes through
+    crop = Plate({c: np.ascontiguousarray(img[c][win]) for c in read if c in img}, dict(img.meta))
+    # the window's levels are the frame's: its coarsest level as many halvings below its long side
+    long_win = max(-(-(r1 - r0) // f), -(-(c1 - c0) // f))
+    coarse = long_win / 2 ** (nlev - 1) if nlev > 1 else max(long_win, p.coarse_size)
+    q = SimpleNamespace(**dict(vars(p), coarse_size=coarse))
+    sub = _resynthesize(crop, source, q, frame, note=note, timings=timings,
+                        patch_base=int(img["patch.id"].max()) + 1)
+    out = {}
+    for c in sub.names():
+        if c in img and img[c].dtype == sub[c].dtype and np.array_equal(img[c][win], sub[c]):
+            continue  # unchanged (flag, label.id): img's array
+        if c in img and img[c].dtype == sub[c].dtype:
+            a = img[c].copy()
+        else:  # a channel the window's run added (the Poisson correction): zero outside the flagged pixels
+            a = np.zeros((H, W), sub[c].dtype)
+        a[win] = sub[c]
+        out[c] = a
+    meta = dict(sub.meta)
+    info = dict(meta.get("resynthesis", {}))
+    info.update(share=info.get("pixels", 0) / (H * W), window=[c1 - c0, r1 - r0])
+    meta["resynthesis"] = info
+    dropped = [c for c in img.names() if c not in sub.names() and c in read]  # CORRECTION without the solve
+    return img.with_channels(out, meta=meta, drop=dropped)
+
+
+def _resynthesize(img: Plate, source: Plate, p, frame: int, *, note: Callable[[str], None] = lambda s: None,
+                  timings: dict | None = None, patch_base: int | None = None) -> Plate:
     tm = timings if timings is not None else {}
     t = time.perf_counter()
 
@@ -87,7 +190,7 @@ def resynthesize(img: Plate, source: Plate, p, frame: int, *, note: Callable[[st
     filt = img.meta.get("temporal", {}).get("filter", "bilinear")  # Reproject's, so kept and new pixels match
     if redo.any():
         sx, sy, patch, ex_factor = _synthesize(img, source, p, redo, f, scale, mix_seed(p.seed, frame), info, lap,
-                                               filt, rgb)
+                                               filt, rgb, patch_base)
     lap("magnify")
     out = {}
     before = rgb
@@ -116,13 +219,13 @@ def resynthesize(img: Plate, source: Plate, p, frame: int, *, note: Callable[[st
 
 
 def _synthesize(img: Plate, source: Plate, p, redo: np.ndarray, f: int, scale: float, seed: int, info: dict, lap,
-                filt: str, rgb: np.ndarray):
+                filt: str, rgb: np.ndarray, patch_base: int | None = None):
     """The first frame's steps on the pixels in ``redo``; the rest keep the carried map.
     The ``redo`` pixels of ``rgb`` (the carried colours, (H, W, 3)) take the source
     through their new map, in place. Returns source.x, source.y, patch.id and the
     exemplar factor."""
     flag = img["flag"]
-    table = L.source_table(source)
+    table = source_table(source)
     n = len(table)
     H, W = img.shape
     g = L.dense_guide(img["label.id"], table, "image")
@@ -150,7 +253,7 @@ def _synthesize(img: Plate, source: Plate, p, redo: np.ndarray, f: int, scale: f
     # pixels take the new map: the others are told the label they land on (nothing to repair)
     wl = L.source_working_labels(source, table, scale)
     sx_new, sy_new, new_patch, _, rep = magnify_map(S, f, (H, W), scale=scale, target=g, labels=wl, only=redo)
-    base = np.uint32(int(img["patch.id"].max()) + 1)
+    base = np.uint32(int(img["patch.id"].max()) + 1 if patch_base is None else patch_base)
     sx, sy, patch = kt.merge_redo(np.ascontiguousarray(redo, np.bool_), sx_new, sy_new,
                                   np.ascontiguousarray(new_patch, np.uint32), base,
                                   np.ascontiguousarray(img["source.x"], np.float32),
@@ -161,3 +264,45 @@ def _synthesize(img: Plate, source: Plate, p, redo: np.ndarray, f: int, scale: f
     info.update(synthesis_pixels=int(active.sum()), flood_filled=int(fresh.sum()), patches=int(npatch),
                 repaired=int(rep["wrong"]))
     return sx, sy, patch, st.ex_factor
+
+
+def resynthesize_update(old: Plate, old_image: Plate | None, img: Plate, source: Plate, old_source: Plate | None, p,
+                        frame: int, *, note: Callable[[str], None] = lambda s: None, window: int = 64
+                        ) -> Plate | None:
+    """Resynthesize after an edit of the first frame (Bonneel et al. 2010, §7, carried
+    through a camera move): ``old`` is this frame's last result, made from ``old_image``.
+    Pixels whose input (Reproject's state: ``SYNTHESIZED``, label, flag, correction) is the
+    same as then keep ``old``'s values bit for bit (the channels passed through, this frame's
+    geometry, are the new input's); the changed ones take the new input's, and those of them that are flagged are
+    resynthesized (on a window around them, ``window`` pixels of context) with every other
+    pixel as fixed context and Dirichlet values. None where it is done whole (another size,
+    other channels, another source)."""
+    from proxyshade.synthesis.edit import changed_region
+
+    if old_image is None or set(old_image.names()) != set(img.names()) or old.shape != img.shape:
+        return None
+    if old_source is not None:
+        same = changed_region({"s": old_source}, {"s": source}, {"s": ("R", "G", "B", "label.id")}, 0)
+        if same is None or same.any():
+            return None
+    synth = tuple(c for c in SYNTHESIZED + CORRECTION + ("label.id", "flag") if c in img)
+    diff = changed_region({"i": old_image}, {"i": img}, {"i": synth}, 0)
+    if diff is None or any(c not in old for c in img.names()):
+        return None
+    passed = {c: img[c] for c in img.names() if c not in synth}  # this frame's geometry and Reproject's AOVs
+    if not diff.any():
+        note("progressive: the edit does not reach this frame")
+        return old.with_channels(passed)
+    ch = dict(passed)
+    for c in synth:
+        a = old[c].copy()
+        a[diff] = img[c][diff]
+        ch[c] = a
+    flag = ch["flag"]
+    ch["flag"] = np.where(diff, flag, np.uint32(0)).astype(np.uint32)
+    out = resynthesize(Plate(ch, dict(img.meta)), source, p, frame, note=note, window=window)
+    info = dict(out.meta.get("resynthesis", {}))
+    info["edit"] = {"pixels": int(diff.sum()), "share": float(diff.mean())}
+    note(f"progressive: {int(diff.sum())} pixels ({100 * diff.mean():.2f}%) changed by the edit, "
+         f"{info.get('pixels', 0)} of them resynthesized")
+    return out.with_channels({"flag": flag}, meta={"resynthesis": info})

@@ -11,6 +11,8 @@ the map. Kernels: ``proxyshade.kernels.reproject``, ``proxyshade.kernels.tempora
 """
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import numpy as np
 
 from proxyshade.errors import NodeInputError
@@ -227,11 +229,20 @@ def camera_of(name: str, *plates) -> CameraInfo:
 
 
 def carry(cd: Plate, prev: Plate | None, first: Plate | None, source: Plate, p, *, frame: int, first_frame: int,
-          note=lambda s: None) -> Plate:
+          note=lambda s: None, window: tuple[int, int, int, int] | None = None) -> Plate:
     """The previous frame's synthesis state ``prev`` carried into the camera of ``cd``
     (this frame's ConsistentDepth), with its flags; at the first frame (no ``prev``) the
     ``first`` plate with no flags, or everything flagged without one. ``p``: the
-    ``Carry`` parameters. See ``nodes.reproject`` for the channels."""
+    ``Carry`` parameters. See ``nodes.reproject`` for the channels.
+
+    ``window`` (row0, row1, col0, col1): only that part of the frame is carried (a plate of
+    its size; ``carry_update`` pastes it): pixels near the window's edge, patch-level
+    decisions of patches it cuts and the camera-cut test see the window only."""
+    offset = None
+    if window is not None and prev is not None:
+        r0, r1, c0, c1 = window
+        cd = Plate({c: np.ascontiguousarray(cd[c][r0:r1, c0:c1]) for c in cd.names()}, cd.meta)
+        offset = np.array([0.0, 0.0, c0, r0])
     H, W = cd.shape
     cat = cd["category"] if "category" in cd else np.zeros((H, W), np.uint32)
     geo = {c: cd[c] for c in GEOMETRY if c in cd}
@@ -246,8 +257,8 @@ def carry(cd: Plate, prev: Plate | None, first: Plate | None, source: Plate, p, 
     tol = p.depth_tolerance
     w1 = kr.inverse_depth(cd["Z"])
     lab = np.ascontiguousarray(cd["label.id"], np.uint32)
-    u, v, q, ok = kr.transfer(w1, kr.relative_matrix(cam1, cam0), kr.intrinsics(cam1), kr.intrinsics(cam0),
-                              cam0.near)
+    k1 = kr.intrinsics(cam1) if offset is None else kr.intrinsics(cam1) - offset  # the window's principal point
+    u, v, q, ok = kr.transfer(w1, kr.relative_matrix(cam1, cam0), k1, kr.intrinsics(cam0), cam0.near)
     src_rgb = source.rgb()
     if p.colour == "map" and all(c in prev for c in CORRECTION):
         prev_res = prev.layer(CORRECTION)  # carried by Resynthesize: no second read of the source
@@ -342,3 +353,107 @@ def _first_frame(cd: Plate, first: Plate | None, geo: dict, frame: int, first_fr
     meta = _carried_meta(first, cd)
     meta["temporal"] = dict(flagged=0.0, cut=False, frame=int(frame))
     return Plate(ch, meta)
+
+
+def carry_margin(p) -> int:
+    """Pixels around a changed input pixel whose carry can change: the neighbours' patch
+    continued into a disocclusion (``fill_radius``), the map's deviation (1), the isolated-
+    flag window and the flags' dilation (``isolated_radius``, ``dilate``), the bilinear
+    gather (1), and 1 to spare."""
+    return int(p.fill_radius) + int(p.isolated_radius) + int(p.dilate) + 3
+
+
+ZTOL = 1e-3  # relative depth change under which ConsistentDepth's pixel counts as the same for an update
+
+
+def _carried(prev: Plate) -> tuple[str, ...]:
+    """The previous frame's channels the carry reads."""
+    return tuple(c for c in STATE + ("Z", "extension") + CORRECTION if c in prev)
+
+
+def carry_update(old: Plate, old_inputs: dict, cd: Plate, prev: Plate | None, first: Plate | None, source: Plate, p,
+                 *, frame: int, first_frame: int, note=lambda s: None) -> tuple[Plate, np.ndarray] | None:
+    """Reproject after an edit of the first frame (Bonneel et al. 2010, §7, carried
+    through a camera move): ``old`` is this frame's last carry, made from ``old_inputs``
+    (``depth``, ``prev``, ``source``). The pixels the edit reaches here are those whose
+    ConsistentDepth changed (label, category, or depth by more than ``ZTOL`` relative: the
+    rebuilt proxy's depth moves by float noise far from a stroke) and those that read a
+    changed pixel of the previous final frame (its changed pixels reprojected into this
+    frame's camera), grown by ``carry_margin``; they take the carry of this run's inputs,
+    every other pixel keeps ``old``'s state bit for bit. This frame's geometry (``GEOMETRY``,
+    ``category``) is ConsistentDepth's everywhere, as in a whole carry.
+    Returns (plate, the region), or None where the carry is computed whole (the first
+    frame, an input of another size or with other channels, a changed source)."""
+    from proxyshade.synthesis.edit import changed_region
+
+    b_cd, b_prev = old_inputs.get("depth"), old_inputs.get("prev")
+    if prev is None or b_cd is None or b_prev is None or set(b_cd.names()) != set(cd.names()) \
+            or set(b_prev.names()) != set(prev.names()) or old.shape != cd.shape or b_cd.shape != cd.shape:
+        return None
+    if "source" in old_inputs:
+        same = changed_region({"s": old_inputs["source"]}, {"s": source}, {"s": ("R", "G", "B", "label.id")}, 0)
+        if same is None or same.any():
+            return None
+    dcd = changed_region({"d": b_cd}, {"d": cd}, {"d": ("label.id", "category")}, 0)
+    dprev = changed_region({"p": b_prev}, {"p": prev}, {"p": _carried(prev)}, 0)
+    if dcd is None or dprev is None:
+        return None
+    z0, z1 = b_cd["Z"], cd["Z"]
+    reach = dcd
+    zi = np.flatnonzero(z0 != z1)  # then, of those, the ones that moved by more than ZTOL (inf: both inf, or a change)
+    if len(zi):
+        a, b = z0.reshape(-1)[zi], z1.reshape(-1)[zi]
+        with np.errstate(invalid="ignore"):
+            moved = ~(np.abs(b - a) <= ZTOL * np.minimum(np.abs(a), np.abs(b)))
+        reach.reshape(-1)[zi[moved]] = True
+    if dprev.any():
+        cam1, cam0 = camera_of("depth", cd), camera_of("prev", prev)
+        u, v, q, ok = kr.transfer(kr.inverse_depth(cd["Z"]), kr.relative_matrix(cam1, cam0), kr.intrinsics(cam1),
+                                  kr.intrinsics(cam0), cam0.near)
+        near = kt.dilate(np.ascontiguousarray(dprev), 1)  # the bilinear gather's 2x2 footprint
+        rows, cols = np.nonzero(near.any(1))[0], np.nonzero(near.any(0))[0]
+        # only the pixels that land in the changed pixels' box are looked up
+        with np.errstate(invalid="ignore"):
+            box = ok & (u >= cols[0]) & (u < cols[-1] + 1) & (v >= rows[0]) & (v < rows[-1] + 1)
+        ii, jj = np.nonzero(box)
+        hit = near[np.floor(v[ii, jj]).astype(np.int64), np.floor(u[ii, jj]).astype(np.int64)]
+        reach[ii[hit], jj[hit]] = True
+    geometry = tuple(c for c in GEOMETRY if c in cd) + ("category",)
+    if not reach.any():
+        note("progressive: the edit does not reach this frame")
+        return old.with_channels({c: cd[c] if c in cd else old[c] for c in geometry}), reach
+    if old.meta.get("temporal", {}).get("cut"):
+        return None  # the last run's frame was a camera cut: carried whole again
+    m = carry_margin(p)
+    region = kt.dilate(np.ascontiguousarray(reach), m)
+    H, W = cd.shape
+    rows, cols = np.nonzero(region.any(1))[0], np.nonzero(region.any(0))[0]
+    r0, r1 = max(0, rows[0] - m), min(H, rows[-1] + 1 + m)
+    c0, c1 = max(0, cols[0] - m), min(W, cols[-1] + 1 + m)
+    win = (slice(r0, r1), slice(c0, c1))
+    # the carry of the region's window (its pixels' whole neighbourhoods), the camera cut decided on the frame below
+    new = carry(cd, prev, first, source, SimpleNamespace(**dict(vars(p), cut_threshold=1.0)), frame=frame,
+                first_frame=first_frame, window=(r0, r1, c0, c1))
+    if set(new.names()) != set(old.names()):
+        return None
+    sel = region[win]
+    ch = {}
+    for name in new.names():
+        if name in geometry:
+            ch[name] = cd[name] if name in cd else old[name]
+            continue
+        a = old[name].copy()
+        a[win][sel] = new[name][sel]
+        ch[name] = a
+    flag = ch["flag"]
+    if (flag > 0).mean() > p.cut_threshold:
+        note("progressive: the edit makes this frame a camera cut: carried whole")
+        return None
+    n = np.bincount(flag.ravel(), minlength=max(FLAG.values()) + 1) / flag.size
+    meta = dict(new.meta)
+    meta["temporal"] = dict(new.meta["temporal"], **{k: float(n[v]) for k, v in FLAG.items() if v},
+                            flagged=float((flag > 0).mean()), edit={"pixels": int(region.sum()),
+                                                                    "share": float(region.mean())})
+    note(f"progressive: {int(region.sum())} pixels ({100 * region.mean():.2f}%) carried again where the edit "
+         f"reaches this frame")
+    return Plate(ch, meta), region

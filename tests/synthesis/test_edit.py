@@ -69,3 +69,57 @@ def test_a_band_across_the_frame_is_synthesized_on_a_band_not_the_whole_frame():
     band = np.zeros(region.shape, bool)
     band[302:314, 8:504] = True
     assert (out["label.id"][band] == water).mean() > 0.8
+
+
+def test_the_synthesis_window_holds_the_region_and_its_context_on_the_coarsest_grid():
+    from proxyshade.synthesis.resynthesis import synthesis_window
+
+    flagged = np.zeros((256, 320), bool)
+    flagged[100:130, 40:90] = True
+    r0, r1, c0, c1 = synthesis_window(flagged, 4, 3, margin=20)
+    assert (r0, c0) == (80, 16) and (r1, c1) == (160, 112)  # box ± 20, out to multiples of 4 x 2^2
+    assert synthesis_window(flagged, 4, 3, margin=200) is None  # most of the frame: the frame itself
+
+
+def test_a_windowed_resynthesis_keeps_every_other_pixel_and_numbers_new_patches_above_the_frames():
+    from types import SimpleNamespace
+
+    from proxyshade.nodes.resynthesize import Resynthesize
+    from proxyshade.synthesis.resynthesis import resynthesize
+    from tests.nodes import _temporal as TT
+
+    rp = TT.run_move("lake", [1, 2], size=128)[1]["reproject"]
+    flag = np.zeros(rp.shape, np.uint32)
+    flag[60:80, 30:60] = 1  # a block to redo, far from the frame's edges
+    img = rp.with_channels({"flag": flag})
+    p = SimpleNamespace(**Resynthesize.validate_params({"seed": 1}))
+    out = resynthesize(img, TT.source("renoir"), p, 2, window=16)
+    assert out.meta["resynthesis"]["window"][0] < 128  # a window, not the frame
+    keep = flag == 0
+    for c in ("R", "G", "B", "source.x", "source.y", "patch.id"):
+        assert np.array_equal(out[c][keep], img[c][keep]), c
+    assert (out["patch.id"][~keep] > img["patch.id"].max()).all()
+
+
+def test_the_colour_similarity_sets_are_found_again_for_a_source_read_back(monkeypatch):
+    """Each re-run of an edit loop reads the source back from the cache (new arrays, same
+    content): the exemplar's similarity sets are not searched again."""
+    from types import SimpleNamespace
+
+    from proxyshade.nodes.resynthesize import Resynthesize
+    from proxyshade.synthesis import resynthesis as RS
+    from tests.nodes import _temporal as TT
+
+    rp = TT.run_move("lake", [1, 2], size=128)[1]["reproject"]
+    flag = np.zeros(rp.shape, np.uint32)
+    flag[60:80, 30:60] = 1
+    img = rp.with_channels({"flag": flag})
+    p = SimpleNamespace(**Resynthesize.validate_params({"seed": 3}))
+    src = TT.source("renoir")
+    first = RS.resynthesize(img, src, p, 2)
+    searched = []
+    monkeypatch.setattr(RS, "similarity_sets", lambda *a, **k: searched.append(1))
+    again = Plate({c: src[c].copy() for c in src.names()}, dict(src.meta))
+    out = RS.resynthesize(img, again, p, 2)
+    assert not searched
+    assert all(np.array_equal(out[c], first[c]) for c in ("R", "G", "B", "source.x", "source.y", "patch.id"))
