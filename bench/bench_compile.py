@@ -1,13 +1,20 @@
 """The first run after an install: the lake's first frame (graphs/first_frame.yaml) with a
 cold numba cache (``NUMBA_CACHE_DIR`` at a fresh temporary folder) and a cold graph cache,
-in a fresh process. Prints its wall time, how many kernel signatures compiled (compiled
-signatures of every numba dispatcher defined in ``proxyshade.kernels``, counted in that
-process after the run) and the kernels whose compiles took longest (numba's compile
-events). ``--repeat N`` (default 1: each run compiles for about a minute on 2 cores)."""
+in a fresh process, as ``proxyshade run`` does it: ``manifest``, the kernel signatures of
+the manifest (proxyshade/graph/kernel_manifest.py) compiled first in one worker process per
+core (``warmup.precompile``), then the run, which loads them from numba's cache; ``lazy``,
+without the manifest: each kernel compiles in the run's process when first called (the
+way before the manifest). Prints the process wall time, the precompile's, how many kernel
+signatures the run's process holds (compiled or loaded, over every numba dispatcher
+defined in ``proxyshade.kernels``), how many it compiled itself and the kernels whose
+compiles took longest there (numba's compile events). ``--mode lazy|manifest|both``
+(default both), ``--repeat N`` (default 1: a lazy run compiles for over a minute on 2
+cores)."""
 from __future__ import annotations
 
 import json
 import os
+import resource
 import statistics
 import subprocess
 import sys
@@ -27,8 +34,9 @@ from numba.core import event
 class Rec(event.Listener):
     # compile seconds per kernel, its own (less the kernels it calls compiling inside)
     def __init__(self):
-        self.stack, self.spent = [], {}
+        self.stack, self.spent, self.n = [], {}, 0
     def on_start(self, ev):
+        self.n += 1
         self.stack.append([time.perf_counter(), 0.0])
     def on_end(self, ev):
         t0, inner = self.stack.pop()
@@ -44,47 +52,62 @@ class Rec(event.Listener):
 rec = Rec()
 event.register("numba:compile", rec)
 from proxyshade.graph.graph import Graph
+from proxyshade.graph import warmup
 t0 = time.perf_counter()
 g = Graph.load(sys.argv[1], cache=sys.argv[2], variables={"scene": "lake", "source": "renoir", "out": sys.argv[3]})
+pre = warmup.precompile(warmup.manifest_modules(g)) if sys.argv[4] == "manifest" else None
+t1 = time.perf_counter()
 g.run([1])
 wall = time.perf_counter() - t0
-from proxyshade.graph.warmup import kernel_dispatchers
-sigs = {k: len(d.signatures) for k, d in kernel_dispatchers().items()}
-print(json.dumps({"wall": wall, "sigs": sigs, "spent": rec.spent}))
+sigs = {k: len(d.signatures) for k, d in warmup.kernel_dispatchers().items()}
+print(json.dumps({"wall": wall, "run": time.perf_counter() - t1, "sigs": sigs, "spent": rec.spent,
+                  "events": rec.n,
+                  "pre": pre and {k: pre[k] for k in ("compiled", "seconds", "workers")}}))
 """
 
 
-def cold_first_frame() -> dict:
+def cold_first_frame(mode: str) -> dict:
     with tempfile.TemporaryDirectory() as tmp:
         env = dict(os.environ, NUMBA_CACHE_DIR=f"{tmp}/numba", PYTHONPATH=str(ROOT))
-        t0 = time.perf_counter()
+        t0, ru0 = time.perf_counter(), resource.getrusage(resource.RUSAGE_CHILDREN)
         res = subprocess.run([sys.executable, "-c", CHILD, str(ROOT / "graphs" / "first_frame.yaml"),
-                              f"{tmp}/cache", f"{tmp}/out"], env=env, capture_output=True, text=True, check=True)
-        wall = time.perf_counter() - t0
+                              f"{tmp}/cache", f"{tmp}/out", mode], env=env, capture_output=True, text=True, check=True)
+        wall, ru1 = time.perf_counter() - t0, resource.getrusage(resource.RUSAGE_CHILDREN)
     r = json.loads(res.stdout.strip().splitlines()[-1])
     r["process"] = wall
+    r["cpu"] = (ru1.ru_utime - ru0.ru_utime) + (ru1.ru_stime - ru0.ru_stime)  # the process and its workers
     return r
 
 
-def main(repeat: int = 1):
-    runs = [cold_first_frame() for _ in range(repeat)]
-    process = [r["process"] for r in runs]
-    graph = [r["wall"] for r in runs]
-    last = runs[-1]
-    n = sum(last["sigs"].values())
-    table(f"cold numba cache, lake first frame (fresh process, {repeat} run(s), load {os.getloadavg()[0]:.1f})", [
-        ("process wall (imports + compile + run)", {"median": statistics.median(process), "min": min(process)}, None),
-        ("Graph.load + run", {"median": statistics.median(graph), "min": min(graph)}, None),
-    ])
-    print(f"kernel signatures compiled: {n} in {sum(1 for v in last['sigs'].values() if v)} dispatchers "
-          f"({len(last['sigs'])} dispatchers loaded)")
-    multi = {k: v for k, v in last["sigs"].items() if v > 1}
-    if multi:
-        print("dispatchers with more than one signature: " + ", ".join(f"{k} {v}" for k, v in sorted(multi.items())))
-    print(f"compile seconds: {sum(last['spent'].values()):.1f}; slowest (own seconds, less the kernels they call):")
-    for name, s in sorted(last["spent"].items(), key=lambda kv: -kv[1])[:12]:
-        print(f"  {name:<40} {s:7.2f}")
+def main(repeat: int = 1, modes=("lazy", "manifest")):
+    for mode in modes:
+        load = os.getloadavg()[0]
+        runs = [cold_first_frame(mode) for _ in range(repeat)]
+        process = [r["process"] for r in runs]
+        graph = [r["wall"] for r in runs]
+        last = runs[-1]
+        n = sum(last["sigs"].values())
+        cpu = [r["cpu"] for r in runs]
+        rows = [("process wall (imports + compile + run)", {"median": statistics.median(process), "min": min(process)}, None),
+                ("CPU seconds (process and workers)", {"median": statistics.median(cpu), "min": min(cpu)}, None),
+                ("Graph.load + precompile + run", {"median": statistics.median(graph), "min": min(graph)}, None)]
+        if last["pre"]:
+            pre = [r["pre"]["seconds"] for r in runs]
+            rows.append((f"precompile ({last['pre']['compiled']} signatures, {last['pre']['workers']} workers)",
+                         {"median": statistics.median(pre), "min": min(pre)}, None))
+        rows.append(("run", {"median": statistics.median([r["run"] for r in runs]), "min": min(r["run"] for r in runs)}, None))
+        table(f"{mode}: cold numba cache, lake first frame (fresh process, {repeat} run(s), load {load:.1f} before, {os.getloadavg()[0]:.1f} after)", rows)
+        print(f"kernel signatures in the run's process: {n} in {sum(1 for v in last['sigs'].values() if v)} dispatchers "
+              f"({len(last['sigs'])} dispatchers loaded); compiled there: {last['events']}")
+        multi = {k: v for k, v in last["sigs"].items() if v > 1}
+        if multi:
+            print("dispatchers with more than one signature: " + ", ".join(f"{k} {v}" for k, v in sorted(multi.items())))
+        print(f"compile seconds in the run's process: {sum(last['spent'].values()):.1f}; slowest (own seconds, less the kernels they call):")
+        for name, s in sorted(last["spent"].items(), key=lambda kv: -kv[1])[:12]:
+            print(f"  {name:<40} {s:7.2f}")
 
 
 if __name__ == "__main__":
-    main(int(sys.argv[sys.argv.index("--repeat") + 1]) if "--repeat" in sys.argv else 1)
+    mode = sys.argv[sys.argv.index("--mode") + 1] if "--mode" in sys.argv else "both"
+    main(int(sys.argv[sys.argv.index("--repeat") + 1]) if "--repeat" in sys.argv else 1,
+         ("lazy", "manifest") if mode == "both" else (mode,))

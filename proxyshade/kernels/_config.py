@@ -21,10 +21,26 @@ JIT = dict(cache=True, nogil=True, fastmath=False)
 PJIT = dict(cache=True, nogil=True, fastmath=False, parallel=True)
 
 
+def _cache_dirs(src):
+    """Where numba keeps the cache of the kernels in source file ``src`` (its locators, in
+    order): ``$NUMBA_CACHE_DIR``, else ``__pycache__`` beside the source, else the user-wide
+    cache folder (an install whose package folder is not writable)."""
+    import hashlib
+    from pathlib import Path
+
+    folder = os.path.dirname(os.path.abspath(src))
+    sub = f"{os.path.basename(folder)}_{hashlib.sha1(folder.encode()).hexdigest()}"
+    if os.environ.get("NUMBA_CACHE_DIR"):
+        return [Path(os.environ["NUMBA_CACHE_DIR"], sub)]
+    user = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache", "numba", sub)
+    return [Path(folder, "__pycache__"), user]
+
+
 def kernels_cached(modules=()) -> bool:
     """Whether numba's on-disk cache holds compiled kernels of each of ``modules``
-    (``proxyshade.kernels.X`` names; index files beside the kernel modules): False on the
-    first run after an install, when they compile."""
+    (``proxyshade.kernels.X`` names): an index file of the module newer than its source.
+    False on the first run after an install, when they compile, and after an upgrade that
+    changed a kernel module (numba then ignores its cache). Reads folders only: no numba."""
     from pathlib import Path
 
     here = Path(__file__).parent
@@ -33,6 +49,7 @@ def kernels_cached(modules=()) -> bool:
         src = here / f"{stem}.py"
         if stem.startswith("_") or not src.is_file() or "@njit" not in src.read_text():
             continue  # no compiled kernels there
-        if not any((here / "__pycache__").glob(f"{stem}.*.nbi")):
+        mtime = src.stat().st_mtime
+        if not any(f.stat().st_mtime >= mtime for d in _cache_dirs(src) for f in d.glob(f"{stem}.*.nbi")):
             return False
     return True
