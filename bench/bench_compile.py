@@ -4,10 +4,14 @@ in a fresh process, as ``proxyshade run`` does it: ``manifest``, the kernel sign
 the manifest (proxyshade/graph/kernel_manifest.py) compiled first in one worker process per
 core (``warmup.precompile``), then the run, which loads them from numba's cache; ``lazy``,
 without the manifest: each kernel compiles in the run's process when first called (the
-way before the manifest). Prints the process wall time, the precompile's, how many kernel
-signatures the run's process holds (compiled or loaded, over every numba dispatcher
-defined in ``proxyshade.kernels``), how many it compiled itself and the kernels whose
-compiles took longest there (numba's compile events). ``--mode lazy|manifest|both``
+way before the manifest). Prints the process wall time, its CPU seconds (the process and
+its workers: the work, less dependent on other load than the wall time), the precompile's
+wall time, a hash of the output EXRs (the same in both modes: the manifest changes no
+result), how many kernel signatures the run's process holds (compiled or loaded, over every
+numba dispatcher defined in ``proxyshade.kernels``; a kernel loaded from the cache holds the
+kernels it calls inside it, so fewer show after a precompile), how many compiles that
+process ran itself (numba's compile events, numba's own helpers included) and the kernels
+whose compiles took longest there. ``--mode lazy|manifest|both``
 (default both), ``--repeat N`` (default 1: a lazy run compiles for over a minute on 2
 cores)."""
 from __future__ import annotations
@@ -60,8 +64,12 @@ t1 = time.perf_counter()
 g.run([1])
 wall = time.perf_counter() - t0
 sigs = {k: len(d.signatures) for k, d in warmup.kernel_dispatchers().items()}
+import hashlib, pathlib
+h = hashlib.sha256()
+for f in sorted(pathlib.Path(sys.argv[3]).rglob("*.exr")):
+    h.update(f.name.encode() + f.read_bytes())
 print(json.dumps({"wall": wall, "run": time.perf_counter() - t1, "sigs": sigs, "spent": rec.spent,
-                  "events": rec.n,
+                  "events": rec.n, "exr": h.hexdigest()[:16],
                   "pre": pre and {k: pre[k] for k in ("compiled", "seconds", "workers")}}))
 """
 
@@ -97,6 +105,7 @@ def main(repeat: int = 1, modes=("lazy", "manifest")):
                          {"median": statistics.median(pre), "min": min(pre)}, None))
         rows.append(("run", {"median": statistics.median([r["run"] for r in runs]), "min": min(r["run"] for r in runs)}, None))
         table(f"{mode}: cold numba cache, lake first frame (fresh process, {repeat} run(s), load {load:.1f} before, {os.getloadavg()[0]:.1f} after)", rows)
+        print(f"output EXRs sha256 {last['exr']}" + ("" if len({r['exr'] for r in runs}) == 1 else " (runs differ!)"))
         print(f"kernel signatures in the run's process: {n} in {sum(1 for v in last['sigs'].values() if v)} dispatchers "
               f"({len(last['sigs'])} dispatchers loaded); compiled there: {last['events']}")
         multi = {k: v for k, v in last["sigs"].items() if v > 1}

@@ -44,12 +44,24 @@ def kernels_cached(modules=()) -> bool:
     from pathlib import Path
 
     here = Path(__file__).parent
+    newest = {}  # module stem -> newest index file's mtime, over the cache folders
+    for d in _cache_dirs(here / "random.py"):
+        try:
+            with os.scandir(d) as it:
+                for e in it:
+                    if e.name.endswith(".nbi"):
+                        stem = e.name.partition(".")[0]
+                        newest[stem] = max(newest.get(stem, 0.0), e.stat().st_mtime)
+        except OSError:
+            continue
     for m in modules:
         stem = m.rpartition(".")[2]
         src = here / f"{stem}.py"
-        if stem.startswith("_") or not src.is_file() or "@njit" not in src.read_text():
-            continue  # no compiled kernels there
-        mtime = src.stat().st_mtime
-        if not any(f.stat().st_mtime >= mtime for d in _cache_dirs(src) for f in d.glob(f"{stem}.*.nbi")):
+        try:
+            if newest.get(stem, -1.0) >= src.stat().st_mtime:
+                continue  # a fresh index
+        except OSError:
+            continue  # no such module
+        if not stem.startswith("_") and "@njit" in src.read_text():  # a module with kernels
             return False
     return True
