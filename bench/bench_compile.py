@@ -58,11 +58,17 @@ rec = Rec()
 event.register("numba:compile", rec)
 from proxyshade.graph.graph import Graph
 from proxyshade.graph import warmup
+import resource
+def cpu(who=resource.RUSAGE_SELF):
+    r = resource.getrusage(who)
+    return r.ru_utime + r.ru_stime
+c0 = cpu()
 t0 = time.perf_counter()
 g = Graph.load(sys.argv[1], cache=sys.argv[2], variables={"scene": "lake", "source": "renoir", "out": sys.argv[3]})
 pre = warmup.precompile(warmup.manifest_modules(g)) if sys.argv[4] == "manifest" else None
-t1 = time.perf_counter()
+t1, c1 = time.perf_counter(), cpu()
 g.run([1])
+c2 = cpu()
 wall = time.perf_counter() - t0
 sigs = {k: len(d.signatures) for k, d in warmup.kernel_dispatchers().items()}
 n_events = rec.n
@@ -76,7 +82,7 @@ h = hashlib.sha256()
 for f in sorted(pathlib.Path(sys.argv[3]).rglob("*.exr")):
     h.update(f.name.encode() + f.read_bytes())
 print(json.dumps({"wall": wall, "run": time.perf_counter() - t1, "sigs": sigs, "spent": rec.spent,
-                  "events": n_events, "rerun": min(reruns), "exr": h.hexdigest()[:16],
+                  "events": n_events, "cpu_split": [c0, c1 - c0, c2 - c1, cpu(resource.RUSAGE_CHILDREN)], "rerun": min(reruns), "exr": h.hexdigest()[:16],
                   "pre": pre and {k: pre[k] for k in ("compiled", "seconds", "workers")}}))
 """
 
@@ -114,6 +120,9 @@ def main(repeat: int = 1, modes=("lazy", "manifest")):
         rows.append(("forced re-run in that process (best of 2)", {"median": statistics.median([r["rerun"] for r in runs]),
                                                                    "min": min(r["rerun"] for r in runs)}, None))
         table(f"{mode}: cold numba cache, lake first frame (fresh process, {repeat} run(s), load {load:.1f} before, {os.getloadavg()[0]:.1f} after)", rows)
+        c = last["cpu_split"]
+        print(f"CPU seconds: imports {c[0]:.1f}, Graph.load + precompile in the run's process {c[1]:.1f}, "
+              f"run {c[2]:.1f}, workers {c[3]:.1f}")
         print(f"output EXRs sha256 {last['exr']}" + ("" if len({r['exr'] for r in runs}) == 1 else " (runs differ!)"))
         print(f"kernel signatures in the run's process: {n} in {sum(1 for v in last['sigs'].values() if v)} dispatchers "
               f"({len(last['sigs'])} dispatchers loaded); compiled there: {last['events']}")

@@ -8,11 +8,12 @@ uses one core for over a minute; so the first run compiles first, in parallel:
   reach: each kernel called from Python with its numba argument types, the seconds it took
   to compile (kernels it calls included) and the signatures those calls compiled. It is
   written by ``python -m proxyshade.graph.warmup --write-manifest`` from a cold-cache run.
-- ``precompile`` compiles the listed signatures the cache lacks in worker processes (one per
-  core, the slowest first) into numba's cache; the run then only loads them. A signature
-  the manifest lacks (a stale manifest, a branch the demo does not take) compiles lazily
-  when first called, as before: the manifest only moves compile work, never changes a
-  result (numba's cache is keyed by the kernel's code and argument types).
+- ``precompile`` compiles the listed signatures the cache lacks on one process per core
+  (this one and spawned workers, each taking the slowest left) into numba's cache; the run
+  then only loads what the workers compiled. A signature the manifest lacks (a stale
+  manifest, a branch the demo does not take) compiles lazily when first called, as
+  before: the manifest only moves compile work, never changes a result (numba's cache is
+  keyed by the kernel's code and argument types).
 - ``proxyshade compile`` (run by ``make demo``) precompiles every listed signature, then runs
   the bundled demo graphs (the lake's first frame, the farm composite, the lake camera
   move's first update frame) without their writers: their results go to each graph's
@@ -197,35 +198,61 @@ def pending(modules=None) -> list[tuple[str, str, float]]:
 
 
 def precompile(modules=None, progress=None, workers=None) -> dict:
-    """Compile the manifest's signatures numba's cache lacks (``pending``) in ``workers``
-    processes (default: one per core), slowest first. ``progress(done, total, kernel)`` is
+    """Compile the manifest's signatures numba's cache lacks (``pending``) on ``workers``
+    processes (default: one per core): this one and ``workers - 1`` spawned ones, each
+    taking the slowest signature left when it is free. ``progress(done, total, kernel)`` is
     called as each finishes. Returns {'compiled', 'failed', 'seconds', 'workers'}."""
+    import collections
+    import threading
+
     t0 = time.perf_counter()
     todo = pending(modules)
     workers = min(workers or default_workers(), len(todo))
-    failed = []
-    if progress:
-        progress(0, len(todo), None)
-    if todo and (workers <= 1 or sys.platform == "win32"):
-        for i, (kernel, text, _) in enumerate(todo):
-            r = _compile_job(kernel, text)
+    if sys.platform == "win32":
+        workers = min(workers, 1)  # the cache lock below is POSIX
+    queue = collections.deque((kernel, text) for kernel, text, _ in todo)
+    failed, done, lock = [], [0], threading.Lock()
+
+    def finished(r):
+        with lock:
+            done[0] += 1
             if r[3]:
                 failed.append(r)
             if progress:
-                progress(i + 1, len(todo), kernel)
-    elif todo:
-        import multiprocessing
-        from concurrent.futures import ProcessPoolExecutor, as_completed
+                progress(done[0], len(todo), r[0])
 
+    if progress:
+        progress(0, len(todo), None)
+    pool = None
+    if workers > 1:
+        import multiprocessing
+        from concurrent.futures import ProcessPoolExecutor
+
+        _lock_cache_writes()  # this process writes to the cache too
         ctx = multiprocessing.get_context("spawn")  # a fresh interpreter: no forked numba/OpenMP state
-        with ProcessPoolExecutor(workers, mp_context=ctx, initializer=_lock_cache_writes) as pool:
-            futs = [pool.submit(_compile_job, kernel, text) for kernel, text, _ in todo]
-            for i, f in enumerate(as_completed(futs)):
-                r = f.result()
-                if r[3]:
-                    failed.append(r)
-                if progress:
-                    progress(i + 1, len(todo), r[0])
+        pool = ProcessPoolExecutor(workers - 1, mp_context=ctx, initializer=_lock_cache_writes)
+
+        def feed(fut=None):  # one job at a time per worker, the next when it is done
+            if fut is not None:
+                finished(fut.result())  # a broken worker raises here: its jobs fall to this process
+            try:
+                job = queue.popleft()
+            except IndexError:
+                return
+            pool.submit(_compile_job, *job).add_done_callback(feed)
+
+        for _ in range(workers - 1):
+            feed()
+    try:
+        while True:
+            try:
+                job = queue.popleft()
+            except IndexError:
+                break
+            finished(_compile_job(*job))  # in this process: its kernels need no loading after
+    finally:
+        if pool is not None:
+            pool.shutdown(wait=True)
     return {"compiled": len(todo) - len(failed), "failed": failed, "seconds": time.perf_counter() - t0,
             "workers": workers}
 
