@@ -200,9 +200,9 @@ def pending(modules=None) -> list[tuple[str, str, float]]:
 def precompile(modules=None, progress=None, workers=None) -> dict:
     """Compile the manifest's signatures numba's cache lacks (``pending``) on ``workers``
     processes (default: one per core): this one and ``workers - 1`` spawned ones, each
-    taking the slowest signature left when it is free, of a kernel module it has compiled
-    from before others (``take``). ``progress(done, total, kernel)`` is
+    taking the slowest signature left when it is free. ``progress(done, total, kernel)`` is
     called as each finishes. Returns {'compiled', 'failed', 'seconds', 'workers'}."""
+    import collections
     import threading
 
     t0 = time.perf_counter()
@@ -210,23 +210,8 @@ def precompile(modules=None, progress=None, workers=None) -> dict:
     workers = min(workers or default_workers(), len(todo))
     if sys.platform == "win32":
         workers = min(workers, 1)  # the cache lock below is POSIX
-    left = list(todo)  # slowest first
-    claimed = {}  # kernel module -> the process compiling its kernels
+    queue = collections.deque((kernel, text) for kernel, text, _ in todo)
     failed, done, lock = [], [0], threading.Lock()
-
-    def take(me):
-        """The next job for process ``me``: the slowest left of a module it compiles (the
-        kernels of a module share the kernels they call: compiled once, in one process),
-        else of a module no process has taken, else the slowest left."""
-        with lock:
-            if not left:
-                return None
-            pick = next((i for i, e in enumerate(left) if claimed.get(e[0].rpartition(".")[0]) == me), None)
-            if pick is None:
-                pick = next((i for i, e in enumerate(left) if e[0].rpartition(".")[0] not in claimed), 0)
-            kernel, text, _ = left.pop(pick)
-            claimed.setdefault(kernel.rpartition(".")[0], me)
-            return kernel, text
 
     def finished(r):
         with lock:
@@ -247,17 +232,23 @@ def precompile(modules=None, progress=None, workers=None) -> dict:
         ctx = multiprocessing.get_context("spawn")  # a fresh interpreter: no forked numba/OpenMP state
         pool = ProcessPoolExecutor(workers - 1, mp_context=ctx, initializer=_lock_cache_writes)
 
-        def feed(me, fut=None):  # one job at a time per worker, the next when it is done
+        def feed(fut=None):  # one job at a time per worker, the next when it is done
             if fut is not None:
                 finished(fut.result())  # a broken worker raises here: its jobs fall to this process
-            job = take(me)
-            if job is not None:
-                pool.submit(_compile_job, *job).add_done_callback(lambda f: feed(me, f))
+            try:
+                job = queue.popleft()
+            except IndexError:
+                return
+            pool.submit(_compile_job, *job).add_done_callback(feed)
 
-        for me in range(1, workers):
-            feed(me)
+        for _ in range(workers - 1):
+            feed()
     try:
-        while (job := take(0)) is not None:
+        while True:
+            try:
+                job = queue.popleft()
+            except IndexError:
+                break
             finished(_compile_job(*job))  # in this process: its kernels need no loading after
     finally:
         if pool is not None:
