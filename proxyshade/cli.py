@@ -201,7 +201,10 @@ def _run_once(graphs, frames, set_, var, sweep, cache, explain, jobs, force, thr
             shots.append((label, g, parse_frame_list(frames, bounds=g.frames) if frames is not None else None))
     from proxyshade.graph.warmup import manifest_modules
 
-    _precompile(set().union(*(manifest_modules(g) for _, g, _ in shots)), quiet)  # the kernels' cold-cache step
+    try:  # the kernels' cold-cache step
+        _precompile(set().union(*(manifest_modules(g) for _, g, _ in shots)), quiet)
+    except Exception as e:  # never in the way of the run: its kernels then compile when first called
+        _say(err, f"note: compiling the kernels ahead failed ({type(e).__name__}: {e}); they compile when first called")
     several = len(shots) > 1
     prefixes = {id(g): f"{label.rpartition('/')[2]}: " if several else "" for label, g, _ in shots}
     distributed = bool(scheduler) or executor is Executor.dask

@@ -230,19 +230,30 @@ def precompile(modules=None, progress=None, workers=None) -> dict:
 
         _lock_cache_writes()  # this process writes to the cache too
         ctx = multiprocessing.get_context("spawn")  # a fresh interpreter: no forked numba/OpenMP state
-        pool = ProcessPoolExecutor(workers - 1, mp_context=ctx, initializer=_lock_cache_writes)
 
-        def feed(fut=None):  # one job at a time per worker, the next when it is done
+        def feed(fut=None, job=None):  # one job at a time per worker, the next when it is done
             if fut is not None:
-                finished(fut.result())  # a broken worker raises here: its jobs fall to this process
+                try:
+                    finished(fut.result())
+                except Exception:  # a broken worker: this process takes its job and the rest
+                    queue.append(job)
+                    return
             try:
                 job = queue.popleft()
             except IndexError:
                 return
-            pool.submit(_compile_job, *job).add_done_callback(feed)
+            try:
+                pool.submit(_compile_job, *job).add_done_callback(lambda f, job=job: feed(f, job))
+            except Exception:  # no worker (a broken pool): this process compiles it
+                queue.appendleft(job)
+                raise
 
-        for _ in range(workers - 1):
-            feed()
+        try:
+            pool = ProcessPoolExecutor(workers - 1, mp_context=ctx, initializer=_lock_cache_writes)
+            for _ in range(workers - 1):
+                feed()
+        except Exception:  # no processes to be had here: this one compiles everything
+            workers = 1
     try:
         while True:
             try:
@@ -252,7 +263,7 @@ def precompile(modules=None, progress=None, workers=None) -> dict:
             finished(_compile_job(*job))  # in this process: its kernels need no loading after
     finally:
         if pool is not None:
-            pool.shutdown(wait=True)
+            pool.shutdown(wait=True, cancel_futures=True)
     return {"compiled": len(todo) - len(failed), "failed": failed, "seconds": time.perf_counter() - t0,
             "workers": workers}
 

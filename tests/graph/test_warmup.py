@@ -112,3 +112,22 @@ def test_a_stale_manifest_entry_is_left_to_a_lazy_compile(monkeypatch):
     assert [e[0] for e in warmup.pending()] == ["proxyshade.kernels.random._mix"]
     r = warmup.precompile(workers=1)
     assert r["compiled"] == 0 and len(r["failed"]) == 1 and r["failed"][0][0] == "proxyshade.kernels.random._mix"
+
+
+def test_without_worker_processes_this_process_compiles_everything(monkeypatch):
+    """Where no process can be started, precompile compiles in the calling process."""
+    import concurrent.futures
+
+    def no_pool(*a, **k):
+        raise OSError("no processes here")
+
+    monkeypatch.setattr(concurrent.futures, "ProcessPoolExecutor", no_pool)
+    monkeypatch.setattr(warmup, "manifest", lambda: [
+        ("proxyshade.kernels.random.uniform_field", "(int64, Array(uint32, 2, 'C', False, aligned=True))", 1.0, ()),
+        ("proxyshade.kernels.random._keys", "(int64, int64)", 0.5, ()),
+    ])
+    monkeypatch.setattr(warmup, "_cached", lambda disp, sig: False)
+    seen = []
+    r = warmup.precompile(workers=2, progress=lambda done, total, kernel: seen.append((done, total)))
+    assert r["compiled"] == 2 and r["failed"] == [] and r["workers"] == 1
+    assert seen == [(0, 2), (1, 2), (2, 2)]
