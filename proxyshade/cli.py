@@ -199,6 +199,12 @@ def _run_once(graphs, frames, set_, var, sweep, cache, explain, jobs, force, thr
             g = Graph.load(path, cache=cache, overrides=list(set_), variables=dict(_vars(var), **combo))
             label = f"{path}" + (f" [{' '.join(f'{k}={v}' for k, v in combo.items())}]" if combo else "")
             shots.append((label, g, parse_frame_list(frames, bounds=g.frames) if frames is not None else None))
+    from proxyshade.graph.warmup import manifest_modules
+
+    try:  # the kernels' cold-cache step
+        _precompile(set().union(*(manifest_modules(g) for _, g, _ in shots)), quiet)
+    except Exception as e:  # never in the way of the run: its kernels then compile when first called
+        _say(err, f"note: compiling the kernels ahead failed ({type(e).__name__}: {e}); they compile when first called")
     several = len(shots) > 1
     prefixes = {id(g): f"{label.rpartition('/')[2]}: " if several else "" for label, g, _ in shots}
     distributed = bool(scheduler) or executor is Executor.dask
@@ -249,20 +255,57 @@ def _report(label: str, report, explain: bool, several: bool) -> None:
     _say(out, f"{computed} computed, {reused} reused in {report.wall:.3f} s, peak memory {report.peak_rss_mb:.0f} MiB")
 
 
+def _precompile(modules, quiet: bool, force: bool = False):
+    """The kernels' cold-cache step: when numba's cache lacks kernels of ``modules``
+    (``proxyshade.kernels`` names; None: every kernel of the manifest), compile the
+    manifest's signatures numba's cache lacks in one process per core, with a progress bar
+    (``warmup.precompile``); ``force``: check every signature however the cache looks.
+    Returns the precompile's report, None when there was nothing to compile."""
+    from proxyshade.kernels._config import kernels_cached
+
+    if not force and (modules is not None and (not modules or kernels_cached(sorted(modules)))):
+        return None
+    from proxyshade.graph.warmup import default_workers, pending, precompile
+
+    todo = pending(modules)
+    if not todo:
+        return None
+    workers = min(default_workers(), len(todo))
+    _say(err, f"compiling the numba kernels, once after an install or upgrade: {len(todo)} kernel signatures "
+              f"in {workers} process(es) (later runs load them from numba's cache)")
+    with Progress(TextColumn("{task.description:<14}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
+                  TextColumn("{task.fields[kernel]}"), console=err, disable=quiet or not err.is_terminal,
+                  transient=True) as progress:
+        task = progress.add_task("compiling", total=len(todo), kernel="")
+
+        def tick(done, total, kernel):
+            progress.update(task, completed=done, total=total, kernel=(kernel or "").rpartition("kernels.")[2])
+
+        r = precompile(modules, progress=tick, workers=workers)
+    _say(err, f"kernels compiled in {r['seconds']:.1f} s ({r['compiled']} signatures, {r['workers']} processes)"
+              + (f"; {len(r['failed'])} left to compile when first called" if r["failed"] else ""))
+    return r
+
+
 @app.command("compile")
 def compile_kernels(quiet: bool = typer.Option(False, "--quiet", "-q", help="no progress bars")):
     """Compile the numba kernels into numba's cache: once after an install or upgrade (make
-    demo runs it first). Runs the demo graphs without their writers; their results stay in
-    the graphs' caches for the demo."""
-    from proxyshade.graph.warmup import warm_up
+    demo runs it first). Compiles the kernel signatures the demo graphs reach in one process
+    per core, then runs the demo graphs without their writers (their results stay in the
+    graphs' caches for the demo; a kernel the list missed compiles there)."""
+    import time
 
-    _say(err, "compiling the numba kernels: once after an install or upgrade, a minute or more on 2 cores")
+    from proxyshade.graph.warmup import kernel_signatures, warm_up
+
+    t0 = time.perf_counter()
+    _precompile(None, quiet, force=True)
     with Progress(TextColumn("{task.description:<14}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
                   console=err, disable=quiet or not err.is_terminal, transient=True) as progress:
         hooks = _BarHooks(progress)
         hooks.told_compiling = True
-        r = warm_up(hooks)
-    _say(out, f"kernels ready in {r['seconds']:.1f} s ({r['signatures']} kernel signatures in numba's cache)")
+        warm_up(hooks, first=False)
+    _say(out, f"kernels ready in {time.perf_counter() - t0:.1f} s ({kernel_signatures()} kernel signatures "
+              "in numba's cache)")
 
 
 def _sweep(items: List[str]) -> list[dict]:

@@ -108,6 +108,44 @@ def test_first_run_says_it_compiles_the_kernels(graph, capsys, monkeypatch):
     assert "compiling" not in capsys.readouterr().err
 
 
+def test_a_cold_kernel_cache_compiles_the_manifest_first_with_a_note(graph, capsys, monkeypatch):
+    """On a cold numba cache ``run`` compiles the manifest's kernels of the graph's kernel
+    modules before the run (``warmup.precompile``), saying so; on a warm one it says nothing."""
+    import proxyshade.kernels._config as config
+    from proxyshade.graph import warmup
+
+    sig = "(int64, Array(uint32, 2, 'C', False, aligned=True))"
+    monkeypatch.setattr(warmup, "manifest", lambda: [("proxyshade.kernels.random.uniform_field", sig, 1.0, ()),
+                                                     ("proxyshade.kernels.poisson.nothing_here", "(int64,)", 1.0, ())])
+    monkeypatch.setattr(warmup, "manifest_modules", lambda g: {"proxyshade.kernels.random"})
+    monkeypatch.setattr(warmup, "_cached", lambda disp, sig: False)  # as right after an install
+    monkeypatch.setattr(config, "kernels_cached", lambda modules=(): False)
+    assert main(["run", str(graph), "-q"]) == 0
+    err = capsys.readouterr().err
+    assert "compiling the numba kernels, once" in err and "1 kernel signatures" in err
+    assert "kernels compiled in" in err
+    monkeypatch.setattr(config, "kernels_cached", lambda modules=(): True)
+    assert main(["run", str(graph), "-q", "--force", "src"]) == 0
+    assert "compil" not in capsys.readouterr().err
+
+
+def test_compile_precompiles_every_manifest_kernel_then_runs_the_demo_graphs(capsys, monkeypatch):
+    from proxyshade.graph import warmup
+
+    sig = "(int64, Array(uint32, 2, 'C', False, aligned=True))"
+    monkeypatch.setattr(warmup, "manifest", lambda: [("proxyshade.kernels.random.uniform_field", sig, 1.0, ()),
+                                                     ("proxyshade.kernels.random._keys", "(int64, int64)", 0.5, ())])
+    monkeypatch.setattr(warmup, "_cached", lambda disp, sig: False)
+    ran = []
+    monkeypatch.setattr(warmup, "WARMUP", [])  # the demo graphs: too slow for a test
+    monkeypatch.setattr(warmup, "precompile", lambda modules=None, progress=None, workers=None: ran.append(
+        sorted(modules or ())) or {"compiled": 2, "failed": [], "seconds": 0.1, "workers": 1})
+    assert main(["compile", "-q"]) == 0
+    captured = capsys.readouterr()
+    assert ran == [[]]  # every module's kernels, once
+    assert "2 kernel signatures" in captured.err and "kernels ready in" in captured.out
+
+
 def test_watch_runs_again_when_a_file_the_graph_reads_changes(tmp_path, capsys):
     """``run --watch``: after the run it waits; an edit of the source table (a file a node
     reads) starts the next run, which recomputes what the edit reaches."""

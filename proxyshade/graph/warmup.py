@@ -1,12 +1,29 @@
-"""Compile the numba kernels ahead of the first run (``proxyshade compile``, run by ``make
-demo``): numba compiles a kernel for the argument types of its first call and keeps it in
-its on-disk cache, so the warm-up runs the bundled demo graphs (the lake's first frame,
-the farm composite, the lake camera move's first update frame) at their real sizes, every
-branch the demo takes included, without their writers. Their results go to each graph's
-default cache, so the demo that follows reuses them instead of computing them again.
+"""Compile the numba kernels ahead of the first run.
+
+numba compiles a kernel for the argument types of its first call and keeps the machine code
+in its on-disk cache. Compiling lazily, one kernel after another as a run reaches them,
+uses one core for over a minute; so the first run compiles first, in parallel:
+
+- ``kernel_manifest.py`` (beside this module) lists the kernel signatures the demo graphs
+  reach: each kernel called from Python with its numba argument types, the seconds it took
+  to compile (kernels it calls included) and the signatures those calls compiled. It is
+  written by ``python -m proxyshade.graph.warmup --write-manifest`` from a cold-cache run.
+- ``precompile`` compiles the listed signatures the cache lacks on one process per core
+  (this one and spawned workers, each taking the slowest left) into numba's cache; the run
+  then only loads what the workers compiled. A signature the manifest lacks (a stale
+  manifest, a branch the demo does not take) compiles lazily when first called, as
+  before: the manifest only moves compile work, never changes a result (numba's cache is
+  keyed by the kernel's code and argument types).
+- ``proxyshade compile`` (run by ``make demo``) precompiles every listed signature, then runs
+  the bundled demo graphs (the lake's first frame, the farm composite, the lake camera
+  move's first update frame) without their writers: their results go to each graph's
+  default cache, so the demo that follows reuses them. ``proxyshade run`` on a cold cache
+  precompiles the signatures of the kernel modules its graphs' nodes import.
 """
 from __future__ import annotations
 
+import os
+import sys
 import time
 from pathlib import Path
 
@@ -17,32 +34,36 @@ WARMUP = [
     ("camera_move.yaml", [1, 2], {}),
 ]
 
+MANIFEST = Path(__file__).with_name("kernel_manifest.py")
+
 
 def graphs_dir() -> Path:
     """The bundled graphs (a source checkout's ``graphs/``)."""
     return Path(__file__).resolve().parents[2] / "graphs"
 
 
-def warm_up(hooks=None) -> dict:
-    """Run the warm-up graphs (writers disabled); returns {'seconds', 'signatures'}: wall
-    time and how many kernel signatures numba holds afterwards (compiled or loaded)."""
+def warm_up(hooks=None, cache=None, progress=None, workers=None, first=True) -> dict:
+    """Precompile the manifest's signatures (``precompile``), then run the warm-up graphs
+    (writers disabled; ``cache``: one cache folder instead of each graph's default;
+    ``first=False``: no precompile, every kernel compiles lazily).
+    Returns {'seconds', 'precompile', 'signatures'}: wall time, the precompile's report
+    and how many kernel signatures numba holds afterwards (compiled or loaded)."""
     from proxyshade.graph.graph import Graph
 
     t0 = time.perf_counter()
+    pre = precompile(progress=progress, workers=workers) if first else None
     for name, frames, variables in WARMUP:
-        g = Graph.load(graphs_dir() / name, variables=variables)
+        g = Graph.load(graphs_dir() / name, cache=cache, variables=variables)
         for node, n in g.nodes.items():
             if n.sink:
                 g.set(f"{node}.enabled", False)
         g.run(frames, hooks=hooks)
-    return {"seconds": time.perf_counter() - t0, "signatures": kernel_signatures()}
+    return {"seconds": time.perf_counter() - t0, "precompile": pre, "signatures": kernel_signatures()}
 
 
 def kernel_dispatchers() -> dict:
     """'module.function' -> numba dispatcher, for every kernel defined in a
     ``proxyshade.kernels`` module imported in this process."""
-    import sys
-
     from numba.core.registry import CPUDispatcher
 
     out = {}
@@ -57,3 +78,271 @@ def kernel_dispatchers() -> dict:
 def kernel_signatures() -> int:
     """Signatures numba holds (compiled or loaded from its cache) over ``kernel_dispatchers``."""
     return sum(len(d.signatures) for d in kernel_dispatchers().values())
+
+
+# --- the manifest -----------------------------------------------------------------------
+
+def manifest() -> list[tuple[str, str, float, tuple]]:
+    """The manifest's entries: (kernel 'proxyshade.kernels.module.function', argument types
+    as text, compile seconds when written, (kernel, types) it compiled inside); [] when
+    there is none."""
+    try:
+        from proxyshade.graph import kernel_manifest
+    except ImportError:
+        return []
+    return list(kernel_manifest.ENTRIES)
+
+
+def manifest_modules(graph) -> set[str]:
+    """The kernel modules a graph's nodes import (``import_closure``, read from sources)."""
+    from proxyshade.graph.keys import import_closure
+
+    mods = set()
+    for mod in {type(n).__module__ for n in graph.nodes.values()}:
+        mods.update(m for m in import_closure(mod) if m.startswith("proxyshade.kernels."))
+    return mods
+
+
+def parse_types(text: str) -> tuple:
+    """Argument types written as ``repr`` of a tuple of numba types, back to the tuple."""
+    from numba.core import types
+
+    ns = {k: getattr(types, k) for k in dir(types) if not k.startswith("_")}
+    ns.update(omitted=types.Omitted)
+    sig = eval(text, {"__builtins__": {}}, ns)  # text written by record_manifest, in the package
+    if not isinstance(sig, tuple) or not all(isinstance(t, types.Type) for t in sig):
+        raise ValueError(f"not a tuple of numba types: {text}")
+    return sig
+
+
+def _dispatcher(kernel: str):
+    import importlib
+
+    mod, _, fn = kernel.rpartition(".")
+    return getattr(importlib.import_module(mod), fn)
+
+
+def _cached(disp, sig) -> bool:
+    """Whether numba's on-disk cache holds ``disp`` compiled for ``sig`` (for this CPU)."""
+    cache = disp._cache
+    impl = getattr(cache, "_impl", None)
+    if impl is None:  # no caching (cache=False): nothing to precompile into
+        return True
+    key = cache._index_key(sig, disp.targetctx.codegen())
+    return key in cache._cache_file._load_index()
+
+
+_locked = False
+
+
+def _lock_cache_writes() -> None:
+    """Make numba's cache writes safe between processes: an index lists a kernel's
+    signatures, and two processes adding one each to the same index at once could lose one
+    (numba reads, extends and replaces the index without a lock). Each save holds an
+    exclusive lock on the cache folder (POSIX ``flock``)."""
+    global _locked
+    if _locked:
+        return
+    import fcntl
+
+    from numba.core import caching
+
+    save = caching.IndexDataCacheFile.save
+
+    def locked_save(self, key, data):
+        fd = os.open(self._cache_path, os.O_RDONLY)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX)
+            save(self, key, data)
+        finally:
+            os.close(fd)  # releases the lock
+
+    caching.IndexDataCacheFile.save = locked_save
+    _locked = True
+
+
+def _compile_job(kernel: str, text: str) -> tuple[str, str, float, str | None]:
+    """In a worker: compile one manifest entry into numba's cache."""
+    t0 = time.perf_counter()
+    try:
+        disp = _dispatcher(kernel)
+        disp.compile(parse_types(text))
+    except Exception as e:  # a stale entry: the kernel compiles lazily when called
+        return kernel, text, time.perf_counter() - t0, f"{type(e).__name__}: {e}"
+    return kernel, text, time.perf_counter() - t0, None
+
+
+def default_workers() -> int:
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:
+        return max(1, os.cpu_count() or 1)
+
+
+def pending(modules=None) -> list[tuple[str, str, float]]:
+    """The manifest's entries numba's cache lacks, slowest first; ``modules``: only kernels
+    of these ``proxyshade.kernels`` modules. Imports the kernel modules (and numba)."""
+    todo = []
+    for kernel, text, seconds, _ in manifest():
+        if modules is not None and kernel.rpartition(".")[0] not in modules:
+            continue
+        try:
+            disp = _dispatcher(kernel)
+            if _cached(disp, parse_types(text)):
+                continue
+        except Exception:
+            continue  # stale: left to lazy compiles
+        todo.append((kernel, text, seconds))
+    todo.sort(key=lambda e: -e[2])
+    return todo
+
+
+def precompile(modules=None, progress=None, workers=None) -> dict:
+    """Compile the manifest's signatures numba's cache lacks (``pending``) on ``workers``
+    processes (default: one per core): this one and ``workers - 1`` spawned ones, each
+    taking the slowest signature left when it is free. ``progress(done, total, kernel)`` is
+    called as each finishes. Returns {'compiled', 'failed', 'seconds', 'workers'}."""
+    import collections
+    import threading
+
+    t0 = time.perf_counter()
+    todo = pending(modules)
+    workers = min(workers or default_workers(), len(todo))
+    if sys.platform == "win32":
+        workers = min(workers, 1)  # the cache lock below is POSIX
+    queue = collections.deque((kernel, text) for kernel, text, _ in todo)
+    failed, done, lock = [], [0], threading.Lock()
+
+    def finished(r):
+        with lock:
+            done[0] += 1
+            if r[3]:
+                failed.append(r)
+            if progress:
+                progress(done[0], len(todo), r[0])
+
+    if progress:
+        progress(0, len(todo), None)
+    pool = None
+    if workers > 1:
+        import multiprocessing
+        from concurrent.futures import ProcessPoolExecutor
+
+        _lock_cache_writes()  # this process writes to the cache too
+        ctx = multiprocessing.get_context("spawn")  # a fresh interpreter: no forked numba/OpenMP state
+
+        def feed(fut=None, job=None):  # one job at a time per worker, the next when it is done
+            if fut is not None:
+                try:
+                    finished(fut.result())
+                except Exception:  # a broken worker: this process takes its job and the rest
+                    queue.append(job)
+                    return
+            try:
+                job = queue.popleft()
+            except IndexError:
+                return
+            try:
+                pool.submit(_compile_job, *job).add_done_callback(lambda f, job=job: feed(f, job))
+            except Exception:  # no worker (a broken pool): this process compiles it
+                queue.appendleft(job)
+                raise
+
+        try:
+            pool = ProcessPoolExecutor(workers - 1, mp_context=ctx, initializer=_lock_cache_writes)
+            for _ in range(workers - 1):
+                feed()
+        except Exception:  # no processes to be had here: this one compiles everything
+            workers = 1
+    try:
+        while True:
+            try:
+                job = queue.popleft()
+            except IndexError:
+                break
+            finished(_compile_job(*job))  # in this process: its kernels need no loading after
+    finally:
+        if pool is not None:
+            pool.shutdown(wait=True, cancel_futures=True)
+    return {"compiled": len(todo) - len(failed), "failed": failed, "seconds": time.perf_counter() - t0,
+            "workers": workers}
+
+
+# --- writing the manifest ---------------------------------------------------------------
+
+_RECORD = r"""
+import json, sys, time
+from numba.core import event
+from proxyshade.graph import warmup
+
+class Rec(event.Listener):
+    # kernels compiled from Python (no compile under way) with their seconds and what they compiled inside
+    def __init__(self):
+        self.stack, self.roots = [], []
+    def on_start(self, ev):
+        self.stack.append([time.perf_counter(), []])
+    def on_end(self, ev):
+        t0, inner = self.stack.pop()
+        d = ev.data["dispatcher"]
+        me = (f"{d.py_func.__module__}.{d.py_func.__name__}", repr(tuple(ev.data["args"])))
+        if self.stack:
+            self.stack[-1][1].extend([me] + inner)
+        elif me[0].startswith("proxyshade.kernels."):
+            self.roots.append((me[0], me[1], round(time.perf_counter() - t0, 2),
+                               sorted({x for x in inner if x[0].startswith("proxyshade.kernels.")})))
+
+rec = Rec()
+event.register("numba:compile", rec)
+warmup.warm_up(cache=sys.argv[1], first=False)
+print(json.dumps(rec.roots))
+"""
+
+
+def record_manifest(raw: Path | None = None) -> list:
+    """Run the warm-up graphs in a fresh process with cold numba and graph caches and list
+    the kernels compiled from Python (the manifest's entries); ``raw``: a JSON file kept
+    from an earlier recording (written beside it otherwise)."""
+    import json
+    import subprocess
+    import tempfile
+
+    if raw is not None and raw.is_file():
+        roots = json.loads(raw.read_text())
+    else:
+        with tempfile.TemporaryDirectory() as tmp:
+            env = dict(os.environ, NUMBA_CACHE_DIR=f"{tmp}/numba")
+            env["PYTHONPATH"] = os.pathsep.join([str(Path(__file__).resolve().parents[2])]
+                                                + ([env["PYTHONPATH"]] if env.get("PYTHONPATH") else []))
+            res = subprocess.run([sys.executable, "-c", _RECORD, f"{tmp}/cache"], env=env, capture_output=True,
+                                 text=True, check=True)
+        roots = json.loads(res.stdout.strip().splitlines()[-1])
+        if raw is not None:
+            raw.write_text(json.dumps(roots))
+    for kernel, text, _, _ in roots:  # every entry must read back as written
+        parse_types(text)
+    return roots
+
+
+def write_manifest(path: Path = MANIFEST, raw: Path | None = None) -> int:
+    import numba
+
+    roots = record_manifest(raw)
+    lines = ['"""Kernel signatures the demo graphs reach, for ``warmup.precompile``: written by',
+             "``python -m proxyshade.graph.warmup --write-manifest`` (numba "
+             f"{numba.__version__}), do not edit.",
+             "(kernel, argument types, compile seconds, (kernel, argument types) compiled inside).\"\"\"",
+             "ENTRIES = ["]
+    for kernel, text, seconds, inner in roots:
+        lines.append(f"    ({kernel!r}, {text!r}, {seconds!r}, (")
+        lines.extend(f"        ({k!r}, {t!r})," for k, t in inner)
+        lines.append("    )),")
+    lines.append("]")
+    path.write_text("\n".join(lines) + "\n")
+    return len(roots)
+
+
+if __name__ == "__main__":
+    if "--write-manifest" in sys.argv:
+        i = sys.argv.index("--raw") if "--raw" in sys.argv else None
+        n = write_manifest(raw=Path(sys.argv[i + 1]) if i else None)
+        print(f"{MANIFEST}: {n} kernel signatures")

@@ -1,0 +1,133 @@
+"""The kernels' precompile (proxyshade/graph/warmup.py): the manifest lists what the demo's
+first frame reaches, a precompiled kernel loads from numba's cache in another process
+(parallel ones included), and a stale entry only costs a lazy compile."""
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+from proxyshade import Graph
+from proxyshade.graph import warmup
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def _signatures() -> set:
+    return {(f"proxyshade.kernels.{k}", repr(tuple(s))) for k, d in warmup.kernel_dispatchers().items()
+            for s in d.signatures}
+
+
+def test_the_manifest_covers_what_a_small_first_frame_reaches(tmp_path):
+    """Every kernel signature a small lake first frame compiles or loads is in the manifest
+    (called from Python, or compiled inside one that is): a stale manifest fails here."""
+    import proxyshade.kernels  # noqa: F401  (the dispatchers counted before the run)
+
+    g = Graph.load(ROOT / "graphs" / "first_frame.yaml", cache=tmp_path / "cache",
+                   overrides=["proxy.resolution=[96,64]", "guide.size=64", "guide.start=16", "preview.enabled=false",
+                              "proxy_labels.enabled=false", "detail_labels.enabled=false"],
+                   variables={"out": str(tmp_path), "scene": "lake", "source": "renoir"})
+    before = _signatures()
+    g.run([1])
+    reached = _signatures() - before
+    assert len(reached) > 20  # the run called kernels (compiled, or loaded from numba's cache)
+    listed = set()
+    for kernel, text, _, inner in warmup.manifest():
+        listed.add((kernel, text))
+        listed.update(inner)
+    for kernel, _ in listed:  # each listed kernel exists
+        assert warmup._dispatcher(kernel).py_func.__module__ == kernel.rpartition(".")[0]
+    missing = reached - listed
+    assert not missing, f"regenerate: python -m proxyshade.graph.warmup --write-manifest; missing {sorted(missing)}"
+    # the graph's kernel modules (read from sources) hold every kernel it reached
+    assert {k.rpartition(".")[0] for k, _ in reached} <= warmup.manifest_modules(g)
+
+
+CHILD = r"""
+import json, sys
+from numba.core import event
+from proxyshade.graph import warmup
+from proxyshade.kernels import random
+
+compiled = []
+
+class Rec(event.Listener):
+    def on_start(self, ev):
+        compiled.append(ev.data["dispatcher"].py_func.__name__)
+    def on_end(self, ev):
+        pass
+
+event.register("numba:compile", Rec())
+if sys.argv[1] == "precompile":
+    r = warmup.precompile(progress=None, workers=2)
+    print(json.dumps({"compiled": r["compiled"], "failed": r["failed"], "workers": r["workers"]}))
+else:
+    pending = warmup.pending()
+    import numpy as np
+    ids = np.arange(12, dtype=np.uint32).reshape(3, 4)
+    out = random.uniform_field(7, ids)
+    print(json.dumps({"pending": len(pending), "compiled": list(compiled), "hits": sum(random.uniform_field.stats.cache_hits.values()),
+                      "ok": bool((out == np.array([[random.uniform(7, int(i), 0, 0) for i in r] for r in ids],
+                                                  np.float32)).all())}))
+"""
+
+
+def test_precompiled_kernels_load_from_numbas_cache_in_another_process(tmp_path, monkeypatch):
+    """Two worker processes compile a manifest (a parallel kernel and the serial kernels it
+    calls) into a fresh numba cache; a later process calls the kernel and compiles nothing."""
+    sig = "(int64, Array(uint32, 2, 'C', False, aligned=True))"
+    manifest = tmp_path / "m"
+    manifest.mkdir()
+    (manifest / "kernel_manifest.py").write_text(
+        "ENTRIES = [('proxyshade.kernels.random.uniform_field', %r, 1.0, ()),"
+        " ('proxyshade.kernels.random._keys', '(int64, int64)', 0.5, ())]\n" % sig)
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "numba"),
+               PYTHONPATH=os.pathsep.join([str(manifest), str(ROOT)]))
+    code = CHILD.replace("from proxyshade.graph import warmup",
+                         "from proxyshade.graph import warmup\nimport kernel_manifest\n"
+                         "warmup.manifest = lambda: list(kernel_manifest.ENTRIES)")
+
+    def child(mode):
+        r = subprocess.run([sys.executable, "-c", code, mode], env=env, capture_output=True, text=True, timeout=300)
+        assert r.returncode == 0, r.stderr
+        return json.loads(r.stdout.strip().splitlines()[-1])
+
+    pre = child("precompile")
+    assert pre == {"compiled": 2, "failed": [], "workers": 2}
+    run = child("run")
+    assert run["pending"] == 0  # all in the cache now
+    assert run["compiled"] == [] and run["hits"] == 1 and run["ok"]
+
+
+def test_a_stale_manifest_entry_is_left_to_a_lazy_compile(monkeypatch):
+    """An entry naming a kernel that is gone is skipped; one whose types no longer compile
+    is reported as failed, never raised."""
+    monkeypatch.setattr(warmup, "manifest", lambda: [
+        ("proxyshade.kernels.random.gone", "(int64,)", 1.0, ()),
+        ("proxyshade.kernels.random._mix", "(Array(float32, 3, 'C', False, aligned=True),)", 1.0, ()),
+    ])
+    monkeypatch.setattr(warmup, "_cached", lambda disp, sig: False)
+    assert [e[0] for e in warmup.pending()] == ["proxyshade.kernels.random._mix"]
+    r = warmup.precompile(workers=1)
+    assert r["compiled"] == 0 and len(r["failed"]) == 1 and r["failed"][0][0] == "proxyshade.kernels.random._mix"
+
+
+def test_without_worker_processes_this_process_compiles_everything(monkeypatch):
+    """Where no process can be started, precompile compiles in the calling process."""
+    import concurrent.futures
+
+    def no_pool(*a, **k):
+        raise OSError("no processes here")
+
+    monkeypatch.setattr(concurrent.futures, "ProcessPoolExecutor", no_pool)
+    monkeypatch.setattr(warmup, "manifest", lambda: [
+        ("proxyshade.kernels.random.uniform_field", "(int64, Array(uint32, 2, 'C', False, aligned=True))", 1.0, ()),
+        ("proxyshade.kernels.random._keys", "(int64, int64)", 0.5, ()),
+    ])
+    monkeypatch.setattr(warmup, "_cached", lambda disp, sig: False)
+    seen = []
+    r = warmup.precompile(workers=2, progress=lambda done, total, kernel: seen.append((done, total)))
+    assert r["compiled"] == 2 and r["failed"] == [] and r["workers"] == 1
+    assert seen == [(0, 2), (1, 2), (2, 2)]
