@@ -83,13 +83,28 @@ def half(rgb, bw):
     return rgb.reshape(H // 2, 2, W // 2, 2, 3).mean((1, 3)).astype(np.float32)
 
 
-def patch_distance(out_rgb, ex_rgb, bw) -> float:
+C_ITERATIONS = 8  # PatchMatch iterations of the C search (started at the output's own pointers)
+
+
+def pointer_init(S, bw, nb, f=1):
+    """The C search's start: each output pixel's own pointer (scaled by 1/f for the ½-size
+    measure), and the same box position in every other exemplar. A copied region is then
+    found at once (distance 0); the parallel PatchMatch, whose propagation moves only a few
+    pixels per iteration, missed 72 % of an exact copy's patches from random starts at 4
+    iterations (C 7.47 instead of 0 for creek itself)."""
+    S = S[::f, ::f]
+    loc = np.stack([S[..., 0] // f, (S[..., 1] % bw) // f], -1)
+    return np.ascontiguousarray(np.stack([loc + np.array([0, b * (bw // f)]) for b in range(nb)], 2)[:, :, :, None, :],
+                                np.int32)
+
+
+def patch_distance(out_rgb, ex_rgb, bw, init=None, iterations=C_ITERATIONS) -> float:
     from proxyshade.kernels import hybrid as kh
     from proxyshade.kernels.features import srgb_features
 
     Qd = kh.gather(srgb_features(out_rgb), out_rgb.shape[1], 1)
     Ad = kh.gather(srgb_features(ex_rgb), bw, 1)
-    _, d = kh.candidates(Qd, Ad, bw, 1, 1, own_box=False, iterations=4, seed=0)
+    _, d = kh.candidates(Qd, Ad, bw, 1, 1, own_box=False, iterations=iterations, seed=0, init=init)
     return float(np.sqrt(d[..., 0].min(-1) / Qd.shape[2]).mean())
 
 
@@ -112,8 +127,9 @@ class Measures:
         from proxyshade.kernels.features import dense_labels, window_masks
 
         out = self.rgb[S[..., 0], S[..., 1]]
-        c_full = patch_distance(out, self.rgb, SIZE)
-        c_half = patch_distance(half(out, None), self.half_rgb, SIZE // 2)
+        nb = self.rgb.shape[1] // SIZE
+        c_full = patch_distance(out, self.rgb, SIZE, pointer_init(S, SIZE, nb))
+        c_half = patch_distance(half(out, None), self.half_rgb, SIZE // 2, pointer_init(S, SIZE, nb, 2))
         dense, _ = dense_labels(self.atlas["label.id"][S[..., 0], S[..., 1]], self.table)
         win, counts = np.unique(window_masks(dense, 1, self.n).reshape(-1, self.n), axis=0, return_counts=True)
         lab = float((kh.nearest_chamfer(win, self.ex_windows) * counts).sum() / counts.sum())

@@ -166,6 +166,9 @@ def standardised(rgb: np.ndarray, bw: int) -> np.ndarray:
 
     f = srgb_features(rgb).astype(np.float64)
     out = np.empty(f.shape, np.float32)
+    import os
+    if os.environ.get("HYB_STD") == "joint":
+        bw = f.shape[1]
     for x0 in range(0, f.shape[1], bw):
         box = f[:, x0:x0 + bw].reshape(-1, 3)
         c = box - box.mean(0)
@@ -195,7 +198,7 @@ class Analysis:
 
 
 def analyse(rgb: np.ndarray, bw: int, *, levels: int, L: int, q: int, iterations: int, seed: int,
-            separation: float = 0.05) -> Analysis:
+            separation: float = 0.05, dims: int = 6) -> Analysis:
     """The analysis of an (H, nb bw, 3) linear atlas (``levels`` stack levels)."""
     import time
 
@@ -212,14 +215,23 @@ def analyse(rgb: np.ndarray, bw: int, *, levels: int, L: int, q: int, iterations
         h = 2 ** s
         st = kh.stack_level(base, bw, h)
         N = kh.gather(st, bw, h)
-        mean, basis = kh.pca_basis(N[::4, ::4].reshape(-1, N.shape[2]))
+        mean, basis = kh.pca_basis(N[::4, ::4].reshape(-1, N.shape[2]), dims)
         stacks.append(st)
         means.append(mean)
         bases.append(basis)
         P.append(kh.project(N, mean, basis))
     cands = []
     for s in range(levels):  # finest first; each level's search starts from the finer level's lists
-        D = kh.multiscale(P, s, L)
+        import os
+        mode = os.environ.get("HYB_MS", "")
+        if mode == "coarser":
+            D = np.ascontiguousarray(np.concatenate([P[t] for t in range(s, min(s + L, levels))], -1), np.float32)
+        elif mode == "norm":
+            D = np.ascontiguousarray(np.concatenate([P[t] / np.sqrt((P[t].astype(np.float64) ** 2).sum(-1).mean()) for t in range(s, max(s - L, -1), -1)], -1), np.float32)
+        elif mode == "normc":
+            D = np.ascontiguousarray(np.concatenate([P[t] / np.sqrt((P[t].astype(np.float64) ** 2).sum(-1).mean()) for t in range(s, min(s + L, levels))], -1), np.float32)
+        else:
+            D = kh.multiscale(P, s, L)
         c, _ = kh.candidates(D, D, bw, q, sep, own_box=True, iterations=iterations if s == 0 else 1,
                              seed=mix_seed(seed, s), init=cands[-1] if cands else None)
         cands.append(np.ascontiguousarray(c))
