@@ -12,15 +12,17 @@ Measures (over seeds 1..8 of one configuration):
   seeds, averaged over the 28 pairs;
 * C: mean distance from each output 5×5 sRGB patch to its nearest exemplar patch (RMS
   per value, 8-bit units; PatchMatch ``kernels.hybrid.candidates``, tested against
-  exhaustive search), at full and ½ size; on seeds 1..4;
+  exhaustive search, started at each output pixel's own pointer, 8 iterations; the bench
+  prints it against exhaustive search on 200 pixels), at full and ½ size; on seeds 1..4;
 * label error: mean symmetric Chamfer (``kernels.chamfer``) of each output 5×5 label
   window to its nearest exemplar window (exhaustive over the distinct windows); seeds 1..4.
 
 A baseline point is matched to a structure-preserving one by D: for the same number of
 jittered levels, the baseline radius r (of a grid) whose D is nearest.
 
-Run: .venv/bin/python bench/run.py hybrids, or .venv/bin/python bench/bench_hybrids.py [--quick | --sheet]
-(``--quick``: seeds 1-4; ``--sheet`` writes docs/img/hybrids_sheet.jpg instead)
+Run: .venv/bin/python bench/run.py hybrids, or .venv/bin/python bench/bench_hybrids.py [--quick | --sheet |
+--before-after] (``--quick``: seeds 1-4; ``--sheet`` writes docs/img/hybrids_sheet.jpg instead,
+``--before-after`` docs/img/hybrids_before_after.jpg)
 """
 from __future__ import annotations
 
@@ -36,8 +38,8 @@ from harness import measure, table
 ROOT = Path(__file__).resolve().parents[1]
 SIZE = 256
 LEVELS, L, Q, ITERATIONS, PASSES = 6, 8, 2, 4, 2  # HybridSynth's defaults
-SP_POINTS = [(1, 0.05), (2, 0.05), (3, 0.05)]  # (jitter levels, J)
-BASE_R = (0.5, 0.75, 1.0, 2.0)  # baseline radii per jitter-levels value
+SP_POINTS = [(2, 0.05), (3, 0.05), (4, 0.05)]  # (jitter levels, J)
+BASE_R = (0.55, 0.6, 0.65, 0.75, 1.0, 2.0)  # baseline radii per jitter-levels value (0.5 and below: no jitter at h = 1)
 
 
 def renoir_creek():
@@ -108,6 +110,25 @@ def patch_distance(out_rgb, ex_rgb, bw, init=None, iterations=C_ITERATIONS) -> f
     return float(np.sqrt(d[..., 0].min(-1) / Qd.shape[2]).mean())
 
 
+def check_c_search(meas, S, n=200):
+    """The C search against exhaustive search on n random output pixels of one hybrid
+    (printed: the search's mean over the exhaustive mean; 1 is exact)."""
+    from proxyshade.kernels import hybrid as kh
+    from proxyshade.kernels.features import srgb_features
+
+    out = meas.rgb[S[..., 0], S[..., 1]]
+    Qd = kh.gather(srgb_features(out), out.shape[1], 1)
+    Ad = kh.gather(srgb_features(meas.rgb), SIZE, 1)
+    _, d = kh.candidates(Qd, Ad, SIZE, 1, 1, own_box=False, iterations=C_ITERATIONS, seed=0,
+                         init=pointer_init(S, SIZE, meas.rgb.shape[1] // SIZE))
+    got = np.sqrt(d[..., 0].min(-1) / Qd.shape[2])
+    flat = Ad.reshape(-1, Ad.shape[2]).astype(np.float64)
+    idx = np.random.default_rng(0).integers(0, SIZE, (n, 2))
+    ex = np.array([np.sqrt(((flat - Qd[i, j]) ** 2).sum(1).min() / Qd.shape[2]) for i, j in idx])
+    print(f"C search vs exhaustive on {n} pixels of one hybrid: {got[idx[:, 0], idx[:, 1]].mean():.3f} / "
+          f"{ex.mean():.3f} = {got[idx[:, 0], idx[:, 1]].mean() / max(ex.mean(), 1e-9):.3f}")
+
+
 class Measures:
     def __init__(self, atlas):
         from proxyshade.kernels.features import dense_labels, window_masks
@@ -136,12 +157,19 @@ class Measures:
         return c_full, c_half, lab
 
 
-def run_config(an, meas, seeds, **kw):
+def states_of(an, seeds, **kw):
     from proxyshade.synthesis.hybrid import synthesize
 
-    states = [synthesize(an, (SIZE, SIZE), seed=s, weights=np.ones(an.nb), passes=PASSES, **kw) for s in seeds]
-    q = np.array([meas.quality(S) for S in states[:len(seeds) // 2]])
+    return [synthesize(an, (SIZE, SIZE), seed=s, weights=np.ones(an.nb), passes=PASSES, **kw) for s in seeds]
+
+
+def quality_of(meas, states):
+    q = np.array([meas.quality(S) for S in states[:len(states) // 2]])
     return variation(states), *q.mean(0)
+
+
+def run_config(an, meas, seeds, **kw):
+    return quality_of(meas, states_of(an, seeds, **kw))
 
 
 def compare(name, atlas, seeds, out):
@@ -156,12 +184,14 @@ def compare(name, atlas, seeds, out):
     wins = []
     for jl, J in SP_POINTS:
         sp = run_config(an8, meas, seeds, J=J, jitter_levels=jl)
-        base = [(r, run_config(an1, meas, seeds, J=0.0, jitter="spatial", r=r, jitter_levels=jl)) for r in BASE_R]
-        r, b = min(base, key=lambda rb: abs(rb[1][0] - sp[0]))
+        base = [(r, states_of(an1, seeds, J=0.0, jitter="spatial", r=r, jitter_levels=jl)) for r in BASE_R]
+        r, states = min(base, key=lambda rs: abs(variation(rs[1]) - sp[0]))  # D first, quality of the match only
+        b = quality_of(meas, states)
         print(f"{f'SP  J={J} levels<{jl}':<34} {sp[0]:6.3f} {sp[1]:8.2f} {sp[2]:8.2f} {sp[3]:10.3f}")
         print(f"{f'base r={r} levels<{jl} (matched D)':<34} {b[0]:6.3f} {b[1]:8.2f} {b[2]:8.2f} {b[3]:10.3f}")
         wins.append((sp, b))
         out.append((name, jl, J, r, sp, b))
+    check_c_search(meas, states_of(an8, seeds[:1], J=SP_POINTS[-1][1], jitter_levels=SP_POINTS[-1][0])[0])
     lower_c = sum(sp[1] < b[1] for sp, b in wins)
     lower_l = sum(sp[3] < b[3] for sp, b in wins)
     print(f"SP lower C at {lower_c}/3 matched D, lower label error at {lower_l}/3 "
@@ -207,6 +237,39 @@ def speed(atlas):
     print(f"load: {os.getloadavg()[0]:.2f} (1-min average, 2 cores shared)")
 
 
+def write_jpeg(tiles, per_row, path: Path):
+    from proxyshade.kernels.features import srgb_features
+
+    rows = [np.concatenate([np.pad(t, ((2, 2), (2, 2), (0, 0)), constant_values=1.0) for t in tiles[k:k + per_row]], 1)
+            for k in range(0, len(tiles), per_row)]
+    img = np.ascontiguousarray(np.clip(srgb_features(np.concatenate(rows, 0)) + 0.5, 0, 255).astype(np.uint8))
+    import OpenImageIO as oiio
+
+    buf = oiio.ImageBuf(oiio.ImageSpec(img.shape[1], img.shape[0], 3, oiio.UINT8))
+    buf.set_pixels(oiio.ROI(), img)
+    buf.specmod().attribute("Compression", "jpeg:88")  # a docs image: JPEG keeps it small
+    if not buf.write(str(path)):
+        raise SystemExit(f"{path}: {buf.geterror()}")
+    print(f"wrote {path}")
+
+
+def before_after(path: Path):
+    """Before (the candidates' descriptor of the finer levels, unscaled) and after (the
+    coarser levels, each scaled): renoir + creek hybrids of seeds 1 and 2 and brick's of
+    seed 1, HybridSynth's defaults (J = 0.3), 256² at 100 %."""
+    from proxyshade.synthesis.hybrid import analyse, synthesize
+
+    rows = {False: [], True: []}
+    for atlas, seeds in ((renoir_creek(), (1, 2)), (brick(), (1,))):
+        rgb = atlas_rgb(atlas)
+        for coarser in (False, True):
+            an = analyse(rgb, SIZE, levels=LEVELS, L=L, q=Q, iterations=ITERATIONS, seed=0, coarser=coarser)
+            for s in seeds:
+                S = synthesize(an, (SIZE, SIZE), J=0.3, seed=s, weights=np.ones(2), passes=PASSES)
+                rows[coarser].append(rgb[S[..., 0], S[..., 1]])
+    write_jpeg(rows[False] + rows[True], 3, path)
+
+
 def sheet(path: Path):
     """The docs' contact sheet, all at 100%: renoir and creek, then hybrids of seeds 1-8
     (J = 0.3, every level jittered: HybridSynth's defaults); brick's two crops, 2 hybrids
@@ -242,6 +305,9 @@ def sheet(path: Path):
 def main():
     if "--sheet" in sys.argv:
         sheet(ROOT / "docs/img/hybrids_sheet.jpg")
+        return
+    if "--before-after" in sys.argv:
+        before_after(ROOT / "docs/img/hybrids_before_after.jpg")
         return
     quick = "--quick" in sys.argv
     seeds = list(range(1, 5 if quick else 9))
