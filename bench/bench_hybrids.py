@@ -224,6 +224,8 @@ def speed(atlas):
     w = np.ones(2)
     a8 = measure(lambda: analyse(rgb, SIZE, levels=LEVELS, L=L, q=Q, iterations=ITERATIONS, seed=0), repeat=3, warmup=0)
     a1 = measure(lambda: analyse(rgb, SIZE, levels=LEVELS, L=1, q=Q, iterations=ITERATIONS, seed=0), repeat=3, warmup=0)
+    af = measure(lambda: analyse(rgb, SIZE, levels=LEVELS, L=L, q=Q, iterations=ITERATIONS, seed=0, coarser=False),
+                 repeat=3, warmup=0)
     seeds = iter(range(1000))
     h_sp = measure(lambda: synthesize(an8, (SIZE, SIZE), J=0.3, seed=next(seeds), weights=w, passes=PASSES), repeat=7)
     h_base = measure(lambda: synthesize(an1, (SIZE, SIZE), J=0.0, seed=next(seeds), weights=w, passes=PASSES,
@@ -231,6 +233,7 @@ def speed(atlas):
     table("hybrids: speed (renoir + creek, 2 exemplars at 256²)", [
         ("analysis, 2 exemplars 256², L=8", a8, 10.0),
         ("analysis, baseline L=1", a1, None),
+        ("analysis, L=8 finer levels (before)", af, None),
         ("one 256² hybrid, SP jitter J=0.3", h_sp, 1.0),
         ("one 256² hybrid, baseline spatial r=1", h_base, None),
     ])
