@@ -12,15 +12,17 @@ Measures (over seeds 1..8 of one configuration):
   seeds, averaged over the 28 pairs;
 * C: mean distance from each output 5×5 sRGB patch to its nearest exemplar patch (RMS
   per value, 8-bit units; PatchMatch ``kernels.hybrid.candidates``, tested against
-  exhaustive search), at full and ½ size; on seeds 1..4;
+  exhaustive search, started at each output pixel's own pointer, 8 iterations; the bench
+  prints it against exhaustive search on 200 pixels), at full and ½ size; on seeds 1..4;
 * label error: mean symmetric Chamfer (``kernels.chamfer``) of each output 5×5 label
   window to its nearest exemplar window (exhaustive over the distinct windows); seeds 1..4.
 
-A baseline point is matched to a structure-preserving one by D: for the same number of
-jittered levels, the baseline radius r (of a grid) whose D is nearest.
+A baseline point is matched to a structure-preserving one by D: the (jittered levels,
+radius r) of a grid whose D is nearest.
 
-Run: .venv/bin/python bench/run.py hybrids, or .venv/bin/python bench/bench_hybrids.py [--quick | --sheet]
-(``--quick``: seeds 1-4; ``--sheet`` writes docs/img/hybrids_sheet.jpg instead)
+Run: .venv/bin/python bench/run.py hybrids, or .venv/bin/python bench/bench_hybrids.py [--quick | --sheet |
+--before-after] (``--quick``: seeds 1-4; ``--sheet`` writes docs/img/hybrids_sheet.jpg instead,
+``--before-after`` docs/img/hybrids_before_after.jpg)
 """
 from __future__ import annotations
 
@@ -36,8 +38,9 @@ from harness import measure, table
 ROOT = Path(__file__).resolve().parents[1]
 SIZE = 256
 LEVELS, L, Q, ITERATIONS, PASSES = 6, 8, 2, 4, 2  # HybridSynth's defaults
-SP_POINTS = [(1, 0.05), (2, 0.05), (3, 0.05)]  # (jitter levels, J)
-BASE_R = (0.5, 0.75, 1.0, 2.0)  # baseline radii per jitter-levels value
+SP_POINTS = [(2, 0.05), (3, 0.05), (4, 0.05)]  # (jitter levels, J)
+BASE_LEVELS = (1, 2, 3, 4, 5)  # baseline grid: jittered levels x radius (r <= 0.5: no jitter at h = 1)
+BASE_R = (0.55, 0.6, 0.75, 1.0)
 
 
 def renoir_creek():
@@ -83,14 +86,48 @@ def half(rgb, bw):
     return rgb.reshape(H // 2, 2, W // 2, 2, 3).mean((1, 3)).astype(np.float32)
 
 
-def patch_distance(out_rgb, ex_rgb, bw) -> float:
+C_ITERATIONS = 8  # PatchMatch iterations of the C search (started at the output's own pointers)
+
+
+def pointer_init(S, bw, nb, f=1):
+    """The C search's start: each output pixel's own pointer (scaled by 1/f for the ½-size
+    measure), and the same box position in every other exemplar. A copied region is then
+    found at once (distance 0); the parallel PatchMatch, whose propagation moves only a few
+    pixels per iteration, missed 72 % of an exact copy's patches from random starts at 4
+    iterations (C 7.47 instead of 0 for creek itself)."""
+    S = S[::f, ::f]
+    loc = np.stack([S[..., 0] // f, (S[..., 1] % bw) // f], -1)
+    return np.ascontiguousarray(np.stack([loc + np.array([0, b * (bw // f)]) for b in range(nb)], 2)[:, :, :, None, :],
+                                np.int32)
+
+
+def patch_distance(out_rgb, ex_rgb, bw, init=None, iterations=C_ITERATIONS) -> float:
     from proxyshade.kernels import hybrid as kh
     from proxyshade.kernels.features import srgb_features
 
     Qd = kh.gather(srgb_features(out_rgb), out_rgb.shape[1], 1)
     Ad = kh.gather(srgb_features(ex_rgb), bw, 1)
-    _, d = kh.candidates(Qd, Ad, bw, 1, 1, own_box=False, iterations=4, seed=0)
+    _, d = kh.candidates(Qd, Ad, bw, 1, 1, own_box=False, iterations=iterations, seed=0, init=init)
     return float(np.sqrt(d[..., 0].min(-1) / Qd.shape[2]).mean())
+
+
+def check_c_search(meas, S, n=200):
+    """The C search against exhaustive search on n random output pixels of one hybrid
+    (printed: the search's mean over the exhaustive mean; 1 is exact)."""
+    from proxyshade.kernels import hybrid as kh
+    from proxyshade.kernels.features import srgb_features
+
+    out = meas.rgb[S[..., 0], S[..., 1]]
+    Qd = kh.gather(srgb_features(out), out.shape[1], 1)
+    Ad = kh.gather(srgb_features(meas.rgb), SIZE, 1)
+    _, d = kh.candidates(Qd, Ad, SIZE, 1, 1, own_box=False, iterations=C_ITERATIONS, seed=0,
+                         init=pointer_init(S, SIZE, meas.rgb.shape[1] // SIZE))
+    got = np.sqrt(d[..., 0].min(-1) / Qd.shape[2])
+    flat = Ad.reshape(-1, Ad.shape[2]).astype(np.float64)
+    idx = np.random.default_rng(0).integers(0, SIZE, (n, 2))
+    ex = np.array([np.sqrt(((flat - Qd[i, j]) ** 2).sum(1).min() / Qd.shape[2]) for i, j in idx])
+    print(f"C search vs exhaustive on {n} pixels of one hybrid: {got[idx[:, 0], idx[:, 1]].mean():.3f} / "
+          f"{ex.mean():.3f} = {got[idx[:, 0], idx[:, 1]].mean() / max(ex.mean(), 1e-9):.3f}")
 
 
 class Measures:
@@ -112,20 +149,28 @@ class Measures:
         from proxyshade.kernels.features import dense_labels, window_masks
 
         out = self.rgb[S[..., 0], S[..., 1]]
-        c_full = patch_distance(out, self.rgb, SIZE)
-        c_half = patch_distance(half(out, None), self.half_rgb, SIZE // 2)
+        nb = self.rgb.shape[1] // SIZE
+        c_full = patch_distance(out, self.rgb, SIZE, pointer_init(S, SIZE, nb))
+        c_half = patch_distance(half(out, None), self.half_rgb, SIZE // 2, pointer_init(S, SIZE, nb, 2))
         dense, _ = dense_labels(self.atlas["label.id"][S[..., 0], S[..., 1]], self.table)
         win, counts = np.unique(window_masks(dense, 1, self.n).reshape(-1, self.n), axis=0, return_counts=True)
         lab = float((kh.nearest_chamfer(win, self.ex_windows) * counts).sum() / counts.sum())
         return c_full, c_half, lab
 
 
-def run_config(an, meas, seeds, **kw):
+def states_of(an, seeds, **kw):
     from proxyshade.synthesis.hybrid import synthesize
 
-    states = [synthesize(an, (SIZE, SIZE), seed=s, weights=np.ones(an.nb), passes=PASSES, **kw) for s in seeds]
-    q = np.array([meas.quality(S) for S in states[:len(seeds) // 2]])
+    return [synthesize(an, (SIZE, SIZE), seed=s, weights=np.ones(an.nb), passes=PASSES, **kw) for s in seeds]
+
+
+def quality_of(meas, states):
+    q = np.array([meas.quality(S) for S in states[:len(states) // 2]])
     return variation(states), *q.mean(0)
+
+
+def run_config(an, meas, seeds, **kw):
+    return quality_of(meas, states_of(an, seeds, **kw))
 
 
 def compare(name, atlas, seeds, out):
@@ -138,14 +183,18 @@ def compare(name, atlas, seeds, out):
     print(f"\n## {name}: structure-preserving jitter (L = {L}) vs baseline (spatial jitter, L = 1), seeds {seeds[0]}-{seeds[-1]}")
     print(f"{'config':<34} {'D':>6} {'C full':>8} {'C half':>8} {'label err':>10}")
     wins = []
+    # the baseline's D over its grid (synthesis only); each SP point takes the nearest, any jittered levels
+    grid = [(bl, r, variation(states_of(an1, seeds, J=0.0, jitter="spatial", r=r, jitter_levels=bl)))
+            for bl in BASE_LEVELS for r in BASE_R]
     for jl, J in SP_POINTS:
         sp = run_config(an8, meas, seeds, J=J, jitter_levels=jl)
-        base = [(r, run_config(an1, meas, seeds, J=0.0, jitter="spatial", r=r, jitter_levels=jl)) for r in BASE_R]
-        r, b = min(base, key=lambda rb: abs(rb[1][0] - sp[0]))
+        bl, r, _ = min(grid, key=lambda g: abs(g[2] - sp[0]))
+        b = quality_of(meas, states_of(an1, seeds, J=0.0, jitter="spatial", r=r, jitter_levels=bl))
         print(f"{f'SP  J={J} levels<{jl}':<34} {sp[0]:6.3f} {sp[1]:8.2f} {sp[2]:8.2f} {sp[3]:10.3f}")
-        print(f"{f'base r={r} levels<{jl} (matched D)':<34} {b[0]:6.3f} {b[1]:8.2f} {b[2]:8.2f} {b[3]:10.3f}")
+        print(f"{f'base r={r} levels<{bl} (matched D)':<34} {b[0]:6.3f} {b[1]:8.2f} {b[2]:8.2f} {b[3]:10.3f}")
         wins.append((sp, b))
-        out.append((name, jl, J, r, sp, b))
+        out.append((name, jl, J, (bl, r), sp, b))
+    check_c_search(meas, states_of(an8, seeds[:1], J=SP_POINTS[-1][1], jitter_levels=SP_POINTS[-1][0])[0])
     lower_c = sum(sp[1] < b[1] for sp, b in wins)
     lower_l = sum(sp[3] < b[3] for sp, b in wins)
     print(f"SP lower C at {lower_c}/3 matched D, lower label error at {lower_l}/3 "
@@ -175,6 +224,8 @@ def speed(atlas):
     w = np.ones(2)
     a8 = measure(lambda: analyse(rgb, SIZE, levels=LEVELS, L=L, q=Q, iterations=ITERATIONS, seed=0), repeat=3, warmup=0)
     a1 = measure(lambda: analyse(rgb, SIZE, levels=LEVELS, L=1, q=Q, iterations=ITERATIONS, seed=0), repeat=3, warmup=0)
+    af = measure(lambda: analyse(rgb, SIZE, levels=LEVELS, L=L, q=Q, iterations=ITERATIONS, seed=0, coarser=False),
+                 repeat=3, warmup=0)
     seeds = iter(range(1000))
     h_sp = measure(lambda: synthesize(an8, (SIZE, SIZE), J=0.3, seed=next(seeds), weights=w, passes=PASSES), repeat=7)
     h_base = measure(lambda: synthesize(an1, (SIZE, SIZE), J=0.0, seed=next(seeds), weights=w, passes=PASSES,
@@ -182,6 +233,7 @@ def speed(atlas):
     table("hybrids: speed (renoir + creek, 2 exemplars at 256²)", [
         ("analysis, 2 exemplars 256², L=8", a8, 10.0),
         ("analysis, baseline L=1", a1, None),
+        ("analysis, L=8 finer levels (before)", af, None),
         ("one 256² hybrid, SP jitter J=0.3", h_sp, 1.0),
         ("one 256² hybrid, baseline spatial r=1", h_base, None),
     ])
@@ -189,6 +241,39 @@ def speed(atlas):
           f"{a8['median'] / a1['median']:.2f}x, analysis + 8 hybrids "
           f"{(a8['median'] + 8 * h_sp['median']) / (a1['median'] + 8 * h_base['median']):.2f}x (target <= 1.5x)")
     print(f"load: {os.getloadavg()[0]:.2f} (1-min average, 2 cores shared)")
+
+
+def write_jpeg(tiles, per_row, path: Path):
+    from proxyshade.kernels.features import srgb_features
+
+    rows = [np.concatenate([np.pad(t, ((2, 2), (2, 2), (0, 0)), constant_values=1.0) for t in tiles[k:k + per_row]], 1)
+            for k in range(0, len(tiles), per_row)]
+    img = np.ascontiguousarray(np.clip(srgb_features(np.concatenate(rows, 0)) + 0.5, 0, 255).astype(np.uint8))
+    import OpenImageIO as oiio
+
+    buf = oiio.ImageBuf(oiio.ImageSpec(img.shape[1], img.shape[0], 3, oiio.UINT8))
+    buf.set_pixels(oiio.ROI(), img)
+    buf.specmod().attribute("Compression", "jpeg:88")  # a docs image: JPEG keeps it small
+    if not buf.write(str(path)):
+        raise SystemExit(f"{path}: {buf.geterror()}")
+    print(f"wrote {path}")
+
+
+def before_after(path: Path):
+    """Before (the candidates' descriptor of the finer levels, unscaled) and after (the
+    coarser levels, each scaled): renoir + creek hybrids of seeds 1 and 2 and brick's of
+    seed 1, HybridSynth's defaults (J = 0.3), 256² at 100 %."""
+    from proxyshade.synthesis.hybrid import analyse, synthesize
+
+    rows = {False: [], True: []}
+    for atlas, seeds in ((renoir_creek(), (1, 2)), (brick(), (1,))):
+        rgb = atlas_rgb(atlas)
+        for coarser in (False, True):
+            an = analyse(rgb, SIZE, levels=LEVELS, L=L, q=Q, iterations=ITERATIONS, seed=0, coarser=coarser)
+            for s in seeds:
+                S = synthesize(an, (SIZE, SIZE), J=0.3, seed=s, weights=np.ones(2), passes=PASSES)
+                rows[coarser].append(rgb[S[..., 0], S[..., 1]])
+    write_jpeg(rows[False] + rows[True], 3, path)
 
 
 def sheet(path: Path):
@@ -226,6 +311,9 @@ def sheet(path: Path):
 def main():
     if "--sheet" in sys.argv:
         sheet(ROOT / "docs/img/hybrids_sheet.jpg")
+        return
+    if "--before-after" in sys.argv:
+        before_after(ROOT / "docs/img/hybrids_before_after.jpg")
         return
     quick = "--quick" in sys.argv
     seeds = list(range(1, 5 if quick else 9))

@@ -11,7 +11,8 @@ The exemplars sit side by side in an *atlas*: equal boxes of ``bw`` columns in a
 * ``pca_basis`` / ``project``: the 6-D PCA subspace of those neighbourhoods (covariance in
   fixed pixel chunks, so the sums do not depend on the thread count) and the projection;
 * ``multiscale``: the descriptor of the candidate analysis, the projections of ``L``
-  successive finer levels concatenated (the paper: L = 8);
+  successive levels concatenated (the paper: L = 8), finer or coarser, optionally each
+  scaled (``level_scales``: each level weighs alike);
 * ``candidates``: per atlas pixel and per exemplar, the ``q`` most similar pixels under the
   multiscale descriptor, pairwise at least ``sep`` apart (L∞) and ``sep`` from the pixel
   itself, by PatchMatch (Barnes et al. 2009): random init, propagation, random search;
@@ -157,11 +158,20 @@ def project(X: np.ndarray, mean: np.ndarray, basis: np.ndarray) -> np.ndarray:
     return out
 
 
-def multiscale(projections: list, s: int, L: int) -> np.ndarray:
+def multiscale(projections: list, s: int, L: int, *, coarser: bool = False, scales=None) -> np.ndarray:
     """The candidate-analysis descriptor of level ``s``: the projections of levels s,
-    s − 1, ..., s − L + 1 (those that exist) concatenated (float32, contiguous)."""
-    parts = [projections[t] for t in range(s, max(s - L, -1), -1)]
+    s − 1, ..., s − L + 1 (finer; ``coarser``: s, s + 1, ..., s + L − 1), those that exist,
+    each times ``scales[t]`` when given, concatenated (float32, contiguous)."""
+    order = range(s, min(s + L, len(projections))) if coarser else range(s, max(s - L, -1), -1)
+    parts = [projections[t] if scales is None else projections[t] * np.float32(scales[t]) for t in order]
     return np.ascontiguousarray(np.concatenate(parts, axis=-1), np.float32)
+
+
+def level_scales(projections: list) -> list:
+    """1 / RMS norm of each level's projections (float64 sums, so thread-count
+    independent): scaled by these, every level weighs alike in a multiscale descriptor
+    (unscaled, the finest level's larger variance drowns the coarser ones)."""
+    return [1.0 / np.sqrt(max(float(np.mean(np.square(P.astype(np.float64)).sum(-1))), 1e-24)) for P in projections]
 
 
 # ---------------------------------------------------------------------------

@@ -178,7 +178,8 @@ def standardised(rgb: np.ndarray, bw: int) -> np.ndarray:
 class Analysis:
     """What the synthesis needs of an atlas, per level s (h = 2^s, s = 0 finest): the
     standardised stack level, its PCA (mean, basis), the projected 6-D descriptors and the
-    candidate sets (from the descriptor of ``L`` successive finer levels)."""
+    candidate sets (from the descriptor of ``L`` successive levels: coarser, each scaled to
+    unit RMS, by default; the finer levels unscaled with ``coarser=False``)."""
 
     bw: int
     bh: int
@@ -195,8 +196,15 @@ class Analysis:
 
 
 def analyse(rgb: np.ndarray, bw: int, *, levels: int, L: int, q: int, iterations: int, seed: int,
-            separation: float = 0.05) -> Analysis:
-    """The analysis of an (H, nb bw, 3) linear atlas (``levels`` stack levels)."""
+            separation: float = 0.05, coarser: bool = True) -> Analysis:
+    """The analysis of an (H, nb bw, 3) linear atlas (``levels`` stack levels).
+
+    ``coarser``: the candidates' multiscale descriptor of level s concatenates levels s ..
+    s + L − 1, each scaled to unit RMS (``kernels.hybrid.level_scales``), so a candidate
+    shares its pixel's coarse context (the structure) as well as its own level; False: the
+    levels s .. s − L + 1 unscaled (the issue's reading of the paper, "L successive finer
+    levels"), whose candidates at the finest levels, where the bench jitters, are
+    single-scale, and whose unscaled sum is dominated by the finest level."""
     import time
 
     from proxyshade.kernels import hybrid as kh
@@ -217,9 +225,10 @@ def analyse(rgb: np.ndarray, bw: int, *, levels: int, L: int, q: int, iterations
         means.append(mean)
         bases.append(basis)
         P.append(kh.project(N, mean, basis))
+    scales = kh.level_scales(P)
     cands = []
     for s in range(levels):  # finest first; each level's search starts from the finer level's lists
-        D = kh.multiscale(P, s, L)
+        D = kh.multiscale(P, s, L, coarser=coarser, scales=scales if coarser and L > 1 else None)
         c, _ = kh.candidates(D, D, bw, q, sep, own_box=True, iterations=iterations if s == 0 else 1,
                              seed=mix_seed(seed, s), init=cands[-1] if cands else None)
         cands.append(np.ascontiguousarray(c))

@@ -63,6 +63,19 @@ def test_multiscale_concatenates_L_successive_finer_levels():
     assert kh.multiscale(P, 2, 1).shape == (2, 3, 6)
 
 
+def test_multiscale_coarser_concatenates_L_successive_coarser_levels_each_scaled():
+    rng = np.random.default_rng(11)
+    P = [(rng.normal(size=(4, 5, 6)) * (5 - s)).astype(np.float32) for s in range(5)]
+    sc = kh.level_scales(P)
+    for s, t in zip(sc, P):  # 1 / RMS norm: every scaled level has unit mean squared norm
+        np.testing.assert_allclose(np.mean(((t.astype(np.float64) * s) ** 2).sum(-1)), 1.0, rtol=1e-9)
+    got = kh.multiscale(P, 1, 3, coarser=True, scales=sc)
+    want = np.concatenate([P[1] * np.float32(sc[1]), P[2] * np.float32(sc[2]), P[3] * np.float32(sc[3])], -1)
+    np.testing.assert_array_equal(got, want)
+    assert kh.multiscale(P, 3, 8, coarser=True).shape == (4, 5, 12)  # only levels 3 and 4 exist
+    np.testing.assert_array_equal(kh.multiscale(P, 4, 8, coarser=True), P[4])
+
+
 def exhaustive(D, bw, q, sep, own):
     """Greedy over the sorted distances: the q nearest of each box, skipping any within sep
     of one taken (and of the query pixel in its own box)."""
