@@ -2,7 +2,8 @@
 growing sizes, each in its own process (so peak RSS is that size's): wall time of a
 forced run after a warm-up, peak RSS, and the repetition measure of the result (share of
 the output drawn from the most-used 1% of source pixels, ``kernels.quality.repetition``),
-relative to 1024². Bars (issue: production formats): HD <= 6 s, 4K <= 20 s, RSS at 4K
+relative to 1024². ``CPU s``: the run's CPU time (user + system, every thread of the
+process), steadier than the wall time on a shared machine; ``--nodes``: each node's wall. Bars (issue: production formats): HD <= 6 s, 4K <= 20 s, RSS at 4K
 <= 6 GB, repetition at HD and 4K within 1.5x of 1024²'s.
 
 Run: ``python bench/run.py formats`` (``--sizes 512x512 1024x1024 hd uhd 4k``).
@@ -35,16 +36,26 @@ else:
 with tempfile.TemporaryDirectory() as cache:
     g = Graph.load({graph!r}, cache=cache, overrides=over, variables=var)
     g.run([1])  # warm-up: JIT and cache
-    walls = []
+    walls, cpus = [], []
+    nodes = {{}}
     for _ in range({repeat}):
-        t = time.perf_counter()
-        g.run([1], force=tuple(g.nodes))
+        t, c = time.perf_counter(), resource.getrusage(resource.RUSAGE_SELF)
+        rep_ = g.run([1], force=tuple(g.nodes))
         walls.append(time.perf_counter() - t)
+        c2 = resource.getrusage(resource.RUSAGE_SELF)
+        cpus.append(c2.ru_utime + c2.ru_stime - c.ru_utime - c.ru_stime)
+        for r in rep_.runs:
+            if r.status == "computed":
+                nodes.setdefault(r.node, []).append(r.seconds)
+        # after the last node: the cache's background writes (flush) and the engine's own work
+        nodes.setdefault("(rest)", []).append(walls[-1] - sum(r.seconds for r in rep_.runs if r.status == "computed"))
     plate = g.value("final", 1)
     src = load_source({source!r})
     rep = repetition(plate["source.x"], plate["source.y"], src.shape)
 walls.sort()
-print(json.dumps({{"size": size, "shape": list(plate.shape), "wall": walls[len(walls) // 2],
+cpus.sort()
+nodes = {{k: sorted(v)[len(v) // 2] for k, v in nodes.items()}}
+print(json.dumps({{"size": size, "shape": list(plate.shape), "wall": walls[len(walls) // 2], "cpu": cpus[len(cpus) // 2], "nodes": nodes,
                   "rss_gb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2 ** 20, "repetition": rep}}))
 """
 
@@ -60,16 +71,24 @@ def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--sizes", nargs="*", default=["512x512", "1024x1024", "hd", "uhd", "4k"])
     ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--nodes", action="store_true",
+                    help="also print each node's median wall time (and '(rest)': the run's wall less its nodes', "
+                         "mostly waiting for the cache's background writes)")
     args = ap.parse_args(sys.argv[2:] if argv is None and len(sys.argv) > 1 and sys.argv[1] == "formats" else argv)
     rows = [measure(s, args.repeat) for s in args.sizes]
     ref = next((r for r in rows if r["size"] == "1024x1024"), rows[0])
-    print(f"{'size':>10} {'pixels':>10} {'first frame s':>14} {'s/Mpx':>7} {'peak RSS GB':>12} "
+    print(f"{'size':>10} {'pixels':>10} {'first frame s':>14} {'CPU s':>7} {'s/Mpx':>7} {'peak RSS GB':>12} "
           f"{'repetition':>11} {'vs 1024²':>9} {'bar s':>6}")
     for r in rows:
         h, w = r["shape"]
         mp = w * h / 1e6
-        print(f"{w}x{h:<5} {w * h:>10} {r['wall']:>14.2f} {r['wall'] / mp:>7.2f} {r['rss_gb']:>12.2f} "
+        print(f"{w}x{h:<5} {w * h:>10} {r['wall']:>14.2f} {r['cpu']:>7.2f} {r['wall'] / mp:>7.2f} {r['rss_gb']:>12.2f} "
               f"{r['repetition']:>11.4f} {r['repetition'] / ref['repetition']:>9.2f} {BARS.get(r['size'], float('nan')):>6.1f}")
+    if args.nodes:
+        names = list(dict.fromkeys(n for r in rows for n in r["nodes"]))
+        print(f"{'node s':>10} " + " ".join(f"{r['size']:>10}" for r in rows))
+        for n in names:
+            print(f"{n:>10} " + " ".join(f"{r['nodes'].get(n, float('nan')):>10.2f}" for r in rows))
 
 
 if __name__ == "__main__":

@@ -10,7 +10,8 @@ Metadata: ``proxyshade/meta`` holds the plate's metadata as JSON; string values 
 contains '/' (``proxyshade/node``, ``cryptomatte/<key>/name``, ...) are also written as
 header attributes of their own, so other tools see them. Plates with R,G,B carry their
 colour space: ``chromaticities`` (Rec.709, D65) and ``colorInteropID`` ``lin_rec709_scene``
-(OpenImageIO's ``oiio:ColorSpace``). Compression is ZIP by default.
+(OpenImageIO's ``oiio:ColorSpace``). Compression is ZIP by default; the plate cache uses
+ZSTD where the bindings have it (``CACHE_COMPRESSION``).
 Files are written to a temporary name beside the target and renamed into place
 (``proxyshade.io.files``): a symlink is written through, a device or folder refused, and a
 failed write (a full disk) leaves nothing at the name and raises ``WriteError``.
@@ -35,6 +36,11 @@ COMPRESSIONS = {
     "none": OpenEXR.NO_COMPRESSION,
     "dwaa": OpenEXR.DWAA_COMPRESSION,
 }
+if hasattr(OpenEXR, "ZSTD_COMPRESSION"):  # OpenEXR 3.4+: lossless, about 2x less CPU than ZIP and smaller
+    # files on plates (4K first frame: 120 vs 206 MiB); readers before OpenEXR 3.4 (most
+    # compositors today) cannot open it, so it is for the cache, not for delivery
+    COMPRESSIONS["zstd"] = OpenEXR.ZSTD_COMPRESSION
+CACHE_COMPRESSION = "zstd" if "zstd" in COMPRESSIONS else "zip"
 _META = "proxyshade/meta"
 if OpenEXR.global_thread_count() == 0:  # compress/decompress chunks on every core (files are byte-identical)
     OpenEXR.set_global_thread_count(os.cpu_count() or 1)

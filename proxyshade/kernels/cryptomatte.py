@@ -110,7 +110,8 @@ def manifest(names) -> dict[str, str]:
 
 @njit(**PJIT)
 def _rank(ids, factor, lut, levels, out_id, out_cov):  # pragma: no cover - compiled
-    h, w = out_id.shape[0], out_id.shape[1]
+    """Ranked ids and coverages into the zeroed (levels, h, w) ``out_id``, ``out_cov``."""
+    h, w = out_id.shape[1], out_id.shape[2]  # rank-major: (levels, h, w)
     nsamp = factor * factor
     inv = 1.0 / nsamp
     for y in prange(h):
@@ -140,13 +141,11 @@ def _rank(ids, factor, lut, levels, out_id, out_cov):  # pragma: no cover - comp
                     if count[u] > 0 and (best < 0 or count[u] > count[best]
                                          or (count[u] == count[best] and uniq[u] < uniq[best])):
                         best = u
-                if best < 0:
-                    out_id[y, x, r] = 0.0
-                    out_cov[y, x, r] = 0.0
-                else:
-                    out_id[y, x, r] = lut[uniq[best]]
-                    out_cov[y, x, r] = np.float32(count[best] * inv)
-                    count[best] = 0
+                if best < 0:  # the remaining ranks stay empty (the outputs come zeroed): with one
+                    break         # sample per pixel their pages are never touched
+                out_id[r, y, x] = lut[uniq[best]]
+                out_cov[r, y, x] = np.float32(count[best] * inv)
+                count[best] = 0
 
 
 def rank_coverage(ids: np.ndarray, lut: np.ndarray, *, levels: int = 6, factor: int = 1):
@@ -168,8 +167,8 @@ def rank_coverage(ids: np.ndarray, lut: np.ndarray, *, levels: int = 6, factor: 
     Returns
     -------
     ids, coverage : (M, N, levels) float32 ndarrays
-        Rank r holds the r-th most covering id of each pixel (ties: smaller integer id
-        first) and its coverage in [0, 1]; empty ranks are (0, 0).
+        (views of rank-major arrays: ``ids[..., r]`` is C-contiguous). Rank r holds the
+        r-th most covering id of each pixel (ties: smaller integer id first) and its coverage in [0, 1]; empty ranks are (0, 0).
     """
     ids = np.ascontiguousarray(ids, dtype=np.uint32)
     if factor < 1 or ids.shape[0] % factor or ids.shape[1] % factor:
@@ -178,7 +177,9 @@ def rank_coverage(ids: np.ndarray, lut: np.ndarray, *, levels: int = 6, factor: 
     if ids.size and int(ids.max()) >= lut.shape[0]:
         raise ValueError(f"id {int(ids.max())} has no entry in the lookup table of {lut.shape[0]}")
     h, w = ids.shape[0] // factor, ids.shape[1] // factor
-    out_id = np.zeros((h, w, levels), np.float32)
-    out_cov = np.zeros((h, w, levels), np.float32)
+    # computed rank-major, so that each rank (one EXR channel) is a contiguous slice (an
+    # (H, W, levels) copy per channel cost more than the ranking at 4K)
+    out_id = np.zeros((levels, h, w), np.float32)
+    out_cov = np.zeros((levels, h, w), np.float32)
     _rank(ids, factor, lut, levels, out_id, out_cov)
-    return out_id, out_cov
+    return np.moveaxis(out_id, 0, -1), np.moveaxis(out_cov, 0, -1)

@@ -742,9 +742,13 @@ def poisson_transfer(colors: np.ndarray, patch: np.ndarray, labels: np.ndarray |
         fx |= edge
         vfix[edge] = 0.0
     # components of free pixels with no fixed neighbour: pin their first pixel, recentre
-    comp = np.empty(h * w, np.int64)
-    firsts, anchored = _floating_components(fx, comp)
-    floating = ~anchored if screen <= 0 else np.zeros(len(firsts), bool)
+    # (screened: every component is determined, no labelling needed: a serial pass over the frame)
+    comp = np.empty(h * w, np.int64) if screen <= 0 else None
+    if screen <= 0:
+        firsts, anchored = _floating_components(fx, comp)
+        floating = ~anchored
+    else:
+        firsts, floating = np.zeros(0, np.int64), np.zeros(0, bool)
     if floating.any():
         pins = firsts[floating]
         fx = fx.copy()

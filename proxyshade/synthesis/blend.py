@@ -103,8 +103,8 @@ def blend_frame(rgb: np.ndarray, patch: np.ndarray, labels: np.ndarray | None, s
     if solve.layout:
         rgb = layout_move(rgb, labels, source_rgb, source_labels, keep=solve.layout_keep)
     gx = gy = None
-    if solve.seams == "source":
-        gx, gy = kpoisson.seam_gradients(source_rgb, sx, sy, scale)
+    if solve.seams == "source":  # only the edges across a seam: the only ones the solve reads
+        gx, gy = kpoisson.seam_gradients_at(source_rgb, sx, sy, patch, np.ones(patch.shape, np.bool_), scale)
     return kpoisson.poisson_transfer(rgb, patch, labels, fixed=fixed, values=values,
                                      label_dirichlet=solve.label_dirichlet, seam_gx=gx, seam_gy=gy,
                                      screen=solve.screen, tol=solve.tol, max_iter=solve.max_iter)

@@ -9,6 +9,7 @@ from proxyshade.errors import NodeInputError
 from proxyshade.graph.plate import Plate
 from proxyshade.io.usd import CameraInfo
 from proxyshade.kernels.jfa import jump_flood
+from proxyshade.kernels.reproject import intrinsics, unproject
 
 FOLLOW = ("N.X", "N.Y", "N.Z", "object.id")  # proxy channels taken from the pixel the depth came from
 
@@ -73,13 +74,15 @@ def depth_plate(proxy: Plate, guide: Plate, *, penalty: float, region: np.ndarra
     flat = np.maximum(src, 0)
     if cam:
         c = CameraInfo.from_meta(cam)
-        # the window's pixel centres (CameraInfo.pixel_grid's values, without the whole frame's grid)
-        cols = np.broadcast_to(np.arange(c0, c1, dtype=np.float64)[None] + 0.5, ext.shape)
-        rows = np.broadcast_to(np.arange(r0, r1, dtype=np.float64)[:, None] + 0.5, ext.shape)
-        finite = np.isfinite(ext)
-        P = c.unproject(cols, rows, np.where(finite, ext, 1.0))
+        # one parallel pass (numpy's took 1.5 s at 4K); a window is unprojected in place in the
+        # frame (the pixel centres are the frame's), so a progressive update gives the same bits
+        zf = np.ascontiguousarray(ext, np.float32)
+        if region is not None:
+            zf = np.full((H, W), np.inf, np.float32)
+            zf[win] = ext
+        P = unproject(zf, np.ascontiguousarray(c.camera_to_world, np.float64), intrinsics(c))[win]
         for k, a in enumerate("XYZ"):
-            ch[f"P.{a}"] = put(f"P.{a}", np.where(finite, P[..., k], 0.0).astype(np.float32))
+            ch[f"P.{a}"] = put(f"P.{a}", np.ascontiguousarray(P[..., k]))
     elif all(f"P.{a}" in proxy for a in "XYZ"):
         # no camera to unproject with: P of the pixel the depth came from
         for a in "XYZ":

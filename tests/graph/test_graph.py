@@ -84,6 +84,33 @@ def test_corrupted_cache_entry_is_recomputed(tmp_path, computes):
     assert r.rows("sum")[0].reason == "corrupt cache entry (content hash)"
 
 
+def test_cache_entries_in_either_codec_are_read(tmp_path, computes):
+    """Entries are written with the cache's codec (ZSTD where OpenEXR has it); an entry
+    of an older cache written with ZIP is still a hit and loads the same plate."""
+    from proxyshade.io.exr import CACHE_COMPRESSION, read_header, write_plate
+
+    g = chain(tmp_path)
+    g.run()
+    key = g.plan().keys[("sum", 1)]
+    exr = tmp_path / "cache" / key[:2] / f"{key}.exr"
+    assert read_header(exr)["attributes"]["compression"] == CACHE_COMPRESSION
+    plate = read_plate(exr)
+    # the same entry as an older cache wrote it: ZIP, record updated to match
+    write_plate(exr, plate, compression="zip", extra={"proxyshade/key": key})
+    import hashlib
+    import json
+    js = exr.with_suffix(".json")
+    rec = json.loads(js.read_text())
+    rec.update(size=exr.stat().st_size, sha256=hashlib.sha256(exr.read_bytes()).hexdigest())
+    js.write_text(json.dumps(rec))
+    computes.clear()
+    g2 = chain(tmp_path)
+    g2.set("out.gain", 3.0)  # out reads sum from disk
+    r = g2.run()
+    assert r.computed == {"out"} and computes["sum"] == 0
+    np.testing.assert_array_equal(g2.value("out")["R"], np.full((8, 8), 9.0, np.float32))
+
+
 def test_truncated_cache_entry_is_recomputed(tmp_path, computes):
     g = chain(tmp_path)
     g.run()

@@ -128,6 +128,29 @@ def test_seam_gradients_from_source():
     assert np.allclose(np.diff(u[..., 0], axis=1), step, atol=1e-5)
 
 
+@pytest.mark.parametrize("step", [1.0, 0.375])
+def test_seam_gradients_at_seams_equal_the_full_map(step):
+    """The whole-frame solve reads the seam gradients only where they cross a seam, so it
+    computes them there only (``seam_gradients_at``): bit for bit the full map's values on
+    every seam edge, zero elsewhere."""
+    rng = np.random.default_rng(13)
+    src = rng.random((40, 50, 3), dtype=np.float32)
+    h, w = 23, 31
+    patch = (np.arange(h)[:, None] // 5 * 7 + np.arange(w)[None, :] // 6).astype(np.uint32)
+    off = rng.uniform(0, 30, (int(patch.max()) + 1, 2)).astype(np.float32)
+    sx = (np.arange(w, dtype=np.float32)[None, :] * step + off[patch, 0]).astype(np.float32)
+    sy = (np.arange(h, dtype=np.float32)[:, None] * step + off[patch, 1]).astype(np.float32)
+    gx, gy = poisson.seam_gradients(src, sx, sy, step)
+    ax, ay = poisson.seam_gradients_at(src, sx, sy, patch, np.ones((h, w), bool), step)
+    ex = np.zeros((h, w), bool)
+    ex[:, :-1] = patch[:, :-1] != patch[:, 1:]
+    ey = np.zeros((h, w), bool)
+    ey[:-1] = patch[:-1] != patch[1:]
+    assert ex.any() and ey.any()
+    assert np.array_equal(ax[ex], gx[ex]) and np.array_equal(ay[ey], gy[ey])
+    assert not ax[~ex].any() and not ay[~ey].any()
+
+
 @pytest.mark.parametrize("screen", [0.01, 0.5])
 def test_screened_matches_direct_solve(screen):
     rng = np.random.default_rng(12)
