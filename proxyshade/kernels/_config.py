@@ -38,30 +38,37 @@ def _cache_dirs(src):
 
 def kernels_cached(modules=()) -> bool:
     """Whether numba's on-disk cache holds compiled kernels of each of ``modules``
-    (``proxyshade.kernels.X`` names): an index file of the module newer than its source.
-    False on the first run after an install, when they compile, and after an upgrade that
-    changed a kernel module (numba then ignores its cache). Reads folders only: no numba."""
+    (``proxyshade.kernels.X`` names): an index file of the module written after its source
+    changed, or one that holds the source's SHA-256 (numba's freshness stamp, so a file
+    rewritten with the same content, as a git checkout does, still counts). False on the
+    first run after an install, when they compile, and after an upgrade that changed a
+    kernel module (numba then ignores its cache). Reads files only: no numba."""
+    import hashlib
     from pathlib import Path
 
     here = Path(__file__).parent
-    newest = {}  # module stem -> newest index file's mtime, over the cache folders
+    indexes = {}  # module stem -> [(mtime, path)] of its index files, over the cache folders
     for d in _cache_dirs(here / "random.py"):
         try:
             with os.scandir(d) as it:
                 for e in it:
                     if e.name.endswith(".nbi"):
-                        stem = e.name.partition(".")[0]
-                        newest[stem] = max(newest.get(stem, 0.0), e.stat().st_mtime)
+                        indexes.setdefault(e.name.partition(".")[0], []).append((e.stat().st_mtime, e.path))
         except OSError:
             continue
     for m in modules:
         stem = m.rpartition(".")[2]
         src = here / f"{stem}.py"
         try:
-            if newest.get(stem, -1.0) >= src.stat().st_mtime:
-                continue  # a fresh index
+            mtime = src.stat().st_mtime
         except OSError:
             continue  # no such module
-        if not stem.startswith("_") and "@njit" in src.read_text():  # a module with kernels
+        found = indexes.get(stem, [])
+        if any(t >= mtime for t, _ in found):
+            continue  # an index written since the source last changed
+        if stem.startswith("_") or "@njit" not in src.read_text():
+            continue  # no compiled kernels there
+        digest = hashlib.sha256(src.read_bytes()).digest()
+        if not any(digest in Path(path).read_bytes() for _, path in found):
             return False
     return True

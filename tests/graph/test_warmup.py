@@ -131,3 +131,25 @@ def test_without_worker_processes_this_process_compiles_everything(monkeypatch):
     r = warmup.precompile(workers=2, progress=lambda done, total, kernel: seen.append((done, total)))
     assert r["compiled"] == 2 and r["failed"] == [] and r["workers"] == 1
     assert seen == [(0, 2), (1, 2), (2, 2)]
+
+
+def test_an_index_older_than_its_unchanged_source_still_counts_as_cached(tmp_path, monkeypatch):
+    """A git checkout rewrites a kernel module with the same content (a newer mtime): numba
+    stamps its cache by the source's SHA-256, so the cache is still good and a cached
+    re-run must not take the compile step; an old index of other content is stale."""
+    import hashlib
+
+    from proxyshade.kernels import _config
+
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path))
+    src = Path(_config.__file__).with_name("layout.py")
+    folder = _config._cache_dirs(src)[0]
+    folder.mkdir(parents=True)
+    index = folder / "layout._at_height-1.py311.nbi"
+    index.write_bytes(b"numba-index\x00" + hashlib.sha256(src.read_bytes()).digest() + b"\x00overloads")
+    old = src.stat().st_mtime - 3600
+    os.utime(index, (old, old))
+    assert _config.kernels_cached(["proxyshade.kernels.layout"])
+    index.write_bytes(b"numba-index\x00" + hashlib.sha256(b"other source").digest())
+    os.utime(index, (old, old))
+    assert not _config.kernels_cached(["proxyshade.kernels.layout"])
