@@ -9,29 +9,41 @@ import subprocess
 import sys
 from pathlib import Path
 
-from proxyshade import Graph
 from proxyshade.graph import warmup
 
 ROOT = Path(__file__).resolve().parents[2]
 
 
-def _signatures() -> set:
+REACH = r"""
+import json, sys
+import proxyshade.kernels  # noqa: F401
+from proxyshade.graph import warmup
+from proxyshade.graph.graph import Graph
+
+def sigs():
     return {(f"proxyshade.kernels.{k}", repr(tuple(s))) for k, d in warmup.kernel_dispatchers().items()
             for s in d.signatures}
 
+g = Graph.load(sys.argv[1], cache=sys.argv[2],
+               overrides=["proxy.resolution=[96,64]", "guide.size=64", "guide.start=16", "preview.enabled=false",
+                          "proxy_labels.enabled=false", "detail_labels.enabled=false"],
+               variables={"out": sys.argv[3], "scene": "lake", "source": "renoir"})
+before = sigs()
+g.run([1])
+print(json.dumps({"reached": sorted(sigs() - before), "modules": sorted(warmup.manifest_modules(g))}))
+"""
+
 
 def test_the_manifest_covers_what_a_small_first_frame_reaches(tmp_path):
-    """Every kernel signature a small lake first frame compiles or loads is in the manifest
-    (called from Python, or compiled inside one that is): a stale manifest fails here."""
-    import proxyshade.kernels  # noqa: F401  (the dispatchers counted before the run)
-
-    g = Graph.load(ROOT / "graphs" / "first_frame.yaml", cache=tmp_path / "cache",
-                   overrides=["proxy.resolution=[96,64]", "guide.size=64", "guide.start=16", "preview.enabled=false",
-                              "proxy_labels.enabled=false", "detail_labels.enabled=false"],
-                   variables={"out": str(tmp_path), "scene": "lake", "source": "renoir"})
-    before = _signatures()
-    g.run([1])
-    reached = _signatures() - before
+    """Every kernel signature a small lake first frame compiles or loads (in a fresh process,
+    so earlier tests' kernels do not hide it) is in the manifest (called from Python, or
+    compiled inside one that is): a stale manifest fails here."""
+    r = subprocess.run([sys.executable, "-c", REACH, str(ROOT / "graphs" / "first_frame.yaml"), str(tmp_path / "cache"),
+                        str(tmp_path / "out")], capture_output=True, text=True, timeout=600,
+                       env={**os.environ, "PYTHONPATH": str(ROOT)})
+    assert r.returncode == 0, r.stderr
+    got = json.loads(r.stdout.strip().splitlines()[-1])
+    reached = {tuple(x) for x in got["reached"]}
     assert len(reached) > 20  # the run called kernels (compiled, or loaded from numba's cache)
     listed = set()
     for kernel, text, _, inner in warmup.manifest():
@@ -42,7 +54,7 @@ def test_the_manifest_covers_what_a_small_first_frame_reaches(tmp_path):
     missing = reached - listed
     assert not missing, f"regenerate: python -m proxyshade.graph.warmup --write-manifest; missing {sorted(missing)}"
     # the graph's kernel modules (read from sources) hold every kernel it reached
-    assert {k.rpartition(".")[0] for k, _ in reached} <= warmup.manifest_modules(g)
+    assert {k.rpartition(".")[0] for k, _ in reached} <= set(got["modules"])
 
 
 CHILD = r"""
