@@ -27,7 +27,6 @@ Run: .venv/bin/python bench/run.py hybrids, or .venv/bin/python bench/bench_hybr
 from __future__ import annotations
 
 import os
-import statistics
 import sys
 from pathlib import Path
 
@@ -243,20 +242,24 @@ def speed(atlas):
     print(f"load: {os.getloadavg()[0]:.2f} (1-min average, 2 cores shared)")
 
 
-def write_jpeg(tiles, per_row, path: Path):
+def save_jpeg(rows, path: Path):
+    """Rows of linear tiles stacked, sRGB-encoded, written as a small JPEG (a docs image)."""
     from proxyshade.kernels.features import srgb_features
-
-    rows = [np.concatenate([np.pad(t, ((2, 2), (2, 2), (0, 0)), constant_values=1.0) for t in tiles[k:k + per_row]], 1)
-            for k in range(0, len(tiles), per_row)]
-    img = np.ascontiguousarray(np.clip(srgb_features(np.concatenate(rows, 0)) + 0.5, 0, 255).astype(np.uint8))
     import OpenImageIO as oiio
 
+    img = np.ascontiguousarray(np.clip(srgb_features(np.concatenate(rows, 0)) + 0.5, 0, 255).astype(np.uint8))
     buf = oiio.ImageBuf(oiio.ImageSpec(img.shape[1], img.shape[0], 3, oiio.UINT8))
     buf.set_pixels(oiio.ROI(), img)
     buf.specmod().attribute("Compression", "jpeg:88")  # a docs image: JPEG keeps it small
     if not buf.write(str(path)):
         raise SystemExit(f"{path}: {buf.geterror()}")
     print(f"wrote {path}")
+
+
+def write_jpeg(tiles, per_row, path: Path):
+    rows = [np.concatenate([np.pad(t, ((2, 2), (2, 2), (0, 0)), constant_values=1.0) for t in tiles[k:k + per_row]], 1)
+            for k in range(0, len(tiles), per_row)]
+    save_jpeg(rows, path)
 
 
 def before_after(path: Path):
@@ -280,7 +283,6 @@ def sheet(path: Path):
     """The docs' contact sheet, all at 100%: renoir and creek, then hybrids of seeds 1-8
     (J = 0.3, every level jittered: HybridSynth's defaults); brick's two crops, 2 hybrids
     at J = 0.3, then 1 at J = 0.05 jittering the finest 2 levels only."""
-    from proxyshade.kernels.features import srgb_features
     from proxyshade.synthesis.hybrid import analyse, synthesize
 
     rows = []
@@ -297,15 +299,7 @@ def sheet(path: Path):
         for k in range(0, len(tiles), 5):
             rows.append(np.concatenate([np.pad(t, ((2, 2), (2, 2), (0, 0)), constant_values=1.0)
                                         for t in tiles[k:k + 5]], 1))
-    img = np.ascontiguousarray(np.clip(srgb_features(np.concatenate(rows, 0)) + 0.5, 0, 255).astype(np.uint8))
-    import OpenImageIO as oiio
-
-    buf = oiio.ImageBuf(oiio.ImageSpec(img.shape[1], img.shape[0], 3, oiio.UINT8))
-    buf.set_pixels(oiio.ROI(), img)
-    buf.specmod().attribute("Compression", "jpeg:88")  # a docs image: JPEG keeps it small
-    if not buf.write(str(path)):
-        raise SystemExit(f"{path}: {buf.geterror()}")
-    print(f"wrote {path}")
+    save_jpeg(rows, path)
 
 
 def main():

@@ -1,7 +1,6 @@
 """Progressive update after an edit of the proxy (graphs/edit.yaml): a terrain stroke raises
 an island in the lake; the re-run recomputes the changed region only and keeps every other
 pixel of the last result bit for bit."""
-import shutil
 from types import SimpleNamespace
 from pathlib import Path
 
@@ -12,9 +11,9 @@ from proxyshade.graph.graph import Graph
 from proxyshade.io.source import load_source
 from proxyshade.kernels.lookup import lookup
 from proxyshade.kernels.temporal import dilate
-from proxyshade.scene.edit import add_stroke
 from proxyshade.synthesis.guide import synthesize_guide
 from proxyshade.synthesis.params import Guidance
+from tests.nodes._edit import island_edit
 
 ROOT = Path(__file__).resolve().parents[2]
 R = 256
@@ -35,13 +34,7 @@ def differs(a, b):
 
 @pytest.fixture(scope="module")
 def edited(tmp_path_factory):
-    d = tmp_path_factory.mktemp("edit")
-    shutil.copy(ROOT / "samples" / "scenes" / "lake.yaml", d / "lake.yaml")
-    add_stroke(d / "lake.yaml", "Ground", (150, 150), 1.0, 0.0)  # builds lake.usda (a stroke of nothing)
-    r1, before, g = run(d)
-    add_stroke(d / "lake.yaml", "Ground", (5, -40), 7.0, 9.0)   # an island rises in the lake
-    r2, after, _ = run(d)
-    return {"before": before, "after": after, "first": r1, "update": r2, "graph": g, "dir": d}
+    return island_edit(tmp_path_factory.mktemp("edit"), run)
 
 
 def test_outside_the_dilated_footprint_every_pixel_is_unchanged(edited):

@@ -4,7 +4,6 @@ only where the edit reaches it (the first frame's changed pixels reprojected int
 frame's camera, and the pixels whose proxy changed), keeps every other pixel's synthesis bit
 for bit, resynthesizes few pixels, and the edited shot keeps the shot-quality bars (issue
 #10: seams <= 1.5x the first frame's, detail >= 0.9)."""
-import shutil
 from pathlib import Path
 
 import numpy as np
@@ -17,6 +16,7 @@ from proxyshade.kernels.temporal import dilate
 from proxyshade.scene.edit import add_stroke
 from proxyshade.synthesis.state import CORRECTION
 from proxyshade.synthesis.temporal import ZTOL, camera_of
+from tests.nodes._edit import island_edit
 
 ROOT = Path(__file__).resolve().parents[2]
 R, N = 128, 4
@@ -42,13 +42,7 @@ def differs(a, b, channels):
 
 @pytest.fixture(scope="module")
 def moved(tmp_path_factory):
-    d = tmp_path_factory.mktemp("edit_move")
-    shutil.copy(ROOT / "samples" / "scenes" / "lake.yaml", d / "lake.yaml")
-    add_stroke(d / "lake.yaml", "Ground", (150, 150), 1.0, 0.0)  # builds lake.usda (a stroke of nothing)
-    r1, before, g = run(d)
-    add_stroke(d / "lake.yaml", "Ground", (5, -40), 7.0, 9.0)   # an island rises in the lake
-    r2, after, _ = run(d)
-    return {"before": before, "after": after, "first": r1, "update": r2, "graph": g, "dir": d}
+    return island_edit(tmp_path_factory.mktemp("edit_move"), run)
 
 
 def footprint(moved, f):
