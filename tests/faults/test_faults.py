@@ -547,6 +547,8 @@ def test_scene_that_renders_only_sky_warns(tmp_path, capsys, case, expect):
         UsdSemantics.LabelsAPI.Apply(m.GetPrim(), "texture").CreateLabelsAttr().Set(Vt.TokenArray(["water"]))
     s.Save()
     code, out, err = cli(capsys, "run", _scene_graph(tmp_path, "s.usda"), "-q")
+    # on a cold numba cache (a fresh checkout) the run first says it compiles the kernels
+    err = [e for e in err if not e.startswith(("compiling the numba kernels", "kernels compiled in"))]
     assert code == 0 and err == [f"warning: proxy: s.usda: {expect}"], err
     assert f"note proxy@1: proxy: s.usda: {expect}" in out
     assert (read_plate(tmp_path / "out" / "proxy.exr")["label.id"] == 2).all()
