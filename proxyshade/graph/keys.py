@@ -119,11 +119,15 @@ def imported_modules(source: str, module_name: str, is_package: bool, root: Path
 
 # What a source file says (its comment-stripped hash, its import statements) is kept on
 # disk between processes, keyed by the file's path and stat signature (size, mtime, ctime,
-# inode: any edit changes it), in a file named after this module's own source: a run of a
-# fully cached graph does not parse every module again. Unwritable: kept in memory only.
+# inode: any edit changes it): a run of a fully cached graph does not parse every module
+# again. Only the files of this checkout of the package are kept, in a file named after
+# this module's own source and the checkout's folder; other roots (a test's edited copy)
+# are kept in memory only, so the file stays small and quick to read. Deleted files are
+# dropped when it is written. Unwritable: kept in memory only.
 _FACTS: dict | None = None
 _FACTS_DIRTY = False
 _FACTS_LOCK = threading.Lock()
+_OWN_ROOT = str(Path(__file__).resolve().parents[1]) + os.sep  # .../proxyshade/
 
 
 def _user_cache() -> Path:
@@ -134,17 +138,19 @@ def _user_cache() -> Path:
 
 def _facts_path() -> Path:
     me = hashlib.sha256(Path(__file__).read_bytes()).hexdigest()[:16]
-    return _user_cache() / f"code-facts-{me}.json"
+    where = hashlib.sha256(_OWN_ROOT.encode()).hexdigest()[:12]
+    return _user_cache() / f"code-facts-{me}-{where}.json"
 
 
 def _save_facts() -> None:
     if not _FACTS_DIRTY or _FACTS is None:
         return
+    keep = {k: v for k, v in _FACTS.items() if k.startswith(_OWN_ROOT) and os.path.exists(k)}
     try:
         path = _facts_path()
         path.parent.mkdir(parents=True, exist_ok=True)
         tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-        tmp.write_text(json.dumps(_FACTS))
+        tmp.write_text(json.dumps(keep))
         os.replace(tmp, path)
     except OSError:
         pass
@@ -173,7 +179,7 @@ def _file_facts(path: Path) -> dict:
              "imports": _raw_imports(src)}
     with _FACTS_LOCK:
         _FACTS[key] = facts
-        _FACTS_DIRTY = True
+        _FACTS_DIRTY = _FACTS_DIRTY or key.startswith(_OWN_ROOT)
     return facts
 
 

@@ -175,3 +175,37 @@ def test_the_proxy_render_key_follows_an_edit_of_a_sublayer_and_loads_no_usd_whe
         f.write('\ndef Sphere "added"\n{\n    double radius = 3\n}\n')
     edited = key()
     assert edited[0] != first[0] and edited[1]
+
+
+def test_the_code_facts_file_keeps_only_this_checkouts_existing_files(tmp_path):
+    """The facts a cached run reads first stay small: another root's files (a test's copy
+    of the package) are not written to it, and a deleted file is dropped from it."""
+    import json
+    import os
+    import subprocess
+
+    copy = tmp_path / "copy"
+    shutil.copytree(PKG, copy / "proxyshade", ignore=shutil.ignore_patterns("__pycache__"))
+    extra = PKG / "kernels" / f"_facts_probe_{os.getpid()}.py"
+    code = ("import sys; from pathlib import Path; from proxyshade.graph import keys; "
+            "keys.import_closure('proxyshade.nodes.poisson'); "
+            "keys.import_closure('proxyshade.nodes.poisson', Path(sys.argv[1])); "
+            "keys.module_hash(sys.argv[2]) if sys.argv[2] else None")
+    env = {**os.environ, "PROXYSHADE_CODE_CACHE": str(tmp_path / "code"), "PYTHONPATH": str(PKG.parent)}
+
+    def run(probe=""):
+        r = subprocess.run([sys.executable, "-c", code, str(copy), probe], capture_output=True, text=True, env=env,
+                           timeout=120)
+        assert r.returncode == 0, r.stderr
+        (facts,) = (tmp_path / "code").glob("code-facts-*.json")
+        return json.loads(facts.read_text())
+
+    extra.write_text("X = 1\n")
+    try:
+        kept = run("proxyshade.kernels." + extra.stem)
+    finally:
+        extra.unlink()
+    own = str(PKG.resolve()) + os.sep
+    assert str(PKG.resolve() / "nodes" / "poisson.py") in kept and str(extra.resolve()) in kept
+    assert all(k.startswith(own) for k in kept)  # none of the copy's files
+    assert str(extra.resolve()) not in run("proxyshade.nodes.correct")  # deleted: dropped when written again
