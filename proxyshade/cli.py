@@ -18,9 +18,6 @@ from typing import List, Optional
 
 import typer
 from rich.console import Console
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
-from rich.table import Table
-
 from rich.text import Text
 
 from proxyshade.errors import EXIT_BAD_INPUT, EXIT_INTERNAL, EXIT_INTERRUPTED, EXIT_IO, UserError
@@ -86,10 +83,21 @@ def source_new(photo: Path = typer.Argument(..., help="the photo (8-bit sRGB)"),
               "colours will snap to the nearest label. Rename the labels after your scene's.")
 
 
+def _progress(quiet: bool, *more_columns: str):
+    """rich's progress bars on stderr (off with --quiet or when stderr is not a terminal):
+    the step, a bar, done/total, elapsed time, then ``more_columns`` (task fields). Imported
+    here: a fully cached run draws none."""
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+    return Progress(TextColumn("{task.description:<14}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
+                    *(TextColumn(c) for c in more_columns), console=err, disable=quiet or not err.is_terminal,
+                    transient=True)
+
+
 class _BarHooks:
     """One progress bar per node (per graph and node when several run), advancing once per frame."""
 
-    def __init__(self, progress: Progress, prefix: str = ""):
+    def __init__(self, progress, prefix: str = ""):
         self.progress = progress
         self.prefix = prefix
         self.tasks = {}
@@ -214,8 +222,7 @@ def _run_once(graphs, frames, set_, var, sweep, cache, explain, jobs, force, thr
         ex = DaskExecutor(scheduler, workers)
     else:
         ex = make_executor(jobs)
-    with Progress(TextColumn("{task.description:<14}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
-                  console=err, disable=quiet or not err.is_terminal, transient=True) as progress:
+    with _progress(quiet) as progress:
         with ex if distributed else contextlib.nullcontext():
             reports = run_graphs([(g, fl) for _, g, fl in shots], executor=ex, force=tuple(force),
                                  hooks=lambda g: _BarHooks(progress, prefixes[id(g)]), threads=threads,
@@ -232,6 +239,8 @@ def _report(label: str, report, explain: bool, several: bool) -> None:
     if several:
         _say(out, label)
     if explain:
+        from rich.table import Table
+
         t = Table(title=Text(label), show_lines=False)
         for c in ("node", "frame", "status", "why", "seconds"):
             t.add_column(c, justify="right" if c in ("frame", "seconds") else "left",
@@ -273,9 +282,7 @@ def _precompile(modules, quiet: bool, force: bool = False):
     workers = min(default_workers(), len(todo))
     _say(err, f"compiling the numba kernels, once after an install or upgrade: {len(todo)} kernel signatures "
               f"in {workers} process(es) (later runs load them from numba's cache)")
-    with Progress(TextColumn("{task.description:<14}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
-                  TextColumn("{task.fields[kernel]}"), console=err, disable=quiet or not err.is_terminal,
-                  transient=True) as progress:
+    with _progress(quiet, "{task.fields[kernel]}") as progress:
         task = progress.add_task("compiling", total=len(todo), kernel="")
 
         def tick(done, total, kernel):
@@ -299,8 +306,7 @@ def compile_kernels(quiet: bool = typer.Option(False, "--quiet", "-q", help="no 
 
     t0 = time.perf_counter()
     _precompile(None, quiet, force=True)
-    with Progress(TextColumn("{task.description:<14}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
-                  console=err, disable=quiet or not err.is_terminal, transient=True) as progress:
+    with _progress(quiet) as progress:
         hooks = _BarHooks(progress)
         hooks.told_compiling = True
         warm_up(hooks, first=False)

@@ -74,7 +74,8 @@ def test_own_photo_through_source_new_and_a_bundled_scene(tmp_path, monkeypatch,
     assert rc == 2 and "map them with the labels parameter" in err
 
 
-HEAVY = ("numba", "llvmlite", "pxr", "scipy", "colour", "asyncio")  # kernels, USD, colour science, Dask's runtime
+# kernels, USD, colour science, Dask's runtime; rich's progress bars and tables (nothing to draw)
+HEAVY = ("numba", "llvmlite", "pxr", "scipy", "colour", "asyncio", "rich.progress", "rich.table")
 
 
 def test_a_cached_rerun_imports_no_kernels_usd_or_colour_science(tmp_path, monkeypatch):
