@@ -94,26 +94,60 @@ def _progress(quiet: bool, *more_columns: str):
                     transient=True)
 
 
-class _BarHooks:
-    """One progress bar per node (per graph and node when several run), advancing once per frame."""
+class _LazyBars:
+    """``_progress`` started when a node first computes: a fully cached run draws no bars
+    and imports no rich.progress. A context manager; thread-safe."""
 
-    def __init__(self, progress, prefix: str = ""):
-        self.progress = progress
+    def __init__(self, quiet: bool):
+        self.quiet = quiet
+        self.progress = None
+        self.lock = threading.Lock()
+
+    def get(self):
+        with self.lock:
+            if self.progress is None:
+                self.progress = _progress(self.quiet)
+                self.progress.start()
+            return self.progress
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        if self.progress is not None:
+            self.progress.stop()
+
+
+class _BarHooks:
+    """One progress bar per node (per graph and node when several run), advancing once per
+    frame; drawn from the first node computed on (``_LazyBars``)."""
+
+    def __init__(self, bars: _LazyBars, prefix: str = ""):
+        self.bars = bars
         self.prefix = prefix
-        self.tasks = {}
+        self.counts = {}  # node -> (frames planned, frames done)
+        self.tasks = None
+        self.lock = threading.Lock()
         self.told_compiling = False
         self.graph = None
 
     def plan(self, plan):
         self.graph = plan.graph
-        counts = {}
+        planned = {}
         for name, _ in plan.keys:
-            counts[name] = counts.get(name, 0) + 1
-        for name in plan.graph.nodes:
-            if name in counts:
-                self.tasks[name] = self.progress.add_task(self.prefix + name, total=counts[name])
+            planned[name] = planned.get(name, 0) + 1
+        self.counts = {name: [planned[name], 0] for name in plan.graph.nodes if name in planned}
+
+    def _bars(self):  # under self.lock
+        if self.tasks is None:
+            progress = self.bars.get()
+            self.tasks = {name: progress.add_task(self.prefix + name, total=total, completed=done)
+                          for name, (total, done) in self.counts.items()}
+        return self.bars.progress
 
     def start(self, run):
+        with self.lock:
+            self._bars()
         if not self.told_compiling and self.graph is not None and err.is_terminal:  # a progress note: terminals only
             from proxyshade.graph.keys import import_closure
             from proxyshade.kernels._config import kernels_cached
@@ -126,8 +160,13 @@ class _BarHooks:
                           "(later runs load them from numba's cache)")
 
     def done(self, run):
-        if run.node in self.tasks:
-            self.progress.advance(self.tasks[run.node])
+        if run.node not in self.counts:
+            return
+        with self.lock:
+            if self.tasks is None and self.bars.progress is None:  # nothing drawn yet: counted for later
+                self.counts[run.node][1] += 1
+            else:
+                self._bars().advance(self.tasks[run.node])
 
 
 class Executor(str, Enum):
@@ -222,10 +261,10 @@ def _run_once(graphs, frames, set_, var, sweep, cache, explain, jobs, force, thr
         ex = DaskExecutor(scheduler, workers)
     else:
         ex = make_executor(jobs)
-    with _progress(quiet) as progress:
+    with _LazyBars(quiet) as bars:
         with ex if distributed else contextlib.nullcontext():
             reports = run_graphs([(g, fl) for _, g, fl in shots], executor=ex, force=tuple(force),
-                                 hooks=lambda g: _BarHooks(progress, prefixes[id(g)]), threads=threads,
+                                 hooks=lambda g: _BarHooks(bars, prefixes[id(g)]), threads=threads,
                                  labels=[label for label, _, _ in shots])
     for (label, g, _), report in zip(shots, reports):
         _report(label, report, explain, several)
@@ -306,8 +345,8 @@ def compile_kernels(quiet: bool = typer.Option(False, "--quiet", "-q", help="no 
 
     t0 = time.perf_counter()
     _precompile(None, quiet, force=True)
-    with _progress(quiet) as progress:
-        hooks = _BarHooks(progress)
+    with _LazyBars(quiet) as bars:
+        hooks = _BarHooks(bars)
         hooks.told_compiling = True
         warm_up(hooks, first=False)
     _say(out, f"kernels ready in {time.perf_counter() - t0:.1f} s ({kernel_signatures()} kernel signatures "

@@ -108,6 +108,32 @@ def test_first_run_says_it_compiles_the_kernels(graph, capsys, monkeypatch):
     assert "compiling" not in capsys.readouterr().err
 
 
+def test_progress_bars_are_drawn_on_a_terminal_from_the_first_computed_node_only(graph, capsys, monkeypatch):
+    """A run that computes shows a bar per node on a terminal (each full at the end: the
+    reused nodes counted too); a fully cached run starts no bars at all."""
+    import proxyshade.cli as cli
+
+    monkeypatch.setattr(cli.err, "_force_terminal", True)
+    started = []
+    real = cli._progress
+
+    def spy(*a):
+        p = real(*a)
+        started.append(p)
+        return p
+
+    monkeypatch.setattr(cli, "_progress", spy)
+    assert main(["run", str(graph)]) == 0
+    assert len(started) == 1
+    tasks = started[0].tasks
+    assert {t.description for t in tasks} >= {"src"} and all(t.completed == t.total > 0 for t in tasks)
+    capsys.readouterr()
+    assert main(["run", str(graph), "--force", "src"]) == 0  # one node computes, the others reused
+    assert len(started) == 2 and all(t.completed == t.total for t in started[1].tasks)
+    assert main(["run", str(graph)]) == 0
+    assert "0 computed" in capsys.readouterr().out and len(started) == 2  # cached: no bars
+
+
 def test_a_cold_kernel_cache_compiles_the_manifest_first_with_a_note(graph, capsys, monkeypatch):
     """On a cold numba cache ``run`` compiles the manifest's kernels of the graph's kernel
     modules before the run (``warmup.precompile``), saying so; on a warm one it says nothing."""
