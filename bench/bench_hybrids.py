@@ -21,7 +21,7 @@ A baseline point is matched to a structure-preserving one by D: the (jittered le
 radius r) of a grid whose D is nearest.
 
 Run: .venv/bin/python bench/run.py hybrids, or .venv/bin/python bench/bench_hybrids.py [--quick | --sheet |
---before-after] (``--quick``: seeds 1-4; ``--sheet`` writes docs/img/hybrids_sheet.jpg instead,
+--before-after] [--brick] (``--quick``: seeds 1-4; ``--brick``: the brick comparisons only; ``--sheet`` writes docs/img/hybrids_sheet.jpg instead,
 ``--before-after`` docs/img/hybrids_before_after.jpg)
 """
 from __future__ import annotations
@@ -311,10 +311,11 @@ def main():
         return
     quick = "--quick" in sys.argv
     seeds = list(range(1, 5 if quick else 9))
-    rc = renoir_creek()
-    speed(rc)
     out = []
-    compare("renoir + creek", rc, seeds, out)
+    if "--brick" not in sys.argv:  # --brick: only the brick comparisons
+        rc = renoir_creek()
+        speed(rc)
+        compare("renoir + creek", rc, seeds, out)
     an8, an1, meas = compare("brick (two 256² crops)", brick(), seeds, out)
     l8_vs_l1(an8, an1, meas, seeds)
 
