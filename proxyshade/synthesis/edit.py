@@ -63,9 +63,13 @@ def changed_region(before: dict[str, Plate], after: dict[str, Plate], channels: 
     return dilate(np.ascontiguousarray(diff), int(radius)) if radius > 0 and diff.any() else diff
 
 
-def _span(lo: int, hi: int, size: int, limit: int) -> tuple[int, int]:
-    """[a, a + size) covering [lo, hi) as centred as the limit [0, limit) allows."""
+def _span(lo: int, hi: int, size: int, limit: int, step: int = 1, slack: int = 0) -> tuple[int, int]:
+    """[a, a + size) covering [lo, hi) as centred as the limit [0, limit) allows, ``a`` a
+    multiple of ``step`` (the frame's synthesis pixels) where that still covers
+    [lo, hi − ``slack``) (the context's end may be lost, not the region)."""
     a = max(0, min(limit - size, (lo + hi - size) // 2))
+    if a % step and a // step * step + size >= hi - slack:
+        a = a // step * step
     return a, a + size
 
 
@@ -102,16 +106,23 @@ def update_guide(prev: Plate, region: np.ndarray, proxy: Plate, source: Plate, g
         ww = long_side if c1 - c0 > r1 - r0 else -(-(c1 - c0) // block) * block
         crop_long = max(min(hh, H), min(ww, W))
         whole = size is not None and 2 ** round(np.log2(crop_long / gp.size)) != f  # would magnify otherwise
-        if whole or (hh >= H and ww >= W):  # the window is the frame: its whole synthesis
-            sub, _ = synthesize_guide(proxy, source, gp)
+        if whole or (hh >= H and ww >= W):  # the window is the frame: the masked synthesis of the frame
+            sub, _ = synthesize_guide(proxy, source, gp, previous=prev, active=region)
             r0, r1, c0, c1 = 0, H, 0, W
             info["whole"] = True
         else:
-            r0, r1 = _span(r0, r1, min(hh, H), H)
-            c0, c1 = _span(c0, c1, min(ww, W), W)
-            crop = Plate({"label.id": np.ascontiguousarray(proxy["label.id"][r0:r1, c0:c1])},
+            r0, r1 = _span(r0, r1, min(hh, H), H, f, context)
+            c0, c1 = _span(c0, c1, min(ww, W), W, f, context)
+            win = (slice(r0, r1), slice(c0, c1))
+            crop = Plate({"label.id": np.ascontiguousarray(proxy["label.id"][win])},
                          {"labels": proxy.meta.get("labels", [])})
-            sub, _ = synthesize_guide(crop, source, SimpleNamespace(**dict(vars(gp), size=size or long_side // f)))
+            before = Plate({c: np.ascontiguousarray(prev[c][win]) for c in ("source.x", "source.y")})
+            # the previous guide is this window's state where it is not synthesized again
+            # (aligned with the frame's synthesis pixels, as _span places the window)
+            aligned = r0 % f == 0 and c0 % f == 0
+            sub, _ = synthesize_guide(crop, source, SimpleNamespace(**dict(vars(gp), size=size or long_side // f)),
+                                      previous=before if aligned else None,
+                                      active=np.isin(comp[win], ids) if aligned else None)
         win = (slice(r0, r1), slice(c0, c1))
         sel = region[win] if info["whole"] else np.isin(comp[win], ids)  # this window's parts only
         for c in out:
