@@ -60,7 +60,17 @@ def changed_region(before: dict[str, Plate], after: dict[str, Plate], channels: 
             return None
     if diff is None:
         return None
-    return dilate(np.ascontiguousarray(diff), int(radius)) if radius > 0 and diff.any() else diff
+    rows, cols = np.flatnonzero(diff.any(1)), np.flatnonzero(diff.any(0))
+    if radius <= 0 or not len(rows):
+        return diff
+    # the dilation of the difference's box (grown by the radius) only: the same pixels
+    radius = int(radius)
+    H, W = diff.shape
+    r0, r1 = max(0, rows[0] - radius), min(H, rows[-1] + 1 + radius)
+    c0, c1 = max(0, cols[0] - radius), min(W, cols[-1] + 1 + radius)
+    out = np.zeros((H, W), np.bool_)
+    out[r0:r1, c0:c1] = dilate(np.ascontiguousarray(diff[r0:r1, c0:c1]), radius)
+    return out
 
 
 def _span(lo: int, hi: int, size: int, limit: int, step: int = 1, slack: int = 0) -> tuple[int, int]:
