@@ -7,7 +7,8 @@ and dilates the difference; the node then recomputes that region only and keeps 
 other pixel of its last result bit for bit:
 
 * the detailed guide (``update_guide``): the guidance synthesis re-run on a window around
-  the changed proxy labels, pasted inside the region;
+  the changed proxy labels, its correction masked to the region (the rest of the window
+  is the previous guide's state, as context), pasted inside the region;
 * the depth (``synthesis.depth.depth_plate`` with a region): jump flooding on a window;
 * the colours (``edit_colour.edit_synthesis``): the first frame's steps restricted to the region
   (``resynthesis.resynthesize``: flood fill, correction, magnification, restricted
@@ -93,11 +94,17 @@ def update_guide(prev: Plate, region: np.ndarray, proxy: Plate, source: Plate, g
     parameters) runs on each window (its sides multiples of the synthesis's block, the long
     one ``magnify`` × a power of two, so it is synthesized with the frame's magnification
     and levels; or, when that power of two would reach the frame, the frame's long side
-    and ``size``: a band across the frame); its labels and source positions replace
-    ``prev``'s inside the region.
+    and ``size``: a band across the frame; the window's origin on the frame's synthesis
+    grid); its labels and source positions replace ``prev``'s inside the region.
+    The synthesis on a window is the masked correction (``synthesize_guide`` with
+    ``previous``): the window's state is ``prev``'s, the region's blocks are initialized
+    with the new labels (``prev``'s coordinates where their label still is the target's)
+    and corrected with the rest as fixed context, at every level (§7: "we initialize
+    flagged areas with the new labels and perform correction passes"), so labels change
+    where the proxy's did, not across the whole region.
     Every other pixel keeps ``prev``'s labels and positions; the other channels are the new
-    proxy's. A window that would be as large as the frame is the frame's whole synthesis,
-    still pasted inside the region only."""
+    proxy's. A window that would be as large as the frame is the frame's (masked)
+    synthesis, still pasted inside the region only."""
     H, W = proxy.shape
     g = prev.meta.get("guide", {})
     f = int(g.get("magnify", 1))
@@ -127,14 +134,15 @@ def update_guide(prev: Plate, region: np.ndarray, proxy: Plate, source: Plate, g
             crop = Plate({"label.id": np.ascontiguousarray(proxy["label.id"][win])},
                          {"labels": proxy.meta.get("labels", [])})
             before = Plate({c: np.ascontiguousarray(prev[c][win]) for c in ("source.x", "source.y")})
+            sel = np.isin(comp[win], ids) if len(ids) > 1 else comp[win] == ids[0]  # this window's parts only
             # the previous guide is this window's state where it is not synthesized again
             # (aligned with the frame's synthesis pixels, as _span places the window)
             aligned = r0 % f == 0 and c0 % f == 0
             sub, _ = synthesize_guide(crop, source, SimpleNamespace(**dict(vars(gp), size=size or long_side // f)),
-                                      previous=before if aligned else None,
-                                      active=np.isin(comp[win], ids) if aligned else None)
+                                      previous=before if aligned else None, active=sel if aligned else None)
         win = (slice(r0, r1), slice(c0, c1))
-        sel = region[win] if info["whole"] else np.isin(comp[win], ids)  # this window's parts only
+        if info["whole"]:
+            sel = region
         for c in out:
             out[c][win][sel] = sub[c][sel]
         info["windows"].append([int(c1 - c0), int(r1 - r0)])

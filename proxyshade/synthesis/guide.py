@@ -220,9 +220,10 @@ def synthesize_guide(proxy: Plate, source: Plate, gp: SimpleNamespace, *, previo
     syn = ex[S[..., 0], S[..., 1]]  # labels at the synthesis size
     # magnify through the source coordinates: output pixel (i, j) sits (i % f, j % f)
     # output pixels into its synthesis pixel's exemplar cell of g x g source pixels
-    ii, jj = np.mgrid[0:H, 0:W]
-    sy = S[ii // f, jj // f, 0] * g + (ii % f + 0.5) * gp.scale - 0.5
-    sx = S[ii // f, jj // f, 1] * g + (jj % f + 0.5) * gp.scale - 0.5
+    ri, ci = np.arange(H), np.arange(W)
+    Sy, Sx = (np.ascontiguousarray(S[..., k][ri // f][:, ci // f]) for k in (0, 1))
+    sy = Sy * g + ((ri % f + 0.5) * gp.scale)[:, None] - 0.5
+    sx = Sx * g + ((ci % f + 0.5) * gp.scale)[None, :] - 0.5
     hs, ws = src.shape
     sy = np.clip(sy, 0, hs - 1)
     sx = np.clip(sx, 0, ws - 1)
