@@ -166,6 +166,16 @@ def test_masked_subpass_corrects_the_active_pixels_as_the_reference_and_keeps_th
     args = (ex_lab, masks, ex_col, sim, tmasks, tgt_col, target, locked, allowed)
     every = kg.correct_active(S, np.ones(target.shape, bool), *args, h=h, w_proxy=1.0, metric=metric, n=n, passes=2)
     assert np.array_equal(every, kg.correct(S, *args, h=h, w_proxy=1.0, metric=metric, n=n, passes=2))
+    # and the masked passes do not depend on the thread count
+    outs = []
+    old = numba.get_num_threads()
+    try:
+        for t in (1, 2):
+            numba.set_num_threads(t)
+            outs.append(kg.correct_active(S, active, *args, h=h, w_proxy=1.0, metric=metric, n=n, passes=2))
+    finally:
+        numba.set_num_threads(old)
+    assert np.array_equal(outs[0], outs[1]) and np.array_equal(outs[0][~active], S[~active])
 
 
 def test_correction_is_thread_count_independent():
