@@ -434,6 +434,8 @@ def adjacency(*label_maps: np.ndarray, n: int) -> np.ndarray:
     """(n, n) bool: labels that are 4-adjacent (or equal) somewhere in any of the maps."""
     A = np.eye(n, dtype=bool)
     for m in label_maps:
+        if m.size and (m.min() < 0 or m.max() >= n):
+            raise IndexError(f"label indices must lie in 0..{n - 1}")
         for a, b in ((m[:, :-1], m[:, 1:]), (m[:-1, :], m[1:, :])):
             # the pairs present, counted (one pass; a scattered assignment per pixel pair was slower)
             seen = np.bincount((a.astype(np.int64) * n + b).ravel(), minlength=n * n)[:n * n].reshape(n, n) > 0
