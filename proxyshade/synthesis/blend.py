@@ -112,14 +112,14 @@ def blend_frame(rgb: np.ndarray, patch: np.ndarray, labels: np.ndarray | None, s
 
 def blend_regions(rgb: np.ndarray, patch: np.ndarray, labels: np.ndarray, free: np.ndarray, solve: SimpleNamespace,
                   *, source_rgb: np.ndarray | None, sx: np.ndarray, sy: np.ndarray, scale: float,
-                  filter: str) -> tuple[np.ndarray, dict]:
+                  filter: str, thin: float | None = None) -> tuple[np.ndarray, dict]:
     """The solve restricted to the ``free`` pixels, the rest Dirichlet (§6.3), region by
     region; seam gradients read with ``filter`` (the reconstruction the colours used).
     ``solve.layout`` is not applied here (yet): a later frame's new pixels keep their
-    synthesized low frequencies."""
+    synthesized low frequencies. ``thin``: see ``poisson_regions``."""
     return poisson_regions(rgb, patch, labels, free, source=source_rgb if solve.seams == "source" else None,
                               sx=sx, sy=sy, step=scale, label_dirichlet=solve.label_dirichlet, screen=solve.screen,
-                              tol=solve.tol, max_iter=solve.max_iter, filter=filter)
+                              tol=solve.tol, max_iter=solve.max_iter, filter=filter, thin=thin)
 
 
 def group_boxes(boxes: np.ndarray, shape: tuple[int, int], *, margin: int = 1, slack: int = 4096) -> list[tuple]:
@@ -165,7 +165,7 @@ def poisson_regions(colors: np.ndarray, patch: np.ndarray, labels: np.ndarray | 
                     source: np.ndarray | None = None, sx: np.ndarray | None = None, sy: np.ndarray | None = None,
                     step: float = 1.0, label_dirichlet: bool = True, screen: float = 0.0, tol: float = 1e-5,
                     max_iter: int = 100, slack: int = 4096, filter: str = "bilinear",
-                    small: int = 64) -> tuple[np.ndarray, dict]:
+                    small: int = 64, thin: float | None = None) -> tuple[np.ndarray, dict]:
     """``kernels.poisson.poisson_transfer`` restricted to the ``free`` pixels (Dirichlet
     ``colors`` everywhere else).
 
@@ -180,7 +180,10 @@ def poisson_regions(colors: np.ndarray, patch: np.ndarray, labels: np.ndarray | 
     whole frame at the cost of its area, by multigrid-preconditioned CG. Pixels of other
     components inside a window are fixed there (they are never 4-neighbours of the
     component). With ``source``, ``sx``, ``sy`` the seam gradients are the source's
-    (``poisson.seam_gradients``, read with ``filter``), else zero.
+    (``poisson.seam_gradients``, read with ``filter``), else zero. With ``thin``, a
+    component at most that thick (``region_thickness``) is solved by SOR too, however
+    large its box: an edit's band along a moved shoreline, whose window would be several
+    times its pixels (SOR's sweeps follow the thickness; the same system to ``tol``).
 
     Returns (u (H, W, 3) float32, info: windows, solved pixels, window pixels, most
     iterations, largest residual, SOR pixels and sweeps).
@@ -196,6 +199,8 @@ def poisson_regions(colors: np.ndarray, patch: np.ndarray, labels: np.ndarray | 
     bh = boxes[:, 1] - boxes[:, 0] + 1
     bw = boxes[:, 3] - boxes[:, 2] + 1
     is_small = (np.minimum(bh, bw) <= small) & (bh * bw < h * w)
+    if thin is not None:
+        is_small |= region_thickness(free, comp, len(boxes)) <= thin
     if is_small.any():
         sel = np.concatenate([[False], is_small])[comp]
         fixed = ~sel

@@ -88,9 +88,18 @@ def depth_plate(proxy: Plate, guide: Plate, *, penalty: float, region: np.ndarra
         for a in "XYZ":
             pa = proxy[f"P.{a}"].astype(np.float32)
             ch[f"P.{a}"] = put(f"P.{a}", np.where(src >= 0, pa.reshape(-1)[flat], pa[win]).astype(np.float32))
-    # normals and object ids follow the depth: those of the pixel it came from
+    # normals and object ids follow the depth: those of the pixel it came from (after an
+    # edit, read for the region's pixels only)
+    s_sel = src if sel is None else src[sel]
+    f_sel = np.maximum(s_sel, 0)
     for name in FOLLOW:
         if name in proxy:
             a = proxy[name]
-            ch[name] = put(name, np.where(src >= 0, a.reshape(-1)[flat], a[win]).astype(a.dtype, copy=False))
+            here = a[win] if sel is None else a[win][sel]
+            v = np.where(s_sel >= 0, a.reshape(-1)[f_sel], here).astype(a.dtype, copy=False)
+            if sel is None:
+                ch[name] = v
+            else:
+                ch[name] = previous[name].copy()
+                ch[name][win][sel] = v
     return guide.with_channels(ch, meta=meta)

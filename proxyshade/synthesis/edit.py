@@ -7,7 +7,8 @@ and dilates the difference; the node then recomputes that region only and keeps 
 other pixel of its last result bit for bit:
 
 * the detailed guide (``update_guide``): the guidance synthesis re-run on a window around
-  the changed proxy labels, pasted inside the region;
+  the changed proxy labels, its correction masked to the region (the rest of the window
+  is the previous guide's state, as context), pasted inside the region;
 * the depth (``synthesis.depth.depth_plate`` with a region): jump flooding on a window;
 * the colours (``edit_colour.edit_synthesis``): the first frame's steps restricted to the region
   (``resynthesis.resynthesize``: flood fill, correction, magnification, restricted
@@ -60,12 +61,26 @@ def changed_region(before: dict[str, Plate], after: dict[str, Plate], channels: 
             return None
     if diff is None:
         return None
-    return dilate(np.ascontiguousarray(diff), int(radius)) if radius > 0 and diff.any() else diff
+    rows, cols = np.flatnonzero(diff.any(1)), np.flatnonzero(diff.any(0))
+    if radius <= 0 or not len(rows):
+        return diff
+    # the dilation of the difference's box (grown by the radius) only: the same pixels
+    radius = int(radius)
+    H, W = diff.shape
+    r0, r1 = max(0, rows[0] - radius), min(H, rows[-1] + 1 + radius)
+    c0, c1 = max(0, cols[0] - radius), min(W, cols[-1] + 1 + radius)
+    out = np.zeros((H, W), np.bool_)
+    out[r0:r1, c0:c1] = dilate(np.ascontiguousarray(diff[r0:r1, c0:c1]), radius)
+    return out
 
 
-def _span(lo: int, hi: int, size: int, limit: int) -> tuple[int, int]:
-    """[a, a + size) covering [lo, hi) as centred as the limit [0, limit) allows."""
+def _span(lo: int, hi: int, size: int, limit: int, step: int = 1, slack: int = 0) -> tuple[int, int]:
+    """[a, a + size) covering [lo, hi) as centred as the limit [0, limit) allows, ``a`` a
+    multiple of ``step`` (the frame's synthesis pixels) where that still covers
+    [lo, hi − ``slack``) (the context's end may be lost, not the region)."""
     a = max(0, min(limit - size, (lo + hi - size) // 2))
+    if a % step and a // step * step + size >= hi - slack:
+        a = a // step * step
     return a, a + size
 
 
@@ -79,11 +94,17 @@ def update_guide(prev: Plate, region: np.ndarray, proxy: Plate, source: Plate, g
     parameters) runs on each window (its sides multiples of the synthesis's block, the long
     one ``magnify`` × a power of two, so it is synthesized with the frame's magnification
     and levels; or, when that power of two would reach the frame, the frame's long side
-    and ``size``: a band across the frame); its labels and source positions replace
-    ``prev``'s inside the region.
+    and ``size``: a band across the frame; the window's origin on the frame's synthesis
+    grid); its labels and source positions replace ``prev``'s inside the region.
+    The synthesis on a window is the masked correction (``synthesize_guide`` with
+    ``previous``): the window's state is ``prev``'s, the region's blocks are initialized
+    with the new labels (``prev``'s coordinates where their label still is the target's)
+    and corrected with the rest as fixed context, at every level (§7: "we initialize
+    flagged areas with the new labels and perform correction passes"), so labels change
+    where the proxy's did, not across the whole region.
     Every other pixel keeps ``prev``'s labels and positions; the other channels are the new
-    proxy's. A window that would be as large as the frame is the frame's whole synthesis,
-    still pasted inside the region only."""
+    proxy's. A window that would be as large as the frame is the frame's (masked)
+    synthesis, still pasted inside the region only."""
     H, W = proxy.shape
     g = prev.meta.get("guide", {})
     f = int(g.get("magnify", 1))
@@ -102,18 +123,26 @@ def update_guide(prev: Plate, region: np.ndarray, proxy: Plate, source: Plate, g
         ww = long_side if c1 - c0 > r1 - r0 else -(-(c1 - c0) // block) * block
         crop_long = max(min(hh, H), min(ww, W))
         whole = size is not None and 2 ** round(np.log2(crop_long / gp.size)) != f  # would magnify otherwise
-        if whole or (hh >= H and ww >= W):  # the window is the frame: its whole synthesis
-            sub, _ = synthesize_guide(proxy, source, gp)
+        if whole or (hh >= H and ww >= W):  # the window is the frame: the masked synthesis of the frame
+            sub, _ = synthesize_guide(proxy, source, gp, previous=prev, active=region)
             r0, r1, c0, c1 = 0, H, 0, W
             info["whole"] = True
         else:
-            r0, r1 = _span(r0, r1, min(hh, H), H)
-            c0, c1 = _span(c0, c1, min(ww, W), W)
-            crop = Plate({"label.id": np.ascontiguousarray(proxy["label.id"][r0:r1, c0:c1])},
+            r0, r1 = _span(r0, r1, min(hh, H), H, f, context)
+            c0, c1 = _span(c0, c1, min(ww, W), W, f, context)
+            win = (slice(r0, r1), slice(c0, c1))
+            crop = Plate({"label.id": np.ascontiguousarray(proxy["label.id"][win])},
                          {"labels": proxy.meta.get("labels", [])})
-            sub, _ = synthesize_guide(crop, source, SimpleNamespace(**dict(vars(gp), size=size or long_side // f)))
+            before = Plate({c: np.ascontiguousarray(prev[c][win]) for c in ("source.x", "source.y")})
+            sel = np.isin(comp[win], ids) if len(ids) > 1 else comp[win] == ids[0]  # this window's parts only
+            # the previous guide is this window's state where it is not synthesized again
+            # (aligned with the frame's synthesis pixels, as _span places the window)
+            aligned = r0 % f == 0 and c0 % f == 0
+            sub, _ = synthesize_guide(crop, source, SimpleNamespace(**dict(vars(gp), size=size or long_side // f)),
+                                      previous=before if aligned else None, active=sel if aligned else None)
         win = (slice(r0, r1), slice(c0, c1))
-        sel = region[win] if info["whole"] else np.isin(comp[win], ids)  # this window's parts only
+        if info["whole"]:
+            sel = region
         for c in out:
             out[c][win][sel] = sub[c][sel]
         info["windows"].append([int(c1 - c0), int(r1 - r0)])

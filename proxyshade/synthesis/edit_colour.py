@@ -15,6 +15,7 @@ from proxyshade.synthesis.resynthesis import resynthesize
 from proxyshade.synthesis.temporal import FLAG
 
 WINDOW = 64  # output pixels of context around the region of an update (resynthesis.synthesis_window)
+THIN = 32     # an update's Poisson regions at most this thick are solved by SOR (blend.poisson_regions)
 GEOMETRY = ("Z", "P.X", "P.Y", "P.Z", "N.X", "N.Y", "N.Z", "object.id")  # follow the depth input as they are
 
 
@@ -39,7 +40,8 @@ def edit_synthesis(guide: Plate, source: Plate, p, *, previous: Plate | None, re
         img = previous
     flag = np.where(region, np.uint32(FLAG["disoccluded"]), np.uint32(0)).astype(np.uint32)
     img = img.with_channels(dict(geometry, **{"label.id": guide["label.id"].astype(np.uint32), "flag": flag}))
-    out = resynthesize(img, source, SimpleNamespace(**dict(vars(p), solve=True)), 0, note=note, timings=timings,
+    q = dict(vars(p), solve=True, sor_thickness=None if previous is None else THIN)
+    out = resynthesize(img, source, SimpleNamespace(**q), 0, note=note, timings=timings,
                        window=None if previous is None else WINDOW)
     info = dict(out.meta.get("resynthesis", {}))
     meta = dict(out.meta)

@@ -21,10 +21,52 @@ from proxyshade.synthesis.labels import dense_guide, source_table
 from proxyshade.synthesis.memo import ArrayMemo
 
 _SIMILARITY = ArrayMemo(8)  # the exemplar's similarity sets per level, for the newest sources
+_EXEMPLAR = ArrayMemo(16)  # the label exemplar, its levels and masks, the source's adjacencies
 
 
 def _pow2(v: int) -> bool:
     return v >= 1 and (v & (v - 1)) == 0
+
+
+def _exemplar(src: np.ndarray, g: float, n: int) -> np.ndarray:
+    """The source's dense labels at the synthesis scale (``g`` source pixels per pixel)."""
+    if abs(g - round(g)) < 1e-9 and g >= 1:
+        return vote_down(src, int(round(g)), n)
+    ys = np.minimum(((np.arange(int(src.shape[0] / g)) + 0.5) * g).astype(int), src.shape[0] - 1)
+    xs = np.minimum(((np.arange(int(src.shape[1] / g)) + 0.5) * g).astype(int), src.shape[1] - 1)
+    return src[ys][:, xs].astype(np.int32)
+
+
+def _exemplar_level(ex: np.ndarray, h: int, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """The exemplar's voted labels at spacing ``h`` and their window masks."""
+    e_l = vote_filter(ex, h, n) if h > 1 else ex.astype(np.int32)
+    return e_l, kg.exemplar_masks(e_l, h, n)
+
+
+def _block_any(mask: np.ndarray, h: int) -> np.ndarray:
+    """(H, W) bool -> (H / h, W / h): any pixel of each h × h block (H, W multiples of h)."""
+    if h == 1:
+        return mask
+    H, W = mask.shape
+    return mask.reshape(H // h, h, W // h, h).any(axis=(1, 3))
+
+
+def _previous_state(previous: Plate, active: np.ndarray, f: int, scale: float, g: float, ex_shape,
+                    shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
+    """The synthesis-size state (``shape``, int32 exemplar coordinates) of a guide whose
+    output pixel (i, j) has source position S(i // f, j // f) · g + (i % f + 0.5) · scale
+    − 0.5 (read at each block's first pixel; edges repeated into the padding), and the
+    blocks holding an ``active`` pixel (bool, ``shape``)."""
+    H, W = active.shape
+    sy = previous["source.y"][::f, ::f].astype(np.float64)
+    sx = previous["source.x"][::f, ::f].astype(np.float64)
+    S = np.empty(sy.shape + (2,), np.int32)
+    S[..., 0] = np.clip(np.rint((sy + 0.5 - 0.5 * scale) / g), 0, ex_shape[0] - 1)
+    S[..., 1] = np.clip(np.rint((sx + 0.5 - 0.5 * scale) / g), 0, ex_shape[1] - 1)
+    S = np.pad(S, ((0, shape[0] - S.shape[0]), (0, shape[1] - S.shape[1]), (0, 0)), mode="edge")
+    act = np.zeros((shape[0] * f, shape[1] * f), bool)
+    act[:H, :W] = active
+    return np.ascontiguousarray(S), _block_any(act, f)
 
 
 def _label_colours(labels: list[dict], table: np.ndarray) -> np.ndarray:
@@ -68,20 +110,30 @@ def _windows(col: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(np.concatenate(parts, axis=-1))
 
 
-def synthesize_guide(proxy: Plate, source: Plate, gp: SimpleNamespace) -> tuple[Plate, str]:
+def synthesize_guide(proxy: Plate, source: Plate, gp: SimpleNamespace, *, previous: Plate | None = None,
+                     active: np.ndarray | None = None) -> tuple[Plate, str]:
     """The detailed guide of ``proxy`` (its ``label.id`` replaced, ``source.x/y`` added,
     metadata ``guide``) and a one-line summary for the run report. ``gp``: the
-    ``Guidance`` parameters."""
+    ``Guidance`` parameters.
+
+    With ``previous`` (the last guide on this pixel grid, synthesized at this
+    magnification: its ``source.x/y``) and ``active`` (H, W bool), the masked correction
+    of an edit's update (§7): at every level the state is the previous one (read back from
+    its source positions) except on the active pixels' blocks, which are initialized with
+    the new labels (the previous coordinates where their label is still the target's,
+    fresh ones of the target's label elsewhere) and corrected with the rest as fixed
+    context. Only the active pixels' results are meant to be used."""
     table = source_table(source)
     n = len(table)
     names = {int(t["id"]): t["name"] for t in source.meta["labels"]}
-    src = dense_guide(source["label.id"], table, "source")
+    src = _EXEMPLAR.get((source["label.id"],), ("dense", tuple(table.tolist())),
+                        lambda: dense_guide(source["label.id"], table, "source"))
     tgt = dense_guide(proxy["label.id"], table, "proxy")
-    present = np.unique(src)
+    present = _EXEMPLAR.get((source["label.id"],), ("present", tuple(table.tolist())), lambda: np.unique(src))
     if len(present) < 2:
         raise NodeInputError(f"the source label map has a single label ({names[int(table[present[0]])]}); "
                              "guidance synthesis needs at least two labels: paint the label map's regions")
-    absent = sorted(set(np.unique(tgt)) - set(present))
+    absent = sorted(set(np.flatnonzero(np.bincount(tgt.ravel(), minlength=n))) - set(present))
     if absent:
         which = ", ".join(names[int(table[a])] for a in absent)
         raise NodeInputError(f"proxy label(s) {which} are in the table but painted nowhere in the source; "
@@ -98,12 +150,7 @@ def synthesize_guide(proxy: Plate, source: Plate, gp: SimpleNamespace) -> tuple[
     # so any output size and aspect works
     f = 2 ** max(0, int(round(np.log2(max(H, W) / gp.size))))
     g = f * gp.scale  # source pixels per synthesis (exemplar) pixel
-    if abs(g - round(g)) < 1e-9 and g >= 1:
-        ex = vote_down(src, int(round(g)), n)
-    else:
-        ys = np.minimum(((np.arange(int(src.shape[0] / g)) + 0.5) * g).astype(int), src.shape[0] - 1)
-        xs = np.minimum(((np.arange(int(src.shape[1] / g)) + 0.5) * g).astype(int), src.shape[1] - 1)
-        ex = src[ys][:, xs].astype(np.int32)
+    ex = _EXEMPLAR.get((source["label.id"],), ("ex", tuple(table.tolist()), float(g)), lambda: _exemplar(src, g, n))
     levels = int(np.log2(gp.size // gp.start)) + 1
     block_px = f * 2 ** (levels - 1)
     Hp, Wp = -(-H // block_px) * block_px, -(-W // block_px) * block_px
@@ -115,7 +162,9 @@ def synthesize_guide(proxy: Plate, source: Plate, gp: SimpleNamespace) -> tuple[
     t0 = vote_down(tgt, f, n) if f > 1 else tgt.astype(np.int32)
     # the l2 baseline is kept as the paper's Fig. 3 describes it: no adjacency rule
     keep_adj = gp.keep_adjacency and gp.metric == "chamfer"
-    allowed = kg.adjacency(src, tgt_full, n=n) if keep_adj else np.ones((n, n), bool)
+    # the source's adjacencies are the source's (kept), the proxy's this call's: the same union
+    allowed = (_EXEMPLAR.get((source["label.id"],), ("adj", tuple(table.tolist())), lambda: kg.adjacency(src, n=n))
+               | kg.adjacency(tgt_full, n=n)) if keep_adj else np.ones((n, n), bool)
     lock_pairs = []
     by_name = {t["name"]: i for i, t in enumerate(sorted(source.meta["labels"], key=lambda t: list(table).index(int(t["id"]))))}
     for pair in gp.locked:
@@ -125,11 +174,14 @@ def synthesize_guide(proxy: Plate, source: Plate, gp: SimpleNamespace) -> tuple[
     metric = 0 if gp.metric == "chamfer" else 1
     pal = _label_colours(source.meta["labels"], table)
     S = None
+    prev0 = act0 = None
+    if previous is not None:
+        prev0, act0 = _previous_state(previous, active, f, gp.scale, g, ex.shape, (Hp // f, Wp // f))
     for l in range(levels - 1, -1, -1):
         h = 2 ** l
-        e_l = vote_filter(ex, h, n) if h > 1 else ex.astype(np.int32)
+        e_l, masks = _EXEMPLAR.get((source["label.id"],), ("level", tuple(table.tolist()), float(g), h),
+                                   lambda: _exemplar_level(ex, h, n))
         t_l = vote_down(t0, h, n) if h > 1 else t0.astype(np.int32)
-        masks = kg.exemplar_masks(e_l, h, n)
         tmasks = kg.grid_masks(t_l, n)
         if metric == 1:
             ex_col = np.ascontiguousarray(_blur(pal[ex], h / 2.0))
@@ -149,14 +201,29 @@ def synthesize_guide(proxy: Plate, source: Plate, gp: SimpleNamespace) -> tuple[
         else:
             S = kg.upsample_state(S, h, ex.shape[0], ex.shape[1], t_l.shape[0], t_l.shape[1])
         locked = kg.locked_border(t_l, lock_pairs) if lock_pairs else np.zeros(t_l.shape, bool)
-        S = kg.correct(S, e_l, masks, ex_col, sim, tmasks, tgt_col, t_l, locked, allowed, h=h,
-                       w_proxy=gp.proxy_weight, metric=metric, n=n, passes=gp.passes)
+        if prev0 is None:
+            S = kg.correct(S, e_l, masks, ex_col, sim, tmasks, tgt_col, t_l, locked, allowed, h=h,
+                           w_proxy=gp.proxy_weight, metric=metric, n=n, passes=gp.passes)
+            continue
+        prev_l = np.ascontiguousarray(prev0[::h, ::h])
+        act_l = _block_any(act0, h)
+        # outside the active blocks the previous state; inside, its coordinates where the label
+        # they read is still the target's and the coarser level kept its own, the new ones elsewhere
+        same = e_l[prev_l[..., 0], prev_l[..., 1]] == t_l
+        if l < levels - 1:
+            same &= np.repeat(np.repeat(kept, 2, 0), 2, 1)[:t_l.shape[0], :t_l.shape[1]]
+        keep = ~act_l | same
+        S[keep] = prev_l[keep]
+        S = kg.correct_active(S, act_l, e_l, masks, ex_col, sim, tmasks, tgt_col, t_l, locked, allowed, h=h,
+                              w_proxy=gp.proxy_weight, metric=metric, n=n, passes=gp.passes)
+        kept = (S == prev_l).all(-1)
     syn = ex[S[..., 0], S[..., 1]]  # labels at the synthesis size
     # magnify through the source coordinates: output pixel (i, j) sits (i % f, j % f)
     # output pixels into its synthesis pixel's exemplar cell of g x g source pixels
-    ii, jj = np.mgrid[0:H, 0:W]
-    sy = S[ii // f, jj // f, 0] * g + (ii % f + 0.5) * gp.scale - 0.5
-    sx = S[ii // f, jj // f, 1] * g + (jj % f + 0.5) * gp.scale - 0.5
+    ri, ci = np.arange(H), np.arange(W)
+    Sy, Sx = (np.ascontiguousarray(S[..., k][ri // f][:, ci // f]) for k in (0, 1))
+    sy = Sy * g + ((ri % f + 0.5) * gp.scale)[:, None] - 0.5
+    sx = Sx * g + ((ci % f + 0.5) * gp.scale)[None, :] - 0.5
     hs, ws = src.shape
     sy = np.clip(sy, 0, hs - 1)
     sx = np.clip(sx, 0, ws - 1)

@@ -137,6 +137,47 @@ def test_correction_subpass_matches_reference(metric, h, w):
         assert (new != S).any() or pi + pj > 0  # the test exercises changes
 
 
+@pytest.mark.parametrize("metric,h", [(0, 1), (1, 2)])
+def test_masked_subpass_corrects_the_active_pixels_as_the_reference_and_keeps_the_others(metric, h):
+    """An edit's masked correction: active pixels take the reference's choice (reading every
+    pixel, active or not, as context), inactive ones keep their coordinates."""
+    rng = np.random.default_rng(20 + metric)
+    n, k = 3, 2
+    ex_lab = blobs(rng, 14, 15, n)
+    target = blobs(rng, 9, 8, n)
+    S = np.stack([rng.integers(0, 14, (9, 8)), rng.integers(0, 15, (9, 8))], -1).astype(np.int32)
+    sim = np.stack([rng.integers(0, 14, (14, 15, k)), rng.integers(0, 15, (14, 15, k))], -1).astype(np.int32)
+    sim[:, :, 0] = np.stack(np.mgrid[0:14, 0:15], -1)
+    ex_col, tgt_col = rng.random((14, 15, 3)), rng.random((9, 8, 75))
+    locked = rng.random((9, 8)) < 0.2
+    allowed = np.ones((n, n), bool)
+    allowed[0, 2] = allowed[2, 0] = False
+    active = rng.random((9, 8)) < 0.4
+    masks, tmasks = kg.exemplar_masks(ex_lab, h, n), kg.grid_masks(target, n)
+    for pi, pj in ((0, 0), (1, 1), (0, 1), (1, 0)):
+        new = S.copy()
+        kg._subpass_active(S, new, active, pi, pj, ex_lab, masks, ex_col, sim, tmasks, tgt_col, target, locked,
+                           allowed, h, 1.0, metric, n)
+        ref = subpass_ref(S, pi, pj, ex_lab, ex_col, sim, tgt_col, target, locked, allowed, h, 1.0, metric)
+        assert np.array_equal(new[active], ref[active])
+        assert np.array_equal(new[~active], S[~active])
+        assert (new[active] != S[active]).any() or pi + pj > 0
+    # every pixel active: the whole correction, pass for pass
+    args = (ex_lab, masks, ex_col, sim, tmasks, tgt_col, target, locked, allowed)
+    every = kg.correct_active(S, np.ones(target.shape, bool), *args, h=h, w_proxy=1.0, metric=metric, n=n, passes=2)
+    assert np.array_equal(every, kg.correct(S, *args, h=h, w_proxy=1.0, metric=metric, n=n, passes=2))
+    # and the masked passes do not depend on the thread count
+    outs = []
+    old = numba.get_num_threads()
+    try:
+        for t in (1, 2):
+            numba.set_num_threads(t)
+            outs.append(kg.correct_active(S, active, *args, h=h, w_proxy=1.0, metric=metric, n=n, passes=2))
+    finally:
+        numba.set_num_threads(old)
+    assert np.array_equal(outs[0], outs[1]) and np.array_equal(outs[0][~active], S[~active])
+
+
 def test_correction_is_thread_count_independent():
     rng = np.random.default_rng(3)
     n = 4

@@ -24,9 +24,10 @@ def test_group_boxes_cover_every_component_with_a_margin():
     assert len(groups) < 4
 
 
-@pytest.mark.parametrize("small", [0, 64])  # windows with multigrid CG, or SOR on the free pixels
+# windows with multigrid CG, or SOR on the free pixels (by box, or, an edit's update, by thickness)
+@pytest.mark.parametrize("small,thin", [(0, None), (64, None), (0, 16)])
 @pytest.mark.parametrize("screen", [0.0, 0.01])
-def test_poisson_regions_equal_the_whole_frame_solve(screen, small):
+def test_poisson_regions_equal_the_whole_frame_solve(screen, small, thin):
     from proxyshade.kernels import poisson as P
 
     rng = np.random.default_rng(12)
@@ -46,8 +47,8 @@ def test_poisson_regions_equal_the_whole_frame_solve(screen, small):
     ref, _ = P.poisson_transfer(colors, patch, labels, fixed=~free, values=colors, seam_gx=gx, seam_gy=gy,
                                 screen=screen, tol=1e-7, max_iter=500)
     got, info = B.poisson_regions(colors, patch, labels, free, source=src, sx=sx, sy=sy, step=0.5, screen=screen,
-                                  tol=1e-7, max_iter=500, slack=0, small=small)
-    if small:
+                                  tol=1e-7, max_iter=500, slack=0, small=small, thin=thin)
+    if small or thin:
         assert info["windows"] == 0 and info["sor_pixels"] == free.sum() - (free & P.contour_mask(labels)).sum()
     else:
         assert info["windows"] == 3 and info["window_pixels"] < h * w

@@ -55,6 +55,12 @@ def test_update_guide_synthesizes_a_window_and_keeps_the_rest():
     pond[300:340, 200:260] = True
     assert (out["label.id"][pond] == water).mean() > 0.8
     assert (out["label.id"][pond] == water).mean() >= (whole["label.id"][pond] == water).mean() - 0.1
+    # the correction is masked to the region with the last guide as context: away from the pond the
+    # region keeps its labels and many of its source positions (about half on this guide; a fresh
+    # synthesis of the window, as before the masked correction, kept none)
+    far = region & ~changed_region({"p": proxy}, {"p": edited}, {"p": ("label.id",)}, 6)
+    kept = (out["source.x"][far] == prev["source.x"][far]) & (out["source.y"][far] == prev["source.y"][far])
+    assert kept.mean() > 0.3 and (out["label.id"][far] == prev["label.id"][far]).mean() > 0.9
 
 
 def test_a_band_across_the_frame_is_synthesized_on_a_band_not_the_whole_frame():
