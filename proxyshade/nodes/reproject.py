@@ -32,7 +32,8 @@ wave) is re-anchored whole to a plain copy through its middle instead of resynth
 Flags (uint32 ``flag``): 0 kept, 1 disoccluded (no previous pixel of this label on this
 surface, and not continued), 2 newly occluded (category C of ConsistentDepth whose
 previous pixel had another label: the object now in front hides what was seen there),
-3 distorted (re-anchored, but the copy leaves its label: resynthesized), 4 re-anchored
+3 distorted (re-anchored, but the copy leaves its label; or kept, but its carried source
+position has left its label by more than half a source pixel: resynthesized), 4 re-anchored
 (the new map kept; only the Poisson solve is redone). Isolated flags (fewer than
 ``min_neighbours`` other flagged pixels in the 5×5 window) are dropped; reasons 1 and 2
 are dilated by ``dilate`` pixels (dilated pixels take the reason of a flag they grew

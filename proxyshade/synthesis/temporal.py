@@ -55,6 +55,28 @@ def fits_source(src_lab: np.ndarray, sx: np.ndarray, sy: np.ndarray, lab: np.nda
     return out
 
 
+def off_label(src_lab: np.ndarray, sx: np.ndarray, sy: np.ndarray, lab: np.ndarray, mask: np.ndarray,
+              margin: float = 0.5) -> np.ndarray:
+    """Pixels of ``mask`` whose source position lies outside the source or on a pixel of
+    another label, and so do the positions ``margin`` source pixels to its left, right,
+    above and below: well off its label, not on the border the first frame's own copies
+    touch (``fits_source``'s complement, the first test in whole-frame passes)."""
+    hs, ws = src_lab.shape
+    with np.errstate(invalid="ignore"):
+        inside = (sx >= 0) & (sy >= 0) & (sx <= ws - 1) & (sy <= hs - 1)
+    off = mask & ~(inside & (lookup(src_lab, sx, sy) == lab))
+    if margin > 0 and off.any():
+        ii, jj = np.nonzero(off)
+        x, y, L = sx[ii, jj], sy[ii, jj], lab[ii, jj]
+        near = np.zeros(len(ii), bool)
+        for dx, dy in ((margin, 0.0), (-margin, 0.0), (0.0, margin), (0.0, -margin)):
+            xs, ys = x + dx, y + dy
+            ok = (xs >= 0) & (ys >= 0) & (xs <= ws - 1) & (ys <= hs - 1)
+            near |= ok & (lookup(src_lab, xs[None].astype(np.float32), ys[None].astype(np.float32))[0] == L)
+        off[ii[near], jj[near]] = False
+    return off
+
+
 def patch_thresholds(patch: np.ndarray, threshold: float, spread: float, seed: int) -> np.ndarray:
     """Each pixel's distortion threshold: its patch's, uniform in [(1 − spread)·threshold,
     threshold], hashed from the patch id and the seed (the same for the patch's whole
@@ -292,10 +314,16 @@ def carry(cd: Plate, prev: Plate | None, first: Plate | None, source: Plate, p, 
     if distorted.any():
         fits = fits_source(src_lab, sx, sy, lab, distorted)
         raw[distorted] = np.where(fits[distorted], FLAG["reanchored"], FLAG["distorted"])
+    # a kept pixel whose carried source position has left its label (a patch growing on
+    # screen carries its map past its label's border in the source: sky reading the cliff)
+    # no longer shows its label's texture: resynthesized, however few there are
+    stray = off_label(src_lab, sx, sy, lab, have & (raw == 0))
+    raw[stray] = FLAG["distorted"]
     raw[~have] = FLAG["disoccluded"]
     raw[newly_occluded(cat, u, v, ok, lab, prev["label.id"])] = FLAG["newly_occluded"]
     flag = clean_flags(raw, radius=p.isolated_radius, min_neighbours=p.min_neighbours, dilate=p.dilate)
     flag[~have & (flag == 0)] = FLAG["disoccluded"]  # dropped as isolated, but nothing to carry
+    flag[stray & (flag == 0)] = FLAG["distorted"]  # dropped as isolated, but off its label
     share = float((flag > 0).mean())
     cut = share > p.cut_threshold
     if cut:
