@@ -113,6 +113,38 @@ def repetition(sx: np.ndarray, sy: np.ndarray, source_shape: tuple[int, int], *,
     return float(np.sort(counts)[-k:].sum() / counts.sum())
 
 
+def label_repetition(sx: np.ndarray, sy: np.ndarray, labels: np.ndarray, source_labels: np.ndarray, *,
+                     top: float = 0.01) -> tuple[float, float]:
+    """``repetition`` label by label: for each label of the output, the share of its output
+    pixels drawn from the most-used ``top`` share of the source pixels of that label, the
+    mean weighted by output area; and the floor ``repetition`` has from the framing alone
+    (the share of the most-used ``top`` of all source pixels when every label's source
+    pixels are used evenly: a frame showing a label over more area than its share of the
+    source uses that label's pixels more often, however well spread). Output pixels whose
+    label the source lacks are left out of the first. Returns (per-label measure, floor)."""
+    sl = np.asarray(source_labels).astype(np.int64)
+    hs, ws = sl.shape
+    c = np.clip(np.rint(sx), 0, ws - 1).astype(np.int64)
+    r = np.clip(np.rint(sy), 0, hs - 1).astype(np.int64)
+    ol = np.asarray(labels).astype(np.int64).ravel()
+    n = int(max(sl.max(), ol.max())) + 1
+    a = np.bincount(ol, minlength=n).astype(np.float64)  # output pixels per label
+    b = np.bincount(sl.ravel(), minlength=n).astype(np.float64)  # source pixels per label
+    counts = np.bincount((r * ws + c).ravel(), minlength=hs * ws)
+    flat = sl.ravel()
+    num = den = 0.0
+    for lab in np.flatnonzero((a > 0) & (b > 0)):
+        cl = counts[flat == lab]
+        k = max(1, int(round(top * cl.size)))
+        if cl.sum() > 0:
+            num += a[lab] * np.sort(cl)[-k:].sum() / cl.sum()
+            den += a[lab]
+    rate = np.where(b > 0, a / np.maximum(b, 1.0), 0.0)[flat]  # uses per source pixel, evenly spread
+    k = max(1, int(round(top * hs * ws)))
+    floor = float(np.sort(rate)[-k:].sum() / max(a[b > 0].sum(), 1.0))
+    return (float(num / den) if den else 0.0), floor
+
+
 # ---- fidelity to the photo, label by label (bench/bench_fidelity.py) -------------------------
 # Colours are sRGB-encoded in [0, 1] (what a viewer compares); a label's pixels in the
 # output are compared with the same label's pixels in the source photo.

@@ -9,7 +9,7 @@ from hypothesis import given, settings, strategies as st
 
 from proxyshade.errors import UserError
 from proxyshade.graph.plate import Plate
-from proxyshade.io.exr import read_header, read_plate, write_plate
+from proxyshade.io.exr import COMPRESSIONS, read_header, read_plate, write_plate
 
 
 @settings(max_examples=20, deadline=None)
@@ -64,3 +64,23 @@ def test_failed_write_leaves_nothing(tmp_path):
     with pytest.raises(UserError):
         write_plate(tmp_path / "x.exr", p, compression="bogus")
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.skipif("zstd" not in COMPRESSIONS, reason="OpenEXR without ZSTD")
+def test_zstd_level_set_and_entries_exact(tmp_path):
+    """The cache's ZSTD level reaches the library (a bindings upgrade that drops the C
+    symbol would silently bring back level 5's CPU cost), and level-1 files hold the
+    pixels exactly."""
+    import ctypes
+
+    import OpenEXR
+    from proxyshade.io.exr import ZSTD_LEVEL
+
+    got = ctypes.c_int(-99)
+    ctypes.CDLL(OpenEXR.__file__).exr_get_default_zstd_compression_level(ctypes.byref(got))
+    assert got.value == ZSTD_LEVEL
+    rng = np.random.default_rng(3)
+    p = Plate({"R": rng.standard_normal((37, 53)).astype(np.float32), "patch.id": rng.integers(0, 9, (37, 53), dtype=np.uint32)})
+    write_plate(tmp_path / "z.exr", p, compression="zstd")
+    assert read_header(tmp_path / "z.exr")["attributes"]["compression"] == "zstd"
+    assert read_plate(tmp_path / "z.exr").equals(p)

@@ -1,4 +1,4 @@
-"""quality.repetition against a slow reference, and what it tells apart."""
+"""quality.repetition and label_repetition against slow references, and what they tell apart."""
 from collections import Counter
 
 import numpy as np
@@ -27,3 +27,54 @@ def test_a_lattice_of_one_patch_repeats_far_more_than_a_plain_copy():
     copy = Q.repetition(j, i, (120, 160))  # the whole source once: the top 1% of pixels draw 1%
     tiled = Q.repetition(j % 16, i % 12, (120, 160))  # one 16x12 patch tiled 100 times
     assert np.isclose(copy, 0.01, atol=1e-3) and tiled > 0.9
+
+
+def label_repetition_ref(sx, sy, labels, source_labels, top):
+    hs, ws = source_labels.shape
+    use = Counter()
+    for x, y in zip(sx.ravel(), sy.ravel()):
+        use[(min(max(int(np.rint(y)), 0), hs - 1), min(max(int(np.rint(x)), 0), ws - 1))] += 1
+    num = den = 0.0
+    rates = []
+    for lab in sorted(set(labels.ravel().tolist())):
+        pix = [(y, x) for y in range(hs) for x in range(ws) if source_labels[y, x] == lab]
+        area = int((labels == lab).sum())
+        if not pix:
+            continue
+        rates += [area / len(pix)] * len(pix)
+        counts = sorted((use[p] for p in pix), reverse=True)
+        if sum(counts):
+            k = max(1, int(round(top * len(pix))))
+            num += area * sum(counts[:k]) / sum(counts)
+            den += area
+    k = max(1, int(round(top * hs * ws)))
+    floor = sum(sorted(rates, reverse=True)[:k]) / sum(int((labels == lab).sum()) for lab in set(source_labels.ravel().tolist()))
+    return num / den, floor
+
+
+def test_label_repetition_matches_reference_on_random_maps():
+    rng = np.random.default_rng(4)
+    for _ in range(4):
+        src_lab = rng.integers(1, 4, (14, 19)).astype(np.uint32)
+        sx, sy = rng.uniform(-2, 21, (2, 11, 13)).astype(np.float32)
+        lab = rng.integers(1, 5, (11, 13)).astype(np.uint32)  # label 4: not in the source
+        got = Q.label_repetition(sx, sy, lab, src_lab, top=0.1)
+        assert np.allclose(got, label_repetition_ref(sx, sy, lab, src_lab, 0.1))
+
+
+def test_label_repetition_separates_framing_from_tiling():
+    """A frame with more of a small label draws its pixels more often (a higher
+    ``repetition`` and floor) but, spread evenly, not a higher per-label measure; a lattice
+    of one patch inside the label raises the per-label measure."""
+    src = np.ones((120, 160), np.uint32)
+    src[:, 120:] = 2  # label 2: a quarter of the source
+    i, j = np.mgrid[0:120, 0:160].astype(np.float32)
+    even = Q.label_repetition(j, i, src, src)  # a plain copy
+    i, j = np.mgrid[0:120, 0:240].astype(np.float32)  # a wider frame: label 1 as in the source, then
+    lab = np.where(j >= 120, 2, 1).astype(np.uint32)  # 120 columns of label 2 from its 40 (each pixel thrice)
+    sx = np.where(lab == 2, 120 + (j - 120) % 40, j)
+    wide = Q.label_repetition(sx, i, lab, src)
+    tiled = Q.label_repetition(np.where(lab == 2, 120 + (j - 120) % 8, j), i % 12, lab, src)
+    assert np.isclose(even[0], 0.01, atol=2e-3) and np.isclose(wide[0], 0.01, atol=2e-3)
+    assert wide[1] > 1.8 * even[1] and Q.repetition(sx, i, src.shape) > 1.8 * even[1]
+    assert tiled[0] > 5 * wide[0]
