@@ -37,6 +37,10 @@ class Resynthesize(FloodFill, Correction, PoissonSolve, Progressive, Node):
     seed = Param(int, 0, doc="seed of the flood fill (combined with the frame number) and of the similarity sets")
     solve = Param(bool, True, doc="finish with the restricted Poisson solve (Dirichlet outside the flagged pixels); "
                                   "false leaves it to a Poisson node with keep")
+    sor_thickness = Param(float, 32.0, min=0.0,
+                          doc="restricted-Poisson regions at most this thick (2 x area / perimeter, pixels) are "
+                              "solved by SOR on their own pixels, not by multigrid in a window around them (the "
+                              "same system, to the solver's tol); 0: only regions in small boxes")
 
     def compute(self, ctx) -> Plate:
         from proxyshade.synthesis.resynthesis import resynthesize, resynthesize_update

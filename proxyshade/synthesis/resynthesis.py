@@ -198,7 +198,7 @@ def _resynthesize(img: Plate, source: Plate, p, frame: int, *, note: Callable[[s
     if p.solve:
         rgb, pinfo = blend_regions(rgb, patch, img["label.id"], flagged, PoissonSolve.of(p),
                                    source_rgb=source.rgb(), sx=sx, sy=sy, scale=scale, filter=filt,
-                                   thin=getattr(p, "sor_thickness", None))
+                                   thin=getattr(p, "sor_thickness", None) or None)
         # flagged pixels were the source through the map: the correction adds the solve's change
         correct = all(c in img for c in CORRECTION)
         note(f"Poisson on {pinfo['windows']} windows ({pinfo['window_pixels']} px), at most "
