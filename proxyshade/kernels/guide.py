@@ -218,95 +218,103 @@ def _candidate(q, i, j, S_old, sim, h, k, H, W, He, We):
     return sim[by, bx, t, 0], sim[by, bx, t, 1]
 
 
+@njit(inline="always", **JIT)
+def _correct_pixel(i, j, S_old, ex_lab, ex_masks, ex_col, sim, tgt_masks, tgt_col, target, locked_mask, allowed, h,
+                   w_proxy, metric, n, k, H, W, He, We, ms, fs, fe, seen):
+    """The corrected coordinates of pixel (i, j): among its candidates, the first one
+    minimizing d(synthesized window, candidate) + w_proxy d(proxy window, candidate).
+    Repeated candidates are evaluated once and Chamfer sums stop early once they cannot
+    win (neither changes the result). ``ms``, ``fs``, ``fe``, ``seen``: the caller's
+    scratch buffers."""
+    # the synthesized neighbourhood: labels (colours) under the current coordinates
+    for l in range(n):
+        ms[l] = 0
+    kk = 0
+    for dy in range(-R, R + 1):
+        ii = _clamp(i + dy, 0, H - 1)
+        for dx in range(-R, R + 1):
+            jj = _clamp(j + dx, 0, W - 1)
+            ey, ex = S_old[ii, jj, 0], S_old[ii, jj, 1]
+            ms[ex_lab[ey, ex]] |= np.uint32(1) << np.uint32(kk)
+            if metric == 1:
+                for c in range(3):
+                    fs[3 * kk + c] = ex_col[ey, ex, c]
+            kk += 1
+    best_y, best_x = S_old[i, j, 0], S_old[i, j, 1]
+    best = np.inf
+    nseen = 0
+    for q in range(-1, 9 * k):
+        cy, cx = _candidate(q, i, j, S_old, sim, h, k, H, W, He, We)
+        key = np.int64(cy) * We + cx
+        dup = False
+        for u in range(nseen):
+            if seen[u] == key:
+                dup = True
+                break
+        if dup:
+            continue  # same cost as its first occurrence: cannot win (strict <)
+        seen[nseen] = key
+        nseen += 1
+        lc = ex_lab[cy, cx]
+        if locked_mask[i, j] and lc != target[i, j]:
+            continue
+        ok = True
+        for d in range(4):
+            ni = i + (d == 0) - (d == 1)
+            nj = j + (d == 2) - (d == 3)
+            if ni < 0 or ni >= H or nj < 0 or nj >= W:
+                continue
+            ln = ex_lab[S_old[ni, nj, 0], S_old[ni, nj, 1]]
+            if not allowed[lc, ln]:
+                ok = False
+        if not ok:
+            continue
+        if metric == 1:
+            _color_window(ex_col, cy, cx, h, fe)
+            d1 = _window_dist(1, ms, ms, fs, fe)
+            d2 = _window_dist(1, ms, ms, tgt_col[i, j], fe)
+        else:
+            # exact Chamfer sums unless already too large to win; a margin of one
+            # unit keeps float rounding of d1 + w d2 out of the decision
+            b1 = np.int64(1) << 40
+            if best < 1e12:
+                b1 = np.int64(best) + 1
+            e1 = chamfer_bounded(ms, ex_masks[cy, cx], b1)
+            if e1 > b1:
+                continue
+            d1 = float(e1)
+            if w_proxy > 0.0 and best < 1e12:
+                b2 = np.int64((best - d1) / w_proxy) + 1
+            else:
+                b2 = np.int64(1) << 40
+            e2 = chamfer_bounded(tgt_masks[i, j], ex_masks[cy, cx], b2)
+            if e2 > b2:
+                continue
+            d2 = float(e2)
+        c = d1 + w_proxy * d2
+        if c < best:
+            best = c
+            best_y, best_x = cy, cx
+    return best_y, best_x
+
+
 @njit(**PJIT)
 def _subpass(S_old, S_new, par_i, par_j, ex_lab, ex_masks, ex_col, sim, tgt_masks, tgt_col, target, locked_mask,
              allowed, h, w_proxy, metric, n):
-    """Correct the pixels of parity (par_i, par_j): each takes, among its candidates, the
-    first one minimizing d(synthesized window, candidate) + w_proxy d(proxy window,
-    candidate). Repeated candidates are evaluated once and Chamfer sums stop early once
-    they cannot win (neither changes the result)."""
+    """Correct the pixels of parity (par_i, par_j) (``_correct_pixel``)."""
     H, W = S_old.shape[0], S_old.shape[1]
     He, We = ex_lab.shape
     k = sim.shape[2]
-    nq = 9 * k + 1
     for i2 in prange((H - par_i + 1) // 2):
         i = par_i + 2 * i2
         ms = np.zeros(n, np.uint32)
         fs = np.empty(75, np.float64)
         fe = np.empty(75, np.float64)
-        seen = np.empty(nq, np.int64)
+        seen = np.empty(9 * k + 1, np.int64)
         for j in range(par_j, W, 2):
-            # the synthesized neighbourhood: labels (colours) under the current coordinates
-            for l in range(n):
-                ms[l] = 0
-            kk = 0
-            for dy in range(-R, R + 1):
-                ii = _clamp(i + dy, 0, H - 1)
-                for dx in range(-R, R + 1):
-                    jj = _clamp(j + dx, 0, W - 1)
-                    ey, ex = S_old[ii, jj, 0], S_old[ii, jj, 1]
-                    ms[ex_lab[ey, ex]] |= np.uint32(1) << np.uint32(kk)
-                    if metric == 1:
-                        for c in range(3):
-                            fs[3 * kk + c] = ex_col[ey, ex, c]
-                    kk += 1
-            best_y, best_x = S_old[i, j, 0], S_old[i, j, 1]
-            best = np.inf
-            nseen = 0
-            for q in range(-1, 9 * k):
-                cy, cx = _candidate(q, i, j, S_old, sim, h, k, H, W, He, We)
-                key = np.int64(cy) * We + cx
-                dup = False
-                for u in range(nseen):
-                    if seen[u] == key:
-                        dup = True
-                        break
-                if dup:
-                    continue  # same cost as its first occurrence: cannot win (strict <)
-                seen[nseen] = key
-                nseen += 1
-                lc = ex_lab[cy, cx]
-                if locked_mask[i, j] and lc != target[i, j]:
-                    continue
-                ok = True
-                for d in range(4):
-                    ni = i + (d == 0) - (d == 1)
-                    nj = j + (d == 2) - (d == 3)
-                    if ni < 0 or ni >= H or nj < 0 or nj >= W:
-                        continue
-                    ln = ex_lab[S_old[ni, nj, 0], S_old[ni, nj, 1]]
-                    if not allowed[lc, ln]:
-                        ok = False
-                if not ok:
-                    continue
-                if metric == 1:
-                    _color_window(ex_col, cy, cx, h, fe)
-                    d1 = _window_dist(1, ms, ms, fs, fe)
-                    d2 = _window_dist(1, ms, ms, tgt_col[i, j], fe)
-                else:
-                    # exact Chamfer sums unless already too large to win; a margin of one
-                    # unit keeps float rounding of d1 + w d2 out of the decision
-                    b1 = np.int64(1) << 40
-                    if best < 1e12:
-                        b1 = np.int64(best) + 1
-                    e1 = chamfer_bounded(ms, ex_masks[cy, cx], b1)
-                    if e1 > b1:
-                        continue
-                    d1 = float(e1)
-                    if w_proxy > 0.0 and best < 1e12:
-                        b2 = np.int64((best - d1) / w_proxy) + 1
-                    else:
-                        b2 = np.int64(1) << 40
-                    e2 = chamfer_bounded(tgt_masks[i, j], ex_masks[cy, cx], b2)
-                    if e2 > b2:
-                        continue
-                    d2 = float(e2)
-                c = d1 + w_proxy * d2
-                if c < best:
-                    best = c
-                    best_y, best_x = cy, cx
-            S_new[i, j, 0] = best_y
-            S_new[i, j, 1] = best_x
+            S_new[i, j, 0], S_new[i, j, 1] = _correct_pixel(
+                i, j, S_old, ex_lab, ex_masks, ex_col, sim, tgt_masks, tgt_col, target, locked_mask, allowed, h,
+                w_proxy, metric, n, k, H, W, He, We, ms, fs, fe, seen)
 
 
 def correct(S, ex_lab, ex_masks, ex_col, sim, tgt_masks, tgt_col, target, locked_mask, allowed, *, h, w_proxy,
@@ -341,93 +349,21 @@ def correct_active(S, active, ex_lab, ex_masks, ex_col, sim, tgt_masks, tgt_col,
 @njit(**PJIT)
 def _subpass_active(S_old, S_new, active, par_i, par_j, ex_lab, ex_masks, ex_col, sim, tgt_masks, tgt_col, target,
                     locked_mask, allowed, h, w_proxy, metric, n):
-    """``_subpass`` on the ``active`` pixels only (the others keep ``S_new``'s coordinates):
-    the same candidates and costs, a copy of its loop with that one test (``_subpass``
-    keeps its signatures, which the kernel manifest lists)."""
+    """``_subpass`` on the ``active`` pixels only (the others keep ``S_new``'s coordinates)."""
     H, W = S_old.shape[0], S_old.shape[1]
     He, We = ex_lab.shape
     k = sim.shape[2]
-    nq = 9 * k + 1
     for i2 in prange((H - par_i + 1) // 2):
         i = par_i + 2 * i2
         ms = np.zeros(n, np.uint32)
         fs = np.empty(75, np.float64)
         fe = np.empty(75, np.float64)
-        seen = np.empty(nq, np.int64)
+        seen = np.empty(9 * k + 1, np.int64)
         for j in range(par_j, W, 2):
-            if not active[i, j]:
-                continue
-            # the synthesized neighbourhood: labels (colours) under the current coordinates
-            for l in range(n):
-                ms[l] = 0
-            kk = 0
-            for dy in range(-R, R + 1):
-                ii = _clamp(i + dy, 0, H - 1)
-                for dx in range(-R, R + 1):
-                    jj = _clamp(j + dx, 0, W - 1)
-                    ey, ex = S_old[ii, jj, 0], S_old[ii, jj, 1]
-                    ms[ex_lab[ey, ex]] |= np.uint32(1) << np.uint32(kk)
-                    if metric == 1:
-                        for c in range(3):
-                            fs[3 * kk + c] = ex_col[ey, ex, c]
-                    kk += 1
-            best_y, best_x = S_old[i, j, 0], S_old[i, j, 1]
-            best = np.inf
-            nseen = 0
-            for q in range(-1, 9 * k):
-                cy, cx = _candidate(q, i, j, S_old, sim, h, k, H, W, He, We)
-                key = np.int64(cy) * We + cx
-                dup = False
-                for u in range(nseen):
-                    if seen[u] == key:
-                        dup = True
-                        break
-                if dup:
-                    continue  # same cost as its first occurrence: cannot win (strict <)
-                seen[nseen] = key
-                nseen += 1
-                lc = ex_lab[cy, cx]
-                if locked_mask[i, j] and lc != target[i, j]:
-                    continue
-                ok = True
-                for d in range(4):
-                    ni = i + (d == 0) - (d == 1)
-                    nj = j + (d == 2) - (d == 3)
-                    if ni < 0 or ni >= H or nj < 0 or nj >= W:
-                        continue
-                    ln = ex_lab[S_old[ni, nj, 0], S_old[ni, nj, 1]]
-                    if not allowed[lc, ln]:
-                        ok = False
-                if not ok:
-                    continue
-                if metric == 1:
-                    _color_window(ex_col, cy, cx, h, fe)
-                    d1 = _window_dist(1, ms, ms, fs, fe)
-                    d2 = _window_dist(1, ms, ms, tgt_col[i, j], fe)
-                else:
-                    # exact Chamfer sums unless already too large to win; a margin of one
-                    # unit keeps float rounding of d1 + w d2 out of the decision
-                    b1 = np.int64(1) << 40
-                    if best < 1e12:
-                        b1 = np.int64(best) + 1
-                    e1 = chamfer_bounded(ms, ex_masks[cy, cx], b1)
-                    if e1 > b1:
-                        continue
-                    d1 = float(e1)
-                    if w_proxy > 0.0 and best < 1e12:
-                        b2 = np.int64((best - d1) / w_proxy) + 1
-                    else:
-                        b2 = np.int64(1) << 40
-                    e2 = chamfer_bounded(tgt_masks[i, j], ex_masks[cy, cx], b2)
-                    if e2 > b2:
-                        continue
-                    d2 = float(e2)
-                c = d1 + w_proxy * d2
-                if c < best:
-                    best = c
-                    best_y, best_x = cy, cx
-            S_new[i, j, 0] = best_y
-            S_new[i, j, 1] = best_x
+            if active[i, j]:
+                S_new[i, j, 0], S_new[i, j, 1] = _correct_pixel(
+                    i, j, S_old, ex_lab, ex_masks, ex_col, sim, tgt_masks, tgt_col, target, locked_mask, allowed, h,
+                    w_proxy, metric, n, k, H, W, He, We, ms, fs, fe, seen)
 
 
 def adjacency(*label_maps: np.ndarray, n: int) -> np.ndarray:

@@ -112,20 +112,27 @@ def subpass_ref(S, pi, pj, ex_lab, ex_col, sim, tgt_col, target, locked, allowed
     return out
 
 
-@pytest.mark.parametrize("metric,h,w", [(0, 1, 1.0), (0, 2, 0.7), (1, 2, 1.0)])
-def test_correction_subpass_matches_reference(metric, h, w):
-    rng = np.random.default_rng(10 * metric + h)
+def subpass_case(rng):
+    """A small random correction sub-pass problem: 3 labels, a 14×15 exemplar, a 9×8 state
+    with 2 similar coordinates each (the first the coordinate itself), 20 % locked pixels,
+    labels 0 and 2 never adjacent."""
     n, k = 3, 2
     ex_lab = blobs(rng, 14, 15, n)
     target = blobs(rng, 9, 8, n)
     S = np.stack([rng.integers(0, 14, (9, 8)), rng.integers(0, 15, (9, 8))], -1).astype(np.int32)
     sim = np.stack([rng.integers(0, 14, (14, 15, k)), rng.integers(0, 15, (14, 15, k))], -1).astype(np.int32)
     sim[:, :, 0] = np.stack(np.mgrid[0:14, 0:15], -1)
-    ex_col = rng.random((14, 15, 3))
-    tgt_col = rng.random((9, 8, 75))
+    ex_col, tgt_col = rng.random((14, 15, 3)), rng.random((9, 8, 75))
     locked = rng.random((9, 8)) < 0.2
     allowed = np.ones((n, n), bool)
     allowed[0, 2] = allowed[2, 0] = False
+    return n, ex_lab, target, S, sim, ex_col, tgt_col, locked, allowed
+
+
+@pytest.mark.parametrize("metric,h,w", [(0, 1, 1.0), (0, 2, 0.7), (1, 2, 1.0)])
+def test_correction_subpass_matches_reference(metric, h, w):
+    rng = np.random.default_rng(10 * metric + h)
+    n, ex_lab, target, S, sim, ex_col, tgt_col, locked, allowed = subpass_case(rng)
     masks = kg.exemplar_masks(ex_lab, h, n)
     tmasks = kg.grid_masks(target, n)
     for pi, pj in ((0, 0), (1, 1), (0, 1), (1, 0)):
@@ -142,16 +149,7 @@ def test_masked_subpass_corrects_the_active_pixels_as_the_reference_and_keeps_th
     """An edit's masked correction: active pixels take the reference's choice (reading every
     pixel, active or not, as context), inactive ones keep their coordinates."""
     rng = np.random.default_rng(20 + metric)
-    n, k = 3, 2
-    ex_lab = blobs(rng, 14, 15, n)
-    target = blobs(rng, 9, 8, n)
-    S = np.stack([rng.integers(0, 14, (9, 8)), rng.integers(0, 15, (9, 8))], -1).astype(np.int32)
-    sim = np.stack([rng.integers(0, 14, (14, 15, k)), rng.integers(0, 15, (14, 15, k))], -1).astype(np.int32)
-    sim[:, :, 0] = np.stack(np.mgrid[0:14, 0:15], -1)
-    ex_col, tgt_col = rng.random((14, 15, 3)), rng.random((9, 8, 75))
-    locked = rng.random((9, 8)) < 0.2
-    allowed = np.ones((n, n), bool)
-    allowed[0, 2] = allowed[2, 0] = False
+    n, ex_lab, target, S, sim, ex_col, tgt_col, locked, allowed = subpass_case(rng)
     active = rng.random((9, 8)) < 0.4
     masks, tmasks = kg.exemplar_masks(ex_lab, h, n), kg.grid_masks(target, n)
     for pi, pj in ((0, 0), (1, 1), (0, 1), (1, 0)):
