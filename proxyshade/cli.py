@@ -137,6 +137,7 @@ class _BarHooks:
         for name, _ in plan.keys:
             planned[name] = planned.get(name, 0) + 1
         self.counts = {name: [planned[name], 0] for name in plan.graph.nodes if name in planned}
+        self.tasks = None  # a later graph's plan (``compile`` runs several): its bars when it computes
 
     def _bars(self):  # under self.lock
         if self.tasks is None:

@@ -134,6 +134,23 @@ def test_progress_bars_are_drawn_on_a_terminal_from_the_first_computed_node_only
     assert "0 computed" in capsys.readouterr().out and len(started) == 2  # cached: no bars
 
 
+def test_one_set_of_bars_follows_several_graphs_as_compile_runs_them(graph, tmp_path, registry, monkeypatch):
+    """``proxyshade compile`` runs the demo graphs one after another with one ``_BarHooks``:
+    each graph's nodes get their bars when it computes."""
+    import proxyshade.cli as cli
+    from proxyshade.graph.graph import Graph
+
+    monkeypatch.setattr(cli.err, "_force_terminal", True)
+    g2 = tmp_path / "m.yaml"
+    g2.write_text("format: proxyshade/1\nframes: 1-2\nnodes:\n  f: {type: TFrame}\n")
+    with cli._LazyBars(False) as bars:
+        hooks = cli._BarHooks(bars)
+        Graph.load(graph, cache=tmp_path / "c1").run(hooks=hooks)
+        Graph.load(g2, cache=tmp_path / "c2").run([1, 2], hooks=hooks)
+    done = {t.description: (t.completed, t.total) for t in bars.progress.tasks}
+    assert done["f"] == (2, 2) and done["src"][0] == done["src"][1] > 0
+
+
 def test_a_cold_kernel_cache_compiles_the_manifest_first_with_a_note(graph, capsys, monkeypatch):
     """On a cold numba cache ``run`` compiles the manifest's kernels of the graph's kernel
     modules before the run (``warmup.precompile``), saying so; on a warm one it says nothing."""
