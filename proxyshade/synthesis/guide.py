@@ -126,10 +126,14 @@ def synthesize_guide(proxy: Plate, source: Plate, gp: SimpleNamespace, *, previo
     table = source_table(source)
     n = len(table)
     names = {int(t["id"]): t["name"] for t in source.meta["labels"]}
-    src = _EXEMPLAR.get((source["label.id"],), ("dense", tuple(table.tolist())),
-                        lambda: dense_guide(source["label.id"], table, "source"))
+    tkey = tuple(table.tolist())
+
+    def per_source(what: tuple, compute):  # kept for this source's label map and table (_EXEMPLAR)
+        return _EXEMPLAR.get((source["label.id"],), (tkey,) + what, compute)
+
+    src = per_source(("dense",), lambda: dense_guide(source["label.id"], table, "source"))
     tgt = dense_guide(proxy["label.id"], table, "proxy")
-    present = _EXEMPLAR.get((source["label.id"],), ("present", tuple(table.tolist())), lambda: np.unique(src))
+    present = per_source(("present",), lambda: np.unique(src))
     if len(present) < 2:
         raise NodeInputError(f"the source label map has a single label ({names[int(table[present[0]])]}); "
                              "guidance synthesis needs at least two labels: paint the label map's regions")
@@ -150,7 +154,7 @@ def synthesize_guide(proxy: Plate, source: Plate, gp: SimpleNamespace, *, previo
     # so any output size and aspect works
     f = 2 ** max(0, int(round(np.log2(max(H, W) / gp.size))))
     g = f * gp.scale  # source pixels per synthesis (exemplar) pixel
-    ex = _EXEMPLAR.get((source["label.id"],), ("ex", tuple(table.tolist()), float(g)), lambda: _exemplar(src, g, n))
+    ex = per_source(("ex", float(g)), lambda: _exemplar(src, g, n))
     levels = int(np.log2(gp.size // gp.start)) + 1
     block_px = f * 2 ** (levels - 1)
     Hp, Wp = -(-H // block_px) * block_px, -(-W // block_px) * block_px
@@ -163,7 +167,7 @@ def synthesize_guide(proxy: Plate, source: Plate, gp: SimpleNamespace, *, previo
     # the l2 baseline is kept as the paper's Fig. 3 describes it: no adjacency rule
     keep_adj = gp.keep_adjacency and gp.metric == "chamfer"
     # the source's adjacencies are the source's (kept), the proxy's this call's: the same union
-    allowed = (_EXEMPLAR.get((source["label.id"],), ("adj", tuple(table.tolist())), lambda: kg.adjacency(src, n=n))
+    allowed = (per_source(("adj",), lambda: kg.adjacency(src, n=n))
                | kg.adjacency(tgt_full, n=n)) if keep_adj else np.ones((n, n), bool)
     lock_pairs = []
     by_name = {t["name"]: i for i, t in enumerate(sorted(source.meta["labels"], key=lambda t: list(table).index(int(t["id"]))))}
@@ -179,8 +183,7 @@ def synthesize_guide(proxy: Plate, source: Plate, gp: SimpleNamespace, *, previo
         prev0, act0 = _previous_state(previous, active, f, gp.scale, g, ex.shape, (Hp // f, Wp // f))
     for l in range(levels - 1, -1, -1):
         h = 2 ** l
-        e_l, masks = _EXEMPLAR.get((source["label.id"],), ("level", tuple(table.tolist()), float(g), h),
-                                   lambda: _exemplar_level(ex, h, n))
+        e_l, masks = per_source(("level", float(g), h), lambda: _exemplar_level(ex, h, n))
         t_l = vote_down(t0, h, n) if h > 1 else t0.astype(np.int32)
         tmasks = kg.grid_masks(t_l, n)
         if metric == 1:
