@@ -57,14 +57,25 @@ def fits_source(src_lab: np.ndarray, sx: np.ndarray, sy: np.ndarray, lab: np.nda
 
 def off_label(src_lab: np.ndarray, sx: np.ndarray, sy: np.ndarray, lab: np.ndarray, mask: np.ndarray,
               margin: float = 0.5) -> np.ndarray:
-    """Pixels of ``mask`` whose source position does not ``fits_source``, and neither do
-    the positions ``margin`` source pixels to its left, right, above and below: well off
-    its label, not on the border the first frame's own copies touch."""
-    off = mask & ~fits_source(src_lab, sx, sy, lab, mask)
-    if margin > 0:
+    """Pixels of ``mask`` whose source position lies outside the source or on a pixel of
+    another label, and so do the positions ``margin`` source pixels to its left, right,
+    above and below: well off its label, not on the border the first frame's own copies
+    touch (``fits_source``'s complement, written here as whole-frame passes: over most of
+    a frame's pixels they cost less than ``fits_source``'s gather and scatter, which
+    measured 10-80 ms slower per 1024² update frame)."""
+    hs, ws = src_lab.shape
+    with np.errstate(invalid="ignore"):
+        inside = (sx >= 0) & (sy >= 0) & (sx <= ws - 1) & (sy <= hs - 1)
+    off = mask & ~(inside & (lookup(src_lab, sx, sy) == lab))
+    if margin > 0 and off.any():
+        ii, jj = np.nonzero(off)
+        x, y, L = sx[ii, jj], sy[ii, jj], lab[ii, jj]
+        near = np.zeros(len(ii), bool)
         for dx, dy in ((margin, 0.0), (-margin, 0.0), (0.0, margin), (0.0, -margin)):
-            if off.any():
-                off &= ~fits_source(src_lab, sx + np.float32(dx), sy + np.float32(dy), lab, off)
+            xs, ys = x + dx, y + dy
+            ok = (xs >= 0) & (ys >= 0) & (xs <= ws - 1) & (ys <= hs - 1)
+            near |= ok & (lookup(src_lab, xs[None].astype(np.float32), ys[None].astype(np.float32))[0] == L)
+        off[ii[near], jj[near]] = False
     return off
 
 
