@@ -36,7 +36,7 @@ from pathlib import Path
 
 from proxyshade.errors import WriteError
 from proxyshade.graph.plate import Plate
-from proxyshade.io.exr import CACHE_COMPRESSION, read_header, read_plate, write_plate
+from proxyshade.io.exr import cache_compression, read_header, read_plate, write_plate
 from proxyshade.io.files import READ_ONLY, io_error, remove_stale_temps, stale_temps, temp_for
 
 
@@ -195,7 +195,7 @@ class Cache:
             tmp = temp_for(exr, ".exr")
             # ZSTD: the writer thread competes with the nodes for the cores, and at 4K ZIP cost it
             # ~3.6 CPU s per 15-channel plate (ZSTD 2.1 s, and 40 % smaller files to hash)
-            write_plate(tmp, plate, compression=CACHE_COMPRESSION, extra={"proxyshade/node": str(record.get("node")), "proxyshade/key": key,
+            write_plate(tmp, plate, compression=cache_compression(), extra={"proxyshade/node": str(record.get("node")), "proxyshade/key": key,
                                            "proxyshade/frame": str(record.get("frame"))})
             rec = dict(record, key=key, size=tmp.stat().st_size, sha256=_sha256(tmp), created=time.time())
             self._publish(key, tmp, rec, replace)

@@ -45,6 +45,25 @@ def _ignore(run: "NodeRun") -> None:
     pass
 
 
+_ARRAYS_LOCK = threading.Lock()
+
+
+def load_array_libraries() -> None:
+    """Load numpy and the OpenEXR bindings now, one thread at a time. The engine and the node
+    modules load them on first use (a fully cached run never needs them), but a first use on
+    two threads at once goes wrong: Python's lazy modules before 3.11.9 / 3.12.3 can hand a
+    half-loaded numpy to the second thread, and the bindings (a C extension that imports
+    numpy) deadlocked against USD's import on another thread (the cache writer's first
+    entry while a node imported pxr). Every compute calls this first."""
+    with _ARRAYS_LOCK:
+        import numpy
+
+        numpy.ndarray  # an attribute: loads a lazy module on any Python version
+        from proxyshade.io.exr import compressions
+
+        compressions()
+
+
 def set_kernel_threads(threads: int) -> int:
     """Threads the numba kernels called from this thread use: ``threads`` (0: every one
     numba has, ``NUMBA_NUM_THREADS``), at most that many. Returns the count set. numba is
@@ -502,6 +521,7 @@ class Graph:
         return plate
 
     def _compute(self, plan: "Plan", inst, nr: NodeRun) -> Plate:
+        load_array_libraries()
         with self._lock(nr.key):
             if nr.key in self.cache.memory:
                 return self.cache.memory[nr.key]

@@ -28,10 +28,12 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable, ClassVar, Iterable
 
-import numpy as np
+import lazy_loader
 
 from proxyshade.errors import NodeInputError, ParamError
 from proxyshade.graph.plate import Plate
+
+np = lazy_loader.load("numpy")  # on first use: a fully cached run never loads numpy
 
 REGISTRY: dict[str, type["Node"]] = {}
 

@@ -12,9 +12,11 @@ import re
 from dataclasses import dataclass, field
 from typing import Any, Iterable, Mapping
 
-import numpy as np
+import lazy_loader
 
-DTYPES = (np.dtype(np.float16), np.dtype(np.float32), np.dtype(np.uint32))
+np = lazy_loader.load("numpy")  # on first use: a fully cached run never loads numpy
+
+DTYPES = ("float16", "float32", "uint32")  # names: numpy's dtypes would load numpy on import
 _NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z0-9_]+)*$")
 
 
@@ -54,7 +56,7 @@ class Plate:
             arr = np.asarray(arr)
             if arr.ndim != 2:
                 raise PlateError(f"channel {name!r} must be 2-D (H, W), got shape {arr.shape}")
-            if arr.dtype not in DTYPES:
+            if arr.dtype.name not in DTYPES or not arr.dtype.isnative:
                 raise PlateError(
                     f"channel {name!r} has dtype {arr.dtype}; valid dtypes are float16, float32 and uint32"
                 )
@@ -95,7 +97,7 @@ class Plate:
     def names(self) -> list[str]:
         return list(self.channels)
 
-    def layer(self, names: Iterable[str], dtype=np.float32) -> np.ndarray:
+    def layer(self, names: Iterable[str], dtype="float32") -> np.ndarray:
         """Stack channels into an (H, W, C) array, e.g. ``plate.layer("RGB")``."""
         names = list(names)
         return np.stack([self[n].astype(dtype, copy=False) for n in names], axis=-1)

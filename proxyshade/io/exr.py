@@ -11,49 +11,82 @@ contains '/' (``proxyshade/node``, ``cryptomatte/<key>/name``, ...) are also wri
 header attributes of their own, so other tools see them. Plates with R,G,B carry their
 colour space: ``chromaticities`` (Rec.709, D65) and ``colorInteropID`` ``lin_rec709_scene``
 (OpenImageIO's ``oiio:ColorSpace``). Compression is ZIP by default; the plate cache uses
-ZSTD where the bindings have it (``CACHE_COMPRESSION``).
+ZSTD where the bindings have it (``cache_compression()``). The bindings are imported on
+first use.
 Files are written to a temporary name beside the target and renamed into place
 (``proxyshade.io.files``): a symlink is written through, a device or folder refused, and a
 failed write (a full disk) leaves nothing at the name and raises ``WriteError``.
 """
 from __future__ import annotations
 
+import functools
 import json
 import os
 from pathlib import Path
 
-import numpy as np
-import OpenEXR
+import lazy_loader
 
 from proxyshade.errors import UserError, WriteError
 from proxyshade.graph.plate import Plate
 from proxyshade.io.files import io_error, output_target, temp_for
 
-COMPRESSIONS = {
-    "zip": OpenEXR.ZIP_COMPRESSION,
-    "zips": OpenEXR.ZIPS_COMPRESSION,
-    "piz": OpenEXR.PIZ_COMPRESSION,
-    "none": OpenEXR.NO_COMPRESSION,
-    "dwaa": OpenEXR.DWAA_COMPRESSION,
-}
-if hasattr(OpenEXR, "ZSTD_COMPRESSION"):  # OpenEXR 3.4+: lossless, about 2x less CPU than ZIP and smaller
-    # files on plates (4K first frame: 120 vs 206 MiB); readers before OpenEXR 3.4 (most
-    # compositors today) cannot open it, so it is for the cache, not for delivery
-    COMPRESSIONS["zstd"] = OpenEXR.ZSTD_COMPRESSION
-CACHE_COMPRESSION = "zstd" if "zstd" in COMPRESSIONS else "zip"
+np = lazy_loader.load("numpy")  # on first use: a fully cached run never loads numpy
+
+# ZSTD (OpenEXR 3.4+): lossless, about 2x less CPU than ZIP and smaller files on plates (4K
+# first frame: 120 vs 206 MiB); readers before OpenEXR 3.4 (most compositors today) cannot
+# open it, so it is for the cache, not for delivery
+COMPRESSION_NAMES = ("zip", "zips", "piz", "none", "dwaa", "zstd")
 # ZSTD's level (OpenEXR's default 5): the Python bindings take no level in the header, so the
 # library's default is set through its C API. At 4K, level 1 costs a third to a half of level
 # 5's CPU for files 3 % larger (15-channel plate: 0.9 vs 2.4 CPU s, 124 vs 120 MiB); the
 # bytes of every level decode to the same pixels
 ZSTD_LEVEL = 1
+_META = "proxyshade/meta"
 
 
-def _set_zstd_level(level: int) -> bool:
+@functools.cache
+def _openexr():
+    """The OpenEXR bindings, imported on first use (they import numpy: ~0.13 s that a fully
+    cached run does without) and set up once: ZSTD at ``ZSTD_LEVEL``, and chunks compressed
+    and decompressed on every core (files are byte-identical)."""
+    import OpenEXR
+
+    if hasattr(OpenEXR, "ZSTD_COMPRESSION"):
+        _set_zstd_level(OpenEXR, ZSTD_LEVEL)
+    if OpenEXR.global_thread_count() == 0:
+        OpenEXR.set_global_thread_count(os.cpu_count() or 1)
+    return OpenEXR
+
+
+def compressions() -> dict:
+    """Compression name -> the bindings' constant, for the names these bindings have."""
+    lib = _openexr()
+    return {n: getattr(lib, f"{n.upper()}_COMPRESSION") for n in COMPRESSION_NAMES
+            if hasattr(lib, f"{n.upper()}_COMPRESSION")}
+
+
+def cache_compression() -> str:
+    """The plate cache's compression: ZSTD where the bindings have it, else ZIP."""
+    return "zstd" if "zstd" in compressions() else "zip"
+
+
+def __getattr__(name: str):
+    # the bindings and their tables as module attributes, loaded when first asked for
+    if name == "OpenEXR":
+        return _openexr()
+    if name == "COMPRESSIONS":
+        return compressions()
+    if name == "CACHE_COMPRESSION":
+        return cache_compression()
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def _set_zstd_level(lib, level: int) -> bool:
     """Set OpenEXR's default ZSTD level (the bindings' own symbol); False when unavailable."""
     import ctypes
 
     try:
-        fn = ctypes.CDLL(OpenEXR.__file__).exr_set_default_zstd_compression_level
+        fn = ctypes.CDLL(lib.__file__).exr_set_default_zstd_compression_level
     except (OSError, AttributeError):
         return False
     fn.argtypes, fn.restype = [ctypes.c_int], None
@@ -61,11 +94,6 @@ def _set_zstd_level(level: int) -> bool:
     return True
 
 
-if "zstd" in COMPRESSIONS:
-    _set_zstd_level(ZSTD_LEVEL)
-_META = "proxyshade/meta"
-if OpenEXR.global_thread_count() == 0:  # compress/decompress chunks on every core (files are byte-identical)
-    OpenEXR.set_global_thread_count(os.cpu_count() or 1)
 # R,G,B are linear Rec.709 / sRGB primaries, D65 (sources are decoded from sRGB with
 # colour-science): the chromaticities attribute and the ASWF colour-interop id, which
 # OpenImageIO reports as oiio:ColorSpace and Nuke and OCIO configs understand
@@ -78,9 +106,10 @@ class ExrError(UserError):
 
 
 def _header(plate: Plate, compression: str, extra: dict | None) -> dict:
-    if compression not in COMPRESSIONS:
-        raise ExrError(f"compression {compression!r} is not valid; valid ones are {', '.join(COMPRESSIONS)}")
-    header = {"compression": COMPRESSIONS[compression], "type": OpenEXR.scanlineimage}
+    table = compressions()
+    if compression not in table:
+        raise ExrError(f"compression {compression!r} is not valid; valid ones are {', '.join(table)}")
+    header = {"compression": table[compression], "type": _openexr().scanlineimage}
     if all(c in plate.channels for c in ("R", "G", "B")):
         header["chromaticities"] = REC709_CHROMATICITIES
         header["colorInteropID"] = COLOUR_SPACE
@@ -107,7 +136,7 @@ def write_plate(path: str | Path, plate: Plate, *, compression: str = "zip", ext
     try:
         target.parent.mkdir(parents=True, exist_ok=True)
         tmp = temp_for(target, ".exr")
-        with OpenEXR.File(header, channels) as f:
+        with _openexr().File(header, channels) as f:
             f.write(str(tmp))
         os.replace(tmp, target)
     except OSError as e:
@@ -133,7 +162,7 @@ def read_plate(path: str | Path, *, expect: dict[str, str] | None = None) -> Pla
     if not path.is_file():
         raise ExrError(f"{path}: no such EXR file; check the path")
     try:
-        with OpenEXR.File(str(path), separate_channels=True) as f:
+        with _openexr().File(str(path), separate_channels=True) as f:
             chans = {name: np.array(ch.pixels) for name, ch in f.channels().items()}
             header = dict(f.header())  # after channels(): reading them resets the header view
     except Exception as e:

@@ -12,10 +12,12 @@ import os
 
 from pathlib import Path
 
-import numpy as np
+import lazy_loader
 
 from proxyshade.errors import UserError, WriteError
 from proxyshade.io.files import io_error, output_target, temp_for
+
+np = lazy_loader.load("numpy")  # on first use: a fully cached run never loads numpy
 
 # OpenImageIO is imported by the functions that read or write pictures: a cached run needs none
 

@@ -10,13 +10,15 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-import numpy as np
+import lazy_loader
 import yaml
 
 from proxyshade.errors import UserError
 from proxyshade.graph.plate import Plate
 from proxyshade.io.colourlib import colour_science
 from proxyshade.io.images import read_u8
+
+np = lazy_loader.load("numpy")  # on first use: a fully cached run never loads numpy
 
 
 def parse_colour(text: str, where: str) -> tuple[int, int, int]:

@@ -9,9 +9,11 @@ from __future__ import annotations
 
 import colorsys
 
-import numpy as np
+import lazy_loader
 
 from proxyshade.io.colourlib import colour_science
+
+np = lazy_loader.load("numpy")  # on first use: a fully cached run never loads numpy
 
 
 DEFAULT_CHANNELS = ("R", "G", "B")

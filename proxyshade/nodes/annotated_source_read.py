@@ -3,12 +3,14 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import numpy as np
+import lazy_loader
 
 from proxyshade.graph import keys
 from proxyshade.graph.node import Node, Param
 from proxyshade.graph.plate import Plate
 from proxyshade.io.source import load_source, load_table
+
+np = lazy_loader.load("numpy")  # on first use: a fully cached run never loads numpy
 
 
 class AnnotatedSourceRead(Node):

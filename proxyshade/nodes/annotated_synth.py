@@ -2,10 +2,12 @@
 annotation maps, interpolating combinations the source never shows (Diamanti et al. 2015)."""
 from __future__ import annotations
 
-import numpy as np
+import lazy_loader
 
 from proxyshade.graph.node import Input, Node, Param
 from proxyshade.graph.plate import Plate
+
+np = lazy_loader.load("numpy")  # on first use: a fully cached run never loads numpy
 
 
 def _ann_names(plate) -> list[str]:

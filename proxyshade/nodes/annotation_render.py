@@ -1,10 +1,12 @@
 """AnnotationRender: per-pixel annotation maps of a proxy render (light, distance, slope)."""
 from __future__ import annotations
 
-import numpy as np
+import lazy_loader
 
 from proxyshade.graph.node import Input, Node, Param
 from proxyshade.graph.plate import Plate
+
+np = lazy_loader.load("numpy")  # on first use: a fully cached run never loads numpy
 
 KINDS = ("light", "depth", "up")
 

@@ -22,12 +22,14 @@ spheres); those pixels keep the guide's decision. Layer: ``proxyshade.synthesis.
 """
 from __future__ import annotations
 
-import numpy as np
+import lazy_loader
 
 from proxyshade.graph.node import Input, Node, Param
 from proxyshade.graph.plate import Plate
 from proxyshade.synthesis.params import SameSurface
 from proxyshade.synthesis.state import CATEGORY
+
+np = lazy_loader.load("numpy")  # on first use: a fully cached run never loads numpy
 
 
 class ConsistentDepth(SameSurface, Node):

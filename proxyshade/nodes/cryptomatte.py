@@ -10,10 +10,12 @@ from __future__ import annotations
 
 import json
 
-import numpy as np
+import lazy_loader
 
 from proxyshade.graph.node import Input, Node, Param
 from proxyshade.graph.plate import Plate
+
+np = lazy_loader.load("numpy")  # on first use: a fully cached run never loads numpy
 
 
 def crypto_channels(ids: np.ndarray, table: list[dict], type_name: str, *, levels: int,

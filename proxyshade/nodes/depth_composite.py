@@ -7,10 +7,12 @@ is hidden exactly where the rock's texture is.
 """
 from __future__ import annotations
 
-import numpy as np
+import lazy_loader
 
 from proxyshade.graph.node import Input, Node, Param
 from proxyshade.graph.plate import Plate
+
+np = lazy_loader.load("numpy")  # on first use: a fully cached run never loads numpy
 
 _COLOUR = ("R", "G", "B")
 

@@ -6,7 +6,7 @@ from pathlib import Path
 
 from proxyshade.graph.node import Input, Node, Param
 from proxyshade.graph.plate import Plate
-from proxyshade.io.exr import COMPRESSIONS, write_plate
+from proxyshade.io.exr import COMPRESSION_NAMES, write_plate
 
 
 class ExrWrite(Node):
@@ -21,7 +21,7 @@ class ExrWrite(Node):
     path = Param(Path, doc="output EXR; '####' is replaced by the frame number")
     channels = Param(list, None, doc="channels to write (default: all); shell patterns select several "
                                      "('Crypto*', 'P.*')")
-    compression = Param(str, "zip", choices=tuple(COMPRESSIONS), doc="EXR compression")
+    compression = Param(str, "zip", choices=COMPRESSION_NAMES, doc="EXR compression")
 
     def compute(self, ctx) -> Plate:
         plate = ctx.image

@@ -6,10 +6,12 @@ Bonneel et al. 2010, §7: the layered representation with extended depth allows
 """
 from __future__ import annotations
 
-import numpy as np
+import lazy_loader
 
 from proxyshade.graph.node import Input, Node, Param
 from proxyshade.graph.plate import Plate
+
+np = lazy_loader.load("numpy")  # on first use: a fully cached run never loads numpy
 
 AXES = {"X": 0, "Y": 1, "Z": 2}
 

@@ -15,11 +15,13 @@ Rec.709/sRGB primaries, with colour-science for the colourimetry:
 from __future__ import annotations
 
 
-import numpy as np
+import lazy_loader
 
 from proxyshade.graph.node import Input, Node, Param
 from proxyshade.graph.plate import Plate
 from proxyshade.io.colourlib import colour_science
+
+np = lazy_loader.load("numpy")  # on first use: a fully cached run never loads numpy
 
 
 REFERENCE_CCT = 6504.0

@@ -10,11 +10,13 @@ moved onto the right label. Layer: ``proxyshade.synthesis.patches.magnify_map``;
 """
 from __future__ import annotations
 
-import numpy as np
+import lazy_loader
 
 from proxyshade.graph.node import Input, Node, Param
 from proxyshade.graph.plate import Plate
 from proxyshade.synthesis.params import source_input
+
+np = lazy_loader.load("numpy")  # on first use: a fully cached run never loads numpy
 
 DEPTH_CHANNELS = ("Z", "P.X", "P.Y", "P.Z", "N.X", "N.Y", "N.Z", "object.id")  # geometry AOVs passed on
 

@@ -11,11 +11,13 @@ import functools
 import hashlib
 from pathlib import Path
 
-import numpy as np
+import lazy_loader
 
 from proxyshade.graph import keys
 from proxyshade.graph.node import Input, Node, Param, resolve_path
 from proxyshade.graph.plate import Plate
+
+np = lazy_loader.load("numpy")  # on first use: a fully cached run never loads numpy
 
 # USD (pxr) and the kernels (numba) are imported where a render or a key reads a scene:
 # a cached run loads neither

@@ -10,12 +10,14 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import numpy as np
+import lazy_loader
 
 from proxyshade.errors import UserError
 from proxyshade.graph import keys
 from proxyshade.graph.node import Input, Node, Param, resolve_path
 from proxyshade.graph.plate import Plate
+
+np = lazy_loader.load("numpy")  # on first use: a fully cached run never loads numpy
 
 
 def light_depth_map(prims: list, direction, size: int) -> tuple[np.ndarray, dict]:
