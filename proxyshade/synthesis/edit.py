@@ -23,6 +23,7 @@ from types import SimpleNamespace
 import numpy as np
 
 from proxyshade.graph.plate import Plate
+from proxyshade.kernels import edit as kedit
 from proxyshade.kernels import temporal as kt
 from proxyshade.kernels.temporal import dilate
 from proxyshade.synthesis.blend import group_boxes
@@ -36,39 +37,39 @@ def changed_region(before: dict[str, Plate], after: dict[str, Plate], channels: 
     pixels (square), on the first input's pixel grid. None (recompute whole) when a plate
     is missing, the first input changed size, or another input of another size (the
     source) changed at all."""
-    diff = None
+    diff = lo = hi = None
     for name, names in channels.items():
         a, b = before.get(name), after.get(name)
         if a is None or b is None or a.shape != b.shape:
             return None
-        d = np.zeros(a.shape, bool)
+        # one pass per channel: the difference and each row's first and last differing column
+        same_grid = diff is not None and a.shape == diff.shape
+        d = diff if same_grid else np.zeros(a.shape, bool)
+        first = lo if same_grid else np.full(a.shape[0], a.shape[1], np.int64)
+        last = hi if same_grid else np.full(a.shape[0], -1, np.int64)
         for c in names:
             if (c in a) != (c in b):
                 return None
             if c in a:
-                dc = a[c] != b[c]
-                if np.issubdtype(a[c].dtype, np.floating):
-                    ii = np.flatnonzero(dc)  # NaN != NaN: only the differing pixels can be two NaNs
-                    if len(ii):
-                        x, y = a[c].reshape(-1)[ii], b[c].reshape(-1)[ii]
-                        dc.reshape(-1)[ii[np.isnan(x) & np.isnan(y)]] = False
-                d |= dc
+                x, y = a[c], b[c]
+                if x.ndim != 2 or y.shape != x.shape:
+                    return None
+                kedit.mark_differences(np.ascontiguousarray(x), np.ascontiguousarray(y), d, first, last)
         if diff is None:
-            diff = d
-        elif d.shape == diff.shape:
-            diff |= d
-        elif d.any():
+            diff, lo, hi = d, first, last
+        elif not same_grid and (last >= 0).any():
             return None
     if diff is None:
         return None
-    rows, cols = np.flatnonzero(diff.any(1)), np.flatnonzero(diff.any(0))
+    rows = np.flatnonzero(hi >= 0)
     if radius <= 0 or not len(rows):
         return diff
+    cols = (int(lo[rows].min()), int(hi[rows].max()))
     # the dilation of the difference's box (grown by the radius) only: the same pixels
     radius = int(radius)
     H, W = diff.shape
     r0, r1 = max(0, rows[0] - radius), min(H, rows[-1] + 1 + radius)
-    c0, c1 = max(0, cols[0] - radius), min(W, cols[-1] + 1 + radius)
+    c0, c1 = max(0, cols[0] - radius), min(W, cols[1] + 1 + radius)
     out = np.zeros((H, W), np.bool_)
     out[r0:r1, c0:c1] = dilate(np.ascontiguousarray(diff[r0:r1, c0:c1]), radius)
     return out
