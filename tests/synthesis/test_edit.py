@@ -206,3 +206,28 @@ def test_a_depth_update_gives_the_numbers_of_the_frames_unprojection():
         assert out[c].dtype == prev[c].dtype, c
         assert np.array_equal(out[c][~region].view(np.uint32), prev[c][~region].view(np.uint32)), c
         assert np.array_equal(out[c][region].view(np.uint32), v[region].astype(prev[c].dtype).view(np.uint32)), c
+
+
+def test_a_source_read_back_is_the_last_runs_and_its_results_are_found_again(monkeypatch):
+    """The engine reads the source back from its cache at each run (new arrays): the edit
+    steps take the earlier plate of the same content, so the guide's per-source results
+    (similarity sets, exemplar levels) are not searched again; another content is not
+    mistaken for it."""
+    from proxyshade.kernels import guide as kg
+    from proxyshade.synthesis import edit as E
+
+    src, proxy, gp, prev, edited, water = painted(slice(300, 320), slice(200, 230))
+    region = changed_region({"proxy": proxy}, {"proxy": edited}, {"proxy": ("label.id",)}, 8)
+    first, _ = update_guide(prev, region, edited, src, gp, context=16)
+    again = Plate({c: src[c].copy() for c in src.names()}, dict(src.meta))
+    assert E.known_source(again) is src
+    searched = []
+    real = kg.similarity_sets
+    monkeypatch.setattr(kg, "similarity_sets", lambda *a, **k: searched.append(1) or real(*a, **k))
+    out, _ = update_guide(prev, region, edited, again, gp, context=16)
+    assert not searched
+    assert all(np.array_equal(out[c], first[c]) for c in ("label.id", "source.x", "source.y"))
+    other = again.with_channels({"label.id": np.where(again["label.id"] == water, 0, again["label.id"]).astype(
+        again["label.id"].dtype)})
+    assert E.known_source(other) is other
+    assert E.known_source(Plate(dict(again.channels), dict(again.meta, note="another table"))) is not src
