@@ -110,6 +110,18 @@ def _span(lo: int, hi: int, size: int, limit: int, step: int = 1, slack: int = 0
     return a, a + size
 
 
+def _window_of(comp: np.ndarray, origin: tuple[int, int], r0: int, r1: int, c0: int, c1: int) -> np.ndarray:
+    """Rows r0..r1, columns c0..c1 of the frame's component ids, from ``comp``, the ids on
+    the region's box at ``origin`` (0 elsewhere)."""
+    R0, C0 = origin
+    out = np.zeros((r1 - r0, c1 - c0), comp.dtype)
+    a0, a1 = max(r0, R0), min(r1, R0 + comp.shape[0])
+    b0, b1 = max(c0, C0), min(c1, C0 + comp.shape[1])
+    if a0 < a1 and b0 < b1:
+        out[a0 - r0:a1 - r0, b0 - c0:b1 - c0] = comp[a0 - R0:a1 - R0, b0 - C0:b1 - C0]
+    return out
+
+
 def update_guide(prev: Plate, region: np.ndarray, proxy: Plate, source: Plate, gp: SimpleNamespace, *,
                  context: int) -> tuple[Plate, dict]:
     """The detailed guide ``prev`` updated inside ``region`` for the edited ``proxy``.
@@ -138,7 +150,12 @@ def update_guide(prev: Plate, region: np.ndarray, proxy: Plate, source: Plate, g
     levels = int(np.log2(gp.size // gp.start)) + 1
     block = f * 2 ** (levels - 1)
     out = {c: prev[c].copy() for c in ("label.id", "source.x", "source.y")}
-    comp, boxes = kt.components4(np.ascontiguousarray(region, np.bool_))
+    # the region's parts, found on its bounding box (the same ids, in scan order, and boxes)
+    rows, cols = np.flatnonzero(region.any(1)), np.flatnonzero(region.any(0))
+    R0, C0 = (int(rows[0]), int(cols[0])) if len(rows) else (0, 0)
+    R1, C1 = (int(rows[-1]) + 1, int(cols[-1]) + 1) if len(rows) else (0, 0)
+    comp, boxes = kt.components4(np.ascontiguousarray(region[R0:R1, C0:C1], np.bool_))
+    boxes = boxes + np.array([R0, R0, C0, C0], np.int64)
     info = {"windows": [], "window_pixels": 0, "region": int(region.sum()), "whole": False}
     for r0, r1, c0, c1, ids in group_boxes(boxes, (H, W), margin=context, slack=(4 * context) ** 2):
         long_side, size = f * gp.start, None
@@ -161,7 +178,8 @@ def update_guide(prev: Plate, region: np.ndarray, proxy: Plate, source: Plate, g
             crop = Plate({"label.id": np.ascontiguousarray(proxy["label.id"][win])},
                          {"labels": proxy.meta.get("labels", [])})
             before = Plate({c: np.ascontiguousarray(prev[c][win]) for c in ("source.x", "source.y")})
-            sel = np.isin(comp[win], ids) if len(ids) > 1 else comp[win] == ids[0]  # this window's parts only
+            cw = _window_of(comp, (R0, C0), r0, r1, c0, c1)
+            sel = np.isin(cw, ids) if len(ids) > 1 else cw == ids[0]  # this window's parts only
             # the previous guide is this window's state where it is not synthesized again
             # (aligned with the frame's synthesis pixels, as _span places the window)
             aligned = r0 % f == 0 and c0 % f == 0
