@@ -31,17 +31,29 @@ def mark_differences(a, b, out, lo, hi):
         hi[i] = last
 
 
+@njit(inline="always", **JIT)
+def _extended(z, src, i, j):
+    """The extended depth of window pixel (i, j): ``z`` (the window's proxy depth) at its
+    seed ``src`` (window-flat), inf without one (``depth.extend_depth``'s value: a pixel
+    whose label the guide kept is its own seed)."""
+    s = src[i, j]
+    if s < 0:
+        return np.float32(np.inf)
+    w = z.shape[1]
+    return z[s // w, s % w]
+
+
 @njit(**PJIT)
-def paste_depth(sel, ext, src, r0, c0, W, Z, dsrc):
+def paste_depth(sel, z, src, r0, c0, W, Z, dsrc):
     """At the pixels of ``sel`` (a window of the frame at (``r0``, ``c0``)): ``Z`` takes
-    the window's extended depth ``ext`` and ``dsrc`` 1 + the frame-flat index of its seed
+    the extended depth (``_extended``) and ``dsrc`` 1 + the frame-flat index of its seed
     (``src``: window-flat, −1 for none, then 0)."""
     h, w = sel.shape
     for i in prange(h):
         for j in range(w):
             if sel[i, j]:
                 s = src[i, j]
-                Z[r0 + i, c0 + j] = ext[i, j]
+                Z[r0 + i, c0 + j] = _extended(z, src, i, j)
                 if s >= 0:
                     dsrc[r0 + i, c0 + j] = (r0 + s // w) * W + c0 + s % w + 1
                 else:
@@ -49,19 +61,19 @@ def paste_depth(sel, ext, src, r0, c0, W, Z, dsrc):
 
 
 @njit(**PJIT)
-def paste_unproject(sel, ext, r0, c0, C, k, PX, PY, PZ):
+def paste_unproject(sel, z, src, r0, c0, C, k, PX, PY, PZ):
     """At the pixels of ``sel`` (a window at (``r0``, ``c0``)): the world position of the
-    frame's pixel centre at the window's depth ``ext`` (0 where not finite):
+    frame's pixel centre at the extended depth (``_extended``; 0 where not finite):
     ``reproject.unproject``'s numbers, bit for bit."""
     h, w = sel.shape
     for i in prange(h):
         for j in range(w):
             if sel[i, j]:
-                z = ext[i, j]
-                if np.isfinite(z):
-                    PX[r0 + i, c0 + j] = _world(z, r0 + i, c0 + j, C, k, 0)
-                    PY[r0 + i, c0 + j] = _world(z, r0 + i, c0 + j, C, k, 1)
-                    PZ[r0 + i, c0 + j] = _world(z, r0 + i, c0 + j, C, k, 2)
+                e = _extended(z, src, i, j)
+                if np.isfinite(e):
+                    PX[r0 + i, c0 + j] = _world(e, r0 + i, c0 + j, C, k, 0)
+                    PY[r0 + i, c0 + j] = _world(e, r0 + i, c0 + j, C, k, 1)
+                    PZ[r0 + i, c0 + j] = _world(e, r0 + i, c0 + j, C, k, 2)
                 else:
                     PX[r0 + i, c0 + j] = 0.0
                     PY[r0 + i, c0 + j] = 0.0

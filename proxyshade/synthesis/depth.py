@@ -61,12 +61,12 @@ def depth_plate(proxy: Plate, guide: Plate, *, penalty: float, region: np.ndarra
     # an update reads Z on its window only (outside it Z is the last run's, checked then)
     if np.isnan(z if region is None else z[win]).any():
         raise NodeInputError("proxy Z has NaN values; re-render the proxy")
-    ext, src = extend_depth(proxy["label.id"][win], guide["label.id"][win], np.ascontiguousarray(z[win]),
-                            penalty=penalty)
-    cw = c1 - c0
-    if region is not None:
-        return guide.with_channels(_region_channels(proxy, previous, region, (r0, c0), ext, src, cam), meta=meta)
-    src = np.where(src >= 0, (r0 + src // cw) * W + c0 + src % cw, -1)  # flat index in the frame
+    if region is not None:  # the seeds on the window; the depth of the region's pixels only
+        pl, gl = proxy["label.id"][win], guide["label.id"][win]
+        src = jump_flood(pl == gl, gl, pl, penalty=penalty)
+        return guide.with_channels(_region_channels(proxy, previous, region, (r0, c0), np.ascontiguousarray(z[win]),
+                                                    src, cam), meta=meta)
+    ext, src = extend_depth(proxy["label.id"], guide["label.id"], np.ascontiguousarray(z), penalty=penalty)
     ch = {"Z": ext, "depth.src": (src + 1).astype(np.uint32)}
     flat = np.maximum(src, 0)
     if cam:
@@ -89,25 +89,26 @@ def depth_plate(proxy: Plate, guide: Plate, *, penalty: float, region: np.ndarra
     return guide.with_channels(ch, meta=meta)
 
 
-def _region_channels(proxy: Plate, previous: Plate, region: np.ndarray, origin: tuple[int, int], ext: np.ndarray,
+def _region_channels(proxy: Plate, previous: Plate, region: np.ndarray, origin: tuple[int, int], z: np.ndarray,
                      src: np.ndarray, cam) -> dict:
     """An update's channels: ``previous``'s with the ``region``'s pixels replaced by the
-    jump flooding's result on the window at ``origin`` (``ext``, ``src``: the window's
-    depth and window-flat seed indices), the same numbers as the whole frame's path; one
-    parallel pass per channel over the window (``kernels.edit``), no window-sized
-    temporaries."""
+    jump flooding's result on the window at ``origin`` (``z``: the window's proxy depth,
+    ``src``: its window-flat seed indices), the same numbers as the whole frame's path
+    (``extend_depth``, ``unproject``); one parallel pass per channel over the window
+    (``kernels.edit``), no window-sized temporaries."""
     H, W = proxy.shape
     r0, c0 = origin
-    h, w = ext.shape
+    h, w = z.shape
     sel = np.ascontiguousarray(region[r0:r0 + h, c0:c0 + w])
-    ext = np.ascontiguousarray(ext, np.float32)
+    z = np.ascontiguousarray(z, np.float32)
     src = np.ascontiguousarray(src, np.int64)
     out = {"Z": previous["Z"].astype(np.float32), "depth.src": previous["depth.src"].astype(np.uint32)}
-    kedit.paste_depth(sel, ext, src, r0, c0, W, out["Z"], out["depth.src"])
+    kedit.paste_depth(sel, z, src, r0, c0, W, out["Z"], out["depth.src"])
     if cam:
         c = CameraInfo.from_meta(cam)
         P = [previous[f"P.{a}"].astype(np.float32) for a in "XYZ"]
-        kedit.paste_unproject(sel, ext, r0, c0, np.ascontiguousarray(c.camera_to_world, np.float64), intrinsics(c), *P)
+        kedit.paste_unproject(sel, z, src, r0, c0, np.ascontiguousarray(c.camera_to_world, np.float64), intrinsics(c),
+                              *P)
         out.update({f"P.{a}": v for a, v in zip("XYZ", P)})
     elif all(f"P.{a}" in proxy for a in "XYZ"):  # no camera: P of the pixel the depth came from
         for a in "XYZ":

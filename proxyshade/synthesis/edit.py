@@ -189,7 +189,7 @@ def update_guide(prev: Plate, region: np.ndarray, proxy: Plate, source: Plate, g
         if info["whole"]:
             sel = region
         for c in out:
-            out[c][win][sel] = sub[c][sel]
+            np.copyto(out[c][win], sub[c], where=sel, casting="unsafe")  # one pass, no gathered copies
         info["windows"].append([int(c1 - c0), int(r1 - r0)])
         info["window_pixels"] += int((r1 - r0) * (c1 - c0))
         if info["whole"]:
