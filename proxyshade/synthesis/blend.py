@@ -202,23 +202,32 @@ def poisson_regions(colors: np.ndarray, patch: np.ndarray, labels: np.ndarray | 
     if thin is not None:
         is_small |= region_thickness(free, comp, len(boxes)) <= thin
     if is_small.any():
-        sel = np.concatenate([[False], is_small])[comp]
+        # on the box of the SOR regions and a ring of their fixed neighbours, its origin even (the
+        # red-black parity of the frame's): every pixel the solve reads, the same numbers as on
+        # the whole frame, at the cost of that box (an edit's update: its bands, not the window)
+        sb = boxes[is_small]
+        y0, y1 = max(0, int(sb[:, 0].min()) - 1), min(h, int(sb[:, 1].max()) + 2)
+        x0, x1 = max(0, int(sb[:, 2].min()) - 1), min(w, int(sb[:, 3].max()) + 2)
+        y0, x0 = y0 - y0 % 2, x0 - x0 % 2
+        box = (slice(y0, y1), slice(x0, x1))
+        cb, colors_b, patch_b = comp[box], colors[box], np.ascontiguousarray(patch[box])
+        sel = np.concatenate([[False], is_small])[cb]
         fixed = ~sel
         if labels is not None and label_dirichlet:
-            fixed |= kpoisson.contour_mask(np.ascontiguousarray(labels))
+            fixed |= kpoisson.contour_mask(np.ascontiguousarray(labels[box]))
         todo = ~fixed
-        gx = gy = np.zeros((h, w, 3), np.float32)
+        gx = gy = np.zeros(colors_b.shape, np.float32)
         if source is not None:
-            gx, gy = kpoisson.seam_gradients_at(source, sx, sy, patch, todo, step, filter=filter)
-        b = kpoisson.rhs(colors, patch, fixed, gx, gy)
+            gx, gy = kpoisson.seam_gradients_at(source, sx[box], sy[box], patch_b, todo, step, filter=filter)
+        b = kpoisson.rhs(colors_b, patch_b, fixed, gx, gy)
         rows, cols = np.nonzero(todo)
-        k = comp[rows, cols] - 1
+        k = cb[rows, cols] - 1
         # each region converged on its own; omega of a square 2.5 x its thickness: fewest sweeps on
         # lake (as few as from the inscribed width, without a distance transform of the frame)
-        width = region_thickness(todo, comp, len(boxes))
+        width = region_thickness(todo, np.ascontiguousarray(cb), len(boxes))
         omega = kpoisson.sor_omega(2.5 * width[k], 2.5 * width[k])
         v, inf = kpoisson.solve_sor_regions(fixed, b, rows, cols, omega, k, screen=screen, tol=tol)
-        u[rows, cols] = colors[rows, cols] + v[rows, cols]
+        u[rows + y0, cols + x0] = colors_b[rows, cols] + v[rows, cols]
         info.update(sor_pixels=int(len(rows)), sor_sweeps=int(inf["iterations"]), sor_mean_sweeps=inf["sweeps"])
         info["residual"] = max(info["residual"], float(inf["residual"]))
     large = np.nonzero(~is_small)[0]

@@ -19,14 +19,40 @@ are diffed there.
 """
 from __future__ import annotations
 
+import threading
 from types import SimpleNamespace
+
 import numpy as np
 
 from proxyshade.graph.plate import Plate
+from proxyshade.kernels import edit as kedit
 from proxyshade.kernels import temporal as kt
 from proxyshade.kernels.temporal import dilate
 from proxyshade.synthesis.blend import group_boxes
 from proxyshade.synthesis.guide import synthesize_guide
+
+
+_KNOWN: list[Plate] = []  # the newest sources seen, by content
+_KNOWN_LOCK = threading.Lock()
+KNOWN_SOURCES = 2
+
+
+def known_source(source: Plate) -> Plate:
+    """``source``, or an earlier plate of the same content (every channel bit for bit and
+    the metadata): the engine reads the source back from its cache at every run (new
+    arrays), so an interactive loop (``run --watch``) would miss every result kept by the
+    source arrays' identity (the guide's similarity sets, exemplar levels and masks, the
+    colour's label table and working labels: about 0.1 s a 1024² update) and search them
+    again. Comparing costs one pass over the source; the newest ``KNOWN_SOURCES`` are kept.
+    The results are the same either way (same content)."""
+    with _KNOWN_LOCK:
+        for k, p in enumerate(_KNOWN):
+            if p is source or (p.shape == source.shape and p.equals(source)):
+                _KNOWN.insert(0, _KNOWN.pop(k))
+                return p
+        _KNOWN.insert(0, source)
+        del _KNOWN[KNOWN_SOURCES:]
+    return source
 
 
 def changed_region(before: dict[str, Plate], after: dict[str, Plate], channels: dict[str, tuple[str, ...]],
@@ -36,39 +62,39 @@ def changed_region(before: dict[str, Plate], after: dict[str, Plate], channels: 
     pixels (square), on the first input's pixel grid. None (recompute whole) when a plate
     is missing, the first input changed size, or another input of another size (the
     source) changed at all."""
-    diff = None
+    diff = lo = hi = None
     for name, names in channels.items():
         a, b = before.get(name), after.get(name)
         if a is None or b is None or a.shape != b.shape:
             return None
-        d = np.zeros(a.shape, bool)
+        # one pass per channel: the difference and each row's first and last differing column
+        same_grid = diff is not None and a.shape == diff.shape
+        d = diff if same_grid else np.zeros(a.shape, bool)
+        first = lo if same_grid else np.full(a.shape[0], a.shape[1], np.int64)
+        last = hi if same_grid else np.full(a.shape[0], -1, np.int64)
         for c in names:
             if (c in a) != (c in b):
                 return None
             if c in a:
-                dc = a[c] != b[c]
-                if np.issubdtype(a[c].dtype, np.floating):
-                    ii = np.flatnonzero(dc)  # NaN != NaN: only the differing pixels can be two NaNs
-                    if len(ii):
-                        x, y = a[c].reshape(-1)[ii], b[c].reshape(-1)[ii]
-                        dc.reshape(-1)[ii[np.isnan(x) & np.isnan(y)]] = False
-                d |= dc
+                x, y = a[c], b[c]
+                if x.ndim != 2 or y.shape != x.shape:
+                    return None
+                kedit.mark_differences(np.ascontiguousarray(x), np.ascontiguousarray(y), d, first, last)
         if diff is None:
-            diff = d
-        elif d.shape == diff.shape:
-            diff |= d
-        elif d.any():
+            diff, lo, hi = d, first, last
+        elif not same_grid and (last >= 0).any():
             return None
     if diff is None:
         return None
-    rows, cols = np.flatnonzero(diff.any(1)), np.flatnonzero(diff.any(0))
+    rows = np.flatnonzero(hi >= 0)
     if radius <= 0 or not len(rows):
         return diff
+    cols = (int(lo[rows].min()), int(hi[rows].max()))
     # the dilation of the difference's box (grown by the radius) only: the same pixels
     radius = int(radius)
     H, W = diff.shape
     r0, r1 = max(0, rows[0] - radius), min(H, rows[-1] + 1 + radius)
-    c0, c1 = max(0, cols[0] - radius), min(W, cols[-1] + 1 + radius)
+    c0, c1 = max(0, cols[0] - radius), min(W, cols[1] + 1 + radius)
     out = np.zeros((H, W), np.bool_)
     out[r0:r1, c0:c1] = dilate(np.ascontiguousarray(diff[r0:r1, c0:c1]), radius)
     return out
@@ -82,6 +108,18 @@ def _span(lo: int, hi: int, size: int, limit: int, step: int = 1, slack: int = 0
     if a % step and a // step * step + size >= hi - slack:
         a = a // step * step
     return a, a + size
+
+
+def _window_of(comp: np.ndarray, origin: tuple[int, int], r0: int, r1: int, c0: int, c1: int) -> np.ndarray:
+    """Rows r0..r1, columns c0..c1 of the frame's component ids, from ``comp``, the ids on
+    the region's box at ``origin`` (0 elsewhere)."""
+    R0, C0 = origin
+    out = np.zeros((r1 - r0, c1 - c0), comp.dtype)
+    a0, a1 = max(r0, R0), min(r1, R0 + comp.shape[0])
+    b0, b1 = max(c0, C0), min(c1, C0 + comp.shape[1])
+    if a0 < a1 and b0 < b1:
+        out[a0 - r0:a1 - r0, b0 - c0:b1 - c0] = comp[a0 - R0:a1 - R0, b0 - C0:b1 - C0]
+    return out
 
 
 def update_guide(prev: Plate, region: np.ndarray, proxy: Plate, source: Plate, gp: SimpleNamespace, *,
@@ -106,12 +144,18 @@ def update_guide(prev: Plate, region: np.ndarray, proxy: Plate, source: Plate, g
     proxy's. A window that would be as large as the frame is the frame's (masked)
     synthesis, still pasted inside the region only."""
     H, W = proxy.shape
+    source = known_source(source)
     g = prev.meta.get("guide", {})
     f = int(g.get("magnify", 1))
     levels = int(np.log2(gp.size // gp.start)) + 1
     block = f * 2 ** (levels - 1)
     out = {c: prev[c].copy() for c in ("label.id", "source.x", "source.y")}
-    comp, boxes = kt.components4(np.ascontiguousarray(region, np.bool_))
+    # the region's parts, found on its bounding box (the same ids, in scan order, and boxes)
+    rows, cols = np.flatnonzero(region.any(1)), np.flatnonzero(region.any(0))
+    R0, C0 = (int(rows[0]), int(cols[0])) if len(rows) else (0, 0)
+    R1, C1 = (int(rows[-1]) + 1, int(cols[-1]) + 1) if len(rows) else (0, 0)
+    comp, boxes = kt.components4(np.ascontiguousarray(region[R0:R1, C0:C1], np.bool_))
+    boxes = boxes + np.array([R0, R0, C0, C0], np.int64)
     info = {"windows": [], "window_pixels": 0, "region": int(region.sum()), "whole": False}
     for r0, r1, c0, c1, ids in group_boxes(boxes, (H, W), margin=context, slack=(4 * context) ** 2):
         long_side, size = f * gp.start, None
@@ -134,7 +178,8 @@ def update_guide(prev: Plate, region: np.ndarray, proxy: Plate, source: Plate, g
             crop = Plate({"label.id": np.ascontiguousarray(proxy["label.id"][win])},
                          {"labels": proxy.meta.get("labels", [])})
             before = Plate({c: np.ascontiguousarray(prev[c][win]) for c in ("source.x", "source.y")})
-            sel = np.isin(comp[win], ids) if len(ids) > 1 else comp[win] == ids[0]  # this window's parts only
+            cw = _window_of(comp, (R0, C0), r0, r1, c0, c1)
+            sel = np.isin(cw, ids) if len(ids) > 1 else cw == ids[0]  # this window's parts only
             # the previous guide is this window's state where it is not synthesized again
             # (aligned with the frame's synthesis pixels, as _span places the window)
             aligned = r0 % f == 0 and c0 % f == 0
@@ -144,7 +189,7 @@ def update_guide(prev: Plate, region: np.ndarray, proxy: Plate, source: Plate, g
         if info["whole"]:
             sel = region
         for c in out:
-            out[c][win][sel] = sub[c][sel]
+            np.copyto(out[c][win], sub[c], where=sel, casting="unsafe")  # one pass, no gathered copies
         info["windows"].append([int(c1 - c0), int(r1 - r0)])
         info["window_pixels"] += int((r1 - r0) * (c1 - c0))
         if info["whole"]:

@@ -10,9 +10,9 @@ from typing import Callable
 import numpy as np
 
 from proxyshade.graph.plate import Plate
-from proxyshade.synthesis.exemplar import provenance
-from proxyshade.synthesis.resynthesis import resynthesize
-from proxyshade.synthesis.temporal import FLAG
+from proxyshade.synthesis.exemplar import levels_for, provenance
+from proxyshade.synthesis.resynthesis import SYNTHESIZED, resynthesize, resynthesize_window, synthesis_window
+from proxyshade.synthesis.temporal import CORRECTION, FLAG
 
 WINDOW = 64  # output pixels of context around the region of an update (resynthesis.synthesis_window)
 THIN = 32     # an update's Poisson regions at most this thick are solved by SOR (blend.poisson_regions)
@@ -26,8 +26,15 @@ def edit_synthesis(guide: Plate, source: Plate, p, *, previous: Plate | None, re
     frame); with it, only ``region``'s pixels (the others keep ``previous``'s colours, map
     and ids bit for bit). ``p``: the ``FloodFill``, ``Correction`` and ``PoissonSolve``
     parameters, ``factor``, ``scale``, ``seed``."""
+    from proxyshade.synthesis.edit import known_source
+
     H, W = guide.shape
+    source = known_source(source)  # the last run's, when the engine read the same source back
     geometry = {c: guide[c] for c in GEOMETRY if c in guide}
+    if previous is not None:
+        out = _update(guide, source, p, previous, region, geometry, note, timings)
+        if out is not None:
+            return out
     if previous is None:
         region = np.ones((H, W), bool)
         zero = np.zeros((H, W), np.float32)
@@ -49,3 +56,54 @@ def edit_synthesis(guide: Plate, source: Plate, p, *, previous: Plate | None, re
     meta["edit"] = {"pixels": int(region.sum()), "share": float(region.mean()),
                     "synthesis_pixels": int(info.get("synthesis_pixels", 0)), "whole": previous is None}
     return Plate({c: out[c] for c in out.names() if c != "flag"}, meta)
+
+
+def _update(guide: Plate, source: Plate, p, previous: Plate, region: np.ndarray, geometry: dict,
+            note: Callable[[str], None], timings: dict | None) -> Plate | None:
+    """``edit_synthesis`` after an edit, on the region's window only: the window
+    (``resynthesis.synthesis_window``) is cut out of ``previous`` and ``guide`` directly
+    and the synthesized channels pasted back, the same pixels as ``resynthesize(window=)``
+    on a whole-frame flag plane gives (no whole-frame plane is built, compared or copied
+    but the synthesized channels' new arrays). None where that path is not taken (nothing
+    in the region, or a window of most of the frame: the whole-frame path then)."""
+    H, W = guide.shape
+    syn = previous.meta.get("synthesis", {}) if isinstance(previous.meta.get("synthesis"), dict) else {}
+    f = p.factor if p.factor is not None else int(syn.get("factor", 4))
+    if not region.any():
+        return None
+    nlev = levels_for(max(-(-H // f), -(-W // f)), p.coarse_size)
+    box = synthesis_window(region, f, nlev, WINDOW)
+    if box is None:
+        return None
+    r0, r1, c0, c1 = box
+    win = (slice(r0, r1), slice(c0, c1))
+    sel = region[win]
+    crop = {c: np.ascontiguousarray(previous[c][win]) for c in SYNTHESIZED + CORRECTION if c in previous}
+    crop["label.id"] = np.ascontiguousarray(guide["label.id"][win], np.uint32)
+    crop["flag"] = np.where(sel, np.uint32(FLAG["disoccluded"]), np.uint32(0)).astype(np.uint32)
+    q = SimpleNamespace(**dict(vars(p), solve=True, sor_thickness=THIN))
+    sub = resynthesize_window(Plate(crop, dict(previous.meta)), source, q, 0, frame_shape=(H, W),
+                              patch_base=int(previous["patch.id"].max()) + 1, note=note, timings=timings)
+    ch = dict(previous.channels)
+    ch.update(geometry)
+    label = guide["label.id"]
+    ch["label.id"] = label if label.dtype == np.uint32 else label.astype(np.uint32)
+    for c in sub.names():
+        if c in ("label.id", "flag"):
+            continue
+        if c in previous and previous[c].dtype == sub[c].dtype:
+            a = previous[c].copy()
+        else:  # a channel the window's run added (the Poisson correction): zero outside the window
+            a = np.zeros((H, W), sub[c].dtype)
+        a[win] = sub[c]
+        ch[c] = a
+    for c in CORRECTION:  # read but not written (no solve's correction without the last one's)
+        if c in crop and c not in sub.names():
+            ch.pop(c, None)
+    info = dict(sub.meta.get("resynthesis", {}))
+    meta = dict(sub.meta)
+    meta.pop("resynthesis", None)
+    n = int(sel.sum())
+    meta["edit"] = {"pixels": n, "share": n / (H * W), "synthesis_pixels": int(info.get("synthesis_pixels", 0)),
+                    "whole": False}
+    return Plate(ch, meta)

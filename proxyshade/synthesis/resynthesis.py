@@ -162,6 +162,23 @@ def _windowed(img: Plate, source: Plate, p, frame: int, note, timings, margin: i
     return img.with_channels(out, meta=meta, drop=dropped)
 
 
+def resynthesize_window(crop: Plate, source: Plate, p, frame: int, *, frame_shape: tuple[int, int], patch_base: int,
+                        note: Callable[[str], None] = lambda s: None, timings: dict | None = None) -> Plate:
+    """``_windowed``'s run on a window its caller cut out of the frame already (``crop``:
+    the channels ``_resynthesize`` reads, the window's corners on ``synthesis_window``'s
+    grid): the same levels as the frame of ``frame_shape`` (its coarsest level as many
+    halvings below the window's long side), new patch ids from ``patch_base``. For a caller
+    that has the region's box without a whole-frame flag plane (``edit_colour``)."""
+    syn = crop.meta.get("synthesis", {}) if isinstance(crop.meta.get("synthesis"), dict) else {}
+    f = p.factor if p.factor is not None else int(syn.get("factor", 4))
+    H, W = frame_shape
+    nlev = levels_for(max(-(-H // f), -(-W // f)), p.coarse_size)
+    long_win = max(-(-crop.shape[0] // f), -(-crop.shape[1] // f))
+    coarse = long_win / 2 ** (nlev - 1) if nlev > 1 else max(long_win, p.coarse_size)
+    q = SimpleNamespace(**dict(vars(p), coarse_size=coarse))
+    return _resynthesize(crop, source, q, frame, note=note, timings=timings, patch_base=patch_base)
+
+
 def _resynthesize(img: Plate, source: Plate, p, frame: int, *, note: Callable[[str], None] = lambda s: None,
                   timings: dict | None = None, patch_base: int | None = None) -> Plate:
     tm = timings if timings is not None else {}

@@ -129,3 +129,106 @@ def test_the_colour_similarity_sets_are_found_again_for_a_source_read_back(monke
     out = RS.resynthesize(img, again, p, 2)
     assert not searched
     assert all(np.array_equal(out[c], first[c]) for c in ("R", "G", "B", "source.x", "source.y", "patch.id"))
+
+
+def test_changed_region_matches_numpy_on_random_plates():
+    """The one-pass difference (``kernels.edit.mark_differences``) against numpy's: NaN equal
+    to NaN, several channels and inputs of one grid, the dilation of the box."""
+    from proxyshade.kernels.temporal import dilate
+
+    rng = np.random.default_rng(5)
+    for trial in range(6):
+        h, w = rng.integers(5, 40, 2)
+        z0 = rng.random((h, w)).astype(np.float32)
+        z0[rng.random((h, w)) < 0.2] = np.nan
+        z1 = z0.copy()
+        k = rng.random((h, w)) < 0.05 * trial
+        z1[k] = rng.choice([np.nan, 0.5, np.inf], k.sum()).astype(np.float32)
+        l0 = rng.integers(0, 4, (h, w)).astype(np.uint32)
+        l1 = np.where(rng.random((h, w)) < 0.03, 7, l0).astype(np.uint32)
+        g0 = rng.integers(0, 3, (h, w)).astype(np.uint32)
+        g1 = np.where(rng.random((h, w)) < 0.02, 9, g0).astype(np.uint32)
+        a, b = Plate({"label.id": l0, "Z": z0}), Plate({"label.id": l1, "Z": z1})
+        ga, gb = Plate({"label.id": g0}), Plate({"label.id": g1})
+        ref = (l0 != l1) | ((z0 != z1) & ~(np.isnan(z0) & np.isnan(z1))) | (g0 != g1)
+        for radius in (0, 1, 3):
+            got = changed_region({"p": a, "g": ga}, {"p": b, "g": gb}, {"p": ("label.id", "Z"), "g": ("label.id",)},
+                                 radius)
+            want = dilate(ref, radius) if radius else ref
+            assert np.array_equal(got, want), (trial, radius)
+
+
+def test_a_depth_update_gives_the_numbers_of_the_frames_unprojection():
+    """``depth_plate`` on a region: outside it the last result's arrays, inside the window's
+    jump flooding with the frame's unprojection (``reproject.unproject`` on the whole frame,
+    as before the region path wrote the region's pixels only) and the followed channels of
+    the pixel each depth came from."""
+    from pathlib import Path
+
+    from proxyshade.graph.testing import run_node
+    from proxyshade.io.usd import CameraInfo
+    from proxyshade.kernels.reproject import intrinsics, unproject
+    from proxyshade.synthesis.depth import FOLLOW, box, depth_plate, extend_depth
+
+    root = Path(__file__).resolve().parents[2]
+    src = run_node("SourceRead", {"table": "samples/renoir/source.yaml"}, graph_dir=root)
+    proxy = run_node("ProxyRender", {"scene": "samples/scenes/lake.usda", "resolution": [128, 128]}, {"source": src},
+                     graph_dir=root)
+    rng = np.random.default_rng(2)
+    lab = proxy["label.id"].copy()
+    g0 = proxy.with_channels({"label.id": lab})
+    prev = depth_plate(proxy, g0, penalty=1024.0)
+    lab2 = lab.copy()
+    lab2[60:70, 40:52] = lab[75, 10]  # a block relabelled
+    guide = proxy.with_channels({"label.id": lab2})
+    region = np.zeros(lab.shape, bool)
+    region[56:74, 36:56] = True
+    region[30:100, 20:110] |= rng.random((70, 90)) < 0.02  # scattered pixels too (the window inside the frame)
+    out = depth_plate(proxy, guide, penalty=1024.0, region=region, previous=prev, margin=8)
+    r0, r1, c0, c1 = box(region, 8)
+    assert r0 > 0 and c0 > 0 and r1 < 128 and c1 < 128
+    win = (slice(r0, r1), slice(c0, c1))
+    ext, s = extend_depth(proxy["label.id"][win], lab2[win], np.ascontiguousarray(proxy["Z"][win]), penalty=1024.0)
+    H, W = lab.shape
+    s = np.where(s >= 0, (r0 + s // (c1 - c0)) * W + c0 + s % (c1 - c0), -1)
+    zf = np.full((H, W), np.inf, np.float32)
+    zf[win] = ext
+    cam = CameraInfo.from_meta(proxy.meta["camera"])
+    P = unproject(zf, np.ascontiguousarray(cam.camera_to_world, np.float64), intrinsics(cam))
+    want = {"Z": zf, "depth.src": np.zeros((H, W), np.uint32), **{f"P.{a}": P[..., k] for k, a in enumerate("XYZ")}}
+    want["depth.src"][win] = (s + 1).astype(np.uint32)
+    for name in FOLLOW:
+        if name in proxy:
+            a = proxy[name]
+            want[name] = a.copy()
+            want[name][win] = np.where(s >= 0, a.reshape(-1)[np.maximum(s, 0)], a[win])
+    for c, v in want.items():
+        assert out[c].dtype == prev[c].dtype, c
+        assert np.array_equal(out[c][~region].view(np.uint32), prev[c][~region].view(np.uint32)), c
+        assert np.array_equal(out[c][region].view(np.uint32), v[region].astype(prev[c].dtype).view(np.uint32)), c
+
+
+def test_a_source_read_back_is_the_last_runs_and_its_results_are_found_again(monkeypatch):
+    """The engine reads the source back from its cache at each run (new arrays): the edit
+    steps take the earlier plate of the same content, so the guide's per-source results
+    (similarity sets, exemplar levels) are not searched again; another content is not
+    mistaken for it."""
+    from proxyshade.kernels import guide as kg
+    from proxyshade.synthesis import edit as E
+
+    src, proxy, gp, prev, edited, water = painted(slice(300, 320), slice(200, 230))
+    region = changed_region({"proxy": proxy}, {"proxy": edited}, {"proxy": ("label.id",)}, 8)
+    first, _ = update_guide(prev, region, edited, src, gp, context=16)
+    again = Plate({c: src[c].copy() for c in src.names()}, dict(src.meta))
+    canon = E.known_source(src)  # src, or a plate of its content an earlier test passed
+    assert E.known_source(again) is canon and canon is not again
+    searched = []
+    real = kg.similarity_sets
+    monkeypatch.setattr(kg, "similarity_sets", lambda *a, **k: searched.append(1) or real(*a, **k))
+    out, _ = update_guide(prev, region, edited, again, gp, context=16)
+    assert not searched
+    assert all(np.array_equal(out[c], first[c]) for c in ("label.id", "source.x", "source.y"))
+    other = again.with_channels({"label.id": np.where(again["label.id"] == water, 0, again["label.id"]).astype(
+        again["label.id"].dtype)})
+    assert E.known_source(other) is other
+    assert E.known_source(Plate(dict(again.channels), dict(again.meta, note="another table"))) is not canon
