@@ -91,3 +91,14 @@ def test_missing_synthesis_metadata():
     bare.meta.pop("synthesis")
     with pytest.raises(NodeInputError, match=r"^correct: input 'init' has no synthesis metadata"):
         run_node("Correct", {}, {"init": bare, "source": c["source"]}, name="correct")
+
+
+@pytest.mark.parametrize("shape,near_copy,want", [((80, 128), 4, 4), ((80, 128), 8, 5), ((24, 24), 4, 1),
+                                                  ((150, 200), 0, 0)])
+def test_near_copy_radius_is_capped_by_the_exemplar(shape, near_copy, want):
+    """The radius Correct asks for, at most a sixteenth of the exemplar's shorter side."""
+    from types import SimpleNamespace
+
+    from proxyshade.synthesis.patches import near_copy_radius
+
+    assert near_copy_radius(SimpleNamespace(ex_lab=np.zeros(shape, np.int32)), near_copy) == want
