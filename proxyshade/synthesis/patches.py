@@ -64,8 +64,13 @@ def correct_map(st: SynthesisSetup, S0: np.ndarray, corr: SimpleNamespace, *, se
 def near_copy_radius(st: SynthesisSetup, near_copy: int) -> int:
     """The smallest near-copy radius of the correction, in exemplar pixels: ``near_copy``,
     at most a sixteenth of the exemplar's shorter side (a small exemplar, e.g. a 24-pixel
-    one with 8-pixel label bands, cannot spare a wide exclusion around every neighbour)."""
-    return int(min(int(near_copy), min(st.ex_lab.shape) // 16))
+    one with 8-pixel label bands, cannot spare a wide exclusion around every neighbour)
+    and at most the mean use of an exemplar pixel (synthesis pixels per exemplar pixel,
+    rounded down): near copies are the repetition of a magnified frame, where each source
+    spot appears many times; a synthesis at about the photo's own size (each pixel used
+    about once) keeps the rule's radius, which matches its small labels better."""
+    uses = int(st.tgt_lab.size // max(st.ex_lab.size, 1))
+    return int(max(0, min(int(near_copy), min(st.ex_lab.shape) // 16, uses)))
 
 
 def repair_map(st: SynthesisSetup, S: np.ndarray) -> tuple[np.ndarray, dict]:

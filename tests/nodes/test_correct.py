@@ -93,12 +93,15 @@ def test_missing_synthesis_metadata():
         run_node("Correct", {}, {"init": bare, "source": c["source"]}, name="correct")
 
 
-@pytest.mark.parametrize("shape,near_copy,want", [((80, 128), 4, 4), ((80, 128), 8, 5), ((24, 24), 4, 1),
-                                                  ((150, 200), 0, 0)])
-def test_near_copy_radius_is_capped_by_the_exemplar(shape, near_copy, want):
-    """The radius Correct asks for, at most a sixteenth of the exemplar's shorter side."""
+@pytest.mark.parametrize("shape,target,near_copy,want", [((80, 128), (256, 256), 4, 4), ((80, 128), (540, 1024), 8, 5),
+                                                         ((24, 24), (256, 256), 4, 1), ((150, 200), (256, 256), 0, 0),
+                                                         ((96, 128), (96, 128), 4, 1), ((96, 128), (192, 256), 4, 4)])
+def test_near_copy_radius_is_capped_by_the_exemplar_and_its_use(shape, target, near_copy, want):
+    """The radius Correct asks for, at most a sixteenth of the exemplar's shorter side and
+    at most the mean use of an exemplar pixel (1 for a synthesis at the photo's own size)."""
     from types import SimpleNamespace
 
     from proxyshade.synthesis.patches import near_copy_radius
 
-    assert near_copy_radius(SimpleNamespace(ex_lab=np.zeros(shape, np.int32)), near_copy) == want
+    st = SimpleNamespace(ex_lab=np.zeros(shape, np.int32), tgt_lab=np.zeros(target, np.int32))
+    assert near_copy_radius(st, near_copy) == want
