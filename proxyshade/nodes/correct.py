@@ -28,7 +28,7 @@ class Correct(Correction, Node):
     seed = Param(int, 0, doc="seed of the similarity-set search")
     near_copy = Param(int, 4, min=0, max=64,
                       doc="smallest near-copy radius in exemplar pixels at every level, at most 1/16 of the "
-                          "exemplar's shorter side: a candidate within it of the position a non-coherent pixel "
+                          "exemplar's shorter side and the mean use of an exemplar pixel: a candidate within it of the position a non-coherent pixel "
                           "of its 9x9 window uses is rejected (the `radius` rule's own where larger). Keeps seams "
                           "from joining copies of nearly the same source spot, which magnified pile onto a few "
                           "source pixels (docs/formats.md); 0 = the `radius` rule alone")
