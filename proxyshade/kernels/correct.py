@@ -557,7 +557,8 @@ def level_similarity_sets(levels: list, k: int, *, seed: int, knn_iterations: in
 def synthesize(levels: list, S_init: np.ndarray, *, passes: int, passes_finest: int, k: int, w: float, seed: int,
                knn_iterations: int, use_rgb: bool, kappa: float, mask: np.ndarray | None = None, timings: dict | None = None,
                radius_rule: str = "spacing", similarity: list | None = None,
-               height_weight: float = 0.0, uniformity: float = 0.0, tiles=None) -> tuple[np.ndarray, list[dict]]:
+               height_weight: float = 0.0, uniformity: float = 0.0, min_radius: int = 0,
+               tiles=None) -> tuple[np.ndarray, list[dict]]:
     """Coarse-to-fine correction of an initial coordinate map.
 
     Parameters
@@ -572,6 +573,12 @@ def synthesize(levels: list, S_init: np.ndarray, *, passes: int, passes_finest: 
     uniformity : candidates' distances are multiplied by 1 + uniformity × the over-use of
         their exemplar neighbourhood (``_usage_excess``; 0: none): the synthesis draws on
         the whole source region instead of converging on its blandest patch.
+    min_radius : smallest near-copy radius in exemplar pixels at every level (the
+        ``radius_rule``'s where larger; 0: the rule alone). The rule gives one exemplar
+        pixel at the finest level, so a seam may join two copies of nearly the same source
+        spot (a shift of 1–3 exemplar pixels); magnified, each exemplar pixel is ``factor``
+        output pixels and such seams pile onto the same few source pixels (see
+        docs/formats.md, "near copies").
     similarity : optional per-level similarity sets from ``level_similarity_sets`` (they
         depend on the exemplar side of the levels, k, w, seed and knn_iterations only):
         passed again, the search is skipped (a later frame of one source).
@@ -609,7 +616,7 @@ def synthesize(levels: list, S_init: np.ndarray, *, passes: int, passes_finest: 
             else:
                 S = up
         active = downsample_mask(mask, h, shape) if mask is not None else None
-        radius = h if radius_rule == "spacing" else 2 ** l
+        radius = max(h if radius_rule == "spacing" else 2 ** l, int(min_radius))
         n = passes_finest if l == L - 1 else passes
         S, st = correct_level(lv, S, knns[l], passes=n, radius=radius, w=w, use_rgb=use_rgb, kappa=kappa,
                               active=active, height_weight=height_weight, uniformity=uniformity, tiles=tiles)

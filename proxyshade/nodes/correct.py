@@ -21,11 +21,17 @@ class Correct(Correction, Node):
     4-connected regions of one translation, ``R,G,B`` looked up again, ``label.id``).
     """
 
-    version = 1
+    version = 2
     init = Input("synthesis-size map from PatchInit: source.x/y, label.id", channels=("source.x", "source.y", "label.id"),
                  finite=("source.x", "source.y"), fix="connect PatchInit's output")
     source = source_input("annotated source (SourceRead), the one PatchInit used")
     seed = Param(int, 0, doc="seed of the similarity-set search")
+    near_copy = Param(int, 4, min=0, max=64,
+                      doc="smallest near-copy radius in exemplar pixels at every level, at most 1/16 of the "
+                          "exemplar's shorter side and the mean use of an exemplar pixel: a candidate within it of the position a non-coherent pixel "
+                          "of its 9x9 window uses is rejected (the `radius` rule's own where larger). Keeps seams "
+                          "from joining copies of nearly the same source spot, which magnified pile onto a few "
+                          "source pixels (docs/formats.md); 0 = the `radius` rule alone")
 
     def compute(self, ctx) -> Plate:
         from proxyshade.synthesis import labels as L
@@ -40,8 +46,9 @@ class Correct(Correction, Node):
         tgt = L.dense_guide(init["label.id"], table, "init")
         st = setup(source, tgt, table, factor=int(syn["factor"]), scale=float(syn["scale"]),
                    coarse_size=p.coarse_size, max_distance=p.max_distance, interior=p.interior, with_rgb=p.use_rgb)
-        S, stats, rep = correct_map(st, st.from_source(init["source.x"], init["source.y"]), Correction.of(p),
-                                    seed=p.seed)
+        corr = Correction.of(p)
+        corr.near_copy = p.near_copy
+        S, stats, rep = correct_map(st, st.from_source(init["source.x"], init["source.y"]), corr, seed=p.seed)
         patch, npatch = patch_ids(S)
         changed = sum(s["changed"] for s in stats)
         ctx.note(f"{len(stats)} levels, {changed} pixel updates, {npatch} patches; "

@@ -46,15 +46,31 @@ def correct_map(st: SynthesisSetup, S0: np.ndarray, corr: SimpleNamespace, *, se
                 mask: np.ndarray | None = None, similarity: list | None = None) -> tuple[np.ndarray, list, dict]:
     """k-coherent correction of the map ``S0`` (or of its ``mask`` pixels) from the
     coarsest level up to the synthesis size, then ``repair_map``. ``corr``: the
-    ``Correction`` parameters. Large levels' sub-passes run in row bands on other workers
+    ``Correction`` parameters (and ``near_copy``, the smallest near-copy radius in
+    exemplar pixels, where ``corr`` has it: Correct's parameter; 0 otherwise; capped by
+    ``near_copy_radius``). Large levels' sub-passes run in row bands on other workers
     when the executor set a runner (``synthesis.tiles``; bit-identical). Returns (S,
     per-level stats, the repair's counts)."""
     S, stats = kcorrect.synthesize(st.levels, S0, passes=corr.passes, passes_finest=corr.passes_finest, k=corr.k,
                                    w=corr.w, seed=seed, knn_iterations=corr.knn_iterations, use_rgb=corr.use_rgb,
                                    kappa=corr.kappa, mask=mask, radius_rule=corr.radius, similarity=similarity,
-                                   height_weight=corr.height_weight, uniformity=corr.uniformity, tiles=tiles.current())
+                                   height_weight=corr.height_weight, uniformity=corr.uniformity,
+                                   min_radius=near_copy_radius(st, getattr(corr, "near_copy", 0)),
+                                   tiles=tiles.current())
     S, rep = repair_map(st, S)
     return S, stats, rep
+
+
+def near_copy_radius(st: SynthesisSetup, near_copy: int) -> int:
+    """The smallest near-copy radius of the correction, in exemplar pixels: ``near_copy``,
+    at most a sixteenth of the exemplar's shorter side (a small exemplar, e.g. a 24-pixel
+    one with 8-pixel label bands, cannot spare a wide exclusion around every neighbour)
+    and at most the mean use of an exemplar pixel (synthesis pixels per exemplar pixel,
+    rounded down): near copies are the repetition of a magnified frame, where each source
+    spot appears many times; a synthesis at about the photo's own size (each pixel used
+    about once) keeps the rule's radius, which matches its small labels better."""
+    uses = int(st.tgt_lab.size // max(st.ex_lab.size, 1))
+    return int(max(0, min(int(near_copy), min(st.ex_lab.shape) // 16, uses)))
 
 
 def repair_map(st: SynthesisSetup, S: np.ndarray) -> tuple[np.ndarray, dict]:

@@ -224,3 +224,21 @@ def test_downsample_mask_is_any_of_each_block():
         pad = np.zeros((shape[0] * h, shape[1] * h), bool)
         pad[:H, :W] = m
         assert np.array_equal(downsample_mask(m, h, shape), pad.reshape(shape[0], h, shape[1], h).any(axis=(1, 3)))
+
+
+@pytest.mark.parametrize("rule,min_radius,want", [("spacing", 0, [4, 2, 1]), ("spacing", 3, [4, 3, 3]),
+                                                  ("level", 0, [1, 2, 4]), ("level", 3, [3, 3, 4])])
+def test_near_copy_radius_is_at_least_min_radius(monkeypatch, rule, min_radius, want):
+    """Each level's near-copy radius: the rule's (spacing h, or 2^l from the coarsest), raised
+    to ``min_radius`` exemplar pixels."""
+    rng, levels = small_case(13, ex=(40, 48), tgt=(32, 32), nlev=3)
+    S0 = random_state(rng, levels[-1])
+    seen, orig = [], kc.correct_level
+
+    def spy(level, S, knn, **kw):
+        seen.append(kw["radius"])
+        return orig(level, S, knn, **kw)
+
+    monkeypatch.setattr(kc, "correct_level", spy)
+    kc.synthesize(levels, S0, **dict(SYN, k=2), radius_rule=rule, min_radius=min_radius)
+    assert seen == want

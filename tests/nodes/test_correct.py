@@ -44,6 +44,27 @@ def test_fidelity_patches_and_repetition(sample):
     assert cnt.max() <= 8 * cnt.mean() and cnt.max() <= 0.002 * y.size
 
 
+def _top_share(p, top=0.01):
+    """Share of the map drawn from its most-used ``top`` of exemplar pixels."""
+    y, x = exemplar_coords(p)
+    He, We = p.meta["synthesis"]["exemplar"]
+    c = np.bincount((y * We + x).ravel(), minlength=He * We)
+    return np.sort(c)[-max(1, round(top * He * We)):].sum() / c.sum()
+
+
+def test_near_copy_radius_spreads_the_use_of_the_source():
+    """A wide guide 4x the source's width (a synthesis 256 wide from a 128-wide exemplar):
+    with the default near-copy radius the most-used 1% of exemplar pixels serve clearly
+    less of the map than with the one-pixel radius of the finest level alone (seams
+    joining copies of nearly the same spot), and label fidelity is unchanged."""
+    src, g = T.source("renoir"), T.guide("renoir", (512, 1024))
+    init = run_node("PatchInit", {}, {"guide": g, "source": src})
+    near = run_node("Correct", {"near_copy": 0}, {"init": init, "source": src})
+    far = run_node("Correct", {}, {"init": init, "source": src})
+    assert _top_share(far) < 0.9 * _top_share(near)
+    assert T.label_fidelity(src, far) >= 0.995 and T.label_fidelity(src, near) >= 0.995
+
+
 def test_same_result_with_one_or_two_threads():
     src, g = T.source("renoir"), T.guide("renoir", (256, 256))
     init = run_node("PatchInit", {}, {"guide": g, "source": src})
@@ -70,3 +91,17 @@ def test_missing_synthesis_metadata():
     bare.meta.pop("synthesis")
     with pytest.raises(NodeInputError, match=r"^correct: input 'init' has no synthesis metadata"):
         run_node("Correct", {}, {"init": bare, "source": c["source"]}, name="correct")
+
+
+@pytest.mark.parametrize("shape,target,near_copy,want", [((80, 128), (256, 256), 4, 4), ((80, 128), (540, 1024), 8, 5),
+                                                         ((24, 24), (256, 256), 4, 1), ((150, 200), (256, 256), 0, 0),
+                                                         ((96, 128), (96, 128), 4, 1), ((96, 128), (192, 256), 4, 4)])
+def test_near_copy_radius_is_capped_by_the_exemplar_and_its_use(shape, target, near_copy, want):
+    """The radius Correct asks for, at most a sixteenth of the exemplar's shorter side and
+    at most the mean use of an exemplar pixel (1 for a synthesis at the photo's own size)."""
+    from types import SimpleNamespace
+
+    from proxyshade.synthesis.patches import near_copy_radius
+
+    st = SimpleNamespace(ex_lab=np.zeros(shape, np.int32), tgt_lab=np.zeros(target, np.int32))
+    assert near_copy_radius(st, near_copy) == want
