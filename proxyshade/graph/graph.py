@@ -265,16 +265,14 @@ class Graph:
                          "(e.g. prev: {node: X, frame: -1})")
 
     def input_files(self, frames: list[int] | None = None) -> set[Path]:
-        """The files the graph's computing nodes read through their ``Path`` parameters, at
-        ``frames`` (default: the graph's range): what ``proxyshade run --watch`` watches."""
+        """The files the graph's computing nodes read (``Node.read_files``: their ``Path``
+        parameters, a proxy's USD scene) at ``frames`` (default: the graph's range): what
+        ``proxyshade run --watch`` watches."""
         frames = frames or list(range(self.frames[0], self.frames[1] + 1))
         out = set()
         for node in self.nodes.values():
-            if node.sink:
-                continue
-            for k, spec in type(node).params_spec.items():
-                if spec.type is Path and node.params.get(k):
-                    out.update(resolve_path(node.params[k], self.graph_dir, f) for f in frames)
+            if not node.sink:
+                out.update(p for f in frames for p in node.read_files(f, self.graph_dir))
         return out
 
     # -- keys --------------------------------------------------------------

@@ -368,6 +368,13 @@ class Node:
         """Extra content for the key (e.g. the USD data seen at this frame). Default none."""
         return None
 
+    def read_files(self, frame: int, graph_dir: Path) -> list[Path]:
+        """The files this node reads at ``frame``: what ``run --watch`` watches. Default: its
+        ``Path`` parameters; a node that reads a file named otherwise (a USD scene, keyed
+        through ``key_extra``) adds it."""
+        return [resolve_path(self.params[k], graph_dir, frame) for k, spec in self.params_spec.items()
+                if spec.type is Path and self.params.get(k)]
+
     def check_inputs(self, inputs: dict[str, Plate | None]) -> None:
         """One-line errors for unconnected required inputs and for plates that fail their
         ``Input``'s declaration (a sequence input's plates are checked as they are read, by

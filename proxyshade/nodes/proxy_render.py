@@ -101,6 +101,10 @@ class ProxyRender(Node):
     def _scene_path(self, graph_dir: Path) -> Path:
         return resolve_path(self.params["scene"], graph_dir)
 
+    def read_files(self, frame: int, graph_dir: Path) -> list[Path]:
+        """The scene's root layer too (``run --watch`` re-runs after ``proxyshade scene stroke``)."""
+        return super().read_files(frame, graph_dir) + [self._scene_path(graph_dir)]
+
     def key_extra(self, frame, graph_dir):
         """What the render sees at this frame: camera, and each proxy prim's data (kept
         with the scene's files by ``keys.node_memo``: USD is loaded only when they change)."""

@@ -109,6 +109,13 @@ def test_key_follows_scene_content_not_file_touches(tmp_path):
     assert graph_for(tmp_path, scene).run([1]).computed == set()
 
 
+def test_a_watch_watches_the_scene(tmp_path):
+    """``run --watch`` re-runs when a file a node reads changes: the proxy's scene is one
+    (its parameter is a string, keyed through the USD it composes), beside the Path ones."""
+    scene = make_stage(tmp_path / "w.usda", plane_z=5)
+    assert scene.resolve() in {p.resolve() for p in graph_for(tmp_path, scene).input_files([1])}
+
+
 ROOT = Path(__file__).resolve().parents[2]
 
 
