@@ -207,18 +207,17 @@ def poisson_regions(colors: np.ndarray, patch: np.ndarray, labels: np.ndarray | 
         if labels is not None and label_dirichlet:
             fixed |= kpoisson.contour_mask(np.ascontiguousarray(labels))
         todo = ~fixed
-        gx = gy = np.zeros((h, w, 3), np.float32)
-        if source is not None:
-            gx, gy = kpoisson.seam_gradients_at(source, sx, sy, patch, todo, step, filter=filter)
-        b = kpoisson.rhs(colors, patch, fixed, gx, gy)
         rows, cols = np.nonzero(todo)
         k = comp[rows, cols] - 1
         # each region converged on its own; omega of a square 2.5 x its thickness: fewest sweeps on
         # lake (as few as from the inscribed width, without a distance transform of the frame)
         width = region_thickness(todo, comp, len(boxes))
-        omega = kpoisson.sor_omega(2.5 * width[k], 2.5 * width[k])
-        v, inf = kpoisson.solve_sor_regions(fixed, b, rows, cols, omega, k, screen=screen, tol=tol)
-        u[rows, cols] = colors[rows, cols] + v[rows, cols]
+        omega = kpoisson.sor_omega(2.5 * width, 2.5 * width)[k]  # per region, then per pixel
+        # right-hand side, seam gradients and operator at the listed pixels only (the frame-sized
+        # rhs / seam_gradients_at / solve_sor_regions numbers)
+        v, inf = kpoisson.solve_sor_at(colors, patch, rows, cols, omega, k, source=source, sx=sx, sy=sy, step=step,
+                                       filter=filter, screen=screen, tol=tol)
+        u[rows, cols] = colors[rows, cols] + v
         info.update(sor_pixels=int(len(rows)), sor_sweeps=int(inf["iterations"]), sor_mean_sweeps=inf["sweeps"])
         info["residual"] = max(info["residual"], float(inf["residual"]))
     large = np.nonzero(~is_small)[0]
