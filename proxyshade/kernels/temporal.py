@@ -389,3 +389,91 @@ def colour_planes(rgb, flagged, before, c0, c1, c2, correct):
                     o1[i, j] = c1[i, j]
                     o2[i, j] = c2[i, j]
     return R, G, B, o0, o1, o2
+
+
+@njit(inline="always", **JIT)
+def _label_at(src_lab, x, y):
+    """``lookup``'s nearest source pixel's label at (x, y) (float32, clamped to the source)."""
+    hs, ws = src_lab.shape
+    c = min(int(np.floor(min(max(np.float64(x), 0.0), ws - 1.0) + 0.5)), ws - 1)
+    r = min(int(np.floor(min(max(np.float64(y), 0.0), hs - 1.0) + 0.5)), hs - 1)
+    return src_lab[r, c]
+
+
+@njit(inline="always", **JIT)
+def _on_label(src_lab, x, y, L):
+    """(x, y) inside the source (no clamped, smeared edge pixel) on a pixel of label L."""
+    hs, ws = src_lab.shape
+    return x >= 0 and y >= 0 and x <= ws - 1 and y <= hs - 1 and _label_at(src_lab, x, y) == L
+
+
+@njit(**PJIT)
+def fits_label(src_lab, sx, sy, lab, mask):
+    """Pixels of ``mask`` whose source position (``sx``, ``sy``, float32) lies inside the
+    source on a pixel of their label ``lab`` (``synthesis.temporal.fits_source``), in one
+    pass."""
+    h, w = mask.shape
+    out = np.zeros((h, w), np.bool_)
+    for i in prange(h):
+        for j in range(w):
+            if mask[i, j]:
+                out[i, j] = _on_label(src_lab, sx[i, j], sy[i, j], lab[i, j])
+    return out
+
+
+@njit(**PJIT)
+def off_label(src_lab, sx, sy, lab, mask, margin):
+    """Pixels of ``mask`` whose source position is not on their label (``fits_label``'s
+    complement) and, with ``margin`` > 0, neither are the positions ``margin`` source
+    pixels to its right, left, below and above (float32 sums, as numpy adds a Python
+    float to a float32 array): ``synthesis.temporal.off_label`` in one pass."""
+    h, w = mask.shape
+    out = np.zeros((h, w), np.bool_)
+    m = np.float32(margin)
+    z = np.float32(0.0)
+    for i in prange(h):
+        for j in range(w):
+            if not mask[i, j]:
+                continue
+            x = sx[i, j]
+            y = sy[i, j]
+            L = lab[i, j]
+            if _on_label(src_lab, x, y, L):
+                continue
+            if margin > 0 and (_on_label(src_lab, x + m, y + z, L) or _on_label(src_lab, x - m, y + z, L)
+                               or _on_label(src_lab, x + z, y + m, L) or _on_label(src_lab, x + z, y - m, L)):
+                continue
+            out[i, j] = True
+    return out
+
+
+@njit(**PJIT)
+def map_deviation_patches(sx, sy, valid, patch, lab, scale):
+    """``map_deviation(sx, sy, valid, reproject.patch_links(valid, patch, lab), scale)`` in
+    one pass on the float32 maps: the links (valid neighbours of one patch and label) taken
+    on the fly, the differences in float64 as there (bit for bit the same)."""
+    h, w = sx.shape
+    out = np.zeros((h, w), np.float32)
+    for i0 in prange(h):
+        i = np.int64(i0)
+        for j in range(w):
+            if not valid[i, j]:
+                continue
+            P = patch[i, j]
+            L = lab[i, j]
+            jl = j - 1 if j > 0 and valid[i, j - 1] and lab[i, j - 1] == L and patch[i, j - 1] == P else j
+            jr = j + 1 if j < w - 1 and valid[i, j + 1] and lab[i, j + 1] == L and patch[i, j + 1] == P else j
+            iu = i - 1 if i > 0 and valid[i - 1, j] and lab[i - 1, j] == L and patch[i - 1, j] == P else i
+            idn = i + 1 if i < h - 1 and valid[i + 1, j] and lab[i + 1, j] == L and patch[i + 1, j] == P else i
+            a = 0.0
+            c = 0.0
+            b = 0.0
+            d = 0.0
+            if jr != jl:
+                a = (np.float64(sx[i, jr]) - np.float64(sx[i, jl])) / (jr - jl) / scale - 1.0
+                c = (np.float64(sy[i, jr]) - np.float64(sy[i, jl])) / (jr - jl) / scale
+            if idn != iu:
+                b = (np.float64(sx[idn, j]) - np.float64(sx[iu, j])) / (idn - iu) / scale
+                d = (np.float64(sy[idn, j]) - np.float64(sy[iu, j])) / (idn - iu) / scale - 1.0
+            out[i, j] = np.sqrt(a * a + b * b + c * c + d * d)
+    return out

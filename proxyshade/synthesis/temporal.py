@@ -45,14 +45,11 @@ def newly_occluded(cat, u, v, ok, lab, prev_lab) -> np.ndarray:
 
 def fits_source(src_lab: np.ndarray, sx: np.ndarray, sy: np.ndarray, lab: np.ndarray, mask: np.ndarray) -> np.ndarray:
     """Pixels of ``mask`` whose source position lies inside the source (no clamped,
-    smeared edge pixels) on a pixel of their label."""
-    out = np.zeros(mask.shape, bool)
-    ii, jj = np.nonzero(mask)
-    x, y = sx[ii, jj], sy[ii, jj]
-    hs, ws = src_lab.shape
-    inside = (x >= 0) & (y >= 0) & (x <= ws - 1) & (y <= hs - 1)
-    out[ii, jj] = inside & (lookup(src_lab, x[None], y[None])[0] == lab[ii, jj])
-    return out
+    smeared edge pixels) on a pixel of their label (``temporal.fits_label``: one parallel
+    pass, no gather and scatter of the mask's pixels)."""
+    return kt.fits_label(np.ascontiguousarray(src_lab, np.uint32), np.ascontiguousarray(sx, np.float32),
+                         np.ascontiguousarray(sy, np.float32), np.ascontiguousarray(lab, np.uint32),
+                         np.ascontiguousarray(mask, np.bool_))
 
 
 def off_label(src_lab: np.ndarray, sx: np.ndarray, sy: np.ndarray, lab: np.ndarray, mask: np.ndarray,
@@ -60,23 +57,11 @@ def off_label(src_lab: np.ndarray, sx: np.ndarray, sy: np.ndarray, lab: np.ndarr
     """Pixels of ``mask`` whose source position lies outside the source or on a pixel of
     another label, and so do the positions ``margin`` source pixels to its left, right,
     above and below: well off its label, not on the border the first frame's own copies
-    touch (``fits_source``'s complement, written here as whole-frame passes: over most of
-    a frame's pixels they cost less than ``fits_source``'s gather and scatter, which
-    measured 10-80 ms slower per 1024² update frame)."""
-    hs, ws = src_lab.shape
-    with np.errstate(invalid="ignore"):
-        inside = (sx >= 0) & (sy >= 0) & (sx <= ws - 1) & (sy <= hs - 1)
-    off = mask & ~(inside & (lookup(src_lab, sx, sy) == lab))
-    if margin > 0 and off.any():
-        ii, jj = np.nonzero(off)
-        x, y, L = sx[ii, jj], sy[ii, jj], lab[ii, jj]
-        near = np.zeros(len(ii), bool)
-        for dx, dy in ((margin, 0.0), (-margin, 0.0), (0.0, margin), (0.0, -margin)):
-            xs, ys = x + dx, y + dy
-            ok = (xs >= 0) & (ys >= 0) & (xs <= ws - 1) & (ys <= hs - 1)
-            near |= ok & (lookup(src_lab, xs[None].astype(np.float32), ys[None].astype(np.float32))[0] == L)
-        off[ii[near], jj[near]] = False
-    return off
+    touch (``fits_source``'s complement; ``temporal.off_label``, one parallel pass: it had
+    been whole-frame numpy passes, 8-10 ms per 1024² frame)."""
+    return kt.off_label(np.ascontiguousarray(src_lab, np.uint32), np.ascontiguousarray(sx, np.float32),
+                        np.ascontiguousarray(sy, np.float32), np.ascontiguousarray(lab, np.uint32),
+                        np.ascontiguousarray(mask, np.bool_), float(margin))
 
 
 def patch_thresholds(patch: np.ndarray, threshold: float, spread: float, seed: int) -> np.ndarray:
@@ -307,7 +292,7 @@ def carry(cd: Plate, prev: Plate | None, first: Plate | None, source: Plate, p, 
         # past extend_frames the continued band is flood-filled afresh instead
         filled &= fits_source(src_lab, sx, sy, lab, filled) & (ext <= p.extend_frames)
         have = valid | filled
-    D = kt.map_deviation(sx, sy, have, kr.patch_links(have, patch, lab), scale)
+    D = kt.map_deviation_patches(sx, sy, np.ascontiguousarray(have, np.bool_), patch, lab, float(scale))
     distorted, sx, sy = reanchor_distorted(have, patch, D, sx, sy, scale, p.threshold, p.spread, p.seed)
     absorbed, sx, sy, patch = absorb_fragments(have, patch, lab, sx, sy, scale, p.min_patch_area, src_lab,
                                                p.min_patch_width)
