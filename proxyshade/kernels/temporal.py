@@ -249,21 +249,26 @@ def keep_carried(flag, reanchored, D, ext, sx, sy, patch, rgb, res, correct):
     planar R, G, B, source.x, source.y, patch.id, distortion (kept whole only),
     extension and the three correction planes (0 where not kept whole), all (H, W)."""
     h, w = flag.shape
-    R = np.zeros((h, w), np.float32)
-    G = np.zeros((h, w), np.float32)
-    B = np.zeros((h, w), np.float32)
-    osx = np.zeros((h, w), np.float32)
-    osy = np.zeros((h, w), np.float32)
-    opatch = np.zeros((h, w), np.uint32)
-    oD = np.zeros((h, w), np.float32)
-    oext = np.zeros((h, w), np.float32)
-    c0 = np.zeros((h, w), np.float32)
-    c1 = np.zeros((h, w), np.float32)
-    c2 = np.zeros((h, w), np.float32)
+    R = np.empty((h, w), np.float32)  # every element written below (no zeroing pass first)
+    G = np.empty((h, w), np.float32)
+    B = np.empty((h, w), np.float32)
+    osx = np.empty((h, w), np.float32)
+    osy = np.empty((h, w), np.float32)
+    opatch = np.empty((h, w), np.uint32)
+    oD = np.empty((h, w), np.float32)
+    oext = np.empty((h, w), np.float32)
+    c0 = np.empty((h, w), np.float32)
+    c1 = np.empty((h, w), np.float32)
+    c2 = np.empty((h, w), np.float32)
+    z = np.float32(0.0)
     for i in prange(h):
         for j in range(w):
             f = flag[i, j]
             if f != 0 and f != reanchored:
+                R[i, j] = G[i, j] = B[i, j] = z
+                osx[i, j] = osy[i, j] = oD[i, j] = oext[i, j] = z
+                opatch[i, j] = 0
+                c0[i, j] = c1[i, j] = c2[i, j] = z
                 continue
             osx[i, j] = sx[i, j]
             osy[i, j] = sy[i, j]
@@ -273,6 +278,7 @@ def keep_carried(flag, reanchored, D, ext, sx, sy, patch, rgb, res, correct):
                 R[i, j] = res[i, j, 0]
                 G[i, j] = res[i, j, 1]
                 B[i, j] = res[i, j, 2]
+                c0[i, j] = c1[i, j] = c2[i, j] = z
             elif f == 0:
                 c0[i, j] = res[i, j, 0]
                 c1[i, j] = res[i, j, 1]
@@ -284,8 +290,8 @@ def keep_carried(flag, reanchored, D, ext, sx, sy, patch, rgb, res, correct):
                 R[i, j] = rgb[i, j, 0] + np.float32(0.0)
                 G[i, j] = rgb[i, j, 1] + np.float32(0.0)
                 B[i, j] = rgb[i, j, 2] + np.float32(0.0)
-            if f == 0:
-                oD[i, j] = D[i, j]
+                c0[i, j] = c1[i, j] = c2[i, j] = z
+            oD[i, j] = D[i, j] if f == 0 else z
     return R, G, B, osx, osy, opatch, oD, oext, c0, c1, c2
 
 
@@ -477,3 +483,92 @@ def map_deviation_patches(sx, sy, valid, patch, lab, scale):
                 d = (np.float64(sy[idn, j]) - np.float64(sy[iu, j])) / (idn - iu) / scale - 1.0
             out[i, j] = np.sqrt(a * a + b * b + c * c + d * d)
     return out
+
+
+@njit(**PJIT)
+def clean_flags(raw, radius, min_neighbours, dilate, have, stray, disoccluded, newly, distorted):
+    """The flags cleaned in one pass (``synthesis.temporal.clean_flags`` and the carry's
+    fix-ups): a flag with fewer than ``min_neighbours`` other flags in its
+    (2·radius+1)² window is dropped (``remove_isolated``; none dropped when
+    ``min_neighbours`` <= 0); a pixel left unflagged takes ``newly`` when a kept flag
+    ``newly`` lies within ``dilate`` pixels (square, ``dilate``'s), else ``disoccluded``
+    when a kept ``disoccluded`` does; then, still unflagged, ``disoccluded`` where not
+    ``have`` and ``distorted`` where ``stray``. Returns the flags (uint32) and their
+    counts per value 0..4 (int64 (5,); values above 4 are not counted)."""
+    h, w = raw.shape
+    kept = np.empty((h, w), np.uint32)
+    for i in prange(h):
+        for j in range(w):
+            f = raw[i, j]
+            if f != 0 and min_neighbours > 0:
+                n = 0
+                for a in range(max(0, i - radius), min(h, i + radius + 1)):
+                    for b in range(max(0, j - radius), min(w, j + radius + 1)):
+                        if raw[a, b] != 0:
+                            n += 1
+                if n - 1 < min_neighbours:
+                    f = 0
+            kept[i, j] = f
+    # bit 1: a kept ``disoccluded`` within ``dilate`` columns, bit 2: a kept ``newly``
+    near = np.zeros((h, w), np.uint8)
+    if dilate > 0:
+        for i in prange(h):
+            last1 = -dilate - 1
+            last2 = -dilate - 1
+            for j in range(w):
+                if kept[i, j] == disoccluded:
+                    last1 = j
+                elif kept[i, j] == newly:
+                    last2 = j
+                m = 0
+                if j - last1 <= dilate:
+                    m |= 1
+                if j - last2 <= dilate:
+                    m |= 2
+                near[i, j] = m
+            nxt1 = w + dilate + 1
+            nxt2 = w + dilate + 1
+            for j in range(w - 1, -1, -1):
+                if kept[i, j] == disoccluded:
+                    nxt1 = j
+                elif kept[i, j] == newly:
+                    nxt2 = j
+                m = near[i, j]
+                if nxt1 - j <= dilate:
+                    m |= 1
+                if nxt2 - j <= dilate:
+                    m |= 2
+                near[i, j] = m
+    out = np.empty((h, w), np.uint32)
+    nt = 64
+    counts = np.zeros((nt, 5), np.int64)
+    step = (h + nt - 1) // nt
+    for t in prange(nt):
+        acc = np.zeros(w, np.uint8)
+        for i in range(t * step, min(h, (t + 1) * step)):
+            if dilate > 0:  # the rows within ``dilate``: their bits or-ed, row by row
+                acc[:] = 0
+                for a in range(max(0, i - dilate), min(h, i + dilate + 1)):
+                    for j in range(w):
+                        acc[j] |= near[a, j]
+            for j in range(w):
+                f = kept[i, j]
+                if f == 0 and dilate > 0:
+                    m = acc[j]
+                    if m & 2:
+                        f = newly
+                    elif m & 1:
+                        f = disoccluded
+                if f == 0:
+                    if not have[i, j]:
+                        f = disoccluded
+                    elif stray[i, j]:
+                        f = distorted
+                out[i, j] = f
+                if f < 5:
+                    counts[t, f] += 1
+    total = np.zeros(5, np.int64)
+    for t in range(nt):
+        for v in range(5):
+            total[v] += counts[t, v]
+    return out, total

@@ -82,7 +82,7 @@ def reanchor_distorted(have, patch, D, sx, sy, scale, threshold, spread, seed):
     gone. Returns (distorted (H, W) bool, sx, sy)."""
     if not have.any():
         return np.zeros(have.shape, bool), sx, sy
-    ids = np.ascontiguousarray(patch, np.int64)
+    ids = np.ascontiguousarray(patch, np.uint32)  # the kernels index by it as it is (no int64 copy)
     n = int(ids.max()) + 1
     mean_d = kt.patch_mean(np.ascontiguousarray(have, np.bool_), ids, np.ascontiguousarray(D, np.float32), n)
     ids_all = np.arange(n, dtype=np.uint32)[None]
@@ -109,7 +109,10 @@ def patch_width(have: np.ndarray, ids: np.ndarray, n: int) -> tuple[np.ndarray, 
     """(area, width) of each patch id < n over the ``have`` pixels: width = 2 × area /
     perimeter (edges to another patch, an unkept pixel or the image border): a strip's
     width, half a square's side."""
-    area, per = kt.area_perimeter(np.ascontiguousarray(have, np.bool_), np.ascontiguousarray(ids, np.int64), int(n))
+    ids = np.ascontiguousarray(ids)
+    if ids.dtype not in (np.uint32, np.int64):
+        ids = ids.astype(np.int64)
+    area, per = kt.area_perimeter(np.ascontiguousarray(have, np.bool_), ids, int(n))
     return area, 2.0 * area / np.maximum(per.astype(np.float64), 1.0)
 
 
@@ -123,11 +126,11 @@ def absorb_fragments(have, patch, lab, sx, sy, scale, min_area, src_lab, min_wid
     none = np.zeros(have.shape, bool)
     if min_area <= 1:
         return none, sx, sy, patch
-    ids = patch.astype(np.int64, copy=False)
+    ids = np.ascontiguousarray(patch, np.uint32)  # indexed as it is (no int64 copy of the frame)
     n = int(ids.max()) + 1
     area, width = patch_width(have, ids, n)
     frag = (area < min_area) | (width < min_width)
-    small = have & frag[ids] & (patch != 0)
+    small = kt.in_ids(np.ascontiguousarray(have, np.bool_), ids, frag & (np.arange(n) != 0))  # not patch 0
     if not small.any():
         return none, sx, sy, patch
     H, W = have.shape
@@ -138,7 +141,8 @@ def absorb_fragments(have, patch, lab, sx, sy, scale, min_area, src_lab, min_wid
         inside = (a >= 0) & (a < H) & (b >= 0) & (b < W)
         a, b, i0, j0 = a[inside], b[inside], ii[inside], jj[inside]
         ok = have[a, b] & (lab[a, b] == lab[i0, j0]) & (ids[a, b] != ids[i0, j0]) & ~frag[ids[a, b]]
-        pairs.append(np.stack([ids[i0[ok], j0[ok]], ids[a[ok], b[ok]], a[ok], b[ok]], 1))
+        pairs.append(np.stack([ids[i0[ok], j0[ok]].astype(np.int64), ids[a[ok], b[ok]].astype(np.int64), a[ok], b[ok]],
+                              1))
     pairs = np.concatenate(pairs)
     if not len(pairs):
         return none, sx, sy, patch
@@ -160,24 +164,26 @@ def absorb_fragments(have, patch, lab, sx, sy, scale, min_area, src_lab, min_wid
     ox[src[:, 0]] = sx[src[:, 2], src[:, 3]] - src[:, 3] * scale
     oy[src[:, 0]] = sy[src[:, 2], src[:, 3]] - src[:, 2] * scale
     tg[src[:, 0]] = src[:, 1]
-    pid = ids[ii, jj]
+    pid = ids[ii, jj].astype(np.int64)
     go = ~np.isnan(ox[pid])
     ii, jj, pid = ii[go], jj[go], pid[go]
-    nsx, nsy = sx.copy(), sy.copy()
-    nsx[ii, jj] = (ox[pid] + jj * scale).astype(np.float32)
-    nsy[ii, jj] = (oy[pid] + ii * scale).astype(np.float32)
-    moved = np.zeros(have.shape, bool)
-    moved[ii, jj] = True
-    fits = fits_source(src_lab, nsx, nsy, lab, moved)
+    nx = (ox[pid] + jj * scale).astype(np.float32)
+    ny = (oy[pid] + ii * scale).astype(np.float32)
+    # the moved pixels only (fits_source's test on their list)
+    fits = kt.fits_label(np.ascontiguousarray(src_lab, np.uint32), nx[None], ny[None],
+                         np.ascontiguousarray(lab[ii, jj], np.uint32)[None], np.ones((1, len(ii)), np.bool_))[0]
     # all or nothing per patch: a half-absorbed fragment would leave a seam inside it
-    bad = np.bincount(pid, weights=~fits[ii, jj], minlength=n) > 0
+    bad = np.bincount(pid, weights=~fits, minlength=n) > 0
     ok = ~bad[pid]
+    ia, ja = ii[ok], jj[ok]
     absorbed = np.zeros(have.shape, bool)
-    absorbed[ii[ok], jj[ok]] = True
-    sx = np.where(absorbed, nsx, sx).astype(np.float32, copy=False)
-    sy = np.where(absorbed, nsy, sy).astype(np.float32, copy=False)
+    absorbed[ia, ja] = True
+    sx = np.array(sx, np.float32)
+    sy = np.array(sy, np.float32)
+    sx[ia, ja] = nx[ok]
+    sy[ia, ja] = ny[ok]
     patch = patch.copy()
-    patch[ii[ok], jj[ok]] = tg[pid[ok]].astype(np.uint32)
+    patch[ia, ja] = tg[pid[ok]].astype(np.uint32)
     return absorbed, sx, sy, patch
 
 
@@ -308,22 +314,25 @@ def carry(cd: Plate, prev: Plate | None, first: Plate | None, source: Plate, p, 
     raw[stray] = FLAG["distorted"]
     raw[~have] = FLAG["disoccluded"]
     raw[newly_occluded(cat, u, v, ok, lab, prev["label.id"])] = FLAG["newly_occluded"]
-    flag = clean_flags(raw, radius=p.isolated_radius, min_neighbours=p.min_neighbours, dilate=p.dilate)
-    flag[~have & (flag == 0)] = FLAG["disoccluded"]  # dropped as isolated, but nothing to carry
-    flag[stray & (flag == 0)] = FLAG["distorted"]  # dropped as isolated, but off its label
-    share = float((flag > 0).mean())
+    # clean_flags, then unflagged pixels with nothing to carry (dropped as isolated) disoccluded,
+    # off their label distorted, and the counts per flag, in one pass
+    flag, nflag = kt.clean_flags(raw, int(p.isolated_radius), int(p.min_neighbours), int(p.dilate),
+                                 np.ascontiguousarray(have, np.bool_), stray, FLAG["disoccluded"],
+                                 FLAG["newly_occluded"], FLAG["distorted"])
+    share = float(flag.size - nflag[0]) / flag.size
     cut = share > p.cut_threshold
     if cut:
         note(f"camera cut: {100 * share:.1f}% of the frame flagged (> {100 * p.cut_threshold:.0f}%); "
              "full synthesis of this frame")
         flag[:] = FLAG["disoccluded"]
+        nflag = np.bincount(flag.ravel(), minlength=max(FLAG.values()) + 1)
     # re-anchored patches keep their (new) map; their old Poisson correction no longer fits
     keep = (flag == 0) | (flag == FLAG["reanchored"])
     correct = p.colour == "map"
     rgb = lookup(src_rgb, sx, sy, filter=p.filter, mask=keep) if correct else res
     R, G, B, sx, sy, patch, D, ext, *corr = kt.keep_carried(
         flag, FLAG["reanchored"], D.astype(np.float32, copy=False), ext, sx, sy, patch, rgb, res, correct)
-    n = np.bincount(flag.ravel(), minlength=max(FLAG.values()) + 1) / flag.size
+    n = nflag / flag.size
     counts = {k: float(n[v]) for k, v in FLAG.items() if v}
     note(f"flagged {100 * share:.2f}%: " + ", ".join(f"{k} {100 * s:.2f}%" for k, s in counts.items()))
     ch = {"R": R, "G": G, "B": B, "source.x": sx, "source.y": sy, "patch.id": patch, "distortion": D,
@@ -332,7 +341,7 @@ def carry(cd: Plate, prev: Plate | None, first: Plate | None, source: Plate, p, 
         ch.update(zip(CORRECTION, corr))
     ch.update(geo)
     meta = _carried_meta(prev, cd)
-    meta["temporal"] = dict(counts, flagged=float((flag > 0).mean()), cut=bool(cut), frame=int(frame),
+    meta["temporal"] = dict(counts, flagged=float(flag.size - nflag[0]) / flag.size, cut=bool(cut), frame=int(frame),
                             filter=p.filter)
     return Plate(ch, meta)
 
