@@ -1244,7 +1244,7 @@ def solve_sor_at(colors: np.ndarray, patch: np.ndarray, rows: np.ndarray, cols: 
     if source is not None:
         eid, xs, ys = _seam_edges(ii, jj, patch, np.ascontiguousarray(sx, np.float32),
                                   np.ascontiguousarray(sy, np.float32), np.float32(step))
-        fs = _lookup_many(source, xs, ys, filter)
+        fs = lookup_many(source, xs, ys, filter)
     else:
         eid, fs = np.full((n, 4), -1, np.int64), np.zeros((0, 3), np.float32)
     bl = np.empty((n, 3), np.float32)
@@ -1261,7 +1261,7 @@ def solve_sor_at(colors: np.ndarray, patch: np.ndarray, rows: np.ndarray, cols: 
                "residual": float(rel.max())}
 
 
-def _lookup_many(source: np.ndarray, xs: np.ndarray, ys: np.ndarray, filter: str) -> np.ndarray:
+def lookup_many(source: np.ndarray, xs: np.ndarray, ys: np.ndarray, filter: str) -> np.ndarray:
     """``lookup`` of the positions (xs, ys) (1-D), read in rows of 1024 so that its
     parallel loop over rows shares them between threads (each read is independent of the
     others: the same numbers as one row). (n, 3) float32."""

@@ -493,25 +493,30 @@ def gather_prev(u, v, q, ok, lab, prev_w, prev_lab, prev_patch, prev_sx, prev_sy
     distortion (float32), all (H, W)."""
     h, wd = u.shape
     hp, wp = prev_w.shape
-    valid = np.zeros((h, wd), np.bool_)
-    sx = np.zeros((h, wd), np.float32)
-    sy = np.zeros((h, wd), np.float32)
-    patch = np.zeros((h, wd), np.uint32)
-    res = np.zeros((h, wd, 3), np.float32)
-    dist = np.zeros((h, wd), np.float32)
+    valid = np.empty((h, wd), np.bool_)  # every element written (no zeroing pass first)
+    sx = np.empty((h, wd), np.float32)
+    sy = np.empty((h, wd), np.float32)
+    patch = np.empty((h, wd), np.uint32)
+    res = np.empty((h, wd, 3), np.float32)
+    dist = np.empty((h, wd), np.float32)
+    z = np.float32(0.0)
     for i in prange(h):
         for j in range(wd):
-            if not ok[i, j]:
-                continue
             x = u[i, j]
             y = v[i, j]
-            if not (x >= 0.0 and y >= 0.0 and x < wp and y < hp):
+            hit = ok[i, j] and x >= 0.0 and y >= 0.0 and x < wp and y < hp
+            cn = rn = 0
+            if hit:
+                cn = min(wp - 1, int(np.floor(x)))
+                rn = min(hp - 1, int(np.floor(y)))
+                hit = prev_lab[rn, cn] == lab[i, j] and same_surface(q[i, j], prev_w[rn, cn], tol)
+            if not hit:
+                valid[i, j] = False
+                sx[i, j] = sy[i, j] = dist[i, j] = z
+                res[i, j, 0] = res[i, j, 1] = res[i, j, 2] = z
+                patch[i, j] = 0
                 continue
-            cn = min(wp - 1, int(np.floor(x)))
-            rn = min(hp - 1, int(np.floor(y)))
             L = lab[i, j]
-            if prev_lab[rn, cn] != L or not same_surface(q[i, j], prev_w[rn, cn], tol):
-                continue
             valid[i, j] = True
             pn = prev_patch[rn, cn]
             patch[i, j] = pn
@@ -611,12 +616,16 @@ def fill_from_neighbours(need, have, lab, sx, sy, patch, res, dist, radius, scal
     patch translation (source coordinates moved by the offset × ``scale``). Reads only
     ``have`` pixels, so the result does not depend on the order. Returns new arrays and
     the mask of pixels filled."""
+    return fill_from_neighbours_into(need, have, lab, sx, sy, patch, res, dist, radius, scale, sx.copy(), sy.copy(),
+                                     patch.copy(), res.copy(), dist.copy())
+
+
+@njit(**PJIT)
+def fill_from_neighbours_into(need, have, lab, sx, sy, patch, res, dist, radius, scale, osx, osy, opatch, ores, odist):
+    """``fill_from_neighbours`` writing into ``osx`` … ``odist`` (copies of the inputs, or
+    the inputs themselves when ``need`` and ``have`` are disjoint: it writes only ``need``
+    pixels and reads only ``have`` ones). Returns them and the mask of pixels filled."""
     h, wd = need.shape
-    osx = sx.copy()
-    osy = sy.copy()
-    opatch = patch.copy()
-    ores = res.copy()
-    odist = dist.copy()
     filled = np.zeros((h, wd), np.bool_)
     for i0 in prange(h):
         i = np.int64(i0)

@@ -291,8 +291,9 @@ def carry(cd: Plate, prev: Plate | None, first: Plate | None, source: Plate, p, 
     have = valid
     src_lab = np.ascontiguousarray(source["label.id"], np.uint32)
     if p.fill_radius > 0 and not valid.all():
-        sx, sy, patch, res, ext, filled = kr.fill_from_neighbours(~valid, valid, lab, sx, sy, patch, res, ext,
-                                                                   p.fill_radius, scale)
+        # in place: it writes only the unkept pixels and reads only kept ones (gather_prev's fresh arrays)
+        sx, sy, patch, res, ext, filled = kr.fill_from_neighbours_into(~valid, valid, lab, sx, sy, patch, res, ext,
+                                                                        p.fill_radius, scale, sx, sy, patch, res, ext)
         ext = np.where(filled, ext + 1.0, ext).astype(np.float32, copy=False)
         # a patch continued frame after frame would extrude its borders into streaks:
         # past extend_frames the continued band is flood-filled afresh instead
