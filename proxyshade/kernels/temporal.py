@@ -572,3 +572,71 @@ def clean_flags(raw, radius, min_neighbours, dilate, have, stray, disoccluded, n
         for v in range(5):
             total[v] += counts[t, v]
     return out, total
+
+
+@njit(**PJIT)
+def continue_filled(filled, valid, ext, src_lab, sx, sy, lab, extend_frames):
+    """The continued (filled) pixels of a carry: their frames of continuation ``ext``
+    counted up by one (in place, float32), and those still continued: on their label in
+    the source (``fits_label``) and continued for at most ``extend_frames`` frames.
+    Returns (still continued, ``valid`` or still continued), (H, W) bool."""
+    h, w = filled.shape
+    keep = np.empty((h, w), np.bool_)
+    have = np.empty((h, w), np.bool_)
+    one = np.float32(1.0)
+    for i in prange(h):
+        for j in range(w):
+            k = False
+            if filled[i, j]:
+                ext[i, j] = ext[i, j] + one
+                k = _on_label(src_lab, sx[i, j], sy[i, j], lab[i, j]) and ext[i, j] <= extend_frames
+            keep[i, j] = k
+            have[i, j] = valid[i, j] or k
+    return keep, have
+
+
+@njit(**PJIT)
+def flag_reasons(have, absorbed, distorted, src_lab, sx, sy, lab, margin, cat, cat_c, u, v, ok, prev_lab,
+                 disoccluded, newly, dist_flag, reanchored):
+    """A carry's raw flags, in one pass, each pixel by the last that applies: ``reanchored``
+    where ``absorbed``; where ``distorted``, ``reanchored`` if its (re-anchored) source
+    position is on its label (``fits_label``) else ``dist_flag``; ``dist_flag`` where a kept
+    pixel (``have``, none of those) is off its label (``off_label`` with ``margin``:
+    *stray*); ``disoccluded`` where not ``have``; ``newly`` where ConsistentDepth's category
+    is ``cat_c`` (``ok``) and the pixel lands (``u``, ``v``) outside the previous image or
+    on a pixel of another label (``synthesis.temporal.newly_occluded``). Returns (raw
+    flags uint32, stray bool)."""
+    h, w = have.shape
+    hp, wp = prev_lab.shape
+    raw = np.empty((h, w), np.uint32)
+    stray = np.empty((h, w), np.bool_)
+    m = np.float32(margin)
+    z = np.float32(0.0)
+    for i in prange(h):
+        for j in range(w):
+            r = np.uint32(0)
+            s = False
+            L = lab[i, j]
+            if absorbed[i, j]:
+                r = reanchored
+            if distorted[i, j]:
+                r = reanchored if _on_label(src_lab, sx[i, j], sy[i, j], L) else dist_flag
+            if have[i, j] and r == 0:
+                x = sx[i, j]
+                y = sy[i, j]
+                if not _on_label(src_lab, x, y, L):
+                    s = not (margin > 0 and (_on_label(src_lab, x + m, y + z, L) or _on_label(src_lab, x - m, y + z, L)
+                                             or _on_label(src_lab, x + z, y + m, L)
+                                             or _on_label(src_lab, x + z, y - m, L)))
+                if s:
+                    r = dist_flag
+            if not have[i, j]:
+                r = disoccluded
+            if cat[i, j] == cat_c and ok[i, j]:
+                c = int(np.floor(u[i, j]))
+                rr = int(np.floor(v[i, j]))
+                if not (c >= 0 and rr >= 0 and c < wp and rr < hp) or prev_lab[rr, c] != L:
+                    r = newly
+            raw[i, j] = r
+            stray[i, j] = s
+    return raw, stray

@@ -294,27 +294,23 @@ def carry(cd: Plate, prev: Plate | None, first: Plate | None, source: Plate, p, 
         # in place: it writes only the unkept pixels and reads only kept ones (gather_prev's fresh arrays)
         sx, sy, patch, res, ext, filled = kr.fill_from_neighbours_into(~valid, valid, lab, sx, sy, patch, res, ext,
                                                                         p.fill_radius, scale, sx, sy, patch, res, ext)
-        ext = np.where(filled, ext + 1.0, ext).astype(np.float32, copy=False)
         # a patch continued frame after frame would extrude its borders into streaks:
-        # past extend_frames the continued band is flood-filled afresh instead
-        filled &= fits_source(src_lab, sx, sy, lab, filled) & (ext <= p.extend_frames)
-        have = valid | filled
+        # past extend_frames the continued band is flood-filled afresh instead (ext counted up in place)
+        filled, have = kt.continue_filled(filled, valid, ext, src_lab, sx, sy, lab, float(p.extend_frames))
     D = kt.map_deviation_patches(sx, sy, np.ascontiguousarray(have, np.bool_), patch, lab, float(scale))
     distorted, sx, sy = reanchor_distorted(have, patch, D, sx, sy, scale, p.threshold, p.spread, p.seed)
     absorbed, sx, sy, patch = absorb_fragments(have, patch, lab, sx, sy, scale, p.min_patch_area, src_lab,
                                                p.min_patch_width)
-    raw = np.zeros((H, W), np.uint32)
-    raw[absorbed] = FLAG["reanchored"]
-    if distorted.any():
-        fits = fits_source(src_lab, sx, sy, lab, distorted)
-        raw[distorted] = np.where(fits[distorted], FLAG["reanchored"], FLAG["distorted"])
-    # a kept pixel whose carried source position has left its label (a patch growing on
-    # screen carries its map past its label's border in the source: sky reading the cliff)
-    # no longer shows its label's texture: resynthesized, however few there are
-    stray = off_label(src_lab, sx, sy, lab, have & (raw == 0))
-    raw[stray] = FLAG["distorted"]
-    raw[~have] = FLAG["disoccluded"]
-    raw[newly_occluded(cat, u, v, ok, lab, prev["label.id"])] = FLAG["newly_occluded"]
+    # raw flags in one pass (temporal.flag_reasons): re-anchored patches and absorbed fragments
+    # (distorted where the re-anchored copy leaves its label); a kept pixel whose carried source
+    # position has left its label ("stray": a patch growing on screen carries its map past its
+    # label's border in the source, sky reading the cliff) no longer shows its label's texture:
+    # resynthesized, however few there are (off_label); disoccluded; newly occluded (newly_occluded)
+    raw, stray = kt.flag_reasons(np.ascontiguousarray(have, np.bool_), absorbed, distorted, src_lab, sx, sy, lab, 0.5,
+                                 np.ascontiguousarray(cat, np.uint32), np.uint32(CATEGORY_C), u, v,
+                                 np.ascontiguousarray(ok, np.bool_), np.ascontiguousarray(prev["label.id"], np.uint32),
+                                 np.uint32(FLAG["disoccluded"]), np.uint32(FLAG["newly_occluded"]),
+                                 np.uint32(FLAG["distorted"]), np.uint32(FLAG["reanchored"]))
     # clean_flags, then unflagged pixels with nothing to carry (dropped as isolated) disoccluded,
     # off their label distorted, and the counts per flag, in one pass
     flag, nflag = kt.clean_flags(raw, int(p.isolated_radius), int(p.min_neighbours), int(p.dilate),
