@@ -640,3 +640,38 @@ def flag_reasons(have, absorbed, distorted, src_lab, sx, sy, lab, margin, cat, c
             raw[i, j] = r
             stray[i, j] = s
     return raw, stray
+
+
+@njit(**JIT)
+def reanchor(distorted, ids, sx, sy, scale, n):
+    """The re-anchored map of the ``distorted`` pixels, in place on ``sx``, ``sy``
+    (float32): each patch's plain copy through its mean position and mean source
+    position, sx = mean sx + (column − mean column) · scale (likewise sy), the means
+    summed in scan order in float64 (``np.bincount``'s numbers)."""
+    h, w = distorted.shape
+    c = np.zeros(n, np.float64)
+    mi = np.zeros(n, np.float64)
+    mj = np.zeros(n, np.float64)
+    mx = np.zeros(n, np.float64)
+    my = np.zeros(n, np.float64)
+    for i in range(h):
+        for j in range(w):
+            if distorted[i, j]:
+                p = ids[i, j]
+                c[p] += 1.0
+                mi[p] += np.float64(i)
+                mj[p] += np.float64(j)
+                mx[p] += np.float64(sx[i, j])
+                my[p] += np.float64(sy[i, j])
+    for p in range(n):
+        k = max(c[p], 1.0)
+        mi[p] /= k
+        mj[p] /= k
+        mx[p] /= k
+        my[p] /= k
+    for i in range(h):
+        for j in range(w):
+            if distorted[i, j]:
+                p = ids[i, j]
+                sx[i, j] = mx[p] + (j - mj[p]) * scale
+                sy[i, j] = my[p] + (i - mi[p]) * scale

@@ -91,17 +91,9 @@ def reanchor_distorted(have, patch, D, sx, sy, scale, threshold, spread, seed):
     distorted = kt.in_ids(np.ascontiguousarray(have, np.bool_), ids, bad)
     if not distorted.any():
         return distorted, sx, sy
-    ii, jj = np.nonzero(distorted)
-    pid = patch[ii, jj].astype(np.int64)
-    c = np.maximum(np.bincount(pid, minlength=n), 1).astype(np.float64)
-    mi = np.bincount(pid, weights=ii, minlength=n) / c
-    mj = np.bincount(pid, weights=jj, minlength=n) / c
-    mx = np.bincount(pid, weights=sx[ii, jj], minlength=n) / c
-    my = np.bincount(pid, weights=sy[ii, jj], minlength=n) / c
-    sx = sx.copy()
-    sy = sy.copy()
-    sx[ii, jj] = mx[pid] + (jj - mj[pid]) * scale
-    sy[ii, jj] = my[pid] + (ii - mi[pid]) * scale
+    sx = np.array(sx, np.float32)
+    sy = np.array(sy, np.float32)
+    kt.reanchor(distorted, ids, sx, sy, float(scale), n)  # the means in scan order, as np.bincount sums
     return distorted, sx, sy
 
 
