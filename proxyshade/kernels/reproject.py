@@ -476,7 +476,7 @@ def stale_winners(wg, src, wp1, on_proxy, keep, tol, radius=0):
     return out & keep
 
 
-@njit(**PJIT)
+@njit(**JIT)
 def gather_prev(u, v, q, ok, lab, prev_w, prev_lab, prev_patch, prev_sx, prev_sy, prev_res, prev_d, tol, scale):
     """The previous frame's state where each current pixel lands.
 
@@ -490,7 +490,16 @@ def gather_prev(u, v, q, ok, lab, prev_w, prev_lab, prev_patch, prev_sx, prev_sy
     renormalised: the residual, a Poisson correction, jumps across seams).
 
     Returns valid (bool), sx, sy (float32), patch (uint32), residual (float32 ×3),
-    distortion (float32), all (H, W)."""
+    distortion (float32), all (H, W). ``gather_prev_planes`` with the residual's planes."""
+    return gather_prev_planes(u, v, q, ok, lab, prev_w, prev_lab, prev_patch, prev_sx, prev_sy, prev_res[:, :, 0],
+                              prev_res[:, :, 1], prev_res[:, :, 2], prev_d, tol, scale)
+
+
+@njit(**PJIT)
+def gather_prev_planes(u, v, q, ok, lab, prev_w, prev_lab, prev_patch, prev_sx, prev_sy, pr0, pr1, pr2, prev_d, tol,
+                       scale):
+    """``gather_prev`` with the previous residual given as three (H, W) planes (a plate's
+    ``correction.R/G/B`` as they are, no (H, W, 3) stack of them)."""
     h, wd = u.shape
     hp, wp = prev_w.shape
     valid = np.empty((h, wd), np.bool_)  # every element written (no zeroing pass first)
@@ -549,9 +558,9 @@ def gather_prev(u, v, q, ok, lab, prev_w, prev_lab, prev_patch, prev_sx, prev_sy
                 bsy += wt * prev_sy[rr, cc]
                 if prev_patch[rr, cc] != pn:
                     continue  # the correction jumps at seams (it cancels the seam): not across them
-                r0_ += wt * prev_res[rr, cc, 0]
-                r1_ += wt * prev_res[rr, cc, 1]
-                r2_ += wt * prev_res[rr, cc, 2]
+                r0_ += wt * pr0[rr, cc]
+                r1_ += wt * pr1[rr, cc]
+                r2_ += wt * pr2[rr, cc]
                 dd += wt * prev_d[rr, cc]
                 wsum += wt
             if same:
@@ -566,9 +575,9 @@ def gather_prev(u, v, q, ok, lab, prev_w, prev_lab, prev_patch, prev_sx, prev_sy
                 res[i, j, 2] = r2_ / wsum
                 dist[i, j] = dd / wsum
             else:
-                res[i, j, 0] = prev_res[rn, cn, 0]
-                res[i, j, 1] = prev_res[rn, cn, 1]
-                res[i, j, 2] = prev_res[rn, cn, 2]
+                res[i, j, 0] = pr0[rn, cn]
+                res[i, j, 1] = pr1[rn, cn]
+                res[i, j, 2] = pr2[rn, cn]
                 dist[i, j] = prev_d[rn, cn]
     return valid, sx, sy, patch, res, dist
 

@@ -268,16 +268,19 @@ def carry(cd: Plate, prev: Plate | None, first: Plate | None, source: Plate, p, 
     u, v, q, ok = kr.transfer(w1, kr.relative_matrix(cam1, cam0), k1, kr.intrinsics(cam0), cam0.near)
     src_rgb = source.rgb()
     if p.colour == "map" and all(c in prev for c in CORRECTION):
-        prev_res = prev.layer(CORRECTION)  # carried by Resynthesize: no second read of the source
-    elif p.colour == "map":
-        prev_res = prev.rgb() - lookup(src_rgb, prev["source.x"], prev["source.y"], filter=p.filter)
+        # carried by Resynthesize: no second read of the source (its planes as they are)
+        planes = [np.ascontiguousarray(prev[c], np.float32) for c in CORRECTION]
     else:
-        prev_res = prev.rgb()
+        if p.colour == "map":
+            prev_res = prev.rgb() - lookup(src_rgb, prev["source.x"], prev["source.y"], filter=p.filter)
+        else:
+            prev_res = prev.rgb()
+        planes = [np.ascontiguousarray(prev_res[..., k], np.float32) for k in range(3)]
     prev_ext = prev["extension"].astype(np.float32, copy=False) if "extension" in prev else np.zeros(prev.shape, np.float32)
-    valid, sx, sy, patch, res, ext = kr.gather_prev(
+    valid, sx, sy, patch, res, ext = kr.gather_prev_planes(
         u, v, q, ok, lab, kr.inverse_depth(prev["Z"]), np.ascontiguousarray(prev["label.id"], np.uint32),
         np.ascontiguousarray(prev["patch.id"], np.uint32), prev["source.x"].astype(np.float32, copy=False),
-        prev["source.y"].astype(np.float32, copy=False), np.ascontiguousarray(prev_res, np.float32), prev_ext, tol, scale)
+        prev["source.y"].astype(np.float32, copy=False), *planes, prev_ext, tol, scale)
     # disoccluded pixels continue the patch of a kept neighbour of their label when the
     # continued source position still has that label: no new seam, nothing to redo
     have = valid
