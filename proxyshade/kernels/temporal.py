@@ -490,12 +490,15 @@ def map_deviation_patches(sx, sy, valid, patch, lab, scale):
             c = 0.0
             b = 0.0
             d = 0.0
+            # a difference over 2 pixels halved by a product (exact, as the division by 2 is)
             if jr != jl:
-                a = (np.float64(sx[i, jr]) - np.float64(sx[i, jl])) / (jr - jl) / scale - 1.0
-                c = (np.float64(sy[i, jr]) - np.float64(sy[i, jl])) / (jr - jl) / scale
+                hx = 0.5 if jr - jl == 2 else 1.0
+                a = (np.float64(sx[i, jr]) - np.float64(sx[i, jl])) * hx / scale - 1.0
+                c = (np.float64(sy[i, jr]) - np.float64(sy[i, jl])) * hx / scale
             if idn != iu:
-                b = (np.float64(sx[idn, j]) - np.float64(sx[iu, j])) / (idn - iu) / scale
-                d = (np.float64(sy[idn, j]) - np.float64(sy[iu, j])) / (idn - iu) / scale - 1.0
+                hy = 0.5 if idn - iu == 2 else 1.0
+                b = (np.float64(sx[idn, j]) - np.float64(sx[iu, j])) * hy / scale
+                d = (np.float64(sy[idn, j]) - np.float64(sy[iu, j])) * hy / scale - 1.0
             out[i, j] = np.sqrt(a * a + b * b + c * c + d * d)
     return out
 
