@@ -173,9 +173,9 @@ def poisson_regions(colors: np.ndarray, patch: np.ndarray, labels: np.ndarray | 
     independent problem whose only data outside it is its one-pixel ring of fixed
     neighbours. Components whose bounding box is at most ``small`` pixels across (its
     shorter side; smaller than the frame) are solved together by red-black SOR on their
-    own pixels (``poisson.solve_sor_at``, its system built at those pixels only: the work follows the free pixels, however
-    scattered, and each region is swept until its own residual has fallen by ``tol``,
-    at the pace of its width); the
+    own pixels (``poisson.solve_sor_at``, its system built at those pixels only: the
+    work follows the free pixels, however scattered, and each region is swept until its
+    own residual has fallen by ``tol``, at the pace of its width); the
     others in windows around them (``group_boxes``), each the same linear system as the
     whole frame at the cost of its area, by multigrid-preconditioned CG. Pixels of other
     components inside a window are fixed there (they are never 4-neighbours of the
