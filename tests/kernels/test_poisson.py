@@ -290,8 +290,9 @@ def test_sor_at_is_the_frame_sized_solve_bit_for_bit(step, filt):
     src = rng.random((40, 60, 3), dtype=np.float32)
     patch = (np.arange(h)[:, None] // 5 * 11 + np.arange(w)[None, :] // 7).astype(np.uint32)
     off = rng.uniform(0, 30, (int(patch.max()) + 1, 2)).astype(np.float32)
-    sx = (np.arange(w, dtype=np.float32)[None, :] * step + off[patch, 0] + rng.uniform(-.3, .3, (h, w))).astype(np.float32)
-    sy = (np.arange(h, dtype=np.float32)[:, None] * step + off[patch, 1] + rng.uniform(-.3, .3, (h, w))).astype(np.float32)
+    jitter = rng.uniform(-.3, .3, (2, h, w))
+    sx = (np.arange(w, dtype=np.float32)[None, :] * step + off[patch, 0] + jitter[0]).astype(np.float32)
+    sy = (np.arange(h, dtype=np.float32)[:, None] * step + off[patch, 1] + jitter[1]).astype(np.float32)
     colors = rng.random((h, w, 3), dtype=np.float32)
     free = rng.random((h, w)) < 0.55
     free[0, :] = True  # a region along the border
