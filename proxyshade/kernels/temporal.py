@@ -15,7 +15,6 @@ generator, so serial and parallel runs agree bit for bit.
 """
 from __future__ import annotations
 
-import numba
 import numpy as np
 from numba import njit, prange
 
@@ -296,38 +295,24 @@ def keep_carried(flag, reanchored, D, ext, sx, sy, patch, rgb, res, correct):
     return R, G, B, osx, osy, opatch, oD, oext, c0, c1, c2
 
 
+@njit(**JIT)
 def area_perimeter(have, ids, n):
     """Per id < n over the ``have`` pixels: area (pixels) and perimeter (edges to a pixel
-    of another id, a pixel not in ``have`` or the image border), both int64 (n,). Bands
-    of rows counted in parallel, one per thread, then added (integers: the same for any
-    thread count)."""
-    return _area_perimeter(have, ids, int(n), max(1, min(numba.get_num_threads(), ids.shape[0])))
-
-
-@njit(**PJIT)
-def _area_perimeter(have, ids, n, nt):
+    of another id, a pixel not in ``have`` or the image border), both int64 (n,)."""
     h, w = ids.shape
-    step = (h + nt - 1) // nt
-    areas = np.zeros((nt, n), np.int64)
-    pers = np.zeros((nt, n), np.int64)
-    for t in prange(nt):
-        for i in range(t * step, min(h, (t + 1) * step)):
-            for j in range(w):
-                if not have[i, j]:
-                    continue
-                p = ids[i, j]
-                areas[t, p] += 1
-                for k in range(4):
-                    a = i + (k == 2) - (k == 3)
-                    b = j + (k == 0) - (k == 1)
-                    if a < 0 or a >= h or b < 0 or b >= w or not have[a, b] or ids[a, b] != p:
-                        pers[t, p] += 1
     area = np.zeros(n, np.int64)
     per = np.zeros(n, np.int64)
-    for t in range(nt):
-        for p in range(n):
-            area[p] += areas[t, p]
-            per[p] += pers[t, p]
+    for i in range(h):
+        for j in range(w):
+            if not have[i, j]:
+                continue
+            p = ids[i, j]
+            area[p] += 1
+            for k in range(4):
+                a = i + (k == 2) - (k == 3)
+                b = j + (k == 0) - (k == 1)
+                if a < 0 or a >= h or b < 0 or b >= w or not have[a, b] or ids[a, b] != p:
+                    per[p] += 1
     return area, per
 
 
