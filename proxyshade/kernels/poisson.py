@@ -1002,39 +1002,60 @@ def _list_neighbours(ii, jj, h, w):
     return nb
 
 
-def solve_sor_regions(fixed: np.ndarray, b: np.ndarray, rows: np.ndarray, cols: np.ndarray, omega: np.ndarray,
-                      region: np.ndarray, *, screen: float = 0.0, tol: float = 1e-5, max_sweeps: int = 2000,
-                      check: int = 8, threads: int | None = None) -> tuple[np.ndarray, dict]:
-    """``solve_sor`` with each region converged on its own.
+@njit(**JIT)
+def _dense_ranks(a):
+    """(rank of each value among the distinct values of ``a`` (non-negative ints), their
+    count): ``np.unique(a, return_inverse=True)``'s inverse, by a table instead of a sort."""
+    n = a.shape[0]
+    top = 0
+    for k in range(n):
+        top = max(top, a[k])
+    rank = np.zeros(top + 2, np.int64)
+    for k in range(n):
+        rank[a[k] + 1] = 1
+    for v in range(1, top + 2):
+        rank[v] += rank[v - 1]
+    out = np.empty(n, np.int64)
+    for k in range(n):
+        out[k] = rank[a[k]]
+    return out, rank[top + 1]
 
-    ``region`` (one id per listed pixel) groups the listed pixels into independent
-    problems: no listed pixel of one region is a 4-neighbour of another's (fixed pixels
-    lie between them). Each region is swept (red-black, ``check`` sweeps between residual
-    checks) until every channel's residual norm over its own pixels is at most ``tol``
-    times its initial one: thin regions stop after a few sweeps instead of sweeping
-    until the widest one has converged, and a thread sweeps whole regions with no
-    synchronisation between sweeps. ``threads`` only balances the work (default numba's
-    thread count); the result is the same for any value. Returns v (zero off the list)
-    and {"iterations" (most sweeps of a region), "sweeps" (pixel sweeps / listed pixels),
-    "residual" (largest relative residual of a region)}.
-    """
-    diag, we, ws = _fine_operator(np.ascontiguousarray(fixed, np.bool_), np.float32(screen))
-    b = np.ascontiguousarray(b, np.float32)
-    v = np.zeros(b.shape, np.float32)
-    n = len(rows)
-    if n == 0:
-        return v, {"iterations": 0, "sweeps": 0.0, "residual": 0.0}
-    rows = np.asarray(rows, np.int64)
-    cols = np.asarray(cols, np.int64)
-    _, reg = np.unique(np.asarray(region), return_inverse=True)
-    reg = reg.ravel()
+
+@njit(**JIT)
+def _group_order(key, nkeys):
+    """The stable order of ``key`` (ints in [0, nkeys)): a counting sort."""
+    n = key.shape[0]
+    start = np.zeros(nkeys + 1, np.int64)
+    for k in range(n):
+        start[key[k] + 1] += 1
+    for v in range(nkeys):
+        start[v + 1] += start[v]
+    order = np.empty(n, np.int64)
+    for k in range(n):
+        order[start[key[k]]] = k
+        start[key[k]] += 1
+    return order
+
+
+def _sor_plan(rows: np.ndarray, cols: np.ndarray, omega: np.ndarray, region: np.ndarray, threads: int | None,
+              scan: bool = False):
+    """How ``solve_sor_regions`` lays out its listed pixels: the list order (by region,
+    red before black, then scan order), the regions' list ranges and red counts, and the
+    regions shared between threads (decreasing expected work, each to the least loaded
+    thread). ``scan``: rows, cols are in scan order and the region ids non-negative (a
+    counting sort then gives the same order). Returns (order, om, starts, mids, size, bins, bin_start, nreg)."""
     black = (rows + cols) % 2
-    order = np.lexsort((cols, rows, black, reg))  # by region, red before black, then scan order
-    ii = np.ascontiguousarray(rows[order])
-    jj = np.ascontiguousarray(cols[order])
+    if scan:  # region ids >= 0, rows, cols in scan order: a stable counting sort by (region, colour) keeps it
+        reg, nreg = _dense_ranks(np.ascontiguousarray(np.asarray(region).ravel(), np.int64))
+        order = _group_order(reg * 2 + black, 2 * nreg)
+    else:
+        _, reg = np.unique(np.asarray(region), return_inverse=True)
+        reg = reg.ravel()
+        nreg = int(reg.max()) + 1
+        order = np.lexsort((cols, rows, black, reg))  # by region, red before black, then scan order
     om = np.ascontiguousarray(np.asarray(omega, np.float64)[order])
     reg = reg[order]
-    nreg = int(reg[-1]) + 1
+    nreg = int(nreg)
     starts = np.searchsorted(reg, np.arange(nreg + 1)).astype(np.int64)
     nred = np.bincount(reg, weights=black[order] == 0, minlength=nreg).astype(np.int64)
     mids = starts[:-1] + nred
@@ -1051,6 +1072,37 @@ def solve_sor_regions(fixed: np.ndarray, b: np.ndarray, rows: np.ndarray, cols: 
         load[t] += work[k]
     bins = np.argsort(owner, kind="stable").astype(np.int64)
     bin_start = np.searchsorted(owner[bins], np.arange(nt + 1)).astype(np.int64)
+    return order, om, starts, mids, size, bins, bin_start, nreg
+
+
+def solve_sor_regions(fixed: np.ndarray, b: np.ndarray, rows: np.ndarray, cols: np.ndarray, omega: np.ndarray,
+                      region: np.ndarray, *, screen: float = 0.0, tol: float = 1e-5, max_sweeps: int = 2000,
+                      check: int = 8, threads: int | None = None) -> tuple[np.ndarray, dict]:
+    """``solve_sor`` with each region converged on its own.
+
+    ``region`` (one id per listed pixel) groups the listed pixels into independent
+    problems: no listed pixel of one region is a 4-neighbour of another's (fixed pixels
+    lie between them). Each region is swept (red-black, ``check`` sweeps between residual
+    checks) until every channel's residual norm over its own pixels is at most ``tol``
+    times its initial one: thin regions stop after a few sweeps instead of sweeping
+    until the widest one has converged, and a thread sweeps whole regions with no
+    synchronisation between sweeps. ``threads`` only balances the work (default numba's
+    thread count); the result is the same for any value. Returns v (zero off the list)
+    and {"iterations" (most sweeps of a region), "sweeps" (pixel sweeps / listed pixels),
+    "residual" (largest relative residual of a region)}. ``solve_sor_at`` is the same
+    solve built from the listed pixels alone.
+    """
+    diag, we, ws = _fine_operator(np.ascontiguousarray(fixed, np.bool_), np.float32(screen))
+    b = np.ascontiguousarray(b, np.float32)
+    v = np.zeros(b.shape, np.float32)
+    n = len(rows)
+    if n == 0:
+        return v, {"iterations": 0, "sweeps": 0.0, "residual": 0.0}
+    rows = np.asarray(rows, np.int64)
+    cols = np.asarray(cols, np.int64)
+    order, om, starts, mids, size, bins, bin_start, nreg = _sor_plan(rows, cols, omega, region, threads)
+    ii = np.ascontiguousarray(rows[order])
+    jj = np.ascontiguousarray(cols[order])
     sweeps = np.zeros(nreg, np.int64)
     rel = np.zeros(nreg)
     # the listed pixels' unknowns, right-hand side, diagonal and neighbours, contiguous per region
@@ -1062,6 +1114,170 @@ def solve_sor_regions(fixed: np.ndarray, b: np.ndarray, rows: np.ndarray, cols: 
     v[ii, jj] = vl
     return v, {"iterations": int(sweeps.max()), "sweeps": float((sweeps * size).sum() / n),
                "residual": float(rel.max())}
+
+
+@njit(**JIT)
+def _seam_edges(rows, cols, patch, sx, sy, e):
+    """The seam edges the right-hand side of the listed pixels reads: per listed pixel and
+    neighbour (north, south, west, east, ``_rhs``'s order) across a patch seam, the edge's
+    index (-1: no seam), and per edge the four source positions of ``seam_gradients``
+    (f(s_a + e), f(s_a), f(s_c), f(s_c - e) with a the west / north end, c the other),
+    float32 as there. An edge between two listed pixels is listed twice (the same
+    numbers)."""
+    h, w = patch.shape
+    n = rows.shape[0]
+    eid = np.full((n, 4), -1, np.int64)
+    m = 0
+    for k in range(n):
+        i = rows[k]
+        j = cols[k]
+        for d in range(4):
+            a = i + (d == 1) - (d == 0)
+            b = j + (d == 3) - (d == 2)
+            if a < 0 or a >= h or b < 0 or b >= w or patch[a, b] == patch[i, j]:
+                continue
+            eid[k, d] = m
+            m += 1
+    xs = np.empty(4 * m, np.float32)
+    ys = np.empty(4 * m, np.float32)
+    zero = np.float32(0.0)
+    for k in range(n):
+        i = rows[k]
+        j = cols[k]
+        for d in range(4):
+            q = eid[k, d]
+            if q < 0:
+                continue
+            # the edge's west / north end (ai, aj) and its other end (ci, cj)
+            if d == 0:
+                ai, aj, ci, cj = i - 1, j, i, j
+            elif d == 1:
+                ai, aj, ci, cj = i, j, i + 1, j
+            elif d == 2:
+                ai, aj, ci, cj = i, j - 1, i, j
+            else:
+                ai, aj, ci, cj = i, j, i, j + 1
+            dx = e if d >= 2 else zero
+            dy = e if d < 2 else zero
+            xs[4 * q] = sx[ai, aj] + dx
+            ys[4 * q] = sy[ai, aj] + dy
+            xs[4 * q + 1] = sx[ai, aj]
+            ys[4 * q + 1] = sy[ai, aj]
+            xs[4 * q + 2] = sx[ci, cj]
+            ys[4 * q + 2] = sy[ci, cj]
+            xs[4 * q + 3] = sx[ci, cj] - dx
+            ys[4 * q + 3] = sy[ci, cj] - dy
+    return eid, xs, ys
+
+
+@njit(**PJIT)
+def _rhs_at(f, patch, rows, cols, nb, eid, fs, screen, bl, dl):
+    """``_rhs`` and ``_fine_operator``'s diagonal at the listed pixels only, in their
+    arithmetic and order (a neighbour that is not listed is fixed, its correction 0);
+    the seam gradient of edge q is 0.5 ((fs[4q] - fs[4q+1]) + (fs[4q+2] - fs[4q+3]))
+    (``seam_gradients``; zero without ``fs``)."""
+    h, w = patch.shape
+    have = fs.shape[0] > 0
+    half = np.float32(0.5)
+    zero = np.float32(0.0)
+    # the listed neighbour of direction d (north, south, west, east) is nb[k, (3, 2, 1, 0)[d]]
+    for k in prange(rows.shape[0]):
+        i = rows[k]
+        j = cols[k]
+        n = 0
+        if i > 0:
+            n += 1
+        if i + 1 < h:
+            n += 1
+        if j > 0:
+            n += 1
+        if j + 1 < w:
+            n += 1
+        dl[k] = n + screen
+        for c in range(3):
+            bl[k, c] = 0.0
+        pid = patch[i, j]
+        for d in range(4):
+            a = i + (d == 1) - (d == 0)
+            b = j + (d == 3) - (d == 2)
+            if a < 0 or a >= h or b < 0 or b >= w:
+                continue
+            if nb[k, 3 - d] < 0:  # fixed: its correction, 0
+                for c in range(3):
+                    bl[k, c] += zero
+            if patch[a, b] != pid:
+                q = eid[k, d]
+                for c in range(3):
+                    g = zero
+                    if have:
+                        g = half * ((fs[4 * q, c] - fs[4 * q + 1, c]) + (fs[4 * q + 2, c] - fs[4 * q + 3, c]))
+                    if d == 1 or d == 3:  # u_p - u_south, u_p - u_east: the edge's gradient negated
+                        g = -g
+                    bl[k, c] += g - (f[i, j, c] - f[a, b, c])
+
+
+def solve_sor_at(colors: np.ndarray, patch: np.ndarray, rows: np.ndarray, cols: np.ndarray, omega: np.ndarray,
+                 region: np.ndarray, *, source: np.ndarray | None = None, sx: np.ndarray | None = None,
+                 sy: np.ndarray | None = None, step: float = 1.0, filter: str = "bilinear", screen: float = 0.0,
+                 tol: float = 1e-5, max_sweeps: int = 2000, check: int = 8,
+                 threads: int | None = None) -> tuple[np.ndarray, dict]:
+    """``solve_sor_regions`` of the correction equation with every pixel but the listed
+    ones (``rows``, ``cols`` in scan order, as ``np.nonzero`` gives them) fixed, its
+    right-hand side (``rhs``) and seam gradients (``seam_gradients_at`` with ``source``,
+    ``sx``, ``sy``, ``step``, ``filter``; zero without ``source``) computed at the listed
+    pixels only: bit for bit the frame-sized path's numbers, at a cost that follows the
+    listed pixels (no frame-sized operator, right-hand side or gradient maps; region ids
+    >= 0). Returns v ((n, 3) float32, the listed pixels' corrections in their order) and
+    ``solve_sor_regions``'s info."""
+    n = len(rows)
+    if n == 0:
+        return np.zeros((0, 3), np.float32), {"iterations": 0, "sweeps": 0.0, "residual": 0.0}
+    h, w = patch.shape
+    rows = np.ascontiguousarray(rows, np.int64)
+    cols = np.ascontiguousarray(cols, np.int64)
+    colors = np.ascontiguousarray(colors, np.float32)
+    patch = np.ascontiguousarray(patch)
+    order, om, starts, mids, size, bins, bin_start, nreg = _sor_plan(rows, cols, omega, region, threads, scan=True)
+    ii = np.ascontiguousarray(rows[order])
+    jj = np.ascontiguousarray(cols[order])
+    nb = _list_neighbours(ii, jj, h, w)
+    if source is not None:
+        eid, xs, ys = _seam_edges(ii, jj, patch, np.ascontiguousarray(sx, np.float32),
+                                  np.ascontiguousarray(sy, np.float32), np.float32(step))
+        fs = lookup_many(source, xs, ys, filter)
+    else:
+        eid, fs = np.full((n, 4), -1, np.int64), np.zeros((0, 3), np.float32)
+    bl = np.empty((n, 3), np.float32)
+    dl = np.empty(n, np.float32)
+    _rhs_at(colors, patch, ii, jj, nb, eid, fs, np.float32(screen), bl, dl)
+    sweeps = np.zeros(nreg, np.int64)
+    rel = np.zeros(nreg)
+    vl = np.zeros((n, 3), np.float32)
+    _sor_regions(bins, bin_start, starts, mids, nb, dl, bl, om, vl, float(tol), int(check), int(max_sweeps), sweeps,
+                 rel)
+    v = np.empty((n, 3), np.float32)
+    v[order] = vl
+    return v, {"iterations": int(sweeps.max()), "sweeps": float((sweeps * size).sum() / n),
+               "residual": float(rel.max())}
+
+
+def lookup_many(source: np.ndarray, xs: np.ndarray, ys: np.ndarray, filter: str) -> np.ndarray:
+    """``lookup`` of the positions (xs, ys) (1-D), read in rows of 1024 so that its
+    parallel loop over rows shares them between threads (each read is independent of the
+    others: the same numbers as one row). (n, 3) float32."""
+    from proxyshade.kernels.lookup import lookup
+
+    n = len(xs)
+    if n == 0:
+        return np.zeros((0, 3), np.float32)
+    width = 1024
+    m = -(-n // width) * width
+    X = np.zeros(m, np.float32)
+    Y = np.zeros(m, np.float32)
+    X[:n] = xs
+    Y[:n] = ys
+    return np.ascontiguousarray(lookup(source, X.reshape(-1, width), Y.reshape(-1, width), filter=filter)
+                                .reshape(m, -1)[:n], np.float32)
 
 
 def sor_omega(rows: np.ndarray, cols: np.ndarray) -> np.ndarray:

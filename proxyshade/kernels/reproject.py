@@ -476,7 +476,7 @@ def stale_winners(wg, src, wp1, on_proxy, keep, tol, radius=0):
     return out & keep
 
 
-@njit(**PJIT)
+@njit(**JIT)
 def gather_prev(u, v, q, ok, lab, prev_w, prev_lab, prev_patch, prev_sx, prev_sy, prev_res, prev_d, tol, scale):
     """The previous frame's state where each current pixel lands.
 
@@ -490,28 +490,42 @@ def gather_prev(u, v, q, ok, lab, prev_w, prev_lab, prev_patch, prev_sx, prev_sy
     renormalised: the residual, a Poisson correction, jumps across seams).
 
     Returns valid (bool), sx, sy (float32), patch (uint32), residual (float32 ×3),
-    distortion (float32), all (H, W)."""
+    distortion (float32), all (H, W). ``gather_prev_planes`` with the residual's planes."""
+    return gather_prev_planes(u, v, q, ok, lab, prev_w, prev_lab, prev_patch, prev_sx, prev_sy, prev_res[:, :, 0],
+                              prev_res[:, :, 1], prev_res[:, :, 2], prev_d, tol, scale)
+
+
+@njit(**PJIT)
+def gather_prev_planes(u, v, q, ok, lab, prev_w, prev_lab, prev_patch, prev_sx, prev_sy, pr0, pr1, pr2, prev_d, tol,
+                       scale):
+    """``gather_prev`` with the previous residual given as three (H, W) planes (a plate's
+    ``correction.R/G/B`` as they are, no (H, W, 3) stack of them)."""
     h, wd = u.shape
     hp, wp = prev_w.shape
-    valid = np.zeros((h, wd), np.bool_)
-    sx = np.zeros((h, wd), np.float32)
-    sy = np.zeros((h, wd), np.float32)
-    patch = np.zeros((h, wd), np.uint32)
-    res = np.zeros((h, wd, 3), np.float32)
-    dist = np.zeros((h, wd), np.float32)
+    valid = np.empty((h, wd), np.bool_)  # every element written (no zeroing pass first)
+    sx = np.empty((h, wd), np.float32)
+    sy = np.empty((h, wd), np.float32)
+    patch = np.empty((h, wd), np.uint32)
+    res = np.empty((h, wd, 3), np.float32)
+    dist = np.empty((h, wd), np.float32)
+    z = np.float32(0.0)
     for i in prange(h):
         for j in range(wd):
-            if not ok[i, j]:
-                continue
             x = u[i, j]
             y = v[i, j]
-            if not (x >= 0.0 and y >= 0.0 and x < wp and y < hp):
+            hit = ok[i, j] and x >= 0.0 and y >= 0.0 and x < wp and y < hp
+            cn = rn = 0
+            if hit:
+                cn = min(wp - 1, int(np.floor(x)))
+                rn = min(hp - 1, int(np.floor(y)))
+                hit = prev_lab[rn, cn] == lab[i, j] and same_surface(q[i, j], prev_w[rn, cn], tol)
+            if not hit:
+                valid[i, j] = False
+                sx[i, j] = sy[i, j] = dist[i, j] = z
+                res[i, j, 0] = res[i, j, 1] = res[i, j, 2] = z
+                patch[i, j] = 0
                 continue
-            cn = min(wp - 1, int(np.floor(x)))
-            rn = min(hp - 1, int(np.floor(y)))
             L = lab[i, j]
-            if prev_lab[rn, cn] != L or not same_surface(q[i, j], prev_w[rn, cn], tol):
-                continue
             valid[i, j] = True
             pn = prev_patch[rn, cn]
             patch[i, j] = pn
@@ -544,9 +558,9 @@ def gather_prev(u, v, q, ok, lab, prev_w, prev_lab, prev_patch, prev_sx, prev_sy
                 bsy += wt * prev_sy[rr, cc]
                 if prev_patch[rr, cc] != pn:
                     continue  # the correction jumps at seams (it cancels the seam): not across them
-                r0_ += wt * prev_res[rr, cc, 0]
-                r1_ += wt * prev_res[rr, cc, 1]
-                r2_ += wt * prev_res[rr, cc, 2]
+                r0_ += wt * pr0[rr, cc]
+                r1_ += wt * pr1[rr, cc]
+                r2_ += wt * pr2[rr, cc]
                 dd += wt * prev_d[rr, cc]
                 wsum += wt
             if same:
@@ -561,9 +575,9 @@ def gather_prev(u, v, q, ok, lab, prev_w, prev_lab, prev_patch, prev_sx, prev_sy
                 res[i, j, 2] = r2_ / wsum
                 dist[i, j] = dd / wsum
             else:
-                res[i, j, 0] = prev_res[rn, cn, 0]
-                res[i, j, 1] = prev_res[rn, cn, 1]
-                res[i, j, 2] = prev_res[rn, cn, 2]
+                res[i, j, 0] = pr0[rn, cn]
+                res[i, j, 1] = pr1[rn, cn]
+                res[i, j, 2] = pr2[rn, cn]
                 dist[i, j] = prev_d[rn, cn]
     return valid, sx, sy, patch, res, dist
 
@@ -611,12 +625,16 @@ def fill_from_neighbours(need, have, lab, sx, sy, patch, res, dist, radius, scal
     patch translation (source coordinates moved by the offset × ``scale``). Reads only
     ``have`` pixels, so the result does not depend on the order. Returns new arrays and
     the mask of pixels filled."""
+    return fill_from_neighbours_into(need, have, lab, sx, sy, patch, res, dist, radius, scale, sx.copy(), sy.copy(),
+                                     patch.copy(), res.copy(), dist.copy())
+
+
+@njit(**PJIT)
+def fill_from_neighbours_into(need, have, lab, sx, sy, patch, res, dist, radius, scale, osx, osy, opatch, ores, odist):
+    """``fill_from_neighbours`` writing into ``osx`` … ``odist`` (copies of the inputs, or
+    the inputs themselves when ``need`` and ``have`` are disjoint: it writes only ``need``
+    pixels and reads only ``have`` ones). Returns them and the mask of pixels filled."""
     h, wd = need.shape
-    osx = sx.copy()
-    osy = sy.copy()
-    opatch = patch.copy()
-    ores = res.copy()
-    odist = dist.copy()
     filled = np.zeros((h, wd), np.bool_)
     for i0 in prange(h):
         i = np.int64(i0)

@@ -249,21 +249,26 @@ def keep_carried(flag, reanchored, D, ext, sx, sy, patch, rgb, res, correct):
     planar R, G, B, source.x, source.y, patch.id, distortion (kept whole only),
     extension and the three correction planes (0 where not kept whole), all (H, W)."""
     h, w = flag.shape
-    R = np.zeros((h, w), np.float32)
-    G = np.zeros((h, w), np.float32)
-    B = np.zeros((h, w), np.float32)
-    osx = np.zeros((h, w), np.float32)
-    osy = np.zeros((h, w), np.float32)
-    opatch = np.zeros((h, w), np.uint32)
-    oD = np.zeros((h, w), np.float32)
-    oext = np.zeros((h, w), np.float32)
-    c0 = np.zeros((h, w), np.float32)
-    c1 = np.zeros((h, w), np.float32)
-    c2 = np.zeros((h, w), np.float32)
+    R = np.empty((h, w), np.float32)  # every element written below (no zeroing pass first)
+    G = np.empty((h, w), np.float32)
+    B = np.empty((h, w), np.float32)
+    osx = np.empty((h, w), np.float32)
+    osy = np.empty((h, w), np.float32)
+    opatch = np.empty((h, w), np.uint32)
+    oD = np.empty((h, w), np.float32)
+    oext = np.empty((h, w), np.float32)
+    c0 = np.empty((h, w), np.float32)
+    c1 = np.empty((h, w), np.float32)
+    c2 = np.empty((h, w), np.float32)
+    z = np.float32(0.0)
     for i in prange(h):
         for j in range(w):
             f = flag[i, j]
             if f != 0 and f != reanchored:
+                R[i, j] = G[i, j] = B[i, j] = z
+                osx[i, j] = osy[i, j] = oD[i, j] = oext[i, j] = z
+                opatch[i, j] = 0
+                c0[i, j] = c1[i, j] = c2[i, j] = z
                 continue
             osx[i, j] = sx[i, j]
             osy[i, j] = sy[i, j]
@@ -273,6 +278,7 @@ def keep_carried(flag, reanchored, D, ext, sx, sy, patch, rgb, res, correct):
                 R[i, j] = res[i, j, 0]
                 G[i, j] = res[i, j, 1]
                 B[i, j] = res[i, j, 2]
+                c0[i, j] = c1[i, j] = c2[i, j] = z
             elif f == 0:
                 c0[i, j] = res[i, j, 0]
                 c1[i, j] = res[i, j, 1]
@@ -284,8 +290,8 @@ def keep_carried(flag, reanchored, D, ext, sx, sy, patch, rgb, res, correct):
                 R[i, j] = rgb[i, j, 0] + np.float32(0.0)
                 G[i, j] = rgb[i, j, 1] + np.float32(0.0)
                 B[i, j] = rgb[i, j, 2] + np.float32(0.0)
-            if f == 0:
-                oD[i, j] = D[i, j]
+                c0[i, j] = c1[i, j] = c2[i, j] = z
+            oD[i, j] = D[i, j] if f == 0 else z
     return R, G, B, osx, osy, opatch, oD, oext, c0, c1, c2
 
 
@@ -389,3 +395,286 @@ def colour_planes(rgb, flagged, before, c0, c1, c2, correct):
                     o1[i, j] = c1[i, j]
                     o2[i, j] = c2[i, j]
     return R, G, B, o0, o1, o2
+
+
+@njit(inline="always", **JIT)
+def _label_at(src_lab, x, y):
+    """``lookup``'s nearest source pixel's label at (x, y) (float32, clamped to the source)."""
+    hs, ws = src_lab.shape
+    c = min(int(np.floor(min(max(np.float64(x), 0.0), ws - 1.0) + 0.5)), ws - 1)
+    r = min(int(np.floor(min(max(np.float64(y), 0.0), hs - 1.0) + 0.5)), hs - 1)
+    return src_lab[r, c]
+
+
+@njit(inline="always", **JIT)
+def _on_label(src_lab, x, y, L):
+    """(x, y) inside the source (no clamped, smeared edge pixel) on a pixel of label L."""
+    hs, ws = src_lab.shape
+    return x >= 0 and y >= 0 and x <= ws - 1 and y <= hs - 1 and _label_at(src_lab, x, y) == L
+
+
+@njit(**PJIT)
+def fits_label(src_lab, sx, sy, lab, mask):
+    """Pixels of ``mask`` whose source position (``sx``, ``sy``, float32) lies inside the
+    source on a pixel of their label ``lab`` (``synthesis.temporal.fits_source``), in one
+    pass."""
+    h, w = mask.shape
+    out = np.zeros((h, w), np.bool_)
+    for i in prange(h):
+        for j in range(w):
+            if mask[i, j]:
+                out[i, j] = _on_label(src_lab, sx[i, j], sy[i, j], lab[i, j])
+    return out
+
+
+@njit(**PJIT)
+def off_label(src_lab, sx, sy, lab, mask, margin):
+    """Pixels of ``mask`` whose source position is not on their label (``fits_label``'s
+    complement) and, with ``margin`` > 0, neither are the positions ``margin`` source
+    pixels to its right, left, below and above (float32 sums, as numpy adds a Python
+    float to a float32 array): ``synthesis.temporal.off_label`` in one pass."""
+    h, w = mask.shape
+    out = np.zeros((h, w), np.bool_)
+    m = np.float32(margin)
+    z = np.float32(0.0)
+    for i in prange(h):
+        for j in range(w):
+            if not mask[i, j]:
+                continue
+            x = sx[i, j]
+            y = sy[i, j]
+            L = lab[i, j]
+            if _on_label(src_lab, x, y, L):
+                continue
+            if margin > 0 and (_on_label(src_lab, x + m, y + z, L) or _on_label(src_lab, x - m, y + z, L)
+                               or _on_label(src_lab, x + z, y + m, L) or _on_label(src_lab, x + z, y - m, L)):
+                continue
+            out[i, j] = True
+    return out
+
+
+@njit(**PJIT)
+def map_deviation_patches(sx, sy, valid, patch, lab, scale):
+    """``map_deviation(sx, sy, valid, reproject.patch_links(valid, patch, lab), scale)`` in
+    one pass on the float32 maps: the links (valid neighbours of one patch and label) taken
+    on the fly, the differences in float64 as there (bit for bit the same)."""
+    h, w = sx.shape
+    out = np.zeros((h, w), np.float32)
+    for i0 in prange(h):
+        i = np.int64(i0)
+        for j in range(w):
+            if not valid[i, j]:
+                continue
+            P = patch[i, j]
+            L = lab[i, j]
+            jl = j - 1 if j > 0 and valid[i, j - 1] and lab[i, j - 1] == L and patch[i, j - 1] == P else j
+            jr = j + 1 if j < w - 1 and valid[i, j + 1] and lab[i, j + 1] == L and patch[i, j + 1] == P else j
+            iu = i - 1 if i > 0 and valid[i - 1, j] and lab[i - 1, j] == L and patch[i - 1, j] == P else i
+            idn = i + 1 if i < h - 1 and valid[i + 1, j] and lab[i + 1, j] == L and patch[i + 1, j] == P else i
+            a = 0.0
+            c = 0.0
+            b = 0.0
+            d = 0.0
+            # a difference over 2 pixels halved by a product (exact, as the division by 2 is)
+            if jr != jl:
+                hx = 0.5 if jr - jl == 2 else 1.0
+                a = (np.float64(sx[i, jr]) - np.float64(sx[i, jl])) * hx / scale - 1.0
+                c = (np.float64(sy[i, jr]) - np.float64(sy[i, jl])) * hx / scale
+            if idn != iu:
+                hy = 0.5 if idn - iu == 2 else 1.0
+                b = (np.float64(sx[idn, j]) - np.float64(sx[iu, j])) * hy / scale
+                d = (np.float64(sy[idn, j]) - np.float64(sy[iu, j])) * hy / scale - 1.0
+            out[i, j] = np.sqrt(a * a + b * b + c * c + d * d)
+    return out
+
+
+@njit(**PJIT)
+def clean_flags(raw, radius, min_neighbours, dilate, have, stray, disoccluded, newly, distorted):
+    """The flags cleaned in one pass (``synthesis.temporal.clean_flags`` and the carry's
+    fix-ups): a flag with fewer than ``min_neighbours`` other flags in its
+    (2·radius+1)² window is dropped (``remove_isolated``; none dropped when
+    ``min_neighbours`` <= 0); a pixel left unflagged takes ``newly`` when a kept flag
+    ``newly`` lies within ``dilate`` pixels (square, ``dilate``'s), else ``disoccluded``
+    when a kept ``disoccluded`` does; then, still unflagged, ``disoccluded`` where not
+    ``have`` and ``distorted`` where ``stray``. Returns the flags (uint32) and their
+    counts per value 0..4 (int64 (5,); values above 4 are not counted)."""
+    h, w = raw.shape
+    kept = np.empty((h, w), np.uint32)
+    for i in prange(h):
+        for j in range(w):
+            f = raw[i, j]
+            if f != 0 and min_neighbours > 0:
+                n = 0
+                for a in range(max(0, i - radius), min(h, i + radius + 1)):
+                    for b in range(max(0, j - radius), min(w, j + radius + 1)):
+                        if raw[a, b] != 0:
+                            n += 1
+                if n - 1 < min_neighbours:
+                    f = 0
+            kept[i, j] = f
+    # bit 1: a kept ``disoccluded`` within ``dilate`` columns, bit 2: a kept ``newly``
+    near = np.zeros((h, w), np.uint8)
+    if dilate > 0:
+        for i in prange(h):
+            last1 = -dilate - 1
+            last2 = -dilate - 1
+            for j in range(w):
+                if kept[i, j] == disoccluded:
+                    last1 = j
+                elif kept[i, j] == newly:
+                    last2 = j
+                m = 0
+                if j - last1 <= dilate:
+                    m |= 1
+                if j - last2 <= dilate:
+                    m |= 2
+                near[i, j] = m
+            nxt1 = w + dilate + 1
+            nxt2 = w + dilate + 1
+            for j in range(w - 1, -1, -1):
+                if kept[i, j] == disoccluded:
+                    nxt1 = j
+                elif kept[i, j] == newly:
+                    nxt2 = j
+                m = near[i, j]
+                if nxt1 - j <= dilate:
+                    m |= 1
+                if nxt2 - j <= dilate:
+                    m |= 2
+                near[i, j] = m
+    out = np.empty((h, w), np.uint32)
+    nt = 64
+    counts = np.zeros((nt, 5), np.int64)
+    step = (h + nt - 1) // nt
+    for t in prange(nt):
+        acc = np.zeros(w, np.uint8)
+        for i in range(t * step, min(h, (t + 1) * step)):
+            if dilate > 0:  # the rows within ``dilate``: their bits or-ed, row by row
+                acc[:] = 0
+                for a in range(max(0, i - dilate), min(h, i + dilate + 1)):
+                    for j in range(w):
+                        acc[j] |= near[a, j]
+            for j in range(w):
+                f = kept[i, j]
+                if f == 0 and dilate > 0:
+                    m = acc[j]
+                    if m & 2:
+                        f = newly
+                    elif m & 1:
+                        f = disoccluded
+                if f == 0:
+                    if not have[i, j]:
+                        f = disoccluded
+                    elif stray[i, j]:
+                        f = distorted
+                out[i, j] = f
+                if f < 5:
+                    counts[t, f] += 1
+    total = np.zeros(5, np.int64)
+    for t in range(nt):
+        for v in range(5):
+            total[v] += counts[t, v]
+    return out, total
+
+
+@njit(**PJIT)
+def continue_filled(filled, valid, ext, src_lab, sx, sy, lab, extend_frames):
+    """The continued (filled) pixels of a carry: their frames of continuation ``ext``
+    counted up by one (in place, float32), and those still continued: on their label in
+    the source (``fits_label``) and continued for at most ``extend_frames`` frames.
+    Returns (still continued, ``valid`` or still continued), (H, W) bool."""
+    h, w = filled.shape
+    keep = np.empty((h, w), np.bool_)
+    have = np.empty((h, w), np.bool_)
+    one = np.float32(1.0)
+    for i in prange(h):
+        for j in range(w):
+            k = False
+            if filled[i, j]:
+                ext[i, j] = ext[i, j] + one
+                k = _on_label(src_lab, sx[i, j], sy[i, j], lab[i, j]) and ext[i, j] <= extend_frames
+            keep[i, j] = k
+            have[i, j] = valid[i, j] or k
+    return keep, have
+
+
+@njit(**PJIT)
+def flag_reasons(have, absorbed, distorted, src_lab, sx, sy, lab, margin, cat, cat_c, u, v, ok, prev_lab,
+                 disoccluded, newly, dist_flag, reanchored):
+    """A carry's raw flags, in one pass, each pixel by the last that applies: ``reanchored``
+    where ``absorbed``; where ``distorted``, ``reanchored`` if its (re-anchored) source
+    position is on its label (``fits_label``) else ``dist_flag``; ``dist_flag`` where a kept
+    pixel (``have``, none of those) is off its label (``off_label`` with ``margin``:
+    *stray*); ``disoccluded`` where not ``have``; ``newly`` where ConsistentDepth's category
+    is ``cat_c`` (``ok``) and the pixel lands (``u``, ``v``) outside the previous image or
+    on a pixel of another label (``synthesis.temporal.newly_occluded``). Returns (raw
+    flags uint32, stray bool)."""
+    h, w = have.shape
+    hp, wp = prev_lab.shape
+    raw = np.empty((h, w), np.uint32)
+    stray = np.empty((h, w), np.bool_)
+    m = np.float32(margin)
+    z = np.float32(0.0)
+    for i in prange(h):
+        for j in range(w):
+            r = np.uint32(0)
+            s = False
+            L = lab[i, j]
+            if absorbed[i, j]:
+                r = reanchored
+            if distorted[i, j]:
+                r = reanchored if _on_label(src_lab, sx[i, j], sy[i, j], L) else dist_flag
+            if have[i, j] and r == 0:
+                x = sx[i, j]
+                y = sy[i, j]
+                if not _on_label(src_lab, x, y, L):
+                    s = not (margin > 0 and (_on_label(src_lab, x + m, y + z, L) or _on_label(src_lab, x - m, y + z, L)
+                                             or _on_label(src_lab, x + z, y + m, L)
+                                             or _on_label(src_lab, x + z, y - m, L)))
+                if s:
+                    r = dist_flag
+            if not have[i, j]:
+                r = disoccluded
+            if cat[i, j] == cat_c and ok[i, j]:
+                c = int(np.floor(u[i, j]))
+                rr = int(np.floor(v[i, j]))
+                if not (c >= 0 and rr >= 0 and c < wp and rr < hp) or prev_lab[rr, c] != L:
+                    r = newly
+            raw[i, j] = r
+            stray[i, j] = s
+    return raw, stray
+
+
+@njit(**JIT)
+def reanchor(distorted, ids, sx, sy, scale, n):
+    """The re-anchored map of the ``distorted`` pixels, in place on ``sx``, ``sy``
+    (float32): each patch's plain copy through its mean position and mean source
+    position, sx = mean sx + (column − mean column) · scale (likewise sy), the means
+    summed in scan order in float64 (``np.bincount``'s numbers)."""
+    h, w = distorted.shape
+    c = np.zeros(n, np.float64)
+    mi = np.zeros(n, np.float64)
+    mj = np.zeros(n, np.float64)
+    mx = np.zeros(n, np.float64)
+    my = np.zeros(n, np.float64)
+    for i in range(h):
+        for j in range(w):
+            if distorted[i, j]:
+                p = ids[i, j]
+                c[p] += 1.0
+                mi[p] += np.float64(i)
+                mj[p] += np.float64(j)
+                mx[p] += np.float64(sx[i, j])
+                my[p] += np.float64(sy[i, j])
+    for p in range(n):
+        k = max(c[p], 1.0)
+        mi[p] /= k
+        mj[p] /= k
+        mx[p] /= k
+        my[p] /= k
+    for i in range(h):
+        for j in range(w):
+            if distorted[i, j]:
+                p = ids[i, j]
+                sx[i, j] = mx[p] + (j - mj[p]) * scale
+                sy[i, j] = my[p] + (i - mi[p]) * scale

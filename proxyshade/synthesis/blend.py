@@ -173,9 +173,9 @@ def poisson_regions(colors: np.ndarray, patch: np.ndarray, labels: np.ndarray | 
     independent problem whose only data outside it is its one-pixel ring of fixed
     neighbours. Components whose bounding box is at most ``small`` pixels across (its
     shorter side; smaller than the frame) are solved together by red-black SOR on their
-    own pixels (``poisson.solve_sor_regions``: the work follows the free pixels, however
-    scattered, and each region is swept until its own residual has fallen by ``tol``,
-    at the pace of its width); the
+    own pixels (``poisson.solve_sor_at``, its system built at those pixels only: the
+    work follows the free pixels, however scattered, and each region is swept until its
+    own residual has fallen by ``tol``, at the pace of its width); the
     others in windows around them (``group_boxes``), each the same linear system as the
     whole frame at the cost of its area, by multigrid-preconditioned CG. Pixels of other
     components inside a window are fixed there (they are never 4-neighbours of the
@@ -216,18 +216,18 @@ def poisson_regions(colors: np.ndarray, patch: np.ndarray, labels: np.ndarray | 
         if labels is not None and label_dirichlet:
             fixed |= kpoisson.contour_mask(np.ascontiguousarray(labels[box]))
         todo = ~fixed
-        gx = gy = np.zeros(colors_b.shape, np.float32)
-        if source is not None:
-            gx, gy = kpoisson.seam_gradients_at(source, sx[box], sy[box], patch_b, todo, step, filter=filter)
-        b = kpoisson.rhs(colors_b, patch_b, fixed, gx, gy)
         rows, cols = np.nonzero(todo)
         k = cb[rows, cols] - 1
         # each region converged on its own; omega of a square 2.5 x its thickness: fewest sweeps on
         # lake (as few as from the inscribed width, without a distance transform of the frame)
         width = region_thickness(todo, np.ascontiguousarray(cb), len(boxes))
-        omega = kpoisson.sor_omega(2.5 * width[k], 2.5 * width[k])
-        v, inf = kpoisson.solve_sor_regions(fixed, b, rows, cols, omega, k, screen=screen, tol=tol)
-        u[rows + y0, cols + x0] = colors_b[rows, cols] + v[rows, cols]
+        omega = kpoisson.sor_omega(2.5 * width, 2.5 * width)[k]  # per region, then per pixel
+        # right-hand side, seam gradients and operator at the listed pixels only (the frame-sized
+        # rhs / seam_gradients_at / solve_sor_regions numbers)
+        sxb, syb = (None, None) if source is None else (sx[box], sy[box])
+        v, inf = kpoisson.solve_sor_at(colors_b, patch_b, rows, cols, omega, k, source=source, sx=sxb, sy=syb,
+                                       step=step, filter=filter, screen=screen, tol=tol)
+        u[rows + y0, cols + x0] = colors_b[rows, cols] + v
         info.update(sor_pixels=int(len(rows)), sor_sweeps=int(inf["iterations"]), sor_mean_sweeps=inf["sweeps"])
         info["residual"] = max(info["residual"], float(inf["residual"]))
     large = np.nonzero(~is_small)[0]

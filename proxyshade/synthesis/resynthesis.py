@@ -26,7 +26,7 @@ import numpy as np
 
 from proxyshade.graph.plate import Plate
 from proxyshade.kernels.correct import downsample_mask
-from proxyshade.kernels.lookup import lookup
+from proxyshade.kernels.poisson import lookup_many
 from proxyshade.kernels import temporal as kt
 from proxyshade.kernels.random import mix_seed
 from proxyshade.synthesis import labels as L
@@ -278,7 +278,7 @@ def _synthesize(img: Plate, source: Plate, p, redo: np.ndarray, f: int, scale: f
                                   np.ascontiguousarray(img["source.y"], np.float32),
                                   np.ascontiguousarray(img["patch.id"], np.uint32))
     ii, jj = np.nonzero(redo)
-    rgb[ii, jj] = lookup(source.rgb(), sx[ii, jj][None], sy[ii, jj][None], filter=filt)[0]
+    rgb[ii, jj] = lookup_many(source.rgb(), sx[ii, jj], sy[ii, jj], filt)
     info.update(synthesis_pixels=int(active.sum()), flood_filled=int(fresh.sum()), patches=int(npatch),
                 repaired=int(rep["wrong"]))
     return sx, sy, patch, st.ex_factor

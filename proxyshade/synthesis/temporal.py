@@ -45,14 +45,11 @@ def newly_occluded(cat, u, v, ok, lab, prev_lab) -> np.ndarray:
 
 def fits_source(src_lab: np.ndarray, sx: np.ndarray, sy: np.ndarray, lab: np.ndarray, mask: np.ndarray) -> np.ndarray:
     """Pixels of ``mask`` whose source position lies inside the source (no clamped,
-    smeared edge pixels) on a pixel of their label."""
-    out = np.zeros(mask.shape, bool)
-    ii, jj = np.nonzero(mask)
-    x, y = sx[ii, jj], sy[ii, jj]
-    hs, ws = src_lab.shape
-    inside = (x >= 0) & (y >= 0) & (x <= ws - 1) & (y <= hs - 1)
-    out[ii, jj] = inside & (lookup(src_lab, x[None], y[None])[0] == lab[ii, jj])
-    return out
+    smeared edge pixels) on a pixel of their label (``temporal.fits_label``: one parallel
+    pass, no gather and scatter of the mask's pixels)."""
+    return kt.fits_label(np.ascontiguousarray(src_lab, np.uint32), np.ascontiguousarray(sx, np.float32),
+                         np.ascontiguousarray(sy, np.float32), np.ascontiguousarray(lab, np.uint32),
+                         np.ascontiguousarray(mask, np.bool_))
 
 
 def off_label(src_lab: np.ndarray, sx: np.ndarray, sy: np.ndarray, lab: np.ndarray, mask: np.ndarray,
@@ -60,23 +57,11 @@ def off_label(src_lab: np.ndarray, sx: np.ndarray, sy: np.ndarray, lab: np.ndarr
     """Pixels of ``mask`` whose source position lies outside the source or on a pixel of
     another label, and so do the positions ``margin`` source pixels to its left, right,
     above and below: well off its label, not on the border the first frame's own copies
-    touch (``fits_source``'s complement, written here as whole-frame passes: over most of
-    a frame's pixels they cost less than ``fits_source``'s gather and scatter, which
-    measured 10-80 ms slower per 1024² update frame)."""
-    hs, ws = src_lab.shape
-    with np.errstate(invalid="ignore"):
-        inside = (sx >= 0) & (sy >= 0) & (sx <= ws - 1) & (sy <= hs - 1)
-    off = mask & ~(inside & (lookup(src_lab, sx, sy) == lab))
-    if margin > 0 and off.any():
-        ii, jj = np.nonzero(off)
-        x, y, L = sx[ii, jj], sy[ii, jj], lab[ii, jj]
-        near = np.zeros(len(ii), bool)
-        for dx, dy in ((margin, 0.0), (-margin, 0.0), (0.0, margin), (0.0, -margin)):
-            xs, ys = x + dx, y + dy
-            ok = (xs >= 0) & (ys >= 0) & (xs <= ws - 1) & (ys <= hs - 1)
-            near |= ok & (lookup(src_lab, xs[None].astype(np.float32), ys[None].astype(np.float32))[0] == L)
-        off[ii[near], jj[near]] = False
-    return off
+    touch (``fits_source``'s complement; ``temporal.off_label``, one parallel pass: it had
+    been whole-frame numpy passes, 8-10 ms per 1024² frame)."""
+    return kt.off_label(np.ascontiguousarray(src_lab, np.uint32), np.ascontiguousarray(sx, np.float32),
+                        np.ascontiguousarray(sy, np.float32), np.ascontiguousarray(lab, np.uint32),
+                        np.ascontiguousarray(mask, np.bool_), float(margin))
 
 
 def patch_thresholds(patch: np.ndarray, threshold: float, spread: float, seed: int) -> np.ndarray:
@@ -97,7 +82,7 @@ def reanchor_distorted(have, patch, D, sx, sy, scale, threshold, spread, seed):
     gone. Returns (distorted (H, W) bool, sx, sy)."""
     if not have.any():
         return np.zeros(have.shape, bool), sx, sy
-    ids = np.ascontiguousarray(patch, np.int64)
+    ids = np.ascontiguousarray(patch, np.uint32)  # the kernels index by it as it is (no int64 copy)
     n = int(ids.max()) + 1
     mean_d = kt.patch_mean(np.ascontiguousarray(have, np.bool_), ids, np.ascontiguousarray(D, np.float32), n)
     ids_all = np.arange(n, dtype=np.uint32)[None]
@@ -106,17 +91,9 @@ def reanchor_distorted(have, patch, D, sx, sy, scale, threshold, spread, seed):
     distorted = kt.in_ids(np.ascontiguousarray(have, np.bool_), ids, bad)
     if not distorted.any():
         return distorted, sx, sy
-    ii, jj = np.nonzero(distorted)
-    pid = patch[ii, jj].astype(np.int64)
-    c = np.maximum(np.bincount(pid, minlength=n), 1).astype(np.float64)
-    mi = np.bincount(pid, weights=ii, minlength=n) / c
-    mj = np.bincount(pid, weights=jj, minlength=n) / c
-    mx = np.bincount(pid, weights=sx[ii, jj], minlength=n) / c
-    my = np.bincount(pid, weights=sy[ii, jj], minlength=n) / c
-    sx = sx.copy()
-    sy = sy.copy()
-    sx[ii, jj] = mx[pid] + (jj - mj[pid]) * scale
-    sy[ii, jj] = my[pid] + (ii - mi[pid]) * scale
+    sx = np.array(sx, np.float32)
+    sy = np.array(sy, np.float32)
+    kt.reanchor(distorted, ids, sx, sy, float(scale), n)  # the means in scan order, as np.bincount sums
     return distorted, sx, sy
 
 
@@ -124,7 +101,10 @@ def patch_width(have: np.ndarray, ids: np.ndarray, n: int) -> tuple[np.ndarray, 
     """(area, width) of each patch id < n over the ``have`` pixels: width = 2 × area /
     perimeter (edges to another patch, an unkept pixel or the image border): a strip's
     width, half a square's side."""
-    area, per = kt.area_perimeter(np.ascontiguousarray(have, np.bool_), np.ascontiguousarray(ids, np.int64), int(n))
+    ids = np.ascontiguousarray(ids)
+    if ids.dtype not in (np.uint32, np.int64):
+        ids = ids.astype(np.int64)
+    area, per = kt.area_perimeter(np.ascontiguousarray(have, np.bool_), ids, int(n))
     return area, 2.0 * area / np.maximum(per.astype(np.float64), 1.0)
 
 
@@ -138,11 +118,11 @@ def absorb_fragments(have, patch, lab, sx, sy, scale, min_area, src_lab, min_wid
     none = np.zeros(have.shape, bool)
     if min_area <= 1:
         return none, sx, sy, patch
-    ids = patch.astype(np.int64, copy=False)
+    ids = np.ascontiguousarray(patch, np.uint32)  # indexed as it is (no int64 copy of the frame)
     n = int(ids.max()) + 1
     area, width = patch_width(have, ids, n)
     frag = (area < min_area) | (width < min_width)
-    small = have & frag[ids] & (patch != 0)
+    small = kt.in_ids(np.ascontiguousarray(have, np.bool_), ids, frag & (np.arange(n) != 0))  # not patch 0
     if not small.any():
         return none, sx, sy, patch
     H, W = have.shape
@@ -153,7 +133,8 @@ def absorb_fragments(have, patch, lab, sx, sy, scale, min_area, src_lab, min_wid
         inside = (a >= 0) & (a < H) & (b >= 0) & (b < W)
         a, b, i0, j0 = a[inside], b[inside], ii[inside], jj[inside]
         ok = have[a, b] & (lab[a, b] == lab[i0, j0]) & (ids[a, b] != ids[i0, j0]) & ~frag[ids[a, b]]
-        pairs.append(np.stack([ids[i0[ok], j0[ok]], ids[a[ok], b[ok]], a[ok], b[ok]], 1))
+        pairs.append(np.stack([ids[i0[ok], j0[ok]].astype(np.int64), ids[a[ok], b[ok]].astype(np.int64), a[ok], b[ok]],
+                              1))
     pairs = np.concatenate(pairs)
     if not len(pairs):
         return none, sx, sy, patch
@@ -175,24 +156,26 @@ def absorb_fragments(have, patch, lab, sx, sy, scale, min_area, src_lab, min_wid
     ox[src[:, 0]] = sx[src[:, 2], src[:, 3]] - src[:, 3] * scale
     oy[src[:, 0]] = sy[src[:, 2], src[:, 3]] - src[:, 2] * scale
     tg[src[:, 0]] = src[:, 1]
-    pid = ids[ii, jj]
+    pid = ids[ii, jj].astype(np.int64)
     go = ~np.isnan(ox[pid])
     ii, jj, pid = ii[go], jj[go], pid[go]
-    nsx, nsy = sx.copy(), sy.copy()
-    nsx[ii, jj] = (ox[pid] + jj * scale).astype(np.float32)
-    nsy[ii, jj] = (oy[pid] + ii * scale).astype(np.float32)
-    moved = np.zeros(have.shape, bool)
-    moved[ii, jj] = True
-    fits = fits_source(src_lab, nsx, nsy, lab, moved)
+    nx = (ox[pid] + jj * scale).astype(np.float32)
+    ny = (oy[pid] + ii * scale).astype(np.float32)
+    # the moved pixels only (fits_source's test on their list)
+    fits = kt.fits_label(np.ascontiguousarray(src_lab, np.uint32), nx[None], ny[None],
+                         np.ascontiguousarray(lab[ii, jj], np.uint32)[None], np.ones((1, len(ii)), np.bool_))[0]
     # all or nothing per patch: a half-absorbed fragment would leave a seam inside it
-    bad = np.bincount(pid, weights=~fits[ii, jj], minlength=n) > 0
+    bad = np.bincount(pid, weights=~fits, minlength=n) > 0
     ok = ~bad[pid]
+    ia, ja = ii[ok], jj[ok]
     absorbed = np.zeros(have.shape, bool)
-    absorbed[ii[ok], jj[ok]] = True
-    sx = np.where(absorbed, nsx, sx).astype(np.float32, copy=False)
-    sy = np.where(absorbed, nsy, sy).astype(np.float32, copy=False)
+    absorbed[ia, ja] = True
+    sx = np.array(sx, np.float32)
+    sy = np.array(sy, np.float32)
+    sx[ia, ja] = nx[ok]
+    sy[ia, ja] = ny[ok]
     patch = patch.copy()
-    patch[ii[ok], jj[ok]] = tg[pid[ok]].astype(np.uint32)
+    patch[ia, ja] = tg[pid[ok]].astype(np.uint32)
     return absorbed, sx, sy, patch
 
 
@@ -285,60 +268,63 @@ def carry(cd: Plate, prev: Plate | None, first: Plate | None, source: Plate, p, 
     u, v, q, ok = kr.transfer(w1, kr.relative_matrix(cam1, cam0), k1, kr.intrinsics(cam0), cam0.near)
     src_rgb = source.rgb()
     if p.colour == "map" and all(c in prev for c in CORRECTION):
-        prev_res = prev.layer(CORRECTION)  # carried by Resynthesize: no second read of the source
-    elif p.colour == "map":
-        prev_res = prev.rgb() - lookup(src_rgb, prev["source.x"], prev["source.y"], filter=p.filter)
+        # carried by Resynthesize: no second read of the source (its planes as they are)
+        planes = [np.ascontiguousarray(prev[c], np.float32) for c in CORRECTION]
     else:
-        prev_res = prev.rgb()
+        if p.colour == "map":
+            prev_res = prev.rgb() - lookup(src_rgb, prev["source.x"], prev["source.y"], filter=p.filter)
+        else:
+            prev_res = prev.rgb()
+        planes = [np.ascontiguousarray(prev_res[..., k], np.float32) for k in range(3)]
     prev_ext = prev["extension"].astype(np.float32, copy=False) if "extension" in prev else np.zeros(prev.shape, np.float32)
-    valid, sx, sy, patch, res, ext = kr.gather_prev(
+    valid, sx, sy, patch, res, ext = kr.gather_prev_planes(
         u, v, q, ok, lab, kr.inverse_depth(prev["Z"]), np.ascontiguousarray(prev["label.id"], np.uint32),
         np.ascontiguousarray(prev["patch.id"], np.uint32), prev["source.x"].astype(np.float32, copy=False),
-        prev["source.y"].astype(np.float32, copy=False), np.ascontiguousarray(prev_res, np.float32), prev_ext, tol, scale)
+        prev["source.y"].astype(np.float32, copy=False), *planes, prev_ext, tol, scale)
     # disoccluded pixels continue the patch of a kept neighbour of their label when the
     # continued source position still has that label: no new seam, nothing to redo
     have = valid
     src_lab = np.ascontiguousarray(source["label.id"], np.uint32)
     if p.fill_radius > 0 and not valid.all():
-        sx, sy, patch, res, ext, filled = kr.fill_from_neighbours(~valid, valid, lab, sx, sy, patch, res, ext,
-                                                                   p.fill_radius, scale)
-        ext = np.where(filled, ext + 1.0, ext).astype(np.float32, copy=False)
+        # in place: it writes only the unkept pixels and reads only kept ones (gather_prev's fresh arrays)
+        sx, sy, patch, res, ext, filled = kr.fill_from_neighbours_into(~valid, valid, lab, sx, sy, patch, res, ext,
+                                                                        p.fill_radius, scale, sx, sy, patch, res, ext)
         # a patch continued frame after frame would extrude its borders into streaks:
-        # past extend_frames the continued band is flood-filled afresh instead
-        filled &= fits_source(src_lab, sx, sy, lab, filled) & (ext <= p.extend_frames)
-        have = valid | filled
-    D = kt.map_deviation(sx, sy, have, kr.patch_links(have, patch, lab), scale)
+        # past extend_frames the continued band is flood-filled afresh instead (ext counted up in place)
+        filled, have = kt.continue_filled(filled, valid, ext, src_lab, sx, sy, lab, float(p.extend_frames))
+    D = kt.map_deviation_patches(sx, sy, np.ascontiguousarray(have, np.bool_), patch, lab, float(scale))
     distorted, sx, sy = reanchor_distorted(have, patch, D, sx, sy, scale, p.threshold, p.spread, p.seed)
     absorbed, sx, sy, patch = absorb_fragments(have, patch, lab, sx, sy, scale, p.min_patch_area, src_lab,
                                                p.min_patch_width)
-    raw = np.zeros((H, W), np.uint32)
-    raw[absorbed] = FLAG["reanchored"]
-    if distorted.any():
-        fits = fits_source(src_lab, sx, sy, lab, distorted)
-        raw[distorted] = np.where(fits[distorted], FLAG["reanchored"], FLAG["distorted"])
-    # a kept pixel whose carried source position has left its label (a patch growing on
-    # screen carries its map past its label's border in the source: sky reading the cliff)
-    # no longer shows its label's texture: resynthesized, however few there are
-    stray = off_label(src_lab, sx, sy, lab, have & (raw == 0))
-    raw[stray] = FLAG["distorted"]
-    raw[~have] = FLAG["disoccluded"]
-    raw[newly_occluded(cat, u, v, ok, lab, prev["label.id"])] = FLAG["newly_occluded"]
-    flag = clean_flags(raw, radius=p.isolated_radius, min_neighbours=p.min_neighbours, dilate=p.dilate)
-    flag[~have & (flag == 0)] = FLAG["disoccluded"]  # dropped as isolated, but nothing to carry
-    flag[stray & (flag == 0)] = FLAG["distorted"]  # dropped as isolated, but off its label
-    share = float((flag > 0).mean())
+    # raw flags in one pass (temporal.flag_reasons): re-anchored patches and absorbed fragments
+    # (distorted where the re-anchored copy leaves its label); a kept pixel whose carried source
+    # position has left its label ("stray": a patch growing on screen carries its map past its
+    # label's border in the source, sky reading the cliff) no longer shows its label's texture:
+    # resynthesized, however few there are (off_label); disoccluded; newly occluded (newly_occluded)
+    raw, stray = kt.flag_reasons(np.ascontiguousarray(have, np.bool_), absorbed, distorted, src_lab, sx, sy, lab, 0.5,
+                                 np.ascontiguousarray(cat, np.uint32), np.uint32(CATEGORY_C), u, v,
+                                 np.ascontiguousarray(ok, np.bool_), np.ascontiguousarray(prev["label.id"], np.uint32),
+                                 np.uint32(FLAG["disoccluded"]), np.uint32(FLAG["newly_occluded"]),
+                                 np.uint32(FLAG["distorted"]), np.uint32(FLAG["reanchored"]))
+    # clean_flags, then unflagged pixels with nothing to carry (dropped as isolated) disoccluded,
+    # off their label distorted, and the counts per flag, in one pass
+    flag, nflag = kt.clean_flags(raw, int(p.isolated_radius), int(p.min_neighbours), int(p.dilate),
+                                 np.ascontiguousarray(have, np.bool_), stray, FLAG["disoccluded"],
+                                 FLAG["newly_occluded"], FLAG["distorted"])
+    share = float(flag.size - nflag[0]) / flag.size
     cut = share > p.cut_threshold
     if cut:
         note(f"camera cut: {100 * share:.1f}% of the frame flagged (> {100 * p.cut_threshold:.0f}%); "
              "full synthesis of this frame")
         flag[:] = FLAG["disoccluded"]
+        nflag = np.bincount(flag.ravel(), minlength=max(FLAG.values()) + 1)
     # re-anchored patches keep their (new) map; their old Poisson correction no longer fits
     keep = (flag == 0) | (flag == FLAG["reanchored"])
     correct = p.colour == "map"
     rgb = lookup(src_rgb, sx, sy, filter=p.filter, mask=keep) if correct else res
     R, G, B, sx, sy, patch, D, ext, *corr = kt.keep_carried(
         flag, FLAG["reanchored"], D.astype(np.float32, copy=False), ext, sx, sy, patch, rgb, res, correct)
-    n = np.bincount(flag.ravel(), minlength=max(FLAG.values()) + 1) / flag.size
+    n = nflag / flag.size
     counts = {k: float(n[v]) for k, v in FLAG.items() if v}
     note(f"flagged {100 * share:.2f}%: " + ", ".join(f"{k} {100 * s:.2f}%" for k, s in counts.items()))
     ch = {"R": R, "G": G, "B": B, "source.x": sx, "source.y": sy, "patch.id": patch, "distortion": D,
@@ -347,7 +333,7 @@ def carry(cd: Plate, prev: Plate | None, first: Plate | None, source: Plate, p, 
         ch.update(zip(CORRECTION, corr))
     ch.update(geo)
     meta = _carried_meta(prev, cd)
-    meta["temporal"] = dict(counts, flagged=float((flag > 0).mean()), cut=bool(cut), frame=int(frame),
+    meta["temporal"] = dict(counts, flagged=float(flag.size - nflag[0]) / flag.size, cut=bool(cut), frame=int(frame),
                             filter=p.filter)
     return Plate(ch, meta)
 

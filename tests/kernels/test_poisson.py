@@ -273,3 +273,50 @@ def test_sor_regions_do_not_depend_on_threads_or_balance():
     finally:
         numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
     assert np.array_equal(a, c) and np.array_equal(a, d)
+
+
+@pytest.mark.parametrize("step,filt", [(1.0, "lanczos4"), (0.375, "bilinear")])
+def test_sor_at_is_the_frame_sized_solve_bit_for_bit(step, filt):
+    """``solve_sor_at`` builds the right-hand side, seam gradients and operator at the
+    listed pixels only: the same numbers, bit for bit, as ``seam_gradients_at`` + ``rhs``
+    + ``solve_sor_regions`` over the frame (regions touching the border, crossing patch
+    seams, between fixed pixels), with any thread count; without a source, zero seam
+    gradients."""
+    import numba
+    from scipy.ndimage import label as cc
+
+    rng = np.random.default_rng(31)
+    h, w = 37, 53
+    src = rng.random((40, 60, 3), dtype=np.float32)
+    patch = (np.arange(h)[:, None] // 5 * 11 + np.arange(w)[None, :] // 7).astype(np.uint32)
+    off = rng.uniform(0, 30, (int(patch.max()) + 1, 2)).astype(np.float32)
+    jitter = rng.uniform(-.3, .3, (2, h, w))
+    sx = (np.arange(w, dtype=np.float32)[None, :] * step + off[patch, 0] + jitter[0]).astype(np.float32)
+    sy = (np.arange(h, dtype=np.float32)[:, None] * step + off[patch, 1] + jitter[1]).astype(np.float32)
+    colors = rng.random((h, w, 3), dtype=np.float32)
+    free = rng.random((h, w)) < 0.55
+    free[0, :] = True  # a region along the border
+    free[20:30, 10:40] = True
+    fixed = ~free
+    comp, _ = cc(free)
+    rows, cols = np.nonzero(free)
+    region = (comp[rows, cols] - 1) * 3 + 2  # ids with gaps (the large components' left out)
+    omega = poisson.sor_omega(np.full(len(rows), 6.0), np.full(len(rows), 6.0)) - rng.uniform(0, .2, len(rows))
+    for source in (src, None):
+        if source is not None:
+            gx, gy = poisson.seam_gradients_at(source, sx, sy, patch, free, step, filter=filt)
+        else:
+            gx = gy = np.zeros((h, w, 3), np.float32)
+        b = poisson.rhs(colors, patch, fixed, gx, gy)
+        ref, rinfo = poisson.solve_sor_regions(fixed, b, rows, cols, omega, region, screen=0.01, tol=1e-6)
+        got, info = poisson.solve_sor_at(colors, patch, rows, cols, omega, region, source=source, sx=sx, sy=sy,
+                                         step=step, filter=filt, screen=0.01, tol=1e-6)
+        assert np.array_equal(got.view(np.uint32), ref[rows, cols].view(np.uint32)) and info == rinfo
+        assert np.abs(got).max() > 1e-3
+        numba.set_num_threads(1)
+        try:
+            one, _ = poisson.solve_sor_at(colors, patch, rows, cols, omega, region, source=source, sx=sx, sy=sy,
+                                          step=step, filter=filt, screen=0.01, tol=1e-6, threads=1)
+        finally:
+            numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
+        assert np.array_equal(one, got)

@@ -192,3 +192,131 @@ def test_colour_planes_match_numpy(correct):
         want = np.where(flagged[..., None], rgb - before, np.stack(old, -1))
         for k in range(3):
             assert np.array_equal(corr[k], want[..., k])
+
+
+def _labelled_case(rng, h=13, w=17):
+    """A small source label map and maps reading it near, across and outside its borders."""
+    src_lab = np.zeros((9, 12), np.uint32)
+    src_lab[:, 6:] = 1
+    src_lab[5:, 2:5] = 2
+    lab = rng.integers(0, 3, (h, w)).astype(np.uint32)
+    sx = rng.uniform(-1.5, 12.5, (h, w)).astype(np.float32)
+    sy = rng.uniform(-1.5, 9.5, (h, w)).astype(np.float32)
+    sx[0, :4] = [0.0, 11.0, 5.5, 5.75]  # on the edges, half way between labels
+    mask = rng.random((h, w)) < 0.7
+    return src_lab, sx, sy, lab, mask
+
+
+def _on_label_reference(src_lab, x, y, L):
+    hs, ws = src_lab.shape
+    if not (x >= 0 and y >= 0 and x <= ws - 1 and y <= hs - 1):
+        return False
+    c = min(int(np.floor(min(max(float(x), 0.0), ws - 1.0) + 0.5)), ws - 1)
+    r = min(int(np.floor(min(max(float(y), 0.0), hs - 1.0) + 0.5)), hs - 1)
+    return src_lab[r, c] == L
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_fits_and_off_label_match_the_pixel_by_pixel_reference(seed):
+    """``fits_label``: inside the source on a pixel of its label (nearest, as ``lookup``
+    reads ids); ``off_label``: not, and neither are the positions half a pixel to each
+    side (float32 sums)."""
+    rng = np.random.default_rng(seed)
+    src_lab, sx, sy, lab, mask = _labelled_case(rng)
+    fits = T.fits_label(src_lab, sx, sy, lab, mask)
+    off = T.off_label(src_lab, sx, sy, lab, mask, 0.5)
+    off0 = T.off_label(src_lab, sx, sy, lab, mask, 0.0)
+    m = np.float32(0.5)
+    for (i, j), on in np.ndenumerate(mask):
+        x, y, L = sx[i, j], sy[i, j], lab[i, j]
+        f = on and _on_label_reference(src_lab, x, y, L)
+        near = any(_on_label_reference(src_lab, x + a, y + b, L)
+                   for a, b in ((m, 0), (-m, 0), (0, m), (0, -m)))
+        assert fits[i, j] == f and off0[i, j] == (on and not f) and off[i, j] == (on and not f and not near)
+    assert fits.any() and off.any() and (off0 & ~off).any()
+
+
+def test_map_deviation_patches_is_map_deviation_with_patch_links():
+    from proxyshade.kernels.reproject import patch_links
+
+    rng = np.random.default_rng(8)
+    h, w = 15, 19
+    sx, sy = (rng.random((2, h, w)) * 30).astype(np.float32)
+    valid = rng.random((h, w)) > 0.15
+    patch = rng.integers(1, 4, (h, w)).astype(np.uint32)
+    lab = rng.integers(0, 2, (h, w)).astype(np.uint32)
+    ref = T.map_deviation(sx, sy, valid, patch_links(valid, patch, lab), 0.75)
+    got = T.map_deviation_patches(sx, sy, valid, patch, lab, 0.75)
+    assert np.array_equal(got, ref) and (got > 0).any()
+
+
+@pytest.mark.parametrize("seed,dilate,min_n", [(0, 2, 3), (1, 1, 0), (2, 0, 3)])
+def test_clean_flags_kernel_matches_the_numpy_steps(seed, dilate, min_n):
+    """Isolated flags dropped, newly occluded then disoccluded flags dilated into unflagged
+    pixels, then the unflagged pixels without a carry disoccluded and the stray ones
+    distorted: the whole-array steps of ``synthesis.temporal`` and the carry, and the counts."""
+    from proxyshade.synthesis.temporal import clean_flags
+
+    rng = np.random.default_rng(seed)
+    h, w = 40, 50
+    raw = rng.choice(np.array([0] * 12 + [1, 2, 3, 4], np.uint32), (h, w))
+    raw[5:12, 5:20] = 1
+    raw[20:26, 30:45] = 2
+    have = rng.random((h, w)) > 0.1
+    stray = rng.random((h, w)) > 0.9
+    ref = clean_flags(raw, radius=2, min_neighbours=min_n, dilate=dilate)
+    ref[~have & (ref == 0)] = 1
+    ref[stray & (ref == 0)] = 3
+    got, n = T.clean_flags(raw, 2, min_n, dilate, have, stray, 1, 2, 3)
+    assert np.array_equal(got, ref) and np.array_equal(n, np.bincount(ref.ravel(), minlength=5))
+
+
+def test_continue_filled_and_flag_reasons_match_the_numpy_steps():
+    from proxyshade.synthesis.temporal import newly_occluded, off_label
+
+    rng = np.random.default_rng(9)
+    src_lab, sx, sy, lab, _ = _labelled_case(rng, 21, 23)
+    h, w = lab.shape
+    filled = rng.random((h, w)) < 0.4
+    valid = ~filled & (rng.random((h, w)) < 0.8)
+    ext = rng.integers(0, 8, (h, w)).astype(np.float32)
+    e1 = ext.copy()
+    keep, have = T.continue_filled(filled, valid, e1, src_lab, sx, sy, lab, 6.0)
+    e0 = np.where(filled, ext + 1.0, ext).astype(np.float32)
+    k0 = filled & T.fits_label(src_lab, sx, sy, lab, filled) & (e0 <= 6)
+    assert np.array_equal(e1, e0) and np.array_equal(keep, k0) and np.array_equal(have, valid | k0)
+    absorbed = rng.random((h, w)) < 0.1
+    distorted = rng.random((h, w)) < 0.1
+    cat = rng.integers(1, 5, (h, w)).astype(np.uint32)
+    u, v = rng.uniform(-2, 14, (2, h, w))
+    ok = rng.random((h, w)) < 0.9
+    prev_lab = rng.integers(0, 3, (11, 12)).astype(np.uint32)
+    raw, stray = T.flag_reasons(have, absorbed, distorted, src_lab, sx, sy, lab, 0.5, cat, np.uint32(3), u, v, ok,
+                                prev_lab, np.uint32(1), np.uint32(2), np.uint32(3), np.uint32(4))
+    r = np.zeros((h, w), np.uint32)
+    r[absorbed] = 4
+    fits = T.fits_label(src_lab, sx, sy, lab, distorted)
+    r[distorted] = np.where(fits[distorted], 4, 3)
+    s = off_label(src_lab, sx, sy, lab, have & (r == 0))
+    r[s] = 3
+    r[~have] = 1
+    r[newly_occluded(cat, u, v, ok, lab, prev_lab)] = 2
+    assert np.array_equal(stray, s) and np.array_equal(raw, r)
+    assert all((r == k).any() for k in range(5))
+
+
+def test_reanchor_matches_the_bincount_means():
+    rng = np.random.default_rng(10)
+    h, w = 17, 21
+    ids = rng.integers(0, 6, (h, w)).astype(np.uint32)
+    distorted = rng.random((h, w)) < 0.5
+    sx, sy = (rng.random((2, h, w)) * 40).astype(np.float32)
+    ii, jj = np.nonzero(distorted)
+    pid = ids[ii, jj].astype(np.int64)
+    c = np.maximum(np.bincount(pid, minlength=6), 1).astype(np.float64)
+    m = [np.bincount(pid, weights=wt, minlength=6) / c for wt in (ii, jj, sx[ii, jj], sy[ii, jj])]
+    rx, ry = sx.copy(), sy.copy()
+    rx[ii, jj] = m[2][pid] + (jj - m[1][pid]) * 0.5
+    ry[ii, jj] = m[3][pid] + (ii - m[0][pid]) * 0.5
+    T.reanchor(distorted, ids, sx, sy, 0.5, 6)
+    assert np.array_equal(sx, rx) and np.array_equal(sy, ry)
