@@ -618,7 +618,7 @@ def surface_jacobian_det(u, v, w, lab, valid, tol):
     return jacobian_det(u, v, valid, surface_links(w, lab, valid, tol))
 
 
-@njit(**PJIT)
+@njit(**JIT)  # the loop is fill_from_neighbours_into's (parallel)
 def fill_from_neighbours(need, have, lab, sx, sy, patch, res, dist, radius, scale):
     """Give pixels in ``need`` the state of the nearest pixel in ``have`` with their label
     (square rings up to ``radius``, first found in scan order of the ring), continuing its
