@@ -94,6 +94,26 @@ def jacobian_det(u, v, valid, links=None):
     return _jacobian_det(u, v, valid, links)
 
 
+@njit(inline="always", **JIT)
+def _deviation(sx, sy, i, j, jl, jr, iu, idn, scale):
+    """|J / scale − I| at (i, j), J by differences over columns ``jl``..``jr`` and rows
+    ``iu``..``idn`` (central over 2 pixels, one-sided over 1, none over 0), in float64. A
+    difference over 2 pixels is halved by a product (exact, as the division by 2 is)."""
+    a = 0.0
+    c = 0.0
+    b = 0.0
+    d = 0.0
+    if jr != jl:
+        hx = 0.5 if jr - jl == 2 else 1.0
+        a = (np.float64(sx[i, jr]) - np.float64(sx[i, jl])) * hx / scale - 1.0
+        c = (np.float64(sy[i, jr]) - np.float64(sy[i, jl])) * hx / scale
+    if idn != iu:
+        hy = 0.5 if idn - iu == 2 else 1.0
+        b = (np.float64(sx[idn, j]) - np.float64(sx[iu, j])) * hy / scale
+        d = (np.float64(sy[idn, j]) - np.float64(sy[iu, j])) * hy / scale - 1.0
+    return np.sqrt(a * a + b * b + c * c + d * d)
+
+
 @njit(**PJIT)
 def _map_deviation(sx, sy, valid, links, scale):
     h, w = sx.shape
@@ -109,17 +129,7 @@ def _map_deviation(sx, sy, valid, links, scale):
             jr = j + 1 if m & RIGHT else j
             iu = i - 1 if m & UP else i
             idn = i + 1 if m & DOWN else i
-            a = 0.0
-            c = 0.0
-            b = 0.0
-            d = 0.0
-            if jr != jl:
-                a = (sx[i, jr] - sx[i, jl]) / (jr - jl) / scale - 1.0
-                c = (sy[i, jr] - sy[i, jl]) / (jr - jl) / scale
-            if idn != iu:
-                b = (sx[idn, j] - sx[iu, j]) / (idn - iu) / scale
-                d = (sy[idn, j] - sy[iu, j]) / (idn - iu) / scale - 1.0
-            out[i, j] = np.sqrt(a * a + b * b + c * c + d * d)
+            out[i, j] = _deviation(sx, sy, i, j, jl, jr, iu, idn, scale)
     return out
 
 
@@ -471,20 +481,7 @@ def map_deviation_patches(sx, sy, valid, patch, lab, scale):
             jr = j + 1 if j < w - 1 and valid[i, j + 1] and lab[i, j + 1] == L and patch[i, j + 1] == P else j
             iu = i - 1 if i > 0 and valid[i - 1, j] and lab[i - 1, j] == L and patch[i - 1, j] == P else i
             idn = i + 1 if i < h - 1 and valid[i + 1, j] and lab[i + 1, j] == L and patch[i + 1, j] == P else i
-            a = 0.0
-            c = 0.0
-            b = 0.0
-            d = 0.0
-            # a difference over 2 pixels halved by a product (exact, as the division by 2 is)
-            if jr != jl:
-                hx = 0.5 if jr - jl == 2 else 1.0
-                a = (np.float64(sx[i, jr]) - np.float64(sx[i, jl])) * hx / scale - 1.0
-                c = (np.float64(sy[i, jr]) - np.float64(sy[i, jl])) * hx / scale
-            if idn != iu:
-                hy = 0.5 if idn - iu == 2 else 1.0
-                b = (np.float64(sx[idn, j]) - np.float64(sx[iu, j])) * hy / scale
-                d = (np.float64(sy[idn, j]) - np.float64(sy[iu, j])) * hy / scale - 1.0
-            out[i, j] = np.sqrt(a * a + b * b + c * c + d * d)
+            out[i, j] = _deviation(sx, sy, i, j, jl, jr, iu, idn, scale)
     return out
 
 
