@@ -70,17 +70,6 @@ def cache_compression() -> str:
     return "zstd" if "zstd" in compressions() else "zip"
 
 
-def __getattr__(name: str):
-    # the bindings and their tables as module attributes, loaded when first asked for
-    if name == "OpenEXR":
-        return _openexr()
-    if name == "COMPRESSIONS":
-        return compressions()
-    if name == "CACHE_COMPRESSION":
-        return cache_compression()
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
-
 def _set_zstd_level(lib, level: int) -> bool:
     """Set OpenEXR's default ZSTD level (the bindings' own symbol); False when unavailable."""
     import ctypes

@@ -260,9 +260,9 @@ def test_full_disk_png_exits_74_and_leaves_nothing(tmp_path, registry, capsys, m
 
 
 def test_full_disk_exr_exits_74(tmp_path, registry, capsys, monkeypatch):
-    import proxyshade.io.exr as exr
+    import OpenEXR
 
-    real_file = exr.OpenEXR.File
+    real_file = OpenEXR.File
 
     class FullDisk:
         def __init__(self, *a, **k):
@@ -283,7 +283,7 @@ def test_full_disk_exr_exits_74(tmp_path, registry, capsys, monkeypatch):
                 raise OSError(errno.ENOSPC, "No space left on device")
             self.f.write(path)
 
-    monkeypatch.setattr(exr.OpenEXR, "File", FullDisk)
+    monkeypatch.setattr(OpenEXR, "File", FullDisk)
     code, _, err = cli(capsys, "run", write_graph(tmp_path), "-q")
     assert code == EXIT_IO and len(err) == 1 and "cannot write EXR (No space left on device)" in err[0], err
     assert not list((tmp_path / "out").glob("*.exr")) and temps(tmp_path) == []
