@@ -43,19 +43,21 @@ def similarity_sets(st: SynthesisSetup, corr: SimpleNamespace, *, seed: int) -> 
 
 
 def correct_map(st: SynthesisSetup, S0: np.ndarray, corr: SimpleNamespace, *, seed: int,
-                mask: np.ndarray | None = None, similarity: list | None = None) -> tuple[np.ndarray, list, dict]:
+                mask: np.ndarray | None = None, similarity: list | None = None,
+                near_copy: int = 0) -> tuple[np.ndarray, list, dict]:
     """k-coherent correction of the map ``S0`` (or of its ``mask`` pixels) from the
     coarsest level up to the synthesis size, then ``repair_map``. ``corr``: the
-    ``Correction`` parameters (and ``near_copy``, the smallest near-copy radius in
-    exemplar pixels, where ``corr`` has it: Correct's parameter; 0 otherwise; capped by
-    ``near_copy_radius``). Large levels' sub-passes run in row bands on other workers
+    ``Correction`` parameters; ``near_copy``: the smallest near-copy radius in exemplar
+    pixels (Correct's parameter, capped by ``near_copy_radius``; 0, the rule's radius
+    alone, for the resyntheses of Resynthesize and EditSynth, whose windows would cap it
+    differently from the whole frame). Large levels' sub-passes run in row bands on other workers
     when the executor set a runner (``synthesis.tiles``; bit-identical). Returns (S,
     per-level stats, the repair's counts)."""
     S, stats = kcorrect.synthesize(st.levels, S0, passes=corr.passes, passes_finest=corr.passes_finest, k=corr.k,
                                    w=corr.w, seed=seed, knn_iterations=corr.knn_iterations, use_rgb=corr.use_rgb,
                                    kappa=corr.kappa, mask=mask, radius_rule=corr.radius, similarity=similarity,
                                    height_weight=corr.height_weight, uniformity=corr.uniformity,
-                                   min_radius=near_copy_radius(st, getattr(corr, "near_copy", 0)),
+                                   min_radius=near_copy_radius(st, near_copy),
                                    tiles=tiles.current())
     S, rep = repair_map(st, S)
     return S, stats, rep
