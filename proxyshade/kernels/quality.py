@@ -105,12 +105,22 @@ def repetition(sx: np.ndarray, sy: np.ndarray, source_shape: tuple[int, int], *,
     (``source.x/y`` rounded to source pixels). A synthesis that copies the source evenly
     gives about ``top`` times the output/source area ratio, capped at 1; the same few
     source patches tiled on a lattice give much more."""
+    counts = _source_uses(sx, sy, source_shape)
+    return _top_share(counts, top) / counts.sum()
+
+
+def _source_uses(sx: np.ndarray, sy: np.ndarray, source_shape: tuple[int, int]) -> np.ndarray:
+    """How many output pixels draw on each source pixel (flat, ``source.x/y`` rounded)."""
     hs, ws = source_shape
     c = np.clip(np.rint(sx), 0, ws - 1).astype(np.int64)
     r = np.clip(np.rint(sy), 0, hs - 1).astype(np.int64)
-    counts = np.bincount((r * ws + c).ravel(), minlength=hs * ws)
-    k = max(1, int(round(top * hs * ws)))
-    return float(np.sort(counts)[-k:].sum() / counts.sum())
+    return np.bincount((r * ws + c).ravel(), minlength=hs * ws)
+
+
+def _top_share(values: np.ndarray, top: float) -> float:
+    """The sum of the largest ``top`` share of ``values`` (at least one)."""
+    k = max(1, int(round(top * values.size)))
+    return float(np.sort(values)[-k:].sum())
 
 
 def label_repetition(sx: np.ndarray, sy: np.ndarray, labels: np.ndarray, source_labels: np.ndarray, *,
@@ -123,25 +133,20 @@ def label_repetition(sx: np.ndarray, sy: np.ndarray, labels: np.ndarray, source_
     source uses that label's pixels more often, however well spread). Output pixels whose
     label the source lacks are left out of the first. Returns (per-label measure, floor)."""
     sl = np.asarray(source_labels).astype(np.int64)
-    hs, ws = sl.shape
-    c = np.clip(np.rint(sx), 0, ws - 1).astype(np.int64)
-    r = np.clip(np.rint(sy), 0, hs - 1).astype(np.int64)
     ol = np.asarray(labels).astype(np.int64).ravel()
     n = int(max(sl.max(), ol.max())) + 1
     a = np.bincount(ol, minlength=n).astype(np.float64)  # output pixels per label
     b = np.bincount(sl.ravel(), minlength=n).astype(np.float64)  # source pixels per label
-    counts = np.bincount((r * ws + c).ravel(), minlength=hs * ws)
+    counts = _source_uses(sx, sy, sl.shape)
     flat = sl.ravel()
     num = den = 0.0
     for lab in np.flatnonzero((a > 0) & (b > 0)):
         cl = counts[flat == lab]
-        k = max(1, int(round(top * cl.size)))
         if cl.sum() > 0:
-            num += a[lab] * np.sort(cl)[-k:].sum() / cl.sum()
+            num += a[lab] * _top_share(cl, top) / cl.sum()
             den += a[lab]
     rate = np.where(b > 0, a / np.maximum(b, 1.0), 0.0)[flat]  # uses per source pixel, evenly spread
-    k = max(1, int(round(top * hs * ws)))
-    floor = float(np.sort(rate)[-k:].sum() / max(a[b > 0].sum(), 1.0))
+    floor = _top_share(rate, top) / max(a[b > 0].sum(), 1.0)
     return (float(num / den) if den else 0.0), floor
 
 
