@@ -44,12 +44,12 @@ def test_fidelity_patches_and_repetition(sample):
     assert cnt.max() <= 8 * cnt.mean() and cnt.max() <= 0.002 * y.size
 
 
-def _top_share(p, top=0.01):
-    """Share of the map drawn from its most-used ``top`` of exemplar pixels."""
+def _top_share(p):
+    """Share of the map drawn from its most-used 1 % of exemplar pixels."""
+    from proxyshade.kernels.quality import repetition
+
     y, x = exemplar_coords(p)
-    He, We = p.meta["synthesis"]["exemplar"]
-    c = np.bincount((y * We + x).ravel(), minlength=He * We)
-    return np.sort(c)[-max(1, round(top * He * We)):].sum() / c.sum()
+    return repetition(x, y, tuple(p.meta["synthesis"]["exemplar"]))
 
 
 def test_near_copy_radius_spreads_the_use_of_the_source():
