@@ -265,3 +265,20 @@ def lookup_plate(plate, sx: np.ndarray, sy: np.ndarray, names=None) -> dict[str,
         v = lookup(a, sx, sy)
         out[n] = v.astype(a.dtype) if a.dtype == np.uint32 else v.astype(np.float32)
     return out
+
+
+def lookup_many(source: np.ndarray, xs: np.ndarray, ys: np.ndarray, filter: str) -> np.ndarray:
+    """``lookup`` of a list of positions (xs, ys) (1-D), read in rows of 1024 so that its
+    parallel loop over rows shares them between threads (each read is independent of the
+    others: the same numbers as one row). (n, C) float32 for a float (H, W, C) image."""
+    n = len(xs)
+    if n == 0:
+        return np.zeros((0, 3), np.float32)
+    width = 1024
+    m = -(-n // width) * width
+    X = np.zeros(m, np.float32)
+    Y = np.zeros(m, np.float32)
+    X[:n] = xs
+    Y[:n] = ys
+    return np.ascontiguousarray(lookup(source, X.reshape(-1, width), Y.reshape(-1, width), filter=filter)
+                                .reshape(m, -1)[:n], np.float32)

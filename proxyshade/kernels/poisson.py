@@ -1244,6 +1244,8 @@ def solve_sor_at(colors: np.ndarray, patch: np.ndarray, rows: np.ndarray, cols: 
     if source is not None:
         eid, xs, ys = _seam_edges(ii, jj, patch, np.ascontiguousarray(sx, np.float32),
                                   np.ascontiguousarray(sy, np.float32), np.float32(step))
+        from proxyshade.kernels.lookup import lookup_many
+
         fs = lookup_many(source, xs, ys, filter)
     else:
         eid, fs = np.full((n, 4), -1, np.int64), np.zeros((0, 3), np.float32)
@@ -1259,25 +1261,6 @@ def solve_sor_at(colors: np.ndarray, patch: np.ndarray, rows: np.ndarray, cols: 
     v[order] = vl
     return v, {"iterations": int(sweeps.max()), "sweeps": float((sweeps * size).sum() / n),
                "residual": float(rel.max())}
-
-
-def lookup_many(source: np.ndarray, xs: np.ndarray, ys: np.ndarray, filter: str) -> np.ndarray:
-    """``lookup`` of the positions (xs, ys) (1-D), read in rows of 1024 so that its
-    parallel loop over rows shares them between threads (each read is independent of the
-    others: the same numbers as one row). (n, 3) float32."""
-    from proxyshade.kernels.lookup import lookup
-
-    n = len(xs)
-    if n == 0:
-        return np.zeros((0, 3), np.float32)
-    width = 1024
-    m = -(-n // width) * width
-    X = np.zeros(m, np.float32)
-    Y = np.zeros(m, np.float32)
-    X[:n] = xs
-    Y[:n] = ys
-    return np.ascontiguousarray(lookup(source, X.reshape(-1, width), Y.reshape(-1, width), filter=filter)
-                                .reshape(m, -1)[:n], np.float32)
 
 
 def sor_omega(rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
@@ -1302,7 +1285,7 @@ def seam_gradients_at(source: np.ndarray, sx: np.ndarray, sy: np.ndarray, patch:
     """``seam_gradients`` on only the edges that cross a patch seam and touch a pixel of
     ``near`` (the rest stay zero, as ``_rhs`` reads gx, gy only across seams): the same
     numbers at a cost proportional to those edges (all the source reads in one lookup)."""
-    from proxyshade.kernels.lookup import lookup
+    from proxyshade.kernels.lookup import lookup_many
 
     h, w = patch.shape
     gx = np.zeros((h, w, 3), np.float32)
@@ -1328,7 +1311,7 @@ def seam_gradients_at(source: np.ndarray, sx: np.ndarray, sy: np.ndarray, patch:
             ys.append(sy[i, j] + oy)
     if not edges:
         return gx, gy
-    f = lookup(source, np.concatenate(xs)[None], np.concatenate(ys)[None], filter=filter)[0]
+    f = lookup_many(source, np.concatenate(xs), np.concatenate(ys), filter)
     k = 0
     for g, pi, pj in edges:
         n = len(pi)

@@ -149,25 +149,6 @@ def map_deviation(sx, sy, valid, links, scale):
 
 
 @njit(**PJIT)
-def remove_isolated(flags, radius, min_neighbours):
-    """Unflag pixels with fewer than ``min_neighbours`` other flagged pixels in their
-    (2·radius+1)² window (5×5 for radius 2). Reads one array, writes another."""
-    h, w = flags.shape
-    out = np.zeros((h, w), np.bool_)
-    for i in prange(h):
-        for j in range(w):
-            if not flags[i, j]:
-                continue
-            n = 0
-            for a in range(max(0, i - radius), min(h, i + radius + 1)):
-                for b in range(max(0, j - radius), min(w, j + radius + 1)):
-                    if flags[a, b]:
-                        n += 1
-            out[i, j] = n - 1 >= min_neighbours
-    return out
-
-
-@njit(**PJIT)
 def dilate(flags, radius):
     """Square dilation by ``radius`` pixels (separable: rows, then columns)."""
     h, w = flags.shape
@@ -426,8 +407,7 @@ def _on_label(src_lab, x, y, L):
 @njit(**PJIT)
 def fits_label(src_lab, sx, sy, lab, mask):
     """Pixels of ``mask`` whose source position (``sx``, ``sy``, float32) lies inside the
-    source on a pixel of their label ``lab`` (``synthesis.temporal.fits_source``), in one
-    pass."""
+    source on a pixel of their label ``lab``, in one pass."""
     h, w = mask.shape
     out = np.zeros((h, w), np.bool_)
     for i in prange(h):
@@ -437,30 +417,17 @@ def fits_label(src_lab, sx, sy, lab, mask):
     return out
 
 
-@njit(**PJIT)
-def off_label(src_lab, sx, sy, lab, mask, margin):
-    """Pixels of ``mask`` whose source position is not on their label (``fits_label``'s
-    complement) and, with ``margin`` > 0, neither are the positions ``margin`` source
-    pixels to its right, left, below and above (float32 sums, as numpy adds a Python
-    float to a float32 array): ``synthesis.temporal.off_label`` in one pass."""
-    h, w = mask.shape
-    out = np.zeros((h, w), np.bool_)
-    m = np.float32(margin)
+@njit(inline="always", **JIT)
+def _stray(src_lab, x, y, L, m):
+    """(x, y) off label L (``_on_label``'s complement) and, with ``m`` > 0, so are the
+    positions ``m`` source pixels to its right, left, below and above (float32 sums, as
+    numpy adds a float32 to a float32 array): well off its label, not on the border the
+    first frame's own copies touch."""
+    if _on_label(src_lab, x, y, L):
+        return False
     z = np.float32(0.0)
-    for i in prange(h):
-        for j in range(w):
-            if not mask[i, j]:
-                continue
-            x = sx[i, j]
-            y = sy[i, j]
-            L = lab[i, j]
-            if _on_label(src_lab, x, y, L):
-                continue
-            if margin > 0 and (_on_label(src_lab, x + m, y + z, L) or _on_label(src_lab, x - m, y + z, L)
-                               or _on_label(src_lab, x + z, y + m, L) or _on_label(src_lab, x + z, y - m, L)):
-                continue
-            out[i, j] = True
-    return out
+    return not (m > 0 and (_on_label(src_lab, x + m, y + z, L) or _on_label(src_lab, x - m, y + z, L)
+                           or _on_label(src_lab, x + z, y + m, L) or _on_label(src_lab, x + z, y - m, L)))
 
 
 @njit(**PJIT)
@@ -487,9 +454,9 @@ def map_deviation_patches(sx, sy, valid, patch, lab, scale):
 
 @njit(**PJIT)
 def clean_flags(raw, radius, min_neighbours, dilate, have, stray, disoccluded, newly, distorted):
-    """The flags cleaned in one pass (``synthesis.temporal.clean_flags`` and the carry's
+    """The flags cleaned in one pass (the carry's
     fix-ups): a flag with fewer than ``min_neighbours`` other flags in its
-    (2·radius+1)² window is dropped (``remove_isolated``; none dropped when
+    (2·radius+1)² window is dropped (none dropped when
     ``min_neighbours`` <= 0); a pixel left unflagged takes ``newly`` when a kept flag
     ``newly`` lies within ``dilate`` pixels (square, ``dilate``'s), else ``disoccluded``
     when a kept ``disoccluded`` does; then, still unflagged, ``disoccluded`` where not
@@ -601,17 +568,16 @@ def flag_reasons(have, absorbed, distorted, src_lab, sx, sy, lab, margin, cat, c
     """A carry's raw flags, in one pass, each pixel by the last that applies: ``reanchored``
     where ``absorbed``; where ``distorted``, ``reanchored`` if its (re-anchored) source
     position is on its label (``fits_label``) else ``dist_flag``; ``dist_flag`` where a kept
-    pixel (``have``, none of those) is off its label (``off_label`` with ``margin``:
+    pixel (``have``, none of those) is off its label (``_stray`` with ``margin``:
     *stray*); ``disoccluded`` where not ``have``; ``newly`` where ConsistentDepth's category
     is ``cat_c`` (``ok``) and the pixel lands (``u``, ``v``) outside the previous image or
-    on a pixel of another label (``synthesis.temporal.newly_occluded``). Returns (raw
+    on a pixel of another label. Returns (raw
     flags uint32, stray bool)."""
     h, w = have.shape
     hp, wp = prev_lab.shape
     raw = np.empty((h, w), np.uint32)
     stray = np.empty((h, w), np.bool_)
     m = np.float32(margin)
-    z = np.float32(0.0)
     for i in prange(h):
         for j in range(w):
             r = np.uint32(0)
@@ -622,12 +588,7 @@ def flag_reasons(have, absorbed, distorted, src_lab, sx, sy, lab, margin, cat, c
             if distorted[i, j]:
                 r = reanchored if _on_label(src_lab, sx[i, j], sy[i, j], L) else dist_flag
             if have[i, j] and r == 0:
-                x = sx[i, j]
-                y = sy[i, j]
-                if not _on_label(src_lab, x, y, L):
-                    s = not (margin > 0 and (_on_label(src_lab, x + m, y + z, L) or _on_label(src_lab, x - m, y + z, L)
-                                             or _on_label(src_lab, x + z, y + m, L)
-                                             or _on_label(src_lab, x + z, y - m, L)))
+                s = _stray(src_lab, sx[i, j], sy[i, j], L, m)
                 if s:
                     r = dist_flag
             if not have[i, j]:

@@ -26,7 +26,7 @@ import numpy as np
 
 from proxyshade.graph.plate import Plate
 from proxyshade.kernels.correct import downsample_mask
-from proxyshade.kernels.poisson import lookup_many
+from proxyshade.kernels.lookup import lookup_many
 from proxyshade.kernels import temporal as kt
 from proxyshade.kernels.random import mix_seed
 from proxyshade.synthesis import labels as L

@@ -27,43 +27,6 @@ from proxyshade.synthesis.memo import ArrayMemo
 from proxyshade.synthesis.state import CATEGORY, CATEGORY_C, CORRECTION, FLAG, GEOMETRY, STATE  # noqa: F401
 
 
-def newly_occluded(cat, u, v, ok, lab, prev_lab) -> np.ndarray:
-    """Category-C pixels (ConsistentDepth: the proxy now hides what the first frame saw)
-    that land on a pixel of another label in the previous frame: what was visible there
-    is now occluded by an object."""
-    out = (cat == CATEGORY_C) & ok
-    ii, jj = np.nonzero(out)
-    hp, wp = prev_lab.shape
-    c = np.floor(u[ii, jj]).astype(np.int64, copy=False)
-    r = np.floor(v[ii, jj]).astype(np.int64, copy=False)
-    inside = (c >= 0) & (r >= 0) & (c < wp) & (r < hp)
-    other = np.ones(len(ii), bool)
-    other[inside] = prev_lab[r[inside], c[inside]] != lab[ii[inside], jj[inside]]
-    out[ii, jj] = other
-    return out
-
-
-def fits_source(src_lab: np.ndarray, sx: np.ndarray, sy: np.ndarray, lab: np.ndarray, mask: np.ndarray) -> np.ndarray:
-    """Pixels of ``mask`` whose source position lies inside the source (no clamped,
-    smeared edge pixels) on a pixel of their label (``temporal.fits_label``: one parallel
-    pass, no gather and scatter of the mask's pixels)."""
-    return kt.fits_label(np.ascontiguousarray(src_lab, np.uint32), np.ascontiguousarray(sx, np.float32),
-                         np.ascontiguousarray(sy, np.float32), np.ascontiguousarray(lab, np.uint32),
-                         np.ascontiguousarray(mask, np.bool_))
-
-
-def off_label(src_lab: np.ndarray, sx: np.ndarray, sy: np.ndarray, lab: np.ndarray, mask: np.ndarray,
-              margin: float = 0.5) -> np.ndarray:
-    """Pixels of ``mask`` whose source position lies outside the source or on a pixel of
-    another label, and so do the positions ``margin`` source pixels to its left, right,
-    above and below: well off its label, not on the border the first frame's own copies
-    touch (``fits_source``'s complement; ``temporal.off_label``, one parallel pass: it had
-    been whole-frame numpy passes, 8-10 ms per 1024² frame)."""
-    return kt.off_label(np.ascontiguousarray(src_lab, np.uint32), np.ascontiguousarray(sx, np.float32),
-                        np.ascontiguousarray(sy, np.float32), np.ascontiguousarray(lab, np.uint32),
-                        np.ascontiguousarray(mask, np.bool_), float(margin))
-
-
 def patch_thresholds(patch: np.ndarray, threshold: float, spread: float, seed: int) -> np.ndarray:
     """Each pixel's distortion threshold: its patch's, uniform in [(1 − spread)·threshold,
     threshold], hashed from the patch id and the seed (the same for the patch's whole
@@ -161,7 +124,7 @@ def absorb_fragments(have, patch, lab, sx, sy, scale, min_area, src_lab, min_wid
     ii, jj, pid = ii[go], jj[go], pid[go]
     nx = (ox[pid] + jj * scale).astype(np.float32)
     ny = (oy[pid] + ii * scale).astype(np.float32)
-    # the moved pixels only (fits_source's test on their list)
+    # the moved pixels only (kt.fits_label's test on their list)
     fits = kt.fits_label(np.ascontiguousarray(src_lab, np.uint32), nx[None], ny[None],
                          np.ascontiguousarray(lab[ii, jj], np.uint32)[None], np.ones((1, len(ii)), np.bool_))[0]
     # all or nothing per patch: a half-absorbed fragment would leave a seam inside it
@@ -177,26 +140,6 @@ def absorb_fragments(have, patch, lab, sx, sy, scale, min_area, src_lab, min_wid
     patch = patch.copy()
     patch[ia, ja] = tg[pid[ok]].astype(np.uint32)
     return absorbed, sx, sy, patch
-
-
-def clean_flags(raw: np.ndarray, *, radius: int, min_neighbours: int, dilate: int) -> np.ndarray:
-    """Remove isolated flags (``kt.remove_isolated``), dilate the disoccluded and newly
-    occluded ones (``kt.dilate``; distorted pixels are whole patches, re-anchored, with
-    nothing to blend into around them); dilated pixels take the reason of a flag they
-    grew from, 2 before 1."""
-    anyf = raw > 0
-    kept = kt.remove_isolated(anyf, radius, min_neighbours) if min_neighbours > 0 else anyf
-    out = np.where(kept, raw, 0).astype(np.uint32, copy=False)
-    if dilate <= 0:
-        return out
-    todo = ~kept
-    for reason in (FLAG["newly_occluded"], FLAG["disoccluded"]):
-        if not todo.any():
-            break
-        m = kt.dilate(out == reason, dilate) & todo
-        out[m] = reason
-        todo &= ~m
-    return out
 
 
 _GRID = ArrayMemo(2)  # Frame0 of the newest first frames
@@ -300,7 +243,7 @@ def carry(cd: Plate, prev: Plate | None, first: Plate | None, source: Plate, p, 
     # (distorted where the re-anchored copy leaves its label); a kept pixel whose carried source
     # position has left its label ("stray": a patch growing on screen carries its map past its
     # label's border in the source, sky reading the cliff) no longer shows its label's texture:
-    # resynthesized, however few there are (off_label); disoccluded; newly occluded (newly_occluded)
+    # resynthesized, however few there are (stray); disoccluded; newly occluded
     raw, stray = kt.flag_reasons(np.ascontiguousarray(have, np.bool_), absorbed, distorted, src_lab, sx, sy, lab, 0.5,
                                  np.ascontiguousarray(cat, np.uint32), np.uint32(CATEGORY_C), u, v,
                                  np.ascontiguousarray(ok, np.bool_), np.ascontiguousarray(prev["label.id"], np.uint32),

@@ -57,21 +57,34 @@ def ref_dilate(f, r):
 
 
 @pytest.mark.parametrize("seed", range(5))
-def test_cleanup_matches_references(seed):
+def test_dilate_matches_reference(seed):
     f = np.random.default_rng(seed).random((23, 17)) > 0.85
-    assert np.array_equal(T.remove_isolated(f, 2, 1), ref_remove_isolated(f, 2, 1))
-    assert np.array_equal(T.remove_isolated(f, 2, 3), ref_remove_isolated(f, 2, 3))
     for r in (0, 1, 3):
         assert np.array_equal(T.dilate(f, r), ref_dilate(f, r))
+
+
+def ref_clean_flags(raw, radius, min_neighbours, dilate):
+    """Isolated flags removed, then the newly occluded (2) and disoccluded (1) flags dilated
+    into unflagged pixels, 2 before 1: the carry's clean-up as whole-array steps."""
+    anyf = raw > 0
+    kept = ref_remove_isolated(anyf, radius, min_neighbours) if min_neighbours > 0 else anyf
+    out = np.where(kept, raw, 0).astype(np.uint32)
+    todo = ~kept
+    for reason in (2, 1) if dilate > 0 else ():
+        m = ref_dilate(out == reason, dilate) & todo
+        out[m] = reason
+        todo &= ~m
+    return out
 
 
 def test_isolated_single_flags_removed_regions_kept():
     f = np.zeros((20, 20), bool)
     f[2, 2] = True  # alone
     f[10:14, 10:14] = True  # a region
-    g = T.remove_isolated(f, 2, 1)
+    ones = np.ones(f.shape, bool)
+    g, _ = T.clean_flags(f.astype(np.uint32), 2, 1, 0, ones, ~ones, 1, 2, 3)
     assert not g[2, 2] and g[10:14, 10:14].all()
-    d = T.dilate(g, 2)
+    d = T.dilate(g > 0, 2)
     assert d[8:16, 8:16].all() and d.sum() == 64
 
 
@@ -216,16 +229,46 @@ def _on_label_reference(src_lab, x, y, L):
     return src_lab[r, c] == L
 
 
+def stray(src_lab, sx, sy, lab, mask, margin):
+    """``flag_reasons``' stray pixels for the kept pixels ``mask`` (nothing else flagged)."""
+    h, w = mask.shape
+    no = np.zeros((h, w), bool)
+    z = np.zeros((h, w), np.float64)
+    _, s = T.flag_reasons(mask, no, no, src_lab, sx, sy, lab, margin, np.zeros((h, w), np.uint32), np.uint32(3), z, z,
+                          no, np.zeros((2, 2), np.uint32), np.uint32(1), np.uint32(2), np.uint32(3), np.uint32(4))
+    return s
+
+
+def ref_stray(src_lab, sx, sy, lab, mask, margin=0.5):
+    m = np.float32(margin)
+    out = np.zeros(mask.shape, bool)
+    for (i, j), on in np.ndenumerate(mask):
+        x, y, L = sx[i, j], sy[i, j], lab[i, j]
+        out[i, j] = on and not _on_label_reference(src_lab, x, y, L) and not (margin > 0 and any(
+            _on_label_reference(src_lab, x + a, y + b, L) for a, b in ((m, 0), (-m, 0), (0, m), (0, -m))))
+    return out
+
+
+def ref_newly_occluded(cat, u, v, ok, lab, prev_lab, cat_c=3):
+    out = np.zeros(lab.shape, bool)
+    hp, wp = prev_lab.shape
+    for (i, j), c in np.ndenumerate(cat):
+        if c == cat_c and ok[i, j]:
+            x, y = int(np.floor(u[i, j])), int(np.floor(v[i, j]))
+            out[i, j] = not (0 <= x < wp and 0 <= y < hp) or prev_lab[y, x] != lab[i, j]
+    return out
+
+
 @pytest.mark.parametrize("seed", [0, 1])
-def test_fits_and_off_label_match_the_pixel_by_pixel_reference(seed):
+def test_fits_and_stray_match_the_pixel_by_pixel_reference(seed):
     """``fits_label``: inside the source on a pixel of its label (nearest, as ``lookup``
-    reads ids); ``off_label``: not, and neither are the positions half a pixel to each
-    side (float32 sums)."""
+    reads ids); a stray kept pixel (``flag_reasons``): not, and neither are the positions
+    half a pixel to each side (float32 sums)."""
     rng = np.random.default_rng(seed)
     src_lab, sx, sy, lab, mask = _labelled_case(rng)
     fits = T.fits_label(src_lab, sx, sy, lab, mask)
-    off = T.off_label(src_lab, sx, sy, lab, mask, 0.5)
-    off0 = T.off_label(src_lab, sx, sy, lab, mask, 0.0)
+    off = stray(src_lab, sx, sy, lab, mask, 0.5)
+    off0 = stray(src_lab, sx, sy, lab, mask, 0.0)
     m = np.float32(0.5)
     for (i, j), on in np.ndenumerate(mask):
         x, y, L = sx[i, j], sy[i, j], lab[i, j]
@@ -255,8 +298,6 @@ def test_clean_flags_kernel_matches_the_numpy_steps(seed, dilate, min_n):
     """Isolated flags dropped, newly occluded then disoccluded flags dilated into unflagged
     pixels, then the unflagged pixels without a carry disoccluded and the stray ones
     distorted: the whole-array steps of ``synthesis.temporal`` and the carry, and the counts."""
-    from proxyshade.synthesis.temporal import clean_flags
-
     rng = np.random.default_rng(seed)
     h, w = 40, 50
     raw = rng.choice(np.array([0] * 12 + [1, 2, 3, 4], np.uint32), (h, w))
@@ -264,7 +305,7 @@ def test_clean_flags_kernel_matches_the_numpy_steps(seed, dilate, min_n):
     raw[20:26, 30:45] = 2
     have = rng.random((h, w)) > 0.1
     stray = rng.random((h, w)) > 0.9
-    ref = clean_flags(raw, radius=2, min_neighbours=min_n, dilate=dilate)
+    ref = ref_clean_flags(raw, 2, min_n, dilate)
     ref[~have & (ref == 0)] = 1
     ref[stray & (ref == 0)] = 3
     got, n = T.clean_flags(raw, 2, min_n, dilate, have, stray, 1, 2, 3)
@@ -272,8 +313,6 @@ def test_clean_flags_kernel_matches_the_numpy_steps(seed, dilate, min_n):
 
 
 def test_continue_filled_and_flag_reasons_match_the_numpy_steps():
-    from proxyshade.synthesis.temporal import newly_occluded, off_label
-
     rng = np.random.default_rng(9)
     src_lab, sx, sy, lab, _ = _labelled_case(rng, 21, 23)
     h, w = lab.shape
@@ -297,10 +336,10 @@ def test_continue_filled_and_flag_reasons_match_the_numpy_steps():
     r[absorbed] = 4
     fits = T.fits_label(src_lab, sx, sy, lab, distorted)
     r[distorted] = np.where(fits[distorted], 4, 3)
-    s = off_label(src_lab, sx, sy, lab, have & (r == 0))
+    s = ref_stray(src_lab, sx, sy, lab, have & (r == 0))
     r[s] = 3
     r[~have] = 1
-    r[newly_occluded(cat, u, v, ok, lab, prev_lab)] = 2
+    r[ref_newly_occluded(cat, u, v, ok, lab, prev_lab)] = 2
     assert np.array_equal(stray, s) and np.array_equal(raw, r)
     assert all((r == k).any() for k in range(5))
 

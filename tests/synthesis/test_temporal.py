@@ -1,7 +1,8 @@
 """The temporal layer's pieces: flag clean-up, fragment absorption, patch widths."""
 import numpy as np
 
-from proxyshade.synthesis.temporal import FLAG, absorb_fragments, clean_flags, patch_width
+from proxyshade.kernels.temporal import clean_flags
+from proxyshade.synthesis.temporal import FLAG, absorb_fragments, patch_width
 
 
 def test_clean_flags_removes_isolated_and_dilates_regions():
@@ -9,7 +10,8 @@ def test_clean_flags_removes_isolated_and_dilates_regions():
     raw[3, 3] = FLAG["distorted"]  # alone in its 5x5 window
     raw[10:13, 10:13] = FLAG["disoccluded"]  # a region
     raw[11, 13] = FLAG["newly_occluded"]
-    out = clean_flags(raw, radius=2, min_neighbours=3, dilate=2)
+    ones = np.ones(raw.shape, bool)
+    out, _ = clean_flags(raw, 2, 3, 2, ones, ~ones, FLAG["disoccluded"], FLAG["newly_occluded"], FLAG["distorted"])
     assert out[3, 3] == 0 and not out[:6, :6].any()
     grown = np.zeros((20, 24), bool)
     for i, j in zip(*np.nonzero(raw[6:, 6:])):  # squares of radius 2 around the kept flags
