@@ -55,6 +55,12 @@ def known_source(source: Plate) -> Plate:
     return source
 
 
+def _comparable(x: np.ndarray) -> np.ndarray:
+    """A channel as ``mark_differences`` compares it: float16 widened to float32 (exact: the
+    same pairs compare equal; numba has no float16), contiguous."""
+    return np.ascontiguousarray(x, np.float32 if x.dtype == np.float16 else None)
+
+
 def changed_region(before: dict[str, Plate], after: dict[str, Plate], channels: dict[str, tuple[str, ...]],
                    radius: int) -> np.ndarray | None:
     """Pixels where any of ``channels`` (input name -> channel names) differs between the
@@ -76,10 +82,7 @@ def changed_region(before: dict[str, Plate], after: dict[str, Plate], channels: 
             if (c in a) != (c in b):
                 return None
             if c in a:
-                x, y = a[c], b[c]
-                if x.ndim != 2 or y.shape != x.shape:
-                    return None
-                kedit.mark_differences(np.ascontiguousarray(x), np.ascontiguousarray(y), d, first, last)
+                kedit.mark_differences(_comparable(a[c]), _comparable(b[c]), d, first, last)
         if diff is None:
             diff, lo, hi = d, first, last
         elif not same_grid and (last >= 0).any():

@@ -133,7 +133,8 @@ def test_the_colour_similarity_sets_are_found_again_for_a_source_read_back(monke
 
 def test_changed_region_matches_numpy_on_random_plates():
     """The one-pass difference (``kernels.edit.mark_differences``) against numpy's: NaN equal
-    to NaN, several channels and inputs of one grid, the dilation of the box."""
+    to NaN, float16 channels too, several channels and inputs of one grid, the dilation of
+    the box."""
     from proxyshade.kernels.temporal import dilate
 
     rng = np.random.default_rng(5)
@@ -148,12 +149,15 @@ def test_changed_region_matches_numpy_on_random_plates():
         l1 = np.where(rng.random((h, w)) < 0.03, 7, l0).astype(np.uint32)
         g0 = rng.integers(0, 3, (h, w)).astype(np.uint32)
         g1 = np.where(rng.random((h, w)) < 0.02, 9, g0).astype(np.uint32)
-        a, b = Plate({"label.id": l0, "Z": z0}), Plate({"label.id": l1, "Z": z1})
+        n0 = rng.random((h, w)).astype(np.float16)  # a half channel (N.X in a plate), one value changed
+        n1 = n0.copy()
+        n1[trial % h, trial % w] += np.float16(0.25)
+        a, b = Plate({"label.id": l0, "Z": z0, "N.X": n0}), Plate({"label.id": l1, "Z": z1, "N.X": n1})
         ga, gb = Plate({"label.id": g0}), Plate({"label.id": g1})
-        ref = (l0 != l1) | ((z0 != z1) & ~(np.isnan(z0) & np.isnan(z1))) | (g0 != g1)
+        ref = (l0 != l1) | ((z0 != z1) & ~(np.isnan(z0) & np.isnan(z1))) | (g0 != g1) | (n0 != n1)
         for radius in (0, 1, 3):
-            got = changed_region({"p": a, "g": ga}, {"p": b, "g": gb}, {"p": ("label.id", "Z"), "g": ("label.id",)},
-                                 radius)
+            got = changed_region({"p": a, "g": ga}, {"p": b, "g": gb},
+                                 {"p": ("label.id", "Z", "N.X"), "g": ("label.id",)}, radius)
             want = dilate(ref, radius) if radius else ref
             assert np.array_equal(got, want), (trial, radius)
 
