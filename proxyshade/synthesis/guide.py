@@ -15,6 +15,7 @@ import numpy as np
 from proxyshade.errors import NodeInputError
 from proxyshade.graph.plate import Plate
 from proxyshade.kernels import guide as kg
+from proxyshade.kernels.correct import downsample_mask
 from proxyshade.kernels.random import mix_seed
 from proxyshade.kernels.voting import vote_down, vote_filter
 from proxyshade.synthesis.labels import dense_guide, source_table
@@ -43,30 +44,19 @@ def _exemplar_level(ex: np.ndarray, h: int, n: int) -> tuple[np.ndarray, np.ndar
     return e_l, kg.exemplar_masks(e_l, h, n)
 
 
-def _block_any(mask: np.ndarray, h: int) -> np.ndarray:
-    """(H, W) bool -> (H / h, W / h): any pixel of each h × h block (H, W multiples of h)."""
-    if h == 1:
-        return mask
-    H, W = mask.shape
-    return mask.reshape(H // h, h, W // h, h).any(axis=(1, 3))
-
-
 def _previous_state(previous: Plate, active: np.ndarray, f: int, scale: float, g: float, ex_shape,
                     shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
     """The synthesis-size state (``shape``, int32 exemplar coordinates) of a guide whose
     output pixel (i, j) has source position S(i // f, j // f) · g + (i % f + 0.5) · scale
     − 0.5 (read at each block's first pixel; edges repeated into the padding), and the
     blocks holding an ``active`` pixel (bool, ``shape``)."""
-    H, W = active.shape
     sy = previous["source.y"][::f, ::f].astype(np.float64)
     sx = previous["source.x"][::f, ::f].astype(np.float64)
     S = np.empty(sy.shape + (2,), np.int32)
     S[..., 0] = np.clip(np.rint((sy + 0.5 - 0.5 * scale) / g), 0, ex_shape[0] - 1)
     S[..., 1] = np.clip(np.rint((sx + 0.5 - 0.5 * scale) / g), 0, ex_shape[1] - 1)
     S = np.pad(S, ((0, shape[0] - S.shape[0]), (0, shape[1] - S.shape[1]), (0, 0)), mode="edge")
-    act = np.zeros((shape[0] * f, shape[1] * f), bool)
-    act[:H, :W] = active
-    return np.ascontiguousarray(S), _block_any(act, f)
+    return np.ascontiguousarray(S), downsample_mask(active, f, shape)
 
 
 def _label_colours(labels: list[dict], table: np.ndarray) -> np.ndarray:
@@ -209,7 +199,7 @@ def synthesize_guide(proxy: Plate, source: Plate, gp: SimpleNamespace, *, previo
                            w_proxy=gp.proxy_weight, metric=metric, n=n, passes=gp.passes)
             continue
         prev_l = np.ascontiguousarray(prev0[::h, ::h])
-        act_l = _block_any(act0, h)
+        act_l = downsample_mask(act0, h, t_l.shape)
         # outside the active blocks the previous state; inside, its coordinates where the label
         # they read is still the target's and the coarser level kept its own, the new ones elsewhere
         same = e_l[prev_l[..., 0], prev_l[..., 1]] == t_l

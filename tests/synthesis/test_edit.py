@@ -42,6 +42,16 @@ def painted(rows, cols):
     return src, proxy, gp, prev, proxy.with_channels({"label.id": lab}), water
 
 
+def test_a_masked_guide_synthesis_with_nothing_active_is_the_last_guide():
+    """``synthesize_guide(previous=, active=)`` with no active pixel reads the last guide's
+    state back (source positions to exemplar coordinates, block by block) and leaves it: the
+    last guide, bit for bit."""
+    src, proxy, gp, prev, _, _ = painted(slice(0, 0), slice(0, 0))
+    out, _ = synthesize_guide(proxy, src, gp, previous=prev, active=np.zeros(proxy["label.id"].shape, bool))
+    for c in ("label.id", "source.x", "source.y"):
+        assert np.array_equal(out[c], prev[c]), c
+
+
 def test_update_guide_synthesizes_a_window_and_keeps_the_rest():
     src, proxy, gp, prev, edited, water = painted(slice(300, 340), slice(200, 260))  # a pond
     region = changed_region({"proxy": proxy}, {"proxy": edited}, {"proxy": ("label.id",)}, 16)
