@@ -299,57 +299,10 @@ def _correct_pixel(i, j, S_old, ex_lab, ex_masks, ex_col, sim, tgt_masks, tgt_co
 
 
 @njit(**PJIT)
-def _subpass(S_old, S_new, par_i, par_j, ex_lab, ex_masks, ex_col, sim, tgt_masks, tgt_col, target, locked_mask,
-             allowed, h, w_proxy, metric, n):
-    """Correct the pixels of parity (par_i, par_j) (``_correct_pixel``)."""
-    H, W = S_old.shape[0], S_old.shape[1]
-    He, We = ex_lab.shape
-    k = sim.shape[2]
-    for i2 in prange((H - par_i + 1) // 2):
-        i = par_i + 2 * i2
-        ms = np.zeros(n, np.uint32)
-        fs = np.empty(75, np.float64)
-        fe = np.empty(75, np.float64)
-        seen = np.empty(9 * k + 1, np.int64)
-        for j in range(par_j, W, 2):
-            S_new[i, j, 0], S_new[i, j, 1] = _correct_pixel(
-                i, j, S_old, ex_lab, ex_masks, ex_col, sim, tgt_masks, tgt_col, target, locked_mask, allowed, h,
-                w_proxy, metric, n, k, H, W, He, We, ms, fs, fe, seen)
-
-
-def correct(S, ex_lab, ex_masks, ex_col, sim, tgt_masks, tgt_col, target, locked_mask, allowed, *, h, w_proxy,
-            metric, n, passes):
-    """``passes`` correction passes of four parity sub-passes each; returns the new state."""
-    S = S.copy()
-    for _ in range(passes):
-        for par_i, par_j in ((0, 0), (1, 1), (0, 1), (1, 0)):
-            snap = S.copy()
-            _subpass(snap, S, par_i, par_j, ex_lab, ex_masks, ex_col, sim, tgt_masks, tgt_col, target, locked_mask,
-                     allowed, h, w_proxy, metric, n)
-    return S
-
-def correct_active(S, active, ex_lab, ex_masks, ex_col, sim, tgt_masks, tgt_col, target, locked_mask, allowed, *, h,
-                   w_proxy, metric, n, passes):
-    """``correct`` restricted to the ``active`` pixels (H, W bool): every other pixel keeps
-    its coordinates and is context for its neighbours (an edit's progressive update, §7:
-    "we initialize flagged areas with the new labels and perform correction passes").
-    With every pixel active it is ``correct``."""
-    S = S.copy()
-    active = np.ascontiguousarray(active, np.bool_)
-    if not active.any():
-        return S
-    for _ in range(passes):
-        for par_i, par_j in ((0, 0), (1, 1), (0, 1), (1, 0)):
-            snap = S.copy()
-            _subpass_active(snap, S, active, par_i, par_j, ex_lab, ex_masks, ex_col, sim, tgt_masks, tgt_col, target,
-                            locked_mask, allowed, h, w_proxy, metric, n)
-    return S
-
-
-@njit(**PJIT)
-def _subpass_active(S_old, S_new, active, par_i, par_j, ex_lab, ex_masks, ex_col, sim, tgt_masks, tgt_col, target,
-                    locked_mask, allowed, h, w_proxy, metric, n):
-    """``_subpass`` on the ``active`` pixels only (the others keep ``S_new``'s coordinates)."""
+def _subpass(S_old, S_new, active, par_i, par_j, ex_lab, ex_masks, ex_col, sim, tgt_masks, tgt_col, target,
+             locked_mask, allowed, h, w_proxy, metric, n):
+    """Correct the ``active`` pixels of parity (par_i, par_j) (``_correct_pixel``); the
+    others keep ``S_new``'s coordinates."""
     H, W = S_old.shape[0], S_old.shape[1]
     He, We = ex_lab.shape
     k = sim.shape[2]
@@ -364,6 +317,25 @@ def _subpass_active(S_old, S_new, active, par_i, par_j, ex_lab, ex_masks, ex_col
                 S_new[i, j, 0], S_new[i, j, 1] = _correct_pixel(
                     i, j, S_old, ex_lab, ex_masks, ex_col, sim, tgt_masks, tgt_col, target, locked_mask, allowed, h,
                     w_proxy, metric, n, k, H, W, He, We, ms, fs, fe, seen)
+
+
+def correct(S, ex_lab, ex_masks, ex_col, sim, tgt_masks, tgt_col, target, locked_mask, allowed, *, h, w_proxy,
+            metric, n, passes, active=None):
+    """``passes`` correction passes of four parity sub-passes each; returns the new state.
+    ``active`` (H, W bool, default every pixel): only those pixels are corrected, every other
+    one keeps its coordinates and is context for its neighbours (an edit's progressive
+    update, §7: "we initialize flagged areas with the new labels and perform correction
+    passes")."""
+    S = S.copy()
+    active = np.ones(S.shape[:2], np.bool_) if active is None else np.ascontiguousarray(active, np.bool_)
+    if not active.any():
+        return S
+    for _ in range(passes):
+        for par_i, par_j in ((0, 0), (1, 1), (0, 1), (1, 0)):
+            snap = S.copy()
+            _subpass(snap, S, active, par_i, par_j, ex_lab, ex_masks, ex_col, sim, tgt_masks, tgt_col, target,
+                     locked_mask, allowed, h, w_proxy, metric, n)
+    return S
 
 
 def adjacency(*label_maps: np.ndarray, n: int) -> np.ndarray:

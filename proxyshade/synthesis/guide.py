@@ -207,8 +207,8 @@ def synthesize_guide(proxy: Plate, source: Plate, gp: SimpleNamespace, *, previo
             same &= np.repeat(np.repeat(kept, 2, 0), 2, 1)[:t_l.shape[0], :t_l.shape[1]]
         keep = ~act_l | same
         S[keep] = prev_l[keep]
-        S = kg.correct_active(S, act_l, e_l, masks, ex_col, sim, tmasks, tgt_col, t_l, locked, allowed, h=h,
-                              w_proxy=gp.proxy_weight, metric=metric, n=n, passes=gp.passes)
+        S = kg.correct(S, e_l, masks, ex_col, sim, tmasks, tgt_col, t_l, locked, allowed, h=h,
+                       w_proxy=gp.proxy_weight, metric=metric, n=n, passes=gp.passes, active=act_l)
         kept = (S == prev_l).all(-1)
     syn = ex[S[..., 0], S[..., 1]]  # labels at the synthesis size
     # magnify through the source coordinates: output pixel (i, j) sits (i % f, j % f)
