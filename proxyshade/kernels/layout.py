@@ -51,6 +51,23 @@ def srgb_encode(lin: np.ndarray) -> np.ndarray:
     return out
 
 
+@njit(**PJIT)
+def _decode_image(enc, out):
+    h, w, c = enc.shape
+    for i in prange(h):
+        for j in range(w):
+            for k in range(c):
+                out[i, j, k] = _decode(enc[i, j, k])
+
+
+def srgb_decode(enc: np.ndarray) -> np.ndarray:
+    """(H, W, 3) sRGB-encoded -> float32 linear (``srgb_encode``'s inverse; negative values clamp to 0)."""
+    enc = np.ascontiguousarray(enc, np.float32)
+    out = np.empty(enc.shape, np.float32)
+    _decode_image(enc, out)
+    return out
+
+
 # Rec. 709 luminance weights (linear RGB), as colour-science's RGB_luminance for sRGB primaries
 LUMA = (0.2126, 0.7152, 0.0722)
 

@@ -25,7 +25,7 @@ class Poisson(PoissonSolve, Node):
     """Blend patch seams: ``R,G,B`` replaced by the Poisson solution; every other
     channel and the metadata pass through."""
 
-    version = 1
+    version = 2
     image = Input("magnified synthesis (Magnify): R,G,B, patch.id, label.id", channels=("R", "G", "B", "patch.id"),
                   finite=("R", "G", "B"), fix="connect Magnify's output")
     source = Input("annotated source (SourceRead), for seams: source", optional=True, channels=("R", "G", "B"),
@@ -66,12 +66,19 @@ class Poisson(PoissonSolve, Node):
                 if c not in img:
                     raise ctx.error(f"image has no {c} for seams: source; connect Magnify's output or set seams: zero")
             source_rgb = ctx.source.rgb()
+        # grain: with the source's labels and the map at hand, on a whole frame (not with keep)
+        grain = (p.grain > 1 and ctx.source is not None and "label.id" in ctx.source and labels is not None
+                 and fixed is None and all(c in img for c in ("source.x", "source.y")))
+        if grain:
+            source_rgb = ctx.source.rgb()
+        mapped = p.seams == "source" or grain
         scale = float(img.meta.get("synthesis", {}).get("scale", 1.0))
         u, info = blend_frame(img.rgb(), img["patch.id"], labels, PoissonSolve.of(p), source_rgb=source_rgb,
-                              sx=img["source.x"] if p.seams == "source" else None,
-                              sy=img["source.y"] if p.seams == "source" else None, scale=scale,
-                              fixed=fixed, values=values,
-                              source_labels=ctx.source["label.id"] if p.layout else None)
+                              sx=img["source.x"] if mapped else None, sy=img["source.y"] if mapped else None,
+                              scale=scale, fixed=fixed, values=values,
+                              source_labels=ctx.source["label.id"] if p.layout or grain else None,
+                              source=ctx.source if grain else None)
         ctx.note(f"{info['iterations']} iterations, relative residual {info['residual']:.1e}, "
                  f"{info['fixed']} fixed pixels")
-        return img.with_channels({"R": u[..., 0].copy(), "G": u[..., 1].copy(), "B": u[..., 2].copy()})
+        meta = {"grain": info["grain"]} if "grain" in info else None
+        return img.with_channels({"R": u[..., 0].copy(), "G": u[..., 1].copy(), "B": u[..., 2].copy()}, meta=meta)

@@ -20,9 +20,11 @@ from types import SimpleNamespace
 import numpy as np
 
 from proxyshade.kernels import layout as klayout
+from proxyshade.kernels.lookup import lookup
 from proxyshade.kernels import poisson as kpoisson
 from proxyshade.kernels import temporal as kt
 from proxyshade.kernels.features import label_heights
+from proxyshade.synthesis import grain
 
 LAYOUT_BINS = 8          # height bins of a label's colour profile
 LAYOUT_MIN_PIXELS = 64   # a bin with fewer pixels (either side) takes its neighbours' value
@@ -95,19 +97,38 @@ def layout_move(colors: np.ndarray, labels: np.ndarray, source_rgb: np.ndarray,
 def blend_frame(rgb: np.ndarray, patch: np.ndarray, labels: np.ndarray | None, solve: SimpleNamespace, *,
                 source_rgb: np.ndarray | None = None, sx: np.ndarray | None = None, sy: np.ndarray | None = None,
                 scale: float = 1.0, fixed: np.ndarray | None = None,
-                values: np.ndarray | None = None, source_labels: np.ndarray | None = None) -> tuple[np.ndarray, dict]:
+                values: np.ndarray | None = None, source_labels: np.ndarray | None = None,
+                source=None) -> tuple[np.ndarray, dict]:
     """The whole-frame solve (``fixed`` pixels keep ``values``). ``solve``: the
     ``PoissonSolve`` parameters; ``seams: source`` reads ``source_rgb`` through ``sx, sy``
     (source pixels; ``scale`` source pixels per output pixel); ``layout`` moves ``rgb``
-    by ``layout_move`` first (needs ``labels``, ``source_rgb``, ``source_labels``)."""
-    if solve.layout:
-        rgb = layout_move(rgb, labels, source_rgb, source_labels, keep=solve.layout_keep)
-    gx = gy = None
-    if solve.seams == "source":  # only the edges across a seam: the only ones the solve reads
-        gx, gy = kpoisson.seam_gradients_at(source_rgb, sx, sy, patch, np.ones(patch.shape, np.bool_), scale)
-    return kpoisson.poisson_transfer(rgb, patch, labels, fixed=fixed, values=values,
-                                     label_dirichlet=solve.label_dirichlet, seam_gx=gx, seam_gy=gy,
-                                     screen=solve.screen, tol=solve.tol, max_iter=solve.max_iter)
+    by ``layout_move`` first (needs ``labels``, ``source_rgb``, ``source_labels``).
+
+    With ``source`` (the SourceRead plate ``source_rgb`` and ``source_labels`` come from),
+    ``solve.grain`` > 1, ``sx, sy`` and no ``fixed`` pixels, the blended frame's detail is
+    measured against the photo's (``grain.gain_table``), the frame is read again through
+    its map from the graded source (``grain.graded``: ``rgb`` is replaced, it must be
+    Magnify's bilinear lookup of the source) and blended again, the layout and the seams
+    then taken from the graded source too; ``info["grain"]`` is the table, for the plate's
+    ``meta["grain"]`` (later frames and Relight read the same graded source)."""
+    def solved(colours, src):
+        if solve.layout:
+            colours = layout_move(colours, labels, src, source_labels, keep=solve.layout_keep)
+        gx = gy = None
+        if solve.seams == "source":  # only the edges across a seam: the only ones the solve reads
+            gx, gy = kpoisson.seam_gradients_at(src, sx, sy, patch, np.ones(patch.shape, np.bool_), scale)
+        return kpoisson.poisson_transfer(colours, patch, labels, fixed=fixed, values=values,
+                                         label_dirichlet=solve.label_dirichlet, seam_gx=gx, seam_gy=gy,
+                                         screen=solve.screen, tol=solve.tol, max_iter=solve.max_iter)
+
+    u, info = solved(rgb, source_rgb)
+    if (source is not None and getattr(solve, "grain", 1.0) > 1.0 and fixed is None and labels is not None
+            and source_labels is not None and sx is not None and sy is not None):
+        table = grain.gain_table(u, labels, source_rgb, source_labels, max_gain=solve.grain)
+        src = grain.graded(source, table)
+        u, info = solved(lookup(src, sx, sy), src)
+        info["grain"] = table
+    return u, info
 
 
 def blend_regions(rgb: np.ndarray, patch: np.ndarray, labels: np.ndarray, free: np.ndarray, solve: SimpleNamespace,

@@ -92,6 +92,10 @@ class PoissonSolve(ParamGroup):
                             "under the photo's: 1 = kept (a pond's dark band under its bank), 0 = replaced by "
                             "the photo's (flattens such a region; exact where the synthesis already follows "
                             "the photo's profile, which 1 doubles)")
+    grain = Param(float, 2.0, min=1.0,
+                  doc="most gain of a detail layer when the first frame's detail is matched to the photo's, "
+                      "label by label and scale by scale (the source is graded and read again; later frames "
+                      "read the same graded source): 1 = off")
     tol = Param(float, 1e-5, min=1e-12, max=1.0, doc="relative residual at which the solver stops")
     max_iter = Param(int, 100, min=1, doc="most conjugate-gradient iterations")
 

@@ -19,6 +19,7 @@ from proxyshade.graph.plate import Plate
 from proxyshade.kernels.lookup import lookup
 from proxyshade.synthesis.blend import blend_frame
 from proxyshade.synthesis.exemplar import provenance
+from proxyshade.synthesis.grain import source_colours
 from proxyshade.synthesis.temporal import CORRECTION
 
 
@@ -42,7 +43,7 @@ def relight(img: Plate, photo: Plate, solve: SimpleNamespace, *, filter: str = "
                              "same view at the size the frame was synthesized from")
     if filter == "auto":
         filter = img.meta.get("temporal", {}).get("filter", "bilinear")
-    rgb = photo.rgb()
+    rgb = source_colours(photo, img.meta)  # graded by the frame's grain table, as the frame read its source
     scale = float(img.meta.get("synthesis", {}).get("scale", 1.0))
     labels = img["label.id"] if "label.id" in img else None
     if solve.label_dirichlet and labels is None:

@@ -32,6 +32,7 @@ from proxyshade.kernels.random import mix_seed
 from proxyshade.synthesis import labels as L
 from proxyshade.synthesis.blend import blend_regions
 from proxyshade.synthesis.exemplar import levels_for, setup
+from proxyshade.synthesis.grain import source_colours
 from proxyshade.synthesis.memo import ArrayMemo
 from proxyshade.synthesis.params import Correction, FloodFill, PoissonSolve
 from proxyshade.synthesis.patches import correct_map, fill_patches, magnify_map, repair_map, similarity_sets
@@ -214,7 +215,7 @@ def _resynthesize(img: Plate, source: Plate, p, frame: int, *, note: Callable[[s
     correct = False
     if p.solve:
         rgb, pinfo = blend_regions(rgb, patch, img["label.id"], flagged, PoissonSolve.of(p),
-                                   source_rgb=source.rgb(), sx=sx, sy=sy, scale=scale, filter=filt,
+                                   source_rgb=source_colours(source, img.meta), sx=sx, sy=sy, scale=scale, filter=filt,
                                    thin=getattr(p, "sor_thickness", None) or None)
         # flagged pixels were the source through the map: the correction adds the solve's change
         correct = all(c in img for c in CORRECTION)
@@ -278,7 +279,7 @@ def _synthesize(img: Plate, source: Plate, p, redo: np.ndarray, f: int, scale: f
                                   np.ascontiguousarray(img["source.y"], np.float32),
                                   np.ascontiguousarray(img["patch.id"], np.uint32))
     ii, jj = np.nonzero(redo)
-    rgb[ii, jj] = lookup_many(source.rgb(), sx[ii, jj], sy[ii, jj], filt)
+    rgb[ii, jj] = lookup_many(source_colours(source, img.meta), sx[ii, jj], sy[ii, jj], filt)
     info.update(synthesis_pixels=int(active.sum()), flood_filled=int(fresh.sum()), patches=int(npatch),
                 repaired=int(rep["wrong"]))
     return sx, sy, patch, st.ex_factor

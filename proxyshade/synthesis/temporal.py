@@ -22,6 +22,7 @@ from proxyshade.kernels import reproject as kr
 from proxyshade.kernels import temporal as kt
 from proxyshade.kernels.lookup import lookup
 from proxyshade.kernels.random import uniform_field
+from proxyshade.synthesis.grain import source_colours
 from proxyshade.synthesis.memo import ArrayMemo
 
 from proxyshade.synthesis.state import CATEGORY, CATEGORY_C, CORRECTION, FLAG, GEOMETRY, STATE  # noqa: F401
@@ -209,7 +210,7 @@ def carry(cd: Plate, prev: Plate | None, first: Plate | None, source: Plate, p, 
     lab = np.ascontiguousarray(cd["label.id"], np.uint32)
     k1 = kr.intrinsics(cam1) if offset is None else kr.intrinsics(cam1) - offset  # the window's principal point
     u, v, q, ok = kr.transfer(w1, kr.relative_matrix(cam1, cam0), k1, kr.intrinsics(cam0), cam0.near)
-    src_rgb = source.rgb()
+    src_rgb = source_colours(source, prev.meta)  # graded by the first frame's grain table, if any
     if p.colour == "map" and all(c in prev for c in CORRECTION):
         # carried by Resynthesize: no second read of the source (its planes as they are)
         planes = [np.ascontiguousarray(prev[c], np.float32) for c in CORRECTION]

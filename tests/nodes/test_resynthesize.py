@@ -5,6 +5,7 @@ import pytest
 from proxyshade.errors import NodeInputError
 from proxyshade.graph.testing import run_node
 from proxyshade.kernels.lookup import lookup
+from proxyshade.synthesis.grain import source_colours
 from proxyshade.synthesis.temporal import FLAG
 from tests.nodes._temporal import SCENES, coherence_metrics, first_frame, proxy, source
 
@@ -46,7 +47,8 @@ def test_flagged_pixels_are_resynthesized_and_the_rest_kept_exactly():
     src = source("renoir")
     fidelity = (lookup(src["label.id"], out["source.x"], out["source.y"]) == out["label.id"])[new].mean()
     assert fidelity > 0.99
-    rgb = lookup(src.rgb(), out["source.x"], out["source.y"])
+    assert "grain" in img.meta  # the first frame's table: new pixels read the graded source, as the first frame did
+    rgb = lookup(source_colours(src, img.meta), out["source.x"], out["source.y"])
     np.testing.assert_allclose(out.rgb()[new], rgb[new], atol=1e-6)  # f∘s before the solve
 
 
@@ -72,7 +74,10 @@ def test_restricted_solve_equals_the_poisson_node_with_keep():
     img = img.with_channels({"flag": flag})
     solved = resynth(img)
     unsolved = resynth(img, solve=False)
-    ref = run_node("Poisson", {"layout": False}, {"image": unsolved, "keep": unsolved, "source": source("renoir")})
+    src = source("renoir")  # the source the frames read: graded by the first frame's grain table
+    rgb = source_colours(src, img.meta)
+    graded = src.with_channels({"R": rgb[..., 0].copy(), "G": rgb[..., 1].copy(), "B": rgb[..., 2].copy()})
+    ref = run_node("Poisson", {"layout": False}, {"image": unsolved, "keep": unsolved, "source": graded})
     np.testing.assert_allclose(solved.rgb(), ref.rgb(), atol=1e-4)
     keep = flag == 0
     np.testing.assert_array_equal(solved.rgb()[keep], img.rgb()[keep])
