@@ -9,6 +9,8 @@ Cases:
 Variants, so every change is judged against plain baselines the bench runs itself:
   final        the output (Poisson);
   pre-Poisson  the same synthesis before the Poisson step (Magnify's colours);
+  no grain     first frames only: the Poisson step with ``grain: 1`` (the detail as blended,
+               not matched to the photo's; synthesis/grain.py);
   l2           first frames only: the guide synthesized with ``metric: l2``.
 
 Per label (sRGB in [0, 1], ``kernels.quality.label_fidelity``): mean colour shift per
@@ -166,7 +168,8 @@ def main(argv=None) -> None:
     if "first" in args.cases:
         for scene, s in SCENES:
             mag, fin, dt = first_frame(scene, s)
-            variants = {"final": measure(fin, srcs[s], ssrgb[s]), "pre-Poisson": measure(mag, srcs[s], ssrgb[s])}
+            variants = {"final": measure(fin, srcs[s], ssrgb[s]), "pre-Poisson": measure(mag, srcs[s], ssrgb[s]),
+                        "no grain": measure(first_frame(scene, s, ["final.grain=1.0"])[1], srcs[s], ssrgb[s])}
             if not args.no_l2:
                 variants["l2"] = measure(first_frame(scene, s, ["guide.metric=l2"])[1], srcs[s], ssrgb[s])
             report(f"first frame {scene}/{s} ({fin.shape[1]}x{fin.shape[0]}, {dt:.1f} s incl. JIT/USD)", variants)
