@@ -24,6 +24,10 @@ from numba import njit, prange
 from proxyshade.kernels._config import JIT, PJIT
 
 _CHUNK = 64  # columns per task of the summed-area table's column pass
+_NO_GAINS = np.zeros((0, 0, 0), np.float64)  # the arrays a _label_pass does not use
+_NO_ROWS = np.zeros((0, 0, 0), np.float64)
+_NO_COUNTS = np.zeros((0, 0), np.int64)
+_NO_OUT = np.zeros((0, 0, 0), np.float32)
 
 
 @njit(**PJIT)
@@ -79,9 +83,10 @@ def _bands_at(img, sat, i, j, radii, bands):
 
 
 @njit(**PJIT)
-def _energy_rows(img, lab, hbin, k, sat, radii, rows, counts):
-    """Per row: each layer's summed squared value (over channels) by height bin, for the
-    pixels of label ``k`` (``rows`` (H, bins, R)), and their count (``counts`` (H, bins))."""
+def _label_pass(img, lab, hbin, k, sat, radii, gains, rows, counts, out, regrade):
+    """The pixels of label ``k``: with ``regrade``, ``out`` = low + Σ gains[k, bin, i] b_i;
+    else, per row, each layer's summed squared value (over channels) by height bin
+    (``rows`` (H, bins, R)) and the pixel count (``counts`` (H, bins))."""
     H, W, _ = img.shape
     R = radii.shape[0]
     for i in prange(H):
@@ -91,9 +96,16 @@ def _energy_rows(img, lab, hbin, k, sat, radii, rows, counts):
                 continue
             _bands_at(img, sat, i, j, radii, bands)
             t = hbin[i, j]
-            counts[i, t] += 1
-            for b in range(R):
-                rows[i, t, b] += bands[b, 0] ** 2 + bands[b, 1] ** 2 + bands[b, 2] ** 2
+            if regrade:
+                for c in range(3):
+                    v = bands[R, c]
+                    for b in range(R):
+                        v += gains[k, t, b] * bands[b, c]
+                    out[i, j, c] = v
+            else:
+                counts[i, t] += 1
+                for b in range(R):
+                    rows[i, t, b] += bands[b, 0] ** 2 + bands[b, 1] ** 2 + bands[b, 2] ** 2
 
 
 def band_energy(img: np.ndarray, lab: np.ndarray, hbin: np.ndarray, radii: np.ndarray, n: int,
@@ -119,28 +131,10 @@ def band_energy(img: np.ndarray, lab: np.ndarray, hbin: np.ndarray, radii: np.nd
         _sat(img, lab, k, sat)
         rows = np.zeros((H, bins, R), np.float64)
         crow = np.zeros((H, bins), np.int64)
-        _energy_rows(img, lab, hbin, k, sat, radii, rows, crow)
+        _label_pass(img, lab, hbin, k, sat, radii, _NO_GAINS, rows, crow, _NO_OUT, False)
         sums[k] = rows.sum(0)  # numpy's pairwise sum over a fixed layout: thread-independent
         counts[k] = crow.sum(0)
     return sums, counts
-
-
-@njit(**PJIT)
-def _regrade_label(img, lab, hbin, k, sat, radii, gains, out):
-    H, W, _ = img.shape
-    R = radii.shape[0]
-    for i in prange(H):
-        bands = np.empty((R + 1, 3), np.float64)
-        for j in range(W):
-            if lab[i, j] != k:
-                continue
-            _bands_at(img, sat, i, j, radii, bands)
-            t = hbin[i, j]
-            for c in range(3):
-                v = bands[R, c]
-                for b in range(R):
-                    v += gains[k, t, b] * bands[b, c]
-                out[i, j, c] = v
 
 
 def regrade(img: np.ndarray, lab: np.ndarray, hbin: np.ndarray, radii: np.ndarray, gains: np.ndarray) -> np.ndarray:
@@ -159,5 +153,5 @@ def regrade(img: np.ndarray, lab: np.ndarray, hbin: np.ndarray, radii: np.ndarra
         if present[k] == 0:
             continue
         _sat(img, lab, k, sat)
-        _regrade_label(img, lab, hbin, k, sat, radii, gains, out)
+        _label_pass(img, lab, hbin, k, sat, radii, gains, _NO_ROWS, _NO_COUNTS, out, True)
     return out

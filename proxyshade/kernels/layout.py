@@ -35,36 +35,27 @@ def _decode(v):
 
 
 @njit(**PJIT)
-def _encode_image(lin, out):
-    h, w, c = lin.shape
+def _cctf_image(img, out, decode):
+    h, w, c = img.shape
     for i in prange(h):
         for j in range(w):
             for k in range(c):
-                out[i, j, k] = _encode(lin[i, j, k])
+                out[i, j, k] = _decode(img[i, j, k]) if decode else _encode(img[i, j, k])
 
 
 def srgb_encode(lin: np.ndarray) -> np.ndarray:
     """(H, W, 3) linear -> float32 sRGB-encoded (0..1 for 0..1; negative values clamp to 0)."""
     lin = np.ascontiguousarray(lin, np.float32)
     out = np.empty(lin.shape, np.float32)
-    _encode_image(lin, out)
+    _cctf_image(lin, out, False)
     return out
-
-
-@njit(**PJIT)
-def _decode_image(enc, out):
-    h, w, c = enc.shape
-    for i in prange(h):
-        for j in range(w):
-            for k in range(c):
-                out[i, j, k] = _decode(enc[i, j, k])
 
 
 def srgb_decode(enc: np.ndarray) -> np.ndarray:
     """(H, W, 3) sRGB-encoded -> float32 linear (``srgb_encode``'s inverse; negative values clamp to 0)."""
     enc = np.ascontiguousarray(enc, np.float32)
     out = np.empty(enc.shape, np.float32)
-    _decode_image(enc, out)
+    _cctf_image(enc, out, True)
     return out
 
 
