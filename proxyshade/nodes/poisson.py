@@ -10,6 +10,12 @@ condition; it also flattens the texture where patches are small), or, with ``sea
 source`` (the default), the source's own gradient read through the coordinate map on
 both sides of the seam: the colour jump goes, the texture's contrast stays.
 
+With ``grain`` (default 2, 1 = off) the blended frame's detail is then matched to the
+photo's, label by label and scale by scale: the source is graded by the gains
+(``synthesis.grain``), the frame read again through its map and blended again, and the
+gains go into ``meta["grain"]`` so that later frames (Reproject, Resynthesize) and Relight
+read the same graded source.
+
 For a later frame (§6.3) the solve can be restricted to newly synthesized pixels: connect
 ``keep`` (a plate with ``R,G,B`` and a mask channel) and pixels where the mask is 0 keep
 ``keep``'s colours as Dirichlet values.
@@ -80,5 +86,9 @@ class Poisson(PoissonSolve, Node):
                               source=ctx.source if grain else None)
         ctx.note(f"{info['iterations']} iterations, relative residual {info['residual']:.1e}, "
                  f"{info['fixed']} fixed pixels")
-        meta = {"grain": info["grain"]} if "grain" in info else None
+        meta = None
+        if "grain" in info:
+            meta = {"grain": info["grain"]}
+            g = [v for rows in info["grain"]["gains"].values() for row in rows for v in row]
+            ctx.note(f"grain: detail gains {min(g):.2f}-{max(g):.2f}")
         return img.with_channels({"R": u[..., 0].copy(), "G": u[..., 1].copy(), "B": u[..., 2].copy()}, meta=meta)

@@ -107,12 +107,13 @@ def blend_frame(rgb: np.ndarray, patch: np.ndarray, labels: np.ndarray | None, s
 
     With ``source`` (the SourceRead plate ``source_rgb`` and ``source_labels`` come from),
     ``solve.grain`` > 1, ``sx, sy``, no ``fixed`` pixels and ``scale`` 1 (an output pixel
-    is a source pixel, so the two images' layers compare radius for radius), the blended frame's detail is
-    measured against the photo's (``grain.gain_table``), the frame is read again through
-    its map from the graded source (``grain.graded``: ``rgb`` is replaced, it must be
-    Magnify's bilinear lookup of the source) and blended again, the layout and the seams
-    then taken from the graded source too; ``info["grain"]`` is the table, for the plate's
-    ``meta["grain"]`` (later frames and Relight read the same graded source)."""
+    is a source pixel: the two images' layers compare radius for radius), the blended
+    frame's detail is measured against the photo's (``grain.gain_table``), the frame is
+    read again through its map from the graded source (``grain.graded``: ``rgb`` is
+    replaced, it must be Magnify's bilinear lookup of the source) and blended again, the
+    layout and the seams then taken from the graded source too; ``info["grain"]`` is the
+    table, for the plate's ``meta["grain"]`` (later frames and Relight read the same
+    graded source)."""
     def solved(colours, src, tol=solve.tol):
         if solve.layout:
             colours = layout_move(colours, labels, src, source_labels, keep=solve.layout_keep)

@@ -41,8 +41,9 @@ def _dense(*labs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return (np.cumsum(present) - 1).astype(np.int32), np.nonzero(present)[0]
 
 
-def _bins(dense: np.ndarray) -> np.ndarray:
-    return np.minimum((label_heights(dense) * BINS).astype(np.int32), BINS - 1)
+def _bins(dense: np.ndarray, bins: int = BINS) -> np.ndarray:
+    """Each pixel's height bin in its label's vertical run."""
+    return np.minimum((label_heights(dense) * bins).astype(np.int32), bins - 1)
 
 
 def _energy(rgb: np.ndarray, dense: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
@@ -77,9 +78,8 @@ def gain_table(rgb: np.ndarray, labels: np.ndarray, source_rgb: np.ndarray, sour
 
 def graded(source, table: dict) -> np.ndarray:
     """The colours of ``source`` (a Plate with ``R,G,B``, ``label.id``), linear (H, W, 3)
-    float32, with each layer of each label scaled by
-    ``table`` (``gain_table``), by the source pixel's height bin; labels the table does
-    not name are unchanged. Kept for the newest sources and tables (``memo.ArrayMemo``:
+    float32, with each layer of each label scaled by ``table`` (``gain_table``), by the
+    source pixel's height bin; labels the table does not name are unchanged. Kept for the newest sources and tables (``memo.ArrayMemo``:
     shared, not to be written to)."""
     source_labels = source["label.id"]
 
@@ -92,8 +92,8 @@ def graded(source, table: dict) -> np.ndarray:
         for lid, g in table["gains"].items():
             if int(lid) in ids:
                 gains[lut[int(lid)]] = np.asarray(g, np.float64)
-        hbin = np.minimum((label_heights(dense) * bins).astype(np.int32), bins - 1)
-        return klayout.srgb_decode(kgrain.regrade(klayout.srgb_encode(source.rgb()), dense, hbin, radii, gains))
+        return klayout.srgb_decode(kgrain.regrade(klayout.srgb_encode(source.rgb()), dense, _bins(dense, bins),
+                                                  radii, gains))
 
     arrays = (source["R"], source["G"], source["B"], source_labels)  # a plate's channels: the same arrays each frame
     return _GRADED.get(arrays, json.dumps(table, sort_keys=True), compute)
