@@ -10,8 +10,9 @@ from typing import Callable
 import numpy as np
 
 from proxyshade.graph.plate import Plate
-from proxyshade.synthesis.exemplar import levels_for, provenance
-from proxyshade.synthesis.resynthesis import SYNTHESIZED, resynthesize, resynthesize_window, synthesis_window
+from proxyshade.synthesis.exemplar import provenance
+from proxyshade.synthesis.resynthesis import (SYNTHESIZED, frame_levels, paste_window, resynthesize,
+                                              resynthesize_window, synthesis_window)
 from proxyshade.synthesis.temporal import CORRECTION, FLAG
 
 WINDOW = 64  # output pixels of context around the region of an update (resynthesis.synthesis_window)
@@ -67,11 +68,9 @@ def _update(guide: Plate, source: Plate, p, previous: Plate, region: np.ndarray,
     but the synthesized channels' new arrays). None where that path is not taken (nothing
     in the region, or a window of most of the frame: the whole-frame path then)."""
     H, W = guide.shape
-    syn = previous.meta.get("synthesis", {}) if isinstance(previous.meta.get("synthesis"), dict) else {}
-    f = p.factor if p.factor is not None else int(syn.get("factor", 4))
     if not region.any():
         return None
-    nlev = levels_for(max(-(-H // f), -(-W // f)), p.coarse_size)
+    f, nlev = frame_levels(previous.meta, p, (H, W))
     box = synthesis_window(region, f, nlev, WINDOW)
     if box is None:
         return None
@@ -88,15 +87,7 @@ def _update(guide: Plate, source: Plate, p, previous: Plate, region: np.ndarray,
     ch.update(geometry)
     label = guide["label.id"]
     ch["label.id"] = label if label.dtype == np.uint32 else label.astype(np.uint32)
-    for c in sub.names():
-        if c in ("label.id", "flag"):
-            continue
-        if c in previous and previous[c].dtype == sub[c].dtype:
-            a = previous[c].copy()
-        else:  # a channel the window's run added (the Poisson correction): zero outside the window
-            a = np.zeros((H, W), sub[c].dtype)
-        a[win] = sub[c]
-        ch[c] = a
+    ch.update(paste_window(previous, sub, win, skip=("label.id", "flag")))
     for c in CORRECTION:  # read but not written (no solve's correction without the last one's)
         if c in crop and c not in sub.names():
             ch.pop(c, None)

@@ -121,17 +121,39 @@ def resynthesize(img: Plate, source: Plate, p, frame: int, *, note: Callable[[st
     return _resynthesize(img, source, p, frame, note=note, timings=timings)
 
 
+def paste_window(frame: Plate, sub: Plate, win: tuple[slice, slice], *, skip=()) -> dict:
+    """The channels of ``sub`` (a window ``win`` of ``frame``'s run) pasted into copies of
+    ``frame``'s, except ``skip``; a channel ``frame`` lacks (or has in another type), such
+    as the Poisson correction, is zero outside the window."""
+    out = {}
+    for c in sub.names():
+        if c in skip:
+            continue
+        if c in frame and frame[c].dtype == sub[c].dtype:
+            a = frame[c].copy()
+        else:
+            a = np.zeros(frame.shape, sub[c].dtype)
+        a[win] = sub[c]
+        out[c] = a
+    return out
+
+
+def frame_levels(meta: dict, p, shape: tuple[int, int]) -> tuple[int, int]:
+    """(factor, synthesis levels) of a frame of ``shape``: ``p.factor`` or the synthesis'."""
+    syn = meta.get("synthesis", {}) if isinstance(meta.get("synthesis"), dict) else {}
+    f = p.factor if p.factor is not None else int(syn.get("factor", 4))
+    H, W = shape
+    return f, levels_for(max(-(-H // f), -(-W // f)), p.coarse_size)
+
+
 def _windowed(img: Plate, source: Plate, p, frame: int, note, timings, margin: int) -> Plate | None:
     """``resynthesize`` on ``synthesis_window``'s window, pasted into the frame; None when
     there is no gain (nothing flagged or a window of most of the frame)."""
     flagged = img["flag"] != 0
     if not flagged.any():
         return None
-    syn = img.meta.get("synthesis", {}) if isinstance(img.meta.get("synthesis"), dict) else {}
-    f = p.factor if p.factor is not None else int(syn.get("factor", 4))
     H, W = img.shape
-    long_syn = max(-(-H // f), -(-W // f))
-    nlev = levels_for(long_syn, p.coarse_size)
+    f, nlev = frame_levels(img.meta, p, (H, W))
     box = synthesis_window(flagged, f, nlev, margin)
     if box is None:
         return None
@@ -139,22 +161,11 @@ def _windowed(img: Plate, source: Plate, p, frame: int, note, timings, margin: i
     win = (slice(r0, r1), slice(c0, c1))
     read = SYNTHESIZED + CORRECTION + ("flag", "label.id")  # what _resynthesize reads; the rest passes through
     crop = Plate({c: np.ascontiguousarray(img[c][win]) for c in read if c in img}, dict(img.meta))
-    # the window's levels are the frame's: its coarsest level as many halvings below its long side
-    long_win = max(-(-(r1 - r0) // f), -(-(c1 - c0) // f))
-    coarse = long_win / 2 ** (nlev - 1) if nlev > 1 else max(long_win, p.coarse_size)
-    q = SimpleNamespace(**dict(vars(p), coarse_size=coarse))
-    sub = _resynthesize(crop, source, q, frame, note=note, timings=timings,
-                        patch_base=int(img["patch.id"].max()) + 1)
-    out = {}
-    for c in sub.names():
-        if c in img and img[c].dtype == sub[c].dtype and np.array_equal(img[c][win], sub[c]):
-            continue  # unchanged (flag, label.id): img's array
-        if c in img and img[c].dtype == sub[c].dtype:
-            a = img[c].copy()
-        else:  # a channel the window's run added (the Poisson correction): zero outside the flagged pixels
-            a = np.zeros((H, W), sub[c].dtype)
-        a[win] = sub[c]
-        out[c] = a
+    sub = resynthesize_window(crop, source, p, frame, frame_shape=(H, W), patch_base=int(img["patch.id"].max()) + 1,
+                              note=note, timings=timings)
+    unchanged = [c for c in sub.names() if c in img and img[c].dtype == sub[c].dtype
+                 and np.array_equal(img[c][win], sub[c])]  # flag, label.id: img's arrays
+    out = paste_window(img, sub, win, skip=unchanged)
     meta = dict(sub.meta)
     info = dict(meta.get("resynthesis", {}))
     info.update(share=info.get("pixels", 0) / (H * W), window=[c1 - c0, r1 - r0])
@@ -170,10 +181,7 @@ def resynthesize_window(crop: Plate, source: Plate, p, frame: int, *, frame_shap
     grid): the same levels as the frame of ``frame_shape`` (its coarsest level as many
     halvings below the window's long side), new patch ids from ``patch_base``. For a caller
     that has the region's box without a whole-frame flag plane (``edit_colour``)."""
-    syn = crop.meta.get("synthesis", {}) if isinstance(crop.meta.get("synthesis"), dict) else {}
-    f = p.factor if p.factor is not None else int(syn.get("factor", 4))
-    H, W = frame_shape
-    nlev = levels_for(max(-(-H // f), -(-W // f)), p.coarse_size)
+    f, nlev = frame_levels(crop.meta, p, frame_shape)
     long_win = max(-(-crop.shape[0] // f), -(-crop.shape[1] // f))
     coarse = long_win / 2 ** (nlev - 1) if nlev > 1 else max(long_win, p.coarse_size)
     q = SimpleNamespace(**dict(vars(p), coarse_size=coarse))
