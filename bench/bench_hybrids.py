@@ -21,8 +21,9 @@ A baseline point is matched to a structure-preserving one by D: the (jittered le
 radius r) of a grid whose D is nearest.
 
 Run: .venv/bin/python bench/run.py hybrids, or .venv/bin/python bench/bench_hybrids.py [--quick | --sheet |
---before-after] [--brick] (``--quick``: seeds 1-4; ``--brick``: the brick comparisons only; ``--sheet`` writes docs/img/hybrids_sheet.jpg instead,
-``--before-after`` docs/img/hybrids_before_after.jpg)
+--before-after | --align] [--brick] (``--quick``: seeds 1-4; ``--brick``: the brick comparisons only; ``--sheet`` writes docs/img/hybrids_sheet.jpg instead,
+``--before-after`` docs/img/hybrids_before_after.jpg; ``--align`` prints how brick's two crops, ``BRICK_CROPS``,
+were chosen)
 """
 from __future__ import annotations
 
