@@ -10,20 +10,9 @@ from proxyshade.graph.plate import Plate
 from proxyshade.io.usd import CameraInfo
 from proxyshade.kernels import edit as kedit
 from proxyshade.kernels.jfa import jump_flood
-from proxyshade.kernels.reproject import intrinsics, unproject
+from proxyshade.kernels.reproject import intrinsics
 
 FOLLOW = ("N.X", "N.Y", "N.Z", "object.id")  # proxy channels taken from the pixel the depth came from
-
-
-def extend_depth(proxy_labels: np.ndarray, guide_labels: np.ndarray, z: np.ndarray, *, penalty: float = 1024.0
-                 ) -> tuple[np.ndarray, np.ndarray]:
-    """Extended depth (H, W) float32 and the flat index of the pixel each depth came from."""
-    keep = proxy_labels == guide_labels
-    src = jump_flood(keep, guide_labels, proxy_labels, penalty=penalty)
-    flat = z.reshape(-1)
-    out = np.where(src >= 0, flat[np.maximum(src, 0)], np.inf).astype(np.float32)
-    out[keep] = z[keep]
-    return out, src
 
 
 def box(region: np.ndarray, margin: int) -> tuple[int, int, int, int]:
@@ -61,62 +50,48 @@ def depth_plate(proxy: Plate, guide: Plate, *, penalty: float, region: np.ndarra
     # an update reads Z on its window only (outside it Z is the last run's, checked then)
     if np.isnan(z if region is None else z[win]).any():
         raise NodeInputError("proxy Z has NaN values; re-render the proxy")
-    if region is not None:  # the seeds on the window; the depth of the region's pixels only
-        pl, gl = proxy["label.id"][win], guide["label.id"][win]
-        src = jump_flood(pl == gl, gl, pl, penalty=penalty)
-        return guide.with_channels(_region_channels(proxy, previous, region, (r0, c0), np.ascontiguousarray(z[win]),
-                                                    src, cam), meta=meta)
-    ext, src = extend_depth(proxy["label.id"], guide["label.id"], np.ascontiguousarray(z), penalty=penalty)
-    ch = {"Z": ext, "depth.src": (src + 1).astype(np.uint32)}
-    flat = np.maximum(src, 0)
-    if cam:
-        c = CameraInfo.from_meta(cam)
-        # one parallel pass (numpy's took 1.5 s at 4K)
-        P = unproject(np.ascontiguousarray(ext, np.float32), np.ascontiguousarray(c.camera_to_world, np.float64),
-                      intrinsics(c))
-        for k, a in enumerate("XYZ"):
-            ch[f"P.{a}"] = np.ascontiguousarray(P[..., k])
-    elif all(f"P.{a}" in proxy for a in "XYZ"):
-        # no camera to unproject with: P of the pixel the depth came from
-        for a in "XYZ":
-            pa = proxy[f"P.{a}"].astype(np.float32)
-            ch[f"P.{a}"] = np.where(src >= 0, pa.reshape(-1)[flat], pa).astype(np.float32)
-    # normals and object ids follow the depth: those of the pixel it came from
-    for name in FOLLOW:
-        if name in proxy:
-            a = proxy[name]
-            ch[name] = np.where(src >= 0, a.reshape(-1)[flat], a).astype(a.dtype, copy=False)
-    return guide.with_channels(ch, meta=meta)
+    # jump flooding seeded by the pixels whose label the guide kept, on the window (the whole frame without region)
+    pl, gl = proxy["label.id"][win], guide["label.id"][win]
+    src = jump_flood(pl == gl, gl, pl, penalty=penalty)
+    sel = np.ones(pl.shape, np.bool_) if region is None else region[win]
+    return guide.with_channels(_channels(proxy, previous if region is not None else None, sel, (r0, c0),
+                                         np.ascontiguousarray(z[win]), src, cam), meta=meta)
 
 
-def _region_channels(proxy: Plate, previous: Plate, region: np.ndarray, origin: tuple[int, int], z: np.ndarray,
-                     src: np.ndarray, cam) -> dict:
-    """An update's channels: ``previous``'s with the ``region``'s pixels replaced by the
-    jump flooding's result on the window at ``origin`` (``z``: the window's proxy depth,
-    ``src``: its window-flat seed indices), the same numbers as the whole frame's path
-    (``extend_depth``, ``unproject``); one parallel pass per channel over the window
-    (``kernels.edit``), no window-sized temporaries."""
+def _channels(proxy: Plate, previous: Plate | None, sel: np.ndarray, origin: tuple[int, int], z: np.ndarray,
+              src: np.ndarray, cam) -> dict:
+    """The depth channels with the ``sel`` pixels of the window at ``origin`` taken from
+    the jump flooding's result there (``z``: the window's proxy depth, ``src``: its
+    window-flat seed indices, −1 for none): the extended depth (a pixel whose label the
+    guide kept is its own seed; inf without a seed), 1 + the frame-flat index of its seed,
+    ``P`` unprojected at that depth through the camera (``reproject.unproject``'s numbers;
+    without a camera the proxy's ``P`` of the seed) and the ``FOLLOW`` channels of the
+    seed. Every other pixel keeps ``previous``'s; without ``previous`` ``sel`` is the whole
+    frame. One parallel pass per channel over the window (``kernels.edit``)."""
     H, W = proxy.shape
     r0, c0 = origin
-    h, w = z.shape
-    sel = np.ascontiguousarray(region[r0:r0 + h, c0:c0 + w])
+    sel = np.ascontiguousarray(sel, np.bool_)
     z = np.ascontiguousarray(z, np.float32)
     src = np.ascontiguousarray(src, np.int64)
-    out = {"Z": previous["Z"].astype(np.float32), "depth.src": previous["depth.src"].astype(np.uint32)}
+
+    def base(name, dtype):  # the array the window is pasted into
+        return previous[name].astype(dtype) if previous is not None else np.empty((H, W), dtype)
+
+    out = {"Z": base("Z", np.float32), "depth.src": base("depth.src", np.uint32)}
     kedit.paste_depth(sel, z, src, r0, c0, W, out["Z"], out["depth.src"])
     if cam:
         c = CameraInfo.from_meta(cam)
-        P = [previous[f"P.{a}"].astype(np.float32) for a in "XYZ"]
+        P = [base(f"P.{a}", np.float32) for a in "XYZ"]
         kedit.paste_unproject(sel, z, src, r0, c0, np.ascontiguousarray(c.camera_to_world, np.float64), intrinsics(c),
                               *P)
         out.update({f"P.{a}": v for a, v in zip("XYZ", P)})
     elif all(f"P.{a}" in proxy for a in "XYZ"):  # no camera: P of the pixel the depth came from
         for a in "XYZ":
-            out[f"P.{a}"] = previous[f"P.{a}"].astype(np.float32)
+            out[f"P.{a}"] = base(f"P.{a}", np.float32)
             kedit.paste_follow(sel, src, r0, c0, np.ascontiguousarray(proxy[f"P.{a}"], np.float32), out[f"P.{a}"])
     for name in FOLLOW:  # normals and object ids: those of the pixel the depth came from
         if name in proxy:
             a = np.ascontiguousarray(proxy[name])
-            out[name] = previous[name].astype(a.dtype)
+            out[name] = base(name, a.dtype)
             kedit.paste_follow(sel, src, r0, c0, a, out[name])
     return out

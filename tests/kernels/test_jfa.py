@@ -3,7 +3,17 @@ import numpy as np
 import pytest
 
 from proxyshade.kernels.jfa import jump_flood
-from proxyshade.synthesis.depth import extend_depth
+
+
+def extend_depth(proxy_labels, guide_labels, z, *, penalty=1024.0):
+    """The depth extension written out in numpy (``synthesis.depth`` pastes it with
+    ``kernels.edit``): the proxy depth at each pixel's jump-flooding seed, inf without one,
+    the proxy's own where the guide kept its label; and the seeds (flat, −1 for none)."""
+    keep = proxy_labels == guide_labels
+    src = jump_flood(keep, guide_labels, proxy_labels, penalty=penalty)
+    out = np.where(src >= 0, z.reshape(-1)[np.maximum(src, 0)], np.inf).astype(np.float32)
+    out[keep] = z[keep]
+    return out, src
 
 
 def brute(is_seed, labels, seed_labels, penalty):

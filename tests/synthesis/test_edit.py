@@ -182,7 +182,8 @@ def test_a_depth_update_gives_the_numbers_of_the_frames_unprojection():
     from proxyshade.graph.testing import run_node
     from proxyshade.io.usd import CameraInfo
     from proxyshade.kernels.reproject import intrinsics, unproject
-    from proxyshade.synthesis.depth import FOLLOW, box, depth_plate, extend_depth
+    from proxyshade.synthesis.depth import FOLLOW, box, depth_plate
+    from tests.kernels.test_jfa import extend_depth
 
     root = Path(__file__).resolve().parents[2]
     src = run_node("SourceRead", {"table": "samples/renoir/source.yaml"}, graph_dir=root)
@@ -220,6 +221,16 @@ def test_a_depth_update_gives_the_numbers_of_the_frames_unprojection():
         assert out[c].dtype == prev[c].dtype, c
         assert np.array_equal(out[c][~region].view(np.uint32), prev[c][~region].view(np.uint32)), c
         assert np.array_equal(out[c][region].view(np.uint32), v[region].astype(prev[c].dtype).view(np.uint32)), c
+    # the whole frame (no region): the same written-out reference over the frame
+    whole = depth_plate(proxy, guide, penalty=1024.0)
+    ext, s = extend_depth(proxy["label.id"], lab2, np.ascontiguousarray(proxy["Z"]), penalty=1024.0)
+    P = unproject(ext, np.ascontiguousarray(cam.camera_to_world, np.float64), intrinsics(cam))
+    want = {"Z": ext, "depth.src": (s + 1).astype(np.uint32), **{f"P.{a}": P[..., k] for k, a in enumerate("XYZ")}}
+    for name in FOLLOW:
+        if name in proxy:
+            want[name] = np.where(s >= 0, proxy[name].reshape(-1)[np.maximum(s, 0)], proxy[name])
+    for c, v in want.items():
+        assert np.array_equal(whole[c].view(np.uint32), v.astype(prev[c].dtype).view(np.uint32)), c
 
 
 def test_a_source_read_back_is_the_last_runs_and_its_results_are_found_again(monkeypatch):
