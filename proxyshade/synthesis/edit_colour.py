@@ -11,8 +11,8 @@ import numpy as np
 
 from proxyshade.graph.plate import Plate
 from proxyshade.synthesis.exemplar import provenance
-from proxyshade.synthesis.resynthesis import (SYNTHESIZED, frame_levels, paste_window, resynthesize,
-                                              resynthesize_window, synthesis_window)
+from proxyshade.synthesis.resynthesis import (SYNTHESIZED, frame_window, paste_window, resynthesize,
+                                              resynthesize_window)
 from proxyshade.synthesis.temporal import CORRECTION, FLAG
 
 WINDOW = 64  # output pixels of context around the region of an update (resynthesis.synthesis_window)
@@ -70,12 +70,9 @@ def _update(guide: Plate, source: Plate, p, previous: Plate, region: np.ndarray,
     H, W = guide.shape
     if not region.any():
         return None
-    f, nlev = frame_levels(previous.meta, p, (H, W))
-    box = synthesis_window(region, f, nlev, WINDOW)
-    if box is None:
+    win = frame_window(previous.meta, p, region, WINDOW)
+    if win is None:
         return None
-    r0, r1, c0, c1 = box
-    win = (slice(r0, r1), slice(c0, c1))
     sel = region[win]
     crop = {c: np.ascontiguousarray(previous[c][win]) for c in SYNTHESIZED + CORRECTION if c in previous}
     crop["label.id"] = np.ascontiguousarray(guide["label.id"][win], np.uint32)

@@ -146,6 +146,17 @@ def frame_levels(meta: dict, p, shape: tuple[int, int]) -> tuple[int, int]:
     return f, levels_for(max(-(-H // f), -(-W // f)), p.coarse_size)
 
 
+def frame_window(meta: dict, p, region: np.ndarray, margin: int) -> tuple[slice, slice] | None:
+    """``synthesis_window`` of ``region`` on the frame's levels (``frame_levels``), as
+    slices; None for a window of most of the frame."""
+    f, nlev = frame_levels(meta, p, region.shape)
+    box = synthesis_window(region, f, nlev, margin)
+    if box is None:
+        return None
+    r0, r1, c0, c1 = box
+    return slice(r0, r1), slice(c0, c1)
+
+
 def _windowed(img: Plate, source: Plate, p, frame: int, note, timings, margin: int) -> Plate | None:
     """``resynthesize`` on ``synthesis_window``'s window, pasted into the frame; None when
     there is no gain (nothing flagged or a window of most of the frame)."""
@@ -153,12 +164,9 @@ def _windowed(img: Plate, source: Plate, p, frame: int, note, timings, margin: i
     if not flagged.any():
         return None
     H, W = img.shape
-    f, nlev = frame_levels(img.meta, p, (H, W))
-    box = synthesis_window(flagged, f, nlev, margin)
-    if box is None:
+    win = frame_window(img.meta, p, flagged, margin)
+    if win is None:
         return None
-    r0, r1, c0, c1 = box
-    win = (slice(r0, r1), slice(c0, c1))
     read = SYNTHESIZED + CORRECTION + ("flag", "label.id")  # what _resynthesize reads; the rest passes through
     crop = Plate({c: np.ascontiguousarray(img[c][win]) for c in read if c in img}, dict(img.meta))
     sub = resynthesize_window(crop, source, p, frame, frame_shape=(H, W), patch_base=int(img["patch.id"].max()) + 1,
@@ -168,7 +176,7 @@ def _windowed(img: Plate, source: Plate, p, frame: int, note, timings, margin: i
     out = paste_window(img, sub, win, skip=unchanged)
     meta = dict(sub.meta)
     info = dict(meta.get("resynthesis", {}))
-    info.update(share=info.get("pixels", 0) / (H * W), window=[c1 - c0, r1 - r0])
+    info.update(share=info.get("pixels", 0) / (H * W), window=[win[1].stop - win[1].start, win[0].stop - win[0].start])
     meta["resynthesis"] = info
     dropped = [c for c in img.names() if c not in sub.names() and c in read]  # CORRECTION without the solve
     return img.with_channels(out, meta=meta, drop=dropped)
