@@ -59,31 +59,25 @@ class Poisson(PoissonSolve, Node):
                                 "they must be the same size")
             fixed = keep[p.mask_channel] == 0
             values = keep.rgb()
-        source_rgb = None
-        if p.layout:
-            if ctx.source is None or "label.id" not in ctx.source or labels is None:
-                raise ctx.error("layout: true needs the 'source' input (SourceRead: R,G,B, label.id) and the image's "
-                                "label.id; connect SourceRead and Magnify's output or set layout: false")
-            source_rgb = ctx.source.rgb()
+        src = ctx.source
+        if p.layout and (src is None or "label.id" not in src or labels is None):
+            raise ctx.error("layout: true needs the 'source' input (SourceRead: R,G,B, label.id) and the image's "
+                            "label.id; connect SourceRead and Magnify's output or set layout: false")
         if p.seams == "source":
-            if ctx.source is None:
+            if src is None:
                 raise ctx.error("seams: source needs the 'source' input; connect SourceRead or set seams: zero")
             for c in ("source.x", "source.y"):
                 if c not in img:
                     raise ctx.error(f"image has no {c} for seams: source; connect Magnify's output or set seams: zero")
-            source_rgb = ctx.source.rgb()
-        # grain: with the source's labels and the map at hand, on a whole frame (not with keep)
-        grain = (p.grain > 1 and ctx.source is not None and "label.id" in ctx.source and labels is not None
-                 and fixed is None and all(c in img for c in ("source.x", "source.y")))
-        if grain:
-            source_rgb = ctx.source.rgb()
-        mapped = p.seams == "source" or grain
-        scale = float(img.meta.get("synthesis", {}).get("scale", 1.0))
-        u, info = blend_frame(img.rgb(), img["patch.id"], labels, PoissonSolve.of(p), source_rgb=source_rgb,
-                              sx=img["source.x"] if mapped else None, sy=img["source.y"] if mapped else None,
-                              scale=scale, fixed=fixed, values=values,
-                              source_labels=ctx.source["label.id"] if p.layout or grain else None,
-                              source=ctx.source if grain else None)
+        # everything at hand is passed; blend_frame takes what layout, seams and grain need (grain:
+        # the source's labels and the map on a whole frame, quietly off without them or with keep)
+        u, info = blend_frame(img.rgb(), img["patch.id"], labels, PoissonSolve.of(p),
+                              source_rgb=src.rgb() if src is not None else None,
+                              sx=img["source.x"] if "source.x" in img else None,
+                              sy=img["source.y"] if "source.y" in img else None,
+                              scale=float(img.meta.get("synthesis", {}).get("scale", 1.0)), fixed=fixed, values=values,
+                              source_labels=src["label.id"] if src is not None and "label.id" in src else None,
+                              source=src)
         ctx.note(f"{info['iterations']} iterations, relative residual {info['residual']:.1e}, "
                  f"{info['fixed']} fixed pixels")
         meta = None

@@ -25,6 +25,7 @@ from proxyshade.kernels import poisson as kpoisson
 from proxyshade.kernels import temporal as kt
 from proxyshade.kernels.features import label_heights
 from proxyshade.synthesis import grain
+from proxyshade.synthesis.labels import joint_dense
 
 LAYOUT_BINS = 8          # height bins of a label's colour profile
 LAYOUT_MIN_PIXELS = 64   # a bin with fewer pixels (either side) takes its neighbours' value
@@ -66,12 +67,8 @@ def layout_move(colors: np.ndarray, labels: np.ndarray, source_rgb: np.ndarray,
     photo's to it (a pond's dark band under its bank stays while the pond's mean moves
     onto the photo's water; a synthesis that already follows the photo's profile gets
     it twice)."""
-    top = int(max(labels.max(), source_labels.max()))
-    present = np.zeros(top + 1, bool)
-    present[source_labels.ravel()] = True  # dense indices of the ids present anywhere
-    present[labels.ravel()] = True
-    lut = (np.cumsum(present) - 1).astype(np.int32)
-    n = int(present.sum())
+    lut, ids = joint_dense(labels, source_labels)
+    n = len(ids)
     out_lab, src_lab = lut[labels], lut[source_labels]
     ts = label_heights(src_lab)
     t, runs = label_heights(out_lab, lengths=True)

@@ -23,6 +23,7 @@ import numpy as np
 from proxyshade.kernels import grain as kgrain
 from proxyshade.kernels import layout as klayout
 from proxyshade.kernels.features import label_heights
+from proxyshade.synthesis.labels import joint_dense
 from proxyshade.synthesis.memo import ArrayMemo
 
 RADII = (1, 2, 4, 8, 16, 32)  # box radii (px) between the layers: 3, 5, 9, 17, 33, 65 px windows
@@ -30,15 +31,6 @@ BINS = 4                      # height bins of a label
 MIN_PIXELS = 64               # a (label, bin) with fewer pixels (either side) takes the label's gain
 
 _GRADED = ArrayMemo(4)  # graded sources, for the newest sources and tables
-
-
-def _dense(*labs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """A lookup table from label id to a dense index over the ids of ``labs``, and those ids."""
-    top = int(max(int(l.max()) for l in labs))
-    present = np.zeros(top + 1, bool)
-    for l in labs:
-        present[l.ravel()] = True
-    return (np.cumsum(present) - 1).astype(np.int32), np.nonzero(present)[0]
 
 
 def _bins(dense: np.ndarray, bins: int = BINS) -> np.ndarray:
@@ -57,7 +49,7 @@ def gain_table(rgb: np.ndarray, labels: np.ndarray, source_rgb: np.ndarray, sour
     bin and layer: {"radii", "bins", "gains": {id: [[gain per layer] per bin]}} (JSON).
     A (label, bin) with fewer than ``MIN_PIXELS`` pixels on either side takes the label's
     overall gain; a label the frame does not show keeps gain 1."""
-    lut, ids = _dense(labels, source_labels)
+    lut, ids = joint_dense(labels, source_labels)
     n = len(ids)
     out_lab, src_lab = lut[labels], lut[source_labels]
     eo, co = _energy(rgb, out_lab, n)
@@ -84,7 +76,7 @@ def graded(source, table: dict) -> np.ndarray:
     source_labels = source["label.id"]
 
     def compute():
-        lut, ids = _dense(source_labels)
+        lut, ids = joint_dense(source_labels)
         n = len(ids)
         dense = lut[source_labels]
         bins, radii = int(table["bins"]), np.array(table["radii"], np.int64)

@@ -14,6 +14,16 @@ from proxyshade.synthesis.memo import ArrayMemo
 _WORKING = ArrayMemo(2)  # the source labels on the output grid, for the newest sources
 
 
+def joint_dense(*labs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A lookup table from label id to a dense index (0..n-1) over the ids present in any
+    of ``labs`` (an output's and a photo's label maps), and those ids in order."""
+    top = int(max(int(l.max()) for l in labs))
+    present = np.zeros(top + 1, bool)
+    for l in labs:
+        present[l.ravel()] = True
+    return (np.cumsum(present) - 1).astype(np.int32), np.nonzero(present)[0]
+
+
 def source_table(source: Plate) -> np.ndarray:
     """The source's label ids (dense index -> id) from ``meta['labels']``."""
     labels = source.meta.get("labels")
