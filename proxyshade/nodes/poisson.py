@@ -31,7 +31,7 @@ class Poisson(PoissonSolve, Node):
     """Blend patch seams: ``R,G,B`` replaced by the Poisson solution; every other
     channel and the metadata pass through."""
 
-    version = 2
+    version = 3
     image = Input("magnified synthesis (Magnify): R,G,B, patch.id, label.id", channels=("R", "G", "B", "patch.id"),
                   finite=("R", "G", "B"), fix="connect Magnify's output")
     source = Input("annotated source (SourceRead), for seams: source", optional=True, channels=("R", "G", "B"),

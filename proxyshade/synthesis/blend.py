@@ -53,7 +53,7 @@ def _tables(d: np.ndarray, ok: np.ndarray) -> np.ndarray:
 
 
 def layout_move(colors: np.ndarray, labels: np.ndarray, source_rgb: np.ndarray,
-                source_labels: np.ndarray, *, keep: float) -> np.ndarray:
+                source_labels: np.ndarray, *, keep: float, spread: float = 1.0, scale: float = 1.0) -> np.ndarray:
     """The linear ``colors`` (H, W, 3) with each label's mean colour moved, by relative
     height in its vertical runs (``features.label_heights``, ``LAYOUT_BINS`` bins), onto
     the source photo's, as a smooth field within each label
@@ -66,7 +66,9 @@ def layout_move(colors: np.ndarray, labels: np.ndarray, source_rgb: np.ndarray,
     profile (about its mean) that stays: 0 gives the photo's profile exactly, 1 adds the
     photo's to it (a pond's dark band under its bank stays while the pond's mean moves
     onto the photo's water; a synthesis that already follows the photo's profile gets
-    it twice)."""
+    it twice). ``spread`` > 1: then each label's large-scale variation is raised to the
+    photo's (``grain.spread``, gains up to ``spread``; ``scale`` source pixels per output
+    pixel)."""
     lut, ids = joint_dense(labels, source_labels)
     n = len(ids)
     out_lab, src_lab = lut[labels], lut[source_labels]
@@ -89,7 +91,10 @@ def layout_move(colors: np.ndarray, labels: np.ndarray, source_rgb: np.ndarray,
     short = runs < LAYOUT_MIN_RUN
     if short.any():  # the label's mean (over its output pixels)
         off[short] = _bin_mean(d, np.where(finite, co, 0.0))[out_lab[short]]
-    return klayout.move_luma_chroma(colors, klayout.smooth_offset(off, out_lab, n))
+    moved = klayout.move_luma_chroma(colors, klayout.smooth_offset(off, out_lab, n))
+    if spread <= 1.0:
+        return moved
+    return grain.spread(moved, labels, source_rgb, source_labels, max_gain=spread, scale=scale)
 
 
 def blend_frame(rgb: np.ndarray, patch: np.ndarray, labels: np.ndarray | None, solve: SimpleNamespace, *,
@@ -111,9 +116,10 @@ def blend_frame(rgb: np.ndarray, patch: np.ndarray, labels: np.ndarray | None, s
     layout and the seams then taken from the graded source too; ``info["grain"]`` is the
     table, for the plate's ``meta["grain"]`` (later frames and Relight read the same
     graded source)."""
-    def solved(colours, src, tol=solve.tol):
+    def solved(colours, src, tol=solve.tol, spread=getattr(solve, "layout_spread", 1.0)):
         if solve.layout:
-            colours = layout_move(colours, labels, src, source_labels, keep=solve.layout_keep)
+            colours = layout_move(colours, labels, src, source_labels, keep=solve.layout_keep, spread=spread,
+                                  scale=scale)
         gx = gy = None
         if solve.seams == "source":  # only the edges across a seam: the only ones the solve reads
             gx, gy = kpoisson.seam_gradients_at(src, sx, sy, patch, np.ones(patch.shape, np.bool_), scale)
@@ -126,8 +132,9 @@ def blend_frame(rgb: np.ndarray, patch: np.ndarray, labels: np.ndarray | None, s
     if not graded:
         return solved(rgb, source_rgb)
     # the gains need the blended frame's detail to a few per mille, not the final solve's
-    # precision: GRAIN_TOL takes 3 iterations where the default tolerance takes 8
-    u, _ = solved(rgb, source_rgb, tol=max(solve.tol, GRAIN_TOL))
+    # precision: GRAIN_TOL takes 3 iterations where the default tolerance takes 8; nor the
+    # layout's spread, which moves only what lies under the grain's largest layer
+    u, _ = solved(rgb, source_rgb, tol=max(solve.tol, GRAIN_TOL), spread=1.0)
     table = grain.gain_table(u, labels, source_rgb, source_labels, max_gain=solve.grain)
     src = grain.graded(source, table)
     u, info = solved(lookup(src, sx, sy), src)

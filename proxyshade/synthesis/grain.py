@@ -27,6 +27,7 @@ from proxyshade.synthesis.labels import joint_dense
 from proxyshade.synthesis.memo import ArrayMemo
 
 RADII = (1, 2, 4, 8, 16, 32)  # box radii (px) between the layers: 3, 5, 9, 17, 33, 65 px windows
+SPREAD_RADII = (32, 64, 128, 256)  # the large-scale layers ``spread`` matches (what lies under RADII's last)
 BINS = 4                      # height bins of a label
 MIN_PIXELS = 64               # a (label, bin) with fewer pixels (either side) takes the label's gain
 
@@ -42,6 +43,24 @@ def _energy(rgb: np.ndarray, dense: np.ndarray, n: int) -> tuple[np.ndarray, np.
     return kgrain.band_energy(klayout.srgb_encode(rgb), dense, _bins(dense), np.array(RADII), n, BINS)
 
 
+def _gains(eo: np.ndarray, co: np.ndarray, es: np.ndarray, cs: np.ndarray, lo: float, hi: float) -> np.ndarray:
+    """(n, bins, R) gains √(photo's mean layer energy / frame's) from ``band_energy``'s sums
+    and counts (frame ``eo, co``, photo ``es, cs``), clamped to [lo, hi]; a (label, bin) with
+    fewer than ``MIN_PIXELS`` pixels on either side takes its label's overall gain, a label
+    missing on either side 1."""
+    g = np.ones(eo.shape, np.float64)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        for k in range(len(eo)):
+            if co[k].sum() == 0 or cs[k].sum() == 0:
+                continue
+            whole = np.sqrt((es[k].sum(0) / cs[k].sum()) / (eo[k].sum(0) / co[k].sum()))
+            ok = (co[k] >= MIN_PIXELS) & (cs[k] >= MIN_PIXELS)
+            gk = np.sqrt((es[k] / np.maximum(cs[k], 1)[:, None]) / (eo[k] / np.maximum(co[k], 1)[:, None]))
+            gk = np.where(ok[:, None] & np.isfinite(gk), gk, whole[None, :])
+            g[k] = np.clip(np.nan_to_num(gk, nan=1.0, posinf=hi), lo, hi)
+    return g
+
+
 def gain_table(rgb: np.ndarray, labels: np.ndarray, source_rgb: np.ndarray, source_labels: np.ndarray, *,
                max_gain: float) -> dict:
     """The gains that bring the layers of ``rgb`` (linear (H, W, 3), labels ``labels``)
@@ -54,18 +73,37 @@ def gain_table(rgb: np.ndarray, labels: np.ndarray, source_rgb: np.ndarray, sour
     out_lab, src_lab = lut[labels], lut[source_labels]
     eo, co = _energy(rgb, out_lab, n)
     es, cs = _energy(source_rgb, src_lab, n)
-    table = {}
-    with np.errstate(invalid="ignore", divide="ignore"):
-        for k, lid in enumerate(ids):
-            if co[k].sum() == 0 or cs[k].sum() == 0:
-                continue
-            whole = np.sqrt((es[k].sum(0) / cs[k].sum()) / (eo[k].sum(0) / co[k].sum()))
-            ok = (co[k] >= MIN_PIXELS) & (cs[k] >= MIN_PIXELS)
-            g = np.sqrt((es[k] / np.maximum(cs[k], 1)[:, None]) / (eo[k] / np.maximum(co[k], 1)[:, None]))
-            g = np.where(ok[:, None] & np.isfinite(g), g, whole[None, :])
-            g = np.clip(np.nan_to_num(g, nan=1.0, posinf=max_gain), 1.0 / max_gain, max_gain)
-            table[str(int(lid))] = [[float(v) for v in row] for row in g]
+    g = _gains(eo, co, es, cs, 1.0 / max_gain, max_gain)
+    table = {str(int(lid)): [[float(v) for v in row] for row in g[k]]
+             for k, lid in enumerate(ids) if co[k].sum() and cs[k].sum()}
     return {"radii": list(RADII), "bins": BINS, "gains": table}
+
+
+def spread(rgb: np.ndarray, labels: np.ndarray, source_rgb: np.ndarray, source_labels: np.ndarray, *,
+           max_gain: float, scale: float = 1.0) -> np.ndarray:
+    """``rgb`` (linear (H, W, 3), labels ``labels``) with the large-scale layers of each
+    label (box radii ``SPREAD_RADII``: what lies between a 65 px window's mean and a 513 px
+    one's) raised, by (label, height bin), to the photo's energy there (gains in
+    [1, max_gain]; never lowered). A region of another shape than the photo's holds less
+    of the photo's large-scale variation (a pond: fewer of the river's bank reflections
+    and far-to-near darkening); this gives the frame's own large-scale variation the
+    photo's spread. Frame-side: the layout step's business, like the means it moves
+    (``blend.layout_move``); later frames carry it with the frame's colours. ``scale``:
+    source pixels per output pixel (the photo's layers are measured at radii × scale)."""
+    lut, ids = joint_dense(labels, source_labels)
+    n = len(ids)
+    out_lab, src_lab = lut[labels], lut[source_labels]
+    radii = np.array(SPREAD_RADII, np.int64)
+    src_radii = np.maximum(np.round(radii * scale), 1).astype(np.int64)
+    enc = klayout.srgb_encode(rgb)
+    hbin = _bins(out_lab)
+    eo, co = kgrain.band_energy(enc, out_lab, hbin, radii, n, BINS)
+    es, cs = kgrain.band_energy(klayout.srgb_encode(source_rgb), src_lab, _bins(src_lab), src_radii, n, BINS)
+    g = _gains(eo, co, es, cs, 1.0, max_gain)
+    g[..., 0] = 1.0  # the layer under the first radius is detail: grain's (gain_table)
+    if not (g > 1.0).any():
+        return rgb
+    return klayout.srgb_decode(kgrain.regrade(enc, out_lab, hbin, radii, g))
 
 
 def graded(source, table: dict) -> np.ndarray:

@@ -92,6 +92,10 @@ class PoissonSolve(ParamGroup):
                             "under the photo's: 1 = kept (a pond's dark band under its bank), 0 = replaced by "
                             "the photo's (flattens such a region; exact where the synthesis already follows "
                             "the photo's profile, which 1 doubles)")
+    layout_spread = Param(float, 2.0, min=1.0,
+                          doc="with layout: most gain of a label's large-scale layers (65-513 px windows) when "
+                              "their variation is raised to the photo's (a region of another shape holds less of "
+                              "it: a pond against a river's bank reflections); never lowered; 1 = off")
     grain = Param(float, 2.0, min=1.0,
                   doc="most gain of a detail layer when the first frame's detail is matched to the photo's, "
                       "label by label and scale by scale (the source is graded and read again; later frames "
