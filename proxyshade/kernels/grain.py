@@ -12,7 +12,8 @@ never read another label's pixels,
 where m_i is the mean of the pixel's own label over the (2 r_i + 1)² window clipped to the
 image (``radii`` r_1 < .. < r_R), measure each layer's energy per label and height bin
 (``band_energy``) and rebuild the image with each layer scaled by a gain per label, height
-bin and layer (``regrade``). Box means come from one summed-area table per label.
+bin and layer (``regrade``). Box means come from one summed-area table per label, over
+the label's bounding box.
 
 Pure functions of arrays; labels dense (0..n-1); deterministic for any thread count.
 """
@@ -30,18 +31,38 @@ _NO_COUNTS = np.zeros((0, 0), np.int64)
 _NO_OUT = np.zeros((0, 0, 0), np.float32)
 
 
+@njit(**JIT)
+def _boxes(lab, n):
+    """(n, 4) int64: each label's bounding box, rows [r0, r1) and columns [c0, c1)
+    (r1 = 0 for a label with no pixel)."""
+    H, W = lab.shape
+    box = np.empty((n, 4), np.int64)
+    for k in range(n):
+        box[k, 0], box[k, 1], box[k, 2], box[k, 3] = H, 0, W, 0
+    for i in range(H):
+        for j in range(W):
+            k = lab[i, j]
+            box[k, 0] = min(box[k, 0], i)
+            box[k, 1] = max(box[k, 1], i + 1)
+            box[k, 2] = min(box[k, 2], j)
+            box[k, 3] = max(box[k, 3], j + 1)
+    return box
+
+
 @njit(**PJIT)
-def _sat(img, lab, k, sat):
-    """``sat`` (H+1, W+1, 4) float64: summed-area table of the three channels and the
-    count of the pixels of label ``k`` (row 0 and column 0 zero)."""
-    H, W, _ = img.shape
+def _sat(img, lab, k, r0, r1, c0, c1, sat):
+    """``sat`` (r1-r0+1, c1-c0+1, 4) float64: summed-area table, over label ``k``'s box
+    (rows [r0, r1), columns [c0, c1)), of the three channels and the count of the pixels
+    of label ``k`` (row 0 and column 0 zero). No pixel of ``k`` lies outside its box, so
+    a window clipped to the box holds the same pixels of ``k`` as clipped to the image."""
+    H, W = r1 - r0, c1 - c0
     for i in prange(H):  # each row's running sums
         for c in range(4):
             sat[i + 1, 0, c] = 0.0
         for j in range(W):
-            if lab[i, j] == k:
+            if lab[r0 + i, c0 + j] == k:
                 for c in range(3):
-                    sat[i + 1, j + 1, c] = sat[i + 1, j, c] + img[i, j, c]
+                    sat[i + 1, j + 1, c] = sat[i + 1, j, c] + img[r0 + i, c0 + j, c]
                 sat[i + 1, j + 1, 3] = sat[i + 1, j, 3] + 1.0
             else:
                 for c in range(4):
@@ -61,8 +82,9 @@ def _sat(img, lab, k, sat):
 
 @njit(inline="always", **JIT)
 def _bands_at(img, sat, i, j, radii, bands):
-    """Pixel (i, j)'s layers into ``bands`` (R + 1, 3): b_0 .. b_(R-1), then the low pass."""
-    H, W, _ = img.shape
+    """Pixel (i, j)'s layers into ``bands`` (R + 1, 3): b_0 .. b_(R-1), then the low pass;
+    ``img`` and (i, j) relative to the box of ``sat``."""
+    H, W = sat.shape[0] - 1, sat.shape[1] - 1
     prev0, prev1, prev2 = img[i, j, 0], img[i, j, 1], img[i, j, 2]
     for b in range(radii.shape[0]):
         r = radii[b]
@@ -83,25 +105,27 @@ def _bands_at(img, sat, i, j, radii, bands):
 
 
 @njit(**PJIT)
-def _label_pass(img, lab, hbin, k, sat, radii, gains, rows, counts, out, regrade):
-    """The pixels of label ``k``: with ``regrade``, ``out`` = low + Σ gains[k, bin, i] b_i;
-    else, per row, each layer's summed squared value (over channels) by height bin
-    (``rows`` (H, bins, R)) and the pixel count (``counts`` (H, bins))."""
-    H, W, _ = img.shape
+def _label_pass(img, lab, hbin, k, r0, c0, sat, radii, gains, rows, counts, out, regrade):
+    """The pixels of label ``k`` in its box (origin ``r0, c0``, the size of ``sat`` less
+    1): with ``regrade``, ``out`` = low + Σ gains[k, bin, i] b_i; else, per box row, each
+    layer's summed squared value (over channels) by height bin (``rows`` (rows, bins, R))
+    and the pixel count (``counts`` (rows, bins))."""
+    H, W = sat.shape[0] - 1, sat.shape[1] - 1
     R = radii.shape[0]
+    box = img[r0:r0 + H, c0:c0 + W]
     for i in prange(H):
         bands = np.empty((R + 1, 3), np.float64)
         for j in range(W):
-            if lab[i, j] != k:
+            if lab[r0 + i, c0 + j] != k:
                 continue
-            _bands_at(img, sat, i, j, radii, bands)
-            t = hbin[i, j]
+            _bands_at(box, sat, i, j, radii, bands)
+            t = hbin[r0 + i, c0 + j]
             if regrade:
                 for c in range(3):
                     v = bands[R, c]
                     for b in range(R):
                         v += gains[k, t, b] * bands[b, c]
-                    out[i, j, c] = v
+                    out[r0 + i, c0 + j, c] = v
             else:
                 counts[i, t] += 1
                 for b in range(R):
@@ -119,19 +143,17 @@ def band_energy(img: np.ndarray, lab: np.ndarray, hbin: np.ndarray, radii: np.nd
     lab = np.ascontiguousarray(lab, np.int32)
     hbin = np.ascontiguousarray(hbin, np.int32)
     radii = np.ascontiguousarray(radii, np.int64)
-    H, W = lab.shape
     R = len(radii)
     sums = np.zeros((n, bins, R), np.float64)
     counts = np.zeros((n, bins), np.int64)
-    present = np.bincount(lab.ravel(), minlength=n)
-    sat = np.empty((H + 1, W + 1, 4), np.float64)
-    for k in range(n):
-        if present[k] == 0:
+    for k, (r0, r1, c0, c1) in enumerate(_boxes(lab, n).tolist()):
+        if r1 == 0:
             continue
-        _sat(img, lab, k, sat)
-        rows = np.zeros((H, bins, R), np.float64)
-        crow = np.zeros((H, bins), np.int64)
-        _label_pass(img, lab, hbin, k, sat, radii, _NO_GAINS, rows, crow, _NO_OUT, False)
+        sat = np.empty((r1 - r0 + 1, c1 - c0 + 1, 4), np.float64)
+        _sat(img, lab, k, r0, r1, c0, c1, sat)
+        rows = np.zeros((r1 - r0, bins, R), np.float64)
+        crow = np.zeros((r1 - r0, bins), np.int64)
+        _label_pass(img, lab, hbin, k, r0, c0, sat, radii, _NO_GAINS, rows, crow, _NO_OUT, False)
         sums[k] = rows.sum(0)  # numpy's pairwise sum over a fixed layout: thread-independent
         counts[k] = crow.sum(0)
     return sums, counts
@@ -147,11 +169,10 @@ def regrade(img: np.ndarray, lab: np.ndarray, hbin: np.ndarray, radii: np.ndarra
     gains = np.ascontiguousarray(gains, np.float64)
     H, W = lab.shape
     out = np.empty((H, W, 3), np.float32)
-    present = np.bincount(lab.ravel(), minlength=gains.shape[0])
-    sat = np.empty((H + 1, W + 1, 4), np.float64)
-    for k in range(len(present)):
-        if present[k] == 0:
+    for k, (r0, r1, c0, c1) in enumerate(_boxes(lab, gains.shape[0]).tolist()):
+        if r1 == 0:
             continue
-        _sat(img, lab, k, sat)
-        _label_pass(img, lab, hbin, k, sat, radii, gains, _NO_ROWS, _NO_COUNTS, out, True)
+        sat = np.empty((r1 - r0 + 1, c1 - c0 + 1, 4), np.float64)
+        _sat(img, lab, k, r0, r1, c0, c1, sat)
+        _label_pass(img, lab, hbin, k, r0, c0, sat, radii, gains, _NO_ROWS, _NO_COUNTS, out, True)
     return out
