@@ -50,23 +50,30 @@ def _boxes(lab, n):
 
 
 @njit(**PJIT)
-def _sat(img, lab, k, r0, r1, c0, c1, sat):
-    """``sat`` (r1-r0+1, c1-c0+1, 4) float64: summed-area table, over label ``k``'s box
-    (rows [r0, r1), columns [c0, c1)), of the three channels and the count of the pixels
-    of label ``k`` (row 0 and column 0 zero). No pixel of ``k`` lies outside its box, so
-    a window clipped to the box holds the same pixels of ``k`` as clipped to the image."""
-    H, W = r1 - r0, c1 - c0
-    for i in prange(H):  # each row's running sums
+def _sat(img, lab, k, r0, r1, c0, c1, f, sat):
+    """``sat`` (⌈(r1-r0)/f⌉+1, ⌈(c1-c0)/f⌉+1, 4) float64: summed-area table, over label
+    ``k``'s box (rows [r0, r1), columns [c0, c1)) cut into f × f blocks from its origin,
+    of each block's sums of the three channels and of its count of label-``k`` pixels (row
+    0 and column 0 zero; f = 1: the pixels themselves). No pixel of ``k`` lies outside its
+    box, so a window clipped to the box holds the same pixels of ``k`` as clipped to the
+    image."""
+    H, W = (r1 - r0 + f - 1) // f, (c1 - c0 + f - 1) // f
+    for bi in prange(H):  # each block row's running sums
         for c in range(4):
-            sat[i + 1, 0, c] = 0.0
-        for j in range(W):
-            if lab[r0 + i, c0 + j] == k:
-                for c in range(3):
-                    sat[i + 1, j + 1, c] = sat[i + 1, j, c] + img[r0 + i, c0 + j, c]
-                sat[i + 1, j + 1, 3] = sat[i + 1, j, 3] + 1.0
-            else:
-                for c in range(4):
-                    sat[i + 1, j + 1, c] = sat[i + 1, j, c]
+            sat[bi + 1, 0, c] = 0.0
+        for bj in range(W):
+            s0 = s1 = s2 = m = 0.0
+            for i in range(r0 + bi * f, min(r0 + bi * f + f, r1)):
+                for j in range(c0 + bj * f, min(c0 + bj * f + f, c1)):
+                    if lab[i, j] == k:
+                        s0 += img[i, j, 0]
+                        s1 += img[i, j, 1]
+                        s2 += img[i, j, 2]
+                        m += 1.0
+            sat[bi + 1, bj + 1, 0] = sat[bi + 1, bj, 0] + s0
+            sat[bi + 1, bj + 1, 1] = sat[bi + 1, bj, 1] + s1
+            sat[bi + 1, bj + 1, 2] = sat[bi + 1, bj, 2] + s2
+            sat[bi + 1, bj + 1, 3] = sat[bi + 1, bj, 3] + m
     for c in range(4):
         for j in range(W + 1):
             sat[0, j, c] = 0.0
@@ -150,7 +157,7 @@ def band_energy(img: np.ndarray, lab: np.ndarray, hbin: np.ndarray, radii: np.nd
         if r1 == 0:
             continue
         sat = np.empty((r1 - r0 + 1, c1 - c0 + 1, 4), np.float64)
-        _sat(img, lab, k, r0, r1, c0, c1, sat)
+        _sat(img, lab, k, r0, r1, c0, c1, 1, sat)
         rows = np.zeros((r1 - r0, bins, R), np.float64)
         crow = np.zeros((r1 - r0, bins), np.int64)
         _label_pass(img, lab, hbin, k, r0, c0, sat, radii, _NO_GAINS, rows, crow, _NO_OUT, False)
@@ -173,6 +180,158 @@ def regrade(img: np.ndarray, lab: np.ndarray, hbin: np.ndarray, radii: np.ndarra
         if r1 == 0:
             continue
         sat = np.empty((r1 - r0 + 1, c1 - c0 + 1, 4), np.float64)
-        _sat(img, lab, k, r0, r1, c0, c1, sat)
+        _sat(img, lab, k, r0, r1, c0, c1, 1, sat)
         _label_pass(img, lab, hbin, k, r0, c0, sat, radii, gains, _NO_ROWS, _NO_COUNTS, out, True)
     return out
+
+
+# ---- the large layers on f × f blocks (``synthesis.grain.spread``) ----
+
+@njit(**PJIT)
+def _block_means(sat, rb, M):
+    """``M`` (Hb, Wb, R, 3): for each block of ``sat`` (``_sat``) that holds a pixel of
+    its label, the label's mean over the blocks within ±``rb[r]`` blocks of it (clipped to
+    the box)."""
+    Hb, Wb = sat.shape[0] - 1, sat.shape[1] - 1
+    for bi in prange(Hb):
+        for bj in range(Wb):
+            if sat[bi + 1, bj + 1, 3] - sat[bi, bj + 1, 3] - sat[bi + 1, bj, 3] + sat[bi, bj, 3] == 0.0:
+                continue
+            for r in range(rb.shape[0]):
+                i0, i1 = max(bi - rb[r], 0), min(bi + rb[r], Hb - 1) + 1
+                j0, j1 = max(bj - rb[r], 0), min(bj + rb[r], Wb - 1) + 1
+                n = sat[i1, j1, 3] - sat[i0, j1, 3] - sat[i1, j0, 3] + sat[i0, j0, 3]
+                for c in range(3):
+                    M[bi, bj, r, c] = (sat[i1, j1, c] - sat[i0, j1, c] - sat[i1, j0, c] + sat[i0, j0, c]) / n
+
+
+@njit(inline="always", **JIT)
+def _axis(i, f, nb):
+    """The two blocks either side of box coordinate ``i`` (block centres at b·f + (f-1)/2)
+    and the second one's bilinear weight."""
+    t = (i - 0.5 * (f - 1)) / f
+    b0 = int(np.floor(t))
+    if b0 < 0:
+        return 0, 0, 0.0
+    if b0 >= nb - 1:
+        return nb - 1, nb - 1, 0.0
+    return b0, b0 + 1, t - b0
+
+
+@njit(**PJIT)
+def _block_bins(lab, hbin, k, r0, r1, c0, c1, f, cb):
+    """``cb`` (Hb, Wb, bins) int64: each block's count of label-``k`` pixels by height bin."""
+    Hb, Wb = cb.shape[0], cb.shape[1]
+    for bi in prange(Hb):
+        for bj in range(Wb):
+            for i in range(r0 + bi * f, min(r0 + bi * f + f, r1)):
+                for j in range(c0 + bj * f, min(c0 + bj * f + f, c1)):
+                    if lab[i, j] == k:
+                        cb[bi, bj, hbin[i, j]] += 1
+
+
+@njit(**PJIT)
+def _block_energy(M, cb, rows):
+    """``rows`` (Hb, bins, R − 1): per block row, the layers' summed squared values
+    (over channels) at each block's centre, times the block's label pixels of each bin."""
+    Hb, Wb, bins = cb.shape
+    R = M.shape[2]
+    for bi in prange(Hb):
+        for bj in range(Wb):
+            for l in range(R - 1):
+                e = 0.0
+                for c in range(3):
+                    e += (M[bi, bj, l, c] - M[bi, bj, l + 1, c]) ** 2
+                for t in range(bins):
+                    rows[bi, t, l] += cb[bi, bj, t] * e
+
+
+@njit(**PJIT)
+def _spread_pass(img, lab, hbin, k, r0, r1, c0, c1, f, sat, M, gains, D, out):
+    """The pixels of label ``k`` in its box: ``out`` = x + the change Σ (gains[k, bin, l]
+    − 1) (m_l − m_(l+1)) of the pixel's bin, taken at the centres of the surrounding
+    blocks that hold a pixel of ``k`` (``D``, filled here) and blended bilinearly."""
+    Hb, Wb = sat.shape[0] - 1, sat.shape[1] - 1
+    R, bins = M.shape[2], D.shape[2]
+    for bi in prange(Hb):
+        for bj in range(Wb):
+            for t in range(bins):
+                for c in range(3):
+                    v = 0.0
+                    for l in range(R - 1):
+                        v += (gains[k, t, l] - 1.0) * (M[bi, bj, l, c] - M[bi, bj, l + 1, c])
+                    D[bi, bj, t, c] = v
+    for i in prange(r1 - r0):
+        y0, y1, ty = _axis(i, f, Hb)
+        for j in range(c1 - c0):
+            if lab[r0 + i, c0 + j] != k:
+                continue
+            x0, x1, tx = _axis(j, f, Wb)
+            t = hbin[r0 + i, c0 + j]
+            d0 = d1 = d2 = wsum = 0.0
+            for q in range(4):
+                by = y1 if q >= 2 else y0
+                bx = x1 if q % 2 == 1 else x0
+                w = (ty if q >= 2 else 1.0 - ty) * (tx if q % 2 == 1 else 1.0 - tx)
+                if w <= 0.0 or sat[by + 1, bx + 1, 3] - sat[by, bx + 1, 3] - sat[by + 1, bx, 3] + sat[by, bx, 3] == 0.0:
+                    continue
+                wsum += w
+                d0 += w * D[by, bx, t, 0]
+                d1 += w * D[by, bx, t, 1]
+                d2 += w * D[by, bx, t, 2]
+            out[r0 + i, c0 + j, 0] = img[r0 + i, c0 + j, 0] + d0 / wsum
+            out[r0 + i, c0 + j, 1] = img[r0 + i, c0 + j, 1] + d1 / wsum
+            out[r0 + i, c0 + j, 2] = img[r0 + i, c0 + j, 2] + d2 / wsum
+
+
+def _spread_labels(img, lab, hbin, radii, f, n, gains, bins):
+    """The per-label loop of ``spread_energy`` (``gains`` None) and ``spread_regrade``."""
+    img = np.ascontiguousarray(img, np.float32)
+    lab = np.ascontiguousarray(lab, np.int32)
+    hbin = np.ascontiguousarray(hbin, np.int32)
+    rb = np.maximum(np.round(np.asarray(radii, np.float64) / f), 1).astype(np.int64)
+    R = len(rb)
+    regrade = gains is not None
+    out = img.copy() if regrade else _NO_OUT
+    sums = np.zeros((n, bins, R - 1), np.float64)
+    counts = np.zeros((n, bins), np.int64)
+    for k, (r0, r1, c0, c1) in enumerate(_boxes(lab, n).tolist()):
+        if r1 == 0:
+            continue
+        hb, wb = (r1 - r0 + f - 1) // f, (c1 - c0 + f - 1) // f
+        sat = np.empty((hb + 1, wb + 1, 4), np.float64)
+        _sat(img, lab, k, r0, r1, c0, c1, f, sat)
+        M = np.zeros((hb, wb, R, 3), np.float64)
+        _block_means(sat, rb, M)
+        if regrade:
+            _spread_pass(img, lab, hbin, k, r0, r1, c0, c1, f, sat, M, gains, np.empty((hb, wb, bins, 3)), out)
+        else:
+            cb = np.zeros((hb, wb, bins), np.int64)
+            _block_bins(lab, hbin, k, r0, r1, c0, c1, f, cb)
+            rows = np.zeros((hb, bins, R - 1), np.float64)
+            _block_energy(M, cb, rows)
+            sums[k] = rows.sum(0)
+            counts[k] = cb.sum((0, 1))
+    return out if regrade else (sums, counts)
+
+
+def spread_energy(img: np.ndarray, lab: np.ndarray, hbin: np.ndarray, radii: np.ndarray, n: int, bins: int,
+                  f: int) -> tuple[np.ndarray, np.ndarray]:
+    """Summed energies of the layers between the label means of radii ``radii`` (r_1 <
+    .. < r_R; R − 1 layers m_l − m_(l+1)) by label and height bin, as ``band_energy``
+    (sums (n, bins, R − 1), counts (n, bins)), on f × f blocks: a block's mean is its
+    label's over the blocks within round(r / f) blocks of it, and each of its label's
+    pixels counts its block's layers. f = 1 gives ``band_energy``'s layers exactly; for
+    radii of 8 f and more (smooth layers) the blocks cost a fraction of the pixel windows
+    and differ from them by a few per cent."""
+    return _spread_labels(img, lab, hbin, radii, int(f), n, None, bins)
+
+
+def spread_regrade(img: np.ndarray, lab: np.ndarray, hbin: np.ndarray, radii: np.ndarray, gains: np.ndarray,
+                   f: int) -> np.ndarray:
+    """``img`` + Σ (gains[label, bin, l] − 1) · b_l over ``spread_energy``'s layers (gains
+    (n, bins, R − 1)), the change taken at block centres and blended bilinearly between
+    the surrounding blocks that hold the pixel's label: float32; what lies under the
+    first radius is left as it is."""
+    gains = np.ascontiguousarray(gains, np.float64)
+    return _spread_labels(img, lab, hbin, radii, int(f), gains.shape[0], gains, gains.shape[1])

@@ -82,8 +82,8 @@ def gain_table(rgb: np.ndarray, labels: np.ndarray, source_rgb: np.ndarray, sour
 def spread(rgb: np.ndarray, labels: np.ndarray, source_rgb: np.ndarray, source_labels: np.ndarray, *,
            max_gain: float, scale: float = 1.0) -> np.ndarray:
     """``rgb`` (linear (H, W, 3), labels ``labels``) with the large-scale layers of each
-    label (box radii ``SPREAD_RADII``: what lies between a 65 px window's mean and a 513 px
-    one's) raised, by (label, height bin), to the photo's energy there (gains in
+    label (between its box means of radii ``SPREAD_RADII``, windows of 65 to 513 px, taken
+    on 4 × 4 blocks: ``kernels.grain.spread_energy``) raised, by (label, height bin), to the photo's energy there (gains in
     [1, max_gain]; never lowered). A region of another shape than the photo's holds less
     of the photo's large-scale variation (a pond: fewer of the river's bank reflections
     and far-to-near darkening); this gives the frame's own large-scale variation the
@@ -97,13 +97,14 @@ def spread(rgb: np.ndarray, labels: np.ndarray, source_rgb: np.ndarray, source_l
     src_radii = np.maximum(np.round(radii * scale), 1).astype(np.int64)
     enc = klayout.srgb_encode(rgb)
     hbin = _bins(out_lab)
-    eo, co = kgrain.band_energy(enc, out_lab, hbin, radii, n, BINS)
-    es, cs = kgrain.band_energy(klayout.srgb_encode(source_rgb), src_lab, _bins(src_lab), src_radii, n, BINS)
+    # the layers are smooth: their means are taken on blocks of an eighth of the first radius
+    f, fs = max(1, int(radii[0]) // 8), max(1, int(src_radii[0]) // 8)
+    eo, co = kgrain.spread_energy(enc, out_lab, hbin, radii, n, BINS, f)
+    es, cs = kgrain.spread_energy(klayout.srgb_encode(source_rgb), src_lab, _bins(src_lab), src_radii, n, BINS, fs)
     g = _gains(eo, co, es, cs, 1.0, max_gain)
-    g[..., 0] = 1.0  # the layer under the first radius is detail: grain's (gain_table)
     if not (g > 1.0).any():
         return rgb
-    return klayout.srgb_decode(kgrain.regrade(enc, out_lab, hbin, radii, g))
+    return klayout.srgb_decode(kgrain.spread_regrade(enc, out_lab, hbin, radii, g, f))
 
 
 def graded(source, table: dict) -> np.ndarray:
