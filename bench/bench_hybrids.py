@@ -17,8 +17,18 @@ Measures (over seeds 1..8 of one configuration):
 * label error: mean symmetric Chamfer (``kernels.chamfer``) of each output 5×5 label
   window to its nearest exemplar window (exhaustive over the distinct windows); seeds 1..4.
 
-A baseline point is matched to a structure-preserving one by D: the (jittered levels,
-radius r) of a grid whose D is nearest.
+Matched D (within ``D_TOL`` = 0.005; D over seeds 1..8, synthesis only, syntheses cached):
+
+* baseline against SP: the jittered levels of the grid point (``BASE_LEVELS`` × ``BASE_R``)
+  whose D is nearest SP's, then the radius r bisected (``match_d``) until the baseline's D
+  is within 0.005 of SP's (the next jittered-levels count if r cannot reach it);
+* L = 1 against L = 8 on brick: L = 1 with the same jittered levels and its J bisected
+  geometrically (1e-7 .. 1) to L = 8's D (L = 1's D is higher at the same J); one level
+  fewer, then more, if J cannot reach it. The same-J row is printed too.
+
+The printed dD is the matched point's D minus the target's, and the number of D
+evaluations the search took. Previous rounds matched to the nearest grid point only
+(D up to 0.025 apart) and compared L = 8 with L = 1 at the same J.
 
 Run: .venv/bin/python bench/run.py hybrids, or .venv/bin/python bench/bench_hybrids.py [--quick | --sheet |
 --before-after | --align] [--brick] (``--quick``: seeds 1-4; ``--brick``: the brick comparisons only; ``--sheet`` writes docs/img/hybrids_sheet.jpg instead,
