@@ -31,8 +31,8 @@ evaluations the search took. Previous rounds matched to the nearest grid point o
 (D up to 0.025 apart) and compared L = 8 with L = 1 at the same J.
 
 Run: .venv/bin/python bench/run.py hybrids, or .venv/bin/python bench/bench_hybrids.py [--quick | --sheet |
---before-after | --align] [--brick] (``--quick``: seeds 1-4; ``--brick``: the brick comparisons only; ``--sheet`` writes docs/img/hybrids_sheet.jpg instead,
-``--before-after`` docs/img/hybrids_before_after.jpg; ``--align`` prints how brick's two crops, ``BRICK_CROPS``,
+--before-after | --own-level | --align] [--brick] (``--quick``: seeds 1-4; ``--brick``: the brick comparisons only; ``--sheet`` writes docs/img/hybrids_sheet.jpg instead,
+``--before-after`` docs/img/hybrids_before_after.jpg, ``--own-level`` docs/img/hybrids_own_level.jpg; ``--align`` prints how brick's two crops, ``BRICK_CROPS``,
 were chosen)
 """
 from __future__ import annotations
@@ -442,6 +442,24 @@ def before_after(path: Path):
     write_jpeg(rows[False] + rows[True], 3, path)
 
 
+def own_level_sheet(path: Path):
+    """The bench's middle SP point (J = 0.01, the finest 4 levels jittered), seeds 1-4, all
+    candidates multiscale (rows 1 and 3: the previous rounds) against one multiscale and one
+    own-level candidate per exemplar (rows 2 and 4: the default); renoir + creek, then
+    brick; 256² at 100 %."""
+    from proxyshade.synthesis.hybrid import analyse, synthesize
+
+    tiles = []
+    for atlas in (renoir_creek(), brick()):
+        rgb = atlas_rgb(atlas)
+        for own in (False, True):
+            an = analyse(rgb, SIZE, levels=LEVELS, L=L, q=Q, iterations=ITERATIONS, seed=0, own_level=own)
+            for s in (1, 2, 3, 4):
+                S = synthesize(an, (SIZE, SIZE), J=0.01, seed=s, weights=np.ones(2), passes=PASSES, jitter_levels=4)
+                tiles.append(rgb[S[..., 0], S[..., 1]])
+    write_jpeg(tiles, 4, path)
+
+
 def sheet(path: Path):
     """The docs' contact sheet, all at 100%: renoir and creek, then hybrids of seeds 1-8
     (J = 0.3, every level jittered: HybridSynth's defaults); brick's two crops, 2 hybrids
@@ -471,6 +489,9 @@ def main():
         return
     if "--align" in sys.argv:
         brick_alignment()
+        return
+    if "--own-level" in sys.argv:
+        own_level_sheet(ROOT / "docs/img/hybrids_own_level.jpg")
         return
     if "--before-after" in sys.argv:
         before_after(ROOT / "docs/img/hybrids_before_after.jpg")
