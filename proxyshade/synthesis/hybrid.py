@@ -207,12 +207,13 @@ def analyse(rgb: np.ndarray, bw: int, *, levels: int, L: int, q: int, iterations
     single-scale, and whose unscaled sum is dominated by the finest level.
 
     ``own_level`` (with L > 1): q // 2 of each exemplar's q candidates per pixel come from
-    the single-scale descriptor of the level alone (its own nearest, as with L = 1), the
+    a search under the single-scale descriptor of the level alone (as with L = 1), the
     other q − q // 2 from the multiscale one; each part keeps the separation within itself.
-    The synthesis compares single-scale descriptors, so a level's correction can take its
-    own nearest where the multiscale candidates' own-level match is poor (their layouts
-    measured higher C at ½ size than L = 1's); False: all q from the multiscale
-    descriptor (the previous rounds)."""
+    Both searches run ``iterations`` at the finest level and one per coarser level from the
+    finer lists, so at the coarse levels the single-scale part is loosely matched rather
+    than the level's nearest (docs/hybrids.md: measured, it lowers the layouts' C at ½ size;
+    converged, it does not). False: all q from the multiscale descriptor (the previous
+    rounds)."""
     import time
 
     from proxyshade.kernels import hybrid as kh
@@ -234,8 +235,8 @@ def analyse(rgb: np.ndarray, bw: int, *, levels: int, L: int, q: int, iterations
         bases.append(basis)
         P.append(kh.project(N, mean, basis))
     scales = kh.level_scales(P)
-    # with own_level, q // 2 of each exemplar's q candidates come from the single-scale
-    # descriptor (the level's own nearest), the rest from the multiscale one
+    # with own_level, q // 2 of each exemplar's q candidates come from a single-scale
+    # search, the rest from the multiscale one
     q1 = q // 2 if (own_level and L > 1) else 0
     cands, ms, ss = [], [], []
     for s in range(levels):  # finest first; each level's search starts from the finer level's lists
