@@ -196,7 +196,7 @@ class Analysis:
 
 
 def analyse(rgb: np.ndarray, bw: int, *, levels: int, L: int, q: int, iterations: int, seed: int,
-            separation: float = 0.05, coarser: bool = True, own_level: bool = True) -> Analysis:
+            separation: float = 0.05, coarser: bool = True, own_level: bool = False) -> Analysis:
     """The analysis of an (H, nb bw, 3) linear atlas (``levels`` stack levels).
 
     ``coarser``: the candidates' multiscale descriptor of level s concatenates levels s ..
@@ -211,9 +211,10 @@ def analyse(rgb: np.ndarray, bw: int, *, levels: int, L: int, q: int, iterations
     other q − q // 2 from the multiscale one; each part keeps the separation within itself.
     Both searches run ``iterations`` at the finest level and one per coarser level from the
     finer lists, so at the coarse levels the single-scale part is loosely matched rather
-    than the level's nearest (docs/hybrids.md: measured, it lowers the layouts' C at ½ size;
-    converged, it does not). False: all q from the multiscale descriptor (the previous
-    rounds)."""
+    than the level's nearest. Not the default: measured, it lowers C at ½ size (converged,
+    it does not, and why is not established), but brick's hybrids lose many horizontal
+    joints and renoir + creek's skies take larger grey blotches (docs/hybrids.md). False
+    (the default): all q from the multiscale descriptor."""
     import time
 
     from proxyshade.kernels import hybrid as kh
