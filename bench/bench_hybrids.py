@@ -17,12 +17,22 @@ Measures (over seeds 1..8 of one configuration):
 * label error: mean symmetric Chamfer (``kernels.chamfer``) of each output 5×5 label
   window to its nearest exemplar window (exhaustive over the distinct windows); seeds 1..4.
 
-A baseline point is matched to a structure-preserving one by D: the (jittered levels,
-radius r) of a grid whose D is nearest.
+Matched D (within ``D_TOL`` = 0.005; D over seeds 1..8, synthesis only, syntheses cached):
+
+* baseline against SP: the jittered levels of the grid point (``BASE_LEVELS`` × ``BASE_R``)
+  whose D is nearest SP's, then the radius r bisected (``match_d``) until the baseline's D
+  is within 0.005 of SP's (the next jittered-levels count if r cannot reach it);
+* L = 1 against L = 8 on brick: L = 1 with the same jittered levels and its J bisected
+  geometrically (1e-7 .. 1) to L = 8's D (L = 1's D is higher at the same J); one level
+  fewer, then more, if J cannot reach it. The same-J row is printed too.
+
+The printed dD is the matched point's D minus the target's, and the number of D
+evaluations the search took. Previous rounds matched to the nearest grid point only
+(D up to 0.025 apart) and compared L = 8 with L = 1 at the same J.
 
 Run: .venv/bin/python bench/run.py hybrids, or .venv/bin/python bench/bench_hybrids.py [--quick | --sheet |
---before-after | --align] [--brick] (``--quick``: seeds 1-4; ``--brick``: the brick comparisons only; ``--sheet`` writes docs/img/hybrids_sheet.jpg instead,
-``--before-after`` docs/img/hybrids_before_after.jpg; ``--align`` prints how brick's two crops, ``BRICK_CROPS``,
+--before-after | --own-level | --align] [--brick] (``--quick``: seeds 1-4; ``--brick``: the brick comparisons only; ``--sheet`` writes docs/img/hybrids_sheet.jpg instead,
+``--before-after`` docs/img/hybrids_before_after.jpg, ``--own-level`` docs/img/hybrids_own_level.jpg; ``--align`` prints how brick's two crops, ``BRICK_CROPS``,
 were chosen)
 """
 from __future__ import annotations
@@ -206,10 +216,25 @@ class Measures:
         return c_full, c_half, lab
 
 
+_STATES: dict = {}  # (analysis, seeds, settings) -> states: a matching search and a quality run share syntheses
+_QUALITY: dict = {}
+
+
+def _key(an, seeds, kw):
+    return (id(an), tuple(seeds), tuple(sorted(kw.items())))
+
+
 def states_of(an, seeds, **kw):
     from proxyshade.synthesis.hybrid import synthesize
 
-    return [synthesize(an, (SIZE, SIZE), seed=s, weights=np.ones(an.nb), passes=PASSES, **kw) for s in seeds]
+    k = _key(an, seeds, kw)
+    if k not in _STATES:
+        _STATES[k] = [synthesize(an, (SIZE, SIZE), seed=s, weights=np.ones(an.nb), passes=PASSES, **kw) for s in seeds]
+    return _STATES[k]
+
+
+def d_of(an, seeds, **kw) -> float:
+    return variation(states_of(an, seeds, **kw))
 
 
 def quality_of(meas, states):
@@ -218,7 +243,74 @@ def quality_of(meas, states):
 
 
 def run_config(an, meas, seeds, **kw):
-    return quality_of(meas, states_of(an, seeds, **kw))
+    k = _key(an, seeds, kw)
+    if k not in _QUALITY:
+        _QUALITY[k] = quality_of(meas, states_of(an, seeds, **kw))
+    return _QUALITY[k]
+
+
+D_TOL = 0.005  # matched D: within this of the target
+MATCH_STEPS = 14  # at most this many syntheses of seeds 1..8 per matched point
+
+
+def match_d(target, d_at, lo, hi, *, log=False, hi_max=None, known=()):
+    """The setting x in [lo, hi] (a radius r or a threshold J) whose D (``d_at(x)``) is
+    within ``D_TOL`` of ``target``: bisection (geometric with ``log``) on a bracket with
+    D(lo) <= target <= D(hi), D being nondecreasing in x up to noise; ``hi`` is doubled up
+    to ``hi_max`` while D(hi) < target. ``known``: (x, D) pairs already measured (grid
+    points), which narrow the first bracket. Deterministic. Returns (x, D, steps, ok): the
+    closest of the settings tried; ``ok`` False when none came within ``D_TOL`` (D jumps
+    there, or the target is out of reach)."""
+    tried = list(known)
+
+    def at(x):
+        d = d_at(x)
+        tried.append((x, d))
+        return d
+
+    steps = 0
+    below = [(x, d) for x, d in tried if d <= target and lo <= x <= hi]
+    above = [(x, d) for x, d in tried if d >= target and lo <= x <= hi]
+    if below:
+        lo = max(below)[0]
+    if above:
+        hi = min(above)[0]
+    else:
+        while True:
+            steps += 1
+            if at(hi) >= target or hi_max is None or hi >= hi_max:
+                break
+            lo, hi = hi, min(2 * hi, hi_max)
+    while steps < MATCH_STEPS:
+        best = min(tried, key=lambda t: abs(t[1] - target))
+        if abs(best[1] - target) <= D_TOL:
+            break
+        x = np.sqrt(lo * hi) if log else 0.5 * (lo + hi)
+        steps += 1
+        if at(x) < target:
+            lo = x
+        else:
+            hi = x
+    x, d = min(tried, key=lambda t: abs(t[1] - target))
+    return x, d, steps, abs(d - target) <= D_TOL
+
+
+def match_baseline(an1, seeds, target, grid):
+    """The baseline (spatial jitter, L = 1) at D = target: the jittered levels of the grid
+    point whose D is nearest, then its radius r bisected between 0.5 / h (h = 2^(levels − 1),
+    the coarsest jittered level's spacing: no pointer moves, D = 0) and the grid's largest r
+    (doubled up to 4 while D is short); if that many jittered levels cannot reach the
+    target, the next count."""
+    bl0 = min(grid, key=lambda g: abs(g[2] - target))[0]
+    for bl in [bl0] + [b for b in BASE_LEVELS if b > bl0]:
+        known = [(r, d) for b, r, d in grid if b == bl]
+        lo = 0.5 / 2 ** (bl - 1)
+        r, d, steps, ok = match_d(target, lambda r: d_of(an1, seeds, J=0.0, jitter="spatial", r=float(r),
+                                                         jitter_levels=bl),
+                                  lo, max(BASE_R), hi_max=4.0, known=known + [(lo, 0.0)])
+        if d >= target - D_TOL or bl == BASE_LEVELS[-1]:
+            return bl, float(r), d, steps, ok
+    raise AssertionError("unreachable")
 
 
 def compare(name, atlas, seeds, out):
@@ -229,17 +321,19 @@ def compare(name, atlas, seeds, out):
     an1 = analyse(rgb, SIZE, levels=LEVELS, L=1, q=Q, iterations=ITERATIONS, seed=0)
     meas = Measures(atlas)
     print(f"\n## {name}: structure-preserving jitter (L = {L}) vs baseline (spatial jitter, L = 1), seeds {seeds[0]}-{seeds[-1]}")
-    print(f"{'config':<34} {'D':>6} {'C full':>8} {'C half':>8} {'label err':>10}")
+    print(f"baseline matched to each SP point's D within {D_TOL}: jittered levels from the grid, radius r bisected")
+    print(f"{'config':<40} {'D':>6} {'C full':>8} {'C half':>8} {'label err':>10}")
     wins = []
-    # the baseline's D over its grid (synthesis only); each SP point takes the nearest, any jittered levels
-    grid = [(bl, r, variation(states_of(an1, seeds, J=0.0, jitter="spatial", r=r, jitter_levels=bl)))
+    # the baseline's D over its grid (synthesis only): each SP point takes the jittered levels of the nearest
+    grid = [(bl, r, d_of(an1, seeds, J=0.0, jitter="spatial", r=r, jitter_levels=bl))
             for bl in BASE_LEVELS for r in BASE_R]
     for jl, J in SP_POINTS:
         sp = run_config(an8, meas, seeds, J=J, jitter_levels=jl)
-        bl, r, _ = min(grid, key=lambda g: abs(g[2] - sp[0]))
-        b = quality_of(meas, states_of(an1, seeds, J=0.0, jitter="spatial", r=r, jitter_levels=bl))
-        print(f"{f'SP  J={J} levels<{jl}':<34} {sp[0]:6.3f} {sp[1]:8.2f} {sp[2]:8.2f} {sp[3]:10.3f}")
-        print(f"{f'base r={r} levels<{bl} (matched D)':<34} {b[0]:6.3f} {b[1]:8.2f} {b[2]:8.2f} {b[3]:10.3f}")
+        bl, r, d, steps, ok = match_baseline(an1, seeds, sp[0], grid)
+        b = run_config(an1, meas, seeds, J=0.0, jitter="spatial", r=r, jitter_levels=bl)
+        print(f"{f'SP  J={J} levels<{jl}':<40} {sp[0]:6.3f} {sp[1]:8.2f} {sp[2]:8.2f} {sp[3]:10.3f}")
+        print(f"{f'base r={r:.5g} levels<{bl}':<40} {b[0]:6.3f} {b[1]:8.2f} {b[2]:8.2f} {b[3]:10.3f}"
+              f"   dD {b[0] - sp[0]:+.4f} ({steps} D evaluations{'' if ok else ', NOT within tolerance'})")
         wins.append((sp, b))
         out.append((name, jl, J, (bl, r), sp, b))
     check_c_search(meas, states_of(an8, seeds[:1], J=SP_POINTS[-1][1], jitter_levels=SP_POINTS[-1][0])[0])
@@ -251,18 +345,36 @@ def compare(name, atlas, seeds, out):
     return an8, an1, meas
 
 
+J_MIN = 1e-7  # the L = 1 threshold search's lower end (J = 0: every seed gives one result, D = 0)
+
+
 def l8_vs_l1(an8, an1, meas, seeds):
-    print("\n## brick: L = 8 vs L = 1, structure-preserving jitter, same J and levels")
-    print(f"{'config':<34} {'D':>6} {'C full':>8} {'C half':>8}")
+    """L = 8 against L = 1 at matched D: at each SP point (L = 8, J, jittered levels), L = 1
+    with the same jittered levels and its J bisected (geometrically, J_MIN .. 1) to L = 8's
+    D; if J alone cannot reach it (D out of reach within the tolerance), one jittered level
+    fewer, then one more. The same-J row is printed too (L = 1's D is higher there)."""
+    print("\n## brick: L = 8 vs L = 1, structure-preserving jitter, L = 1's J matched to L = 8's D")
+    print(f"{'config':<40} {'D':>6} {'C full':>8} {'C half':>8}")
     better = better_half = 0
     for jl, J in SP_POINTS:
         a = run_config(an8, meas, seeds, J=J, jitter_levels=jl)
-        b = run_config(an1, meas, seeds, J=J, jitter_levels=jl)
-        print(f"{f'L=8 J={J} levels<{jl}':<34} {a[0]:6.3f} {a[1]:8.2f} {a[2]:8.2f}")
-        print(f"{f'L=1 J={J} levels<{jl}':<34} {b[0]:6.3f} {b[1]:8.2f} {b[2]:8.2f}")
+        same = run_config(an1, meas, seeds, J=J, jitter_levels=jl)
+        tries = []
+        for lv in (jl, jl - 1, jl + 1):
+            tries.append((lv, *match_d(a[0], lambda x: d_of(an1, seeds, J=float(x), jitter_levels=lv), J_MIN, 1.0,
+                                       log=True, known=[(J, same[0])] if lv == jl else [])))
+            if tries[-1][-1]:
+                break
+        lv, j1, d, steps, ok = min(tries, key=lambda t: (not t[-1], abs(t[2] - a[0])))
+        steps = sum(t[3] for t in tries)
+        b = run_config(an1, meas, seeds, J=j1, jitter_levels=lv)
+        print(f"{f'L=8 J={J} levels<{jl}':<40} {a[0]:6.3f} {a[1]:8.2f} {a[2]:8.2f}")
+        print(f"{f'L=1 J={j1:.3g} levels<{lv} (matched D)':<40} {b[0]:6.3f} {b[1]:8.2f} {b[2]:8.2f}"
+              f"   dD {b[0] - a[0]:+.4f} ({steps} D evaluations{'' if ok else ', NOT within tolerance'})")
+        print(f"{f'L=1 J={J} levels<{jl} (same J)':<40} {same[0]:6.3f} {same[1]:8.2f} {same[2]:8.2f}")
         better += a[1] < b[1]
         better_half += a[2] < b[2]
-    print(f"L = 8 lower C at {better}/3 (full), {better_half}/3 (½ size)")
+    print(f"L = 8 lower C than L = 1 at matched D: {better}/3 (full), {better_half}/3 (½ size)")
 
 
 def speed(atlas):
@@ -330,6 +442,24 @@ def before_after(path: Path):
     write_jpeg(rows[False] + rows[True], 3, path)
 
 
+def own_level_sheet(path: Path):
+    """The bench's middle SP point (J = 0.01, the finest 4 levels jittered), seeds 1-4, all
+    candidates multiscale (rows 1 and 3: the previous rounds) against one multiscale and one
+    own-level candidate per exemplar (rows 2 and 4: the default); renoir + creek, then
+    brick; 256² at 100 %."""
+    from proxyshade.synthesis.hybrid import analyse, synthesize
+
+    tiles = []
+    for atlas in (renoir_creek(), brick()):
+        rgb = atlas_rgb(atlas)
+        for own in (False, True):
+            an = analyse(rgb, SIZE, levels=LEVELS, L=L, q=Q, iterations=ITERATIONS, seed=0, own_level=own)
+            for s in (1, 2, 3, 4):
+                S = synthesize(an, (SIZE, SIZE), J=0.01, seed=s, weights=np.ones(2), passes=PASSES, jitter_levels=4)
+                tiles.append(rgb[S[..., 0], S[..., 1]])
+    write_jpeg(tiles, 4, path)
+
+
 def sheet(path: Path):
     """The docs' contact sheet, all at 100%: renoir and creek, then hybrids of seeds 1-8
     (J = 0.3, every level jittered: HybridSynth's defaults); brick's two crops, 2 hybrids
@@ -359,6 +489,9 @@ def main():
         return
     if "--align" in sys.argv:
         brick_alignment()
+        return
+    if "--own-level" in sys.argv:
+        own_level_sheet(ROOT / "docs/img/hybrids_own_level.jpg")
         return
     if "--before-after" in sys.argv:
         before_after(ROOT / "docs/img/hybrids_before_after.jpg")

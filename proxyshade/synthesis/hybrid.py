@@ -196,7 +196,7 @@ class Analysis:
 
 
 def analyse(rgb: np.ndarray, bw: int, *, levels: int, L: int, q: int, iterations: int, seed: int,
-            separation: float = 0.05, coarser: bool = True) -> Analysis:
+            separation: float = 0.05, coarser: bool = True, own_level: bool = False) -> Analysis:
     """The analysis of an (H, nb bw, 3) linear atlas (``levels`` stack levels).
 
     ``coarser``: the candidates' multiscale descriptor of level s concatenates levels s ..
@@ -204,7 +204,17 @@ def analyse(rgb: np.ndarray, bw: int, *, levels: int, L: int, q: int, iterations
     shares its pixel's coarse context (the structure) as well as its own level; False: the
     levels s .. s − L + 1 unscaled (the issue's reading of the paper, "L successive finer
     levels"), whose candidates at the finest levels, where the bench jitters, are
-    single-scale, and whose unscaled sum is dominated by the finest level."""
+    single-scale, and whose unscaled sum is dominated by the finest level.
+
+    ``own_level`` (with L > 1): q // 2 of each exemplar's q candidates per pixel come from
+    a search under the single-scale descriptor of the level alone (as with L = 1), the
+    other q − q // 2 from the multiscale one; each part keeps the separation within itself.
+    Both searches run ``iterations`` at the finest level and one per coarser level from the
+    finer lists, so at the coarse levels the single-scale part is loosely matched rather
+    than the level's nearest. Not the default: measured, it lowers C at ½ size (converged,
+    it does not, and why is not established), but brick's hybrids lose many horizontal
+    joints and renoir + creek's skies take larger grey blotches (docs/hybrids.md). False
+    (the default): all q from the multiscale descriptor."""
     import time
 
     from proxyshade.kernels import hybrid as kh
@@ -226,11 +236,21 @@ def analyse(rgb: np.ndarray, bw: int, *, levels: int, L: int, q: int, iterations
         bases.append(basis)
         P.append(kh.project(N, mean, basis))
     scales = kh.level_scales(P)
-    cands = []
+    # with own_level, q // 2 of each exemplar's q candidates come from a single-scale
+    # search, the rest from the multiscale one
+    q1 = q // 2 if (own_level and L > 1) else 0
+    cands, ms, ss = [], [], []
     for s in range(levels):  # finest first; each level's search starts from the finer level's lists
         D = kh.multiscale(P, s, L, coarser=coarser, scales=scales if coarser and L > 1 else None)
-        c, _ = kh.candidates(D, D, bw, q, sep, own_box=True, iterations=iterations if s == 0 else 1,
-                             seed=mix_seed(seed, s), init=cands[-1] if cands else None)
+        c, _ = kh.candidates(D, D, bw, q - q1, sep, own_box=True, iterations=iterations if s == 0 else 1,
+                             seed=mix_seed(seed, s), init=ms[-1] if ms else None)
+        ms.append(c)
+        if q1:
+            D1 = np.ascontiguousarray(P[s], np.float32)
+            c1, _ = kh.candidates(D1, D1, bw, q1, sep, own_box=True, iterations=iterations if s == 0 else 1,
+                                  seed=mix_seed(seed, s), init=ss[-1] if ss else None)
+            ss.append(c1)
+            c = np.concatenate([c, c1], axis=3)
         cands.append(np.ascontiguousarray(c))
     return Analysis(bw, bh, nb, L, q, sep, stacks, means, bases, P, cands, time.perf_counter() - t0)
 

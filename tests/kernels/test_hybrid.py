@@ -281,3 +281,23 @@ def test_nearest_chamfer_is_the_minimum_over_exemplar_windows():
     want = [min(chamfer_ring(o, e) for e in ex) for o in out]
     np.testing.assert_allclose(got, want)
     assert kh.nearest_chamfer(ex[:5], ex).tolist() == [0.0] * 5
+
+
+def test_own_level_candidates_are_the_single_scale_search_and_nearer_at_their_level():
+    """analyse(own_level=True), q = 2: per exemplar, one candidate of the multiscale search
+    (as with own_level=False, q = 1) and one of the level's own single-scale search (as with
+    L = 1, q = 1); at the finest level (the full PatchMatch iterations; coarser levels run
+    one from the finer lists) the latter is nearer under the level's descriptor, which the
+    synthesis compares."""
+    rng = np.random.default_rng(11)
+    rgb = rng.random((32, 64, 3)).astype(np.float32)
+    mixed = sh.analyse(rgb, 32, levels=3, L=8, q=2, iterations=2, seed=1)
+    multi = sh.analyse(rgb, 32, levels=3, L=8, q=1, iterations=2, seed=1, own_level=False)
+    single = sh.analyse(rgb, 32, levels=3, L=1, q=1, iterations=2, seed=1)
+    for s in range(3):
+        assert mixed.cands[s].shape == (32, 64, 2, 2, 2)
+        np.testing.assert_array_equal(mixed.cands[s][:, :, :, :1], multi.cands[s])
+        np.testing.assert_array_equal(mixed.cands[s][:, :, :, 1:], single.cands[s])
+    P, c = mixed.P[0].astype(np.float64), mixed.cands[0]
+    d = [((P[:, :, None] - P[c[:, :, :, k, 0], c[:, :, :, k, 1]]) ** 2).sum(-1).mean() for k in (0, 1)]
+    assert d[1] < d[0], d
