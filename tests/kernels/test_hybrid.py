@@ -291,7 +291,7 @@ def test_own_level_candidates_are_the_single_scale_search_and_nearer_at_their_le
     synthesis compares."""
     rng = np.random.default_rng(11)
     rgb = rng.random((32, 64, 3)).astype(np.float32)
-    mixed = sh.analyse(rgb, 32, levels=3, L=8, q=2, iterations=2, seed=1)
+    mixed = sh.analyse(rgb, 32, levels=3, L=8, q=2, iterations=2, seed=1, own_level=True)
     multi = sh.analyse(rgb, 32, levels=3, L=8, q=1, iterations=2, seed=1, own_level=False)
     single = sh.analyse(rgb, 32, levels=3, L=1, q=1, iterations=2, seed=1)
     for s in range(3):
