@@ -88,6 +88,12 @@ def _sat(img, lab, k, r0, r1, c0, c1, f, sat):
 
 
 @njit(inline="always", **JIT)
+def _win(sat, i0, i1, j0, j1, c):
+    """Channel ``c``'s sum over the cells [i0, i1) × [j0, j1) of a summed-area table."""
+    return sat[i1, j1, c] - sat[i0, j1, c] - sat[i1, j0, c] + sat[i0, j0, c]
+
+
+@njit(inline="always", **JIT)
 def _bands_at(img, sat, i, j, radii, bands):
     """Pixel (i, j)'s layers into ``bands`` (R + 1, 3): b_0 .. b_(R-1), then the low pass;
     ``img`` and (i, j) relative to the box of ``sat``."""
@@ -97,10 +103,10 @@ def _bands_at(img, sat, i, j, radii, bands):
         r = radii[b]
         i0, i1 = max(i - r, 0), min(i + r, H - 1) + 1
         j0, j1 = max(j - r, 0), min(j + r, W - 1) + 1
-        n = sat[i1, j1, 3] - sat[i0, j1, 3] - sat[i1, j0, 3] + sat[i0, j0, 3]
-        m0 = (sat[i1, j1, 0] - sat[i0, j1, 0] - sat[i1, j0, 0] + sat[i0, j0, 0]) / n
-        m1 = (sat[i1, j1, 1] - sat[i0, j1, 1] - sat[i1, j0, 1] + sat[i0, j0, 1]) / n
-        m2 = (sat[i1, j1, 2] - sat[i0, j1, 2] - sat[i1, j0, 2] + sat[i0, j0, 2]) / n
+        n = _win(sat, i0, i1, j0, j1, 3)
+        m0 = _win(sat, i0, i1, j0, j1, 0) / n
+        m1 = _win(sat, i0, i1, j0, j1, 1) / n
+        m2 = _win(sat, i0, i1, j0, j1, 2) / n
         bands[b, 0] = prev0 - m0
         bands[b, 1] = prev1 - m1
         bands[b, 2] = prev2 - m2
@@ -195,14 +201,14 @@ def _block_means(sat, rb, M):
     Hb, Wb = sat.shape[0] - 1, sat.shape[1] - 1
     for bi in prange(Hb):
         for bj in range(Wb):
-            if sat[bi + 1, bj + 1, 3] - sat[bi, bj + 1, 3] - sat[bi + 1, bj, 3] + sat[bi, bj, 3] == 0.0:
+            if _win(sat, bi, bi + 1, bj, bj + 1, 3) == 0.0:
                 continue
             for r in range(rb.shape[0]):
                 i0, i1 = max(bi - rb[r], 0), min(bi + rb[r], Hb - 1) + 1
                 j0, j1 = max(bj - rb[r], 0), min(bj + rb[r], Wb - 1) + 1
-                n = sat[i1, j1, 3] - sat[i0, j1, 3] - sat[i1, j0, 3] + sat[i0, j0, 3]
+                n = _win(sat, i0, i1, j0, j1, 3)
                 for c in range(3):
-                    M[bi, bj, r, c] = (sat[i1, j1, c] - sat[i0, j1, c] - sat[i1, j0, c] + sat[i0, j0, c]) / n
+                    M[bi, bj, r, c] = _win(sat, i0, i1, j0, j1, c) / n
 
 
 @njit(inline="always", **JIT)
@@ -273,7 +279,7 @@ def _spread_pass(img, lab, hbin, k, r0, r1, c0, c1, f, sat, M, gains, D, out):
                 by = y1 if q >= 2 else y0
                 bx = x1 if q % 2 == 1 else x0
                 w = (ty if q >= 2 else 1.0 - ty) * (tx if q % 2 == 1 else 1.0 - tx)
-                if w <= 0.0 or sat[by + 1, bx + 1, 3] - sat[by, bx + 1, 3] - sat[by + 1, bx, 3] + sat[by, bx, 3] == 0.0:
+                if w <= 0.0 or _win(sat, by, by + 1, bx, bx + 1, 3) == 0.0:
                     continue
                 wsum += w
                 d0 += w * D[by, bx, t, 0]
