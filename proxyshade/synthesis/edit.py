@@ -136,7 +136,9 @@ def update_guide(prev: Plate, region: np.ndarray, proxy: Plate, source: Plate, g
     one ``magnify`` × a power of two, so it is synthesized with the frame's magnification
     and levels; or, when that power of two would reach the frame, the frame's long side
     and ``size``: a band across the frame; the window's origin on the frame's synthesis
-    grid); its labels and source positions replace ``prev``'s inside the region.
+    grid); its labels and source positions replace ``prev``'s inside the region. A window
+    that cannot lie on the frame's synthesis grid (a region as long as its window, off the
+    grid) is synthesized afresh, without ``prev`` (``info["fresh"]`` counts them).
     The synthesis on a window is the masked correction (``synthesize_guide`` with
     ``previous``): the window's state is ``prev``'s, the region's blocks are initialized
     with the new labels (``prev``'s coordinates where their label still is the target's)
@@ -159,7 +161,7 @@ def update_guide(prev: Plate, region: np.ndarray, proxy: Plate, source: Plate, g
     R1, C1 = (int(rows[-1]) + 1, int(cols[-1]) + 1) if len(rows) else (0, 0)
     comp, boxes = kt.components4(np.ascontiguousarray(region[R0:R1, C0:C1], np.bool_))
     boxes = boxes + np.array([R0, R0, C0, C0], np.int64)
-    info = {"windows": [], "window_pixels": 0, "region": int(region.sum()), "whole": False}
+    info = {"windows": [], "window_pixels": 0, "region": int(region.sum()), "whole": False, "fresh": 0}
     for r0, r1, c0, c1, ids in group_boxes(boxes, (H, W), margin=context, slack=(4 * context) ** 2):
         long_side, size = f * gp.start, None
         while long_side < max(r1 - r0, c1 - c0):
@@ -186,6 +188,7 @@ def update_guide(prev: Plate, region: np.ndarray, proxy: Plate, source: Plate, g
             # the previous guide is this window's state where it is not synthesized again
             # (aligned with the frame's synthesis pixels, as _span places the window)
             aligned = r0 % f == 0 and c0 % f == 0
+            info["fresh"] += not aligned  # synthesized afresh, then pasted inside the region only
             sub, _ = synthesize_guide(crop, source, SimpleNamespace(**dict(vars(gp), size=size or long_side // f)),
                                       previous=before if aligned else None, active=sel if aligned else None)
         win = (slice(r0, r1), slice(c0, c1))

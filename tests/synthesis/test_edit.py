@@ -73,6 +73,20 @@ def test_update_guide_synthesizes_a_window_and_keeps_the_rest():
     assert kept.mean() > 0.3 and (out["label.id"][far] == prev["label.id"][far]).mean() > 0.9
 
 
+def test_a_window_off_the_synthesis_grid_is_synthesized_afresh_and_pasted_inside_the_region():
+    """No context and a region exactly as long as its window (128 rows from row 301, off
+    the guide's 4 px synthesis grid): the window cannot be placed on the grid and still
+    hold the region, so it is synthesized without the last guide; the labels still follow
+    the edit inside the region and nothing outside it changes."""
+    src, proxy, gp, prev, edited, water = painted(slice(301, 429), slice(201, 261))
+    region = changed_region({"proxy": proxy}, {"proxy": edited}, {"proxy": ("label.id",)}, 0)
+    out, info = update_guide(prev, region, edited, src, gp, context=0)
+    assert info["fresh"] >= 1 and not info["whole"]
+    for c in ("label.id", "source.x", "source.y"):
+        assert np.array_equal(out[c][~region], prev[c][~region])
+    assert (out["label.id"][region] == water).mean() > 0.85
+
+
 def test_a_band_across_the_frame_is_synthesized_on_a_band_not_the_whole_frame():
     """A shoreline moved across the whole width: the window is the frame's width but only
     the band's height, synthesized at the frame's magnification."""
