@@ -66,7 +66,7 @@ def layout_move(colors: np.ndarray, labels: np.ndarray, source_rgb: np.ndarray,
     profile (about its mean) that stays: 0 gives the photo's profile exactly, 1 adds the
     photo's to it (a pond's dark band under its bank stays while the pond's mean moves
     onto the photo's water; a synthesis that already follows the photo's profile gets
-    it twice). ``spread`` > 1: then each label's large-scale variation is raised to the
+    it twice). ``spread`` > 1: then each label's large-scale variation is raised toward the
     photo's (``grain.spread``, gains up to ``spread``; ``scale`` source pixels per output
     pixel)."""
     lut, ids = joint_dense(labels, source_labels)
@@ -133,7 +133,7 @@ def blend_frame(rgb: np.ndarray, patch: np.ndarray, labels: np.ndarray | None, s
         return solved(rgb, source_rgb)
     # the gains need the blended frame's detail to a few per mille, not the final solve's
     # precision: GRAIN_TOL takes 3 iterations where the default tolerance takes 8; nor the
-    # layout's spread, which moves only what lies under the grain's largest layer
+    # layout's spread, which moves only scales coarser than the grain's layers
     u, _ = solved(rgb, source_rgb, tol=max(solve.tol, GRAIN_TOL), spread=1.0)
     table = grain.gain_table(u, labels, source_rgb, source_labels, max_gain=solve.grain)
     src = grain.graded(source, table)

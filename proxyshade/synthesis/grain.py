@@ -12,7 +12,10 @@ the frame is then read again through its coordinate map and blended again. Becau
 gains live in the source, every later frame reads the same graded source through its
 carried map (``source_colours`` with the plate's ``meta["grain"]``): the detail stays put
 on the surface over a shot, where an output-side boost would be resampled frame after
-frame and fade.
+frame and fade. ``spread`` measures the coarser layers (box radii ``SPREAD_RADII``) and
+raises the frame's own, on the frame's side: a region of another shape holds less of the
+photo's large-scale variation, and which parts of the photo a map reads, not the photo's
+own layers, makes the frame's (the layout step applies it, ``blend.layout_move``).
 """
 from __future__ import annotations
 
@@ -83,7 +86,8 @@ def spread(rgb: np.ndarray, labels: np.ndarray, source_rgb: np.ndarray, source_l
            max_gain: float, scale: float = 1.0) -> np.ndarray:
     """``rgb`` (linear (H, W, 3), labels ``labels``) with the large-scale layers of each
     label (between its box means of radii ``SPREAD_RADII``, windows of 65 to 513 px, taken
-    on 4 × 4 blocks: ``kernels.grain.spread_energy``) raised, by (label, height bin), to the photo's energy there (gains in
+    on 4 × 4 blocks: ``kernels.grain.spread_energy``) raised, by (label, height bin),
+    toward the photo's energy there (one pass goes most of the way; gains in
     [1, max_gain]; never lowered). A region of another shape than the photo's holds less
     of the photo's large-scale variation (a pond: fewer of the river's bank reflections
     and far-to-near darkening); this gives the frame's own large-scale variation the
