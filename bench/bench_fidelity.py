@@ -11,6 +11,9 @@ Variants, so every change is judged against plain baselines the bench runs itsel
   pre-Poisson  the same synthesis before the Poisson step (Magnify's colours);
   no grain     first frames only: the Poisson step with ``grain: 1`` (the detail as blended,
                not matched to the photo's; synthesis/grain.py);
+  no spread    first frames only: the Poisson step with ``layout_spread: 1`` (each label's
+               large-scale variation as synthesized, not raised toward the photo's;
+               ``grain.spread``);
   l2           first frames only: the guide synthesized with ``metric: l2``.
 
 Per label (sRGB in [0, 1], ``kernels.quality.label_fidelity``): mean colour shift per
@@ -169,7 +172,9 @@ def main(argv=None) -> None:
         for scene, s in SCENES:
             mag, fin, dt = first_frame(scene, s)
             variants = {"final": measure(fin, srcs[s], ssrgb[s]), "pre-Poisson": measure(mag, srcs[s], ssrgb[s]),
-                        "no grain": measure(first_frame(scene, s, ["final.grain=1.0"])[1], srcs[s], ssrgb[s])}
+                        "no grain": measure(first_frame(scene, s, ["final.grain=1.0"])[1], srcs[s], ssrgb[s]),
+                        "no spread": measure(first_frame(scene, s, ["final.layout_spread=1.0"])[1], srcs[s],
+                                             ssrgb[s])}
             if not args.no_l2:
                 variants["l2"] = measure(first_frame(scene, s, ["guide.metric=l2"])[1], srcs[s], ssrgb[s])
             report(f"first frame {scene}/{s} ({fin.shape[1]}x{fin.shape[0]}, {dt:.1f} s incl. JIT/USD)", variants)
