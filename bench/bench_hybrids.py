@@ -31,8 +31,8 @@ evaluations the search took. Previous rounds matched to the nearest grid point o
 (D up to 0.025 apart) and compared L = 8 with L = 1 at the same J.
 
 Run: .venv/bin/python bench/run.py hybrids, or .venv/bin/python bench/bench_hybrids.py [--quick | --sheet |
---before-after | --own-level | --align] [--brick] (``--quick``: seeds 1-4; ``--brick``: the brick comparisons only; ``--sheet`` writes docs/img/hybrids_sheet.jpg instead,
-``--before-after`` docs/img/hybrids_before_after.jpg, ``--own-level`` docs/img/hybrids_own_level.jpg; ``--align`` prints how brick's two crops, ``BRICK_CROPS``,
+--before-after | --align] [--brick] (``--quick``: seeds 1-4; ``--brick``: the brick comparisons only; ``--sheet`` writes docs/img/hybrids_sheet.jpg instead,
+``--before-after`` docs/img/hybrids_before_after.jpg; ``--align`` prints how brick's two crops, ``BRICK_CROPS``,
 were chosen)
 """
 from __future__ import annotations
@@ -51,6 +51,7 @@ LEVELS, L, Q, ITERATIONS, PASSES = 6, 8, 2, 4, 2  # HybridSynth's defaults
 SP_POINTS = [(3, 0.01), (4, 0.01), (5, 0.01)]  # (jitter levels, J); before: J = 0.05 at 2, 3, 4 levels
 BASE_LEVELS = (1, 2, 3, 4, 5)  # baseline grid: jittered levels x radius (r <= 0.5: no jitter at h = 1)
 BASE_R = (0.55, 0.6, 0.75, 1.0)
+PREVIOUS = dict(stack="box", coarser=True)  # the previous round's analysis (before / after)
 
 
 def renoir_creek():
@@ -386,7 +387,7 @@ def speed(atlas):
     w = np.ones(2)
     a8 = measure(lambda: analyse(rgb, SIZE, levels=LEVELS, L=L, q=Q, iterations=ITERATIONS, seed=0), repeat=3, warmup=0)
     a1 = measure(lambda: analyse(rgb, SIZE, levels=LEVELS, L=1, q=Q, iterations=ITERATIONS, seed=0), repeat=3, warmup=0)
-    af = measure(lambda: analyse(rgb, SIZE, levels=LEVELS, L=L, q=Q, iterations=ITERATIONS, seed=0, coarser=False),
+    af = measure(lambda: analyse(rgb, SIZE, levels=LEVELS, L=L, q=Q, iterations=ITERATIONS, seed=0, **PREVIOUS),
                  repeat=3, warmup=0)
     seeds = iter(range(1000))
     h_sp = measure(lambda: synthesize(an8, (SIZE, SIZE), J=0.3, seed=next(seeds), weights=w, passes=PASSES), repeat=7)
@@ -395,7 +396,7 @@ def speed(atlas):
     table("hybrids: speed (renoir + creek, 2 exemplars at 256²)", [
         ("analysis, 2 exemplars 256², L=8", a8, 10.0),
         ("analysis, baseline L=1", a1, None),
-        ("analysis, L=8 finer levels (before)", af, None),
+        ("analysis, L=8 box stack, coarser (before)", af, None),
         ("one 256² hybrid, SP jitter J=0.3", h_sp, 1.0),
         ("one 256² hybrid, baseline spatial r=1", h_base, None),
     ])
@@ -426,38 +427,23 @@ def write_jpeg(tiles, per_row, path: Path):
 
 
 def before_after(path: Path):
-    """Before (the candidates' descriptor of the finer levels, unscaled) and after (the
-    coarser levels, each scaled): renoir + creek hybrids of seeds 1 and 2 and brick's of
-    seed 1, HybridSynth's defaults (J = 0.3), 256² at 100 %."""
+    """Before (the previous round: the box-filtered stack, the candidates' descriptor of
+    the coarser levels) and after (the Gaussian stack, the finer levels; both each level
+    scaled): renoir + creek hybrids of seeds 1 and 2 at HybridSynth's defaults (J = 0.3),
+    brick's of seed 1 at the bench's middle SP point (J = 0.01, the finest 4 levels
+    jittered), 256² at 100 %."""
     from proxyshade.synthesis.hybrid import analyse, synthesize
 
     rows = {False: [], True: []}
-    for atlas, seeds in ((renoir_creek(), (1, 2)), (brick(), (1,))):
+    for atlas, seeds, J, jl in ((renoir_creek(), (1, 2), 0.3, None), (brick(), (1,), 0.01, 4)):
         rgb = atlas_rgb(atlas)
-        for coarser in (False, True):
-            an = analyse(rgb, SIZE, levels=LEVELS, L=L, q=Q, iterations=ITERATIONS, seed=0, coarser=coarser)
+        for after in (False, True):
+            an = analyse(rgb, SIZE, levels=LEVELS, L=L, q=Q, iterations=ITERATIONS, seed=0,
+                         **({} if after else PREVIOUS))
             for s in seeds:
-                S = synthesize(an, (SIZE, SIZE), J=0.3, seed=s, weights=np.ones(2), passes=PASSES)
-                rows[coarser].append(rgb[S[..., 0], S[..., 1]])
+                S = synthesize(an, (SIZE, SIZE), J=J, seed=s, weights=np.ones(2), passes=PASSES, jitter_levels=jl)
+                rows[after].append(rgb[S[..., 0], S[..., 1]])
     write_jpeg(rows[False] + rows[True], 3, path)
-
-
-def own_level_sheet(path: Path):
-    """The bench's middle SP point (J = 0.01, the finest 4 levels jittered), seeds 1-4, all
-    candidates multiscale (rows 1 and 3: the previous rounds) against one multiscale and one
-    own-level candidate per exemplar (rows 2 and 4: the default); renoir + creek, then
-    brick; 256² at 100 %."""
-    from proxyshade.synthesis.hybrid import analyse, synthesize
-
-    tiles = []
-    for atlas in (renoir_creek(), brick()):
-        rgb = atlas_rgb(atlas)
-        for own in (False, True):
-            an = analyse(rgb, SIZE, levels=LEVELS, L=L, q=Q, iterations=ITERATIONS, seed=0, own_level=own)
-            for s in (1, 2, 3, 4):
-                S = synthesize(an, (SIZE, SIZE), J=0.01, seed=s, weights=np.ones(2), passes=PASSES, jitter_levels=4)
-                tiles.append(rgb[S[..., 0], S[..., 1]])
-    write_jpeg(tiles, 4, path)
 
 
 def sheet(path: Path):
@@ -489,9 +475,6 @@ def main():
         return
     if "--align" in sys.argv:
         brick_alignment()
-        return
-    if "--own-level" in sys.argv:
-        own_level_sheet(ROOT / "docs/img/hybrids_own_level.jpg")
         return
     if "--before-after" in sys.argv:
         before_after(ROOT / "docs/img/hybrids_before_after.jpg")

@@ -3,16 +3,18 @@
 The exemplars sit side by side in an *atlas*: equal boxes of ``bw`` columns in a row, box
 ``b`` owning columns ``b bw .. (b + 1) bw - 1``. Nothing here reads across a box border:
 
-* ``stack_level``: level ``h`` of the per-exemplar stack, the mean over the h × h block
-  centred at each pixel, clamped at the borders of the pixel's own box
-  (``features._box_blur_centred`` on each box);
+* ``gaussian_stack``: the per-exemplar Gaussian stack (Lefebvre and Hoppe 2005), the
+  binomial 1 4 6 4 1 / 16 applied "à trous" level after level, clamped at the borders of
+  the pixel's own box; ``stack_level``, the box-filtered stack kept for comparison (level
+  ``h``: the mean over the h × h block centred at each pixel, clamped likewise,
+  ``features._box_blur_centred`` on each box);
 * ``gather``: the 75-D (5 × 5 × 3) neighbourhood of each atlas pixel at spacing ``h``,
   clamped into its box;
 * ``pca_basis`` / ``project``: the 6-D PCA subspace of those neighbourhoods (covariance in
   fixed pixel chunks, so the sums do not depend on the thread count) and the projection;
 * ``multiscale``: the descriptor of the candidate analysis, the projections of ``L``
-  successive levels concatenated (the paper: L = 8), finer or coarser, optionally each
-  scaled (``level_scales``: each level weighs alike);
+  successive finer (or coarser) levels concatenated (the paper: L = 8), each scaled when
+  given (``level_scales``: each level weighs alike);
 * ``candidates``: per atlas pixel and per exemplar, the ``q`` most similar pixels under the
   multiscale descriptor, pairwise at least ``sep`` apart (L∞) and ``sep`` from the pixel
   itself, by PatchMatch (Barnes et al. 2009): random init, propagation, random search;
@@ -69,6 +71,52 @@ def stack_level(img: np.ndarray, bw: int, h: int) -> np.ndarray:
         tmp = np.empty_like(box)
         _box_blur_centred(box, h, tmp)
         out[:, x0:x0 + bw] = tmp
+    return out
+
+
+BINOMIAL = (1.0 / 16, 4.0 / 16, 6.0 / 16, 4.0 / 16, 1.0 / 16)  # the 5-tap Gaussian of a pyramid
+
+
+@njit(**PJIT)
+def _atrous(img, bw, step, out):
+    """``img`` convolved with the binomial 1 4 6 4 1 / 16 at taps −2 step .. 2 step, rows
+    then columns, each tap clamped into the pixel's own box (columns) and the atlas
+    (rows); float64 sums, one pixel per write."""
+    H, Wa, C = img.shape
+    w = np.array(BINOMIAL)
+    tmp = np.empty((H, Wa, C), np.float64)
+    for i in prange(H):
+        for j in range(Wa):
+            x0 = (j // bw) * bw
+            for c in range(C):
+                s = 0.0
+                for t in range(5):
+                    jj = min(max(j + (t - 2) * step, x0), x0 + bw - 1)
+                    s += w[t] * img[i, jj, c]
+                tmp[i, j, c] = s
+    for i in prange(H):
+        for j in range(Wa):
+            for c in range(C):
+                s = 0.0
+                for t in range(5):
+                    ii = min(max(i + (t - 2) * step, 0), H - 1)
+                    s += w[t] * tmp[ii, j, c]
+                out[i, j, c] = s
+
+
+def gaussian_stack(img: np.ndarray, bw: int, levels: int) -> list:
+    """(H, Wa, C) float32 atlas -> its Gaussian stack, ``levels`` levels finest first
+    (Lefebvre and Hoppe 2005): level 0 is the atlas, level s is level s − 1 convolved with
+    the binomial 1 4 6 4 1 / 16 dilated to taps 2^(s−1) apart ("à trous"), which is a
+    Gaussian pyramid's filtering kept at full resolution (level s: σ ≈ 2^s / √3); each box
+    on its own, clamped at its borders, so no exemplar bleeds into another."""
+    cur = np.ascontiguousarray(img, np.float32)
+    out = [cur.copy()]
+    for s in range(1, levels):
+        nxt = np.empty_like(cur)
+        _atrous(cur, int(bw), 2 ** (s - 1), nxt)
+        out.append(nxt)
+        cur = nxt
     return out
 
 

@@ -17,11 +17,12 @@ class HybridSynth(Node):
     Output, an annotated source for PatchInit/Correct/Magnify/Poisson: ``R,G,B`` and
     ``label.id`` looked up at the pointers, ``exemplar.id`` (which exemplar each pixel
     came from), ``atlas.x/y`` (the pointer: atlas column and row), the atlas's label table
-    in ``meta["labels"]``. The analysis (stack, PCA, candidate sets) is computed once per
+    in ``meta["labels"]``. The analysis (Gaussian stack, PCA, candidate sets) is computed once per
     atlas and kept in memory for the run.
     """
 
-    version = 2  # 2: candidates from the coarser, per-level scaled multiscale descriptor
+    version = 3  # 2: candidates from the coarser, per-level scaled multiscale descriptor; 3: the Gaussian
+    # stack and the finer levels, each scaled
     time_dependent = True
     atlas = Input("exemplar atlas: R,G,B, label.id, exemplar.id and meta['atlas']",
                   channels=("R", "G", "B", "label.id", "exemplar.id"), finite=("R", "G", "B"),
@@ -30,7 +31,7 @@ class HybridSynth(Node):
     weights = Param(list, [], doc="one weight >= 0 per exemplar biasing the mix (d_i / weight); empty: all 1")
     size = Param(list, None, optional=True, length=2, doc="[width, height] of the hybrid; default the exemplar size")
     levels = Param(int, 6, min=1, max=12, doc="synthesis levels (coarsest spacing 2^(levels-1))")
-    descriptor_levels = Param(int, 8, min=1, max=12, doc="L: successive coarser levels (each scaled to unit RMS) concatenated in the candidates' descriptor")
+    descriptor_levels = Param(int, 8, min=1, max=12, doc="L: successive finer levels (each scaled to unit RMS) concatenated in the candidates' descriptor")
     candidates = Param(int, 2, min=1, max=4, doc="candidates per exemplar and pixel")
     jitter_levels = Param(int, None, optional=True, min=1, max=12,
                           doc="jitter only the finest this many levels (less variation; default: every level)")

@@ -178,8 +178,8 @@ def standardised(rgb: np.ndarray, bw: int) -> np.ndarray:
 class Analysis:
     """What the synthesis needs of an atlas, per level s (h = 2^s, s = 0 finest): the
     standardised stack level, its PCA (mean, basis), the projected 6-D descriptors and the
-    candidate sets (from the descriptor of ``L`` successive levels: coarser, each scaled to
-    unit RMS, by default; the finer levels unscaled with ``coarser=False``)."""
+    candidate sets (from the descriptor of ``L`` successive levels, each scaled to unit
+    RMS: the finer ones by default, the coarser ones with ``coarser=True``)."""
 
     bw: int
     bh: int
@@ -196,25 +196,21 @@ class Analysis:
 
 
 def analyse(rgb: np.ndarray, bw: int, *, levels: int, L: int, q: int, iterations: int, seed: int,
-            separation: float = 0.05, coarser: bool = True, own_level: bool = False) -> Analysis:
+            separation: float = 0.05, coarser: bool = False, stack: str = "gaussian") -> Analysis:
     """The analysis of an (H, nb bw, 3) linear atlas (``levels`` stack levels).
 
-    ``coarser``: the candidates' multiscale descriptor of level s concatenates levels s ..
-    s + L − 1, each scaled to unit RMS (``kernels.hybrid.level_scales``), so a candidate
-    shares its pixel's coarse context (the structure) as well as its own level; False: the
-    levels s .. s − L + 1 unscaled (the issue's reading of the paper, "L successive finer
-    levels"), whose candidates at the finest levels, where the bench jitters, are
-    single-scale, and whose unscaled sum is dominated by the finest level.
+    ``stack``: ``"gaussian"`` (the default), the per-exemplar Gaussian stack
+    (``kernels.hybrid.gaussian_stack``); ``"box"``, level h the h × h box mean
+    (``stack_level``; earlier rounds' stack, kept for comparison).
 
-    ``own_level`` (with L > 1): q // 2 of each exemplar's q candidates per pixel come from
-    a search under the single-scale descriptor of the level alone (as with L = 1), the
-    other q − q // 2 from the multiscale one; each part keeps the separation within itself.
-    Both searches run ``iterations`` at the finest level and one per coarser level from the
-    finer lists, so at the coarse levels the single-scale part is loosely matched rather
-    than the level's nearest. Not the default: measured, it lowers C at ½ size (converged,
-    it does not, and why is not established), but brick's hybrids lose many horizontal
-    joints and renoir + creek's skies take larger grey blotches (docs/hybrids.md). False
-    (the default): all q from the multiscale descriptor."""
+    The candidates' multiscale descriptor of level s concatenates the projections of
+    levels s, s − 1, .., s − L + 1 (the paper's "L successive finer levels", those that
+    exist), each scaled to unit RMS (``kernels.hybrid.level_scales``): a candidate matches
+    the pixel at its own level and in the detail it will become, each level weighing
+    alike (unscaled, the finest level's larger variance drowns the others). At the finest
+    level it is the single-scale descriptor. ``coarser=True``: levels s .. s + L − 1
+    instead (an earlier round's reading; with the Gaussian stack its brick hybrids break
+    columns, docs/hybrids.md)."""
     import time
 
     from proxyshade.kernels import hybrid as kh
@@ -225,32 +221,27 @@ def analyse(rgb: np.ndarray, bw: int, *, levels: int, L: int, q: int, iterations
     nb = rgb.shape[1] // bw
     sep = max(1, int(np.ceil(separation * max(bh, bw))))
     base = standardised(rgb, bw)
+    if stack == "gaussian":
+        levels_of = kh.gaussian_stack(base, bw, levels)
+    elif stack == "box":
+        levels_of = [kh.stack_level(base, bw, 2 ** s) for s in range(levels)]
+    else:
+        raise ValueError(f"stack: {stack!r}; use 'gaussian' or 'box'")
     stacks, means, bases, P = [], [], [], []
     for s in range(levels):
-        h = 2 ** s
-        st = kh.stack_level(base, bw, h)
-        N = kh.gather(st, bw, h)
+        st = levels_of[s]
+        N = kh.gather(st, bw, 2 ** s)
         mean, basis = kh.pca_basis(N[::4, ::4].reshape(-1, N.shape[2]))
         stacks.append(st)
         means.append(mean)
         bases.append(basis)
         P.append(kh.project(N, mean, basis))
-    scales = kh.level_scales(P)
-    # with own_level, q // 2 of each exemplar's q candidates come from a single-scale
-    # search, the rest from the multiscale one
-    q1 = q // 2 if (own_level and L > 1) else 0
-    cands, ms, ss = [], [], []
+    scales = kh.level_scales(P) if L > 1 else None
+    cands = []
     for s in range(levels):  # finest first; each level's search starts from the finer level's lists
-        D = kh.multiscale(P, s, L, coarser=coarser, scales=scales if coarser and L > 1 else None)
-        c, _ = kh.candidates(D, D, bw, q - q1, sep, own_box=True, iterations=iterations if s == 0 else 1,
-                             seed=mix_seed(seed, s), init=ms[-1] if ms else None)
-        ms.append(c)
-        if q1:
-            D1 = np.ascontiguousarray(P[s], np.float32)
-            c1, _ = kh.candidates(D1, D1, bw, q1, sep, own_box=True, iterations=iterations if s == 0 else 1,
-                                  seed=mix_seed(seed, s), init=ss[-1] if ss else None)
-            ss.append(c1)
-            c = np.concatenate([c, c1], axis=3)
+        D = kh.multiscale(P, s, L, coarser=coarser, scales=scales)
+        c, _ = kh.candidates(D, D, bw, q, sep, own_box=True, iterations=iterations if s == 0 else 1,
+                             seed=mix_seed(seed, s), init=cands[-1] if cands else None)
         cands.append(np.ascontiguousarray(c))
     return Analysis(bw, bh, nb, L, q, sep, stacks, means, bases, P, cands, time.perf_counter() - t0)
 

@@ -29,6 +29,54 @@ def test_stack_is_a_box_mean_clamped_inside_each_exemplar():
     np.testing.assert_array_equal(kh.stack_level(other, 11, 4)[:, :11], kh.stack_level(img, 11, 4)[:, :11])
 
 
+def _gaussian_stack_reference(img, bw, levels):
+    """Level after level, every pixel written out: the 5 × 5 binomial (1 4 6 4 1 / 16 in
+    each direction) with taps 2^(s−1) apart, each tap clamped into the pixel's box."""
+    w = np.array([1, 4, 6, 4, 1]) / 16.0
+    H, Wa, _ = img.shape
+    cur = img.astype(np.float64)
+    out = [cur]
+    for s in range(1, levels):
+        step = 2 ** (s - 1)
+        nxt = np.zeros_like(cur)
+        for i in range(H):
+            for j in range(Wa):
+                x0 = j // bw * bw
+                for a in range(5):
+                    for b in range(5):
+                        ii = min(max(i + (a - 2) * step, 0), H - 1)
+                        jj = min(max(j + (b - 2) * step, x0), x0 + bw - 1)
+                        nxt[i, j] += w[a] * w[b] * cur[ii, jj]
+        out.append(nxt)
+        cur = nxt
+    return out
+
+
+def test_gaussian_stack_matches_the_written_out_binomial_inside_each_exemplar():
+    rng = np.random.default_rng(0)
+    img = rng.random((13, 2 * 11, 3)).astype(np.float32)
+    got = kh.gaussian_stack(img, 11, 4)
+    want = _gaussian_stack_reference(img, 11, 4)
+    assert len(got) == 4
+    np.testing.assert_array_equal(got[0], img)
+    for g, r in zip(got, want):
+        np.testing.assert_allclose(g, r, rtol=1e-5, atol=1e-6)
+    other = img.copy()
+    other[:, 11:] = 100.0  # the second exemplar changes: the first's stack does not
+    for a, b in zip(kh.gaussian_stack(other, 11, 4), got):
+        np.testing.assert_array_equal(a[:, :11], b[:, :11])
+    # a pyramid's Gaussian: a constant stays constant, and level s blurs a point to σ² = (4^s − 1) / 3
+    dot = np.zeros((33, 33, 1), np.float32)
+    dot[16, 16] = 1.0
+    for s, lev in enumerate(kh.gaussian_stack(dot, 33, 4)):
+        prof = lev[16, :, 0].astype(np.float64) / lev[16, :, 0].sum()
+        var = float((prof * (np.arange(33) - 16.0) ** 2).sum())
+        assert var == pytest.approx((4 ** s - 1) / 3, rel=1e-4)
+    flat = kh.gaussian_stack(np.full((9, 18, 3), 0.25, np.float32), 9, 3)
+    for lev in flat:
+        np.testing.assert_allclose(lev, 0.25, rtol=1e-6)
+
+
 def test_gather_reads_5x5_at_spacing_h_inside_the_box():
     rng = np.random.default_rng(1)
     img = rng.random((7, 16, 3)).astype(np.float32)
@@ -61,6 +109,22 @@ def test_multiscale_concatenates_L_successive_finer_levels():
     assert kh.multiscale(P, 3, 8)[0, 0].tolist() == [3.0] * 6 + [2.0] * 6 + [1.0] * 6 + [0.0] * 6
     assert kh.multiscale(P, 4, 2)[1, 2].tolist() == [4.0] * 6 + [3.0] * 6
     assert kh.multiscale(P, 2, 1).shape == (2, 3, 6)
+    sc = [0.5, 2.0, 4.0, 8.0, 16.0]  # the analysis's default: each level times its scale
+    assert kh.multiscale(P, 2, 8, scales=sc)[0, 0].tolist() == [8.0] * 6 + [2.0] * 6 + [0.0] * 6
+
+
+def test_analysis_stacks_are_the_gaussian_stack_by_default_and_the_box_stack_on_request():
+    rng = np.random.default_rng(3)
+    rgb = rng.random((32, 64, 3)).astype(np.float32)
+    base = sh.standardised(rgb, 32)
+    an = sh.analyse(rgb, 32, levels=3, L=8, q=1, iterations=1, seed=0)
+    for got, want in zip(an.stacks, kh.gaussian_stack(base, 32, 3)):
+        np.testing.assert_array_equal(got, want)
+    box = sh.analyse(rgb, 32, levels=3, L=8, q=1, iterations=1, seed=0, stack="box")
+    for s, got in enumerate(box.stacks):
+        np.testing.assert_array_equal(got, kh.stack_level(base, 32, 2 ** s))
+    with pytest.raises(ValueError, match="stack"):
+        sh.analyse(rgb, 32, levels=3, L=8, q=1, iterations=1, seed=0, stack="pyramid")
 
 
 def test_multiscale_coarser_concatenates_L_successive_coarser_levels_each_scaled():
@@ -281,23 +345,3 @@ def test_nearest_chamfer_is_the_minimum_over_exemplar_windows():
     want = [min(chamfer_ring(o, e) for e in ex) for o in out]
     np.testing.assert_allclose(got, want)
     assert kh.nearest_chamfer(ex[:5], ex).tolist() == [0.0] * 5
-
-
-def test_own_level_candidates_are_the_single_scale_search_and_nearer_at_their_level():
-    """analyse(own_level=True), q = 2: per exemplar, one candidate of the multiscale search
-    (as with own_level=False, q = 1) and one of the level's own single-scale search (as with
-    L = 1, q = 1); at the finest level (the full PatchMatch iterations; coarser levels run
-    one from the finer lists) the latter is nearer under the level's descriptor, which the
-    synthesis compares."""
-    rng = np.random.default_rng(11)
-    rgb = rng.random((32, 64, 3)).astype(np.float32)
-    mixed = sh.analyse(rgb, 32, levels=3, L=8, q=2, iterations=2, seed=1, own_level=True)
-    multi = sh.analyse(rgb, 32, levels=3, L=8, q=1, iterations=2, seed=1, own_level=False)
-    single = sh.analyse(rgb, 32, levels=3, L=1, q=1, iterations=2, seed=1)
-    for s in range(3):
-        assert mixed.cands[s].shape == (32, 64, 2, 2, 2)
-        np.testing.assert_array_equal(mixed.cands[s][:, :, :, :1], multi.cands[s])
-        np.testing.assert_array_equal(mixed.cands[s][:, :, :, 1:], single.cands[s])
-    P, c = mixed.P[0].astype(np.float64), mixed.cands[0]
-    d = [((P[:, :, None] - P[c[:, :, :, k, 0], c[:, :, :, k, 1]]) ** 2).sum(-1).mean() for k in (0, 1)]
-    assert d[1] < d[0], d
