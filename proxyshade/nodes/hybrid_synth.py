@@ -22,12 +22,13 @@ class HybridSynth(Node):
     """
 
     version = 3  # 2: candidates from the coarser, per-level scaled multiscale descriptor; 3: the Gaussian
-    # stack and the finer levels, each scaled
+    # stack and the finer levels, each scaled (and J 0.1 by default)
     time_dependent = True
     atlas = Input("exemplar atlas: R,G,B, label.id, exemplar.id and meta['atlas']",
                   channels=("R", "G", "B", "label.id", "exemplar.id"), finite=("R", "G", "B"),
                   dtype={"label.id": "uint32", "exemplar.id": "uint32"}, fix="connect an ExemplarAtlas node")
-    J = Param(float, 0.3, min=0.0, max=1.0, doc="jitter threshold: 0 keeps the best match, 1 any candidate")
+    J = Param(float, 0.1, min=0.0, max=1.0, doc="jitter threshold: 0 keeps the best match, 1 any candidate "
+                                                 "(0.3: more mixing, regions break into blotches)")
     weights = Param(list, [], doc="one weight >= 0 per exemplar biasing the mix (d_i / weight); empty: all 1")
     size = Param(list, None, optional=True, length=2, doc="[width, height] of the hybrid; default the exemplar size")
     levels = Param(int, 6, min=1, max=12, doc="synthesis levels (coarsest spacing 2^(levels-1))")
