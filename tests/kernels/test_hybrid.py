@@ -127,6 +127,25 @@ def test_analysis_stacks_are_the_gaussian_stack_by_default_and_the_box_stack_on_
         sh.analyse(rgb, 32, levels=3, L=8, q=1, iterations=1, seed=0, stack="pyramid")
 
 
+def test_analysis_candidates_come_from_the_finer_levels_each_scaled():
+    """Level s's candidates are the search under levels s, s − 1, .. each scaled to unit RMS
+    (started from the finer level's lists, one iteration), not under the coarser levels."""
+    from proxyshade.kernels.random import mix_seed
+
+    rng = np.random.default_rng(4)
+    rgb = rng.random((32, 64, 3)).astype(np.float32)
+    an = sh.analyse(rgb, 32, levels=3, L=8, q=2, iterations=2, seed=1)
+    sc = kh.level_scales(an.P)
+    for s in (1, 2):
+        D = kh.multiscale(an.P, s, 8, scales=sc)
+        assert D.shape[-1] == 6 * (s + 1)
+        want, _ = kh.candidates(D, D, 32, 2, an.sep, own_box=True, iterations=1, seed=mix_seed(1, s),
+                                init=an.cands[s - 1])
+        np.testing.assert_array_equal(an.cands[s], want)
+    coarser = sh.analyse(rgb, 32, levels=3, L=8, q=2, iterations=2, seed=1, coarser=True)
+    assert (coarser.cands[1] != an.cands[1]).any()
+
+
 def test_multiscale_coarser_concatenates_L_successive_coarser_levels_each_scaled():
     rng = np.random.default_rng(11)
     P = [(rng.normal(size=(4, 5, 6)) * (5 - s)).astype(np.float32) for s in range(5)]
