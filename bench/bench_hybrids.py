@@ -38,13 +38,12 @@ were chosen)
 from __future__ import annotations
 
 import os
-import statistics
 import sys
 from pathlib import Path
 
 import numpy as np
 
-from harness import measure, table
+from harness import measure_interleaved, table
 
 ROOT = Path(__file__).resolve().parents[1]
 SIZE = 256
@@ -386,18 +385,16 @@ def speed(atlas):
     an8 = analyse(rgb, SIZE, levels=LEVELS, L=L, q=Q, iterations=ITERATIONS, seed=0)
     an1 = analyse(rgb, SIZE, levels=LEVELS, L=1, q=Q, iterations=ITERATIONS, seed=0)
     w = np.ones(2)
-    a8 = measure(lambda: analyse(rgb, SIZE, levels=LEVELS, L=L, q=Q, iterations=ITERATIONS, seed=0), repeat=3, warmup=0)
-    a1 = measure(lambda: analyse(rgb, SIZE, levels=LEVELS, L=1, q=Q, iterations=ITERATIONS, seed=0), repeat=3, warmup=0)
-    af = measure(lambda: analyse(rgb, SIZE, levels=LEVELS, L=L, q=Q, iterations=ITERATIONS, seed=0, **PREVIOUS),
-                 repeat=3, warmup=0)
+    # interleaved, so the ratios hold on a shared machine
+    a8, a1, af = measure_interleaved([
+        lambda: analyse(rgb, SIZE, levels=LEVELS, L=L, q=Q, iterations=ITERATIONS, seed=0),
+        lambda: analyse(rgb, SIZE, levels=LEVELS, L=1, q=Q, iterations=ITERATIONS, seed=0),
+        lambda: analyse(rgb, SIZE, levels=LEVELS, L=L, q=Q, iterations=ITERATIONS, seed=0, **PREVIOUS)], repeat=3)
     seeds = iter(range(1000))
-    sp = lambda: synthesize(an8, (SIZE, SIZE), J=J_DEFAULT, seed=next(seeds), weights=w, passes=PASSES)  # noqa: E731
-    base = lambda: synthesize(an1, (SIZE, SIZE), J=0.0, seed=next(seeds), weights=w, passes=PASSES,  # noqa: E731
-                              jitter="spatial", r=1.0)
-    sp(), base()  # JIT
-    runs = [(measure(sp, repeat=1, warmup=0), measure(base, repeat=1, warmup=0)) for _ in range(15)]  # interleaved
-    h_sp, h_base = ({"median": statistics.median(r[k]["median"] for r in runs),
-                     "min": min(r[k]["min"] for r in runs), "n": len(runs)} for k in (0, 1))
+    h_sp, h_base = measure_interleaved([
+        lambda: synthesize(an8, (SIZE, SIZE), J=J_DEFAULT, seed=next(seeds), weights=w, passes=PASSES),
+        lambda: synthesize(an1, (SIZE, SIZE), J=0.0, seed=next(seeds), weights=w, passes=PASSES, jitter="spatial",
+                           r=1.0)], repeat=15)
     table("hybrids: speed (renoir + creek, 2 exemplars at 256²)", [
         ("analysis, 2 exemplars 256², L=8", a8, 10.0),
         ("analysis, baseline L=1", a1, None),

@@ -22,6 +22,22 @@ def measure(fn, *, repeat: int = 5, warmup: int = 1) -> dict:
     return {"median": statistics.median(times), "min": min(times), "max": max(times), "n": repeat}
 
 
+def measure_interleaved(fns, *, repeat: int = 5, warmup: int = 1) -> list[dict]:
+    """``measure`` for several functions run in turn (each ``warmup`` times, then rounds of
+    one run of each, ``repeat`` rounds), so a load change on a shared machine falls on all
+    of them alike and their ratios hold: one ``measure``-style dict per function."""
+    for _ in range(warmup):
+        for fn in fns:
+            fn()
+    times = [[] for _ in fns]
+    for _ in range(repeat):
+        for fn, ts in zip(fns, times):
+            t0 = time.perf_counter()
+            fn()
+            ts.append(time.perf_counter() - t0)
+    return [{"median": statistics.median(ts), "min": min(ts), "max": max(ts), "n": repeat} for ts in times]
+
+
 def peak_rss_mb() -> float:
     """Peak resident memory of this process so far, in MiB."""
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
