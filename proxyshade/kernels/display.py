@@ -1,6 +1,7 @@
 """Display conversion: a plate's chosen channels as an 8-bit sRGB picture for people.
 
-Colour channels go through the sRGB encoding (IEC 61966-2-1, via colour-science), id
+Colour channels go through a view transform (``view``) and the sRGB encoding (IEC
+61966-2-1, via colour-science), id
 channels get distinct colours (the label table's own where known, otherwise golden-ratio
 hues), depth-like channels a grey ramp between their 1st and 99th percentiles. Shared by
 the Preview and Movie nodes; living among the kernels, it is part of their cache keys.
@@ -17,6 +18,25 @@ np = lazy_loader.load("numpy")  # on first use: a fully cached run never loads n
 
 
 DEFAULT_CHANNELS = ("R", "G", "B")
+VIEWS = ("shoulder", "clip")
+KNEE = 0.9  # linear value where the shoulder view starts to roll off
+
+
+def view_transform(rgb: np.ndarray, view: str = "shoulder") -> np.ndarray:
+    """Scene-referred linear values (>= 0, may exceed 1) to display-referred linear in
+    [0, 1]. ``clip``: min(x, 1) (exact below 1, every value above shown as white).
+    ``shoulder`` (the default): the identity up to ``KNEE`` (0.9), then
+    ``KNEE + (1 - KNEE) tanh((x - KNEE) / (1 - KNEE))``: continuous with slope 1 at the
+    knee, strictly increasing, approaching 1 (x = 1 shows as 0.976, 1.5 as 0.9995), so a
+    sky brighter than white keeps its gradations instead of flattening into one value.
+    Negative values show as 0 in both."""
+    rgb = np.maximum(np.asarray(rgb, np.float64), 0.0)
+    if view == "clip":
+        return np.minimum(rgb, 1.0)
+    if view != "shoulder":
+        raise ValueError(f"view {view!r}: choose one of {', '.join(VIEWS)}")
+    span = 1.0 - KNEE
+    return np.where(rgb <= KNEE, rgb, KNEE + span * np.tanh((rgb - KNEE) / span))
 
 
 def channels_problem(names: list[str], channels: list[str]) -> str | None:
@@ -47,9 +67,9 @@ def id_palette(ids: np.ndarray, labels: list[dict] | None = None) -> np.ndarray:
     return pal[inv.reshape(ids.shape)]
 
 
-def to_display(plate, channels: list[str], exposure: float = 0.0) -> np.ndarray:
+def to_display(plate, channels: list[str], exposure: float = 0.0, view: str = "shoulder") -> np.ndarray:
     """(H, W, 3) uint8 sRGB picture of ``channels`` of ``plate``: ids in distinct colours,
-    depth as grey, colour through colour-science's sRGB encoding."""
+    depth as grey, colour through ``view_transform`` and colour-science's sRGB encoding."""
     arrs = [plate[c] for c in channels]
     if len(arrs) == 1 and arrs[0].dtype == np.uint32:
         return id_palette(arrs[0], plate.meta.get("labels") if channels[0] == "label.id" else None)
@@ -65,6 +85,6 @@ def to_display(plate, channels: list[str], exposure: float = 0.0) -> np.ndarray:
     rgb = np.stack([a.astype(np.float64) for a in arrs], -1)
     if rgb.shape[-1] == 1:
         rgb = np.repeat(rgb, 3, axis=-1)
-    rgb = np.nan_to_num(rgb * 2.0 ** exposure, nan=0.0, posinf=1.0, neginf=0.0)
-    enc = colour_science().cctf_encoding(np.clip(rgb[..., :3], 0.0, 1.0), function="sRGB")
+    rgb = np.nan_to_num(rgb * 2.0 ** exposure, nan=0.0, posinf=1e6, neginf=0.0)
+    enc = colour_science().cctf_encoding(view_transform(rgb[..., :3], view), function="sRGB")
     return (np.clip(enc, 0, 1) * 255 + 0.5).astype(np.uint8)

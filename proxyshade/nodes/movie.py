@@ -6,7 +6,7 @@ from pathlib import Path
 from proxyshade.graph.node import Input, Node, Param
 from proxyshade.graph.plate import Plate
 from proxyshade.io.images import resize_u8, write_gif
-from proxyshade.kernels.display import DEFAULT_CHANNELS, channels_problem, to_display
+from proxyshade.kernels.display import DEFAULT_CHANNELS, VIEWS, channels_problem, to_display
 
 
 class Movie(Node):
@@ -16,12 +16,15 @@ class Movie(Node):
     per run, at the last requested frame; a changed frame rewrites the movie. GIF keeps 256
     colours per frame (dithered) and delays in hundredths of a second, so 24 fps plays at 25."""
 
-    version = 1
+    version = 2
     sink = True
     image = Input("the plates to show: connect {node: X, frame: all}", sequence=True)
     path = Param(Path, doc="output animated GIF")
     channels = Param(list, list(DEFAULT_CHANNELS), doc="one id/depth channel, or three colour channels")
     exposure = Param(float, 0.0, doc="stops of exposure for colour channels")
+    view = Param(str, "shoulder", choices=VIEWS,
+                 doc="colour view transform (kernels.display.view_transform): 'shoulder' rolls values above 0.9 "
+                     "off smoothly toward white (a plate may exceed 1), 'clip' shows them all as white")
     fps = Param(int, 24, min=1, max=50, doc="frames per second (GIF plays 100 / int(100 / fps))")
     max_size = Param(int, 512, min=16, doc="long edge of the movie's frames; larger plates are downscaled")
 
@@ -35,6 +38,6 @@ class Movie(Node):
             if plate.shape != shape:
                 raise ctx.error(f"frame {frame} is {plate.width}x{plate.height}, frame {ctx.image.frames[0]} is "
                                 f"{shape[1]}x{shape[0]}; a movie needs one size for every frame")
-            frames.append(resize_u8(to_display(plate, ctx.p.channels, ctx.p.exposure), ctx.p.max_size))
+            frames.append(resize_u8(to_display(plate, ctx.p.channels, ctx.p.exposure, ctx.p.view), ctx.p.max_size))
         path = write_gif(ctx.path(ctx.p.path), frames, ctx.p.fps)
         return Plate(meta={"movie": str(path), "frames": [ctx.image.frames[0], ctx.image.frames[-1]]})

@@ -31,7 +31,7 @@ class Poisson(PoissonSolve, Node):
     """Blend patch seams: ``R,G,B`` replaced by the Poisson solution; every other
     channel and the metadata pass through."""
 
-    version = 3
+    version = 4
     image = Input("magnified synthesis (Magnify): R,G,B, patch.id, label.id", channels=("R", "G", "B", "patch.id"),
                   finite=("R", "G", "B"), fix="connect Magnify's output")
     source = Input("annotated source (SourceRead), for seams: source", optional=True, channels=("R", "G", "B"),
@@ -84,5 +84,10 @@ class Poisson(PoissonSolve, Node):
         if "grain" in info:
             meta = {"grain": info["grain"]}
             g = [v for rows in info["grain"]["gains"].values() for row in rows for v in row]
-            ctx.note(f"grain: detail gains {min(g):.2f}-{max(g):.2f}")
+            if g:
+                ctx.note(f"grain: detail gains {min(g):.2f}-{max(g):.2f}")
+            if info["grain"].get("tone"):
+                ctx.note(f"tone: {len(info['grain']['tone'])} labels matched to the photo's distribution")
+        if info.get("negative"):
+            ctx.note(f"{info['negative']} negative values raised to 0")
         return img.with_channels({"R": u[..., 0].copy(), "G": u[..., 1].copy(), "B": u[..., 2].copy()}, meta=meta)

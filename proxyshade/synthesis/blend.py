@@ -52,6 +52,16 @@ def _tables(d: np.ndarray, ok: np.ndarray) -> np.ndarray:
     return table
 
 
+def floor_light(u: np.ndarray, info: dict) -> tuple[np.ndarray, dict]:
+    """A solve's colours with negative values set to 0, in place (a scene-referred plate may
+    exceed 1, never go below 0: a gradient carried into a dark region overshoots there);
+    ``info["negative"]`` counts the values raised."""
+    neg = u < 0
+    info["negative"] = int(neg.sum())
+    u[neg] = 0.0
+    return u, info
+
+
 def layout_move(colors: np.ndarray, labels: np.ndarray, source_rgb: np.ndarray,
                 source_labels: np.ndarray, *, keep: float, spread: float = 1.0, scale: float = 1.0) -> np.ndarray:
     """The linear ``colors`` (H, W, 3) with each label's mean colour moved, by relative
@@ -107,6 +117,11 @@ def blend_frame(rgb: np.ndarray, patch: np.ndarray, labels: np.ndarray | None, s
     (source pixels; ``scale`` source pixels per output pixel); ``layout`` moves ``rgb``
     by ``layout_move`` first (needs ``labels``, ``source_rgb``, ``source_labels``).
 
+    With ``solve.tone`` (and ``source``, ``sx, sy``, no ``fixed`` pixels) each label's
+    colour distribution is matched to the photo's (``grain.tone_curves``, measured on what
+    the frame reads, applied to the source: ``grain.graded``) before the solve; the curves
+    go into ``info["grain"]["tone"]``.
+
     With ``source`` (the SourceRead plate ``source_rgb`` and ``source_labels`` come from),
     ``solve.grain`` > 1, ``sx, sy``, no ``fixed`` pixels and ``scale`` 1 (an output pixel
     is a source pixel: the two images' layers compare radius for radius), the blended
@@ -123,19 +138,27 @@ def blend_frame(rgb: np.ndarray, patch: np.ndarray, labels: np.ndarray | None, s
         gx = gy = None
         if solve.seams == "source":  # only the edges across a seam: the only ones the solve reads
             gx, gy = kpoisson.seam_gradients_at(src, sx, sy, patch, np.ones(patch.shape, np.bool_), scale)
-        return kpoisson.poisson_transfer(colours, patch, labels, fixed=fixed, values=values,
-                                         label_dirichlet=solve.label_dirichlet, seam_gx=gx, seam_gy=gy,
-                                         screen=solve.screen, tol=tol, max_iter=solve.max_iter)
+        u, info = kpoisson.poisson_transfer(colours, patch, labels, fixed=fixed, values=values,
+                                            label_dirichlet=solve.label_dirichlet, seam_gx=gx, seam_gy=gy,
+                                            screen=solve.screen, tol=tol, max_iter=solve.max_iter)
+        return floor_light(u, info)
 
-    graded = (source is not None and getattr(solve, "grain", 1.0) > 1.0 and fixed is None and scale == 1.0
-              and labels is not None and source_labels is not None and sx is not None and sy is not None)
-    if not graded:
+    whole = (source is not None and fixed is None and labels is not None and source_labels is not None
+             and sx is not None and sy is not None)
+    use_grain = whole and getattr(solve, "grain", 1.0) > 1.0 and scale == 1.0
+    use_tone = whole and getattr(solve, "tone", "off") != "off"
+    if not (use_grain or use_tone):
         return solved(rgb, source_rgb)
-    # the gains need the blended frame's detail to a few per mille, not the final solve's
-    # precision: GRAIN_TOL takes 3 iterations where the default tolerance takes 8; nor the
-    # layout's spread, which moves only scales coarser than the grain's layers
-    u, _ = solved(rgb, source_rgb, tol=max(solve.tol, GRAIN_TOL), spread=1.0)
-    table = grain.gain_table(u, labels, source_rgb, source_labels, max_gain=solve.grain)
+    table = {"radii": list(grain.RADII), "bins": grain.BINS, "gains": {}}
+    if use_grain:
+        # the gains need the blended frame's detail to a few per mille, not the final solve's
+        # precision: GRAIN_TOL takes 3 iterations where the default tolerance takes 8; nor the
+        # layout's spread, which moves only scales coarser than the grain's layers
+        u, _ = solved(rgb, source_rgb, tol=max(solve.tol, GRAIN_TOL), spread=1.0)
+        table = grain.gain_table(u, labels, source_rgb, source_labels, max_gain=solve.grain)
+    if use_tone:  # measured on what the frame reads (the graded source through the map) against the photo
+        read = lookup(grain.graded(source, table), sx, sy) if use_grain else rgb
+        table["tone"] = grain.tone_curves(read, labels, source_rgb, source_labels, mode=solve.tone)
     src = grain.graded(source, table)
     u, info = solved(lookup(src, sx, sy), src)
     info["grain"] = table
@@ -149,9 +172,10 @@ def blend_regions(rgb: np.ndarray, patch: np.ndarray, labels: np.ndarray, free: 
     region; seam gradients read with ``filter`` (the reconstruction the colours used).
     ``solve.layout`` is not applied here (yet): a later frame's new pixels keep their
     synthesized low frequencies. ``thin``: see ``poisson_regions``."""
-    return poisson_regions(rgb, patch, labels, free, source=source_rgb if solve.seams == "source" else None,
-                              sx=sx, sy=sy, step=scale, label_dirichlet=solve.label_dirichlet, screen=solve.screen,
-                              tol=solve.tol, max_iter=solve.max_iter, filter=filter, thin=thin)
+    return floor_light(*poisson_regions(rgb, patch, labels, free, source=source_rgb if solve.seams == "source" else None,
+                                        sx=sx, sy=sy, step=scale, label_dirichlet=solve.label_dirichlet,
+                                        screen=solve.screen, tol=solve.tol, max_iter=solve.max_iter, filter=filter,
+                                        thin=thin))
 
 
 def group_boxes(boxes: np.ndarray, shape: tuple[int, int], *, margin: int = 1, slack: int = 4096) -> list[tuple]:

@@ -100,6 +100,10 @@ class PoissonSolve(ParamGroup):
                   doc="most gain of a detail layer when the first frame's detail is matched to the photo's, "
                       "label by label and scale by scale (the source is graded and read again; later frames "
                       "read the same graded source): 1 = off")
+    tone = Param(str, "off", choices=("off", "range", "match"),
+                 doc="each label's colours against the photo's, per channel of the sRGB-encoded values, applied to "
+                     "the source every frame reads (grain.tone_curves): 'range' brings values outside the photo "
+                     "label's 0.5-99.5 % range back into it, 'match' matches the whole distribution")
     tol = Param(float, 1e-5, min=1e-12, max=1.0, doc="relative residual at which the solver stops")
     max_iter = Param(int, 100, min=1, doc="most conjugate-gradient iterations")
 

@@ -118,3 +118,29 @@ def test_layout_gives_a_region_the_photo_hue_in_its_shadows_and_highlights_alike
     assert ratio.std((0, 1)).max() < 1e-3  # one hue everywhere
     y = lambda x: KL.luma_encoded(x)[..., 0].ravel()
     assert np.corrcoef(y(out), y(own))[0, 1] > 0.99  # the texture's light and shade stay
+
+
+def test_a_blended_frame_never_holds_negative_values():
+    """Two patches each darkening to 0 across a seam with zero gradient: the solve carries
+    the first's end on and overshoots below 0 (checked on the raw transfer); the frame and
+    the restricted solve floor it at 0 and count it."""
+    from types import SimpleNamespace
+
+    from proxyshade.kernels import poisson as P
+
+    h, w = 40, 48
+    ramp = np.tile(np.linspace(0.3, 0.0, w // 2, dtype=np.float32), 2)  # two patches, each darkening to 0
+    colors = np.repeat(np.broadcast_to(ramp, (h, w))[..., None], 3, axis=2).copy()
+    patch = (np.arange(w)[None, :] // (w // 2) + 0 * np.arange(h)[:, None]).astype(np.uint32)
+    labels = np.ones((h, w), np.uint32)
+    raw, _ = P.poisson_transfer(colors, patch, labels, screen=0.01, tol=1e-7, max_iter=300, seam_gx=None, seam_gy=None)
+    assert raw.min() < 0  # the test's premise
+    solve = SimpleNamespace(layout=False, seams="zero", label_dirichlet=True, screen=0.01, tol=1e-7, max_iter=300,
+                            grain=1.0, tone="off", layout_keep=1.0, layout_spread=1.0)
+    u, info = B.blend_frame(colors, patch, labels, solve)
+    assert u.min() >= 0 and info["negative"] == int((raw < 0).sum())
+    np.testing.assert_array_equal(u[raw >= 0], raw[raw >= 0])
+    free = np.ones((h, w), bool)
+    r, rinfo = B.blend_regions(colors, patch, labels, free, solve, source_rgb=None, sx=None, sy=None, scale=1.0,
+                               filter="bilinear")
+    assert r.min() >= 0 and rinfo["negative"] > 0

@@ -119,3 +119,48 @@ def test_spread_measures_the_photo_at_the_frame_scale():
     at1 = grain.spread(frame, flab, photo_rgb, lab, max_gain=4.0, scale=1.0)
     change = lambda out: np.abs(klayout.srgb_encode(out) - klayout.srgb_encode(frame)).mean()
     assert change(at2) < 0.25 * change(at1)
+
+
+def test_tone_range_keeps_the_photo_range_and_clamps_only_what_lies_outside():
+    rgb, lab = photo(3)
+    enc = klayout.srgb_encode(rgb)
+    frame = enc.copy()
+    frame[lab == 1] = np.clip(frame[lab == 1] * 1.6 - 0.2, 0, 1)  # a sky stretched past the photo's range
+    curves = grain.tone_curves(klayout.srgb_decode(frame), lab, rgb, lab, mode="range")
+    out = grain.apply_tone(frame, lab, curves)
+    for k in (1, 3, 7):
+        lo, hi = np.quantile(enc[lab == k], grain.TONE_RANGE, axis=0)
+        m = lab == k
+        inside = (frame[m] >= lo) & (frame[m] <= hi)
+        np.testing.assert_allclose(out[m][inside], frame[m][inside], atol=1e-6)   # kept as synthesized
+        np.testing.assert_allclose(out[m][~inside], np.clip(frame[m], lo, hi)[~inside], atol=1e-6)
+    assert ((out[lab == 1] != frame[lab == 1]).mean()) > 0.1  # the stretched sky was clamped
+
+
+def test_tone_match_gives_each_label_the_photo_quantiles():
+    """Against a written-out reference: each channel of each label sorted, the frame's
+    k-th value replaced by the photo's value at the same quantile."""
+    rgb, lab = photo(4)
+    rng = np.random.default_rng(5)
+    frame = klayout.srgb_encode(rgb) ** 1.8 * 0.7 + 0.05 * rng.random(rgb.shape).astype(np.float32)
+    curves = grain.tone_curves(klayout.srgb_decode(frame), lab, rgb, lab, mode="match", knots=257)
+    out = grain.apply_tone(frame, lab, curves)
+    enc = klayout.srgb_encode(rgb)
+    for k in (1, 3, 7):
+        m = lab == k
+        for c in range(3):
+            want = np.quantile(enc[m][:, c], (np.argsort(np.argsort(frame[m][:, c])) + 0.5) / m.sum())
+            assert np.abs(out[m][:, c] - want).max() < 0.02
+    before = grain.tone_curves(rgb, lab, rgb, lab, mode="match")  # the photo itself: identity curves
+    np.testing.assert_allclose(grain.apply_tone(enc, lab, before), enc, atol=1e-5)
+
+
+def test_tone_curves_reach_the_source_every_frame_reads():
+    rgb, lab = photo(6)
+    src = plate(rgb, lab)
+    enc = klayout.srgb_encode(rgb)
+    lo = [float(v) for v in np.quantile(enc[lab == 3], 0.5, axis=0)]
+    table = {"radii": [1], "bins": 1, "gains": {}, "tone": {"3": [[[lo[c], 1.0], [lo[c], 1.0]] for c in range(3)]}}
+    g = klayout.srgb_encode(grain.source_colours(src, {"grain": table}))
+    assert np.all(g[lab == 3] >= np.array(lo) - 1e-5) and np.isclose(g[lab == 3].min(0), lo, atol=1e-5).all()
+    np.testing.assert_allclose(g[lab == 1], enc[lab == 1], atol=1e-5)

@@ -1,0 +1,380 @@
+"""First frames from photos the project has never seen, against EbSynth on the same guide.
+
+Cases (each a photo, its label map and a target layout that is *not* its own):
+  eval      every photo folder of ``--eval DIR`` (``photo.png``, ``src_labels.png``,
+            ``labels.yaml``: name -> RGB, as in ../shared/data/eval_photos; read from the
+            path given, never copied). The layout is the label map of the next photo
+            (sorted by name) with the same label names; a photo whose labels no other
+            photo has gets its own map mirrored left-right and shifted down by 1/16 of
+            its height (the same labels in other places).
+  bundled   renoir, monet, creek with the second layout of their source.yaml.
+Half of the eval photos (every other, sorted by name) are marked ``held``: defaults are
+tuned on the others and the bundled ones, and the held cases' median is printed apart.
+
+Each case runs the first frame's synthesis on the layout as the detailed guide, at 1024
+wide (PatchInit -> Correct -> Magnify -> Poisson, seed 1), and with ``--ebsynth PATH``
+EbSynth (texture by numbers: ``-style photo -guide src_labels tgt_labels -patchsize 3
+-uniformity 1000``) on the same guide; EbSynth's outputs are kept in ``--out`` by the
+hash of their inputs (re-runs read them back).
+
+Per case and label (sRGB in [0, 1], ``kernels.quality.label_fidelity``): colour-histogram
+χ², windowed-luma χ² to the nearest photo window of the label, gradient ratio, std ratio,
+the share of pixels whose luma lies outside the photo label's 0.5-99.5 % luma range, and
+the share of negative pixels (the linear EXR values; EbSynth's 8-bit output has none),
+proxyshade beside EbSynth with the ratio. A case's figure is the mean over its labels.
+Bars (issue #32): hist χ² <= EbSynth's and windowed χ² <= 1.2x EbSynth's in every case,
+median windowed χ² <= EbSynth's, outside share <= 1 % per label, no negative pixels, std
+ratio 0.8-1.2 per label.
+
+``--variant NAME:node.param=value,...`` (repeatable) runs more configurations beside the
+defaults (``final`` is the Poisson node, ``correct``, ``init``, ``magnify`` the others;
+``final.skip=true`` measures Magnify's plate, before the Poisson step);
+variants differing only in Poisson parameters share the synthesis before it.
+A contact sheet per case goes to ``--out``: photo | proxyshade | EbSynth, then 100 %
+crops (256 px) of sky, water and a ridge (the sky's lower border) of each.
+
+Run: ``python bench/bench_photos.py --eval ../shared/data/eval_photos --ebsynth /path/ebsynth``
+"""
+from __future__ import annotations
+
+import argparse
+import hashlib
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from proxyshade.graph.plate import Plate  # noqa: E402
+from proxyshade.graph.testing import run_node  # noqa: E402
+from proxyshade.io.colourlib import colour_science  # noqa: E402
+from proxyshade.io.images import read_u8, write_png  # noqa: E402
+from proxyshade.io.source import labels_from_map, load_source  # noqa: E402
+from proxyshade.kernels import quality as Q  # noqa: E402
+
+BUNDLED = ["renoir", "monet", "creek"]
+WIDTH = 1024
+CROP = 256
+BARS = {"hist_ratio": 1.0, "window_ratio": 1.2, "median_window_ratio": 1.0, "outside": 0.01,
+        "std": (0.8, 1.2), "negative": 0.0}
+NODES = {"init": "PatchInit", "correct": "Correct", "magnify": "Magnify", "final": "Poisson"}
+
+
+# ---- cases ------------------------------------------------------------------------------
+
+def _hex(rgb) -> str:
+    return "#%02x%02x%02x" % tuple(int(v) for v in rgb)
+
+
+def eval_cases(root: Path, work: Path) -> list[dict]:
+    """One case per photo folder of ``root``: a source.yaml written in ``work`` (the files
+    stay where they are) and a layout of another photo with the same labels."""
+    folders = sorted(p for p in root.iterdir() if (p / "photo.png").exists())
+    tables = {}
+    for f in folders:
+        names = yaml.safe_load((f / "labels.yaml").read_text())
+        tables[f.name] = names
+        lines = [f"image: {(f / 'photo.png').resolve()}", f"labels_map: {(f / 'src_labels.png').resolve()}",
+                 "labels:"]
+        lines += [f"  {n}: {{id: {i}, color: \"{_hex(c)}\"}}" for i, (n, c) in enumerate(names.items(), 1)]
+        (work / f"{f.name}.yaml").write_text("\n".join(lines) + "\n")
+    cases = []
+    for i, f in enumerate(folders):
+        same = [g for g in folders[i + 1:] + folders[:i] if set(tables[g.name]) == set(tables[f.name])]
+        cases.append({"name": f.name, "table": work / f"{f.name}.yaml", "held": i % 2 == 1,
+                      "layout": same[0] / "src_labels.png" if same else None, "mirror": not same,
+                      "layout_name": same[0].name if same else f"{f.name} mirrored"})
+    return cases
+
+
+def bundled_cases() -> list[dict]:
+    out = []
+    for s in BUNDLED:
+        table = ROOT / "samples" / s / "source.yaml"
+        lay = yaml.safe_load(table.read_text())["layout"]
+        out.append({"name": s, "table": table, "held": False, "layout": (table.parent / lay).resolve(),
+                    "mirror": False, "layout_name": Path(lay).name})
+    return out
+
+
+def resize_ids(ids: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
+    h, w = shape
+    return ids[(np.arange(h) * ids.shape[0] // h)][:, (np.arange(w) * ids.shape[1] // w)]
+
+
+def case_guide(case: dict, src: Plate) -> np.ndarray:
+    """The case's target label ids at ``WIDTH`` wide (the layout's aspect)."""
+    table = src.meta["labels"]
+    if case["mirror"]:
+        ids = src["label.id"][:, ::-1]
+        ids = np.roll(ids, ids.shape[0] // 16, axis=0)
+        ids[: ids.shape[0] // 16] = ids[ids.shape[0] // 16]  # the rolled-in rows: the first kept row again
+    else:
+        ids, _ = labels_from_map(Path(case["layout"]), table, far_distance=100.0, max_far_fraction=0.05,
+                                 where="bench")
+    h = int(round(ids.shape[0] * WIDTH / ids.shape[1]))
+    return resize_ids(ids, (h, WIDTH)).astype(np.uint32)
+
+
+# ---- the two methods --------------------------------------------------------------------
+
+def srgb(lin: np.ndarray) -> np.ndarray:
+    lin = np.clip(np.asarray(lin, np.float64), 0.0, None)
+    return np.clip(colour_science().cctf_encoding(lin, function="sRGB"), 0.0, 1.0)
+
+
+def parse_variant(text: str) -> tuple[str, dict]:
+    name, _, rest = text.partition(":")
+    sets: dict[str, dict] = {}
+    for item in filter(None, rest.split(",")):
+        key, _, val = item.partition("=")
+        node, _, param = key.strip().partition(".")
+        if node not in NODES:
+            raise SystemExit(f"--variant {text}: node {node!r} is not one of {', '.join(NODES)}")
+        sets.setdefault(node, {})[param] = yaml.safe_load(val)
+    return name, sets
+
+
+def proxyshade(src: Plate, ids: np.ndarray, variants: dict[str, dict]) -> dict[str, tuple[Plate, float]]:
+    """{variant: (Poisson's plate, seconds)}; the synthesis before Poisson is shared by
+    variants that set only Poisson parameters."""
+    guide = Plate({"label.id": ids}, {"labels": src.meta["labels"]})
+    memo, out = {}, {}
+    for name, sets in variants.items():
+        pre = yaml.safe_dump({k: v for k, v in sets.items() if k != "final"}, sort_keys=True)
+        t0 = time.perf_counter()
+        if pre not in memo:
+            init = run_node("PatchInit", {"seed": 1, **sets.get("init", {})}, {"guide": guide, "source": src})
+            corr = run_node("Correct", {"seed": 1, **sets.get("correct", {})}, {"init": init, "source": src})
+            memo[pre] = run_node("Magnify", sets.get("magnify", {}), {"synth": corr, "source": src, "guide": guide})
+        fp = dict(sets.get("final", {}))
+        fin = memo[pre] if fp.pop("skip", False) else run_node("Poisson", fp, {"image": memo[pre], "source": src})
+        out[name] = (fin, time.perf_counter() - t0)
+    return out
+
+
+def colour_ids(ids: np.ndarray, table: list[dict]) -> np.ndarray:
+    lut = np.zeros((int(ids.max()) + 1, 3), np.uint8)
+    for t in table:
+        c = t["color"].lstrip("#")
+        lut[int(t["id"])] = [int(c[i:i + 2], 16) for i in (0, 2, 4)]
+    return lut[ids]
+
+
+def ebsynth(exe: Path, src: Plate, ids: np.ndarray, cache: Path) -> tuple[np.ndarray, float]:
+    """EbSynth's output (sRGB in [0, 1]) and seconds (0 when read back from ``cache``)."""
+    photo = Path(src.meta["source"]["image"])
+    table = src.meta["labels"]
+    g_src, g_tgt = colour_ids(src["label.id"], table), colour_ids(ids, table)
+    h = hashlib.sha256(photo.read_bytes() + g_src.tobytes() + g_tgt.tobytes() + repr(g_tgt.shape).encode())
+    path = cache / f"ebsynth_{h.hexdigest()[:16]}.png"
+    if path.exists():
+        return read_u8(path).astype(np.float64) / 255.0, 0.0
+    with tempfile.TemporaryDirectory() as tmp:
+        a, b = Path(tmp, "src.png"), Path(tmp, "tgt.png")
+        write_png(a, g_src)
+        write_png(b, g_tgt)
+        t0 = time.perf_counter()
+        subprocess.run([str(exe), "-style", str(photo), "-guide", str(a), str(b), "-patchsize", "3",
+                        "-uniformity", "1000", "-output", str(Path(tmp, "out.png"))], check=True,
+                       stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        dt = time.perf_counter() - t0
+        rgb = read_u8(Path(tmp, "out.png"))
+    write_png(path, rgb)
+    return rgb.astype(np.float64) / 255.0, dt
+
+
+# ---- figures ----------------------------------------------------------------------------
+
+def measure(out_srgb: np.ndarray, lin: np.ndarray | None, ids: np.ndarray, src: Plate,
+            src_srgb: np.ndarray) -> dict:
+    """Per label name: label_fidelity's figures, ``outside`` and ``negative``."""
+    names = {int(t["id"]): t["name"] for t in src.meta["labels"]}
+    ly, lys = Q.luma(out_srgb), Q.luma(src_srgb)
+    res = {}
+    for k in np.unique(ids):
+        m, ms = ids == k, src["label.id"] == k
+        if m.sum() < 200 or ms.sum() < 200:
+            continue
+        f = Q.label_fidelity(out_srgb, ids, src_srgb, src["label.id"], int(k))
+        lo, hi = np.percentile(lys[ms], [0.5, 99.5])
+        f["outside"] = float(((ly[m] < lo - 1e-6) | (ly[m] > hi + 1e-6)).mean())
+        f["negative"] = float((lin[m] < 0).any(-1).mean()) if lin is not None else 0.0
+        res[names.get(int(k), str(k))] = f
+    return res
+
+
+def case_figures(per: dict) -> dict:
+    ls = list(per.values())
+    return {k: float(np.mean([m[k] for m in ls])) for k in ("hist_chi2", "window_chi2", "grad_ratio", "std_ratio")} | {
+        "outside_max": max(m["outside"] for m in ls), "negative": max(m["negative"] for m in ls),
+        "std_min": min(m["std_ratio"] for m in ls), "std_max": max(m["std_ratio"] for m in ls)}
+
+
+def _ratio(a: float, b: float) -> str:
+    return f"{a / b:6.2f}" if b > 0 else "     -"
+
+
+def print_case(case: dict, figs: dict[str, dict], eb: dict | None) -> None:
+    print(f"\n## {case['name']} ({'held' if case['held'] else 'tune'}), layout {case['layout_name']}")
+    print(f"{'label':<11} {'method':<14} {'share':>6} {'histχ²':>7} {'winχ²':>7} {'grad':>5} {'std':>5} "
+          f"{'outside':>8} {'neg':>6} {'hist/EB':>7} {'win/EB':>6}")
+    first = next(iter(figs.values()))
+    for lab in first:
+        rows = list(figs.items()) + ([("EbSynth", eb)] if eb else [])
+        for meth, per in rows:
+            m = per[lab]
+            e = eb[lab] if eb else None
+            flag = " <" if (m["outside"] > BARS["outside"] or not BARS["std"][0] <= m["std_ratio"] <= BARS["std"][1]
+                            or m["negative"] > 0) else ""
+            print(f"{lab:<11} {meth:<14} {m['share']:6.1%} {m['hist_chi2']:7.4f} {m['window_chi2']:7.4f} "
+                  f"{m['grad_ratio']:5.2f} {m['std_ratio']:5.2f} {m['outside']:8.2%} {m['negative']:6.2%} "
+                  f"{_ratio(m['hist_chi2'], e['hist_chi2']) if e else '     -':>7} "
+                  f"{_ratio(m['window_chi2'], e['window_chi2']) if e else '     -':>6}{flag}")
+
+
+def summary(results: list[tuple[dict, dict, dict | None]]) -> None:
+    """One line per case and method, then medians (all, tune, held) and the bars."""
+    print("\n## summary (mean over each case's labels)")
+    print(f"{'case':<13} {'method':<14} {'histχ²':>7} {'winχ²':>7} {'grad':>5} {'std min-max':>11} {'outside':>8} "
+          f"{'neg':>6} {'hist/EB':>7} {'win/EB':>6}")
+    meths = list(results[0][1])
+    for case, figs, eb in results:
+        e = case_figures(eb) if eb else None
+        for meth in meths + (["EbSynth"] if eb else []):
+            c = case_figures(figs[meth] if meth != "EbSynth" else eb)
+            print(f"{case['name']:<13} {meth:<14} {c['hist_chi2']:7.4f} {c['window_chi2']:7.4f} {c['grad_ratio']:5.2f} "
+                  f"{c['std_min']:5.2f}-{c['std_max']:4.2f} {c['outside_max']:8.2%} {c['negative']:6.2%} "
+                  f"{_ratio(c['hist_chi2'], e['hist_chi2']) if e else '     -':>7} "
+                  f"{_ratio(c['window_chi2'], e['window_chi2']) if e else '     -':>6}")
+    print(f"\n{'method':<14} {'group':<6} {'median histχ²':>13} {'median winχ²':>12} {'hist/EB':>8} {'win/EB':>7} "
+          f"{'max win/EB':>10} {'cases in bars':>13}")
+    for meth in meths + (["EbSynth"] if results[0][2] else []):
+        for group, sel in (("all", lambda c: True), ("tune", lambda c: not c["held"]), ("held", lambda c: c["held"])):
+            rows = [(case_figures(f[meth] if meth != "EbSynth" else eb), case_figures(eb) if eb else None)
+                    for case, f, eb in results if sel(case)]
+            if not rows:
+                continue
+            mh = statistics.median(r[0]["hist_chi2"] for r in rows)
+            mw = statistics.median(r[0]["window_chi2"] for r in rows)
+            if rows[0][1]:
+                hr = statistics.median(r[0]["hist_chi2"] / r[1]["hist_chi2"] for r in rows)
+                wr = [r[0]["window_chi2"] / r[1]["window_chi2"] for r in rows]
+                ok = sum(r[0]["hist_chi2"] <= r[1]["hist_chi2"] * BARS["hist_ratio"]
+                         and r[0]["window_chi2"] <= r[1]["window_chi2"] * BARS["window_ratio"]
+                         and r[0]["outside_max"] <= BARS["outside"] and r[0]["negative"] <= 0
+                         and BARS["std"][0] <= r[0]["std_min"] and r[0]["std_max"] <= BARS["std"][1] for r in rows)
+                print(f"{meth:<14} {group:<6} {mh:13.4f} {mw:12.4f} {hr:8.2f} {statistics.median(wr):7.2f} "
+                      f"{max(wr):10.2f} {ok:>6}/{len(rows)}")
+            else:
+                print(f"{meth:<14} {group:<6} {mh:13.4f} {mw:12.4f}")
+
+
+# ---- contact sheet ----------------------------------------------------------------------
+
+def _crop_at(ids: np.ndarray, mask: np.ndarray) -> tuple[int, int] | None:
+    """Top-left of a CROP² window centred on the median pixel of ``mask`` (None if empty)."""
+    ys, xs = np.nonzero(mask)
+    if len(ys) == 0:
+        return None
+    i = np.argsort(xs, kind="stable")[len(xs) // 2]
+    h, w = ids.shape
+    return (int(np.clip(ys[i] - CROP // 2, 0, max(h - CROP, 0))), int(np.clip(xs[i] - CROP // 2, 0, max(w - CROP, 0))))
+
+
+def crops(ids: np.ndarray, src: Plate) -> dict[str, tuple[int, int]]:
+    names = {t["name"]: int(t["id"]) for t in src.meta["labels"]}
+    out = {}
+    sky = ids == names.get("sky", -1)
+    if sky.any():
+        inner = sky & np.roll(sky, CROP // 2, 0) & np.roll(sky, -CROP // 4, 0)
+        if (c := _crop_at(ids, inner if inner.any() else sky)):
+            out["sky"] = c
+        ridge = sky & ~np.roll(sky, -1, 0)  # the sky's lower border
+        ridge[-1] = False
+        if (c := _crop_at(ids, ridge)):
+            out["ridge"] = c
+    if "water" in names and (c := _crop_at(ids, ids == names["water"])):
+        out["water"] = c
+    return out
+
+
+def sheet(path: Path, photo: np.ndarray, outs: dict[str, np.ndarray], ids: np.ndarray, src: Plate) -> None:
+    """photo | each output side by side (at 512 wide), then each output's 100 % crops."""
+    def fit(img, w=512):
+        h = int(round(img.shape[0] * w / img.shape[1]))
+        return img[(np.arange(h) * img.shape[0] // h)][:, (np.arange(w) * img.shape[1] // w)]
+
+    top = [fit(photo)] + [fit(o) for o in outs.values()]
+    hmax = max(t.shape[0] for t in top)
+    row = np.concatenate([np.pad(t, ((0, hmax - t.shape[0]), (0, 4), (0, 0))) for t in top], 1)
+    rows = [row]
+    cs = crops(ids, src)
+    for name, (y, x) in cs.items():
+        tiles = [o[y:y + CROP, x:x + CROP] for o in outs.values()]
+        tiles = [np.pad(t, ((0, CROP - t.shape[0]), (0, CROP - t.shape[1] + 4), (0, 0))) for t in tiles]
+        r = np.concatenate(tiles, 1)
+        rows.append(np.pad(r, ((4, 0), (0, row.shape[1] - r.shape[1]), (0, 0))) if r.shape[1] <= row.shape[1] else r)
+    wmax = max(r.shape[1] for r in rows)
+    img = np.concatenate([np.pad(r, ((0, 0), (0, wmax - r.shape[1]), (0, 0))) for r in rows], 0)
+    write_png(path, (np.clip(img, 0, 1) * 255 + 0.5).astype(np.uint8))
+
+
+# ---- main -------------------------------------------------------------------------------
+
+def main(argv=None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--eval", type=Path, help="folder of annotated photos (photo.png, src_labels.png, labels.yaml)")
+    ap.add_argument("--ebsynth", type=Path, help="EbSynth's binary (built from ../shared/peers/ebsynth)")
+    ap.add_argument("--no-bundled", action="store_true", help="only the --eval photos")
+    ap.add_argument("--cases", nargs="*", help="only these case names")
+    ap.add_argument("--variant", action="append", default=[], help="NAME:node.param=value,... (repeatable)")
+    ap.add_argument("--no-default", action="store_true", help="only the --variant configurations")
+    ap.add_argument("--out", type=Path, default=ROOT / "out" / "bench_photos", help="contact sheets, EbSynth outputs")
+    args = ap.parse_args(sys.argv[2:] if argv is None and len(sys.argv) > 1 and sys.argv[1] == "photos" else argv)
+    args.out.mkdir(parents=True, exist_ok=True)
+    variants = {} if args.no_default else {"proxyshade": {}}
+    variants.update(parse_variant(v) for v in args.variant)
+    with tempfile.TemporaryDirectory() as work:
+        cases = (eval_cases(args.eval, Path(work)) if args.eval else []) + ([] if args.no_bundled else bundled_cases())
+        if args.cases:
+            cases = [c for c in cases if c["name"] in args.cases]
+        if not args.eval:
+            print("no --eval folder: bundled photos only (their own tuning data)")
+        if not args.ebsynth:
+            print("no --ebsynth: proxyshade alone, no ratios")
+        results = []
+        for case in cases:
+            src = load_source(case["table"], max_far_fraction=0.05)
+            src_srgb = srgb(src.rgb())
+            ids = case_guide(case, src)
+            runs = proxyshade(src, ids, variants)
+            figs, outs = {}, {}
+            for name, (plate, dt) in runs.items():
+                rgb = plate.rgb()
+                outs[name] = srgb(rgb)
+                figs[name] = measure(outs[name], rgb, plate["label.id"], src, src_srgb)
+                print(f"{case['name']}: {name} {dt:.1f} s", flush=True)
+            eb = None
+            if args.ebsynth:
+                out, dt = ebsynth(args.ebsynth, src, ids, args.out)
+                outs["EbSynth"] = out
+                eb = measure(out, None, ids, src, src_srgb)
+                print(f"{case['name']}: EbSynth {dt:.1f} s" + (" (cached)" if dt == 0 else ""), flush=True)
+            print_case(case, figs, eb)
+            sheet(args.out / f"{case['name']}_sheet.png", src_srgb, outs, ids, src)
+            results.append((case, figs, eb))
+    if results:
+        summary(results)
+        print(f"\ncontact sheets: {args.out}")
+
+
+if __name__ == "__main__":
+    main()
