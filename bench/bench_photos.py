@@ -12,7 +12,8 @@ Half of the eval photos (every other, sorted by name) are marked ``held``: defau
 tuned on the others and the bundled ones, and the held cases' median is printed apart.
 
 Each case runs the first frame's synthesis on the layout as the detailed guide, at 1024
-wide (PatchInit -> Correct -> Magnify -> Poisson, seed 1), and with ``--ebsynth PATH``
+wide (PatchInit -> Correct -> Magnify -> Poisson with graphs/first_frame.yaml's
+parameters), and with ``--ebsynth PATH``
 EbSynth (texture by numbers: ``-style photo -guide src_labels tgt_labels -patchsize 3
 -uniformity 1000``) on the same guide; EbSynth's outputs are kept in ``--out`` by the
 hash of their inputs (re-runs read them back).
@@ -34,6 +35,7 @@ A contact sheet per case goes to ``--out``: photo | proxyshade | EbSynth, then 1
 crops (256 px) of sky, water and a ridge (the sky's lower border) of each.
 
 Run: ``python bench/bench_photos.py --eval ../shared/data/eval_photos --ebsynth /path/ebsynth``
+(the previous defaults beside: ``--variant before:init.factor=4,final.layout=true,final.grain=2,final.screen=0.01``)
 """
 from __future__ import annotations
 
@@ -142,19 +144,28 @@ def parse_variant(text: str) -> tuple[str, dict]:
     return name, sets
 
 
+def graph_params() -> dict[str, dict]:
+    """The parameters graphs/first_frame.yaml gives the nodes of ``NODES``."""
+    nodes = yaml.safe_load((ROOT / "graphs" / "first_frame.yaml").read_text())["nodes"]
+    return {k: dict(nodes[k].get("params") or {}) for k in NODES}
+
+
 def proxyshade(src: Plate, ids: np.ndarray, variants: dict[str, dict]) -> dict[str, tuple[Plate, float]]:
-    """{variant: (Poisson's plate, seconds)}; the synthesis before Poisson is shared by
-    variants that set only Poisson parameters."""
+    """{variant: (Poisson's plate, seconds)}: each node with graphs/first_frame.yaml's
+    parameters, then the variant's; the synthesis before Poisson is shared by variants
+    that set only Poisson parameters."""
     guide = Plate({"label.id": ids}, {"labels": src.meta["labels"]})
+    base = graph_params()
     memo, out = {}, {}
     for name, sets in variants.items():
+        sets = {k: {**base[k], **sets.get(k, {})} for k in NODES}
         pre = yaml.safe_dump({k: v for k, v in sets.items() if k != "final"}, sort_keys=True)
         t0 = time.perf_counter()
         if pre not in memo:
-            init = run_node("PatchInit", {"seed": 1, **sets.get("init", {})}, {"guide": guide, "source": src})
-            corr = run_node("Correct", {"seed": 1, **sets.get("correct", {})}, {"init": init, "source": src})
-            memo[pre] = run_node("Magnify", sets.get("magnify", {}), {"synth": corr, "source": src, "guide": guide})
-        fp = dict(sets.get("final", {}))
+            init = run_node("PatchInit", sets["init"], {"guide": guide, "source": src})
+            corr = run_node("Correct", sets["correct"], {"init": init, "source": src})
+            memo[pre] = run_node("Magnify", sets["magnify"], {"synth": corr, "source": src, "guide": guide})
+        fp = dict(sets["final"])
         fin = memo[pre] if fp.pop("skip", False) else run_node("Poisson", fp, {"image": memo[pre], "source": src})
         out[name] = (fin, time.perf_counter() - t0)
     return out

@@ -84,10 +84,7 @@ class Poisson(PoissonSolve, Node):
         if "grain" in info:
             meta = {"grain": info["grain"]}
             g = [v for rows in info["grain"]["gains"].values() for row in rows for v in row]
-            if g:
-                ctx.note(f"grain: detail gains {min(g):.2f}-{max(g):.2f}")
-            if info["grain"].get("tone"):
-                ctx.note(f"tone: {len(info['grain']['tone'])} labels matched to the photo's distribution")
+            ctx.note(f"grain: detail gains {min(g):.2f}-{max(g):.2f}")
         if info.get("negative"):
             ctx.note(f"{info['negative']} negative values raised to 0")
         return img.with_channels({"R": u[..., 0].copy(), "G": u[..., 1].copy(), "B": u[..., 2].copy()}, meta=meta)

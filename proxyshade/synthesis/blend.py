@@ -117,11 +117,6 @@ def blend_frame(rgb: np.ndarray, patch: np.ndarray, labels: np.ndarray | None, s
     (source pixels; ``scale`` source pixels per output pixel); ``layout`` moves ``rgb``
     by ``layout_move`` first (needs ``labels``, ``source_rgb``, ``source_labels``).
 
-    With ``solve.tone`` (and ``source``, ``sx, sy``, no ``fixed`` pixels) each label's
-    colour distribution is matched to the photo's (``grain.tone_curves``, measured on what
-    the frame reads, applied to the source: ``grain.graded``) before the solve; the curves
-    go into ``info["grain"]["tone"]``.
-
     With ``source`` (the SourceRead plate ``source_rgb`` and ``source_labels`` come from),
     ``solve.grain`` > 1, ``sx, sy``, no ``fixed`` pixels and ``scale`` 1 (an output pixel
     is a source pixel: the two images' layers compare radius for radius), the blended
@@ -143,22 +138,15 @@ def blend_frame(rgb: np.ndarray, patch: np.ndarray, labels: np.ndarray | None, s
                                             screen=solve.screen, tol=tol, max_iter=solve.max_iter)
         return floor_light(u, info)
 
-    whole = (source is not None and fixed is None and labels is not None and source_labels is not None
-             and sx is not None and sy is not None)
-    use_grain = whole and getattr(solve, "grain", 1.0) > 1.0 and scale == 1.0
-    use_tone = whole and getattr(solve, "tone", "off") != "off"
-    if not (use_grain or use_tone):
+    graded = (source is not None and getattr(solve, "grain", 1.0) > 1.0 and fixed is None and scale == 1.0
+              and labels is not None and source_labels is not None and sx is not None and sy is not None)
+    if not graded:
         return solved(rgb, source_rgb)
-    table = {"radii": list(grain.RADII), "bins": grain.BINS, "gains": {}}
-    if use_grain:
-        # the gains need the blended frame's detail to a few per mille, not the final solve's
-        # precision: GRAIN_TOL takes 3 iterations where the default tolerance takes 8; nor the
-        # layout's spread, which moves only scales coarser than the grain's layers
-        u, _ = solved(rgb, source_rgb, tol=max(solve.tol, GRAIN_TOL), spread=1.0)
-        table = grain.gain_table(u, labels, source_rgb, source_labels, max_gain=solve.grain)
-    if use_tone:  # measured on what the frame reads (the graded source through the map) against the photo
-        read = lookup(grain.graded(source, table), sx, sy) if use_grain else rgb
-        table["tone"] = grain.tone_curves(read, labels, source_rgb, source_labels, mode=solve.tone)
+    # the gains need the blended frame's detail to a few per mille, not the final solve's
+    # precision: GRAIN_TOL takes 3 iterations where the default tolerance takes 8; nor the
+    # layout's spread, which moves only scales coarser than the grain's layers
+    u, _ = solved(rgb, source_rgb, tol=max(solve.tol, GRAIN_TOL), spread=1.0)
+    table = grain.gain_table(u, labels, source_rgb, source_labels, max_gain=solve.grain)
     src = grain.graded(source, table)
     u, info = solved(lookup(src, sx, sy), src)
     info["grain"] = table

@@ -33,8 +33,6 @@ RADII = (1, 2, 4, 8, 16, 32)  # box radii (px) between the layers: 3, 5, 9, 17, 
 SPREAD_RADII = (32, 64, 128, 256)  # the large-scale layers ``spread`` matches (what lies under RADII's last)
 BINS = 4                      # height bins of a label
 MIN_PIXELS = 64               # a (label, bin) with fewer pixels (either side) takes the label's gain
-TONE_KNOTS = 65               # quantile levels of a label's tone curve (tone_curves, mode match)
-TONE_RANGE = (0.005, 0.995)   # a label's range in the photo (tone_curves, mode range)
 
 _GRADED = ArrayMemo(4)  # graded sources, for the newest sources and tables
 
@@ -113,59 +111,10 @@ def spread(rgb: np.ndarray, labels: np.ndarray, source_rgb: np.ndarray, source_l
     return klayout.srgb_decode(kgrain.spread_regrade(enc, out_lab, hbin, radii, g, f))
 
 
-def tone_curves(rgb: np.ndarray, labels: np.ndarray, source_rgb: np.ndarray, source_labels: np.ndarray, *,
-                mode: str = "range", knots: int = TONE_KNOTS) -> dict:
-    """Per label, per channel, a monotone curve on sRGB-encoded values, from the frame
-    (``rgb``, linear, labels ``labels``) and the photo (``source_rgb``, ``source_labels``).
-    ``range``: the identity between the photo label's ``TONE_RANGE`` quantiles, flat
-    beyond (values the photo's label never holds, a halo brighter than its sky, are
-    brought back to its range; the rest stays as synthesized). ``match``: the frame's
-    quantiles at ``knots`` evenly spaced levels to the photo's at the same levels
-    (histogram matching, one channel at a time: the frame takes the photo's spread, but
-    a region that shows another mix of the label's looks than the photo, dark trees of a
-    vegetation label whose photo is mostly meadow, is recoloured). {id: [[frame knots],
-    [photo knots]] per channel} (JSON); labels with fewer than ``MIN_PIXELS`` pixels on
-    either side are left out (unchanged)."""
-    enc, enc_s = klayout.srgb_encode(rgb), klayout.srgb_encode(source_rgb)
-    out = {}
-    for lid in np.intersect1d(np.unique(labels), np.unique(source_labels)):
-        mo, ms = labels == lid, source_labels == lid
-        if mo.sum() < MIN_PIXELS or ms.sum() < MIN_PIXELS:
-            continue
-        if mode == "range":
-            qs = np.quantile(enc_s[ms], TONE_RANGE, axis=0)   # (2, 3)
-            qo = qs
-        elif mode == "match":
-            lev = np.linspace(0.0, 1.0, knots)
-            qo = np.quantile(enc[mo], lev, axis=0)   # (knots, 3)
-            qs = np.quantile(enc_s[ms], lev, axis=0)
-        else:
-            raise ValueError(f"tone mode {mode!r}: 'range' or 'match'")
-        out[str(int(lid))] = [[[float(v) for v in qo[:, c]], [float(v) for v in qs[:, c]]] for c in range(3)]
-    return out
-
-
-def apply_tone(enc: np.ndarray, labels: np.ndarray, curves: dict) -> np.ndarray:
-    """``enc`` (sRGB-encoded (H, W, 3)) with each label's channels mapped through its
-    ``tone_curves`` curve (piecewise linear between knots, flat beyond the end knots: the
-    photo's range); labels without a curve unchanged. A new array."""
-    out = np.array(enc, np.float32, copy=True)
-    for lid, chans in curves.items():
-        m = labels == int(lid)
-        if not m.any():
-            continue
-        for c, (xs, ys) in enumerate(chans):
-            xs = np.maximum.accumulate(np.asarray(xs, np.float64))
-            xs = xs + np.arange(len(xs)) * 1e-9  # strictly increasing where the frame's quantiles tie
-            out[..., c][m] = np.interp(enc[..., c][m], xs, np.asarray(ys, np.float64))
-    return out
-
-
 def graded(source, table: dict) -> np.ndarray:
     """The colours of ``source`` (a Plate with ``R,G,B``, ``label.id``), linear (H, W, 3)
     float32, with each layer of each label scaled by ``table`` (``gain_table``), by the
-    source pixel's height bin, then, where the table has ``tone`` (``tone_curves``), each
-    label's channels mapped through its curve; labels the table does not name are unchanged. Kept for the newest sources and tables (``memo.ArrayMemo``:
+    source pixel's height bin; labels the table does not name are unchanged. Kept for the newest sources and tables (``memo.ArrayMemo``:
     shared, not to be written to)."""
     source_labels = source["label.id"]
 
@@ -174,16 +123,12 @@ def graded(source, table: dict) -> np.ndarray:
         n = len(ids)
         dense = lut[source_labels]
         bins, radii = int(table["bins"]), np.array(table["radii"], np.int64)
-        enc = klayout.srgb_encode(source.rgb())
-        if table.get("gains"):
-            gains = np.ones((n, bins, len(radii)), np.float64)
-            for lid, g in table["gains"].items():
-                if int(lid) in ids:
-                    gains[lut[int(lid)]] = np.asarray(g, np.float64)
-            enc = kgrain.regrade(enc, dense, _bins(dense, bins), radii, gains)
-        if table.get("tone"):
-            enc = apply_tone(enc, source_labels, table["tone"])
-        return klayout.srgb_decode(enc)
+        gains = np.ones((n, bins, len(radii)), np.float64)
+        for lid, g in table["gains"].items():
+            if int(lid) in ids:
+                gains[lut[int(lid)]] = np.asarray(g, np.float64)
+        return klayout.srgb_decode(kgrain.regrade(klayout.srgb_encode(source.rgb()), dense, _bins(dense, bins),
+                                                  radii, gains))
 
     arrays = (source["R"], source["G"], source["B"], source_labels)  # a plate's channels: the same arrays each frame
     return _GRADED.get(arrays, json.dumps(table, sort_keys=True), compute)

@@ -82,7 +82,8 @@ class PoissonSolve(ParamGroup):
     seams = Param(str, "source", choices=("source", "zero"),
                   doc="target gradient across patch seams: the source's through the map, or zero")
     screen = Param(float, 0.01, min=0.0,
-                   doc="λ of a data term λ(u - f)²: 0 = pure Poisson (the paper; drifts far from label borders)")
+                   doc="λ of a data term λ(u - f)²: 0 = pure Poisson (the paper; drifts far from label borders "
+                       "and moves a frame's tones off the photo's: graphs/first_frame.yaml takes 1)")
     label_dirichlet = Param(bool, True, doc="keep pixels on boundaries between label ids (Γ2) unchanged")
     layout = Param(bool, True, doc="first move each label's mean colour, by relative height in the label, onto the "
                                    "source photo's (low frequencies from the photo: a region's hue, a sky's "
@@ -100,10 +101,6 @@ class PoissonSolve(ParamGroup):
                   doc="most gain of a detail layer when the first frame's detail is matched to the photo's, "
                       "label by label and scale by scale (the source is graded and read again; later frames "
                       "read the same graded source): 1 = off")
-    tone = Param(str, "off", choices=("off", "range", "match"),
-                 doc="each label's colours against the photo's, per channel of the sRGB-encoded values, applied to "
-                     "the source every frame reads (grain.tone_curves): 'range' brings values outside the photo "
-                     "label's 0.5-99.5 % range back into it, 'match' matches the whole distribution")
     tol = Param(float, 1e-5, min=1e-12, max=1.0, doc="relative residual at which the solver stops")
     max_iter = Param(int, 100, min=1, doc="most conjugate-gradient iterations")
 

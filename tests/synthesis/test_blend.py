@@ -136,7 +136,7 @@ def test_a_blended_frame_never_holds_negative_values():
     raw, _ = P.poisson_transfer(colors, patch, labels, screen=0.01, tol=1e-7, max_iter=300, seam_gx=None, seam_gy=None)
     assert raw.min() < 0  # the test's premise
     solve = SimpleNamespace(layout=False, seams="zero", label_dirichlet=True, screen=0.01, tol=1e-7, max_iter=300,
-                            grain=1.0, tone="off", layout_keep=1.0, layout_spread=1.0)
+                            grain=1.0, layout_keep=1.0, layout_spread=1.0)
     u, info = B.blend_frame(colors, patch, labels, solve)
     assert u.min() >= 0 and info["negative"] == int((raw < 0).sum())
     np.testing.assert_array_equal(u[raw >= 0], raw[raw >= 0])
