@@ -81,6 +81,14 @@ class _TSeq(Node, register=False):
 TYPES = {"TConst": _TConst, "TAdd": _TAdd, "TFrame": _TFrame, "TRead": _TRead, "TSeq": _TSeq}
 
 
+@pytest.fixture(autouse=True)
+def _own_plate_cache(tmp_path, monkeypatch):
+    """Every test's default plate cache is its own, ``tmp_path/.proxyshade/cache``
+    (``$PROXYSHADE_CACHE``, inherited by the subprocesses it starts): never the user's."""
+    monkeypatch.setenv("PROXYSHADE_CACHE", str(tmp_path / ".proxyshade" / "cache"))
+    monkeypatch.delenv("PROXYSHADE_CACHE_LIMIT", raising=False)
+
+
 @pytest.fixture
 def computes():
     COMPUTES.clear()

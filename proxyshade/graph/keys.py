@@ -17,14 +17,14 @@ import functools
 import hashlib
 import importlib.util
 import inspect
-import io
 import json
 import os
 import sys
 import threading
-import tokenize
 from pathlib import Path
 from typing import Any, Callable
+
+from proxyshade.io.files import strip_comments as _strip_comments, user_cache_dir
 
 
 def canonical(obj: Any) -> str:
@@ -34,17 +34,6 @@ def canonical(obj: Any) -> str:
 
 def digest(obj: Any) -> str:
     return hashlib.sha256(canonical(obj).encode()).hexdigest()
-
-
-def _strip_comments(source: str) -> str:
-    out = []
-    try:
-        for tok in tokenize.generate_tokens(io.StringIO(source).readline):
-            if tok.type not in (tokenize.COMMENT, tokenize.NL):
-                out.append(tok.string)
-    except (tokenize.TokenError, IndentationError):
-        return source
-    return " ".join(out)
 
 
 @functools.lru_cache(maxsize=None)  # per process, as ``import_closure`` and ``module_hash``
@@ -132,8 +121,7 @@ _OWN_ROOT = str(Path(__file__).resolve().parents[1]) + os.sep  # .../proxyshade/
 
 def _user_cache() -> Path:
     """The per-user folder of the code facts and the file-bound memos."""
-    return Path(os.environ.get("PROXYSHADE_CODE_CACHE") or os.path.join(
-        os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache"), "proxyshade"))
+    return Path(os.environ.get("PROXYSHADE_CODE_CACHE") or user_cache_dir())
 
 
 def _facts_path() -> Path:
