@@ -97,7 +97,7 @@ def test_movie_of_a_partial_range_and_graph_listing(tmp_path, registry, capsys):
 
 def test_first_run_says_it_compiles_the_kernels(graph, capsys, monkeypatch):
     import proxyshade.cli as cli
-    import proxyshade.kernels._config as config
+    import proxyshade.kernels._cache as config
 
     monkeypatch.setattr(cli.err, "_force_terminal", True)  # said on a terminal, like the progress bars
     monkeypatch.setattr(config, "kernels_cached", lambda modules=(): False)  # as right after an install
@@ -154,15 +154,15 @@ def test_one_set_of_bars_follows_several_graphs_as_compile_runs_them(graph, tmp_
 def test_a_cold_kernel_cache_compiles_the_manifest_first_with_a_note(graph, capsys, monkeypatch):
     """On a cold numba cache ``run`` compiles the manifest's kernels of the graph's kernel
     modules before the run (``warmup.precompile``), saying so; on a warm one it says nothing."""
-    import proxyshade.kernels._config as config
+    import proxyshade.kernels._cache as config
     from proxyshade.graph import warmup
 
     sig = "(int64, Array(uint32, 2, 'C', False, aligned=True))"
     monkeypatch.setattr(warmup, "manifest", lambda: [("proxyshade.kernels.random.uniform_field", sig, 1.0, ()),
                                                      ("proxyshade.kernels.poisson.nothing_here", "(int64,)", 1.0, ())])
     monkeypatch.setattr(warmup, "manifest_modules", lambda g: {"proxyshade.kernels.random"})
-    monkeypatch.setattr(warmup, "_cached", lambda disp, sig: False)  # as right after an install
-    monkeypatch.setattr(config, "kernels_cached", lambda modules=(): False)
+    monkeypatch.setattr(config, "kernels_cached", lambda modules=(): False)  # as right after an install
+    monkeypatch.setattr(config, "mark_precompiled", lambda modules: None)
     assert main(["run", str(graph), "-q"]) == 0
     err = capsys.readouterr().err
     assert "compiling the numba kernels, once" in err and "1 kernel signatures" in err
@@ -174,11 +174,12 @@ def test_a_cold_kernel_cache_compiles_the_manifest_first_with_a_note(graph, caps
 
 def test_compile_precompiles_every_manifest_kernel_then_runs_the_demo_graphs(capsys, monkeypatch):
     from proxyshade.graph import warmup
+    from proxyshade.kernels import _cache
 
     sig = "(int64, Array(uint32, 2, 'C', False, aligned=True))"
     monkeypatch.setattr(warmup, "manifest", lambda: [("proxyshade.kernels.random.uniform_field", sig, 1.0, ()),
                                                      ("proxyshade.kernels.random._keys", "(int64, int64)", 0.5, ())])
-    monkeypatch.setattr(warmup, "_cached", lambda disp, sig: False)
+    monkeypatch.setattr(_cache, "kernels_cached", lambda modules=(): False)  # as right after an install
     ran = []
     monkeypatch.setattr(warmup, "WARMUP", [])  # the demo graphs: too slow for a test
     monkeypatch.setattr(warmup, "precompile", lambda modules=None, progress=None, workers=None: ran.append(

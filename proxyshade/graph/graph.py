@@ -298,6 +298,7 @@ class Graph:
             "type": cls.__name__,
             "version": cls.version,
             "code": K.code_hash(cls),
+            "libraries": K.library_versions(),
             "params": hashed,
             "inputs": input_keys,
             "frame": frame if time_dep else None,
