@@ -463,22 +463,22 @@ def cache_info(graph: Optional[Path] = _GRAPH_ARG,
                cache: Optional[Path] = typer.Option(None, "--cache", help="plate cache (default: $PROXYSHADE_CACHE, "
                                                     "else the per-user one)")):
     """Where the caches are and their size: plates, compiled kernels."""
-    from proxyshade.graph.cache import Cache, LIMIT_ENV, gib, size_limit
+    from proxyshade.graph.cache import Cache, LIMIT_ENV, size_limit, size_text
     from proxyshade.kernels import _cache as kernels
 
     def plates(c):
         i = c.info()
         temps = (f", {i['temps']} temporary file(s) ({i['temp_bytes'] / 1e6:.1f} MB, {i['stale_temps']} left by "
                  "killed runs: the next run removes them)") if i["temps"] else ""
-        return f"{i['root']}: {i['entries']} entries, {gib(i['bytes'])}{temps}"
+        return f"{i['root']}: {i['entries']} entries, {size_text(i['bytes'])}{temps}"
 
     limit = size_limit()
     _say(out, f"plates  {plates(Cache(_cache_root(cache), background=False))} (a run warns past "
-              f"{gib(limit) if limit else 'no limit'}: {LIMIT_ENV})")
+              f"{size_text(limit) if limit else 'no limit'}: {LIMIT_ENV})")
     k = kernels.info()
-    old = (f"; {len(k['old'])} other version(s), {gib(sum(n for _, n in k['old']))}: 'cache clean' removes them"
+    old = (f"; {len(k['old'])} other version(s), {size_text(sum(n for _, n in k['old']))}: 'cache clean' removes them"
            if k["old"] else "")
-    _say(out, f"kernels {k['folder']}: {gib(k['bytes'])} (this version of the kernels){old}")
+    _say(out, f"kernels {k['folder']}: {size_text(k['bytes'])} (this version of the kernels){old}")
     legacy = _old_cache(graph)
     if legacy is not None:
         _say(out, f"old     {plates(legacy)} (no longer used: 'cache clean {graph}' removes it)")
@@ -491,15 +491,15 @@ def cache_clean(graph: Optional[Path] = _GRAPH_ARG,
     """Empty the plate cache (the next runs recompute what they need) and remove the compiled
     kernels of other versions of the kernels package (this version's are kept). Nothing is
     removed otherwise: a run warns when the plate cache passes $PROXYSHADE_CACHE_LIMIT (20G)."""
-    from proxyshade.graph.cache import Cache, gib
+    from proxyshade.graph.cache import Cache, size_text
     from proxyshade.kernels import _cache as kernels
 
     for c in filter(None, (Cache(_cache_root(cache), background=False), _old_cache(graph))):
         n, size = c.info()["entries"], c.size()
         c.clean()
-        _say(out, f"removed {n} entries ({gib(size)}) from {c.root}")
+        _say(out, f"removed {n} entries ({size_text(size)}) from {c.root}")
     old = kernels.remove_old()
-    _say(out, f"removed compiled kernels of {len(old)} other version(s) ({gib(sum(n for _, n in old))}) from "
+    _say(out, f"removed compiled kernels of {len(old)} other version(s) ({size_text(sum(n for _, n in old))}) from "
               f"{kernels.root()}; kept this version's ({kernels.folder().name})")
 
 

@@ -62,9 +62,12 @@ def size_limit() -> int:
     return int(float(m[1]) * 1024 ** " KMGT".index(m[2].upper() or " "))
 
 
-def gib(n: int) -> str:
-    """Bytes as GiB (MiB under one GiB), for messages."""
-    return f"{n / 2**30:.1f} GiB" if n >= 2**30 else f"{n / 2**20:.1f} MiB"
+def size_text(n: int) -> str:
+    """Bytes in binary units, for messages: '2.4 GiB', '312.0 MiB', '1.0 KiB'."""
+    for unit, scale in (("TiB", 2**40), ("GiB", 2**30), ("MiB", 2**20)):
+        if n >= scale:
+            return f"{n / scale:.1f} {unit}"
+    return f"{n / 1024:.1f} KiB"
 
 
 def _sha256(path: Path) -> str:
@@ -341,7 +344,7 @@ class Cache:
         n = self.size()
         if n <= limit:
             return None
-        return (f"cache {self.root} holds {gib(n)}, over its limit of {gib(limit)}: 'proxyshade cache clean' "
+        return (f"cache {self.root} holds {size_text(n)}, over its limit of {size_text(limit)}: 'proxyshade cache clean' "
                 f"empties it (the next runs recompute what they need), or set {LIMIT_ENV} (e.g. 50G, 0 for no "
                 "warning)")
 
