@@ -476,7 +476,7 @@ def cache_info(graph: Optional[Path] = _GRAPH_ARG,
     _say(out, f"plates  {plates(Cache(_cache_root(cache), background=False))} (a run warns past "
               f"{size_text(limit) if limit else 'no limit'}: {LIMIT_ENV})")
     k = kernels.info()
-    old = (f"; {len(k['old'])} other version(s), {size_text(sum(n for _, n in k['old']))}: 'cache clean' removes them"
+    old = (f"; {size_text(sum(n for _, n in k['old']))} of other versions: 'cache clean' removes them"
            if k["old"] else "")
     _say(out, f"kernels {k['folder']}: {size_text(k['bytes'])} (this version of the kernels){old}")
     legacy = _old_cache(graph)
@@ -499,8 +499,8 @@ def cache_clean(graph: Optional[Path] = _GRAPH_ARG,
         c.clean()
         _say(out, f"removed {n} entries ({size_text(size)}) from {c.root}")
     old = kernels.remove_old()
-    _say(out, f"removed compiled kernels of {len(old)} other version(s) ({size_text(sum(n for _, n in old))}) from "
-              f"{kernels.root()}; kept this version's ({kernels.folder().name})")
+    _say(out, f"removed compiled kernels of other versions ({len(old)} folder(s) or file(s), "
+              f"{size_text(sum(n for _, n in old))}) from {kernels.root()}; kept this version's ({kernels.folder().name})")
 
 
 def _show_warning(message, category, filename, lineno, file=None, line=None):

@@ -123,8 +123,18 @@ def _bytes(path: Path) -> int:
     return total
 
 
+def _in_tree() -> list[Path]:
+    """numba's cache files beside the sources (``__pycache__/*.nbi, *.nbc``), where versions
+    before this folder kept them: never read now."""
+    try:
+        return sorted(p for p in (HERE / "__pycache__").iterdir() if p.suffix in (".nbi", ".nbc"))
+    except OSError:
+        return []
+
+
 def info() -> dict:
-    """{'folder', 'bytes', 'old': [(folder, bytes)] of other versions}."""
+    """{'folder', 'bytes', 'old': [(path, bytes)]}: this version's folder and its size; the
+    folders of other versions and numba's files left beside the sources."""
     here, old = folder(), []
     try:
         with os.scandir(root()) as it:
@@ -132,13 +142,16 @@ def info() -> dict:
     except OSError:
         pass
     return {"folder": here, "bytes": _bytes(here) if here.is_dir() else 0,
-            "old": [(p, _bytes(p)) for p in sorted(old)]}
+            "old": [(p, _bytes(p)) for p in sorted(old)] + [(p, p.stat().st_size) for p in _in_tree()]}
 
 
 def remove_old() -> list[tuple[Path, int]]:
-    """Delete the folders of other versions of the kernels package; returns (folder, bytes)."""
+    """Delete what ``info`` lists as old; returns (path, bytes) of each."""
     removed = []
     for p, n in info()["old"]:
-        shutil.rmtree(p, ignore_errors=True)
+        if p.is_dir():
+            shutil.rmtree(p, ignore_errors=True)
+        else:
+            p.unlink(missing_ok=True)
         removed.append((p, n))
     return removed

@@ -74,7 +74,7 @@ def test_an_edit_to_a_kernel_module_recompiles_the_kernels_that_inline_it(tmp_pa
     assert commented == dict(edited, hits=1)
 
     out = child("from proxyshade.cli import main; main(['cache', 'clean'])")
-    assert "compiled kernels of 1 other version" in out
+    assert "compiled kernels of other versions (1 folder(s) or file(s)" in out
     assert sorted(p.name for p in (tmp_path / "numba" / "proxyshade-kernels").iterdir()
                   if p.is_dir()) == [Path(edited["folder"]).name]
 
