@@ -34,4 +34,4 @@ bench: $(STAMP)
 	$(PY) bench/run.py
 
 clean:
-	rm -rf out .proxyshade graphs/.proxyshade
+	rm -rf out .proxyshade graphs/.proxyshade  # caches of older versions; today's: proxyshade cache clean

@@ -151,7 +151,7 @@ class _BarHooks:
             self._bars()
         if not self.told_compiling and self.graph is not None and err.is_terminal:  # a progress note: terminals only
             from proxyshade.graph.keys import import_closure
-            from proxyshade.kernels._config import kernels_cached
+            from proxyshade.kernels._cache import kernels_cached
 
             mods = [m for m in import_closure(type(self.graph.nodes[run.node]).__module__)
                     if m.startswith("proxyshade.kernels.")]
@@ -183,7 +183,8 @@ def run(
     var: List[str] = typer.Option([], "--var", help="set a graph variable: name=value (repeatable), used as ${name}"),
     sweep: List[str] = typer.Option([], "--sweep", help="run the graph once per value of a variable: name=a,b,c "
                                     "(repeatable: every combination)"),
-    cache: Optional[Path] = typer.Option(None, "--cache", help="cache folder (default .proxyshade/cache beside the graph, or $PROXYSHADE_CACHE)"),
+    cache: Optional[Path] = typer.Option(None, "--cache", help="plate cache folder (default $PROXYSHADE_CACHE, else plates/ in the per-user cache: "
+                                      "$XDG_CACHE_HOME/proxyshade or ~/.cache/proxyshade)"),
     explain: bool = typer.Option(False, "--explain", help="print per node whether it was computed or reused, and why"),
     jobs: int = typer.Option(1, "--jobs", min=1, help="nodes run concurrently (local executor)"),
     force: List[str] = typer.Option([], "--force", help="recompute this node (repeatable)"),
@@ -304,20 +305,21 @@ def _report(label: str, report, explain: bool, several: bool) -> None:
     _say(out, f"{computed} computed, {reused} reused in {report.wall:.3f} s, peak memory {report.peak_rss_mb:.0f} MiB")
 
 
-def _precompile(modules, quiet: bool, force: bool = False):
-    """The kernels' cold-cache step: when numba's cache lacks kernels of ``modules``
-    (``proxyshade.kernels`` names; None: every kernel of the manifest), compile the
-    manifest's signatures numba's cache lacks in one process per core, with a progress bar
-    (``warmup.precompile``); ``force``: check every signature however the cache looks.
-    Returns the precompile's report, None when there was nothing to compile."""
-    from proxyshade.kernels._config import kernels_cached
+def _precompile(modules, quiet: bool):
+    """The kernels' cold-cache step: when ``modules`` (``proxyshade.kernels`` names; None:
+    every kernel module) are not all precompiled into this version's kernel cache
+    (``kernels._cache``), compile their manifest signatures in one process per core, with a
+    progress bar (``warmup.precompile``). Returns the precompile's report, None when there
+    was nothing to compile."""
+    from proxyshade.kernels._cache import kernels_cached
 
-    if not force and (modules is not None and (not modules or kernels_cached(sorted(modules)))):
+    if modules is not None and (not modules or kernels_cached(sorted(modules))):
         return None
-    from proxyshade.graph.warmup import default_workers, pending, precompile
+    from proxyshade.graph.warmup import default_workers, mark_precompiled, pending, precompile
 
     todo = pending(modules)
     if not todo:
+        mark_precompiled(modules)
         return None
     workers = min(default_workers(), len(todo))
     _say(err, f"compiling the numba kernels, once after an install or upgrade: {len(todo)} kernel signatures "
@@ -345,7 +347,7 @@ def compile_kernels(quiet: bool = typer.Option(False, "--quiet", "-q", help="no 
     from proxyshade.graph.warmup import kernel_signatures, warm_up
 
     t0 = time.perf_counter()
-    _precompile(None, quiet, force=True)
+    _precompile(None, quiet)
     with _LazyBars(quiet) as bars:
         hooks = _BarHooks(bars)
         hooks.told_compiling = True
@@ -438,35 +440,67 @@ def inspect(file: Path = typer.Argument(..., metavar="FILE", help="an EXR file")
         _say(out, f"  {k}: {s[:200] + '...' if len(s) > 200 else s}")
 
 
-def _cache_root(graph: Optional[Path], cache: Optional[Path]) -> Path:
+def _cache_root(cache: Optional[Path]) -> Path:
     from proxyshade.graph.graph import default_cache_dir
 
-    if cache:
-        return cache
-    return default_cache_dir(Path(graph).resolve().parent if graph else Path.cwd())
+    return cache or default_cache_dir()
+
+
+def _old_cache(graph: Optional[Path]):
+    """The plate cache an older proxyshade kept beside GRAPH (``.proxyshade/cache``), if there."""
+    from proxyshade.graph.cache import Cache
+
+    old = Path(graph).resolve().parent / ".proxyshade" / "cache" if graph else None
+    return Cache(old, background=False) if old is not None and old.is_dir() else None
+
+
+_GRAPH_ARG = typer.Argument(None, help="a graph file: also its folder's old cache (.proxyshade/cache beside it, "
+                            "where versions before the per-user cache kept it)")
 
 
 @cache_app.command("info")
-def cache_info(graph: Optional[Path] = typer.Argument(None, help="graph file whose default cache to use"),
-               cache: Optional[Path] = typer.Option(None, "--cache")):
-    """Entries and size of the cache."""
-    from proxyshade.graph.cache import Cache
+def cache_info(graph: Optional[Path] = _GRAPH_ARG,
+               cache: Optional[Path] = typer.Option(None, "--cache", help="plate cache (default: $PROXYSHADE_CACHE, "
+                                                    "else the per-user one)")):
+    """Where the caches are and their size: plates, compiled kernels."""
+    from proxyshade.graph.cache import Cache, LIMIT_ENV, size_limit, size_text
+    from proxyshade.kernels import _cache as kernels
 
-    i = Cache(_cache_root(graph, cache)).info()
-    temps = (f", {i['temps']} temporary file(s) ({i['temp_bytes'] / 1e6:.1f} MB, {i['stale_temps']} left by killed "
-             "runs: the next run removes them)") if i["temps"] else ""
-    _say(out, f"{i['root']}: {i['entries']} entries, {i['bytes'] / 1e6:.1f} MB{temps}")
+    def plates(c):
+        i = c.info()
+        temps = (f", {i['temps']} temporary file(s) ({i['temp_bytes'] / 1e6:.1f} MB, {i['stale_temps']} left by "
+                 "killed runs: the next run removes them)") if i["temps"] else ""
+        return f"{i['root']}: {i['entries']} entries, {size_text(i['bytes'])}{temps}"
+
+    limit = size_limit()
+    _say(out, f"plates  {plates(Cache(_cache_root(cache), background=False))} (a run warns past "
+              f"{size_text(limit) if limit else 'no limit'}: {LIMIT_ENV})")
+    k = kernels.info()
+    old = (f"; {size_text(sum(n for _, n in k['old']))} of other versions: 'cache clean' removes them"
+           if k["old"] else "")
+    _say(out, f"kernels {k['folder']}: {size_text(k['bytes'])} (this version of the kernels){old}")
+    legacy = _old_cache(graph)
+    if legacy is not None:
+        _say(out, f"old     {plates(legacy)} (no longer used: 'cache clean {graph}' removes it)")
 
 
 @cache_app.command("clean")
-def cache_clean(graph: Optional[Path] = typer.Argument(None, help="graph file whose default cache to use"),
-                cache: Optional[Path] = typer.Option(None, "--cache")):
-    """Delete every cache entry."""
-    from proxyshade.graph.cache import Cache
+def cache_clean(graph: Optional[Path] = _GRAPH_ARG,
+                cache: Optional[Path] = typer.Option(None, "--cache", help="plate cache (default: $PROXYSHADE_CACHE, "
+                                                     "else the per-user one)")):
+    """Empty the plate cache (the next runs recompute what they need) and remove the compiled
+    kernels of other versions of the kernels package (this version's are kept). Nothing is
+    removed otherwise: a run warns when the plate cache passes $PROXYSHADE_CACHE_LIMIT (20G)."""
+    from proxyshade.graph.cache import Cache, size_text
+    from proxyshade.kernels import _cache as kernels
 
-    c = Cache(_cache_root(graph, cache))
-    n = c.clean()
-    _say(out, f"removed {n} entries from {c.root}")
+    for c in filter(None, (Cache(_cache_root(cache), background=False), _old_cache(graph))):
+        n, size = c.info()["entries"], c.size()
+        c.clean()
+        _say(out, f"removed {n} entries ({size_text(size)}) from {c.root}")
+    old = kernels.remove_old()
+    _say(out, f"removed compiled kernels of other versions ({len(old)} folder(s) or file(s), "
+              f"{size_text(sum(n for _, n in old))}) from {kernels.root()}; kept this version's ({kernels.folder().name})")
 
 
 def _show_warning(message, category, filename, lineno, file=None, line=None):

@@ -81,6 +81,23 @@ class _TSeq(Node, register=False):
 TYPES = {"TConst": _TConst, "TAdd": _TAdd, "TFrame": _TFrame, "TRead": _TRead, "TSeq": _TSeq}
 
 
+@pytest.fixture(scope="session", autouse=True)
+def _session_plate_cache(tmp_path_factory):
+    """The default plate cache of module- and session-scoped fixtures (set up before any
+    test's own): a folder of the session's, never the user's."""
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv("PROXYSHADE_CACHE", str(tmp_path_factory.mktemp("plates")))
+        yield
+
+
+@pytest.fixture(autouse=True)
+def _own_plate_cache(tmp_path, monkeypatch):
+    """Every test's default plate cache is its own, ``tmp_path/.proxyshade/cache``
+    (``$PROXYSHADE_CACHE``, inherited by the subprocesses it starts): never the user's."""
+    monkeypatch.setenv("PROXYSHADE_CACHE", str(tmp_path / ".proxyshade" / "cache"))
+    monkeypatch.delenv("PROXYSHADE_CACHE_LIMIT", raising=False)
+
+
 @pytest.fixture
 def computes():
     COMPUTES.clear()

@@ -97,7 +97,7 @@ def test_movie_of_a_partial_range_and_graph_listing(tmp_path, registry, capsys):
 
 def test_first_run_says_it_compiles_the_kernels(graph, capsys, monkeypatch):
     import proxyshade.cli as cli
-    import proxyshade.kernels._config as config
+    import proxyshade.kernels._cache as config
 
     monkeypatch.setattr(cli.err, "_force_terminal", True)  # said on a terminal, like the progress bars
     monkeypatch.setattr(config, "kernels_cached", lambda modules=(): False)  # as right after an install
@@ -154,15 +154,15 @@ def test_one_set_of_bars_follows_several_graphs_as_compile_runs_them(graph, tmp_
 def test_a_cold_kernel_cache_compiles_the_manifest_first_with_a_note(graph, capsys, monkeypatch):
     """On a cold numba cache ``run`` compiles the manifest's kernels of the graph's kernel
     modules before the run (``warmup.precompile``), saying so; on a warm one it says nothing."""
-    import proxyshade.kernels._config as config
+    import proxyshade.kernels._cache as config
     from proxyshade.graph import warmup
 
     sig = "(int64, Array(uint32, 2, 'C', False, aligned=True))"
     monkeypatch.setattr(warmup, "manifest", lambda: [("proxyshade.kernels.random.uniform_field", sig, 1.0, ()),
                                                      ("proxyshade.kernels.poisson.nothing_here", "(int64,)", 1.0, ())])
     monkeypatch.setattr(warmup, "manifest_modules", lambda g: {"proxyshade.kernels.random"})
-    monkeypatch.setattr(warmup, "_cached", lambda disp, sig: False)  # as right after an install
-    monkeypatch.setattr(config, "kernels_cached", lambda modules=(): False)
+    monkeypatch.setattr(config, "kernels_cached", lambda modules=(): False)  # as right after an install
+    monkeypatch.setattr(config, "mark_precompiled", lambda modules: None)
     assert main(["run", str(graph), "-q"]) == 0
     err = capsys.readouterr().err
     assert "compiling the numba kernels, once" in err and "1 kernel signatures" in err
@@ -174,11 +174,12 @@ def test_a_cold_kernel_cache_compiles_the_manifest_first_with_a_note(graph, caps
 
 def test_compile_precompiles_every_manifest_kernel_then_runs_the_demo_graphs(capsys, monkeypatch):
     from proxyshade.graph import warmup
+    from proxyshade.kernels import _cache
 
     sig = "(int64, Array(uint32, 2, 'C', False, aligned=True))"
     monkeypatch.setattr(warmup, "manifest", lambda: [("proxyshade.kernels.random.uniform_field", sig, 1.0, ()),
                                                      ("proxyshade.kernels.random._keys", "(int64, int64)", 0.5, ())])
-    monkeypatch.setattr(warmup, "_cached", lambda disp, sig: False)
+    monkeypatch.setattr(_cache, "kernels_cached", lambda modules=(): False)  # as right after an install
     ran = []
     monkeypatch.setattr(warmup, "WARMUP", [])  # the demo graphs: too slow for a test
     monkeypatch.setattr(warmup, "precompile", lambda modules=None, progress=None, workers=None: ran.append(
@@ -218,3 +219,58 @@ def test_watch_runs_again_when_a_file_the_graph_reads_changes(tmp_path, capsys):
     totals = [line for line in capsys.readouterr().out.splitlines() if " computed, " in line]
     assert len(totals) == 2 and totals[1].startswith("4 computed")  # the source read and its three writers
     assert int(totals[0].split()[0]) == 4
+
+
+def test_the_default_cache_is_per_user_outside_the_source_tree(graph, capsys, monkeypatch, tmp_path):
+    """Without --cache or $PROXYSHADE_CACHE plates go to $XDG_CACHE_HOME/proxyshade/plates
+    (else ~/.cache/proxyshade/plates), never beside the graph; ``cache info`` shows where
+    and how much, ``cache clean`` says what it removes and keeps."""
+    monkeypatch.delenv("PROXYSHADE_CACHE")
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
+    assert main(["run", str(graph), "-q"]) == 0
+    plates = tmp_path / "xdg" / "proxyshade" / "plates"
+    assert plates.is_dir() and not (graph.parent / ".proxyshade").exists()
+    capsys.readouterr()
+    assert main(["cache", "info"]) == 0
+    info = capsys.readouterr().out
+    assert f"plates  {plates}: 4 entries" in info and "a run warns past 20.0 GiB" in info
+    assert "kernels " in info and "this version of the kernels" in info
+    assert main(["cache", "clean"]) == 0
+    text = capsys.readouterr().out
+    assert f"removed 4 entries" in text and str(plates) in text and "kept this version's" in text
+    monkeypatch.delenv("XDG_CACHE_HOME")
+    monkeypatch.setenv("HOME", str(tmp_path / "home"))
+    from proxyshade.graph.graph import default_cache_dir
+
+    assert default_cache_dir() == tmp_path / "home" / ".cache" / "proxyshade" / "plates"
+
+
+def test_an_old_cache_beside_the_graph_is_shown_and_removed(graph, capsys):
+    """The cache older versions kept beside the graph (graphs/.proxyshade/cache) is no longer
+    used: ``cache info GRAPH`` shows it, ``cache clean GRAPH`` removes it."""
+    old = graph.parent / ".proxyshade" / "cache"
+    assert main(["run", str(graph), "-q", "--cache", str(old)]) == 0
+    capsys.readouterr()
+    assert main(["cache", "info", str(graph)]) == 0
+    assert f"old     {old}: 4 entries" in capsys.readouterr().out
+    assert main(["cache", "clean", str(graph)]) == 0
+    assert f"removed 4 entries" in capsys.readouterr().out and not old.exists()
+
+
+def test_a_run_warns_once_when_the_cache_passes_its_limit(graph, capsys, monkeypatch):
+    """$PROXYSHADE_CACHE_LIMIT: a computing run past it prints one warning line; a cached
+    re-run (the cache cannot have grown) is quiet; a bad value is a one-line error."""
+    monkeypatch.setenv("PROXYSHADE_CACHE_LIMIT", "1k")
+    assert main(["run", str(graph), "-q"]) == 0
+    err = [line for line in capsys.readouterr().err.splitlines() if line.strip()]
+    assert len(err) == 1 and err[0].startswith("warning: cache ") and "over its limit of 1.0 KiB" in err[0]
+    assert "proxyshade cache clean" in err[0] and "PROXYSHADE_CACHE_LIMIT" in err[0]
+    assert main(["run", str(graph), "-q"]) == 0
+    assert "warning" not in capsys.readouterr().err
+    monkeypatch.setenv("PROXYSHADE_CACHE_LIMIT", "0")
+    assert main(["run", str(graph), "-q", "--force", "src"]) == 0
+    assert "warning" not in capsys.readouterr().err
+    monkeypatch.setenv("PROXYSHADE_CACHE_LIMIT", "lots")
+    assert main(["run", str(graph), "-q"]) == 2
+    assert capsys.readouterr().err.strip() == ("error: PROXYSHADE_CACHE_LIMIT=lots: not a size; set it like 20G, "
+                                               "500M or 0 (no warning)")

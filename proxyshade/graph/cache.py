@@ -27,6 +27,7 @@ import fcntl
 import hashlib
 import json
 import os
+import re
 import shutil
 import threading
 import time
@@ -34,14 +35,39 @@ import warnings
 from concurrent.futures import Future, ThreadPoolExecutor, wait
 from pathlib import Path
 
-from proxyshade.errors import WriteError
+from proxyshade.errors import UserError, WriteError
 from proxyshade.graph.plate import Plate
 from proxyshade.io.exr import cache_compression, read_header, read_plate, write_plate
-from proxyshade.io.files import READ_ONLY, io_error, remove_stale_temps, stale_temps, temp_for
+from proxyshade.io.files import READ_ONLY, io_error, remove_stale_temps, stale_temps, temp_for, write_text_atomic
 
 
 class CacheWarning(UserWarning):
     pass
+
+
+LIMIT_ENV = "PROXYSHADE_CACHE_LIMIT"
+DEFAULT_LIMIT = 20 * 2**30  # bytes: 20 GiB
+_SIZE = re.compile(r"(\d+(?:\.\d*)?)\s*([kmgt]?)(?:i?b)?", re.IGNORECASE)
+
+
+def size_limit() -> int:
+    """The plate cache's size past which a run warns (bytes; 0: never): ``$PROXYSHADE_CACHE_LIMIT``
+    (``20G``, ``500M``, ``1.5T``, a number of bytes; binary units), default 20 GiB."""
+    text = os.environ.get(LIMIT_ENV, "").strip()
+    if not text:
+        return DEFAULT_LIMIT
+    m = _SIZE.fullmatch(text)
+    if not m:
+        raise UserError(f"{LIMIT_ENV}={text}: not a size; set it like 20G, 500M or 0 (no warning)")
+    return int(float(m[1]) * 1024 ** " KMGT".index(m[2].upper() or " "))
+
+
+def size_text(n: int) -> str:
+    """Bytes in binary units, for messages: '2.4 GiB', '312.0 MiB', '1.0 KiB'."""
+    for unit, scale in (("TiB", 2**40), ("GiB", 2**30), ("MiB", 2**20)):
+        if n >= scale:
+            return f"{n / scale:.1f} {unit}"
+    return f"{n / 1024:.1f} KiB"
 
 
 def _sha256(path: Path) -> str:
@@ -50,16 +76,6 @@ def _sha256(path: Path) -> str:
         for block in iter(lambda: f.read(1 << 20), b""):
             h.update(block)
     return h.hexdigest()
-
-
-def _atomic_write_text(path: Path, text: str) -> None:
-    tmp = temp_for(path)
-    try:
-        tmp.write_text(text)
-        os.replace(tmp, path)
-    finally:
-        if os.path.lexists(tmp):
-            tmp.unlink()
 
 
 def _read_only(e: BaseException) -> bool:
@@ -238,7 +254,7 @@ class Cache:
 
     def _write_record(self, js: Path, rec: dict) -> None:
         try:
-            _atomic_write_text(js, json.dumps(rec, sort_keys=True, default=str))
+            write_text_atomic(js, json.dumps(rec, sort_keys=True, default=str))
         except OSError as e:
             if _read_only(e):
                 raise
@@ -304,6 +320,34 @@ class Cache:
         return {"root": str(self.root), "entries": n, "bytes": size, "temps": temps, "temp_bytes": temp_bytes,
                 "stale_temps": stale}
 
+    def size(self) -> int:
+        """Bytes of every file in the cache (entries, records, temporaries), read from the
+        folders' listings: quick enough after every run that computed."""
+        total = 0
+        for d in self._folders():
+            try:
+                with os.scandir(d) as it:
+                    for e in it:
+                        try:
+                            total += e.stat(follow_symlinks=False).st_size
+                        except FileNotFoundError:
+                            continue
+            except OSError:
+                continue
+        return total
+
+    def over_limit(self) -> str | None:
+        """A one-line warning when the cache holds more than ``size_limit()``, else None."""
+        limit = size_limit()
+        if not limit:
+            return None
+        n = self.size()
+        if n <= limit:
+            return None
+        return (f"cache {self.root} holds {size_text(n)}, over its limit of {size_text(limit)}: 'proxyshade cache clean' "
+                f"empties it (the next runs recompute what they need), or set {LIMIT_ENV} (e.g. 50G, 0 for no "
+                "warning)")
+
     def remove_stale_temps(self) -> list[tuple[Path, int]]:
         """Delete temporaries left by killed runs (their process is gone, or a day old)."""
         removed = []
@@ -336,7 +380,7 @@ class Cache:
         p = self.root / "runs" / f"{graph_id}.json"
         try:
             p.parent.mkdir(parents=True, exist_ok=True)
-            _atomic_write_text(p, json.dumps(new, sort_keys=True, default=str))
+            write_text_atomic(p, json.dumps(new, sort_keys=True, default=str))
         except OSError as e:
             if not _read_only(e):
                 raise io_error(p, e, "cannot write the run record") from None

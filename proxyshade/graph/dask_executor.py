@@ -285,8 +285,8 @@ def _check_code(cls: type, want: str) -> None:
         except ValueError:  # not on a worker
             where = f"process {os.getpid()}"
         raise UserError(f"{where} runs other proxyshade code for "
-                        f"{cls.__name__} than this run (code hash {have[:12]}, the run's {want[:12]}); install the "
-                        "same proxyshade on every worker")
+                        f"{cls.__name__} than this run (code hash {have[:12]}, the run's {want[:12]}: sources or "
+                        "library versions differ); install the same proxyshade and libraries on every worker")
 
 
 def _task(plan, by: tuple, inst: tuple[str, int], forced: bool, *deps) -> dict:

@@ -21,6 +21,7 @@ import os
 import resource
 import threading
 import time
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, ContextManager
@@ -29,11 +30,11 @@ import networkx as nx
 
 from proxyshade.errors import CycleError, GraphFileError, ParamError, UserError
 from proxyshade.graph import keys as K
-from proxyshade.graph.cache import Cache
+from proxyshade.graph.cache import Cache, CacheWarning, size_limit
 from proxyshade.graph.executor import make_executor
 from proxyshade.graph.node import REGISTRY, Context, InputRef, Node, PlateSequence, Previous, resolve_path
 from proxyshade.graph.plate import Plate
-from proxyshade.io.files import output_target, remove_stale_temps
+from proxyshade.io.files import output_target, remove_stale_temps, user_cache_dir
 from proxyshade.io.graphfile import load_graph
 
 
@@ -117,9 +118,12 @@ class NodeError(RuntimeError):
     """A node's compute failed for a reason that is not bad input (an internal error)."""
 
 
-def default_cache_dir(graph_dir: Path) -> Path:
+def default_cache_dir() -> Path:
+    """The plate cache when a run names none: ``$PROXYSHADE_CACHE``, else ``plates/`` in
+    the per-user cache folder (``$XDG_CACHE_HOME/proxyshade`` or ``~/.cache/proxyshade``),
+    outside the source tree, shared by every graph (keys are content addresses)."""
     env = os.environ.get("PROXYSHADE_CACHE")
-    return Path(env) if env else graph_dir / ".proxyshade" / "cache"
+    return Path(env) if env else user_cache_dir() / "plates"
 
 
 class Graph:
@@ -138,7 +142,7 @@ class Graph:
         if isinstance(cache, Cache):
             self.cache = cache
         else:
-            self.cache = Cache(Path(cache) if cache else default_cache_dir(self.graph_dir))
+            self.cache = Cache(Path(cache) if cache else default_cache_dir())
         self._locks: dict[str, threading.Lock] = {}
         self._locks_guard = threading.Lock()
         # held while computing a key that an input's load found missing or corrupt: a lock
@@ -294,6 +298,7 @@ class Graph:
             "type": cls.__name__,
             "version": cls.version,
             "code": K.code_hash(cls),
+            "libraries": K.library_versions(),
             "params": hashed,
             "inputs": input_keys,
             "frame": frame if time_dep else None,
@@ -395,6 +400,7 @@ class Graph:
         """A run up to its computing: the plan, a row per instance, stale temporaries removed
         and the DAG of the instances the cache lacks (``RunJob.todo``)."""
         t0 = time.perf_counter()
+        size_limit()  # a bad PROXYSHADE_CACHE_LIMIT: an error before anything runs
         plan = self.plan(frames, force)
         plan.threads = threads
         hooks = hooks or Hooks()
@@ -652,6 +658,10 @@ class RunJob:
             notes.append(f"cache {g.cache.root} is read-only: {g.cache.unstored} result(s) computed by this "
                          "run were not stored")
             g.cache.unstored = 0
+        if any(r.status == "computed" for r in rows) and not g.cache.read_only:  # only a computing run grows it
+            too_big = g.cache.over_limit()
+            if too_big:
+                warnings.warn(too_big, CacheWarning, stacklevel=2)
         return RunReport(rows, time.perf_counter() - self.t0, peak, self.cleaned, notes)
 
 

@@ -2,7 +2,9 @@
 
 key = sha256 of the canonical JSON of
   node type, version, code hash (the source of the node's module and of every proxyshade
-  module it reaches through imports at any level, comments stripped: ``import_closure``), hashed parameters, upstream keys by input name, the frame
+  module it reaches through imports at any level, comments stripped: ``import_closure``,
+  and the versions of numpy, numba, OpenEXR, colour-science and usd-core, also kept as
+  the ``libraries`` component so ``--explain`` names them), hashed parameters, upstream keys by input name, the frame
   (only when the node depends on time), the content hashes of the files its Path
   parameters name, and the node's ``key_extra``. A sequence input's upstream keys are the
   list of its frames' keys, so changing one frame changes the key.
@@ -17,14 +19,14 @@ import functools
 import hashlib
 import importlib.util
 import inspect
-import io
 import json
 import os
 import sys
 import threading
-import tokenize
 from pathlib import Path
 from typing import Any, Callable
+
+from proxyshade.io.files import strip_comments as _strip_comments, user_cache_dir
 
 
 def canonical(obj: Any) -> str:
@@ -34,17 +36,6 @@ def canonical(obj: Any) -> str:
 
 def digest(obj: Any) -> str:
     return hashlib.sha256(canonical(obj).encode()).hexdigest()
-
-
-def _strip_comments(source: str) -> str:
-    out = []
-    try:
-        for tok in tokenize.generate_tokens(io.StringIO(source).readline):
-            if tok.type not in (tokenize.COMMENT, tokenize.NL):
-                out.append(tok.string)
-    except (tokenize.TokenError, IndentationError):
-        return source
-    return " ".join(out)
 
 
 @functools.lru_cache(maxsize=None)  # per process, as ``import_closure`` and ``module_hash``
@@ -132,8 +123,7 @@ _OWN_ROOT = str(Path(__file__).resolve().parents[1]) + os.sep  # .../proxyshade/
 
 def _user_cache() -> Path:
     """The per-user folder of the code facts and the file-bound memos."""
-    return Path(os.environ.get("PROXYSHADE_CODE_CACHE") or os.path.join(
-        os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache"), "proxyshade"))
+    return Path(os.environ.get("PROXYSHADE_CODE_CACHE") or user_cache_dir())
 
 
 def _facts_path() -> Path:
@@ -228,12 +218,33 @@ def import_closure(module_name: str, root: Path | None = None) -> tuple[str, ...
     return tuple(sorted(seen))
 
 
+# Libraries whose version can change a result (numerics, EXR encoding, colour maths, USD
+# composition): their installed versions are part of every node's code version.
+LIBRARIES = ("numpy", "numba", "OpenEXR", "colour-science", "usd-core")
+
+
+@functools.lru_cache(maxsize=1)
+def library_versions() -> dict[str, str | None]:
+    """The installed version of each of ``LIBRARIES`` (None where not installed), read from
+    the packages' metadata: nothing is imported."""
+    from importlib import metadata
+
+    out = {}
+    for name in LIBRARIES:
+        try:
+            out[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            out[name] = None
+    return out
+
+
 def code_hash(node_cls: type, root: Path | None = None) -> str:
     """Hash of a node type's implementation: the source of its module and of every
-    ``proxyshade`` module it reaches through imports (``import_closure``). ``root``
-    reads the package from another folder (tests edit a copy)."""
+    ``proxyshade`` module it reaches through imports (``import_closure``), and the versions
+    of the libraries that change results (``library_versions``). ``root`` reads the package
+    from another folder (tests edit a copy)."""
     mods = import_closure(node_cls.__module__, root)
-    return digest([(m, module_hash(m, root)) for m in mods])
+    return digest([library_versions(), [(m, module_hash(m, root)) for m in mods]])
 
 
 @functools.lru_cache(maxsize=4096)
@@ -329,7 +340,11 @@ def diff_components(old: dict | None, new: dict) -> str:
     reasons = []
     if old.get("type") != new.get("type"):
         reasons.append("new node type")
-    if old.get("version") != new.get("version") or old.get("code") != new.get("code"):
+    ol, nl = old.get("libraries") or {}, new.get("libraries") or {}
+    libs = [f"{k} {ol.get(k)} -> {nl.get(k)}" for k in sorted(set(ol) | set(nl)) if ol.get(k) != nl.get(k)]
+    if libs:
+        reasons.append("new library version (" + ", ".join(libs) + ")")
+    elif old.get("version") != new.get("version") or old.get("code") != new.get("code"):
         reasons.append("new code")
     op, np_ = old.get("params", {}), new.get("params", {})
     changed = [k for k in sorted(set(op) | set(np_)) if op.get(k) != np_.get(k)]

@@ -10,8 +10,9 @@ from proxyshade.graph.plate import Plate
 
 def run_node(node_type: str | type[Node], params: dict | None = None, inputs: dict[str, Plate | None] | None = None,
              *, frame: int = 1, first_frame: int = 1, graph_dir: str | Path = ".", threads: int = 0,
-             name: str = "node") -> Plate:
-    """Validate ``params``, build the node and return ``compute``'s plate for ``frame``.
+             name: str = "node", notes: list[str] | None = None) -> Plate:
+    """Validate ``params``, build the node and return ``compute``'s plate for ``frame``
+    (``notes``: a list the node's notes, ``ctx.note``, are appended to).
 
     A sequence input takes a list of plates, the frames ``first_frame`` onwards."""
     from proxyshade.nodes import node_type as find_type
@@ -26,7 +27,7 @@ def run_node(node_type: str | type[Node], params: dict | None = None, inputs: di
             ins[k] = PlateSequence(range(first_frame, first_frame + len(plates)),
                                    lambda f, plates=plates: plates[f - first_frame],
                                    lambda plate, k=k: node.check_plate(k, plate))
-    notes: list[str] = []
+    notes = [] if notes is None else notes
     ctx = Context(node, frame, first_frame, ins, node.params, Path(graph_dir), threads, notes)
     node.check_inputs(ins)
     try:

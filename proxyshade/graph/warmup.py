@@ -8,16 +8,18 @@ uses one core for over a minute; so the first run compiles first, in parallel:
   reach: each kernel called from Python with its numba argument types, the seconds it took
   to compile (kernels it calls included) and the signatures those calls compiled. It is
   written by ``python -m proxyshade.graph.warmup --write-manifest`` from a cold-cache run.
-- ``precompile`` compiles the listed signatures the cache lacks on one process per core
-  (this one and spawned workers, each taking the slowest left) into numba's cache; the run
-  then only loads what the workers compiled. A signature the manifest lacks (a stale
-  manifest, a branch the demo does not take) compiles lazily when first called, as
-  before: the manifest only moves compile work, never changes a result (numba's cache is
-  keyed by the kernel's code and argument types).
+- ``precompile`` compiles the listed signatures of the kernel modules not yet marked
+  precompiled on one process per core (this one and spawned workers, each taking the
+  slowest left) into the kernel cache of this version of the kernels package
+  (``proxyshade/kernels/_cache.py``: one folder per hash of the whole package and of
+  numba's and numpy's versions), then marks those modules; the run then only loads what
+  the workers compiled. A signature the manifest lacks (a stale manifest, a branch the
+  demo does not take) compiles lazily when first called, as before: the manifest only
+  moves compile work, never changes a result.
 - ``proxyshade compile`` (run by ``make demo``) precompiles every listed signature, then runs
   the bundled demo graphs (the lake's first frame, the farm composite, the lake camera
   move's first update frame) without their writers: their results go to each graph's
-  default cache, so the demo that follows reuses them. ``proxyshade run`` on a cold cache
+  default cache (the per-user one), so the demo that follows reuses them. ``proxyshade run`` on a cold cache
   precompiles the signatures of the kernel modules its graphs' nodes import.
 """
 from __future__ import annotations
@@ -122,16 +124,6 @@ def _dispatcher(kernel: str):
     return getattr(importlib.import_module(mod), fn)
 
 
-def _cached(disp, sig) -> bool:
-    """Whether numba's on-disk cache holds ``disp`` compiled for ``sig`` (for this CPU)."""
-    cache = disp._cache
-    impl = getattr(cache, "_impl", None)
-    if impl is None:  # no caching (cache=False): nothing to precompile into
-        return True
-    key = cache._index_key(sig, disp.targetctx.codegen())
-    return key in cache._cache_file._load_index()
-
-
 _locked = False
 
 
@@ -180,16 +172,20 @@ def default_workers() -> int:
 
 
 def pending(modules=None) -> list[tuple[str, str, float]]:
-    """The manifest's entries numba's cache lacks, slowest first; ``modules``: only kernels
-    of these ``proxyshade.kernels`` modules. Imports the kernel modules (and numba)."""
+    """The manifest's entries of the kernel modules not yet precompiled into this version's
+    kernel cache (``kernels._cache.kernels_cached``), slowest first; ``modules``: only
+    kernels of these ``proxyshade.kernels`` modules. Imports those kernel modules (and
+    numba) only when there are some; an entry naming a kernel that is gone is skipped."""
+    from proxyshade.kernels import _cache
+
     todo = []
     for kernel, text, seconds, _ in manifest():
-        if modules is not None and kernel.rpartition(".")[0] not in modules:
+        mod = kernel.rpartition(".")[0]
+        if (modules is not None and mod not in modules) or _cache.kernels_cached([mod]):
             continue
         try:
-            disp = _dispatcher(kernel)
-            if _cached(disp, parse_types(text)):
-                continue
+            _dispatcher(kernel)
+            parse_types(text)
         except Exception:
             continue  # stale: left to lazy compiles
         todo.append((kernel, text, seconds))
@@ -197,11 +193,21 @@ def pending(modules=None) -> list[tuple[str, str, float]]:
     return todo
 
 
+def mark_precompiled(modules=None) -> None:
+    """Mark ``modules`` (default: every kernel module) precompiled in this version's kernel
+    cache: later runs skip the precompile (``kernels._cache.kernels_cached``)."""
+    from proxyshade.kernels import _cache
+
+    _cache.mark_precompiled(_cache.modules() if modules is None else modules)
+
+
 def precompile(modules=None, progress=None, workers=None) -> dict:
-    """Compile the manifest's signatures numba's cache lacks (``pending``) on ``workers``
-    processes (default: one per core): this one and ``workers - 1`` spawned ones, each
-    taking the slowest signature left when it is free. ``progress(done, total, kernel)`` is
-    called as each finishes. Returns {'compiled', 'failed', 'seconds', 'workers'}."""
+    """Compile the manifest's signatures of the modules not yet precompiled (``pending``) on
+    ``workers`` processes (default: one per core): this one and ``workers - 1`` spawned
+    ones, each taking the slowest signature left when it is free (a signature numba's cache
+    holds already only loads). ``progress(done, total, kernel)`` is called as each
+    finishes. Then marks ``modules`` precompiled (``mark_precompiled``; a failed signature
+    compiles lazily when first called). Returns {'compiled', 'failed', 'seconds', 'workers'}."""
     import collections
     import threading
 
@@ -264,6 +270,7 @@ def precompile(modules=None, progress=None, workers=None) -> dict:
     finally:
         if pool is not None:
             pool.shutdown(wait=True, cancel_futures=True)
+    mark_precompiled(modules)
     return {"compiled": len(todo) - len(failed), "failed": failed, "seconds": time.perf_counter() - t0,
             "workers": workers}
 

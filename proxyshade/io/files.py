@@ -13,12 +13,14 @@ from __future__ import annotations
 
 import errno
 import hashlib
+import io
 import itertools
 import os
 import re
 import socket
 import stat
 import time
+import tokenize
 from pathlib import Path
 
 from proxyshade.errors import UserError, WriteError
@@ -120,3 +122,33 @@ def remove_stale_temps(folder: Path, names: set[str] | None = None) -> list[tupl
             continue
         removed.append((p, size))
     return removed
+
+
+def write_text_atomic(path: Path, text: str) -> None:
+    """Write ``text`` to a temporary name beside ``path`` and rename it into place."""
+    tmp = temp_for(path)
+    try:
+        tmp.write_text(text)
+        os.replace(tmp, path)
+    finally:
+        if os.path.lexists(tmp):
+            tmp.unlink()
+
+
+def user_cache_dir() -> Path:
+    """proxyshade's per-user cache folder, where pip and numba keep theirs:
+    ``$XDG_CACHE_HOME/proxyshade``, else ``~/.cache/proxyshade``."""
+    return Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache", "proxyshade")
+
+
+def strip_comments(source: str) -> str:
+    """A Python source as its tokens without comments and blank lines: what the code hashes
+    read, so editing a comment changes no hash. The source as it is when it does not tokenize."""
+    out = []
+    try:
+        for tok in tokenize.generate_tokens(io.StringIO(source).readline):
+            if tok.type not in (tokenize.COMMENT, tokenize.NL):
+                out.append(tok.string)
+    except (tokenize.TokenError, IndentationError):
+        return source
+    return " ".join(out)

@@ -354,7 +354,7 @@ def _read_only(monkeypatch, attempts: list):
         attempts.append(str(path))
         raise OSError(errno.EROFS, "Read-only file system", str(path))
 
-    monkeypatch.setattr(cache_mod, "_atomic_write_text", refuse)
+    monkeypatch.setattr(cache_mod, "write_text_atomic", refuse)
     monkeypatch.setattr(cache_mod, "write_plate", refuse)
 
 

@@ -209,3 +209,25 @@ def test_the_code_facts_file_keeps_only_this_checkouts_existing_files(tmp_path):
     assert str(PKG.resolve() / "nodes" / "poisson.py") in kept and str(extra.resolve()) in kept
     assert all(k.startswith(own) for k in kept)  # none of the copy's files
     assert str(extra.resolve()) not in run("proxyshade.nodes.correct")  # deleted: dropped when written again
+
+
+def test_a_library_upgrade_changes_every_key_and_explain_names_it(tmp_path, monkeypatch, registry):
+    """numpy, numba, OpenEXR, colour-science and usd-core change results: their installed
+    versions are in every node's code version, so an upgrade recomputes (``--explain``
+    names the library) and a cache hit never comes from another version."""
+    from proxyshade.graph.graph import Graph
+
+    assert set(keys.library_versions()) == {"numpy", "numba", "OpenEXR", "colour-science", "usd-core"}
+    assert keys.library_versions()["numpy"] == __import__("numpy").__version__
+    g = Graph(graph_dir=tmp_path, cache=tmp_path / "cache")
+    g.add("src", "TConst")
+    g.add("sum", "TAdd", inputs={"a": "src"})
+    before = {n: keys.code_hash(type(g.nodes[n])) for n in g.nodes}
+    assert g.run([1]).computed == {"src", "sum"}
+    assert g.run([1]).computed == set()
+    upgraded = {**keys.library_versions(), "numpy": "9.0"}
+    monkeypatch.setattr(keys, "library_versions", lambda: upgraded)
+    assert all(keys.code_hash(type(g.nodes[n])) != h for n, h in before.items())
+    r = g.run([1])
+    assert r.computed == {"src", "sum"}
+    assert r.rows("src")[0].reason.startswith(f"new library version (numpy {__import__('numpy').__version__} -> 9.0)")

@@ -10,6 +10,7 @@ import sys
 from pathlib import Path
 
 from proxyshade.graph import warmup
+from proxyshade.kernels import _cache
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -120,7 +121,8 @@ def test_a_stale_manifest_entry_is_left_to_a_lazy_compile(monkeypatch):
         ("proxyshade.kernels.random.gone", "(int64,)", 1.0, ()),
         ("proxyshade.kernels.random._mix", "(Array(float32, 3, 'C', False, aligned=True),)", 1.0, ()),
     ])
-    monkeypatch.setattr(warmup, "_cached", lambda disp, sig: False)
+    monkeypatch.setattr(_cache, "kernels_cached", lambda names=(): False)
+    monkeypatch.setattr(_cache, "mark_precompiled", lambda names: None)
     assert [e[0] for e in warmup.pending()] == ["proxyshade.kernels.random._mix"]
     r = warmup.precompile(workers=1)
     assert r["compiled"] == 0 and len(r["failed"]) == 1 and r["failed"][0][0] == "proxyshade.kernels.random._mix"
@@ -138,30 +140,24 @@ def test_without_worker_processes_this_process_compiles_everything(monkeypatch):
         ("proxyshade.kernels.random.uniform_field", "(int64, Array(uint32, 2, 'C', False, aligned=True))", 1.0, ()),
         ("proxyshade.kernels.random._keys", "(int64, int64)", 0.5, ()),
     ])
-    monkeypatch.setattr(warmup, "_cached", lambda disp, sig: False)
+    monkeypatch.setattr(_cache, "kernels_cached", lambda names=(): False)
+    monkeypatch.setattr(_cache, "mark_precompiled", lambda names: None)
     seen = []
     r = warmup.precompile(workers=2, progress=lambda done, total, kernel: seen.append((done, total)))
     assert r["compiled"] == 2 and r["failed"] == [] and r["workers"] == 1
     assert seen == [(0, 2), (1, 2), (2, 2)]
 
 
-def test_an_index_older_than_its_unchanged_source_still_counts_as_cached(tmp_path, monkeypatch):
-    """A git checkout rewrites a kernel module with the same content (a newer mtime): numba
-    stamps its cache by the source's SHA-256, so the cache is still good and a cached
-    re-run must not take the compile step; an old index of other content is stale."""
-    import hashlib
-
-    from proxyshade.kernels import _config
-
+def test_precompile_marks_its_modules_and_later_skips_them(tmp_path, monkeypatch):
+    """After a precompile of a module set (even one with nothing to compile) those modules
+    are marked in this version's kernel cache: ``pending`` skips them, and a re-run's
+    precompile step (``kernels_cached``) reads no numba index, imports no kernel."""
     monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path))
-    src = Path(_config.__file__).with_name("layout.py")
-    folder = _config._cache_dirs(src)[0]
-    folder.mkdir(parents=True)
-    index = folder / "layout._at_height-1.py311.nbi"
-    index.write_bytes(b"numba-index\x00" + hashlib.sha256(src.read_bytes()).digest() + b"\x00overloads")
-    old = src.stat().st_mtime - 3600
-    os.utime(index, (old, old))
-    assert _config.kernels_cached(["proxyshade.kernels.layout"])
-    index.write_bytes(b"numba-index\x00" + hashlib.sha256(b"other source").digest())
-    os.utime(index, (old, old))
-    assert not _config.kernels_cached(["proxyshade.kernels.layout"])
+    monkeypatch.setattr(warmup, "manifest", lambda: [("proxyshade.kernels.random._keys", "(int64, int64)", 0.5, ())])
+    mods = {"proxyshade.kernels.random", "proxyshade.kernels._config"}
+    assert not _cache.kernels_cached(sorted(mods))
+    assert [e[0] for e in warmup.pending(mods)] == ["proxyshade.kernels.random._keys"]
+    r = warmup.precompile(mods, workers=1)
+    assert r["compiled"] == 1 and r["failed"] == []
+    assert _cache.kernels_cached(sorted(mods)) and warmup.pending(mods) == []
+    assert (_cache.folder() / "precompiled" / "proxyshade.kernels.random").is_file()

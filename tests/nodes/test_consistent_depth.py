@@ -91,6 +91,40 @@ def test_moving_ball_newly_occluded_ring_is_category_c():
     assert ((ghost["label.id"] == 2) & ~is_ball).sum() > 50
 
 
+def stale_notes(proxy_n, p0):
+    notes = []
+    out = run_node("ConsistentDepth", {}, {"proxy": proxy_n, "guide": p0, "ref_proxy": p0}, frame=2, notes=notes)
+    return out, [n for n in notes if "stale grid" in n]
+
+
+@pytest.mark.parametrize("pos", [(0.8, 0, 0), (0.3, 0.2, 0), (2.0, 0.5, 1.0), (4, 0, 0), (0.1, 0.05, 0.3)])
+def test_a_static_scene_notes_no_moving_object_whatever_the_camera_does(pos):
+    """Nothing moves but the camera: no note of stale grid from a moving object (the 2-4
+    pixels a frame where the ball's silhouette quads are drawn a pixel onto the wall behind
+    are no such thing)."""
+    p0 = render(camera(), sphere=(0, 0, -10))
+    p1 = render(camera(pos=pos, frame=2), sphere=(0, 0, -10))
+    assert stale_notes(p1, p0)[1] == []
+
+
+@pytest.mark.parametrize("to", [(3, 0, -10), (1, 0, -12)])
+def test_a_moving_object_is_noted_with_its_stale_pixels(to):
+    p0 = render(camera(), sphere=(0, 0, -10))
+    p1 = render(camera(frame=2), sphere=to)
+    out, notes = stale_notes(p1, p0)
+    assert len(notes) == 1 and "a moving object" in notes[0]
+    assert int(notes[0].split()[0]) > 100
+
+
+def test_the_sample_camera_moves_note_no_moving_object():
+    """The bundled lake and cliffs scenes (static objects, an orbiting camera) over the shot:
+    no stale-grid note on any frame (one on every frame before)."""
+    for scene in ("lake", "cliffs"):
+        p0 = proxy(scene, 1, 128)
+        for f in (2, 12, 24, 48):
+            assert stale_notes(proxy(scene, f, 128), p0)[1] == [], (scene, f)
+
+
 def test_sample_move_labels_follow_the_proxy():
     p0, p6 = proxy("lake", 1, 96), proxy("lake", 6, 96)
     out = cd(p6, p0, ref_proxy=p0)
