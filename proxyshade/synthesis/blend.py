@@ -52,11 +52,14 @@ def _tables(d: np.ndarray, ok: np.ndarray) -> np.ndarray:
     return table
 
 
-def floor_light(u: np.ndarray, info: dict) -> tuple[np.ndarray, dict]:
-    """A solve's colours with negative values set to 0, in place (a scene-referred plate may
-    exceed 1, never go below 0: a gradient carried into a dark region overshoots there);
-    ``info["negative"]`` counts the values raised."""
+def floor_light(u: np.ndarray, info: dict, solved: np.ndarray | None = None) -> tuple[np.ndarray, dict]:
+    """A solve's colours with negative values set to 0 where it solved (``solved``, (H, W)
+    bool; None = everywhere), in place: a scene-referred plate may exceed 1, never go below
+    0 (a gradient carried into a dark region overshoots there); the pixels it kept are left
+    as they came. ``info["negative"]`` counts the values raised."""
     neg = u < 0
+    if solved is not None:
+        neg &= solved[..., None]
     info["negative"] = int(neg.sum())
     u[neg] = 0.0
     return u, info
@@ -136,7 +139,7 @@ def blend_frame(rgb: np.ndarray, patch: np.ndarray, labels: np.ndarray | None, s
         u, info = kpoisson.poisson_transfer(colours, patch, labels, fixed=fixed, values=values,
                                             label_dirichlet=solve.label_dirichlet, seam_gx=gx, seam_gy=gy,
                                             screen=solve.screen, tol=tol, max_iter=solve.max_iter)
-        return floor_light(u, info)
+        return floor_light(u, info, None if fixed is None else ~fixed)
 
     graded = (source is not None and getattr(solve, "grain", 1.0) > 1.0 and fixed is None and scale == 1.0
               and labels is not None and source_labels is not None and sx is not None and sy is not None)
@@ -160,10 +163,10 @@ def blend_regions(rgb: np.ndarray, patch: np.ndarray, labels: np.ndarray, free: 
     region; seam gradients read with ``filter`` (the reconstruction the colours used).
     ``solve.layout`` is not applied here (yet): a later frame's new pixels keep their
     synthesized low frequencies. ``thin``: see ``poisson_regions``."""
-    return floor_light(*poisson_regions(rgb, patch, labels, free, source=source_rgb if solve.seams == "source" else None,
-                                        sx=sx, sy=sy, step=scale, label_dirichlet=solve.label_dirichlet,
-                                        screen=solve.screen, tol=solve.tol, max_iter=solve.max_iter, filter=filter,
-                                        thin=thin))
+    u, info = poisson_regions(rgb, patch, labels, free, source=source_rgb if solve.seams == "source" else None,
+                              sx=sx, sy=sy, step=scale, label_dirichlet=solve.label_dirichlet, screen=solve.screen,
+                              tol=solve.tol, max_iter=solve.max_iter, filter=filter, thin=thin)
+    return floor_light(u, info, free)
 
 
 def group_boxes(boxes: np.ndarray, shape: tuple[int, int], *, margin: int = 1, slack: int = 4096) -> list[tuple]:

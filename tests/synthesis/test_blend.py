@@ -141,6 +141,9 @@ def test_a_blended_frame_never_holds_negative_values():
     assert u.min() >= 0 and info["negative"] == int((raw < 0).sum())
     np.testing.assert_array_equal(u[raw >= 0], raw[raw >= 0])
     free = np.ones((h, w), bool)
+    free[:, :4] = False  # kept pixels stay as they came, negative or not
+    colors[:, :4] = -0.01
     r, rinfo = B.blend_regions(colors, patch, labels, free, solve, source_rgb=None, sx=None, sy=None, scale=1.0,
                                filter="bilinear")
-    assert r.min() >= 0 and rinfo["negative"] > 0
+    assert r[free].min() >= 0 and rinfo["negative"] > 0
+    np.testing.assert_array_equal(r[~free], colors[~free])
