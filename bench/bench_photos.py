@@ -27,6 +27,9 @@ Bars (issue #32): hist χ² <= EbSynth's and windowed χ² <= 1.2x EbSynth's in 
 median windowed χ² <= EbSynth's, outside share <= 1 % per label, no negative pixels, std
 ratio 0.8-1.2 per label.
 
+``--width 1920`` (or 3840) makes HD (4K) frames from the same photos at the photo's texture
+scale, and prints each output's repetition (``kernels.quality.repetition``, ``copies``)
+beside its time, to compare with the 1024-wide run's.
 ``--variant NAME:node.param=value,...`` (repeatable) runs more configurations beside the
 defaults (``final`` is the Poisson node, ``correct``, ``init``, ``magnify`` the others;
 ``final.skip=true`` measures Magnify's plate, before the Poisson step);
@@ -111,8 +114,8 @@ def resize_ids(ids: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
     return ids[(np.arange(h) * ids.shape[0] // h)][:, (np.arange(w) * ids.shape[1] // w)]
 
 
-def case_guide(case: dict, src: Plate) -> np.ndarray:
-    """The case's target label ids at ``WIDTH`` wide (the layout's aspect)."""
+def case_guide(case: dict, src: Plate, width: int = WIDTH) -> np.ndarray:
+    """The case's target label ids at ``width`` wide (the layout's aspect)."""
     table = src.meta["labels"]
     if case["mirror"]:
         ids = src["label.id"][:, ::-1]
@@ -121,8 +124,8 @@ def case_guide(case: dict, src: Plate) -> np.ndarray:
     else:
         ids, _ = labels_from_map(Path(case["layout"]), table, far_distance=100.0, max_far_fraction=0.05,
                                  where="bench")
-    h = int(round(ids.shape[0] * WIDTH / ids.shape[1]))
-    return resize_ids(ids, (h, WIDTH)).astype(np.uint32)
+    h = int(round(ids.shape[0] * width / ids.shape[1]))
+    return resize_ids(ids, (h, width)).astype(np.uint32)
 
 
 # ---- the two methods --------------------------------------------------------------------
@@ -205,8 +208,9 @@ def ebsynth(exe: Path, src: Plate, ids: np.ndarray, cache: Path) -> tuple[np.nda
 # ---- figures ----------------------------------------------------------------------------
 
 def measure(out_srgb: np.ndarray, lin: np.ndarray | None, ids: np.ndarray, src: Plate,
-            src_srgb: np.ndarray) -> dict:
-    """Per label name: label_fidelity's figures, ``outside`` and ``negative``."""
+            src_srgb: np.ndarray, *, stride: int = 16) -> dict:
+    """Per label name: label_fidelity's figures (output windows every ``stride`` px),
+    ``outside`` and ``negative``."""
     names = {int(t["id"]): t["name"] for t in src.meta["labels"]}
     ly, lys = Q.luma(out_srgb), Q.luma(src_srgb)
     res = {}
@@ -214,7 +218,7 @@ def measure(out_srgb: np.ndarray, lin: np.ndarray | None, ids: np.ndarray, src: 
         m, ms = ids == k, src["label.id"] == k
         if m.sum() < 200 or ms.sum() < 200:
             continue
-        f = Q.label_fidelity(out_srgb, ids, src_srgb, src["label.id"], int(k))
+        f = Q.label_fidelity(out_srgb, ids, src_srgb, src["label.id"], int(k), window_stride=(stride, 3))
         lo, hi = np.percentile(lys[ms], [0.5, 99.5])
         f["outside"] = float(((ly[m] < lo - 1e-6) | (ly[m] > hi + 1e-6)).mean())
         f["negative"] = float((lin[m] < 0).any(-1).mean()) if lin is not None else 0.0
@@ -349,6 +353,8 @@ def main(argv=None) -> None:
     ap.add_argument("--variant", action="append", default=[], help="NAME:node.param=value,... (repeatable)")
     ap.add_argument("--no-default", action="store_true", help="only the --variant configurations")
     ap.add_argument("--out", type=Path, default=ROOT / "out" / "bench_photos", help="contact sheets, EbSynth outputs")
+    ap.add_argument("--width", type=int, default=WIDTH,
+                    help="output width (1920: HD, 3840: 4K from the same photos; texture at the photo's scale)")
     args = ap.parse_args(sys.argv[2:] if argv is None and len(sys.argv) > 1 and sys.argv[1] == "photos" else argv)
     args.out.mkdir(parents=True, exist_ok=True)
     variants = {} if args.no_default else {"proxyshade": {}}
@@ -365,22 +371,26 @@ def main(argv=None) -> None:
         for case in cases:
             src = load_source(case["table"], max_far_fraction=0.05)
             src_srgb = srgb(src.rgb())
-            ids = case_guide(case, src)
+            ids = case_guide(case, src, args.width)
+            stride = max(16, 16 * args.width // WIDTH)  # as many output windows as at 1024 wide
             runs = proxyshade(src, ids, variants)
             figs, outs = {}, {}
             for name, (plate, dt) in runs.items():
                 rgb = plate.rgb()
                 outs[name] = srgb(rgb)
-                figs[name] = measure(outs[name], rgb, plate["label.id"], src, src_srgb)
-                print(f"{case['name']}: {name} {dt:.1f} s", flush=True)
+                figs[name] = measure(outs[name], rgb, plate["label.id"], src, src_srgb, stride=stride)
+                sx, sy = plate["source.x"], plate["source.y"]
+                print(f"{case['name']}: {name} {dt:.1f} s, {ids.shape[1]}x{ids.shape[0]}, repetition (share from the "
+                      f"most-used 1 % of source pixels) {Q.repetition(sx, sy, src.shape):.4f}, most copies of a 16² "
+                      f"patch {Q.copies(sx, sy, src.shape):.1f}", flush=True)
             eb = None
             if args.ebsynth:
                 out, dt = ebsynth(args.ebsynth, src, ids, args.out)
                 outs["EbSynth"] = out
-                eb = measure(out, None, ids, src, src_srgb)
+                eb = measure(out, None, ids, src, src_srgb, stride=stride)
                 print(f"{case['name']}: EbSynth {dt:.1f} s" + (" (cached)" if dt == 0 else ""), flush=True)
             print_case(case, figs, eb)
-            sheet(args.out / f"{case['name']}_sheet.png", src_srgb, outs, ids, src)
+            sheet(args.out / f"{case['name']}_{args.width}_sheet.png", src_srgb, outs, ids, src)
             results.append((case, figs, eb))
     if results:
         summary(results)
