@@ -20,7 +20,8 @@ hash of their inputs (re-runs read them back).
 
 Per case and label (sRGB in [0, 1], ``kernels.quality.label_fidelity``): colour-histogram
 χ², windowed-luma χ² to the nearest photo window of the label, gradient ratio, std ratio,
-the share of pixels whose luma lies outside the photo label's 0.5-99.5 % luma range, and
+the share of pixels whose luma lies outside the photo label's 0.5-99.5 % luma range (by
+more than half an 8-bit step), and
 the share of negative pixels (the linear EXR values; EbSynth's 8-bit output has none),
 proxyshade beside EbSynth with the ratio. A case's figure is the mean over its labels.
 Bars (issue #32): hist χ² <= EbSynth's and windowed χ² <= 1.2x EbSynth's in every case,
@@ -69,6 +70,8 @@ WIDTH = 1024
 CROP = 256
 BARS = {"hist_ratio": 1.0, "window_ratio": 1.2, "median_window_ratio": 1.0, "outside": 0.01,
         "std": (0.8, 1.2), "negative": 0.0}
+TIE = 0.5 / 255  # luma within half an 8-bit step of the photo's range counts as inside (a saturated sky's
+                 # 99.5th percentile lies on a plateau of equal values; a frame reading more of it is not out)
 NODES = {"init": "PatchInit", "correct": "Correct", "magnify": "Magnify", "final": "Poisson"}
 
 
@@ -219,8 +222,8 @@ def measure(out_srgb: np.ndarray, lin: np.ndarray | None, ids: np.ndarray, src: 
         if m.sum() < 200 or ms.sum() < 200:
             continue
         f = Q.label_fidelity(out_srgb, ids, src_srgb, src["label.id"], int(k), window_stride=(stride, 3))
-        lo, hi = np.percentile(lys[ms], [0.5, 99.5])
-        f["outside"] = float(((ly[m] < lo - 1e-6) | (ly[m] > hi + 1e-6)).mean())
+        lo, hi = np.percentile(lys[ms], [0.5, 99.5])  # the photo is 8-bit: within half a code value is the range
+        f["outside"] = float(((ly[m] < lo - TIE) | (ly[m] > hi + TIE)).mean())
         f["negative"] = float((lin[m] < 0).any(-1).mean()) if lin is not None else 0.0
         res[names.get(int(k), str(k))] = f
     return res
