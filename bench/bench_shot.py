@@ -19,6 +19,29 @@ Resynthesize every frame), at each output size, per frame:
   update s  seconds of the frame after the first (proxy render + ConsistentDepth +
             Reproject + Resynthesize)
 
+and per label at frames 1, 12, 24 and the last (``--per-frame``: every frame), on display
+luma (sRGB-encoded, ``kernels.quality``):
+
+  grad      mean gradient magnitude of the label (``quality.gradient_magnitude``) over
+            frame 1's: texture that blurs falls, blocks and speckle raise it
+  block     ``quality.blockiness`` (energy of the second differences' magnitudes at a 4-px
+            period against periods 3 and 5: magnified 4x4 synthesis pixels seen as a
+            mosaic) over frame 1's
+  clump     share of the label's pixels whose source pixel (``source.x/y`` rounded) has a
+            photo luma outside the photo label's 0.5-99.5 % range
+            (``quality.source_outside_share``): copies of another label's pixels or of the
+            label's rare looks (clumps, ghosts). An even copy of the label scores ~1 %
+  range     share of the label's pixels whose own luma lies outside that range
+            (``quality.outside_share``, bench_photos' ``outside``)
+
+The nodes take graphs/camera_move.yaml's parameters (init, correct, magnify, first,
+reproject, final), then ``--set node.param=value`` (repeatable), e.g. the first-frame
+graphs' settings: ``--set init.factor=2 --set first.layout=false --set first.grain=1.0
+--set first.screen=1.0``. ``--frames-out DIR`` writes frames 1, 24 and the last as PNG
+(the preview's view transform) for crops.
+
+Bars (issue 33): grad within 0.9-1.1 of frame 1 at every frame and label, block at the
+last frame <= 1.1x frame 1's, clump <= 0.2 % above frame 1's.
 Bars (issue: a whole shot as good as its first frame): seams <= 1.5x frame 1's and detail
 >= 0.9 at every frame, warp ratio <= 0.1, median share <= 10 %, update frame at 1024²
 <= 0.5 s (median).
@@ -34,6 +57,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+import yaml
 
 from harness import peak_rss_mb
 
@@ -41,6 +65,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from proxyshade.graph.testing import run_node  # noqa: E402
+from proxyshade.io.colourlib import colour_science  # noqa: E402
 from proxyshade.io.usd import CameraInfo  # noqa: E402
 from proxyshade.kernels import quality as Q  # noqa: E402
 from proxyshade.kernels import reproject as kr  # noqa: E402
@@ -109,27 +134,102 @@ def attached_floor(scene: str, size: int, f0, sigma: float, shifts=((0.3, 0.05),
     return {k: e[0] / max(e[1], 1e-12) for k, e in err.items()}
 
 
-def shot(scene: str, size: int, frames: int, every: int = 1, sigma: float = 1.0) -> list[dict]:
+NODES = {"init": "PatchInit", "correct": "Correct", "magnify": "Magnify", "first": "Poisson",
+         "reproject": "Reproject", "final": "Resynthesize"}
+
+
+def graph_params(sets: list[str] = ()) -> dict[str, dict]:
+    """graphs/camera_move.yaml's parameters of ``NODES``, then ``sets`` ('node.param=value')."""
+    nodes = yaml.safe_load((ROOT / "graphs" / "camera_move.yaml").read_text())["nodes"]
+    out = {k: dict(nodes[k].get("params") or {}) for k in NODES}
+    for item in sets:
+        key, _, val = item.partition("=")
+        node, _, param = key.strip().partition(".")
+        if node not in NODES or not param:
+            raise SystemExit(f"--set {item}: expected node.param=value with node one of {', '.join(NODES)}")
+        out[node][param] = yaml.safe_load(val)
+    return out
+
+
+def first_frame(scene: str, size: int, params: dict):
+    """The first frame's full synthesis on the detailed guide, with ``params``' first-frame nodes."""
+    src = T.source(T.SCENES[scene])
+    g = T.detailed(scene, 1, size)[1]
+    init = run_node("PatchInit", params["init"], {"guide": g, "source": src}, name="init")
+    cor = run_node("Correct", params["correct"], {"init": init, "source": src}, name="correct")
+    mag = run_node("Magnify", params["magnify"], {"synth": cor, "source": src, "guide": g, "depth": g}, name="magnify")
+    return run_node("Poisson", params["first"], {"image": mag, "source": src}, name="first")
+
+
+def srgb(lin: np.ndarray) -> np.ndarray:
+    lin = np.clip(np.asarray(lin, np.float64), 0.0, None)
+    return np.clip(colour_science().cctf_encoding(lin, function="sRGB"), 0.0, 1.0)
+
+
+class LabelFigures:
+    """Per-label figures of a frame (``kernels.quality``) against the photo's label ranges."""
+
+    def __init__(self, src):
+        self.names = {int(t["id"]): t["name"] for t in src.meta["labels"]}
+        self.src_lum = Q.luma(srgb(src.rgb()))
+        self.src_lab = src["label.id"]
+        self.ranges = {k: Q.label_range(self.src_lum, self.src_lab == k) for k in self.names
+                       if (self.src_lab == k).sum() >= 200}
+
+    def __call__(self, plate) -> dict:
+        lum = Q.luma(srgb(plate.rgb()))
+        lab = plate["label.id"]
+        out = {}
+        for k, rng in self.ranges.items():
+            m = lab == k
+            if m.sum() < 400:
+                continue
+            out[self.names[k]] = {"grad": Q.gradient_magnitude(lum, m), "block": Q.blockiness(lum, m),
+                                  "clump": Q.source_outside_share(plate["source.x"], plate["source.y"], m,
+                                                                  self.src_lum, rng),
+                                  "range": Q.outside_share(lum, m, rng), "share": float(m.mean())}
+        return out
+
+
+def write_frame(path: Path, plate) -> None:
+    from proxyshade.io.images import write_png
+    from proxyshade.kernels.display import to_display
+
+    path.parent.mkdir(parents=True, exist_ok=True)
+    write_png(path, to_display(plate, ["R", "G", "B"]))
+
+
+def shot(scene: str, size: int, frames: int, every: int = 1, sigma: float = 1.0, params: dict | None = None,
+         frames_out: Path | None = None) -> list[dict]:
+    params = params or graph_params()
     src = T.source(T.SCENES[scene])
     p0 = T.proxy(scene, 1, size)
     g0, d0 = T.detailed(scene, 1, size)
-    f0 = T.first_frame(scene, size, frame=1, detail=True)
+    f0 = first_frame(scene, size, params)
+    figures = LabelFigures(src)
     scale = float(f0.meta.get("synthesis", {}).get("scale", 1.0))
     s0 = Q.seam_share(f0["source.x"], f0["source.y"], f0["label.id"], scale=scale)
     det0 = Q.detail(f0.rgb(), f0["label.id"])
-    rows = [{"frame": 1, "seams": 1.0, "detail": 1.0, "share": 0.0, "update": None, "warp": None}]
+    rows = [{"frame": 1, "seams": 1.0, "detail": 1.0, "share": 0.0, "update": None, "warp": None,
+             "labels": figures(f0)}]
+    keep = {1, 24, frames}
+    if frames_out:
+        write_frame(frames_out / f"{scene}_{size}.0001.png", f0)
     prev, indep_prev, indep_frame = f0, f0, 1
     for fr in range(2, frames + 1):
         t = time.perf_counter()
         pN = run_node("ProxyRender", {"scene": str(ROOT / "samples" / "scenes" / f"{scene}.usda"),
                                       "resolution": [size, size]}, {"source": src}, frame=fr)
         cd = run_node("ConsistentDepth", {}, {"proxy": pN, "guide": g0, "depth": d0, "ref_proxy": p0}, frame=fr)
-        rp = run_node("Reproject", {}, {"depth": cd, "prev": prev, "first": f0, "source": src}, frame=fr)
-        fin = run_node("Resynthesize", {}, {"image": rp, "source": src}, frame=fr)
+        rp = run_node("Reproject", params["reproject"], {"depth": cd, "prev": prev, "first": f0, "source": src},
+                      frame=fr)
+        fin = run_node("Resynthesize", params["final"], {"image": rp, "source": src}, frame=fr)
         upd = time.perf_counter() - t
         row = {"frame": fr, "update": upd, "share": float((rp["flag"] > 0).mean()),
                "seams": Q.seam_share(fin["source.x"], fin["source.y"], fin["label.id"], scale=scale) / s0,
-               "detail": Q.detail(fin.rgb(), fin["label.id"]) / det0, "warp": None}
+               "detail": Q.detail(fin.rgb(), fin["label.id"]) / det0, "warp": None, "labels": figures(fin)}
+        if frames_out and fr in keep:
+            write_frame(frames_out / f"{scene}_{size}.{fr:04d}.png", fin)
         # pairs (fr - 1, fr) ending at frames 2, 2 + every, ...: independent syntheses of both
         if every and (fr - 2) % every == 0:
             if indep_frame != fr - 1:
@@ -140,6 +240,30 @@ def shot(scene: str, size: int, frames: int, every: int = 1, sigma: float = 1.0)
         rows.append(row)
         prev = fin
     return rows
+
+
+def label_table(rows: list[dict], shown) -> list[dict]:
+    """Print the per-label figures of the ``shown`` frames; return the bars' figures per label."""
+    first = rows[0]["labels"]
+    print(f"{'frame':>5} {'label':<12} {'area':>6} {'grad':>6} {'block':>6} {'clump':>7} {'range':>7}")
+    for r in rows:
+        if r["frame"] not in shown:
+            continue
+        for name, m in r["labels"].items():
+            f = first.get(name)
+            g = m["grad"] / f["grad"] if f and f["grad"] > 0 else float("nan")
+            b = m["block"] / f["block"] if f and f["block"] > 0 else float("nan")
+            print(f"{r['frame']:>5} {name:<12} {100 * m['share']:5.1f}% {g:6.3f} {b:6.3f} {100 * m['clump']:6.2f}% "
+                  f"{100 * m['range']:6.2f}%")
+    out = []
+    last = rows[-1]["labels"]
+    for name, f in first.items():
+        gr = [r["labels"][name]["grad"] / f["grad"] for r in rows if name in r["labels"] and f["grad"] > 0]
+        out.append({"label": name, "grad_min": min(gr), "grad_max": max(gr),
+                    "block_last": last[name]["block"] / f["block"] if name in last else float("nan"),
+                    "clump_first": f["clump"], "clump_max": max(r["labels"][name]["clump"] for r in rows
+                                                                if name in r["labels"])})
+    return out
 
 
 def main(argv=None) -> None:
@@ -153,11 +277,17 @@ def main(argv=None) -> None:
     ap.add_argument("--warp-sigma", type=float, default=1.0,
                     help="Gaussian low-pass (pixels) of both frames before the warp of the 'warp' ratio")
     ap.add_argument("--per-frame", action="store_true", help="print every frame's row")
+    ap.add_argument("--set", action="append", default=[], metavar="NODE.PARAM=VALUE",
+                    help="override a parameter of graphs/camera_move.yaml's nodes (" + ", ".join(NODES) + ")")
+    ap.add_argument("--frames-out", type=Path, default=None, help="write frames 1, 24 and the last as PNG here")
     args = ap.parse_args(sys.argv[2:] if argv is None and len(sys.argv) > 1 and sys.argv[1] == "shot" else argv)
     summary = []
+    params = graph_params(args.set)
+    print("parameters: " + "; ".join(f"{k} {v}" for k, v in params.items() if v))
+    labels_summary = []
     for size in args.sizes:
         for scene in args.scenes:
-            rows = shot(scene, size, args.frames, args.warp_every, args.warp_sigma)
+            rows = shot(scene, size, args.frames, args.warp_every, args.warp_sigma, params, args.frames_out)
             floor = attached_floor(scene, size, T.first_frame(scene, size, frame=1, detail=True), args.warp_sigma) \
                 if args.warp_every else {"lanczos4": float("nan"), "lowpass": float("nan")}
             T.proxy.cache_clear()  # the per-frame proxies and guides of the independent runs
@@ -172,6 +302,8 @@ def main(argv=None) -> None:
                     wb = f"{w['bilinear'][0] / max(w['bilinear'][1], 1e-12):8.4f}" if w else f"{'':>8}"
                     upd = f"{r['update']:9.3f}" if r["update"] is not None else f"{'':>9}"
                     print(f"{r['frame']:>5} {r['seams']:6.2f} {r['detail']:7.3f} {100 * r['share']:6.2f}% {upd} {wp} {wl} {wb}")
+            shown = {r["frame"] for r in rows} if args.per_frame else {1, 12, 24, 48, args.frames}
+            labels_summary += [dict(x, scene=scene, size=size) for x in label_table(rows, shown)]
             later = rows[1:]
             ws = [r["warp"] for r in later if r["warp"]]
             ratio = {f: (float(np.mean([w[f][0] for w in ws])) / max(float(np.mean([w[f][1] for w in ws])), 1e-12)
@@ -190,6 +322,15 @@ def main(argv=None) -> None:
         print(f"{s['scene']:<7} {s['size']:>5} {s['seams_max']:8.2f}x {s['detail_min']:10.3f} {s['warp']['lowpass']:8.4f} {s['warp']['lanczos4']:8.4f} "
               f"{s['warp']['bilinear']:8.4f} {100 * s['share_median']:8.2f}% {100 * s['share_max']:8.2f}% "
               f"{s['update_median']:9.3f}s {s['floor']['lowpass']:8.4f} {s['floor']['lanczos4']:8.4f}")
+    print("\n## Per label (bars: grad 0.9-1.1 at every frame, block at the last frame <= 1.1x, "
+          "clump <= 0.2 % above frame 1's)")
+    print(f"{'scene':<7} {'size':>5} {'label':<12} {'grad min':>8} {'grad max':>8} {'block last':>10} "
+          f"{'clump f1':>8} {'clump max':>9}")
+    for x in labels_summary:
+        flag = " <" if not (0.9 <= x["grad_min"] and x["grad_max"] <= 1.1 and x["block_last"] <= 1.1
+                            and x["clump_max"] - x["clump_first"] <= 0.002) else ""
+        print(f"{x['scene']:<7} {x['size']:>5} {x['label']:<12} {x['grad_min']:8.3f} {x['grad_max']:8.3f} "
+              f"{x['block_last']:10.3f} {100 * x['clump_first']:7.2f}% {100 * x['clump_max']:8.2f}%{flag}")
     print(f"peak RSS {peak_rss_mb():.0f} MiB")
 
 

@@ -305,3 +305,96 @@ def label_fidelity(out_srgb: np.ndarray, out_lab: np.ndarray, src_srgb: np.ndarr
             "hist_chi2": chi2(colour_histogram(o), colour_histogram(s)),
             "window_chi2": nearest_window_chi2(wo, ws), "grad_ratio": go / gs if gs > 0 else float("nan"),
             "share": float(mo.mean())}
+
+
+# ---- decay over a shot, label by label (bench/bench_shot.py; bench_photos' luma range) ------
+# Luma ``lum`` is display luma (``luma`` of sRGB-encoded colours); ``mask`` a label's pixels.
+
+def gradient_magnitude(lum: np.ndarray, mask: np.ndarray) -> float:
+    """Mean gradient magnitude √(dx² + dy²) of ``lum`` over the ``mask`` pixels whose right
+    and lower neighbours are in ``mask`` too (forward differences; a label border is not
+    the texture's gradient); 0 when there are none."""
+    lum = np.asarray(lum, np.float64)
+    ok = mask[:-1, :-1] & mask[:-1, 1:] & mask[1:, :-1]
+    dx = lum[:-1, 1:] - lum[:-1, :-1]
+    dy = lum[1:, :-1] - lum[:-1, :-1]
+    g = np.sqrt(dx * dx + dy * dy)[ok]
+    return float(g.mean()) if g.size else 0.0
+
+
+BLOCK_PERIODS = (3.0, 4.0, 5.0)
+
+
+def _hann_dft(d2: np.ndarray, ok: np.ndarray, win: int, periods) -> np.ndarray:
+    """Power of the Hann-windowed DFT of |``d2``| less its window mean (rows) at each
+    period, summed over the non-overlapping ``win``-long windows (starting at column 0)
+    that lie wholly in ``ok``."""
+    h, w = d2.shape
+    n = w // win
+    if n == 0:
+        return np.zeros(len(periods))
+    a = d2[:, :n * win].reshape(h, n, win)
+    full = ok[:, :n * win].reshape(h, n, win).all(-1)
+    if not full.any():
+        return np.zeros(len(periods))
+    a = np.abs(a[full])
+    a = (a - a.mean(-1, keepdims=True)) * np.hanning(win)  # (k, win)
+    t = np.arange(win)
+    return np.array([float((np.abs(a @ np.exp(-2j * np.pi * t / p)) ** 2).sum()) for p in periods])
+
+
+def block_spectrum(lum: np.ndarray, mask: np.ndarray, *, win: int = 20, periods=BLOCK_PERIODS) -> np.ndarray:
+    """How much the second differences' energy repeats at each of ``periods`` (pixels):
+    the magnitudes of the horizontal second differences |L[x−1] − 2L[x] + L[x+1]| along
+    rows and of the vertical ones along columns, cut into non-overlapping ``win``-pixel
+    windows wholly in ``mask``, each less its mean and Hann-windowed; the power of their
+    DFT at frequency 1/period, summed over windows and both directions. A mosaic of n×n
+    blocks puts a pair of spikes in the second difference at every block edge, n pixels
+    apart, whatever the steps' signs: a line at period n in the magnitudes (wherever the
+    blocks' grid lies: the power of a window does not depend on its phase)."""
+    lum = np.asarray(lum, np.float64)
+    mask = np.asarray(mask, bool)
+    e = np.zeros(len(periods))
+    for L, M in ((lum, mask), (lum.T, mask.T)):
+        d2 = L[:, :-2] - 2 * L[:, 1:-1] + L[:, 2:]
+        ok = M[:, :-2] & M[:, 1:-1] & M[:, 2:]
+        e += _hann_dft(d2, ok, win, periods)
+    return e
+
+
+def blockiness(lum: np.ndarray, mask: np.ndarray, *, period: float = 4.0, win: int = 20) -> float:
+    """Energy of the luma's second differences at ``period`` over the mean of the
+    neighbouring periods (``period`` ∓ 1), ``block_spectrum``; nan where the label has no
+    whole window. 4×4 blocks (magnified synthesis pixels carried as blocks) raise it;
+    white noise scores about 1 (a texture's value depends on its spectrum, so it is
+    compared with frame 1's)."""
+    e = block_spectrum(lum, mask, win=win, periods=(period - 1.0, period, period + 1.0))
+    side = 0.5 * (e[0] + e[2])
+    return float(e[1] / side) if side > 0 else float("nan")
+
+
+def label_range(src_lum: np.ndarray, src_mask: np.ndarray, *, lo: float = 0.5, hi: float = 99.5) -> tuple[float, float]:
+    """The ``lo``–``hi`` percentile range of the photo's luma over a label's pixels."""
+    a, b = np.percentile(np.asarray(src_lum, np.float64)[src_mask], [lo, hi])
+    return float(a), float(b)
+
+
+def outside_share(lum: np.ndarray, mask: np.ndarray, rng: tuple[float, float], *, eps: float = 1e-6) -> float:
+    """Share of the ``mask`` pixels whose luma lies outside ``rng`` (``label_range`` of the
+    photo's label) by more than ``eps``: bench_photos' ``outside``; 0 for an empty mask."""
+    v = np.asarray(lum, np.float64)[mask]
+    return float(((v < rng[0] - eps) | (v > rng[1] + eps)).mean()) if v.size else 0.0
+
+
+def source_outside_share(sx: np.ndarray, sy: np.ndarray, mask: np.ndarray, src_lum: np.ndarray,
+                         rng: tuple[float, float], *, eps: float = 1e-6) -> float:
+    """Share of the ``mask`` pixels whose source pixel (``source.x/y`` rounded, clamped to
+    the photo) has a luma outside ``rng`` (the photo label's ``label_range``): pixels that
+    copy what the label rarely looks like (a source pixel of another label, or the label's
+    outliers in the photo). A copy that uses the label's photo pixels evenly scores about
+    the share the range leaves out (1 % for 0.5–99.5 %); clumps and ghosts raise it."""
+    hs, ws = src_lum.shape
+    c = np.clip(np.rint(np.asarray(sx, np.float64)[mask]), 0, ws - 1).astype(np.int64)
+    r = np.clip(np.rint(np.asarray(sy, np.float64)[mask]), 0, hs - 1).astype(np.int64)
+    v = np.asarray(src_lum, np.float64)[r, c]
+    return float(((v < rng[0] - eps) | (v > rng[1] + eps)).mean()) if v.size else 0.0

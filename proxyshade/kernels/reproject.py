@@ -805,3 +805,109 @@ def warp_error(current: np.ndarray, prev_image: np.ndarray, u: np.ndarray, v: np
         return 0.0
     diff = np.abs(np.asarray(current, np.float32) - warp_previous(prev_image, u, v, filter))
     return float(diff[mask].mean())
+
+
+@njit(**PJIT)
+def first_positions(uf, vf, qf, okf, lab, first_w, first_lab, first_patch, first_sx, first_sy, tol, scale):
+    """Where each current pixel lies in the first frame's synthesis (``transfer`` into the
+    first camera: ``uf, vf, qf, okf``): the patch of the first-frame pixel it lands on and
+    that patch's translation continued to the exact position (``scale`` source pixels per
+    pixel), where that pixel has its label and lies on its surface. Returns ok (bool),
+    patch (uint32), sx, sy (float64), all (H, W)."""
+    h, wd = uf.shape
+    hf, wf = first_lab.shape
+    ok = np.zeros((h, wd), np.bool_)
+    patch = np.zeros((h, wd), np.uint32)
+    sx = np.zeros((h, wd), np.float64)
+    sy = np.zeros((h, wd), np.float64)
+    for i in prange(h):
+        for j in range(wd):
+            x = uf[i, j]
+            y = vf[i, j]
+            if not (okf[i, j] and x >= 0.0 and y >= 0.0 and x < wf and y < hf):
+                continue
+            cn = min(wf - 1, int(np.floor(x)))
+            rn = min(hf - 1, int(np.floor(y)))
+            if first_lab[rn, cn] != lab[i, j] or not same_surface(qf[i, j], first_w[rn, cn], tol):
+                continue
+            ok[i, j] = True
+            patch[i, j] = first_patch[rn, cn]
+            sx[i, j] = first_sx[rn, cn] + (x - (cn + 0.5)) * scale
+            sy[i, j] = first_sy[rn, cn] + (y - (rn + 0.5)) * scale
+    return ok, patch, sx, sy
+
+
+@njit(**PJIT)
+def anchor_seams(u, v, q, valid, lab, prev_w, prev_lab, prev_patch, prev_sx, prev_sy, pr0, pr1, pr2, prev_d,
+                 fok, fpatch, fsx, fsy, tol, scale, match, sx, sy, patch, res, dist):
+    """Seams between first-frame patches kept where the first frame had them, in place on
+    ``gather_prev``'s outputs (``sx, sy, patch, res, dist``).
+
+    ``gather_prev`` gives a pixel whose 2×2 previous pixels straddle a seam the patch of
+    the nearest one: the seam is rounded to this frame's pixel grid, from the previous
+    frame's rounded seam, so over a shot it walks off the texture the first frame's
+    synthesis fitted it to (a random walk of ±½ pixel a frame). Here such a pixel takes
+    instead the patch the first frame has at its exact position (``first_positions``:
+    ``fok, fpatch, fsx, fsy``) when one of its valid 2×2 previous pixels (its label, its
+    surface) has that patch with the same translation (continued positions within
+    ``match`` source pixels): the seam is rounded once, from the first frame. Its source
+    position is that pixel's translation continued; residual and distortion are bilinear
+    over the 2×2 pixels of that patch (renormalised), as in ``gather_prev``. Pixels whose
+    first-frame patch is gone (resynthesized, re-anchored) are left as they are."""
+    h, wd = u.shape
+    hp, wp = prev_w.shape
+    for i in prange(h):
+        for j in range(wd):
+            if not valid[i, j] or not fok[i, j] or patch[i, j] == fpatch[i, j]:
+                continue
+            L = lab[i, j]
+            pf = fpatch[i, j]
+            x = u[i, j]
+            y = v[i, j]
+            c0 = int(np.floor(x - 0.5))
+            r0 = int(np.floor(y - 0.5))
+            ax = x - 0.5 - c0
+            ay = y - 0.5 - r0
+            found = False
+            bx = 0.0
+            by = 0.0
+            n0 = n1 = n2 = nd = 0.0
+            wsum = 0.0
+            a0 = 0.0
+            a1 = 0.0
+            a2 = 0.0
+            dd = 0.0
+            for t in range(4):
+                rr = min(max(r0 + (1 if t >= 2 else 0), 0), hp - 1)
+                cc = min(max(c0 + (1 if t % 2 == 1 else 0), 0), wp - 1)
+                if prev_patch[rr, cc] != pf or prev_lab[rr, cc] != L or not same_surface(q[i, j], prev_w[rr, cc], tol):
+                    continue
+                ex = prev_sx[rr, cc] + (x - (cc + 0.5)) * scale
+                ey = prev_sy[rr, cc] + (y - (rr + 0.5)) * scale
+                if abs(ex - fsx[i, j]) > match or abs(ey - fsy[i, j]) > match:
+                    continue
+                if not found:
+                    found = True
+                    bx = ex
+                    by = ey
+                    n0 = pr0[rr, cc]
+                    n1 = pr1[rr, cc]
+                    n2 = pr2[rr, cc]
+                    nd = prev_d[rr, cc]
+                wt = (ay if t >= 2 else 1.0 - ay) * (ax if t % 2 == 1 else 1.0 - ax)
+                a0 += wt * pr0[rr, cc]
+                a1 += wt * pr1[rr, cc]
+                a2 += wt * pr2[rr, cc]
+                dd += wt * prev_d[rr, cc]
+                wsum += wt
+            if not found:
+                continue
+            patch[i, j] = pf
+            sx[i, j] = bx
+            sy[i, j] = by
+            if wsum <= 0.0:  # the matching taps have weight 0 (a pixel centre): the first one's values
+                a0, a1, a2, dd, wsum = n0, n1, n2, nd, 1.0
+            res[i, j, 0] = a0 / wsum
+            res[i, j, 1] = a1 / wsum
+            res[i, j, 2] = a2 / wsum
+            dist[i, j] = dd / wsum

@@ -163,6 +163,10 @@ class Carry(SameSurface):
                             doc="patches thinner than this (2 x area / perimeter, pixels) are fragments too")
     cut_threshold = Param(float, 0.5, min=0.0, max=1.0,
                           doc="share of flagged pixels above which the frame is a camera cut (full synthesis)")
+    anchor = Param(bool, True,
+                   doc="a pixel on a seam between first-frame patches takes the patch the first frame has at its "
+                       "position (the seam rounded once, from the first frame), not the nearest previous pixel's "
+                       "(rounded again every frame, the seam walks off the texture)")
 
 
 def source_input(doc: str = "annotated source (SourceRead): R,G,B, label.id and its label table", *,

@@ -225,6 +225,9 @@ def carry(cd: Plate, prev: Plate | None, first: Plate | None, source: Plate, p, 
         u, v, q, ok, lab, kr.inverse_depth(prev["Z"]), np.ascontiguousarray(prev["label.id"], np.uint32),
         np.ascontiguousarray(prev["patch.id"], np.uint32), prev["source.x"].astype(np.float32, copy=False),
         prev["source.y"].astype(np.float32, copy=False), *planes, prev_ext, tol, scale)
+    if getattr(p, "anchor", False) and first is not None and first is not prev and "patch.id" in first:
+        anchor_first_seams(cd, first, prev, k1, w1, lab, u, v, q, valid, planes, prev_ext, tol, scale,
+                           sx, sy, patch, res, ext)
     # disoccluded pixels continue the patch of a kept neighbour of their label when the
     # continued source position still has that label: no new seam, nothing to redo
     have = valid
@@ -280,6 +283,32 @@ def carry(cd: Plate, prev: Plate | None, first: Plate | None, source: Plate, p, 
     meta["temporal"] = dict(counts, flagged=float(flag.size - nflag[0]) / flag.size, cut=bool(cut), frame=int(frame),
                             filter=p.filter)
     return Plate(ch, meta)
+
+
+def anchor_first_seams(cd, first, prev, k1, w1, lab, u, v, q, valid, planes, prev_ext, tol, scale,
+                       sx, sy, patch, res, ext) -> None:
+    """``kr.anchor_seams`` in place on ``gather_prev``'s outputs: seams between patches of the
+    first frame's synthesis (``first``) stay where the first frame has them instead of being
+    rounded anew from the previous frame's each frame (docs/temporal.md, "Seams anchored to
+    the first frame")."""
+    if not isinstance(first.meta.get("camera"), dict):
+        return
+    camf = camera_of("first", first)
+    if (camf.width, camf.height) != (first.width, first.height):
+        return
+    uf, vf, qf, okf = kr.transfer(w1, kr.relative_matrix(camera_of("depth", cd), camf), k1, kr.intrinsics(camf),
+                                  camf.near)
+    wf = kr.inverse_depth(first["Z"]) if "Z" in first else np.zeros(first.shape, np.float64)
+    if "Z" not in first:
+        qf = np.zeros_like(qf)  # no depth: the label alone decides
+    fok, fpatch, fsx, fsy = kr.first_positions(uf, vf, qf, okf, lab, wf, np.ascontiguousarray(first["label.id"], np.uint32),
+                                               np.ascontiguousarray(first["patch.id"], np.uint32),
+                                               first["source.x"].astype(np.float32, copy=False),
+                                               first["source.y"].astype(np.float32, copy=False), tol, scale)
+    kr.anchor_seams(u, v, q, valid, lab, kr.inverse_depth(prev["Z"]), np.ascontiguousarray(prev["label.id"], np.uint32),
+                    np.ascontiguousarray(prev["patch.id"], np.uint32), prev["source.x"].astype(np.float32, copy=False),
+                    prev["source.y"].astype(np.float32, copy=False), *planes, prev_ext, fok, fpatch, fsx, fsy, tol,
+                    scale, 0.01 * max(scale, 1.0), sx, sy, patch, res, ext)
 
 
 def _carried_meta(state: Plate, cd: Plate) -> dict:

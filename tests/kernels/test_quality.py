@@ -78,3 +78,114 @@ def test_label_repetition_separates_framing_from_tiling():
     assert np.isclose(even[0], 0.01, atol=2e-3) and np.isclose(wide[0], 0.01, atol=2e-3)
     assert wide[1] > 1.8 * even[1] and Q.repetition(sx, i, src.shape) > 1.8 * even[1]
     assert tiled[0] > 5 * wide[0]
+
+
+# ---- decay over a shot: gradient, blockiness, luma ranges -------------------------------------
+
+def gradient_ref(lum, mask):
+    tot, n = 0.0, 0
+    for i in range(lum.shape[0] - 1):
+        for j in range(lum.shape[1] - 1):
+            if mask[i, j] and mask[i, j + 1] and mask[i + 1, j]:
+                tot += ((lum[i, j + 1] - lum[i, j]) ** 2 + (lum[i + 1, j] - lum[i, j]) ** 2) ** 0.5
+                n += 1
+    return tot / n
+
+
+def test_gradient_magnitude_matches_reference_and_skips_label_borders():
+    rng = np.random.default_rng(7)
+    lum = rng.random((19, 23))
+    mask = rng.random((19, 23)) < 0.8
+    assert np.isclose(Q.gradient_magnitude(lum, mask), gradient_ref(lum, mask))
+    two = np.where(np.arange(30)[None, :] < 15, 0.2, 0.9) * np.ones((20, 1))  # two flat labels
+    assert Q.gradient_magnitude(two, two < 0.5) == 0.0 and Q.gradient_magnitude(two, two > 0) > 0
+
+
+def block_spectrum_ref(lum, mask, win, periods):
+    import math
+
+    e = [0.0] * len(periods)
+    for L, M in ((lum, mask), (lum.T, mask.T)):
+        for i in range(L.shape[0]):
+            for w0 in range(0, L.shape[1] - 2 - win + 1, win):
+                xs = range(w0 + 1, w0 + 1 + win)  # the centres of the second differences
+                if not all(M[i, x - 1] and M[i, x] and M[i, x + 1] for x in xs):
+                    continue
+                a = [abs(L[i, x - 1] - 2 * L[i, x] + L[i, x + 1]) for x in xs]
+                d = [(v - sum(a) / win) * (0.5 - 0.5 * math.cos(2 * math.pi * t / (win - 1))) for t, v in enumerate(a)]
+                for k, p in enumerate(periods):
+                    re = sum(v * math.cos(2 * math.pi * t / p) for t, v in enumerate(d))
+                    im = sum(v * math.sin(2 * math.pi * t / p) for t, v in enumerate(d))
+                    e[k] += re * re + im * im
+    return np.array(e)
+
+
+def test_block_spectrum_matches_reference():
+    rng = np.random.default_rng(8)
+    lum = rng.random((27, 45))
+    mask = np.ones(lum.shape, bool)
+    mask[5:9, 10:30] = False
+    mask[:, 40:] = False
+    got = Q.block_spectrum(lum, mask, win=8, periods=(3.0, 4.0, 5.0))
+    assert np.allclose(got, block_spectrum_ref(lum, mask, 8, (3.0, 4.0, 5.0)))
+
+
+def test_blockiness_tells_4px_blocks_from_texture_wherever_the_grid_lies():
+    """Fine noise scores about 1; the same noise
+    magnified into 4×4 blocks scores far higher, at any offset of the block grid, and
+    blocks of 3 or 5 pixels do not."""
+    rng = np.random.default_rng(9)
+    noise = rng.random((240, 240))
+    mask = np.ones(noise.shape, bool)
+    assert 0.8 < Q.blockiness(noise, mask) < 1.25
+    coarse = rng.random((80, 80))
+    for off in (0, 1, 3):
+        blocks = np.kron(coarse, np.ones((4, 4)))[off:off + 240, off:off + 240]
+        assert Q.blockiness(blocks, np.ones(blocks.shape, bool)) > 3
+    for n in (3, 5):
+        b = np.kron(coarse, np.ones((n, n)))[:240, :240]
+        assert Q.blockiness(b, np.ones(b.shape, bool)) < 1
+    # on a smooth texture (as photos are) a share of soft-edged blocks raises it with the share
+    from scipy import ndimage
+
+    smooth = ndimage.gaussian_filter(noise, 2)
+    soft = ndimage.gaussian_filter(np.kron(coarse, np.ones((4, 4)))[:240, :240], 0.5) * smooth.std() / 0.29
+    b = [Q.blockiness((1 - a) * smooth + a * soft, mask) for a in (0.0, 0.1, 0.3)]
+    assert b[0] < b[1] < b[2] and b[2] > 1.4 * b[0]
+
+
+def test_outside_shares_match_a_per_pixel_reference():
+    rng = np.random.default_rng(10)
+    src = rng.random((30, 40))
+    src_mask = rng.random((30, 40)) < 0.5
+    lo, hi = Q.label_range(src, src_mask)
+    vals = np.sort(src[src_mask])
+    assert np.isclose(lo, np.percentile(vals, 0.5)) and np.isclose(hi, np.percentile(vals, 99.5))
+    lum = rng.uniform(-0.1, 1.1, (12, 17))
+    mask = rng.random((12, 17)) < 0.7
+    ref = sum(1 for i in range(12) for j in range(17) if mask[i, j] and not lo - 1e-6 <= lum[i, j] <= hi + 1e-6)
+    assert np.isclose(Q.outside_share(lum, mask, (lo, hi)), ref / mask.sum())
+    sx, sy = rng.uniform(-3, 43, (12, 17)), rng.uniform(-3, 33, (12, 17))
+    n = 0
+    for i in range(12):
+        for j in range(17):
+            if mask[i, j]:
+                v = src[min(max(int(np.rint(sy[i, j])), 0), 29), min(max(int(np.rint(sx[i, j])), 0), 39)]
+                n += not lo - 1e-6 <= v <= hi + 1e-6
+    assert np.isclose(Q.source_outside_share(sx, sy, mask, src, (lo, hi)), n / mask.sum())
+
+
+def test_source_outside_share_sees_a_copy_of_another_labels_pixels():
+    """An even copy of a label's photo pixels leaves out about the range's 1 %; the same
+    output reading a clump of another label's pixels counts them."""
+    rng = np.random.default_rng(11)
+    src = np.concatenate([rng.uniform(0.4, 0.6, (50, 50)), rng.uniform(0.0, 0.1, (50, 50))], 1)  # water | rock
+    water = np.zeros(src.shape, bool)
+    water[:, :50] = True
+    rngw = Q.label_range(src, water)
+    i, j = np.mgrid[0:50, 0:50].astype(np.float64)
+    out = np.ones((50, 50), bool)
+    assert Q.source_outside_share(j, i, out, src, rngw) <= 0.011
+    sx = np.where((i < 10) & (j < 10), j + 60, j)  # a 10x10 clump read from the rock
+    assert np.isclose(Q.source_outside_share(sx, i, out, src, rngw) - Q.source_outside_share(j, i, out, src, rngw),
+                      0.04, atol=0.005)

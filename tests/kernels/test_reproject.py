@@ -437,3 +437,72 @@ def test_classify_matches_numpy_reference():
     for m, got in enumerate((X, Y, W)):
         assert np.array_equal(got, np.where(grid & np.isfinite(wantZ), P[..., m], pP[m]))
     assert gone.sum() == dropped.sum()
+
+
+# -- seams anchored to the first frame -------------------------------------------
+def _pan(frames, anchor, step=0.3):
+    """Two patches (a seam at column 10 of the first frame), carried ``frames`` times by a
+    pan of ``step`` pixels a frame (the sky under a slow rotation). Returns the last
+    frame's patch ids and source x, and where the first frame's seam now lies on screen."""
+    h, w = 4, 24
+    i, j = np.mgrid[0:h, 0:w].astype(np.float64)
+    lab = np.ones((h, w), np.uint32)
+    q = np.zeros((h, w))
+    ones = np.ones((h, w), bool)
+    fpatch = np.where(j < 10, 1, 2).astype(np.uint32)
+    fsx = np.where(j < 10, j + 100, j + 300).astype(np.float32)  # two translations
+    fsy = i.astype(np.float32)
+    patch, sx, sy = fpatch, fsx, fsy
+    z = np.zeros((h, w), np.float32)
+    for k in range(1, frames + 1):
+        u, v = j + 0.5 + step, i + 0.5  # into the previous frame
+        valid, nsx, nsy, npatch, res, d = K.gather_prev(u, v, q, ones, lab, q, lab, patch, sx, sy,
+                                                        np.zeros((h, w, 3), np.float32), z, 0.02, 1.0)
+        if anchor:
+            fok, fp, fx, fy = K.first_positions(j + 0.5 + step * k, v, q, ones, lab, q, lab, fpatch, fsx, fsy, 0.02, 1.0)
+            K.anchor_seams(u, v, q, valid, lab, q, lab, patch, sx, sy, z, z, z, z, fok, fp, fx, fy, 0.02, 1.0, 0.01,
+                           nsx, nsy, npatch, res, d)
+        patch, sx, sy = npatch, nsx, nsy
+    return patch, sx, 10 - step * frames
+
+
+def test_anchored_seams_follow_the_surface_under_a_subpixel_pan():
+    """A pan of 0.3 px a frame: rounded anew from the previous frame each frame, the seam
+    stays on its screen column while the texture slides under it (3 px off after 10
+    frames); anchored to the first frame it moves with the texture, within half a pixel,
+    and every pixel still reads its patch's own translation."""
+    for anchor in (False, True):
+        patch, sx, seam = _pan(10, anchor)
+        edge = int(np.argmax(patch[0] == 2))  # first column of the right patch
+        j = np.arange(patch.shape[1])
+        if anchor:
+            assert abs(edge - seam) <= 0.5
+        else:
+            assert edge == 10 and abs(edge - seam) >= 2.9  # the old behaviour this replaces
+        expect = np.where(patch[0] == 1, j + 100, j + 300) + 0.3 * 10
+        valid = j < patch.shape[1] - 8  # beyond: the border the pan uncovers (clamped taps)
+        np.testing.assert_allclose(sx[0][valid], expect[valid], atol=1e-3)
+
+
+def test_anchor_leaves_pixels_whose_first_patch_is_gone():
+    """A pixel whose first-frame patch no longer has its translation in the previous frame
+    (re-anchored, resynthesized) keeps gather_prev's nearest choice."""
+    h, w = 3, 12
+    i, j = np.mgrid[0:h, 0:w].astype(np.float64)
+    lab = np.ones((h, w), np.uint32)
+    q = np.zeros((h, w))
+    ones = np.ones((h, w), bool)
+    z = np.zeros((h, w), np.float32)
+    prev_patch = np.where(j < 7, 1, 2).astype(np.uint32)
+    prev_sx = np.where(j < 7, j + 100, j + 300).astype(np.float32)
+    u, v = j + 0.5 + 0.3, i + 0.5
+    valid, sx, sy, patch, res, d = K.gather_prev(u, v, q, ones, lab, q, lab, prev_patch, prev_sx, i.astype(np.float32),
+                                                 np.zeros((h, w, 3), np.float32), z, 0.02, 1.0)
+    before = (patch.copy(), sx.copy())
+    fpatch = np.where(j < 6, 1, 2).astype(np.uint32)
+    fsx = np.where(j < 6, j + 100, j + 500).astype(np.float32)  # patch 2 had another translation then
+    fok, fp, fx, fy = K.first_positions(u, v, q, ones, lab, q, lab, fpatch, fsx, i.astype(np.float32), 0.02, 1.0)
+    K.anchor_seams(u, v, q, valid, lab, q, lab, prev_patch, prev_sx, i.astype(np.float32), z, z, z, z, fok, fp, fx, fy,
+                   0.02, 1.0, 0.01, sx, sy, patch, res, d)
+    np.testing.assert_array_equal(patch, before[0])
+    np.testing.assert_array_equal(sx, before[1])
