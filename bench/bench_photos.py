@@ -222,8 +222,7 @@ def measure(out_srgb: np.ndarray, lin: np.ndarray | None, ids: np.ndarray, src: 
         if m.sum() < 200 or ms.sum() < 200:
             continue
         f = Q.label_fidelity(out_srgb, ids, src_srgb, src["label.id"], int(k), window_stride=(stride, 3))
-        lo, hi = np.percentile(lys[ms], [0.5, 99.5])  # the photo is 8-bit: within half a code value is the range
-        f["outside"] = float(((ly[m] < lo - TIE) | (ly[m] > hi + TIE)).mean())
+        f["outside"] = Q.outside_share(ly, m, Q.label_range(lys, ms), eps=TIE)
         f["negative"] = float((lin[m] < 0).any(-1).mean()) if lin is not None else 0.0
         res[names.get(int(k), str(k))] = f
     return res
