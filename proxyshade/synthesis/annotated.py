@@ -25,16 +25,18 @@ class AnnotatedParams:
     eps: float = 0.1
     patch: int = 5
     levels: int = 3
-    em: int = 2
+    em: int = 4
     iterations: int = 4
     bandwidth: float = 0.5
     alpha_weight: float = 10.0
     gradient_screen: float = 0.2
+    # weight of the occurrence penalty (Kaspar et al. 2015), per patch pixel, in squared feature units
+    uniformity: float = 0.005
     ann_weight: float = 1.0  # analogies baseline only
     # the annotations in the patch distance of the full method (and the binary and single
     # ablations), weight against the CIELAB/alpha/gradient features: copies stay near
     # their annotation inside an ε-ball; 0 = the paper (annotations only through the balls)
-    ann_distance: float = 1.5
+    ann_distance: float = 0.0
     mode: str = "full"
     min_pixels: int = 1000
     seed: int = 0
@@ -217,6 +219,7 @@ def synthesize(src_rgb, src_alpha, src_ann, usable, tgt_ann, p: AnnotatedParams,
             s_use = _down(usable.astype(np.float64), f) == 1.0
             s_cl = cl[:Hl * f:f, :Wl * f:f].copy()
             sel = s_use & (s_cl == i)
+            sel[:hw], sel[Hl - hw:], sel[:, :hw], sel[:, Wl - hw:] = False, False, False, False
             if not sel.any():
                 continue
             t_ann = _quant(_down(tgt_ann, f))
@@ -250,7 +253,8 @@ def synthesize(src_rgb, src_alpha, src_ann, usable, tgt_ann, p: AnnotatedParams,
                 if aw:
                     tgt[..., -d:] = aw * t_ann
                 ny, nx, _ = ka.patchmatch(feat, tgt, s_ann, s_cl, i, sel, eps, t_ann, s_l, ny, nx, hw=hw,
-                                          iterations=p.iterations, seed=seed * 16 + e, members=order)
+                                          iterations=p.iterations, seed=seed * 16 + e, members=order,
+                                          uniformity=p.uniformity * p.patch * p.patch)
         out = ka.vote(np.concatenate([src_rgb, src_alpha[..., None], Lg], axis=2), ny, nx, hw)
         lab = _lab(out[..., :3])
         vals.append(np.concatenate([lab, out[..., 3:4]], axis=2))
