@@ -36,7 +36,8 @@ class AnnotatedSynth(Node):
     target = Input("target annotation plate (ann.* channels)", fix="connect an AnnotationRender node")
     eps = Param(float, 0.1, min=0.01, max=1.0, doc="ε-ball radius per annotation (0.05: closer match, 0.2: less repetition)")
     patch = Param(int, 5, min=3, max=15, doc="patch size (odd)")
-    levels = Param(int, 3, min=1, max=6, doc="scales (coarse to fine, factor 2)")
+    levels = Param(int, 0, min=0, max=6, doc="scales (coarse to fine, factor 2); 0: as many as keep the "
+                                                       "coarsest exemplar at least 8 pixels a side, at most 5")
     em = Param(int, 4, min=1, max=10, doc="search + vote rounds per scale")
     iterations = Param(int, 4, min=1, max=20, doc="PatchMatch iterations per round")
     bandwidth = Param(float, 0.5, min=0.01, max=2.0, doc="mean-shift bandwidth of the clusters (the paper's 0.5)")

@@ -24,7 +24,7 @@ MODES = ("full", "binary", "single", "analogies")
 class AnnotatedParams:
     eps: float = 0.1
     patch: int = 5
-    levels: int = 3
+    levels: int = 0  # 0: auto_levels
     em: int = 4
     iterations: int = 4
     bandwidth: float = 0.5
@@ -75,6 +75,18 @@ def within_one_exemplar(ids: np.ndarray, hw: int) -> np.ndarray:
         for dx in range(2 * hw + 1):
             ok &= pad[dy:dy + H, dx:dx + W] == ids
     return ok
+
+
+def auto_levels(src_shape, tgt_shape, *, coarsest: int = 8, most: int = 5) -> int:
+    """Scales (factor 2) for ``levels = 0``: as many as keep the coarsest exemplar and
+    target at least ``coarsest`` pixels a side, at most ``most``. The coarsest scale is
+    where the layout of the texture's large features is decided: starting on a fine grid
+    leaves them to the random start (blobs, lattices)."""
+    n = min(*src_shape[:2], *tgt_shape[:2])
+    L = 1
+    while L < most and n // 2 ** L >= coarsest:
+        L += 1
+    return L
 
 
 def _quant(a):
@@ -209,9 +221,10 @@ def synthesize(src_rgb, src_alpha, src_ann, usable, tgt_ann, p: AnnotatedParams,
     Lg[:, :-1, 0] = lab_src[:, 1:, 0] - lab_src[:, :-1, 0]
     Lg[:-1, :, 1] = lab_src[1:, :, 0] - lab_src[:-1, :, 0]
     vals, grads, nnfs = [], [], []
+    n_levels = p.levels or auto_levels((H, W), (h, w))
     for i in range(C):
         ny = nx = None
-        for lev in range(p.levels - 1, -1, -1):
+        for lev in range(n_levels - 1, -1, -1):
             f = 2 ** lev
             s_rgb, s_a = _down(src_rgb, f), _down(src_alpha, f)
             s_ann = _quant(_down(src_ann, f))
@@ -270,3 +283,13 @@ def synthesize(src_rgb, src_alpha, src_ann, usable, tgt_ann, p: AnnotatedParams,
     sx = np.choose(heavy, [n[1] for n in nnfs]).astype(np.float32)
     return dict(rgb=rgb, alpha=mean[..., 3].astype(np.float32), sx=sx, sy=sy,
                 cluster=(heavy + 1).astype(np.uint32), missing=missing, weights=Wt, n_clusters=C)
+
+
+def plain_texture(src_rgb, size: tuple[int, int], p: AnnotatedParams) -> dict:
+    """Plain exemplar synthesis with this core: constant annotations on both sides, one
+    cluster. src_rgb (H, W, 3) linear; size (rows, columns). Returns ``synthesize``'s dict."""
+    H, W = src_rgb.shape[:2]
+    q = AnnotatedParams(**{**p.__dict__, "mode": "single", "min_pixels": 1})
+    one = np.full((H, W, 1), 0.5)
+    return synthesize(np.asarray(src_rgb, np.float32), np.ones((H, W), np.float32), one, np.ones((H, W), bool),
+                      np.full((int(size[0]), int(size[1]), 1), 0.5), q, names=["const"])
