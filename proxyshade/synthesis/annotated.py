@@ -6,7 +6,9 @@ Poisson reconstruction of L*.
 Choices the paper leaves open (docs/annotated.md): annotations are quantised to 1/32 for
 the ε-balls and the PatchMatch constraint (the balls are then exact on the quantised
 points); mean shift runs on points binned so that at most ~1024 distinct points remain;
-5×5 patches, 3 scales, 2 EM iterations of 4 PatchMatch iterations each per scale.
+5×5 patches; scales as many as keep the coarsest exemplar at least 8 pixels a side (at most
+5); 4 EM rounds (vote, then 4 PatchMatch iterations) per scale; an occurrence penalty
+(Kaspar et al. 2015, as EbSynth counts it) against large flat copies.
 """
 from __future__ import annotations
 
