@@ -9,13 +9,14 @@ import lazy_loader
 
 from proxyshade.graph.node import Node, Param
 from proxyshade.graph.plate import Plate
+from proxyshade.synthesis.annotated import PatchOptimisation
 
 np = lazy_loader.load("numpy")  # on first use: a fully cached run never loads numpy
 
 METHODS = ("annotated",)
 
 
-class TextureSynth(Node):
+class TextureSynth(PatchOptimisation, Node):
     """Synthesize a ``size``×``size`` texture from an exemplar image (PNG/JPEG, sRGB-decoded
     to linear, or an EXR plate's ``R,G,B``). ``method``: the synthesis core, ``annotated``
     (``AnnotatedSynth``'s coarse-to-fine PatchMatch + voting with constant annotations:
@@ -27,12 +28,6 @@ class TextureSynth(Node):
     # text, as a graph's --var gives it ("--var size=512"); checked in compute
     size = Param(str, "256", doc="output width and height in pixels, 16..4096")
     method = Param(str, "annotated", choices=METHODS, doc="synthesis core")
-    patch = Param(int, 5, min=3, max=15, doc="patch size (odd)")
-    levels = Param(int, 0, min=0, max=6, doc="scales (coarse to fine, factor 2); 0: as many as keep the "
-                                                       "coarsest exemplar at least 8 pixels a side, at most 5")
-    em = Param(int, 4, min=1, max=10, doc="search + vote rounds per scale")
-    iterations = Param(int, 4, min=1, max=20, doc="PatchMatch iterations per round")
-    uniformity = Param(float, 0.005, min=0.0, max=1.0, doc="penalty on overused exemplar patches (0: none)")
     seed = Param(int, 0, min=0, doc="seed of the initialisation and searches")
 
     def compute(self, ctx) -> Plate:

@@ -14,12 +14,29 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import numpy as np
+import lazy_loader
 
 from proxyshade.errors import NodeInputError
+from proxyshade.graph.node import Param
+from proxyshade.synthesis.params import ParamGroup
+
+np = lazy_loader.load("numpy")  # on first use: the nodes read PatchOptimisation on a cached run
 
 QUANTUM = 32
 MODES = ("full", "binary", "single", "analogies")
+
+
+class PatchOptimisation(ParamGroup):
+    """Coarse-to-fine PatchMatch + voting of one cluster (docs/annotated.md, Method 4)."""
+
+    patch = Param(int, 5, min=3, max=15, doc="patch size (odd)")
+    levels = Param(int, 0, min=0, max=6, doc="scales (coarse to fine, factor 2); 0: as many as keep the coarsest "
+                                             "exemplar at least 8 pixels a side, at most 5")
+    em = Param(int, 4, min=1, max=10, doc="search + vote rounds per scale")
+    iterations = Param(int, 4, min=1, max=20, doc="PatchMatch iterations per round")
+    uniformity = Param(float, 0.005, min=0.0, max=1.0,
+                       doc="weight of the penalty on source patches used more often than an even use (Kaspar et al. "
+                           "2015); 0: none (large flat copies, washed-out texture)")
 
 
 @dataclass
