@@ -490,13 +490,19 @@ def cache_clean(graph: Optional[Path] = _GRAPH_ARG,
                                                      "else the per-user one)")):
     """Empty the plate cache (the next runs recompute what they need) and remove the compiled
     kernels of other versions of the kernels package (this version's are kept). Nothing is
-    removed otherwise: a run warns when the plate cache passes $PROXYSHADE_CACHE_LIMIT (20G)."""
+    removed otherwise: a run warns when the plate cache passes $PROXYSHADE_CACHE_LIMIT (20G).
+    A folder that is not a plate cache (no CACHEDIR.TAG of proxyshade's, and files that are
+    not cache entries) is refused, nothing removed."""
     from proxyshade.graph.cache import Cache, size_text
     from proxyshade.kernels import _cache as kernels
 
-    for c in filter(None, (Cache(_cache_root(cache), background=False), _old_cache(graph))):
+    where = (f"--cache {cache}" if cache else f"$PROXYSHADE_CACHE={os.environ['PROXYSHADE_CACHE']}"
+             if os.environ.get("PROXYSHADE_CACHE") else None)
+    for c, label in ((Cache(_cache_root(cache), background=False), where), (_old_cache(graph), None)):
+        if c is None:
+            continue
         n, size = c.info()["entries"], c.size()
-        c.clean()
+        c.clean(label)
         _say(out, f"removed {n} entries ({size_text(size)}) from {c.root}")
     old = kernels.remove_old()
     _say(out, f"removed compiled kernels of other versions ({len(old)} folder(s) or file(s), "

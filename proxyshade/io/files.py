@@ -68,6 +68,12 @@ def temp_for(target: Path, suffix: str = "") -> Path:
     return target.with_name(f".{target.name}.{os.getpid()}-{HOST}.{next(_counter)}.tmp{suffix}")
 
 
+def temp_of(name: str) -> str | None:
+    """The file name a temporary's name ``name`` was made for (``temp_for``), None when it is not one."""
+    m = _TMP.match(name) or _OLD_TMP.match(name)
+    return m["name"] if m else None
+
+
 def io_error(path: Path | str, e: BaseException, what: str = "cannot write") -> WriteError:
     """A one-line WriteError for an OSError while writing ``path`` (disk full, I/O error)."""
     reason = e.strerror if isinstance(e, OSError) and e.strerror else str(e).splitlines()[0] if str(e) else type(e).__name__

@@ -1,0 +1,57 @@
+"""Issue 36: shared caches, full disks and hostile inputs, each probed with the real failure where
+one can be made here: a real full filesystem (a small tmpfs, mounted when the tests run as root,
+else skipped with the reason), a real read-only cache, two real processes on one cache."""
+from __future__ import annotations
+
+import os
+import subprocess
+from pathlib import Path
+
+import pytest
+
+from proxyshade.errors import EXIT_BAD_INPUT
+from tests.faults.test_faults import _entries, cli, write_graph
+
+
+# -- 3: cache clean deletes only a cache ------------------------------------------------------------------
+def _victim(tmp_path: Path) -> Path:
+    v = tmp_path / "v"
+    (v / "docs").mkdir(parents=True)
+    (v / "docs" / "a").write_text("x")
+    (v / "notes.txt").write_text("keep me")
+    return v
+
+
+def test_cache_clean_refuses_a_folder_that_is_not_a_cache(tmp_path, capsys, monkeypatch):
+    v = _victim(tmp_path)
+    code, out, err = cli(capsys, "cache", "clean", "--cache", v)
+    assert code == EXIT_BAD_INPUT and len(err) == 1, err
+    assert err[0].startswith(f"error: --cache {v}: not a proxyshade plate cache (no CACHEDIR.TAG") and "nothing removed" in err[0]
+    assert (v / "docs" / "a").read_text() == "x" and (v / "notes.txt").read_text() == "keep me"
+    monkeypatch.setenv("PROXYSHADE_CACHE", str(v))  # through the environment as well
+    code, out, err = cli(capsys, "cache", "clean")
+    assert code == EXIT_BAD_INPUT and len(err) == 1 and f"$PROXYSHADE_CACHE={v}: not a proxyshade plate cache" in err[0]
+    assert (v / "docs" / "a").read_text() == "x"
+    f = tmp_path / "file"
+    f.write_text("x")
+    code, out, err = cli(capsys, "cache", "clean", "--cache", f)
+    assert code == EXIT_BAD_INPUT and "not a folder" in err[0] and f.read_text() == "x"
+
+
+def test_cache_clean_removes_only_what_it_recognises(tmp_path, registry, capsys):
+    g = write_graph(tmp_path)
+    cache = tmp_path / "c"
+    assert cli(capsys, "run", g, "-q", "--cache", cache)[0] == 0
+    assert (cache / "CACHEDIR.TAG").read_text().startswith("Signature: 8a477f597d28d172789f06886806bc55")
+    n = len(_entries(cache))
+    (cache / "mine.txt").write_text("a file someone put in the cache")
+    code, out, err = cli(capsys, "cache", "clean", "--cache", cache)
+    assert code == 0 and f"removed {n} entries" in out, err
+    assert sorted(p.name for p in cache.rglob("*")) == ["CACHEDIR.TAG", "mine.txt"]
+    (cache / "mine.txt").unlink()
+    assert cli(capsys, "cache", "clean", "--cache", cache)[0] == 0 and not cache.exists()
+    # a cache of a version before the tag: nothing but entries in it, so it is one
+    assert cli(capsys, "run", g, "-q", "--cache", cache)[0] == 0
+    (cache / "CACHEDIR.TAG").unlink()
+    code, out, err = cli(capsys, "cache", "clean", "--cache", cache)
+    assert code == 0 and f"removed {n} entries" in out and not cache.exists()
