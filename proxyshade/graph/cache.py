@@ -36,7 +36,7 @@ from pathlib import Path
 
 from proxyshade.errors import UserError, WriteError
 from proxyshade.graph.plate import Plate
-from proxyshade.io.exr import cache_compression, read_header, read_plate, write_plate
+from proxyshade.io.exr import cache_compression, header_strings, read_plate, write_plate
 from proxyshade.io.files import READ_ONLY, io_error, remove_stale_temps, stale_temps, temp_for, temp_of, write_text_atomic
 
 
@@ -252,13 +252,15 @@ class Cache:
 
     def intact(self, key: str) -> bool:
         """Whether a whole entry is stored under ``key``: its record names it, the EXR's size
-        and sha256 are the record's and its header names the key (quietly: no warning)."""
+        and sha256 are the record's and its header names the key (quietly: no warning). Runs
+        on the writer thread: the header is read in Python (``header_strings``), not through
+        an image library."""
         rec = self.record(key)
         exr, _ = self._paths(key)
         try:
             return (rec is not None and rec.get("key") == key and not rec.get("sink")
                     and exr.stat().st_size == rec.get("size") and _sha256(exr) == rec.get("sha256")
-                    and read_header(exr)["attributes"].get("proxyshade/key") == key)
+                    and header_strings(exr, ("proxyshade/key",)).get("proxyshade/key") == key)
         except Exception:  # noqa: BLE001 - unreadable: not intact
             return False
 

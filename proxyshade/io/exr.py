@@ -173,6 +173,51 @@ def read_plate(path: str | Path, *, expect: dict[str, str] | None = None) -> Pla
     return Plate(fixed, meta)
 
 
+_EXR_MAGIC = b"\x76\x2f\x31\x01"
+
+
+def header_strings(path: str | Path, names: tuple[str, ...]) -> dict[str, str]:
+    """The string attributes ``names`` of an EXR's (first) header, read in Python from the
+    file's bytes: no image library, so the cache writer's thread never enters a C++ library
+    that takes the dynamic loader's lock while it holds the GIL (which deadlocked against USD
+    loading its plugins on a node's thread). Raises ``ExrError`` for a file that is not an
+    EXR or whose header is cut short."""
+    path = Path(path)
+    found: dict[str, str] = {}
+    with open(path, "rb") as f:
+        if f.read(4) != _EXR_MAGIC:
+            raise ExrError(f"{path}: not an EXR file (no OpenEXR magic number); re-render it or delete it")
+        f.read(4)  # version and flags
+
+        def cstring() -> bytes:
+            out = bytearray()
+            while (c := f.read(1)) not in (b"\0", b""):
+                out += c
+                if len(out) > 255:
+                    raise ExrError(f"{path}: damaged EXR header (a name longer than 255 bytes)")
+            if c == b"":
+                raise ExrError(f"{path}: EXR header cut short")
+            return bytes(out)
+
+        while name := cstring():
+            kind = cstring()
+            size_bytes = f.read(4)
+            if len(size_bytes) < 4:
+                raise ExrError(f"{path}: EXR header cut short")
+            size = int.from_bytes(size_bytes, "little", signed=True)
+            if size < 0:
+                raise ExrError(f"{path}: damaged EXR header (attribute {name[:40]!r} of negative size)")
+            key = name.decode("utf-8", "replace")
+            if key in names and kind == b"string":
+                value = f.read(size)
+                if len(value) < size:
+                    raise ExrError(f"{path}: EXR header cut short")
+                found[key] = value.decode("utf-8", "replace")
+            else:
+                f.seek(size, os.SEEK_CUR)
+    return found
+
+
 def read_header(path: str | Path) -> dict:
     """Header attributes of an EXR (OpenImageIO), plus its channels and their types."""
     import OpenImageIO as oiio

@@ -28,6 +28,19 @@ LABEL_INSTANCE = "texture"
 CG_ATTR = "proxyshade:cg"
 
 
+def load_plugins() -> None:
+    """Load every USD plugin now. USD loads a plugin's library when a stage first needs it,
+    with the GIL released, and the library's initialisers take the GIL again while they hold
+    the dynamic loader's lock: a C++ library on another thread holding the GIL and waiting
+    for that lock (OpenImageIO, OpenEXR) deadlocked the process. The engine calls this on the
+    main thread before any node or cache-writer thread starts, for a run that computes a
+    node reading USD (about 20 ms)."""
+    from pxr import Plug
+
+    Plug.Registry().LoadAllPlugins() if hasattr(Plug.Registry(), "LoadAllPlugins") else [
+        p.Load() for p in Plug.Registry().GetAllPlugins()]
+
+
 def open_stage(path: str | Path) -> Usd.Stage:
     path = Path(path)
     if not path.is_file():

@@ -55,3 +55,46 @@ def test_cache_clean_removes_only_what_it_recognises(tmp_path, registry, capsys)
     (cache / "CACHEDIR.TAG").unlink()
     code, out, err = cli(capsys, "cache", "clean", "--cache", cache)
     assert code == 0 and f"removed {n} entries" in out and not cache.exists()
+
+
+# -- 1: two runs on one cache -----------------------------------------------------------------------------
+ROOT = Path(__file__).resolve().parents[2]
+USD_GRAPH = f"""\
+format: proxyshade/1
+frames: 1
+nodes:
+  src:   {{type: SourceRead, params: {{table: {ROOT}/samples/renoir/source.yaml}}}}
+  proxy: {{type: ProxyRender, inputs: {{source: src}}, params: {{scene: {ROOT}/samples/scenes/lake.usda, resolution: [32, null]}}}}
+  w:     {{type: ExrWrite, inputs: {{image: proxy}}, params: {{path: out/proxy.exr}}}}
+"""
+
+
+def _start(folder: Path, cache: Path, jobs: int) -> subprocess.Popen:
+    import sys
+
+    return subprocess.Popen([sys.executable, "-m", "proxyshade.cli", "run", "g.yaml", "-q", "--cache", str(cache),
+                             "--jobs", str(jobs)], cwd=folder, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+
+
+def test_two_runs_on_one_cache_both_finish(tmp_path):
+    """Two processes computing a USD graph at once on one cache: one of them finds the entry the
+    other just stored (the cache writer checks it) while its node thread loads USD. That
+    deadlocked (GIL against the dynamic loader's lock) in 2 of 3 tries; a hang fails here."""
+    (tmp_path / "g.yaml").write_text(USD_GRAPH)
+    warm = _start(tmp_path, tmp_path / "warm", 1)  # compiles the kernels once, outside the race
+    assert warm.wait(timeout=600) == 0, warm.stderr.read()
+    for i in range(3):
+        cache = tmp_path / f"c{i}"
+        runs = [_start(tmp_path, cache, 1), _start(tmp_path, cache, 2)]
+        try:
+            for p in runs:
+                out, err = p.communicate(timeout=90)
+                assert p.returncode == 0, err
+        except subprocess.TimeoutExpired:
+            pytest.fail(f"try {i + 1}: a run on the shared cache hung (over 90 s)")
+        finally:
+            for p in runs:
+                if p.poll() is None:
+                    p.kill()
+                    p.wait()
+        assert len(_entries(cache)) == 3  # each entry whole, from one of the two writers

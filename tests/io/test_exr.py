@@ -9,7 +9,7 @@ from hypothesis import given, settings, strategies as st
 
 from proxyshade.errors import UserError
 from proxyshade.graph.plate import Plate
-from proxyshade.io.exr import compressions, read_header, read_plate, write_plate
+from proxyshade.io.exr import compressions, header_strings, read_header, read_plate, write_plate
 
 
 @settings(max_examples=20, deadline=None)
@@ -48,6 +48,24 @@ def test_header_lists_types_and_metadata(tmp_path):
     if oiiotool.exists():
         text = subprocess.run([str(oiiotool), "--info", "-v", str(tmp_path / "m.exr")], capture_output=True, text=True).stdout
         assert "label.id (uint)" in text and "R (float)" in text
+
+
+def test_header_strings_read_in_python_match_openimageio(tmp_path):
+    """The cache writer's header check reads string attributes from the bytes (no image library
+    on its thread): the same values OpenImageIO reads; a cut-short or foreign file is an error."""
+    p = Plate({"R": np.zeros((2, 3), np.float32)}, {"labels": [{"name": "sky", "id": 1}] * 500})
+    write_plate(tmp_path / "m.exr", p, extra={"proxyshade/node": "src", "proxyshade/key": "ab" * 32})
+    names = ("proxyshade/node", "proxyshade/key", "proxyshade/meta", "absent")
+    got = header_strings(tmp_path / "m.exr", names)
+    attrs = read_header(tmp_path / "m.exr")["attributes"]
+    assert got == {k: attrs[k] for k in names[:3]} and got["proxyshade/key"] == "ab" * 32
+    data = (tmp_path / "m.exr").read_bytes()
+    (tmp_path / "cut.exr").write_bytes(data[:data.index(b"proxyshade/meta") + 30])
+    with pytest.raises(UserError, match="cut.exr: EXR header cut short"):
+        header_strings(tmp_path / "cut.exr", names)
+    (tmp_path / "png.exr").write_bytes(b"\x89PNG\r\n\x1a\n" + bytes(20))
+    with pytest.raises(UserError, match="png.exr: not an EXR file"):
+        header_strings(tmp_path / "png.exr", names)
 
 
 def test_unreadable_file_names_the_file(tmp_path):
