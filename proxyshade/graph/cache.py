@@ -36,8 +36,8 @@ from pathlib import Path
 
 from proxyshade.errors import UserError, WriteError
 from proxyshade.graph.plate import Plate
-from proxyshade.io.exr import cache_compression, header_strings, read_plate, write_plate
-from proxyshade.io.files import READ_ONLY, io_error, remove_stale_temps, stale_temps, temp_for, temp_of, write_text_atomic
+from proxyshade.io.exr import cache_compression, header_strings, read_plate, write_plate_temp
+from proxyshade.io.files import READ_ONLY, io_error, remove_stale_temps, stale_temps, temp_of, write_text_atomic
 
 
 class CacheWarning(UserWarning):
@@ -217,12 +217,14 @@ class Cache:
                 self.unstored += 1
                 return
             self._mark()
-            exr.parent.mkdir(parents=True, exist_ok=True)
-            tmp = temp_for(exr, ".exr")
             # ZSTD: the writer thread competes with the nodes for the cores, and at 4K ZIP cost it
-            # ~3.6 CPU s per 15-channel plate (ZSTD 2.1 s, and 40 % smaller files to hash)
-            write_plate(tmp, plate, compression=cache_compression(), extra={"proxyshade/node": str(record.get("node")), "proxyshade/key": key,
-                                           "proxyshade/frame": str(record.get("frame"))})
+            # ~3.6 CPU s per 15-channel plate (ZSTD 2.1 s, and 40 % smaller files to hash). Checked
+            # whole, not fsync'd: every load checks an entry's size and sha256 (a write the disk
+            # lost later is recomputed), where an output has no such reader
+            tmp = write_plate_temp(exr, plate, compression=cache_compression(), what="cannot write cache entry",
+                                   durable=False, extra={"proxyshade/node": str(record.get("node")),
+                                                         "proxyshade/key": key,
+                                                         "proxyshade/frame": str(record.get("frame"))})
             rec = dict(record, key=key, size=tmp.stat().st_size, sha256=_sha256(tmp), created=time.time())
             self._publish(key, tmp, rec, replace)
         except (OSError, WriteError) as e:
@@ -248,7 +250,12 @@ class Cache:
             if not replace and self.intact(key):
                 return
             os.replace(tmp, exr)
-            self._write_record(js, rec)
+            try:
+                self._write_record(js, rec)
+            except BaseException:  # no EXR without its record
+                with contextlib.suppress(OSError):
+                    exr.unlink()
+                raise
 
     def intact(self, key: str) -> bool:
         """Whether a whole entry is stored under ``key``: its record names it, the EXR's size

@@ -80,6 +80,37 @@ def io_error(path: Path | str, e: BaseException, what: str = "cannot write") -> 
     return WriteError(f"{path}: {what} ({reason}); free space or fix the disk, then run again")
 
 
+def commit_temp(tmp: Path, target: Path, path: Path, what: str, problem=None, *, durable: bool = True) -> None:
+    """Put a written temporary in place: ``fsync`` it (``durable``: a write the disk could not
+    take fails here, not later), check it is whole by its format (``problem(tmp)``: why it is
+    not, or None: image libraries report success when their last buffered write fails on a full
+    disk), then rename it over ``target``. ``path``: the name the user gave, for messages.
+    Raises ``WriteError`` (and leaves ``tmp`` for the caller to remove) when any step fails."""
+    verify_temp(tmp, path, what, problem, durable=durable)
+    try:
+        os.replace(tmp, target)
+    except OSError as e:
+        raise io_error(path, e, what) from None
+
+
+def verify_temp(tmp: Path, path: Path, what: str, problem=None, *, durable: bool = True) -> None:
+    """``commit_temp``'s checks without the rename: ``fsync`` (``durable``), then the format's
+    own check of the whole file (``problem``)."""
+    try:
+        if durable:
+            fd = os.open(tmp, os.O_RDONLY)
+            try:
+                os.fsync(fd)
+            finally:
+                os.close(fd)
+        why = problem(tmp) if problem is not None else None
+    except OSError as e:
+        raise io_error(path, e, what) from None
+    if why:
+        raise WriteError(f"{path}: {what} (the file written is incomplete: {why}; the disk is probably full); "
+                         "free space or fix the disk, then run again")
+
+
 def _alive(pid: int) -> bool:
     if pid == os.getpid():
         return True

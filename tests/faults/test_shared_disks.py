@@ -98,3 +98,97 @@ def test_two_runs_on_one_cache_both_finish(tmp_path):
                     p.kill()
                     p.wait()
         assert len(_entries(cache)) == 3  # each entry whole, from one of the two writers
+
+
+# -- 2: a full disk, for real ----------------------------------------------------------------------------
+@pytest.fixture
+def small_disk(tmp_path):
+    """A real 256 KiB filesystem (tmpfs), mounted for the test and unmounted after it; skipped where
+    mounting is not permitted (not root, or no mount privilege in a container)."""
+    mnt = tmp_path / "disk"
+    mnt.mkdir()
+    if os.geteuid() != 0:
+        pytest.skip("a real full disk needs a tmpfs mount, which needs root")
+    r = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=256k", "tmpfs", str(mnt)], capture_output=True, text=True)
+    if r.returncode != 0:
+        pytest.skip(f"cannot mount a tmpfs here ({r.stderr.strip() or r.returncode})")
+    try:
+        yield mnt
+    finally:
+        subprocess.run(["umount", "-l", str(mnt)], check=False)
+
+
+def fill(disk: Path, leave: int) -> Path:
+    """Fill ``disk`` but ``leave`` bytes (rounded to its 4 KiB pages)."""
+    st = os.statvfs(disk)
+    free = st.f_bavail * st.f_frsize
+    filler = disk / "filler"
+    filler.write_bytes(os.urandom(max(0, free - leave)))
+    return filler
+
+
+# noise plates (incompressible): a 128x128 EXR is ~70 KiB, its PNG preview and GIF ~20-50 KiB
+NOISY = """\
+  a: {type: TConst, params: {value: 0.0, size: 128, seed: 7}}
+  w: {type: ExrWrite, inputs: {image: a}, params: {path: "${out}/a.exr"}}
+  p: {type: Preview, inputs: {image: a}, params: {path: "${out}/a.png", channels: [R, R, R]}}
+  m: {type: Movie, inputs: {image: {node: a, frame: all}}, params: {path: "${out}/a.gif", channels: [R, R, R]}}
+"""
+
+
+def _whole(path: Path) -> bool:
+    import OpenImageIO as oiio
+
+    from proxyshade.io.exr import read_plate
+
+    if path.suffix == ".exr":
+        read_plate(path)
+        return True
+    buf = oiio.ImageBuf(str(path))
+    return not buf.has_error and buf.get_pixels(oiio.UINT8) is not None and not buf.has_error
+
+
+@pytest.mark.parametrize("output", ["w", "p", "m"])
+def test_outputs_on_a_full_disk_exit_74_and_leave_nothing(tmp_path, registry, capsys, small_disk, output):
+    """ExrWrite, Preview and Movie on a real full filesystem: the library reports success when its
+    last buffered write fails, so the written file is checked (whole by its format, fsync'd)
+    before it is renamed into place; nothing cut short is left or recorded; after space is
+    freed the re-run writes it (not 'written before')."""
+    others = [n for n in "wpm" if n != output]
+    nodes = NOISY.replace("${out}", str(small_disk / "out"))
+    for n in others:  # only the writer under test writes
+        nodes = nodes.replace(f"  {n}: {{", f"  {n}: {{enabled: false, ")
+    g = write_graph(tmp_path, nodes, frames="1")
+    (small_disk / "out").mkdir()
+    filler = fill(small_disk, 16 * 1024)
+    code, out, err = cli(capsys, "run", g, "-q")
+    assert code == 74 and len(err) == 1, (code, err)
+    assert "free space" in err[0] and str(small_disk / "out" / "a.") in err[0], err
+    assert sorted(p.name for p in (small_disk / "out").iterdir()) == []  # no output, no temporary
+    filler.unlink()
+    code, out, err = cli(capsys, "run", g, "--explain")
+    assert code == 0, err
+    assert [p.name for p in (small_disk / "out").iterdir()] == [f"a.{ {'w': 'exr', 'p': 'png', 'm': 'gif'}[output]}"]
+    assert _whole(next((small_disk / "out").iterdir()))
+    from tests.faults.test_faults import explain_rows
+
+    assert explain_rows(out)[(output, "1")][0] == "computed"
+
+
+def test_cache_on_a_full_disk_exits_74_and_stores_nothing_cut_short(tmp_path, registry, capsys, small_disk):
+    nodes = NOISY.replace("${out}", str(tmp_path / "out"))
+    g = write_graph(tmp_path, nodes, frames="1")
+    cache = small_disk / "cache"
+    filler = fill(small_disk, 24 * 1024)
+    code, out, err = cli(capsys, "run", g, "-q", "--cache", cache)
+    assert code == 74 and len(err) == 1, (code, err)
+    assert f"{cache}/" in err[0] and "cannot write cache entry" in err[0] and "free space" in err[0], err
+    assert ".tmp" not in err[0]  # the entry's name, not a temporary's
+    for exr in cache.glob("*/*.exr"):  # no EXR without its record, none cut short
+        assert exr.with_suffix(".json").is_file() and _whole(exr)
+    assert not [p for p in cache.rglob(".*") if ".tmp" in p.name]
+    filler.unlink()
+    code, out, err = cli(capsys, "run", g, "-q", "--cache", cache)
+    assert code == 0, err
+    code, out, err = cli(capsys, "run", g, "-q", "--cache", cache)
+    assert code == 0 and "0 computed" in out
