@@ -145,6 +145,9 @@ def write_plate_temp(target: Path, plate: Plate, *, compression: str = "zip", ex
     try:
         target.parent.mkdir(parents=True, exist_ok=True)
         tmp = temp_for(target, ".exr")
+        # created here first: a folder that cannot be written (a read-only cache) is then an OSError
+        # with its errno, where the bindings raise a plain exception naming no reason
+        os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))
         try:
             with _openexr().File(header, channels) as f:
                 f.write(str(tmp))

@@ -192,3 +192,25 @@ def test_cache_on_a_full_disk_exits_74_and_stores_nothing_cut_short(tmp_path, re
     assert code == 0, err
     code, out, err = cli(capsys, "run", g, "-q", "--cache", cache)
     assert code == 0 and "0 computed" in out
+
+
+# -- 4: a read-only cache, for real ----------------------------------------------------------------------
+def test_read_only_cache_miss_is_computed_and_noted(tmp_path, registry, capsys, small_disk):
+    """A cache on a filesystem mounted read-only (a farm's shared cache), every shard folder there:
+    hits are served, a miss is computed, kept in memory and noted, and the run exits 0."""
+    g = write_graph(tmp_path)
+    cache = small_disk / "cache"
+    assert cli(capsys, "run", g, "-q", "--cache", cache)[0] == 0
+    for i in range(256):  # the shard of any key exists: the write fails in the EXR library, not at mkdir
+        (cache / f"{i:02x}").mkdir(exist_ok=True)
+    r = subprocess.run(["mount", "-o", "remount,ro", str(small_disk)], capture_output=True, text=True)
+    if r.returncode != 0:
+        pytest.skip(f"cannot remount the tmpfs read-only ({r.stderr.strip()})")
+    code, out, err = cli(capsys, "run", g, "-q", "--cache", cache)
+    assert code == 0 and err == [] and "0 computed" in out, err
+    code, out, err = cli(capsys, "run", g, "-q", "--cache", cache, "--set", "a.value=5.0")
+    assert code == 0 and err == [], err
+    assert f"note cache {cache} is read-only: " in out and "were not stored" in out
+    from proxyshade.io.exr import read_plate
+
+    assert read_plate(tmp_path / "out" / "s.0002.exr")["R"][0, 0] == 7.0
