@@ -214,3 +214,35 @@ def test_read_only_cache_miss_is_computed_and_noted(tmp_path, registry, capsys, 
     from proxyshade.io.exr import read_plate
 
     assert read_plate(tmp_path / "out" / "s.0002.exr")["R"][0, 0] == 7.0
+
+
+# -- 6 and 5: bad source tables are bad input (exit 2), never internal errors --------------------------
+LABELS = 'labels_map: style_mask.png\nlabels:\n  sky: {id: 2, color: "#ffffff"}\n'
+BOMB = "".join(f"l{i}: &l{i} [{', '.join([f'*l{i - 1}'] * 8)}]\n" for i in range(1, 12))
+
+
+@pytest.mark.parametrize("table,expect", [
+    ("image: 5\n" + LABELS, "s.yaml: image: expected the file name of the photo (relative to the table), got 5;"),
+    ("image: [a]\n" + LABELS, "s.yaml: image: expected the file name of the photo"),
+    ("image: {a: 1}\n" + LABELS, "s.yaml: image: expected the file name of the photo"),
+    ("image: null\n" + LABELS, "s.yaml: image: expected the file name of the photo (relative to the table), got None"),
+    ("image: .\n" + LABELS, "s.yaml: image: '.' is a folder; name the photo's image file"),
+    ("image: style.png\nlayout: 5\n" + LABELS, "s.yaml: layout: expected the file name of a second label map"),
+    ('image: style.png\nlabels_map: style_mask.png\nlabels:\n  sky: {id: 99999999999, color: "#ffffff"}\n',
+     "s.yaml: labels.sky.id: expected an int from 1 to 4294967295"),
+    (b"image: style.png\n\xff\xfe\n", "s.yaml:2: not a UTF-8 text file (byte 0xff at offset 17)"),
+    ("image: style.png\nlabels_map: style_mask.png\nlabels: " + "[" * 20000 + "]" * 20000 + "\n", "s.yaml: nested too deeply"),
+    ("image: style.png\nlabels_map: style_mask.png\nlabels: " + "[" * 150 + "]" * 150 + "\n", "nests deeper than 100"),
+    ("l0: &l0 [x]\n" + BOMB + "image: *l11\n" + LABELS, "s.yaml:7: the value expands to more than 100000 items"),
+    ("image: style.png\nimage: style.png\n" + LABELS, "s.yaml:2: key 'image' appears twice in one mapping (lines 1 and 2)"),
+])
+def test_bad_source_tables_are_bad_input(tmp_path, capsys, table, expect):
+    import shutil
+
+    for name in ("style.png", "style_mask.png"):
+        shutil.copy(ROOT / "samples" / "renoir" / name, tmp_path / name)
+    (tmp_path / "s.yaml").write_bytes(table if isinstance(table, bytes) else table.encode())
+    g = write_graph(tmp_path, "  src: {type: SourceRead, params: {table: s.yaml}}\n", frames="1", vars_="")
+    code, out, err = cli(capsys, "run", g, "-q")
+    assert code == EXIT_BAD_INPUT and len(err) == 1, err
+    assert expect in err[0] and len(err[0]) < 600, err
