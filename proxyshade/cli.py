@@ -375,13 +375,14 @@ def _vars(items: List[str]) -> dict:
         if not eq or not name:
             raise UserError(f"--var {item}: expected name=value")
         if value.lstrip().startswith(("{", "[")):  # a mapping or a list, in YAML flow style
-            import yaml
+            from proxyshade.io import yamlfile
 
             try:
-                value = yaml.safe_load(value)
-            except yaml.YAMLError as e:
-                raise UserError(f"--var {item}: not valid YAML ({getattr(e, 'problem', e)}); write a mapping like "
-                                "{sand: rock} or a list like [1920, 1080]") from None
+                value = yamlfile.parse(value, f"--var {yamlfile.short(item, 200)[1:-1]}")
+            except UserError as e:
+                if "not valid YAML" not in str(e):
+                    raise
+                raise UserError(f"{e}; write a mapping like {{sand: rock}} or a list like [1920, 1080]") from None
         out[name.strip()] = value
     return out
 

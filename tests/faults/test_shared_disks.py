@@ -246,3 +246,39 @@ def test_bad_source_tables_are_bad_input(tmp_path, capsys, table, expect):
     code, out, err = cli(capsys, "run", g, "-q")
     assert code == EXIT_BAD_INPUT and len(err) == 1, err
     assert expect in err[0] and len(err[0]) < 600, err
+
+
+def _bomb_lines(indent: str) -> str:
+    return f"{indent}l0: &l0 [x]\n" + "".join(f"{indent}{line}" for line in BOMB.splitlines(keepends=True))
+
+
+@pytest.mark.parametrize("where", ["frames", "format", "type", "enabled", "input", "set"])
+def test_alias_bombs_are_refused_everywhere_quickly(tmp_path, where):
+    """A value that expands past 100000 items through aliases, anywhere in a graph file or in a
+    --set value: refused by the one YAML loader before anything walks it (it hung before)."""
+    from tests.faults.test_faults import subprocess_cli
+
+    head = "format: proxyshade/1\ndoc:\n" + _bomb_lines("  ")  # anchors in the free-form doc
+    nodes = {"c": "{type: TConst}", "d": "{type: TAdd, inputs: {a: c}}"}
+    args = []
+    if where == "frames":
+        head += "frames: *l11\n"
+    elif where == "format":
+        head = head.replace("format: proxyshade/1\n", "") + "format: *l11\n"
+    elif where == "type":
+        nodes["c"] = "{type: *l11}"
+    elif where == "enabled":
+        nodes["c"] = "{type: TConst, enabled: *l11}"
+    elif where == "input":
+        nodes["d"] = "{type: TAdd, inputs: {a: *l11}}"
+    text = head + "nodes:\n" + "".join(f"  {k}: {v}\n" for k, v in nodes.items())
+    if where == "set":
+        text = "format: proxyshade/1\nnodes:\n  c: {type: TConst}\n"
+        bomb = "{l0: &l0 [x], " + ", ".join(f"l{i}: &l{i} [{', '.join([f'*l{i - 1}'] * 8)}]" for i in range(1, 12)) + "}"
+        args = ["--set", f"c.value={bomb}"]
+    g = tmp_path / "g.yaml"
+    g.write_text(text)
+    r = subprocess_cli(["run", str(g), "-q", *args], timeout=60)
+    lines = r.stderr.strip().splitlines()
+    assert r.returncode == EXIT_BAD_INPUT and len(lines) == 1, r.stderr[-2000:]
+    assert "expands to more than 100000 items" in lines[0] and len(lines[0]) < 600, lines[0][:2000]
