@@ -282,3 +282,21 @@ def test_alias_bombs_are_refused_everywhere_quickly(tmp_path, where):
     lines = r.stderr.strip().splitlines()
     assert r.returncode == EXIT_BAD_INPUT and len(lines) == 1, r.stderr[-2000:]
     assert "expands to more than 100000 items" in lines[0] and len(lines[0]) < 600, lines[0][:2000]
+
+
+# -- 6: scene descriptions beyond what can be built -------------------------------------------------------
+@pytest.mark.parametrize("old,new,expect", [
+    ("cells: [128, 128]", "cells: [100000, 100000]", "x.yaml: terrains[1].cells: expected 2 integers from 1 to 4096"),
+    ("frames: [1, 48]", "frames: [1, 99999999999]", "x.yaml: frames: expected 2 integers"),
+    ("count: 7", "count: 100000000", "x.yaml: spheres[0].count: expected an integer from 1 to 10000"),
+    ("radius: [5, 6]", "radius: .nan", "x.yaml: spheres[1].radius: nan is not a finite number"),
+    ("focal_length: 24", "focal_length: .inf", "x.yaml: cameras[0].focal_length: inf is not a finite number"),
+    ("name: lake", "name: lake\nname: again", "x.yaml:3: key 'name' appears twice in one mapping (lines 2 and 3)"),
+])
+def test_scene_build_refuses_what_cannot_be_built(tmp_path, capsys, old, new, expect):
+    text = (ROOT / "samples" / "scenes" / "lake.yaml").read_text()
+    assert old in text
+    (tmp_path / "x.yaml").write_text(text.replace(old, new, 1))
+    code, out, err = cli(capsys, "scene", "build", tmp_path / "x.yaml")
+    assert code == EXIT_BAD_INPUT and len(err) == 1 and expect in err[0], err
+    assert not (tmp_path / "x.usda").exists()
