@@ -121,7 +121,7 @@ class Cache:
         _, js = self._paths(key)
         try:
             rec = json.loads(js.read_text())
-        except (OSError, ValueError):
+        except (OSError, ValueError, RecursionError):  # RecursionError: a record of deeply nested brackets
             return None
         return rec if isinstance(rec, dict) else None
 
@@ -456,7 +456,7 @@ class Cache:
         p = self.root / "runs" / f"{graph_id}.json"
         try:
             rec = json.loads(p.read_text())
-        except (OSError, ValueError):
+        except (OSError, ValueError, RecursionError):
             return {}
         return rec if isinstance(rec, dict) else {}
 

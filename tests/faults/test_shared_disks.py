@@ -300,3 +300,16 @@ def test_scene_build_refuses_what_cannot_be_built(tmp_path, capsys, old, new, ex
     code, out, err = cli(capsys, "scene", "build", tmp_path / "x.yaml")
     assert code == EXIT_BAD_INPUT and len(err) == 1 and expect in err[0], err
     assert not (tmp_path / "x.usda").exists()
+
+
+def test_a_record_of_nested_brackets_is_a_corrupt_entry(tmp_path, registry, capsys):
+    g = write_graph(tmp_path)
+    assert cli(capsys, "run", g, "-q")[0] == 0
+    cache = tmp_path / ".proxyshade" / "cache"
+    records = _entries(cache) + list((cache / "runs").glob("*.json"))
+    for p in records:
+        p.write_text("[" * 100000 + "]" * 100000)
+    code, out, err = cli(capsys, "run", g, "-q")
+    assert code == 0 and err and all(line.startswith("warning: cache entry ") for line in err), err
+    code, out, err = cli(capsys, "run", g, "-q")
+    assert code == 0 and err == [] and "0 computed" in out
