@@ -313,3 +313,53 @@ def test_a_record_of_nested_brackets_is_a_corrupt_entry(tmp_path, registry, caps
     assert code == 0 and err and all(line.startswith("warning: cache entry ") for line in err), err
     code, out, err = cli(capsys, "run", g, "-q")
     assert code == 0 and err == [] and "0 computed" in out
+
+
+# -- 6 and 8: USD values no render can use ---------------------------------------------------------------
+@pytest.mark.parametrize("case,expect", [
+    ("index_out_of_range", "mesh /World/Plane at frame 1: faceVertexIndices[3] is 9, outside the 4 points"),
+    ("index_negative", "mesh /World/Plane at frame 1: faceVertexIndices[3] is -1, outside the 4 points"),
+    ("too_few_indices", "faceVertexCounts add up to 4 but faceVertexIndices has 3"),
+    ("two_vertex_face", "face 0 has 2 vertices; every face needs 3 or more"),
+    ("nan_point", "mesh /World/Plane at frame 1: points[1] is (nan, -9.0, -5.0)"),
+    ("nan_radius", "sphere /World/Ball at frame 1: radius is nan; give a radius > 0"),
+    ("inf_radius", "sphere /World/Ball at frame 1: radius is inf; give a radius > 0"),
+    ("nan_focal", "camera /World/Cam at frame 1: focalLength is nan; give a focal length > 0"),
+    ("nan_position", "camera /World/Cam at frame 1: its transform (position or rotation) holds a NaN"),
+    ("zero_aperture", "camera /World/Cam at frame 1: horizontalAperture is 0; give an aperture > 0"),
+    ("zero_clipping", "camera /World/Cam at frame 1: clippingRange is (0, 0); give 0 < near < far"),
+])
+def test_bad_usd_values_are_bad_input(tmp_path, capsys, case, expect):
+    from pxr import Gf, Usd, UsdGeom, UsdSemantics, Vt
+
+    from tests.faults.test_faults import _scene_graph
+
+    s = Usd.Stage.CreateNew(str(tmp_path / "s.usda"))
+    world = UsdGeom.Xform.Define(s, "/World")
+    s.SetDefaultPrim(world.GetPrim())
+    cam = UsdGeom.Camera.Define(s, "/World/Cam")
+    cam.CreateFocalLengthAttr(float("nan") if case == "nan_focal" else 35.0)
+    cam.CreateHorizontalApertureAttr(0.0 if case == "zero_aperture" else 36.0)
+    cam.CreateVerticalApertureAttr(36)
+    cam.CreateClippingRangeAttr(Gf.Vec2f(0, 0) if case == "zero_clipping" else Gf.Vec2f(0.1, 1000))
+    if case == "nan_position":
+        cam.AddTranslateOp().Set(Gf.Vec3d(float("nan"), 0, 0))
+    m = UsdGeom.Mesh.Define(s, "/World/Plane")
+    pts = [(-9, -9, -5), (9, -9, -5), (9, 9, -5), (-9, 9, -5)]
+    if case == "nan_point":
+        pts[1] = (float("nan"), -9, -5)
+    m.CreatePointsAttr(pts)
+    counts, idx = {"index_out_of_range": ([4], [0, 1, 2, 9]), "index_negative": ([4], [0, 1, 2, -1]),
+                   "too_few_indices": ([4], [0, 1, 2]), "two_vertex_face": ([2, 2], [0, 1, 2, 3])}.get(case, ([4], [0, 1, 2, 3]))
+    m.CreateFaceVertexCountsAttr(counts)
+    m.CreateFaceVertexIndicesAttr(idx)
+    UsdSemantics.LabelsAPI.Apply(m.GetPrim(), "texture").CreateLabelsAttr().Set(Vt.TokenArray(["water"]))
+    if case.endswith("radius"):
+        ball = UsdGeom.Sphere.Define(s, "/World/Ball")
+        ball.CreateRadiusAttr(float(case.split("_")[0]))
+        ball.AddTranslateOp().Set(Gf.Vec3d(0, 0, -20))
+        UsdSemantics.LabelsAPI.Apply(ball.GetPrim(), "texture").CreateLabelsAttr().Set(Vt.TokenArray(["water"]))
+    s.Save()
+    code, out, err = cli(capsys, "run", _scene_graph(tmp_path, "s.usda"), "-q")
+    assert code == EXIT_BAD_INPUT and len(err) == 1, err
+    assert expect in err[0] and "s.usda" in err[0], err
