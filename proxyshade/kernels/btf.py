@@ -20,6 +20,9 @@ Neubeck, Zalesny and Van Gool, "Viewpoint consistent texture synthesis" (3DPVT 2
 * ``edge_distance``: the alignment measure, the mean Euclidean distance between the
   intensities of two views over a crop, for each neighbouring pair of the view grid.
 * ``plane_shift``: where a view rectified to one plane reads to be rectified to another.
+* ``shade_views``: a surface shaded from a stack, per pixel: bilinear between the four
+  views around its (slant, tilt) on the grid, each read bilinearly at its texture
+  coordinates (wrapping: the stack tiles the plane).
 
 Pure functions on arrays; the serial loops are deterministic, the parallel ones write
 only their own view or pair, so 1 and 2 threads give identical results.
@@ -249,3 +252,89 @@ def plane_shift(slant_deg: float, tilt_deg: float, dh: float, pixel: float) -> t
     z, the camera toward (sin θ cos φ, cos θ, sin θ sin φ)): −dh tan θ (cos φ, sin φ) / pixel."""
     t = math.tan(math.radians(slant_deg)) * dh / pixel
     return -t * math.cos(math.radians(tilt_deg)), -t * math.sin(math.radians(tilt_deg))
+
+
+@njit(**JIT)
+def _tilt_bracket(tilts, spans, phi):
+    """(j0, j1, b): the tilts around ``phi`` (degrees) and the weight of ``j1``. ``tilts``
+    sorted in [0, 360); ``spans[j]``: the arc from tilts[j] to the next (cyclically) is
+    sampled (interpolated across); in an unsampled arc, the nearer end (b = 0)."""
+    nt = tilts.shape[0]
+    if nt <= 1:
+        return 0, 0, 0.0
+    phi = phi - 360.0 * math.floor(phi / 360.0)
+    j = nt - 1
+    for m in range(nt):
+        if tilts[m] <= phi:
+            j = m
+    lo = tilts[j]
+    if phi < lo:
+        lo -= 360.0
+    jn = (j + 1) % nt
+    hi = tilts[jn] + (360.0 if jn == 0 else 0.0)
+    if hi - lo <= 0.0:
+        return j, j, 0.0
+    b = (phi - lo) / (hi - lo)
+    if spans[j]:
+        return j, jn, b
+    if b < 0.5:
+        return j, j, 0.0
+    return jn, jn, 0.0
+
+
+@njit(**PJIT)
+def shade_views(views, table, step, tilts, spans, u, v, slant, tilt, mask, out):
+    """Shade the pixels of ``mask`` from a stack, in place in ``out`` (H, W, 3) float32.
+
+    ``views`` (V, h, w, 3); ``table`` (K + 1, nt) int64: the view at slant k·``step`` and
+    tilt ``tilts[j]`` (row 0 the frontal view for every tilt); ``u``, ``v`` the texture
+    coordinates (column, row; pixel centres at integers; wrapped); ``slant``, ``tilt`` the
+    view direction in the surface frame (degrees). Bilinear in (slant, tilt) between the
+    four views around it (slant clamped to [0, K·step]; tilt by ``_tilt_bracket``), each
+    view bilinear in (u, v)."""
+    h, w = views.shape[1], views.shape[2]
+    K = table.shape[0] - 1
+    H, W = mask.shape
+    for i in prange(H):
+        for j in range(W):
+            if not mask[i, j]:
+                continue
+            s = slant[i, j] / step if step > 0.0 else 0.0
+            s = min(max(s, 0.0), float(K))
+            k0 = min(int(math.floor(s)), max(K - 1, 0))
+            a = s - k0
+            k1 = min(k0 + 1, K)
+            j0, j1, b = _tilt_bracket(tilts, spans, tilt[i, j])
+            x = u[i, j]
+            y = v[i, j]
+            fx0 = math.floor(x)
+            fy0 = math.floor(y)
+            fx = x - fx0
+            fy = y - fy0
+            x0 = int(fx0) % w
+            y0 = int(fy0) % h
+            x1 = (x0 + 1) % w
+            y1 = (y0 + 1) % h
+            r = 0.0
+            g = 0.0
+            bl = 0.0
+            for m in range(4):
+                kk = k0 if m < 2 else k1
+                jj = j0 if m % 2 == 0 else j1
+                wv = (1.0 - a if m < 2 else a) * (1.0 - b if m % 2 == 0 else b)
+                if wv == 0.0:
+                    continue
+                n = table[kk, jj]
+                w00 = wv * (1.0 - fy) * (1.0 - fx)
+                w01 = wv * (1.0 - fy) * fx
+                w10 = wv * fy * (1.0 - fx)
+                w11 = wv * fy * fx
+                r += (w00 * views[n, y0, x0, 0] + w01 * views[n, y0, x1, 0] + w10 * views[n, y1, x0, 0]
+                      + w11 * views[n, y1, x1, 0])
+                g += (w00 * views[n, y0, x0, 1] + w01 * views[n, y0, x1, 1] + w10 * views[n, y1, x0, 1]
+                      + w11 * views[n, y1, x1, 1])
+                bl += (w00 * views[n, y0, x0, 2] + w01 * views[n, y0, x1, 2] + w10 * views[n, y1, x0, 2]
+                       + w11 * views[n, y1, x1, 2])
+            out[i, j, 0] = r
+            out[i, j, 1] = g
+            out[i, j, 2] = bl

@@ -367,6 +367,97 @@ def gather_stack(images: np.ndarray, qy: np.ndarray, qx: np.ndarray) -> np.ndarr
                      for n in range(images.shape[0])])
 
 
+# ---------------------------------------------------------------- shading a surface
+
+def shade_grid(views: list[dict]):
+    """The stack's grid for ``kernels.btf.shade_views``: (table (K + 1, nt) int64, step,
+    tilts (nt,) sorted in [0°, 360°), spans (nt,) bool). ``spans[j]``: the arc from tilt j
+    to the next one (cyclically) is interpolated across; only the largest arc, when it is
+    larger than every other one, is unsampled (a grid of tilts 0–90° covers one quadrant;
+    tilts evenly around the circle cover it all)."""
+    g = check_views(views)
+    tilts = sorted({t % 360.0 for t in g["tilts"]}) or [0.0]
+    K = len(g["slants"]) - 1
+    table = np.empty((K + 1, len(tilts)), np.int64)
+    table[0] = g["index"][(0, 0.0)]
+    by_mod = {}
+    for (k, t), n in g["index"].items():
+        if k > 0:
+            by_mod[(k, t % 360.0)] = n
+    for k in range(1, K + 1):
+        for j, t in enumerate(tilts):
+            table[k, j] = by_mod[(k, t)]
+    gaps = np.array([(tilts[(j + 1) % len(tilts)] - tilts[j]) % 360.0 or 360.0 for j in range(len(tilts))])
+    spans = np.ones(len(tilts), np.bool_)
+    if len(tilts) > 1:
+        big = int(np.argmax(gaps))
+        if gaps[big] > np.delete(gaps, big).max() + 1e-6:
+            spans[big] = False
+    return table, float(g["step"]), np.array(tilts, np.float64), spans
+
+
+def surface_directions(P: np.ndarray, N: np.ndarray, eye) -> tuple[np.ndarray, np.ndarray]:
+    """(slant, tilt) in degrees, (H, W) float64, of the direction from each surface point
+    ``P`` toward the camera at ``eye``, in the surface frame of the stack: y along the
+    normal ``N``, x along world +X projected onto the tangent plane (world +Z where the
+    normal is along X), z = x × y (so a Y-up plane's frame is the world's, as BtfRender
+    captures it: tilt from +x toward +z)."""
+    P = np.asarray(P, np.float64)
+    N = np.asarray(N, np.float64)
+    N = N / np.maximum(np.linalg.norm(N, axis=-1, keepdims=True), 1e-12)
+    d = np.asarray(eye, np.float64) - P
+    d /= np.maximum(np.linalg.norm(d, axis=-1, keepdims=True), 1e-12)
+    ref = np.zeros_like(N)
+    along_x = np.abs(N[..., 0]) > 0.99
+    ref[..., 0] = ~along_x
+    ref[..., 2] = along_x
+    ex = ref - (ref * N).sum(-1, keepdims=True) * N
+    ex /= np.maximum(np.linalg.norm(ex, axis=-1, keepdims=True), 1e-12)
+    ez = np.cross(ex, N)
+    cos = np.clip((d * N).sum(-1), -1.0, 1.0)
+    slant = np.degrees(np.arccos(cos))
+    tilt = np.degrees(np.arctan2((d * ez).sum(-1), (d * ex).sum(-1)))
+    return slant, tilt
+
+
+def planar_uv(P: np.ndarray, origin, scale: float) -> tuple[np.ndarray, np.ndarray]:
+    """Texture coordinates (column, row) of world points by the planar parametrization
+    along Y: column = (x − origin x) / ``scale`` − ½, row = (z − origin z) / ``scale`` − ½
+    (``scale`` world units per stack pixel; pixel centres at integers)."""
+    P = np.asarray(P, np.float64)
+    return (P[..., 0] - origin[0]) / scale - 0.5, (P[..., 2] - origin[1]) / scale - 0.5
+
+
+def shade_surface(images: np.ndarray, views: list[dict], uv, slant: np.ndarray, tilt: np.ndarray,
+                  mask: np.ndarray) -> np.ndarray:
+    """(H, W, 3) float32: the pixels of ``mask`` shaded from the stack (``kernels.btf.
+    shade_views``): bilinear between the four views around each pixel's (slant, tilt),
+    each read bilinearly at its texture coordinates ``uv`` (wrapped); 0 elsewhere."""
+    from proxyshade.kernels.btf import shade_views
+
+    table, step, tilts, spans = shade_grid(views)
+    out = np.zeros(mask.shape + (3,), np.float32)
+    shade_views(np.ascontiguousarray(images, np.float32), table, step, tilts, spans,
+                np.ascontiguousarray(uv[0], np.float64), np.ascontiguousarray(uv[1], np.float64),
+                np.ascontiguousarray(slant, np.float64), np.ascontiguousarray(tilt, np.float64),
+                np.ascontiguousarray(mask, np.bool_), out)
+    return out
+
+
+def outside_grid(views: list[dict], slant: np.ndarray, tilt: np.ndarray) -> np.ndarray:
+    """Where a direction lies outside the captured ones: slant beyond the largest, or
+    (at a slant > 0) a tilt in the grid's unsampled arc (``shade_grid``)."""
+    table, step, tilts, spans = shade_grid(views)
+    far = slant > (table.shape[0] - 1) * step + 1e-6
+    if spans.all():
+        return far
+    j = int(np.argmin(spans))
+    lo, hi = tilts[j], tilts[(j + 1) % len(tilts)]
+    phi = np.mod(tilt, 360.0)
+    gap = (phi > lo) & (phi < hi) if hi > lo else (phi > lo) | (phi < hi)
+    return far | (gap & (slant > 1e-6))
+
+
 # ---------------------------------------------------------------- measures
 
 def consistency_error(images: np.ndarray, support: int, qy: np.ndarray, qx: np.ndarray) -> np.ndarray:
