@@ -25,6 +25,7 @@ demo: $(STAMP)
 	$(VENV)/bin/proxyshade run graphs/composite.yaml --frames 1
 	$(VENV)/bin/proxyshade run graphs/camera_move.yaml --frames 1-12
 	$(VENV)/bin/proxyshade run graphs/relight.yaml --frames 1
+	$(VENV)/bin/proxyshade run graphs/btf_move.yaml  # BTF-shaded plane, 12 frames: out/btf_move/*.png and move.gif
 	@echo "demo output: out/first_frame/*.png, out/composite/farm_creek.0001.png, out/camera_move/lake_renoir/*.png (and move.gif, the shot as a movie), out/relight/lake_renoir_relit.0001.png (the lake relit from a graded photo) and their EXRs"
 
 test: $(STAMP)
