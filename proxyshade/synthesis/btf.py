@@ -486,6 +486,39 @@ def seam_error(images: np.ndarray, qy: np.ndarray, qx: np.ndarray) -> np.ndarray
     return out
 
 
+LUMA = np.array([0.2126, 0.7152, 0.0722])
+
+
+def parallax_range(image: np.ndarray, slant: float, tilt: float, reach: float) -> tuple[np.ndarray, np.ndarray]:
+    """(lo, hi), each (h, w): the least and largest luminance of an input view over the 3×3
+    pixels around every point of its parallax segment: x + s (cos φ, sin φ), |s| ≤
+    ``reach``·tan θ pixels (``reach``: how far the sample's heights lie from the stack's
+    plane, in pixels). What the view shows of the surface column at x lies on that
+    segment, so a synthesized pixel of that surface point has a luminance in [lo, hi]
+    unless it is a fragment from elsewhere (a shard)."""
+    lum = image.astype(np.float64) @ LUMA
+    h, w = lum.shape
+    pad = np.pad(lum, 1, mode="edge")
+    win = np.stack([pad[dy:dy + h, dx:dx + w] for dy in range(3) for dx in range(3)])
+    mn, mx = win.min(0), win.max(0)
+    n = int(math.ceil(abs(reach) * math.tan(math.radians(slant))))
+    rows, cols = np.mgrid[0:h, 0:w]
+    lo, hi = mn.copy(), mx.copy()
+    ct, st = math.cos(math.radians(tilt)), math.sin(math.radians(tilt))
+    for s in range(-n, n + 1):
+        r = np.clip(np.rint(rows + s * st).astype(np.int64), 0, h - 1)
+        c = np.clip(np.rint(cols + s * ct).astype(np.int64), 0, w - 1)
+        lo = np.minimum(lo, mn[r, c])
+        hi = np.maximum(hi, mx[r, c])
+    return lo, hi
+
+
+def shard_share(lum: np.ndarray, lo: np.ndarray, hi: np.ndarray, margin: float) -> float:
+    """The share of pixels whose luminance ``lum`` lies outside [lo − margin, hi + margin]."""
+    bad = (lum > hi + margin) | (lum < lo - margin)
+    return float(bad.mean()) if bad.size else 0.0
+
+
 def contact_sheet(images: np.ndarray, views: list[dict], *, gap: int = 2) -> np.ndarray:
     """(rows, cols, 3) float32 picture of a stack: a row per slant, a column per tilt (the
     frontal view alone in the first row), ``gap`` black pixels between cells."""
