@@ -283,13 +283,16 @@ def _report(label: str, report, explain: bool, several: bool) -> None:
         from rich.table import Table
 
         t = Table(title=Text(label), show_lines=False)
-        for c in ("node", "frame", "status", "why", "seconds"):
+        for c in ("node", "frame", "status", "why", "seconds", "memo"):
             t.add_column(c, justify="right" if c in ("frame", "seconds") else "left",
                          overflow="fold", no_wrap=False)  # reasons with paths fold, never cut
         for r in report.runs:
             t.add_row(Text(r.node), str(r.frame), r.status, Text(r.reason),
-                      f"{r.seconds:.3f}" if r.status == "computed" else "")
+                      f"{r.seconds:.3f}" if r.status == "computed" else "",
+                      f"{r.memo_hits} hit(s), {r.memo_misses} miss(es)" if r.memo_hits or r.memo_misses else "")
         out.print(t)
+        hits, misses = report.memo
+        _say(out, f"  memo {hits} hit(s), {misses} miss(es) (results of the synthesis layer kept for the run)")
     else:
         per = {}
         for r in report.runs:

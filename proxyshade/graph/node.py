@@ -201,7 +201,10 @@ class Progressive:
 
 class Context:
     """What ``compute`` sees: input plates, parameter values, the frame and the run
-    (``previous``: a progressive node's last result and inputs, or None)."""
+    (``previous``: a progressive node's last result and inputs, or None; ``memo``: the
+    run's memo, ``graph.memo``, for the synthesis layer's functions, None outside a run;
+    ``tiles``: the executor's row-band runner of the correction, ``synthesis.tiles``, or
+    None)."""
 
     def __init__(self, node: "Node", frame: int, first_frame: int, inputs: dict[str, Plate | None],
                  params: dict[str, Any], graph_dir: Path, threads: int, notes: list[str]):
@@ -215,6 +218,8 @@ class Context:
         self.threads = threads
         self._notes = notes
         self.previous: Previous | None = None
+        self.memo = None
+        self.tiles = None
 
     def __getattr__(self, item):
         inputs = self.__dict__.get("inputs", {})

@@ -126,7 +126,7 @@ def _window_of(comp: np.ndarray, origin: tuple[int, int], r0: int, r1: int, c0: 
 
 
 def update_guide(prev: Plate, region: np.ndarray, proxy: Plate, source: Plate, gp: SimpleNamespace, *,
-                 context: int) -> tuple[Plate, dict]:
+                 context: int, memo=None) -> tuple[Plate, dict]:
     """The detailed guide ``prev`` updated inside ``region`` for the edited ``proxy``.
 
     The region's 4-connected parts are grouped into windows (``blend.group_boxes``: boxes
@@ -173,7 +173,7 @@ def update_guide(prev: Plate, region: np.ndarray, proxy: Plate, source: Plate, g
         crop_long = max(min(hh, H), min(ww, W))
         whole = size is not None and 2 ** round(np.log2(crop_long / gp.size)) != f  # would magnify otherwise
         if whole or (hh >= H and ww >= W):  # the window is the frame: the masked synthesis of the frame
-            sub, _ = synthesize_guide(proxy, source, gp, previous=prev, active=region)
+            sub, _ = synthesize_guide(proxy, source, gp, previous=prev, active=region, memo=memo)
             r0, r1, c0, c1 = 0, H, 0, W
             info["whole"] = True
         else:
@@ -190,7 +190,8 @@ def update_guide(prev: Plate, region: np.ndarray, proxy: Plate, source: Plate, g
             aligned = r0 % f == 0 and c0 % f == 0
             info["fresh"] += not aligned  # synthesized afresh, then pasted inside the region only
             sub, _ = synthesize_guide(crop, source, SimpleNamespace(**dict(vars(gp), size=size or long_side // f)),
-                                      previous=before if aligned else None, active=sel if aligned else None)
+                                      previous=before if aligned else None, active=sel if aligned else None,
+                                      memo=memo)
         win = (slice(r0, r1), slice(c0, c1))
         if info["whole"]:
             sel = region
