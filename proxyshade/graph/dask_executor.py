@@ -233,7 +233,7 @@ _LOCAL = threading.local()  # this task's warnings and recomputed inputs
 _USING: dict[int, set[str]] = {}  # thread -> keys its task reads or writes (kept in memory)
 # plates kept in a worker's memory between tasks, most recently used last: the next task there
 # often reads them again (the source, the first frame, the previous frame), without loading
-# them from the cache, and the same arrays keep synthesis.memo's results
+# them from the cache
 _RECENT: "collections.OrderedDict[tuple[int, str], object]" = collections.OrderedDict()  # (cache id, key) -> cache
 _CACHES: "weakref.WeakSet" = weakref.WeakSet()  # the caches this worker's tasks wrote to
 _RELEASER = concurrent.futures.ThreadPoolExecutor(1, thread_name_prefix="proxyshade-unlock")

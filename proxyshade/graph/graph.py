@@ -33,7 +33,8 @@ from proxyshade.graph import keys as K
 from proxyshade.graph.cache import Cache, CacheWarning, size_limit
 from proxyshade.graph.executor import make_executor
 from proxyshade.graph.memo import Memo, RunMemo
-from proxyshade.graph.node import REGISTRY, Context, InputRef, Node, PlateSequence, Previous, resolve_path
+from proxyshade.graph.node import (REGISTRY, Context, InputRef, Node, PlateSequence, Previous, find_type,
+                                   resolve_path)
 from proxyshade.graph.plate import Plate
 from proxyshade.io.files import output_target, remove_stale_temps, user_cache_dir
 from proxyshade.io.graphfile import load_graph
@@ -169,6 +170,13 @@ class Graph:
         self.__dict__.update(state, cache=Cache(state["cache"]), _locks={}, _locks_guard=threading.Lock())
 
     # -- building ----------------------------------------------------------
+    find_type = staticmethod(find_type)  # a node type by name (graph files name them: io.graphfile)
+    InputRef = InputRef
+
+    @staticmethod
+    def known_types() -> list[str]:
+        return sorted(REGISTRY)
+
     @classmethod
     def load(cls, path: str | Path, *, cache: str | Path | None = None, overrides: list[str] = (),
              variables: dict[str, str] | None = None) -> "Graph":
@@ -177,8 +185,6 @@ class Graph:
 
     def add(self, name: str, node_type: str | type[Node], params: dict | None = None,
             inputs: dict[str, str | InputRef] | None = None, enabled: bool = True) -> Node:
-        from proxyshade.nodes import node_type as find_type
-
         if isinstance(node_type, str):
             cls = find_type(node_type)
             if cls is None:

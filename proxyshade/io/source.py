@@ -14,7 +14,7 @@ import lazy_loader
 import yaml
 
 from proxyshade.errors import UserError
-from proxyshade.graph.plate import Plate
+from proxyshade.plate import Plate
 from proxyshade.io.colourlib import colour_science
 from proxyshade.io.images import read_u8
 

@@ -24,7 +24,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from proxyshade.graph.plate import Plate
+from proxyshade.plate import Plate
 from proxyshade.kernels import edit as kedit
 from proxyshade.kernels import temporal as kt
 from proxyshade.kernels.temporal import dilate

@@ -9,7 +9,7 @@ from typing import Callable
 
 import numpy as np
 
-from proxyshade.graph.plate import Plate
+from proxyshade.plate import Plate
 from proxyshade.synthesis.exemplar import provenance
 from proxyshade.synthesis.resynthesis import (SYNTHESIZED, frame_window, paste_window, resynthesize,
                                               resynthesize_window)

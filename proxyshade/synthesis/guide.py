@@ -13,7 +13,7 @@ from types import SimpleNamespace
 import numpy as np
 
 from proxyshade.errors import NodeInputError
-from proxyshade.graph.plate import Plate
+from proxyshade.plate import Plate
 from proxyshade.kernels import guide as kg
 from proxyshade.kernels.correct import downsample_mask
 from proxyshade.kernels.random import mix_seed

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from proxyshade.errors import NodeInputError
-from proxyshade.graph.plate import Plate
+from proxyshade.plate import Plate
 from proxyshade.synthesis.memo import kept
 
 MAX_EXEMPLARS = 8

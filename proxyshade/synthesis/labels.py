@@ -7,7 +7,7 @@ import math
 import numpy as np
 
 from proxyshade.errors import NodeInputError
-from proxyshade.graph.plate import Plate
+from proxyshade.plate import Plate
 from proxyshade.kernels import features as kf
 from proxyshade.synthesis.memo import kept
 

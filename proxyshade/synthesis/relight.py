@@ -15,7 +15,7 @@ from types import SimpleNamespace
 import numpy as np
 
 from proxyshade.errors import NodeInputError
-from proxyshade.graph.plate import Plate
+from proxyshade.plate import Plate
 from proxyshade.kernels.lookup import lookup
 from proxyshade.synthesis.blend import blend_frame
 from proxyshade.synthesis.exemplar import provenance

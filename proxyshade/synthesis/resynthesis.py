@@ -23,7 +23,7 @@ from typing import Callable
 
 import numpy as np
 
-from proxyshade.graph.plate import Plate
+from proxyshade.plate import Plate
 from proxyshade.kernels.correct import downsample_mask
 from proxyshade.kernels.lookup import lookup_many
 from proxyshade.kernels import temporal as kt

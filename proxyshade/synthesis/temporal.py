@@ -16,8 +16,8 @@ from types import SimpleNamespace
 import numpy as np
 
 from proxyshade.errors import NodeInputError
-from proxyshade.graph.plate import Plate
-from proxyshade.io.usd import CameraInfo
+from proxyshade.plate import Plate
+from proxyshade.io.camera import CameraInfo
 from proxyshade.kernels import reproject as kr
 from proxyshade.kernels import temporal as kt
 from proxyshade.kernels.lookup import lookup
