@@ -19,7 +19,6 @@ are diffed there.
 """
 from __future__ import annotations
 
-import threading
 from types import SimpleNamespace
 
 import numpy as np
@@ -30,29 +29,6 @@ from proxyshade.kernels import temporal as kt
 from proxyshade.kernels.temporal import dilate
 from proxyshade.synthesis.blend import group_boxes
 from proxyshade.synthesis.guide import synthesize_guide
-
-
-_KNOWN: list[Plate] = []  # the newest sources seen, by content
-_KNOWN_LOCK = threading.Lock()
-KNOWN_SOURCES = 2
-
-
-def known_source(source: Plate) -> Plate:
-    """``source``, or an earlier plate of the same content (every channel bit for bit and
-    the metadata): the engine reads the source back from its cache at every run (new
-    arrays), so an interactive loop (``run --watch``) would miss every result kept by the
-    source arrays' identity (the guide's similarity sets, exemplar levels and masks, the
-    colour's label table and working labels: about 0.1 s a 1024² update) and search them
-    again. Comparing costs one pass over the source; the newest ``KNOWN_SOURCES`` are kept.
-    The results are the same either way (same content)."""
-    with _KNOWN_LOCK:
-        for k, p in enumerate(_KNOWN):
-            if p is source or (p.shape == source.shape and p.equals(source)):
-                _KNOWN.insert(0, _KNOWN.pop(k))
-                return p
-        _KNOWN.insert(0, source)
-        del _KNOWN[KNOWN_SOURCES:]
-    return source
 
 
 def _comparable(x: np.ndarray) -> np.ndarray:
@@ -149,7 +125,6 @@ def update_guide(prev: Plate, region: np.ndarray, proxy: Plate, source: Plate, g
     proxy's. A window that would be as large as the frame is the frame's (masked)
     synthesis, still pasted inside the region only."""
     H, W = proxy.shape
-    source = known_source(source)
     g = prev.meta.get("guide", {})
     f = int(g.get("magnify", 1))
     levels = int(np.log2(gp.size // gp.start)) + 1

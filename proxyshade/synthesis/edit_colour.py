@@ -28,10 +28,7 @@ def edit_synthesis(guide: Plate, source: Plate, p, *, previous: Plate | None, re
     frame); with it, only ``region``'s pixels (the others keep ``previous``'s colours, map
     and ids bit for bit). ``p``: the ``FloodFill``, ``Correction`` and ``PoissonSolve``
     parameters, ``factor``, ``scale``, ``seed``; ``memo``, ``tiles``: as ``resynthesize``'s."""
-    from proxyshade.synthesis.edit import known_source
-
     H, W = guide.shape
-    source = known_source(source)  # the last run's, when the engine read the same source back
     geometry = {c: guide[c] for c in GEOMETRY if c in guide}
     if previous is not None:
         out = _update(guide, source, p, previous, region, geometry, note, timings, memo, tiles)
