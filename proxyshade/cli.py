@@ -378,13 +378,14 @@ def _vars(items: List[str]) -> dict:
         if not eq or not name:
             raise UserError(f"--var {item}: expected name=value")
         if value.lstrip().startswith(("{", "[")):  # a mapping or a list, in YAML flow style
-            import yaml
+            from proxyshade.io import yamlfile
 
             try:
-                value = yaml.safe_load(value)
-            except yaml.YAMLError as e:
-                raise UserError(f"--var {item}: not valid YAML ({getattr(e, 'problem', e)}); write a mapping like "
-                                "{sand: rock} or a list like [1920, 1080]") from None
+                value = yamlfile.parse(value, f"--var {yamlfile.short(item, 200)[1:-1]}")
+            except UserError as e:
+                if "not valid YAML" not in str(e):
+                    raise
+                raise UserError(f"{e}; write a mapping like {{sand: rock}} or a list like [1920, 1080]") from None
         out[name.strip()] = value
     return out
 
@@ -493,13 +494,19 @@ def cache_clean(graph: Optional[Path] = _GRAPH_ARG,
                                                      "else the per-user one)")):
     """Empty the plate cache (the next runs recompute what they need) and remove the compiled
     kernels of other versions of the kernels package (this version's are kept). Nothing is
-    removed otherwise: a run warns when the plate cache passes $PROXYSHADE_CACHE_LIMIT (20G)."""
+    removed otherwise: a run warns when the plate cache passes $PROXYSHADE_CACHE_LIMIT (20G).
+    A folder that is not a plate cache (no CACHEDIR.TAG of proxyshade's, and files that are
+    not cache entries) is refused, nothing removed."""
     from proxyshade.graph.cache import Cache, size_text
     from proxyshade.kernels import _cache as kernels
 
-    for c in filter(None, (Cache(_cache_root(cache), background=False), _old_cache(graph))):
+    where = (f"--cache {cache}" if cache else f"$PROXYSHADE_CACHE={os.environ['PROXYSHADE_CACHE']}"
+             if os.environ.get("PROXYSHADE_CACHE") else None)
+    for c, label in ((Cache(_cache_root(cache), background=False), where), (_old_cache(graph), None)):
+        if c is None:
+            continue
         n, size = c.info()["entries"], c.size()
-        c.clean()
+        c.clean(label)
         _say(out, f"removed {n} entries ({size_text(size)}) from {c.root}")
     old = kernels.remove_old()
     _say(out, f"removed compiled kernels of other versions ({len(old)} folder(s) or file(s), "

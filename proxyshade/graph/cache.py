@@ -28,7 +28,6 @@ import hashlib
 import json
 import os
 import re
-import shutil
 import threading
 import time
 import warnings
@@ -37,8 +36,8 @@ from pathlib import Path
 
 from proxyshade.errors import UserError, WriteError
 from proxyshade.graph.plate import Plate
-from proxyshade.io.exr import cache_compression, read_header, read_plate, write_plate
-from proxyshade.io.files import READ_ONLY, io_error, remove_stale_temps, stale_temps, temp_for, write_text_atomic
+from proxyshade.io.exr import cache_compression, header_strings, read_plate, write_plate_temp
+from proxyshade.io.files import READ_ONLY, io_error, remove_stale_temps, stale_temps, temp_of, write_text_atomic
 
 
 class CacheWarning(UserWarning):
@@ -46,6 +45,15 @@ class CacheWarning(UserWarning):
 
 
 LIMIT_ENV = "PROXYSHADE_CACHE_LIMIT"
+# the tag every plate cache holds at its root (the Cache Directory Tagging Specification, which
+# backup tools honour): 'cache clean' empties only a folder that has it (or that holds nothing
+# but entries, as caches of versions before it did), so a wrong --cache never deletes a folder
+MARKER = "CACHEDIR.TAG"
+MARKER_TEXT = ("Signature: 8a477f597d28d172789f06886806bc55\n"
+               "# This folder is a proxyshade plate cache: 'proxyshade cache clean' empties it.\n"
+               "# For information about cache directory tags see https://bford.info/cachedir/\n")
+_SHARD = re.compile(r"[0-9a-f]{2}")
+_ENTRY = re.compile(r"[0-9a-f]{64}\.(?:exr|json)")
 DEFAULT_LIMIT = 20 * 2**30  # bytes: 20 GiB
 _SIZE = re.compile(r"(\d+(?:\.\d*)?)\s*([kmgt]?)(?:i?b)?", re.IGNORECASE)
 
@@ -99,6 +107,7 @@ class Cache:
         self._writing: dict[str, Future] = {}  # key -> its background write, until done
         self._pinned: set[str] = set()
         self._forgotten: set[str] = set()
+        self._marked = False  # the root's MARKER is known to be there
         self.read_only = False  # set when a write fails with EROFS/EACCES: hits are served, results kept in memory
         self.unstored = 0  # results of this process not stored because the cache is read-only
 
@@ -112,7 +121,7 @@ class Cache:
         _, js = self._paths(key)
         try:
             rec = json.loads(js.read_text())
-        except (OSError, ValueError):
+        except (OSError, ValueError, RecursionError):  # RecursionError: a record of deeply nested brackets
             return None
         return rec if isinstance(rec, dict) else None
 
@@ -207,12 +216,15 @@ class Cache:
             if self.read_only:
                 self.unstored += 1
                 return
-            exr.parent.mkdir(parents=True, exist_ok=True)
-            tmp = temp_for(exr, ".exr")
+            self._mark()
             # ZSTD: the writer thread competes with the nodes for the cores, and at 4K ZIP cost it
-            # ~3.6 CPU s per 15-channel plate (ZSTD 2.1 s, and 40 % smaller files to hash)
-            write_plate(tmp, plate, compression=cache_compression(), extra={"proxyshade/node": str(record.get("node")), "proxyshade/key": key,
-                                           "proxyshade/frame": str(record.get("frame"))})
+            # ~3.6 CPU s per 15-channel plate (ZSTD 2.1 s, and 40 % smaller files to hash). Checked
+            # whole, not fsync'd: every load checks an entry's size and sha256 (a write the disk
+            # lost later is recomputed), where an output has no such reader
+            tmp = write_plate_temp(exr, plate, compression=cache_compression(), what="cannot write cache entry",
+                                   durable=False, extra={"proxyshade/node": str(record.get("node")),
+                                                         "proxyshade/key": key,
+                                                         "proxyshade/frame": str(record.get("frame"))})
             rec = dict(record, key=key, size=tmp.stat().st_size, sha256=_sha256(tmp), created=time.time())
             self._publish(key, tmp, rec, replace)
         except (OSError, WriteError) as e:
@@ -238,17 +250,24 @@ class Cache:
             if not replace and self.intact(key):
                 return
             os.replace(tmp, exr)
-            self._write_record(js, rec)
+            try:
+                self._write_record(js, rec)
+            except BaseException:  # no EXR without its record
+                with contextlib.suppress(OSError):
+                    exr.unlink()
+                raise
 
     def intact(self, key: str) -> bool:
         """Whether a whole entry is stored under ``key``: its record names it, the EXR's size
-        and sha256 are the record's and its header names the key (quietly: no warning)."""
+        and sha256 are the record's and its header names the key (quietly: no warning). Runs
+        on the writer thread: the header is read in Python (``header_strings``), not through
+        an image library."""
         rec = self.record(key)
         exr, _ = self._paths(key)
         try:
             return (rec is not None and rec.get("key") == key and not rec.get("sink")
                     and exr.stat().st_size == rec.get("size") and _sha256(exr) == rec.get("sha256")
-                    and read_header(exr)["attributes"].get("proxyshade/key") == key)
+                    and header_strings(exr, ("proxyshade/key",)).get("proxyshade/key") == key)
         except Exception:  # noqa: BLE001 - unreadable: not intact
             return False
 
@@ -259,6 +278,16 @@ class Cache:
             if _read_only(e):
                 raise
             raise io_error(js, e, "cannot write cache record") from None
+
+    def _mark(self) -> None:
+        """Tag the root as a proxyshade cache (``MARKER``) before anything is written into it."""
+        if self._marked:
+            return
+        tag = self.root / MARKER
+        if not tag.is_file():
+            self.root.mkdir(parents=True, exist_ok=True)
+            write_text_atomic(tag, MARKER_TEXT)
+        self._marked = True
 
     def flush(self) -> None:
         """Wait for every pending write; re-raise the first failure."""
@@ -275,6 +304,7 @@ class Cache:
             self.unstored += 1
             return
         try:
+            self._mark()
             js.parent.mkdir(parents=True, exist_ok=True)
             self._write_record(js, rec)
         except OSError as e:
@@ -355,10 +385,70 @@ class Cache:
             removed += remove_stale_temps(d)
         return removed
 
-    def clean(self) -> int:
-        n = self.info()["entries"]
-        if self.root.is_dir():
-            shutil.rmtree(self.root)
+    def marked(self) -> bool:
+        """Whether the root holds a proxyshade cache's ``MARKER``."""
+        try:
+            text = (self.root / MARKER).read_text(errors="replace")
+        except OSError:
+            return False
+        return text.startswith(MARKER_TEXT.splitlines()[0]) and "proxyshade" in text
+
+    def _contents(self) -> tuple[list[Path], list[Path], list[Path]]:
+        """What ``clean`` would remove: (files, folders), and what it does not recognise as the
+        cache's (anything but shard folders of entries, locks and temporaries, run records and
+        the marker). Symlinks are never followed."""
+        files, folders, foreign = [], [], []
+        for p in sorted(self.root.iterdir()):
+            if p.name == MARKER and p.is_file() and not p.is_symlink():
+                continue  # removed last
+            if temp_of(p.name) == MARKER and p.is_file() and not p.is_symlink():
+                files.append(p)
+                continue
+            if p.is_symlink() or not p.is_dir() or not (_SHARD.fullmatch(p.name) or p.name == "runs"):
+                foreign.append(p)
+                continue
+            mine = _ENTRY if p.name != "runs" else re.compile(r"[0-9a-f]{16}\.json")
+            ok = True
+            for q in sorted(p.iterdir()):
+                made_for = temp_of(q.name)
+                if (q.is_symlink() or not q.is_file()) or not (
+                        mine.fullmatch(q.name) or q.name == ".lock" or (made_for and mine.fullmatch(made_for))):
+                    foreign.append(q)
+                    ok = False
+                else:
+                    files.append(q)
+            if ok:
+                folders.append(p)
+        return files, folders, foreign
+
+    def clean(self, where: str | None = None) -> int:
+        """Remove every entry, run record and temporary (and the marker, and the folders left
+        empty); returns the entries removed. Refuses (``UserError``, nothing removed) a folder
+        that is not a proxyshade cache: no ``MARKER`` and something there that is not an entry
+        (``where``: how the user named the folder, for the message). In a marked cache, files
+        it does not recognise are left where they are."""
+        label = where or str(self.root)
+        if not os.path.lexists(self.root):
+            return 0
+        if self.root.is_symlink() or not self.root.is_dir():
+            raise UserError(f"{label}: not a folder, so not a proxyshade plate cache; nothing removed: name the "
+                            "cache folder (proxyshade cache info shows it)")
+        files, folders, foreign = self._contents()
+        if foreign and not self.marked():
+            raise UserError(f"{label}: not a proxyshade plate cache (no {MARKER}, and it holds "
+                            f"{str(foreign[0].relative_to(self.root))[:80]!r}); nothing removed: name the cache folder "
+                            "(proxyshade cache info shows it)")
+        n = sum(p.suffix == ".json" and p.parent.name != "runs" and not p.name.startswith(".") for p in files)
+        for p in files:
+            with contextlib.suppress(FileNotFoundError):
+                p.unlink()
+        for d in folders:
+            with contextlib.suppress(OSError):
+                d.rmdir()
+        if not foreign:
+            for step in ((self.root / MARKER).unlink, self.root.rmdir):
+                with contextlib.suppress(OSError):
+                    step()
         return n
 
     # -- per-graph memory of the last run's key components (for --explain) --
@@ -366,7 +456,7 @@ class Cache:
         p = self.root / "runs" / f"{graph_id}.json"
         try:
             rec = json.loads(p.read_text())
-        except (OSError, ValueError):
+        except (OSError, ValueError, RecursionError):
             return {}
         return rec if isinstance(rec, dict) else {}
 
@@ -379,6 +469,7 @@ class Cache:
             return
         p = self.root / "runs" / f"{graph_id}.json"
         try:
+            self._mark()
             p.parent.mkdir(parents=True, exist_ok=True)
             write_text_atomic(p, json.dumps(new, sort_keys=True, default=str))
         except OSError as e:

@@ -67,6 +67,25 @@ def load_array_libraries() -> None:
         compressions()
 
 
+def load_native_libraries(graph: "Graph", todo) -> None:
+    """Before a run computes ``todo`` (instances), on the calling (main) thread, before any
+    node or cache-writer thread starts: numpy and the OpenEXR bindings, and USD with all its
+    plugins when a node to compute reads USD (its module reaches ``proxyshade.io.usd``). A
+    library whose loading takes the dynamic loader's lock and then waits for the GIL (USD's
+    plugins) deadlocked against another thread holding the GIL in a C++ library that needed
+    that lock (issue 36: two runs on one cache). A fully cached run (nothing to compute)
+    loads nothing."""
+    if not todo:
+        return
+    load_array_libraries()
+    types = {type(graph.nodes[name]) for name, _ in todo}
+    if any("proxyshade.io.usd" in K.import_closure(t.__module__) for t in types):
+        with _ARRAYS_LOCK:
+            from proxyshade.io.usd import load_plugins
+
+            load_plugins()
+
+
 def set_kernel_threads(threads: int) -> int:
     """Threads the numba kernels called from this thread use: ``threads`` (0: every one
     numba has, ``NUMBA_NUM_THREADS``), at most that many. Returns the count set. numba is
@@ -453,6 +472,7 @@ class Graph:
                 p = key_owner.get(plan.keys[pred], pred)
                 if p in todo:
                     todo.add_edge(p, inst)
+        load_native_libraries(self, todo)
         return RunJob(self, plan, runs, todo, hooks, cleaned, t0)
 
     def _work(self, job: "RunJob", consumers: dict[str, int], guard: threading.Lock, inst) -> None:

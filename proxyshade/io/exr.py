@@ -28,7 +28,7 @@ import lazy_loader
 
 from proxyshade.errors import UserError, WriteError
 from proxyshade.plate import Plate
-from proxyshade.io.files import io_error, output_target, temp_for
+from proxyshade.io.files import io_error, output_target, temp_for, verify_temp
 
 np = lazy_loader.load("numpy")  # on first use: a fully cached run never loads numpy
 
@@ -114,28 +114,61 @@ def write_plate(path: str | Path, plate: Plate, *, compression: str = "zip", ext
     """Write ``plate`` to ``path`` atomically. ``extra`` adds metadata (node, key, frame).
 
     A symlink at ``path`` is written through to its target; anything else that is not a
-    regular file is refused (``UserError``); a failed write raises ``WriteError``."""
+    regular file is refused (``UserError``); a failed write raises ``WriteError`` and leaves
+    the old file. The file is fsync'd and checked whole (``exr_problem``) before it is renamed
+    into place: a full disk never leaves a cut-short file under the name."""
     path = Path(path)
-    if not plate.channels:
-        raise ExrError(f"{path}: the plate has no channels to write")
-    header = _header(plate, compression, extra)
     target = output_target(path)
+    tmp = write_plate_temp(target, plate, compression=compression, extra=extra, name=path)
+    try:
+        os.replace(tmp, target)
+    except OSError as e:
+        raise io_error(path, e, "cannot write EXR") from None
+    finally:
+        if os.path.lexists(tmp):
+            tmp.unlink()
+    return path
+
+
+def write_plate_temp(target: Path, plate: Plate, *, compression: str = "zip", extra: dict | None = None,
+                     name: Path | None = None, what: str = "cannot write EXR", durable: bool = True) -> Path:
+    """Write ``plate`` to a temporary beside ``target`` and check it (fsync'd when ``durable``,
+    whole by ``exr_problem``); returns the temporary, for the caller to rename into place (the
+    cache renames under its lock). On any failure the temporary is removed and ``WriteError``
+    names ``name`` (default ``target``) with ``what``."""
+    name = Path(name or target)
+    if not plate.channels:
+        raise ExrError(f"{name}: the plate has no channels to write")
+    header = _header(plate, compression, extra)
     channels = {n: np.ascontiguousarray(a) for n, a in plate.channels.items()}
     tmp = None
     try:
         target.parent.mkdir(parents=True, exist_ok=True)
         tmp = temp_for(target, ".exr")
-        with _openexr().File(header, channels) as f:
-            f.write(str(tmp))
-        os.replace(tmp, target)
+        # created here first: a folder that cannot be written (a read-only cache) is then an OSError
+        # with its errno, where the bindings raise a plain exception naming no reason
+        os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))
+        try:
+            with _openexr().File(header, channels) as f:
+                f.write(str(tmp))
+        except OSError:
+            raise
+        except Exception as e:  # the bindings raise plain exceptions (a full disk among them)
+            raise WriteError(f"{name}: {what} ({_one_line(e).replace(str(tmp), str(name))}); free space or fix the "
+                             "disk, then run again") from None
+        verify_temp(tmp, name, what, exr_problem, durable=durable)
+        return tmp
     except OSError as e:
-        raise io_error(path, e, "cannot write EXR") from None
-    except Exception as e:  # the bindings raise plain exceptions (a full disk among them)
-        raise WriteError(f"{path}: cannot write EXR ({_one_line(e)}); free space or fix the disk, then run again") from None
-    finally:
-        if tmp is not None and os.path.lexists(tmp):
-            tmp.unlink()
-    return path
+        _remove(tmp)
+        raise io_error(name, e, what) from None
+    except BaseException:
+        _remove(tmp)
+        raise
+
+
+def _remove(tmp: Path | None) -> None:
+    if tmp is not None and os.path.lexists(tmp):
+        tmp.unlink()
 
 
 def _one_line(e: BaseException) -> str:
@@ -171,6 +204,105 @@ def read_plate(path: str | Path, *, expect: dict[str, str] | None = None) -> Pla
             a = a.astype(np.float32)
         fixed[n] = a
     return Plate(fixed, meta)
+
+
+_EXR_MAGIC = b"\x76\x2f\x31\x01"
+
+
+def _header_attributes(f, path: Path, wanted: tuple[str, ...] = ()):
+    """Walk the (first) header of the EXR open as ``f`` from its start: yields (name, type,
+    value) with the value's bytes for the names in ``wanted`` (None for the others, skipped);
+    ``f`` is left just past the header. Raises ``ExrError`` for a foreign or cut-short file."""
+    if f.read(4) != _EXR_MAGIC:
+        raise ExrError(f"{path}: not an EXR file (no OpenEXR magic number); re-render it or delete it")
+    if len(f.read(4)) < 4:  # version and flags
+        raise ExrError(f"{path}: EXR header cut short")
+
+    def cstring() -> bytes:
+        out = bytearray()
+        while (c := f.read(1)) not in (b"\0", b""):
+            out += c
+            if len(out) > 255:
+                raise ExrError(f"{path}: damaged EXR header (a name longer than 255 bytes)")
+        if c == b"":
+            raise ExrError(f"{path}: EXR header cut short")
+        return bytes(out)
+
+    while name := cstring():
+        kind = cstring()
+        size_bytes = f.read(4)
+        if len(size_bytes) < 4:
+            raise ExrError(f"{path}: EXR header cut short")
+        size = int.from_bytes(size_bytes, "little", signed=True)
+        if size < 0:
+            raise ExrError(f"{path}: damaged EXR header (attribute {name[:40]!r} of negative size)")
+        key = name.decode("utf-8", "replace")
+        if key in wanted:
+            value = f.read(size)
+            if len(value) < size:
+                raise ExrError(f"{path}: EXR header cut short")
+            yield key, kind, value
+        else:
+            f.seek(size, os.SEEK_CUR)
+            yield key, kind, None
+
+
+def header_strings(path: str | Path, names: tuple[str, ...]) -> dict[str, str]:
+    """The string attributes ``names`` of an EXR's (first) header, read in Python from the
+    file's bytes: no image library, so the cache writer's thread never enters a C++ library
+    that takes the dynamic loader's lock while it holds the GIL (which deadlocked against USD
+    loading its plugins on a node's thread). Raises ``ExrError`` for a file that is not an
+    EXR or whose header is cut short."""
+    path = Path(path)
+    with open(path, "rb") as f:
+        return {k: v.decode("utf-8", "replace") for k, kind, v in _header_attributes(f, path, names)
+                if v is not None and kind == b"string"}
+
+
+def exr_problem(path: str | Path) -> str | None:
+    """Why a single-part scanline EXR (what ``write_plate`` writes) is not whole, or None: its
+    header must end, its offset table be filled, and every chunk lie inside the file, the
+    last ending where the file ends. Read in Python, a few bytes per chunk: OpenEXR reports
+    success when its last buffered write fails (a full disk)."""
+    path = Path(path)
+    size = path.stat().st_size
+    with open(path, "rb") as f:
+        head = f.read(8)
+        if len(head) < 8 or head[:4] != _EXR_MAGIC:
+            return f"{size} bytes, no whole EXR header"
+        flags = int.from_bytes(head[4:8], "little") >> 8
+        if flags & (0x2 | 0x8 | 0x10):  # tiled, deep, multi-part: not what write_plate writes
+            return None
+        f.seek(0)
+        try:
+            for _ in _header_attributes(f, path):
+                pass
+        except ExrError:
+            return f"the header is cut short at byte {size}"
+        table = f.tell()
+        first = f.read(8)
+        if len(first) < 8:
+            return f"the file ends at byte {size}, before its offset table"
+        first_offset = int.from_bytes(first, "little")
+        n, rest = divmod(first_offset - table, 8)
+        if first_offset <= table or rest or n > size:
+            return "its offset table is not filled in"
+        data = first + f.read(8 * (n - 1))
+        if len(data) < 8 * n:
+            return f"the file ends at byte {size}, inside its offset table"
+        end = 0
+        for i in range(n):
+            off = int.from_bytes(data[8 * i:8 * i + 8], "little")
+            if off < table + 8 * n or off + 8 > size:
+                return f"chunk {i} of {n} is missing (the file ends at byte {size})"
+            f.seek(off + 4)
+            length = int.from_bytes(f.read(4), "little", signed=True)
+            if length < 0 or off + 8 + length > size:
+                return f"chunk {i} of {n} is cut short (the file ends at byte {size})"
+            end = max(end, off + 8 + length)
+        if end != size:
+            return f"{size - end} bytes after its last chunk"
+    return None
 
 
 def read_header(path: str | Path) -> dict:

@@ -68,10 +68,47 @@ def temp_for(target: Path, suffix: str = "") -> Path:
     return target.with_name(f".{target.name}.{os.getpid()}-{HOST}.{next(_counter)}.tmp{suffix}")
 
 
+def temp_of(name: str) -> str | None:
+    """The file name a temporary's name ``name`` was made for (``temp_for``), None when it is not one."""
+    m = _TMP.match(name) or _OLD_TMP.match(name)
+    return m["name"] if m else None
+
+
 def io_error(path: Path | str, e: BaseException, what: str = "cannot write") -> WriteError:
     """A one-line WriteError for an OSError while writing ``path`` (disk full, I/O error)."""
     reason = e.strerror if isinstance(e, OSError) and e.strerror else str(e).splitlines()[0] if str(e) else type(e).__name__
     return WriteError(f"{path}: {what} ({reason}); free space or fix the disk, then run again")
+
+
+def commit_temp(tmp: Path, target: Path, path: Path, what: str, problem=None, *, durable: bool = True) -> None:
+    """Put a written temporary in place: ``fsync`` it (``durable``: a write the disk could not
+    take fails here, not later), check it is whole by its format (``problem(tmp)``: why it is
+    not, or None: image libraries report success when their last buffered write fails on a full
+    disk), then rename it over ``target``. ``path``: the name the user gave, for messages.
+    Raises ``WriteError`` (and leaves ``tmp`` for the caller to remove) when any step fails."""
+    verify_temp(tmp, path, what, problem, durable=durable)
+    try:
+        os.replace(tmp, target)
+    except OSError as e:
+        raise io_error(path, e, what) from None
+
+
+def verify_temp(tmp: Path, path: Path, what: str, problem=None, *, durable: bool = True) -> None:
+    """``commit_temp``'s checks without the rename: ``fsync`` (``durable``), then the format's
+    own check of the whole file (``problem``)."""
+    try:
+        if durable:
+            fd = os.open(tmp, os.O_RDONLY)
+            try:
+                os.fsync(fd)
+            finally:
+                os.close(fd)
+        why = problem(tmp) if problem is not None else None
+    except OSError as e:
+        raise io_error(path, e, what) from None
+    if why:
+        raise WriteError(f"{path}: {what} (the file written is incomplete: {why}; the disk is probably full); "
+                         "free space or fix the disk, then run again")
 
 
 def _alive(pid: int) -> bool:

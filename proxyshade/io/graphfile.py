@@ -26,63 +26,19 @@ import re
 from pathlib import Path
 from typing import Any
 
-import yaml
-
 from proxyshade.errors import GraphFileError, ParamError
+from proxyshade.io import yamlfile
 
 FORMAT = "proxyshade/1"
 MAX_FRAMES = 100_000  # frames in one range: far beyond a shot, far below exhausting memory
-MAX_ITEMS = 100_000  # list/dict items in one parameter value once aliases are expanded
-MAX_DEPTH = 100  # nesting of mappings and lists
+MAX_ITEMS = yamlfile.MAX_ITEMS  # list/dict items in one value once aliases are expanded
+MAX_DEPTH = yamlfile.MAX_DEPTH  # nesting of mappings and lists
 _NODE_KEYS = ("type", "inputs", "params", "enabled", "doc")
 _VAR = re.compile(r"\$\{([A-Za-z_][A-Za-z0-9_]*)\}")
 
 
-class _LineMap(dict):
-    """A dict that remembers the line of each key (1-based)."""
-
-    lines: dict
-
-
-class _Loader(yaml.SafeLoader):
-    pass
-
-
-class _DuplicateKey(Exception):
-    pass
-
-
-def _construct_mapping(loader, node):
-    seen = {}
-    for knode, _ in node.value:  # before merge keys (<<) are flattened in: an override is not a duplicate
-        if knode.tag == "tag:yaml.org,2002:merge":
-            continue
-        k = loader.construct_object(knode, deep=True)
-        line = knode.start_mark.line + 1
-        try:
-            first = seen.get(k)
-        except TypeError:  # an unhashable key: PyYAML reports it below
-            continue
-        seen[k] = line
-        if first is not None:
-            raise _DuplicateKey(f"{line}: key {k!r} appears twice in one mapping (lines {first} and {line}); "
-                                "remove or rename one")
-    loader.flatten_mapping(node)
-    out = _LineMap()
-    out.lines = {}
-    out.line = node.start_mark.line + 1
-    for knode, vnode in node.value:
-        k = loader.construct_object(knode, deep=True)
-        out[k] = loader.construct_object(vnode, deep=True)
-        out.lines[k] = knode.start_mark.line + 1
-    return out
-
-
-_Loader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _construct_mapping)
-
-
 def _line(d: Any, key: Any = None) -> int:
-    if isinstance(d, _LineMap):
+    if isinstance(d, yamlfile.LineMap):
         return d.lines.get(key, d.line) if key is not None else d.line
     return 0
 
@@ -90,7 +46,7 @@ def _line(d: Any, key: Any = None) -> int:
 def parse_frames(value: Any, where: str) -> tuple[int, int]:
     """'1-48', 12 or [1, 48] -> (first, last)."""
     if isinstance(value, bool):
-        raise GraphFileError(f"{where}: expected a frame range like 1-48, got {value!r}")
+        raise GraphFileError(f"{where}: expected a frame range like 1-48, got {yamlfile.short(value)}")
     if isinstance(value, int):
         return value, value
     if isinstance(value, (list, tuple)) and len(value) == 2 and all(isinstance(v, int) for v in value):
@@ -100,9 +56,9 @@ def parse_frames(value: Any, where: str) -> tuple[int, int]:
         lo = int(m.group(1))
         hi = int(m.group(2)) if m.group(2) is not None else lo
     else:
-        raise GraphFileError(f"{where}: expected a frame range like 1-48, got {value!r}")
+        raise GraphFileError(f"{where}: expected a frame range like 1-48, got {yamlfile.short(value)}")
     if hi < lo:
-        raise GraphFileError(f"{where}: frame range {value!r} ends before it starts; write first-last")
+        raise GraphFileError(f"{where}: frame range {yamlfile.short(value)} ends before it starts; write first-last")
     if hi - lo + 1 > MAX_FRAMES:
         raise GraphFileError(f"{where}: frame range {lo}-{hi} has {hi - lo + 1} frames, more than {MAX_FRAMES}; "
                              "give a shorter range")
@@ -169,7 +125,7 @@ def _resolve_vars(declared: dict, given: dict, f: str, line: int) -> dict:
             extra = set(spec) - {"default", "bundled", "doc"}
             if extra or not isinstance(spec["bundled"], str) or "{}" not in spec["bundled"]:
                 raise GraphFileError(f"{f}:{line}: vars.{name}: expected {{default: NAME, bundled: \"path/{{}}/...\"}} "
-                                     f"(the pattern holds {{}} where the name goes), got {dict(spec)!r}")
+                                     f"(the pattern holds {{}} where the name goes), got {yamlfile.short(dict(spec))}")
             value = given.get(name, spec.get("default"))
             out[name] = _bundled_or_path(value, spec["bundled"])
             out[f"{name}_name"] = _short_name(value)
@@ -227,28 +183,9 @@ def _check_size(value: Any, where: str) -> None:
 
 
 def read_yaml(path: Path) -> Any:
-    try:
-        raw = path.read_bytes()
-    except OSError as e:
-        raise GraphFileError(f"{path}: cannot read graph file ({e.strerror}); check the path") from None
-    try:
-        text = raw.decode("utf-8")
-    except UnicodeDecodeError as e:
-        line = raw[:e.start].count(b"\n") + 1
-        raise GraphFileError(f"{path}:{line}: not a UTF-8 text file (byte 0x{raw[e.start]:02x} at offset {e.start}); "
-                             "give a YAML graph file") from None
-    try:
-        return yaml.load(text, Loader=_Loader)
-    except _DuplicateKey as e:
-        raise GraphFileError(f"{path}:{e}") from None
-    except RecursionError:
-        raise GraphFileError(f"{path}: nested too deeply to read; a graph file nests a few levels, "
-                             "check for runaway brackets") from None
-    except yaml.YAMLError as e:
-        mark = getattr(e, "problem_mark", None)
-        line = mark.line + 1 if mark else 0
-        problem = getattr(e, "problem", None) or str(e).splitlines()[0]
-        raise GraphFileError(f"{path}:{line}: not valid YAML ({problem}); fix the syntax") from None
+    """A graph file's data, its mappings ``LineMap``s (the line of each key), read with the limits
+    of every YAML file (``io.yamlfile``: UTF-8, size, duplicate keys, aliases, depth)."""
+    return yamlfile.load(path, what="graph file", error=GraphFileError, line_maps=True)
 
 
 def _input_ref(value: Any, where: str, InputRef: type) -> Any:
@@ -257,16 +194,16 @@ def _input_ref(value: Any, where: str, InputRef: type) -> Any:
     if isinstance(value, dict):
         extra = set(value) - {"node", "frame"}
         if extra or "node" not in value or not isinstance(value["node"], str):
-            raise GraphFileError(f"{where}: expected a node name or {{node: NAME, frame: -1|first|all}}, got {dict(value)!r}")
+            raise GraphFileError(f"{where}: expected a node name or {{node: NAME, frame: -1|first|all}}, got {yamlfile.short(dict(value))}")
         frame = value.get("frame", 0)
         if frame == "first":
             return InputRef(value["node"], first=True)
         if frame == "all":
             return InputRef(value["node"], all=True)
         if isinstance(frame, bool) or not isinstance(frame, int):
-            raise GraphFileError(f"{where}.frame: expected an integer offset (e.g. -1), 'first' or 'all', got {frame!r}")
+            raise GraphFileError(f"{where}.frame: expected an integer offset (e.g. -1), 'first' or 'all', got {yamlfile.short(frame)}")
         return InputRef(value["node"], offset=frame)
-    raise GraphFileError(f"{where}: expected a node name or {{node: NAME, frame: -1|first|all}}, got {value!r}")
+    raise GraphFileError(f"{where}: expected a node name or {{node: NAME, frame: -1|first|all}}, got {yamlfile.short(value)}")
 
 
 def build_graph(data: Any, path: Path, graph_cls: type, *, cache=None, overrides: list[str] = (),
@@ -286,7 +223,7 @@ def build_graph(data: Any, path: Path, graph_cls: type, *, cache=None, overrides
         k = sorted(unknown)[0]
         raise err(_line(data, k), k, "unknown top-level key; valid keys are format, frames, vars, nodes, doc")
     if data.get("format") != FORMAT:
-        raise err(_line(data, "format"), "format", f"expected {FORMAT!r}, got {data.get('format')!r}; "
+        raise err(_line(data, "format"), "format", f"expected {FORMAT!r}, got {yamlfile.short(data.get('format'))}; "
                   f"put 'format: {FORMAT}' at the top")
     frames = parse_frames(data.get("frames", 1), f"{f}:{_line(data, 'frames')}: frames")
     vars_ = data.get("vars") or {}
@@ -296,7 +233,7 @@ def build_graph(data: Any, path: Path, graph_cls: type, *, cache=None, overrides
         _check_size(v, f"{f}:{_line(vars_, k)}: vars.{k}")
     for k in variables or {}:
         if k not in vars_:
-            raise GraphFileError(f"--var {k}: {f} defines no variable {k!r}; its variables are "
+            raise GraphFileError(f"--var {k}: {f} defines no variable {yamlfile.short(k)}; its variables are "
                                  f"{', '.join(sorted(map(str, vars_))) or 'none'} (add it under vars, or fix the name)")
     variables = _resolve_vars(vars_, variables or {}, f, _line(data, "vars"))
     nodes = data.get("nodes")
@@ -319,7 +256,7 @@ def build_graph(data: Any, path: Path, graph_cls: type, *, cache=None, overrides
         cls = graph_cls.find_type(t)
         if cls is None:
             raise err(_line(spec, "type"), f"{kp}.type",
-                      f"unknown node type {t!r}; known types: {', '.join(graph_cls.known_types())}")
+                      f"unknown node type {yamlfile.short(t)}; known types: {', '.join(graph_cls.known_types())}")
         params = spec.get("params") or {}
         if not isinstance(params, dict):
             raise err(_line(spec, "params"), f"{kp}.params", "expected a mapping param -> value")
@@ -327,7 +264,7 @@ def build_graph(data: Any, path: Path, graph_cls: type, *, cache=None, overrides
         for k, v in params.items():
             if k not in cls.params_spec:
                 raise err(_line(params, k), f"{kp}.params.{k}",
-                          f"{t} has no parameter {k!r}; its parameters are {', '.join(cls.params_spec) or 'none'}")
+                          f"{t} has no parameter {yamlfile.short(k)}; its parameters are {', '.join(cls.params_spec) or 'none'}")
             where = f"{f}:{_line(params, k)}: {kp}.params.{k}"
             _check_size(v, where)
             v = _subst(v, variables, where)
@@ -343,7 +280,7 @@ def build_graph(data: Any, path: Path, graph_cls: type, *, cache=None, overrides
                       f"required ({cls.params_spec[k].describe()}); add it under params")
         enabled = spec.get("enabled", True)
         if not isinstance(enabled, bool):
-            raise err(_line(spec, "enabled"), f"{kp}.enabled", f"expected true or false, got {enabled!r}")
+            raise err(_line(spec, "enabled"), f"{kp}.enabled", f"expected true or false, got {yamlfile.short(enabled)}")
         inputs = spec.get("inputs") or {}
         if not isinstance(inputs, dict):
             raise err(_line(spec, "inputs"), f"{kp}.inputs", "expected a mapping input -> node")
@@ -351,7 +288,7 @@ def build_graph(data: Any, path: Path, graph_cls: type, *, cache=None, overrides
         for k, v in inputs.items():
             if k not in cls.inputs_spec:
                 raise err(_line(inputs, k), f"{kp}.inputs.{k}",
-                          f"{t} has no input {k!r}; its inputs are {', '.join(cls.inputs_spec) or 'none'}")
+                          f"{t} has no input {yamlfile.short(k)}; its inputs are {', '.join(cls.inputs_spec) or 'none'}")
             refs[k] = (_input_ref(v, f"{f}:{_line(inputs, k)}: {kp}.inputs.{k}", graph_cls.InputRef), _line(inputs, k))
         for k, s in cls.inputs_spec.items():
             if not s.optional and k not in refs:
@@ -371,9 +308,11 @@ def build_graph(data: Any, path: Path, graph_cls: type, *, cache=None, overrides
         if not eq or "." not in target:
             raise GraphFileError(f"--set {o}: expected node.param=value")
         try:
-            value = yaml.safe_load(raw)
-        except yaml.YAMLError:
-            value = raw
+            value = yamlfile.parse(raw, f"--set {_short(o, 200)}", error=GraphFileError)
+        except GraphFileError as e:
+            if "expands to more than" in str(e) or "nested too deeply" in str(e):
+                raise
+            value = raw  # not YAML: the text as it is
         try:
             g.set(target.strip(), value)
         except ParamError as e:

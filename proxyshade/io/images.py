@@ -15,7 +15,7 @@ from pathlib import Path
 import lazy_loader
 
 from proxyshade.errors import UserError, WriteError
-from proxyshade.io.files import io_error, output_target, temp_for
+from proxyshade.io.files import commit_temp, io_error, output_target, temp_for
 
 np = lazy_loader.load("numpy")  # on first use: a fully cached run never loads numpy
 
@@ -48,6 +48,56 @@ def _png_problem(path: Path) -> str | None:
     return f"truncated: the file ends at byte {len(data)} before its IEND chunk"
 
 
+def _written_png_problem(path: Path) -> str | None:
+    """Why a PNG just written is not whole (no signature, or cut short before IEND), or None."""
+    with open(path, "rb") as f:
+        head = f.read(8)
+    if head != b"\x89PNG\r\n\x1a\n":
+        return f"{path.stat().st_size} bytes, no PNG signature"
+    return _png_problem(path)
+
+
+def _gif_problem(path: Path, images: int) -> str | None:
+    """Why a GIF just written is not whole, or None: its blocks must be read through to the
+    trailer at the very end, with ``images`` images on the way."""
+    with open(path, "rb") as f:
+        data = f.read()
+    n = len(data)
+    if data[:6] not in (b"GIF87a", b"GIF89a") or n < 13:
+        return f"{n} bytes, no GIF header"
+
+    def table(packed: int) -> int:
+        return 3 * 2 ** ((packed & 7) + 1) if packed & 0x80 else 0
+
+    def sub_blocks(pos: int) -> int:  # the position after a chain of sub-blocks, or -1
+        while pos < n:
+            size = data[pos]
+            pos += 1 + size
+            if size == 0:
+                return pos if pos <= n else -1
+        return -1
+
+    pos, seen = 13 + table(data[10]), 0
+    while pos < n:
+        kind = data[pos]
+        if kind == 0x3B:  # trailer
+            if pos + 1 != n:
+                return f"{n - pos - 1} bytes after its trailer"
+            return None if seen == images else f"{seen} of {images} frames"
+        if kind == 0x21:  # extension: label, sub-blocks
+            pos = sub_blocks(pos + 2)
+        elif kind == 0x2C:  # image: descriptor, local table, LZW code size, sub-blocks
+            if pos + 10 > n:
+                break
+            pos = sub_blocks(pos + 10 + table(data[pos + 9]) + 1)
+            seen += 1
+        else:
+            return f"an unknown block at byte {pos}"
+        if pos < 0:
+            break
+    return f"the file ends at byte {n}, before its trailer ({seen} of {images} frames read)"
+
+
 def read_u8(path: str | Path) -> np.ndarray:
     """An 8-bit image as an (H, W, 3) uint8 array (alpha dropped, grey expanded)."""
     import OpenImageIO as oiio
@@ -77,8 +127,10 @@ def read_u8(path: str | Path) -> np.ndarray:
 def write_png(path: str | Path, rgb8: np.ndarray) -> Path:
     """Write an (H, W, 3) uint8 array as PNG, atomically (temporary name, then rename).
 
-    Every OpenImageIO step is checked (``close`` flushes the data: a full disk fails there);
-    on any failure or interrupt the temporary is removed and nothing is left at ``path``."""
+    Every OpenImageIO step is checked, and the file is fsync'd and read through to its IEND
+    chunk before the rename (OpenImageIO reports success when its last buffered write fails on
+    a full disk); on any failure or interrupt the temporary is removed and nothing is left at
+    ``path``."""
     import OpenImageIO as oiio
 
     path = Path(path)
@@ -99,7 +151,7 @@ def write_png(path: str | Path, rgb8: np.ndarray) -> Path:
         if not ok or not closed:
             raise WriteError(f"{path}: cannot write PNG ({_msg(closing.geterror())}); free space or fix the disk, "
                              "then run again")
-        tmp.replace(target)
+        commit_temp(tmp, target, path, "cannot write PNG", _written_png_problem)
     except OSError as e:
         raise io_error(path, e, "cannot write PNG") from None
     finally:
@@ -150,6 +202,7 @@ def write_gif(path: str | Path, frames: list[np.ndarray], fps: int) -> Path:
     """Write (H, W, 3) uint8 pictures of one size as an animated GIF that loops forever,
     atomically (a temporary name in the same folder, then rename; a failure leaves nothing).
 
+    The file is fsync'd and read through to its trailer before the rename (a full disk).
     GIF stores a frame's delay in hundredths of a second, so the rate plays as 100 / int(100 / fps)
     (24 fps plays at 25); colours are reduced to a 256-colour palette per frame, with dithering."""
     import OpenImageIO as oiio
@@ -181,7 +234,7 @@ def write_gif(path: str | Path, frames: list[np.ndarray], fps: int) -> Path:
         if not closing.close():
             raise WriteError(f"{path}: cannot write GIF ({_msg(closing.geterror())}); free space or fix the disk, "
                              "then run again")
-        tmp.replace(target)
+        commit_temp(tmp, target, path, "cannot write GIF", lambda p: _gif_problem(p, len(frames)))
     except OSError as e:
         if out is not None:
             out.close()

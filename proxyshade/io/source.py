@@ -11,10 +11,10 @@ import os
 from pathlib import Path
 
 import lazy_loader
-import yaml
 
 from proxyshade.errors import UserError
 from proxyshade.plate import Plate
+from proxyshade.io import yamlfile
 from proxyshade.io.colourlib import colour_science
 from proxyshade.io.images import read_u8
 
@@ -31,31 +31,42 @@ def parse_colour(text: str, where: str) -> tuple[int, int, int]:
         raise UserError(f"{where}: colour {text!r} is not '#rrggbb'; write it like \"#00ff00\"") from None
 
 
+MAX_ID = 2**32 - 1  # label.id is uint32
+
+
 def load_table(path: Path) -> dict:
     """Read and check a label table; returns the plain dict with absolute paths."""
     if not path.is_file():
         raise UserError(f"{path}: no such label table; point 'source' at a source.yaml")
-    try:
-        data = yaml.safe_load(path.read_text())
-    except yaml.YAMLError as e:
-        line = getattr(getattr(e, "problem_mark", None), "line", -1) + 1
-        raise UserError(f"{path}:{line}: not valid YAML: {getattr(e, 'problem', e)}") from None
+    data = yamlfile.load(path, what="source table")
     if not isinstance(data, dict):
         raise UserError(f"{path}: expected a mapping with image, labels_map and labels")
     for field in ("image", "labels_map", "labels"):
         if field not in data:
             raise UserError(f"{path}: {field}: missing; a source table needs image, labels_map and labels")
+    for field, kind in (("image", "the photo"), ("labels_map", "its label map"), ("layout", "a second label map")):
+        value = data.get(field)
+        if field == "layout" and value is None:
+            continue
+        if not isinstance(value, str) or not value.strip():
+            raise UserError(f"{path}: {field}: expected the file name of {kind} (relative to the table), got "
+                            f"{yamlfile.short(value, 80)}; write it like {field}: photo.png")
+        if (path.parent / value).is_dir():
+            raise UserError(f"{path}: {field}: {value!r} is a folder; name {kind}'s image file")
     labels = data["labels"]
     if not isinstance(labels, dict) or not labels:
         raise UserError(f"{path}: labels: expected a mapping name -> {{id, color}}")
     table = []
     for i, (name, entry) in enumerate(labels.items()):
         where = f"{path}: labels.{name}"
+        if not isinstance(name, (str, int)) or isinstance(name, bool):
+            raise UserError(f"{path}: labels: label names are words, got {yamlfile.short(name, 80)}; name it like sky")
         if not isinstance(entry, dict) or "color" not in entry:
             raise UserError(f"{where}: expected {{id: N, color: '#rrggbb'}}")
         lid = entry.get("id", i + 1)
-        if not isinstance(lid, int) or isinstance(lid, bool) or lid < 1:
-            raise UserError(f"{where}.id: expected int >= 1 (0 means unlabelled), got {lid!r}")
+        if not isinstance(lid, int) or isinstance(lid, bool) or not 1 <= lid <= MAX_ID:
+            raise UserError(f"{where}.id: expected an int from 1 to {MAX_ID} (0 means unlabelled), got "
+                            f"{yamlfile.short(lid, 80)}")
         table.append({"name": str(name), "id": lid, "color": "#%02x%02x%02x" % parse_colour(entry["color"], where + ".color")})
     ids = [t["id"] for t in table]
     if len(set(ids)) != len(ids):
@@ -81,7 +92,7 @@ def photo_series(path: Path, images) -> dict[str, str]:
     out = {}
     for name, rel in images.items():
         if not isinstance(rel, str) or not rel:
-            raise UserError(f"{path}: images.{name}: expected a photo file name, got {rel!r}")
+            raise UserError(f"{path}: images.{name}: expected a photo file name, got {yamlfile.short(rel, 80)}")
         out[str(name)] = str((path.parent / rel).resolve())
     return out
 

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import functools
 import hashlib
+import math
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -27,6 +28,19 @@ from proxyshade.io.camera import CameraInfo  # noqa: F401 - where it was; io.cam
 
 LABEL_INSTANCE = "texture"
 CG_ATTR = "proxyshade:cg"
+
+
+def load_plugins() -> None:
+    """Load every USD plugin now. USD loads a plugin's library when a stage first needs it,
+    with the GIL released, and the library's initialisers take the GIL again while they hold
+    the dynamic loader's lock: a C++ library on another thread holding the GIL and waiting
+    for that lock (OpenImageIO, OpenEXR) deadlocked the process. The engine calls this on the
+    main thread before any node or cache-writer thread starts, for a run that computes a
+    node reading USD (about 20 ms)."""
+    from pxr import Plug
+
+    Plug.Registry().LoadAllPlugins() if hasattr(Plug.Registry(), "LoadAllPlugins") else [
+        p.Load() for p in Plug.Registry().GetAllPlugins()]
 
 
 def open_stage(path: str | Path) -> Usd.Stage:
@@ -104,7 +118,30 @@ def film_aspect(stage: Usd.Stage, path: str | None, frame: int) -> float:
     if prim is None or not prim.IsValid() or not prim.IsA(UsdGeom.Camera):
         raise UserError(f"{stage_name(stage)}: no camera at {path}; cameras in the stage: {', '.join(known) or 'none'}")
     gcam = UsdGeom.Camera(prim).GetCamera(Usd.TimeCode(frame))
+    _check_camera(stage, path, frame, gcam)
     return gcam.verticalAperture / gcam.horizontalAperture
+
+
+def _check_camera(stage: Usd.Stage, path: str, frame: int, gcam: Gf.Camera) -> None:
+    """One-line errors for camera values no projection can use: a focal length or aperture
+    that is not a finite number > 0, a clipping range that is not 0 < near < far, a transform
+    or aperture offset that is not finite."""
+    where = f"{stage_name(stage)}: camera {path} at frame {frame}"
+    for name, v, fix in (("focalLength", gcam.focalLength, "a focal length > 0 (mm)"),
+                         ("horizontalAperture", gcam.horizontalAperture, "an aperture > 0 (mm)"),
+                         ("verticalAperture", gcam.verticalAperture, "an aperture > 0 (mm)")):
+        if not (math.isfinite(v) and v > 0):
+            raise UserError(f"{where}: {name} is {v:g}; give {fix}")
+    for name, v in (("horizontalApertureOffset", gcam.horizontalApertureOffset),
+                    ("verticalApertureOffset", gcam.verticalApertureOffset)):
+        if not math.isfinite(v):
+            raise UserError(f"{where}: {name} is {v:g}; give a finite offset (mm), usually 0")
+    near, far = gcam.clippingRange.min, gcam.clippingRange.max
+    if not (math.isfinite(near) and near > 0 and far > near):  # far may be inf
+        raise UserError(f"{where}: clippingRange is ({near:g}, {far:g}); give 0 < near < far, e.g. (0.1, 10000)")
+    if not np.isfinite(np.array(gcam.transform, dtype=np.float64)).all():
+        raise UserError(f"{where}: its transform (position or rotation) holds a NaN or infinite value; fix the "
+                        "camera's xformOps")
 
 
 def camera_at(stage: Usd.Stage, path: str | None, frame: int, width: int, height: int) -> CameraInfo:
@@ -119,6 +156,7 @@ def camera_at(stage: Usd.Stage, path: str | None, frame: int, width: int, height
         raise UserError(f"{stage_name(stage)}: no camera at {path}; cameras in the stage: {', '.join(known) or 'none'}")
     check_frame(stage, frame)
     gcam = UsdGeom.Camera(prim).GetCamera(Usd.TimeCode(frame))
+    _check_camera(stage, path, frame, gcam)
     if gcam.projection != Gf.Camera.Perspective:
         raise UserError(f"{stage_name(stage)}: camera {path} is orthographic; ProxyRender needs a perspective "
                         "camera (projection = \"perspective\")")
@@ -196,6 +234,30 @@ def triangulate(counts: np.ndarray, indices: np.ndarray) -> np.ndarray:
     return np.array(out, np.int64).reshape(-1, 3)
 
 
+def _checked_faces(stage: Usd.Stage, prim: Usd.Prim, frame: int, points: np.ndarray, counts: np.ndarray,
+                   idx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A mesh's face vertex counts and indices, checked against its points: every face has 3 or
+    more vertices, the counts add up to the indices, every index names a point and every point
+    is finite (a NaN point dropped the whole mesh). One-line errors naming the prim."""
+    where = f"{stage_name(stage)}: mesh {prim.GetPath()} at frame {frame}"
+    counts, idx = counts.astype(np.int64).ravel(), idx.astype(np.int64).ravel()
+    if counts.size and counts.min() < 3:
+        f = int(np.argmax(counts < 3))
+        raise UserError(f"{where}: face {f} has {counts[f]} vertices; every face needs 3 or more (faceVertexCounts)")
+    if int(counts.sum()) != idx.size:
+        raise UserError(f"{where}: faceVertexCounts add up to {int(counts.sum())} but faceVertexIndices has "
+                        f"{idx.size}; make them agree")
+    bad = np.flatnonzero((idx < 0) | (idx >= len(points)))
+    if bad.size:
+        raise UserError(f"{where}: faceVertexIndices[{bad[0]}] is {idx[bad[0]]}, outside the {len(points)} points; "
+                        f"give indices 0..{len(points) - 1}")
+    nan = np.flatnonzero(~np.isfinite(points).all(axis=1))
+    if nan.size:
+        raise UserError(f"{where}: points[{nan[0]}] is {tuple(float(v) for v in points[nan[0]])} ({nan.size} point(s) not finite); "
+                        "fix the mesh's points")
+    return counts, idx
+
+
 def scene_prims(stage: Usd.Stage, frame: int) -> list[ScenePrim]:
     """Every mesh and sphere of the stage at ``frame`` with labels, CG flag and transforms."""
     t = Usd.TimeCode(frame)
@@ -208,6 +270,9 @@ def scene_prims(stage: Usd.Stage, frame: int) -> list[ScenePrim]:
         if img.ComputeVisibility(t) == UsdGeom.Tokens.invisible:
             continue
         m = _np(cache.GetLocalToWorldTransform(prim))
+        if not np.isfinite(m).all():
+            raise UserError(f"{stage_name(stage)}: {prim.GetPath()} at frame {frame}: its transform holds a NaN or "
+                            "infinite value; fix its xformOps (or its parents')")
         color = (0.5, 0.5, 0.5)
         dc = UsdGeom.Gprim(prim).GetDisplayColorAttr().Get(t)
         if dc:
@@ -223,12 +288,15 @@ def scene_prims(stage: Usd.Stage, frame: int) -> list[ScenePrim]:
                 continue
             rec.kind = "mesh"
             rec.points = np.array(pts, np.float64).reshape(-1, 3)
-            rec.tris = triangulate(np.array(counts), np.array(idx))
+            rec.tris = triangulate(*_checked_faces(stage, prim, frame, rec.points, np.array(counts), np.array(idx)))
             h.update(rec.points.tobytes())
             h.update(rec.tris.tobytes())
         elif prim.IsA(UsdGeom.Sphere):
             rec.kind = "sphere"
             rec.radius = float(UsdGeom.Sphere(prim).GetRadiusAttr().Get(t))
+            if not (math.isfinite(rec.radius) and rec.radius > 0):
+                raise UserError(f"{stage_name(stage)}: sphere {prim.GetPath()} at frame {frame}: radius is "
+                                f"{rec.radius:g}; give a radius > 0")
             h.update(np.float64(rec.radius).tobytes())
         else:
             continue

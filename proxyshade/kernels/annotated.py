@@ -11,9 +11,10 @@ semi-axes ``s * eps_k`` around ``a`` is the set of points at scaled distance <= 
 - ``eq2_weights``: W_i(a) = (1/Z) Σ_k ε_k / g(R_ik(a) − ε_k) with the clip of g.
 - ``mean_shift``: Gaussian mean shift of weighted points (every point to its mode).
 - ``nearest_init`` / ``patchmatch`` / ``vote``: generalized PatchMatch restricted to one
-  cluster and to each target pixel's ε-ball (candidates outside are rejected), Jacobi
-  iterations (read old, write new: the result does not depend on the thread count), and
-  the average of overlapping patches.
+  cluster and to each target pixel's ε-ball (candidates outside are rejected), scan
+  order reversed every iteration, random search over the whole source, an occurrence
+  penalty (serial: the result does not depend on the thread count), and the average of
+  overlapping patches.
 """
 from __future__ import annotations
 
@@ -259,60 +260,74 @@ def repair(src_ann, src_cluster, cluster, usable, eps, tgt_ann, tgt_s, ny, nx, i
 
 
 @njit(inline="always", **JIT)
-def _try(src, tgt, src_ann, src_cluster, cluster, usable, inv_eps, a, smax, hw, i, j, cy, cx, by, bx, bd):
-    """The candidate (cy, cx) if it is allowed (cluster, ball) and nearer, else the best."""
-    if not _ok(src_ann, src_cluster, cluster, usable, inv_eps, cy, cx, a, smax):
-        return by, bx, bd
-    d = _pdist(src, tgt, hw, i, j, cy, cx, bd)
-    if d < bd:
-        return cy, cx, d
-    return by, bx, bd
+def _omega(cover, hw, cy, cx):
+    """How many target patches cover the source patch at (cy, cx), summed over it."""
+    s = 0
+    for y in range(cy - hw, cy + hw + 1):
+        for x in range(cx - hw, cx + hw + 1):
+            s += cover[y, x]
+    return s
 
 
-@njit(**PJIT)
-def _pm_iter(src, tgt, src_ann, src_cluster, cluster, usable, inv_eps, tgt_ann, tgt_s, members, hw, seed, it,
-             oy, ox, od, ny, nx, nd):
+@njit(inline="always", **JIT)
+def _cover(cover, hw, cy, cx, inc):
+    for y in range(cy - hw, cy + hw + 1):
+        for x in range(cx - hw, cx + hw + 1):
+            cover[y, x] += inc
+
+
+@njit(**JIT)
+def _pm_sweep(src, tgt, src_ann, src_cluster, cluster, usable, inv_eps, tgt_ann, tgt_s, members, hw, seed, it, lam,
+              ny, nx, nd, cover):
+    """One PatchMatch iteration in scan order (reversed on odd iterations), each accepted
+    candidate updating the occurrence counts at once (as EbSynth does)."""
     H, W, _ = src.shape
     h, w, _ = tgt.shape
     nm = members.shape[0]
-    for i in prange(h):
-        for j in range(w):
-            a = tgt_ann[i, j]
-            smax = max(1.0, tgt_s[i, j])
-            by = oy[i, j]
-            bx = ox[i, j]
-            bd = od[i, j]
-            for q in range(4):
-                dy = (q == 1) - (q == 0)
-                dx = (q == 3) - (q == 2)
-                yy = i + dy
-                xx = j + dx
+    q = 1 if it % 2 == 0 else -1
+    for k in range(h * w):
+        kk = k if q == 1 else h * w - 1 - k
+        i = kk // w
+        j = kk % w
+        a = tgt_ann[i, j]
+        smax = max(1.0, tgt_s[i, j])
+        for c in range(2 + 12 + 2):
+            if c < 2:  # propagation from the previous pixel of the row and of the column
+                yy, xx = (i, j - q) if c == 0 else (i - q, j)
                 if yy < 0 or yy >= h or xx < 0 or xx >= w:
                     continue
-                cy = oy[yy, xx] - dy
-                cx = ox[yy, xx] - dx
-                if cy == by and cx == bx:
+                cy = ny[yy, xx] + (i - yy)
+                cx = nx[yy, xx] + (j - xx)
+            elif c < 14:  # random search around the best, radius halving from the whole source
+                R = max(H, W) >> (c - 2)
+                if R < 1:
                     continue
-                by, bx, bd = _try(src, tgt, src_ann, src_cluster, cluster, usable, inv_eps, a, smax, hw, i, j, cy, cx,
-                                  by, bx, bd)
-            draw = 0
-            R = max(H, W) // 2
-            while R >= 1:
-                cy = by + rand(seed, i * w + j, it * 4096 + draw, 1) % (2 * R + 1) - R
-                cx = bx + rand(seed, i * w + j, it * 4096 + draw, 2) % (2 * R + 1) - R
-                draw += 1
-                R //= 2
-                by, bx, bd = _try(src, tgt, src_ann, src_cluster, cluster, usable, inv_eps, a, smax, hw, i, j, cy, cx,
-                                  by, bx, bd)
-            for t in range(2):  # jumps anywhere in the cluster (kept only inside the ball)
-                c = members[rand(seed, i * w + j, it * 4096 + 2048 + t, 3) % nm]
-                cy = c // W
-                cx = c % W
-                by, bx, bd = _try(src, tgt, src_ann, src_cluster, cluster, usable, inv_eps, a, smax, hw, i, j, cy, cx,
-                                  by, bx, bd)
-            ny[i, j] = by
-            nx[i, j] = bx
-            nd[i, j] = bd
+                y0, y1 = max(ny[i, j] - R, hw), min(ny[i, j] + R, H - 1 - hw)
+                x0, x1 = max(nx[i, j] - R, hw), min(nx[i, j] + R, W - 1 - hw)
+                if y1 < y0 or x1 < x0:
+                    continue
+                cy = y0 + rand(seed, kk, it * 64 + c, 1) % (y1 - y0 + 1)
+                cx = x0 + rand(seed, kk, it * 64 + c, 2) % (x1 - x0 + 1)
+            else:  # a jump anywhere in the cluster (kept only inside the ball)
+                m = members[rand(seed, kk, it * 64 + c, 3) % nm]
+                cy = m // W
+                cx = m % W
+            by, bx = ny[i, j], nx[i, j]
+            if (cy == by and cx == bx) or cy < hw or cy >= H - hw or cx < hw or cx >= W - hw:
+                continue
+            if not _ok(src_ann, src_cluster, cluster, usable, inv_eps, cy, cx, a, smax):
+                continue
+            cur = nd[i, j] + lam * _omega(cover, hw, by, bx)
+            pen = lam * (_omega(cover, hw, cy, cx) + (2 * hw + 1) ** 2)
+            if pen >= cur:
+                continue
+            d = _pdist(src, tgt, hw, i, j, cy, cx, cur - pen)
+            if d + pen < cur:
+                _cover(cover, hw, by, bx, -1)
+                _cover(cover, hw, cy, cx, 1)
+                ny[i, j] = cy
+                nx[i, j] = cx
+                nd[i, j] = d
 
 
 @njit(**PJIT)
@@ -323,15 +338,33 @@ def _pm_score(src, tgt, hw, ny, nx, nd):
             nd[i, j] = _pdist(src, tgt, hw, i, j, ny[i, j], nx[i, j], np.inf)
 
 
+@njit(**JIT)
+def _pm_cover(ny, nx, hw, cover):
+    h, w = ny.shape
+    for i in range(h):
+        for j in range(w):
+            _cover(cover, hw, ny[i, j], nx[i, j], 1)
+
+
 def patchmatch(src, tgt, src_ann, src_cluster, cluster, usable, eps, tgt_ann, tgt_s, ny, nx, *, hw, iterations,
-               seed, members=None):
+               seed, members=None, uniformity=0.0):
     """Generalized PatchMatch in one cluster: for each target pixel the source patch centre
-    (ny, nx) minimising the feature distance (``patch_distance``) among source pixels that
-    are ``usable``, in ``cluster`` and inside the pixel's ε-ball (scaled annotation
-    distance <= max(1, tgt_s)). (ny, nx) must start valid (``nearest_init``, ``repair``).
+    (ny, nx) minimising the feature distance (``patch_distance``) plus a uniformity
+    penalty, among source pixels that are ``usable``, in ``cluster`` and inside the pixel's
+    ε-ball (scaled annotation distance <= max(1, tgt_s)). (ny, nx) must start valid
+    (``nearest_init``, ``repair``) with whole patches inside the source.
+
+    The penalty (Kaspar et al. 2015, as EbSynth counts it) is ``uniformity`` times the
+    number of target patches covering the candidate's source patch, over what an even use
+    of the source gives per patch. Iterations scan the target in order, reversed on odd
+    iterations (propagation from the left and upper neighbours, then from the right and
+    lower ones); random search draws in windows around the best that halve from the whole
+    source, then two jumps anywhere in the cluster. Serial, so the result does not depend
+    on the thread count.
 
     src (H, W, F), tgt (h, w, F) float32 features; src_ann (H, W, d), tgt_ann (h, w, d)
-    float64; src_cluster (H, W) int32; usable (H, W) bool. Returns (ny, nx, nd).
+    float64; src_cluster (H, W) int32; usable (H, W) bool. Returns (ny, nx, nd): nd the
+    patch distances without the penalty.
     """
     src = np.ascontiguousarray(src, np.float32)
     tgt = np.ascontiguousarray(tgt, np.float32)
@@ -339,18 +372,22 @@ def patchmatch(src, tgt, src_ann, src_cluster, cluster, usable, eps, tgt_ann, tg
     tgt_s = np.ascontiguousarray(tgt_s, np.float64)
     if members is None:
         members = np.flatnonzero(usable & (src_cluster == cluster)).astype(np.int64)
-    oy = np.ascontiguousarray(ny, np.int32).copy()
-    ox = np.ascontiguousarray(nx, np.int32).copy()
-    od = np.empty(oy.shape, np.float64)
-    _pm_score(src, tgt, int(hw), oy, ox, od)
-    n_y, n_x, n_d = np.empty_like(oy), np.empty_like(ox), np.empty_like(od)
+    H, W = src.shape[:2]
+    if H <= 2 * hw or W <= 2 * hw:
+        raise ValueError(f"source {H}x{W} is smaller than a patch ({2 * hw + 1})")
+    ny = np.clip(ny, hw, H - 1 - hw).astype(np.int32)  # whole patches inside the source
+    nx = np.clip(nx, hw, W - 1 - hw).astype(np.int32)
+    nd = np.empty(ny.shape, np.float64)
+    h, w = ny.shape
+    p2 = (2 * hw + 1) ** 2
+    lam = float(uniformity) / (h * w * p2 / (H * W)) if uniformity else 0.0  # per patch over an even use
+    cover = np.zeros((H, W), np.int64)
+    _pm_cover(ny, nx, int(hw), cover)
+    _pm_score(src, tgt, int(hw), ny, nx, nd)
     for it in range(int(iterations)):
-        _pm_iter(src, tgt, src_ann, src_cluster, np.int32(cluster), usable, inv_eps, tgt_ann, tgt_s, members,
-                 int(hw), int(seed), it, oy, ox, od, n_y, n_x, n_d)
-        oy, n_y = n_y, oy
-        ox, n_x = n_x, ox
-        od, n_d = n_d, od
-    return oy, ox, od
+        _pm_sweep(src, tgt, src_ann, src_cluster, np.int32(cluster), usable, inv_eps, tgt_ann, tgt_s, members,
+                  int(hw), int(seed), it, lam, ny, nx, nd, cover)
+    return ny, nx, nd
 
 
 @njit(**PJIT)

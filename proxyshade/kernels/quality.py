@@ -235,6 +235,21 @@ def _nearest_chi2(a, b):
     return out
 
 
+def orientation_histogram(lum: np.ndarray, *, bins: int = 18) -> np.ndarray:
+    """Magnitude-weighted histogram of gradient orientations of ``lum`` (M, N): central
+    differences on the interior pixels, orientation atan2(gy, gx) modulo π (an edge and its
+    opposite are one orientation) in ``bins`` equal bins of [0, π), each pixel adding its
+    gradient magnitude. Streaks along one direction pile the weight into one bin; compare
+    two with ``chi2``. Returns (bins,) float64."""
+    y = np.asarray(lum, np.float64)
+    gx = (y[1:-1, 2:] - y[1:-1, :-2]) * 0.5
+    gy = (y[2:, 1:-1] - y[:-2, 1:-1]) * 0.5
+    mag = np.hypot(gx, gy)
+    ang = np.mod(np.arctan2(gy, gx), np.pi)
+    k = np.minimum((ang * (bins / np.pi)).astype(np.int64), bins - 1)
+    return np.bincount(k.ravel(), weights=mag.ravel(), minlength=bins)
+
+
 def nearest_window_chi2(out_hist: np.ndarray, src_hist: np.ndarray) -> float:
     """Mean over the output's window histograms of the χ² to the nearest source window
     histogram (rows of ``window_histograms``); nan when either side has none."""

@@ -6,6 +6,7 @@ import lazy_loader
 
 from proxyshade.graph.node import Input, Node, Param
 from proxyshade.graph.plate import Plate
+from proxyshade.synthesis.annotated import PatchOptimisation
 
 np = lazy_loader.load("numpy")  # on first use: a fully cached run never loads numpy
 
@@ -14,7 +15,7 @@ def _ann_names(plate) -> list[str]:
     return sorted(n[4:] for n in plate.names() if n.startswith("ann."))
 
 
-class AnnotatedSynth(Node):
+class AnnotatedSynth(PatchOptimisation, Node):
     """Annotated-exemplar synthesis, one annotated source plate (``R,G,B``, ``ann.*``,
     optional ``A`` and ``mask``, e.g. from ``AnnotatedSourceRead``) and a target plate with
     the same ``ann.*`` channels (e.g. from ``AnnotationRender``).
@@ -30,17 +31,13 @@ class AnnotatedSynth(Node):
     See docs/annotated.md.
     """
 
-    version = 1
+    version = 2
     source = Input("annotated source plate", channels=("R", "G", "B"), finite=("R", "G", "B"),
                    fix="connect an AnnotatedSourceRead node")
     target = Input("target annotation plate (ann.* channels)", fix="connect an AnnotationRender node")
     eps = Param(float, 0.1, min=0.01, max=1.0, doc="ε-ball radius per annotation (0.05: closer match, 0.2: less repetition)")
-    patch = Param(int, 5, min=3, max=15, doc="patch size (odd)")
-    levels = Param(int, 3, min=1, max=6, doc="scales (coarse to fine, factor 2)")
-    em = Param(int, 2, min=1, max=10, doc="search + vote rounds per scale")
-    iterations = Param(int, 4, min=1, max=20, doc="PatchMatch iterations per round")
     bandwidth = Param(float, 0.5, min=0.01, max=2.0, doc="mean-shift bandwidth of the clusters (the paper's 0.5)")
-    ann_distance = Param(float, 1.5, min=0.0, max=100.0,
+    ann_distance = Param(float, 0.0, min=0.0, max=100.0,
                          doc="weight of the annotations in the patch distance (copies stay near their annotation "
                              "inside an ε-ball); 0 = the paper: annotations only through the ε-balls")
     mode = Param(str, "full", choices=("full", "binary", "single", "analogies"),
@@ -71,7 +68,7 @@ class AnnotatedSynth(Node):
         alpha = src["A"].astype(np.float32) if "A" in src else np.ones(src.shape, np.float32)
         p = AnnotatedParams(eps=ctx.p.eps, patch=ctx.p.patch, levels=ctx.p.levels, em=ctx.p.em,
                             iterations=ctx.p.iterations, bandwidth=ctx.p.bandwidth, mode=ctx.p.mode, seed=ctx.p.seed,
-                            ann_distance=ctx.p.ann_distance)
+                            ann_distance=ctx.p.ann_distance, uniformity=ctx.p.uniformity)
         tgt_ann = tgt.layer(["ann." + n for n in names], np.float64)
         tmask = tgt["mask"] > 0.5 if "mask" in tgt else None
         if tmask is not None:  # only the masked pixels are a target; the others take the masked mean

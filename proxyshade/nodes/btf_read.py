@@ -14,14 +14,11 @@ from proxyshade.graph.plate import Plate
 
 
 def _load_yaml(path: Path) -> dict:
-    import yaml
-
     from proxyshade.errors import UserError
 
-    try:
-        spec = yaml.safe_load(path.read_text())
-    except (OSError, yaml.YAMLError) as e:
-        raise UserError(f"{path}: cannot read the BTF description ({e}); fix the YAML") from None
+    from proxyshade.io import yamlfile
+
+    spec = yamlfile.load(path, what="BTF description")
     if not isinstance(spec, dict) or not isinstance(spec.get("views"), list):
         raise UserError(f"{path}: expected a mapping with 'views': [{{image, slant, tilt, light}}, ...]; fix the YAML")
     return spec

@@ -15,13 +15,14 @@ cameras, a distant light), reproducibly: the same YAML writes the same ``.usda``
 """
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
-import yaml
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdSemantics, Vt
 
 from proxyshade.errors import UserError
+from proxyshade.io import yamlfile
 from proxyshade.io.usd import CG_ATTR, LABEL_INSTANCE, validate
 from proxyshade.scene import camera as camera_tool
 from proxyshade.scene.spheres import along_path
@@ -79,6 +80,7 @@ def build_stage(spec: dict, where: str = "scene") -> Usd.Stage:
     """
     if not isinstance(spec, dict):
         raise UserError(f"{where}: expected a mapping with terrains, spheres, cg, cameras, light")
+    _check_limits(spec, where)
     at = ["top level"]
     try:
         return _build(spec, where, at)
@@ -89,6 +91,52 @@ def build_stage(spec: dict, where: str = "scene") -> Usd.Stage:
     except RuntimeError as e:  # pxr Tf errors, e.g. a name that is not a valid prim name
         lines = [ln.strip() for ln in str(e).splitlines() if ln.strip()]
         raise UserError(f"{where}: {at[0]}: {lines[-1] if lines else e}") from None
+
+
+MAX_FRAMES = 100_000  # frames of a scene's time range
+MAX_CELLS = 4096  # terrain cells along one side (a 4096x4096 grid: 16.8M cells)
+MAX_COUNT = 10_000  # spheres along one path
+
+
+def _check_limits(spec: dict, where: str) -> None:
+    """Before anything is built: no NaN or infinite number anywhere in the description, a frame
+    range, terrain grids and sphere counts within what can be built (a huge one exhausted memory
+    or ran for hours). One-line ``UserError``s naming the field."""
+    def walk(v, path):
+        if isinstance(v, float) and not math.isfinite(v):
+            raise UserError(f"{where}: {path}: {v} is not a finite number; give a number")
+        if isinstance(v, dict):
+            for k, x in v.items():
+                walk(x, f"{path}.{k}" if path else str(k))
+        elif isinstance(v, list):
+            for i, x in enumerate(v):
+                walk(x, f"{path}[{i}]")
+
+    walk(spec, "")
+
+    def ints(v, n, path, lo, hi, fix):
+        vals = v if isinstance(v, list) else [v]
+        if len(vals) != n or not all(isinstance(x, int) and not isinstance(x, bool) and lo <= x <= hi for x in vals):
+            raise UserError(f"{where}: {path}: expected {n if n > 1 else 'an'} integer{'s' if n > 1 else ''} from {lo} "
+                            f"to {hi}, got {yamlfile.short(v, 80)}; {fix}")
+
+    if "frames" in spec:
+        f = spec["frames"]
+        ints(f, 2, "frames", -10**9, 10**9, "write frames: [1, 48]")
+        if not 0 <= f[1] - f[0] < MAX_FRAMES:
+            raise UserError(f"{where}: frames: {f[0]}-{f[1]} is not a range of 1 to {MAX_FRAMES} frames; write "
+                            "frames: [first, last]")
+    for i, t in enumerate(spec.get("terrains") or []):
+        if isinstance(t, dict) and "cells" in t:
+            ints(t["cells"], 2, f"terrains[{i}].cells", 1, MAX_CELLS, "a terrain of [128, 128] cells is plenty")
+    for i, s in enumerate(spec.get("spheres") or []):
+        if isinstance(s, dict) and "count" in s:
+            ints(s["count"], 1, f"spheres[{i}].count", 1, MAX_COUNT, "give fewer spheres")
+        if isinstance(s, dict) and "radius" in s:
+            r = s["radius"] if isinstance(s["radius"], list) else [s["radius"]]
+            if not all(isinstance(x, (int, float)) and not isinstance(x, bool) and x > 0 for x in r):
+                raise UserError(f"{where}: spheres[{i}].radius: expected a number > 0 or a list of them, got "
+                                f"{yamlfile.short(s['radius'], 80)}")
 
 
 def _name(d: dict, default: str | None = None) -> str:
@@ -184,10 +232,7 @@ def _build(spec: dict, where: str, at: list) -> Usd.Stage:
 def build_file(spec_path: str | Path, out_path: str | Path | None = None) -> Path:
     """Build ``spec_path`` (YAML) into ``out_path`` (default: same name, .usda), atomically."""
     spec_path = Path(spec_path)
-    try:
-        spec = yaml.safe_load(spec_path.read_text())
-    except (OSError, yaml.YAMLError) as e:
-        raise UserError(f"{spec_path}: cannot read scene description ({e}); fix the YAML") from None
+    spec = yamlfile.load(spec_path, what="scene description")
     out = Path(out_path) if out_path else spec_path.with_suffix(".usda")
     stage = build_stage(spec, where=str(spec_path))
     return write_usda(stage, out)

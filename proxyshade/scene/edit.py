@@ -13,14 +13,11 @@ from proxyshade.errors import UserError
 
 def load_spec(spec: Path) -> dict:
     """A scene description as a dict; one-line errors for a missing or malformed file."""
-    import yaml
-
     if not spec.is_file():
         raise UserError(f"{spec}: no such scene description; create one with `proxyshade scene new {spec}`")
-    try:
-        data = yaml.safe_load(spec.read_text())
-    except yaml.YAMLError as e:
-        raise UserError(f"{spec}: not valid YAML: {getattr(e, 'problem', e)}") from None
+    from proxyshade.io import yamlfile
+
+    data = yamlfile.load(spec, what="scene description")
     if not isinstance(data, dict):
         raise UserError(f"{spec}: expected a mapping with terrains, spheres, cg, cameras, light")
     return data

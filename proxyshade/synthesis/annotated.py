@@ -6,35 +6,56 @@ Poisson reconstruction of L*.
 Choices the paper leaves open (docs/annotated.md): annotations are quantised to 1/32 for
 the ε-balls and the PatchMatch constraint (the balls are then exact on the quantised
 points); mean shift runs on points binned so that at most ~1024 distinct points remain;
-5×5 patches, 3 scales, 2 EM iterations of 4 PatchMatch iterations each per scale.
+5×5 patches; scales as many as keep the coarsest exemplar at least 8 pixels a side (at most
+5); 4 EM rounds (vote, then 4 PatchMatch iterations) per scale; an occurrence penalty
+(Kaspar et al. 2015, as EbSynth counts it) against large flat copies.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
 
-import numpy as np
+import lazy_loader
 
 from proxyshade.errors import NodeInputError
+from proxyshade.graph.node import Param
+from proxyshade.synthesis.params import ParamGroup
+
+np = lazy_loader.load("numpy")  # on first use: the nodes read PatchOptimisation on a cached run
 
 QUANTUM = 32
 MODES = ("full", "binary", "single", "analogies")
+
+
+class PatchOptimisation(ParamGroup):
+    """Coarse-to-fine PatchMatch + voting of one cluster (docs/annotated.md, Method 4)."""
+
+    patch = Param(int, 5, min=3, max=15, doc="patch size (odd)")
+    levels = Param(int, 0, min=0, max=6, doc="scales (coarse to fine, factor 2); 0: as many as keep the coarsest "
+                                             "exemplar at least 8 pixels a side, at most 5")
+    em = Param(int, 4, min=1, max=10, doc="search + vote rounds per scale")
+    iterations = Param(int, 4, min=1, max=20, doc="PatchMatch iterations per round")
+    uniformity = Param(float, 0.005, min=0.0, max=1.0,
+                       doc="weight of the penalty on source patches used more often than an even use (Kaspar et al. "
+                           "2015); 0: none (large flat copies, washed-out texture)")
 
 
 @dataclass
 class AnnotatedParams:
     eps: float = 0.1
     patch: int = 5
-    levels: int = 3
-    em: int = 2
+    levels: int = 0  # 0: auto_levels
+    em: int = 4
     iterations: int = 4
     bandwidth: float = 0.5
     alpha_weight: float = 10.0
     gradient_screen: float = 0.2
+    # weight of the occurrence penalty (Kaspar et al. 2015), per patch pixel, in squared feature units
+    uniformity: float = 0.005
     ann_weight: float = 1.0  # analogies baseline only
     # the annotations in the patch distance of the full method (and the binary and single
     # ablations), weight against the CIELAB/alpha/gradient features: copies stay near
     # their annotation inside an ε-ball; 0 = the paper (annotations only through the balls)
-    ann_distance: float = 1.5
+    ann_distance: float = 0.0
     mode: str = "full"
     min_pixels: int = 1000
     seed: int = 0
@@ -73,6 +94,18 @@ def within_one_exemplar(ids: np.ndarray, hw: int) -> np.ndarray:
         for dx in range(2 * hw + 1):
             ok &= pad[dy:dy + H, dx:dx + W] == ids
     return ok
+
+
+def auto_levels(src_shape, tgt_shape, *, coarsest: int = 8, most: int = 5) -> int:
+    """Scales (factor 2) for ``levels = 0``: as many as keep the coarsest exemplar and
+    target at least ``coarsest`` pixels a side, at most ``most``. The coarsest scale is
+    where the layout of the texture's large features is decided: starting on a fine grid
+    leaves them to the random start (blobs, lattices)."""
+    n = min(*src_shape[:2], *tgt_shape[:2])
+    L = 1
+    while L < most and n // 2 ** L >= coarsest:
+        L += 1
+    return L
 
 
 def _quant(a):
@@ -207,9 +240,10 @@ def synthesize(src_rgb, src_alpha, src_ann, usable, tgt_ann, p: AnnotatedParams,
     Lg[:, :-1, 0] = lab_src[:, 1:, 0] - lab_src[:, :-1, 0]
     Lg[:-1, :, 1] = lab_src[1:, :, 0] - lab_src[:-1, :, 0]
     vals, grads, nnfs = [], [], []
+    n_levels = p.levels or auto_levels((H, W), (h, w))
     for i in range(C):
         ny = nx = None
-        for lev in range(p.levels - 1, -1, -1):
+        for lev in range(n_levels - 1, -1, -1):
             f = 2 ** lev
             s_rgb, s_a = _down(src_rgb, f), _down(src_alpha, f)
             s_ann = _quant(_down(src_ann, f))
@@ -217,6 +251,7 @@ def synthesize(src_rgb, src_alpha, src_ann, usable, tgt_ann, p: AnnotatedParams,
             s_use = _down(usable.astype(np.float64), f) == 1.0
             s_cl = cl[:Hl * f:f, :Wl * f:f].copy()
             sel = s_use & (s_cl == i)
+            sel[:hw], sel[Hl - hw:], sel[:, :hw], sel[:, Wl - hw:] = False, False, False, False
             if not sel.any():
                 continue
             t_ann = _quant(_down(tgt_ann, f))
@@ -250,7 +285,8 @@ def synthesize(src_rgb, src_alpha, src_ann, usable, tgt_ann, p: AnnotatedParams,
                 if aw:
                     tgt[..., -d:] = aw * t_ann
                 ny, nx, _ = ka.patchmatch(feat, tgt, s_ann, s_cl, i, sel, eps, t_ann, s_l, ny, nx, hw=hw,
-                                          iterations=p.iterations, seed=seed * 16 + e, members=order)
+                                          iterations=p.iterations, seed=seed * 16 + e, members=order,
+                                          uniformity=p.uniformity * p.patch * p.patch)
         out = ka.vote(np.concatenate([src_rgb, src_alpha[..., None], Lg], axis=2), ny, nx, hw)
         lab = _lab(out[..., :3])
         vals.append(np.concatenate([lab, out[..., 3:4]], axis=2))
@@ -266,3 +302,13 @@ def synthesize(src_rgb, src_alpha, src_ann, usable, tgt_ann, p: AnnotatedParams,
     sx = np.choose(heavy, [n[1] for n in nnfs]).astype(np.float32)
     return dict(rgb=rgb, alpha=mean[..., 3].astype(np.float32), sx=sx, sy=sy,
                 cluster=(heavy + 1).astype(np.uint32), missing=missing, weights=Wt, n_clusters=C)
+
+
+def plain_texture(src_rgb, size: tuple[int, int], p: AnnotatedParams) -> dict:
+    """Plain exemplar synthesis with this core: constant annotations on both sides, one
+    cluster. src_rgb (H, W, 3) linear; size (rows, columns). Returns ``synthesize``'s dict."""
+    H, W = src_rgb.shape[:2]
+    q = AnnotatedParams(**{**p.__dict__, "mode": "single", "min_pixels": 1})
+    one = np.full((H, W, 1), 0.5)
+    return synthesize(np.asarray(src_rgb, np.float32), np.ones((H, W), np.float32), one, np.ones((H, W), bool),
+                      np.full((int(size[0]), int(size[1]), 1), 0.5), q, names=["const"])

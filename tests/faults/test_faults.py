@@ -355,7 +355,7 @@ def _read_only(monkeypatch, attempts: list):
         raise OSError(errno.EROFS, "Read-only file system", str(path))
 
     monkeypatch.setattr(cache_mod, "write_text_atomic", refuse)
-    monkeypatch.setattr(cache_mod, "write_plate", refuse)
+    monkeypatch.setattr(cache_mod, "write_plate_temp", refuse)
 
 
 def test_read_only_cache_serves_hits(tmp_path, registry, capsys, monkeypatch):

@@ -9,7 +9,7 @@ from hypothesis import given, settings, strategies as st
 
 from proxyshade.errors import UserError
 from proxyshade.graph.plate import Plate
-from proxyshade.io.exr import compressions, read_header, read_plate, write_plate
+from proxyshade.io.exr import compressions, exr_problem, header_strings, read_header, read_plate, write_plate
 
 
 @settings(max_examples=20, deadline=None)
@@ -48,6 +48,42 @@ def test_header_lists_types_and_metadata(tmp_path):
     if oiiotool.exists():
         text = subprocess.run([str(oiiotool), "--info", "-v", str(tmp_path / "m.exr")], capture_output=True, text=True).stdout
         assert "label.id (uint)" in text and "R (float)" in text
+
+
+def test_header_strings_read_in_python_match_openimageio(tmp_path):
+    """The cache writer's header check reads string attributes from the bytes (no image library
+    on its thread): the same values OpenImageIO reads; a cut-short or foreign file is an error."""
+    p = Plate({"R": np.zeros((2, 3), np.float32)}, {"labels": [{"name": "sky", "id": 1}] * 500})
+    write_plate(tmp_path / "m.exr", p, extra={"proxyshade/node": "src", "proxyshade/key": "ab" * 32})
+    names = ("proxyshade/node", "proxyshade/key", "proxyshade/meta", "absent")
+    got = header_strings(tmp_path / "m.exr", names)
+    attrs = read_header(tmp_path / "m.exr")["attributes"]
+    assert got == {k: attrs[k] for k in names[:3]} and got["proxyshade/key"] == "ab" * 32
+    data = (tmp_path / "m.exr").read_bytes()
+    (tmp_path / "cut.exr").write_bytes(data[:data.index(b"proxyshade/meta") + 30])
+    with pytest.raises(UserError, match="cut.exr: EXR header cut short"):
+        header_strings(tmp_path / "cut.exr", names)
+    (tmp_path / "png.exr").write_bytes(b"\x89PNG\r\n\x1a\n" + bytes(20))
+    with pytest.raises(UserError, match="png.exr: not an EXR file"):
+        header_strings(tmp_path / "png.exr", names)
+
+
+@pytest.mark.parametrize("compression", ["zip", "none", "zstd"])
+def test_exr_problem_finds_every_cut(tmp_path, compression):
+    """A written EXR is checked whole before it is renamed into place (a full disk cuts it short
+    while the library reports success): every cut of the file is found, the whole file passes."""
+    if compression not in compressions():
+        pytest.skip(f"no {compression} in these bindings")
+    rng = np.random.default_rng(1)
+    p = Plate({"R": rng.random((40, 7), dtype=np.float32), "label.id": np.arange(280, dtype=np.uint32).reshape(40, 7)})
+    write_plate(tmp_path / "m.exr", p, compression=compression)
+    data = (tmp_path / "m.exr").read_bytes()
+    assert exr_problem(tmp_path / "m.exr") is None
+    for cut in sorted({0, 3, 8, 50, len(data) // 2, len(data) - 100, len(data) - 1}):
+        (tmp_path / "cut.exr").write_bytes(data[:cut])
+        assert exr_problem(tmp_path / "cut.exr"), cut
+    (tmp_path / "long.exr").write_bytes(data + b"\0")
+    assert "1 bytes after its last chunk" in exr_problem(tmp_path / "long.exr")
 
 
 def test_unreadable_file_names_the_file(tmp_path):

@@ -189,3 +189,34 @@ def test_source_outside_share_sees_a_copy_of_another_labels_pixels():
     sx = np.where((i < 10) & (j < 10), j + 60, j)  # a 10x10 clump read from the rock
     assert np.isclose(Q.source_outside_share(sx, i, out, src, rngw) - Q.source_outside_share(j, i, out, src, rngw),
                       0.04, atol=0.005)
+
+
+def _orientation_ref(lum, bins):
+    h, w = lum.shape
+    out = np.zeros(bins)
+    for i in range(1, h - 1):
+        for j in range(1, w - 1):
+            gx = (lum[i, j + 1] - lum[i, j - 1]) / 2
+            gy = (lum[i + 1, j] - lum[i - 1, j]) / 2
+            a = np.arctan2(gy, gx)
+            a = a + np.pi if a < 0 else a
+            a = 0.0 if a >= np.pi else a
+            out[min(int(a / np.pi * bins), bins - 1)] += np.hypot(gx, gy)
+    return out
+
+
+def test_orientation_histogram_matches_a_pixel_loop():
+    rng = np.random.default_rng(4)
+    for bins in (18, 7):
+        lum = rng.random((9, 12))
+        np.testing.assert_allclose(Q.orientation_histogram(lum, bins=bins), _orientation_ref(lum, bins), rtol=1e-12)
+
+
+def test_orientation_histogram_tells_streaks_from_an_isotropic_texture():
+    rng = np.random.default_rng(5)
+    noise = rng.random((64, 64))
+    streaks = np.add.outer(np.arange(64), np.arange(64)) % 6 / 6.0  # diagonal stripes
+    o_noise, o_streak = Q.orientation_histogram(noise), Q.orientation_histogram(streaks)
+    assert o_streak.max() / o_streak.sum() > 0.9  # nearly all weight in one orientation
+    assert Q.chi2(Q.orientation_histogram(rng.random((64, 64))), o_noise) < 0.02
+    assert Q.chi2(o_streak, o_noise) > 0.5

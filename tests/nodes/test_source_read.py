@@ -53,7 +53,7 @@ def test_far_colours_fail_with_a_clear_error(tmp_path):
 def test_bad_table_errors_name_file_and_field(tmp_path):
     t = tmp_path / "source.yaml"
     t.write_text("image: a.png\nlabels_map: b.png\nlabels: {sky: {id: 0, color: '#ffffff'}}\n")
-    with pytest.raises(UserError, match=r"source.yaml: labels.sky.id: expected int >= 1"):
+    with pytest.raises(UserError, match=r"source.yaml: labels.sky.id: expected an int from 1 to 4294967295"):
         run_node("SourceRead", {"table": str(t)})
     t.write_text("image: a.png\nlabels: {}\n")
     with pytest.raises(UserError, match=r"source.yaml: labels_map: missing"):
