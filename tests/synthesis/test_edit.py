@@ -267,8 +267,9 @@ def test_a_source_read_back_finds_the_last_runs_results_and_another_content_does
     out, _ = update_guide(prev, region, edited, again, gp, context=16, memo=memo)
     assert not searched and memo.hits > 0
     assert all(np.array_equal(out[c], first[c]) for c in ("label.id", "source.x", "source.y"))
-    other = again.with_channels({"label.id": np.where(again["label.id"] == water, 0, again["label.id"]).astype(
-        again["label.id"].dtype)})
+    lab = again["label.id"].copy()
+    lab[:8, :8] = next(int(i) for i in np.unique(lab) if i != lab[0, 0])  # a corner of another label
+    other = again.with_channels({"label.id": lab})
     hits = memo.hits
     update_guide(prev, region, edited, other, gp, context=16, memo=memo)
     assert searched and memo.hits == hits  # another label map: nothing of the source's is found
