@@ -290,6 +290,16 @@ def _report(label: str, report, explain: bool, several: bool) -> None:
             t.add_row(Text(r.node), str(r.frame), r.status, Text(r.reason),
                       f"{r.seconds:.3f}" if r.status == "computed" else "")
         out.print(t)
+        memo = {}  # node -> [hits, misses] of the memo (graph.memo) over its frames
+        for r in report.runs:
+            if r.memo_hits or r.memo_misses:
+                m = memo.setdefault(r.node, [0, 0])
+                m[0] += r.memo_hits
+                m[1] += r.memo_misses
+        for name, (h, m) in memo.items():
+            _say(out, f"  memo {name:<16} {h} hit(s), {m} miss(es)")
+        hits, misses = report.memo
+        _say(out, f"  memo {hits} hit(s), {misses} miss(es) in all (synthesis results kept across frames)")
     else:
         per = {}
         for r in report.runs:

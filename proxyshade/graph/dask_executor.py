@@ -31,6 +31,7 @@ import collections
 import concurrent.futures
 import contextlib
 import dataclasses
+import functools
 import logging
 import os
 import resource
@@ -198,6 +199,7 @@ def _apply(job, inst, res: dict, by_token: dict) -> None:
     token, (name, frame) = res["by"]
     if (token, (name, frame)) == (job.token, inst):
         nr.status, nr.seconds, nr.notes[:] = res["status"], res["seconds"], res["notes"]
+        nr.memo_hits, nr.memo_misses = res.get("memo", (0, 0))
         job.workers[res["worker"]] += res["status"] == "computed"
         if res["status"] != "computed":
             nr.reason = res["reason"]
@@ -231,7 +233,7 @@ _LOCAL = threading.local()  # this task's warnings and recomputed inputs
 _USING: dict[int, set[str]] = {}  # thread -> keys its task reads or writes (kept in memory)
 # plates kept in a worker's memory between tasks, most recently used last: the next task there
 # often reads them again (the source, the first frame, the previous frame), without loading
-# them from the cache, and the same arrays keep synthesis.memo's results
+# them from the cache
 _RECENT: "collections.OrderedDict[tuple[int, str], object]" = collections.OrderedDict()  # (cache id, key) -> cache
 _CACHES: "weakref.WeakSet" = weakref.WeakSet()  # the caches this worker's tasks wrote to
 _RELEASER = concurrent.futures.ThreadPoolExecutor(1, thread_name_prefix="proxyshade-unlock")
@@ -299,6 +301,7 @@ def _task(plan, by: tuple, inst: tuple[str, int], forced: bool, *deps) -> dict:
     _capture_warnings()
     g = plan.graph
     g.key_lock, g.on_recompute = _key_lock, _recomputed
+    g.tile_runner = functools.partial(_tiles, plan.threads)  # each instance a runner of its own
     key = plan.keys[inst]
     _check_code(type(g.nodes[inst[0]]), plan.components[inst]["code"])
     nr = NodeRun(inst[0], inst[1], key, "computed", "")
@@ -311,14 +314,12 @@ def _task(plan, by: tuple, inst: tuple[str, int], forced: bool, *deps) -> dict:
         if ok:
             nr.status, nr.reason = "reused", f"stored meanwhile by another run ({why})"
         else:
-            from proxyshade.synthesis.tiles import running
-
             t = time.perf_counter()
-            with running(_tiles(plan.threads)):
-                g._compute(plan, inst, nr)
+            g._compute(plan, inst, nr)
             nr.seconds = time.perf_counter() - t
             _hand_over(g.cache, key)
         return {"by": by, "status": nr.status, "reason": nr.reason, "seconds": nr.seconds, "notes": list(nr.notes),
+                "memo": [nr.memo_hits, nr.memo_misses],
                 "warnings": _LOCAL.warnings, "recomputed": _LOCAL.recomputed, "worker": _distributed().get_worker().address,
                 "pid": os.getpid(), "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
                 "start": t_start, "end": time.time()}
@@ -330,13 +331,11 @@ def _task(plan, by: tuple, inst: tuple[str, int], forced: bool, *deps) -> dict:
 
 
 def _tiles(threads: int):
-    """The row-band runner of the correction's sub-passes (``synthesis.tiles``) for a task
-    here: one band per worker of the cluster (counted when a level large enough first
+    """The row-band runner of the correction's sub-passes (``graph.tiles``) for a node
+    instance here: one band per worker of the cluster (counted when a level large enough first
     asks), each band a task with this run's numba threads."""
-    import functools
-
     from proxyshade.graph.graph import set_kernel_threads
-    from proxyshade.synthesis.tiles import DaskTiles
+    from proxyshade.graph.tiles import DaskTiles
 
     return DaskTiles(setup=functools.partial(set_kernel_threads, threads))
 

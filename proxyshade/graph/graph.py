@@ -32,7 +32,9 @@ from proxyshade.errors import CycleError, GraphFileError, ParamError, UserError
 from proxyshade.graph import keys as K
 from proxyshade.graph.cache import Cache, CacheWarning, size_limit
 from proxyshade.graph.executor import make_executor
-from proxyshade.graph.node import REGISTRY, Context, InputRef, Node, PlateSequence, Previous, resolve_path
+from proxyshade.graph.memo import Memo, RunMemo
+from proxyshade.graph.node import (REGISTRY, Context, InputRef, Node, PlateSequence, Previous, find_type,
+                                   resolve_path)
 from proxyshade.graph.plate import Plate
 from proxyshade.io.files import output_target, remove_stale_temps, user_cache_dir
 from proxyshade.io.graphfile import load_graph
@@ -105,6 +107,8 @@ class NodeRun:
     reason: str
     seconds: float = 0.0
     notes: list[str] = field(default_factory=list)
+    memo_hits: int = 0  # results of the synthesis layer found in the run's memo (graph.memo)
+    memo_misses: int = 0  # ... and computed, then kept
 
 
 @dataclass
@@ -124,6 +128,11 @@ class RunReport:
     @property
     def reused(self) -> set[str]:
         return {r.node for r in self.runs if r.status == "reused"}
+
+    @property
+    def memo(self) -> tuple[int, int]:
+        """Hits and misses of the memo (``graph.memo``) over the run's instances."""
+        return sum(r.memo_hits for r in self.runs), sum(r.memo_misses for r in self.runs)
 
     def rows(self, node: str | None = None) -> list[NodeRun]:
         return [r for r in self.runs if node is None or r.node == node]
@@ -168,6 +177,8 @@ class Graph:
         # shared between processes where several compute (a Dask worker sets one)
         self.key_lock: Callable[[str], ContextManager] = _no_lock
         self.on_recompute: Callable[[NodeRun], None] = _ignore  # an input computed again (its entry missing or corrupt)
+        self.memo: Memo | None = None  # the memo's store (None: this process's, graph.memo.STORE)
+        self.tile_runner: Callable[[], Any] | None = None  # makes ctx.tiles for an instance (the Dask executor's)
 
     def __getstate__(self) -> dict:
         """A graph pickles (to a Dask worker) with its cache's folder, not its memory or locks."""
@@ -178,6 +189,13 @@ class Graph:
         self.__dict__.update(state, cache=Cache(state["cache"]), _locks={}, _locks_guard=threading.Lock())
 
     # -- building ----------------------------------------------------------
+    find_type = staticmethod(find_type)  # a node type by name (graph files name them: io.graphfile)
+    InputRef = InputRef
+
+    @staticmethod
+    def known_types() -> list[str]:
+        return sorted(REGISTRY)
+
     @classmethod
     def load(cls, path: str | Path, *, cache: str | Path | None = None, overrides: list[str] = (),
              variables: dict[str, str] | None = None) -> "Graph":
@@ -186,8 +204,6 @@ class Graph:
 
     def add(self, name: str, node_type: str | type[Node], params: dict | None = None,
             inputs: dict[str, str | InputRef] | None = None, enabled: bool = True) -> Node:
-        from proxyshade.nodes import node_type as find_type
-
         if isinstance(node_type, str):
             cls = find_type(node_type)
             if cls is None:
@@ -565,8 +581,18 @@ class Graph:
             src = (ref.node, ref.frame(frame, first)) if ref else None
             inputs[inp] = self._value(plan, src) if src in plan.keys else None
         ctx = Context(node, frame, first, inputs, dict(node.params), self.graph_dir, plan.threads, nr.notes)
+        ctx.memo = memo = RunMemo(self.memo)
+        for inp, ref in self.connections[name].items():  # the input plates stand for their keys in the memo's keys
+            src = (ref.node, ref.frame(frame, first))
+            if isinstance(inputs.get(inp), Plate) and src in plan.keys:
+                memo.bind(inputs[inp], plan.keys[src])
+        ctx.tiles = self.tile_runner() if self.tile_runner is not None else None
         if inst in plan.previous:
             ctx.previous = self._load_previous(*plan.previous[inst])
+            memo.bind(ctx.previous.plate, plan.previous[inst][0])
+            for n, k in plan.previous[inst][1].items():
+                if ctx.previous.inputs.get(n) is not None:
+                    memo.bind(ctx.previous.inputs[n], k)
         set_kernel_threads(plan.threads)  # numba's thread count is per calling thread: set it in this worker
         t = time.perf_counter()
         try:
@@ -582,6 +608,8 @@ class Graph:
                                 else f"{k}={v.width}x{v.height}[{','.join(v.names()[:6])}]" for k, v in inputs.items())
             raise NodeError(f"{self.where(name)}node {name!r} ({type(node).__name__}) failed at frame {frame} with inputs "
                             f"{summary or 'none'}: {type(e).__name__}: {e}") from e
+        finally:
+            nr.memo_hits, nr.memo_misses = memo.hits, memo.misses
         if not isinstance(plate, Plate):
             raise NodeError(f"node {name!r} ({type(node).__name__}) returned {type(plate).__name__}, not a Plate")
         record = {"node": name, "type": type(node).__name__, "frame": frame, "params": node.params,

@@ -21,7 +21,6 @@ imported: ``proxyshade.nodes.node_type`` imports the module of a type a graph na
 """
 from __future__ import annotations
 
-import math
 import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -30,149 +29,48 @@ from typing import Any, Callable, ClassVar, Iterable
 
 import lazy_loader
 
+from proxyshade.declare import Input, Param  # noqa: F401 - declared there, for the synthesis layer's groups too
 from proxyshade.errors import NodeInputError, ParamError
 from proxyshade.graph.plate import Plate
 
 np = lazy_loader.load("numpy")  # on first use: a fully cached run never loads numpy
 
 REGISTRY: dict[str, type["Node"]] = {}
+# where node types live: a plugin package the engine imports by name when a graph names a
+# type (never by an import statement: the engine is below the nodes, docs/engine.md "Layers")
+NODE_PACKAGE = "proxyshade.nodes"
 
-_UNSET = object()
+
+def load_all() -> dict:
+    """Import every module of ``NODE_PACKAGE``; returns the registry (name -> class)."""
+    import importlib
+    import pkgutil
+
+    package = importlib.import_module(NODE_PACKAGE)
+    for m in pkgutil.iter_modules(package.__path__):
+        if not m.name.startswith("_"):
+            importlib.import_module(f"{NODE_PACKAGE}.{m.name}")
+    return REGISTRY
 
 
-@dataclass
-class Input:
-    """An upstream plate, checked by the engine before ``compute`` runs.
+def find_type(name: str):
+    """The node class registered as ``name`` (its module, ``name`` in snake case in
+    ``NODE_PACKAGE``, imported first), or None (then every type is registered, for the
+    message listing them)."""
+    import importlib
+    import importlib.util
+    import re
 
-    ``channels`` the node reads (missing ones are a one-line error); ``finite``: True
-    (every declared float channel) or the channels that must hold no NaN or Inf, except
-    the ``inf_ok`` ones (Inf marks empty pixels there, only NaN is refused); ``dtype``:
-    channel -> numpy dtype name the channel must have (ids are ``uint32``); ``fix``: what
-    to connect, said in those errors (e.g. ``"connect a SourceRead node"``).
-
-    ``optional`` inputs may be unconnected (or fall before the first frame when connected
-    at a negative frame offset) and arrive as ``None``. A ``sequence`` input takes the
-    whole sequence (connected as ``{node: X, frame: all}``) and arrives as a
-    ``PlateSequence``; a node with one is a sequence node, instantiated once per run, at
-    the last requested frame."""
-
-    doc: str = ""
-    optional: bool = False
-    name: str = ""
-    channels: tuple[str, ...] = ()
-    sequence: bool = False
-    finite: bool | tuple[str, ...] = False
-    inf_ok: tuple[str, ...] = ()
-    dtype: dict[str, str] | None = None
-    fix: str = ""
-
-    def problem(self, plate: Plate, node_type: str) -> str | None:
-        """What is wrong with ``plate`` for this input of a ``node_type`` node, in words, or None."""
-        missing = [c for c in self.channels if c not in plate]
-        if missing:
-            return (f"has no channel {', '.join(missing)}; {node_type} needs {', '.join(self.channels)} there, "
-                    f"it has {', '.join(plate.names()) or 'none'}" + (f"; {self.fix}" if self.fix else ""))
-        for c, want in (self.dtype or {}).items():
-            if c in plate and plate[c].dtype != np.dtype(want):
-                return (f"channel {c} is {plate[c].dtype}, not {want}" + (f"; {self.fix}" if self.fix else
-                        f"; write it as {want}"))
-        check = self.channels if self.finite is True else (self.finite or ())
-        for c in check:
-            if c not in plate:
-                continue
-            a = plate[c]
-            if not np.issubdtype(a.dtype, np.floating):
-                continue
-            nan_only = c in self.inf_ok
-            bad = np.isnan(a) if nan_only else ~np.isfinite(a)
-            if bad.any():
-                y, x = np.argwhere(bad)[0]
-                kind = "NaN" if nan_only else "NaN/Inf"
-                return (f"channel {c} has {int(bad.sum())} {kind} pixel(s), first at x={x} y={y}; fix the upstream "
-                        "node or clean the image (e.g. clamp or inpaint those pixels)")
+    if not isinstance(name, str):
+        load_all()
         return None
-
-
-class Param:
-    """A typed node parameter.
-
-    ``type`` is one of int, float, bool, str, list, dict or ``pathlib.Path``. A Path
-    parameter is resolved against the graph file's folder, may hold ``####`` frame
-    padding, and the content of the file it names is part of the node's key.
-    ``hashed=False`` marks parameters that do not change the result (threads, verbosity).
-    """
-
-    def __init__(self, type, default=_UNSET, *, min=None, max=None, choices=None,
-                 hashed: bool = True, doc: str = "", length: int | None = None,
-                 optional: bool = False):
-        self.type = type
-        self.default = default
-        self.min = min
-        self.max = max
-        self.choices = tuple(choices) if choices is not None else None
-        self.hashed = hashed
-        self.doc = doc
-        self.length = length
-        self.optional = optional  # None is accepted
-        self.name = ""
-
-    @property
-    def required(self) -> bool:
-        return self.default is _UNSET
-
-    def describe(self) -> str:
-        t = "path" if self.type is Path else getattr(self.type, "__name__", str(self.type))
-        bits = [t]
-        if self.choices:
-            bits.append("one of " + ", ".join(map(repr, self.choices)))
-        if self.min is not None:
-            bits.append(f">= {self.min}")
-        if self.max is not None:
-            bits.append(f"<= {self.max}")
-        if self.length is not None:
-            bits.append(f"of length {self.length}")
-        return " ".join(bits)
-
-    def validate(self, value: Any) -> Any:
-        """Coerce and check ``value``; raise ParamError('expected ..., got ...')."""
-        if value is None and (self.optional or self.default is None):
-            return None
-        expected = f"expected {self.describe()}, got {value!r}"
-        t = self.type
-        if t is bool:
-            if not isinstance(value, bool):
-                raise ParamError(expected)
-        elif t is int:
-            if isinstance(value, bool) or not isinstance(value, int):
-                if isinstance(value, float) and value.is_integer():
-                    value = int(value)
-                else:
-                    raise ParamError(expected)
-        elif t is float:
-            if isinstance(value, bool) or not isinstance(value, (int, float)):
-                raise ParamError(expected)
-            value = float(value)
-            if not math.isfinite(value):
-                raise ParamError(expected)
-        elif t is str or t is Path:
-            if not isinstance(value, str) or (t is Path and not value):
-                raise ParamError(expected)
-        elif t is list:
-            if not isinstance(value, (list, tuple)):
-                raise ParamError(expected)
-            value = list(value)
-            if self.length is not None and len(value) != self.length:
-                raise ParamError(expected)
-        elif t is dict:
-            if not isinstance(value, dict):
-                raise ParamError(expected)
-        if self.choices is not None and value not in self.choices:
-            raise ParamError(expected)
-        if self.min is not None and value < self.min:
-            raise ParamError(expected)
-        if self.max is not None and value > self.max:
-            raise ParamError(expected)
-        return value
+    if name not in REGISTRY and re.fullmatch(r"[A-Z][A-Za-z0-9]*", name):
+        module = re.sub(r"(?<!^)(?=[A-Z])", "_", name).lower()
+        if importlib.util.find_spec(f"{NODE_PACKAGE}.{module}") is not None:
+            importlib.import_module(f"{NODE_PACKAGE}.{module}")
+    if name not in REGISTRY:
+        load_all()  # a type in a module of another name
+    return REGISTRY.get(name)
 
 
 @dataclass
@@ -201,7 +99,10 @@ class Progressive:
 
 class Context:
     """What ``compute`` sees: input plates, parameter values, the frame and the run
-    (``previous``: a progressive node's last result and inputs, or None)."""
+    (``previous``: a progressive node's last result and inputs, or None; ``memo``: the
+    run's memo, ``graph.memo``, for the synthesis layer's functions, None outside a run;
+    ``tiles``: the executor's row-band runner of the correction, ``synthesis.tiles``, or
+    None)."""
 
     def __init__(self, node: "Node", frame: int, first_frame: int, inputs: dict[str, Plate | None],
                  params: dict[str, Any], graph_dir: Path, threads: int, notes: list[str]):
@@ -215,6 +116,8 @@ class Context:
         self.threads = threads
         self._notes = notes
         self.previous: Previous | None = None
+        self.memo = None
+        self.tiles = None
 
     def __getattr__(self, item):
         inputs = self.__dict__.get("inputs", {})

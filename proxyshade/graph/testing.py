@@ -4,7 +4,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from proxyshade.errors import UserError
-from proxyshade.graph.node import REGISTRY, Context, Node, PlateSequence
+from proxyshade.graph.node import REGISTRY, Context, Node, PlateSequence, find_type
 from proxyshade.graph.plate import Plate
 
 
@@ -15,8 +15,6 @@ def run_node(node_type: str | type[Node], params: dict | None = None, inputs: di
     (``notes``: a list the node's notes, ``ctx.note``, are appended to).
 
     A sequence input takes a list of plates, the frames ``first_frame`` onwards."""
-    from proxyshade.nodes import node_type as find_type
-
     cls = (find_type(node_type) or REGISTRY[node_type]) if isinstance(node_type, str) else node_type
     node = cls(name, params or {})
     ins = {k: None for k in cls.inputs_spec}

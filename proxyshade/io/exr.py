@@ -27,7 +27,7 @@ from pathlib import Path
 import lazy_loader
 
 from proxyshade.errors import UserError, WriteError
-from proxyshade.graph.plate import Plate
+from proxyshade.plate import Plate
 from proxyshade.io.files import io_error, output_target, temp_for, verify_temp
 
 np = lazy_loader.load("numpy")  # on first use: a fully cached run never loads numpy

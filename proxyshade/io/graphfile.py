@@ -28,7 +28,6 @@ from typing import Any
 
 from proxyshade.errors import GraphFileError, ParamError
 from proxyshade.io import yamlfile
-from proxyshade.graph.node import REGISTRY, InputRef
 
 FORMAT = "proxyshade/1"
 MAX_FRAMES = 100_000  # frames in one range: far beyond a shot, far below exhausting memory
@@ -189,7 +188,7 @@ def read_yaml(path: Path) -> Any:
     return yamlfile.load(path, what="graph file", error=GraphFileError, line_maps=True)
 
 
-def _input_ref(value: Any, where: str) -> InputRef:
+def _input_ref(value: Any, where: str, InputRef: type) -> Any:
     if isinstance(value, str):
         return InputRef(value)
     if isinstance(value, dict):
@@ -210,9 +209,8 @@ def _input_ref(value: Any, where: str) -> InputRef:
 def build_graph(data: Any, path: Path, graph_cls: type, *, cache=None, overrides: list[str] = (),
                 variables: dict[str, str] | None = None):
     """Validate plain graph data (as loaded from ``path``) and build a ``graph_cls``
-    (``proxyshade.graph.graph.Graph``, which calls this through ``Graph.load``)."""
-    from proxyshade.nodes import node_type
-
+    (``proxyshade.graph.graph.Graph``, which calls this through ``Graph.load``; it names the
+    node types, ``graph_cls.find_type``, and makes the input connections, ``graph_cls.InputRef``)."""
     f = str(path)
 
     def err(line: int, keypath: str, msg: str) -> GraphFileError:
@@ -255,10 +253,10 @@ def build_graph(data: Any, path: Path, graph_cls: type, *, cache=None, overrides
             if k not in _NODE_KEYS:
                 raise err(_line(spec, k), f"{kp}.{k}", f"unknown key; valid keys are {', '.join(_NODE_KEYS)}")
         t = spec.get("type")
-        cls = node_type(t)
+        cls = graph_cls.find_type(t)
         if cls is None:
             raise err(_line(spec, "type"), f"{kp}.type",
-                      f"unknown node type {yamlfile.short(t)}; known types: {', '.join(sorted(REGISTRY))}")
+                      f"unknown node type {yamlfile.short(t)}; known types: {', '.join(graph_cls.known_types())}")
         params = spec.get("params") or {}
         if not isinstance(params, dict):
             raise err(_line(spec, "params"), f"{kp}.params", "expected a mapping param -> value")
@@ -291,7 +289,7 @@ def build_graph(data: Any, path: Path, graph_cls: type, *, cache=None, overrides
             if k not in cls.inputs_spec:
                 raise err(_line(inputs, k), f"{kp}.inputs.{k}",
                           f"{t} has no input {yamlfile.short(k)}; its inputs are {', '.join(cls.inputs_spec) or 'none'}")
-            refs[k] = (_input_ref(v, f"{f}:{_line(inputs, k)}: {kp}.inputs.{k}"), _line(inputs, k))
+            refs[k] = (_input_ref(v, f"{f}:{_line(inputs, k)}: {kp}.inputs.{k}", graph_cls.InputRef), _line(inputs, k))
         for k, s in cls.inputs_spec.items():
             if not s.optional and k not in refs:
                 raise err(_line(spec, "inputs") or line, f"{kp}.inputs.{k}", f"not connected; {t} needs it: connect it to a node")

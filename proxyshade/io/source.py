@@ -13,7 +13,7 @@ from pathlib import Path
 import lazy_loader
 
 from proxyshade.errors import UserError
-from proxyshade.graph.plate import Plate
+from proxyshade.plate import Plate
 from proxyshade.io import yamlfile
 from proxyshade.io.colourlib import colour_science
 from proxyshade.io.images import read_u8

@@ -86,7 +86,8 @@ class ConsistentDepth(SameSurface, Node):
         rp = ctx.ref_proxy if ctx.ref_proxy is not None else (guide if "Z" in guide and guide is not depth else None)
         if rp is not None and rp.shape != guide.shape:
             raise ctx.error("ref_proxy and guide differ in size; connect the first frame's ProxyRender")
-        f0 = frame0_grid(depth["Z"], guide["label.id"], rp["Z"] if rp is not None else None, p.cut_tolerance, tol)
+        f0 = frame0_grid(depth["Z"], guide["label.id"], rp["Z"] if rp is not None else None, p.cut_tolerance, tol,
+                         memo=ctx.memo)
         cw, keep, occluded0, on_proxy0 = f0.cw, f0.keep, f0.occluded, f0.on_proxy
         lab0 = np.ascontiguousarray(guide["label.id"], np.uint32)
         k0, k1 = kr.intrinsics(cam0), kr.intrinsics(cam1)

@@ -47,7 +47,7 @@ class Correct(Correction, Node):
         st = setup(source, tgt, table, factor=int(syn["factor"]), scale=float(syn["scale"]),
                    coarse_size=p.coarse_size, max_distance=p.max_distance, interior=p.interior, with_rgb=p.use_rgb)
         S, stats, rep = correct_map(st, st.from_source(init["source.x"], init["source.y"]), Correction.of(p),
-                                    seed=p.seed, near_copy=p.near_copy)
+                                    seed=p.seed, near_copy=p.near_copy, tiles=ctx.tiles)
         patch, npatch = patch_ids(S)
         changed = sum(s["changed"] for s in stats)
         ctx.note(f"{len(stats)} levels, {changed} pixel updates, {npatch} patches; "

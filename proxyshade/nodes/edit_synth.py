@@ -43,7 +43,7 @@ class EditSynth(FloodFill, Correction, PoissonSolve, Progressive, Node):
             region = changed_region(prev.inputs, {"guide": ctx.guide, "source": ctx.source},
                                     {"guide": ("label.id",), "source": ("R", "G", "B", "label.id")}, ctx.p.dilate)
         out = edit_synthesis(ctx.guide, ctx.source, ctx.p, previous=prev.plate if region is not None else None,
-                             region=region, note=ctx.note)
+                             region=region, note=ctx.note, memo=ctx.memo, tiles=ctx.tiles)
         e = out.meta["edit"]
         ctx.note(f"{'whole frame' if e['whole'] else 'progressive'}: {e['pixels']} pixels ({100 * e['share']:.2f}%) "
                  f"synthesized, {e['synthesis_pixels']} synthesis pixels")

@@ -31,7 +31,7 @@ class GuideSynth(Guidance, Progressive, Node):
     context = Param(int, 32, min=0, max=1024, doc="progressive: output pixels of proxy around those synthesized with them")
 
     def compute(self, ctx) -> Plate:
-        from proxyshade.synthesis.edit import changed_region, known_source, update_guide
+        from proxyshade.synthesis.edit import changed_region, update_guide
         from proxyshade.synthesis.guide import synthesize_guide
 
         prev = ctx.previous
@@ -44,11 +44,10 @@ class GuideSynth(Guidance, Progressive, Node):
                                                meta={k: prev.plate.meta[k] for k in ("labels", "guide")})
             if region is not None:
                 plate, info = update_guide(prev.plate, region, ctx.proxy, ctx.source, Guidance.of(ctx.p),
-                                           context=ctx.p.context)
+                                           context=ctx.p.context, memo=ctx.memo)
                 ctx.note(f"progressive: {info['region']} pixels changed, synthesized on window(s) "
                          + ", ".join(f"{w}x{h}" for w, h in info["windows"]) + (" (the whole frame)" if info["whole"] else ""))
                 return plate
-        # the last run's source when the engine read the same one back (its per-source results are found)
-        plate, note = synthesize_guide(ctx.proxy, known_source(ctx.source), Guidance.of(ctx.p))
+        plate, note = synthesize_guide(ctx.proxy, ctx.source, Guidance.of(ctx.p), memo=ctx.memo)
         ctx.note(note)
         return plate

@@ -55,7 +55,7 @@ class HybridSynth(Node):
         else:
             shape = (bh, bw)
         an = H.analysis_of(atlas, bw, levels=p.levels, L=p.descriptor_levels, q=p.candidates,
-                           iterations=p.iterations)
+                           iterations=p.iterations, memo=ctx.memo)
         S = H.synthesize(an, shape, J=p.J, seed=ctx.frame, weights=w, passes=p.passes,
                          jitter_levels=p.jitter_levels)
         out = H.hybrid_plate(atlas, S, {"J": p.J, "seed": ctx.frame, "weights": [float(v) for v in w]})

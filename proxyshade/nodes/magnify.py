@@ -56,9 +56,9 @@ class Magnify(Node):
         table = L.source_table(source)
         g = L.dense_guide(guide["label.id"], table)
         S = np.stack([source_to_grid(synth["source.y"], F), source_to_grid(synth["source.x"], F)], -1)
-        wl = L.source_working_labels(source, table, scale)
+        wl = L.source_working_labels(source, table, scale, ctx.memo)
         sx, sy, patch, npatch, rep = magnify_map(S.astype(np.int32), f, (Ho, Wo), scale=scale,
-                                                 target=g if ctx.p.repair else None, labels=wl)
+                                                 target=g if ctx.p.repair else None, labels=wl, memo=ctx.memo)
         if ctx.p.repair:
             ctx.note(f"{rep['wrong']} pixels landed on another label: {rep['extended']} continued a neighbour's "
                      f"patch, {rep['nearest']} took the nearest right-label source pixel")

@@ -77,7 +77,7 @@ class Poisson(PoissonSolve, Node):
                               sy=img["source.y"] if "source.y" in img else None,
                               scale=float(img.meta.get("synthesis", {}).get("scale", 1.0)), fixed=fixed, values=values,
                               source_labels=src["label.id"] if src is not None and "label.id" in src else None,
-                              source=src)
+                              source=src, memo=ctx.memo)
         ctx.note(f"{info['iterations']} iterations, relative residual {info['residual']:.1e}, "
                  f"{info['fixed']} fixed pixels")
         meta = None

@@ -36,7 +36,7 @@ class Relight(PoissonSolve, Node):
     def compute(self, ctx) -> Plate:
         from proxyshade.synthesis.relight import relight
 
-        out, info = relight(ctx.image, ctx.source, PoissonSolve.of(ctx.p), filter=ctx.p.filter)
+        out, info = relight(ctx.image, ctx.source, PoissonSolve.of(ctx.p), filter=ctx.p.filter, memo=ctx.memo)
         ctx.note(f"relit from {out.meta['source'].get('image', '?')}: {info['iterations']} iterations, "
                  f"relative residual {info['residual']:.1e}")
         return out

@@ -48,7 +48,8 @@ class Resynthesize(FloodFill, Correction, PoissonSolve, Progressive, Node):
         if ctx.previous is not None and ctx.p.solve:
             prev = ctx.previous
             out = resynthesize_update(prev.plate, prev.inputs.get("image"), ctx.image, ctx.source,
-                                      prev.inputs.get("source"), ctx.p, ctx.frame, note=ctx.note)
+                                      prev.inputs.get("source"), ctx.p, ctx.frame, note=ctx.note, memo=ctx.memo,
+                                      tiles=ctx.tiles)
             if out is not None:
                 return out
-        return resynthesize(ctx.image, ctx.source, ctx.p, ctx.frame, note=ctx.note)
+        return resynthesize(ctx.image, ctx.source, ctx.p, ctx.frame, note=ctx.note, memo=ctx.memo, tiles=ctx.tiles)

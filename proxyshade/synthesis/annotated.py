@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import lazy_loader
 
 from proxyshade.errors import NodeInputError
-from proxyshade.graph.node import Param
+from proxyshade.declare import Param
 from proxyshade.synthesis.params import ParamGroup
 
 np = lazy_loader.load("numpy")  # on first use: the nodes read PatchOptimisation on a cached run

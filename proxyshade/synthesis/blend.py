@@ -114,7 +114,7 @@ def blend_frame(rgb: np.ndarray, patch: np.ndarray, labels: np.ndarray | None, s
                 source_rgb: np.ndarray | None = None, sx: np.ndarray | None = None, sy: np.ndarray | None = None,
                 scale: float = 1.0, fixed: np.ndarray | None = None,
                 values: np.ndarray | None = None, source_labels: np.ndarray | None = None,
-                source=None) -> tuple[np.ndarray, dict]:
+                source=None, memo=None) -> tuple[np.ndarray, dict]:
     """The whole-frame solve (``fixed`` pixels keep ``values``). ``solve``: the
     ``PoissonSolve`` parameters; ``seams: source`` reads ``source_rgb`` through ``sx, sy``
     (source pixels; ``scale`` source pixels per output pixel); ``layout`` moves ``rgb``
@@ -150,7 +150,7 @@ def blend_frame(rgb: np.ndarray, patch: np.ndarray, labels: np.ndarray | None, s
     # layout's spread, which moves only scales coarser than the grain's layers
     u, _ = solved(rgb, source_rgb, tol=max(solve.tol, GRAIN_TOL), spread=1.0)
     table = grain.gain_table(u, labels, source_rgb, source_labels, max_gain=solve.grain)
-    src = grain.graded(source, table)
+    src = grain.graded(source, table, memo)
     u, info = solved(lookup(src, sx, sy), src)
     info["grain"] = table
     return u, info

@@ -17,7 +17,7 @@ import math
 import numpy as np
 
 from proxyshade.errors import NodeInputError
-from proxyshade.graph.plate import Plate
+from proxyshade.plate import Plate
 
 GRID_TOL = 1e-6  # degrees
 

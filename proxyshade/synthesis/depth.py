@@ -6,8 +6,8 @@ from __future__ import annotations
 import numpy as np
 
 from proxyshade.errors import NodeInputError
-from proxyshade.graph.plate import Plate
-from proxyshade.io.usd import CameraInfo
+from proxyshade.plate import Plate
+from proxyshade.io.camera import CameraInfo
 from proxyshade.kernels import edit as kedit
 from proxyshade.kernels.jfa import jump_flood
 from proxyshade.kernels.reproject import intrinsics

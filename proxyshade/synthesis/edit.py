@@ -19,40 +19,16 @@ are diffed there.
 """
 from __future__ import annotations
 
-import threading
 from types import SimpleNamespace
 
 import numpy as np
 
-from proxyshade.graph.plate import Plate
+from proxyshade.plate import Plate
 from proxyshade.kernels import edit as kedit
 from proxyshade.kernels import temporal as kt
 from proxyshade.kernels.temporal import dilate
 from proxyshade.synthesis.blend import group_boxes
 from proxyshade.synthesis.guide import synthesize_guide
-
-
-_KNOWN: list[Plate] = []  # the newest sources seen, by content
-_KNOWN_LOCK = threading.Lock()
-KNOWN_SOURCES = 2
-
-
-def known_source(source: Plate) -> Plate:
-    """``source``, or an earlier plate of the same content (every channel bit for bit and
-    the metadata): the engine reads the source back from its cache at every run (new
-    arrays), so an interactive loop (``run --watch``) would miss every result kept by the
-    source arrays' identity (the guide's similarity sets, exemplar levels and masks, the
-    colour's label table and working labels: about 0.1 s a 1024² update) and search them
-    again. Comparing costs one pass over the source; the newest ``KNOWN_SOURCES`` are kept.
-    The results are the same either way (same content)."""
-    with _KNOWN_LOCK:
-        for k, p in enumerate(_KNOWN):
-            if p is source or (p.shape == source.shape and p.equals(source)):
-                _KNOWN.insert(0, _KNOWN.pop(k))
-                return p
-        _KNOWN.insert(0, source)
-        del _KNOWN[KNOWN_SOURCES:]
-    return source
 
 
 def _comparable(x: np.ndarray) -> np.ndarray:
@@ -126,7 +102,7 @@ def _window_of(comp: np.ndarray, origin: tuple[int, int], r0: int, r1: int, c0: 
 
 
 def update_guide(prev: Plate, region: np.ndarray, proxy: Plate, source: Plate, gp: SimpleNamespace, *,
-                 context: int) -> tuple[Plate, dict]:
+                 context: int, memo=None) -> tuple[Plate, dict]:
     """The detailed guide ``prev`` updated inside ``region`` for the edited ``proxy``.
 
     The region's 4-connected parts are grouped into windows (``blend.group_boxes``: boxes
@@ -149,7 +125,6 @@ def update_guide(prev: Plate, region: np.ndarray, proxy: Plate, source: Plate, g
     proxy's. A window that would be as large as the frame is the frame's (masked)
     synthesis, still pasted inside the region only."""
     H, W = proxy.shape
-    source = known_source(source)
     g = prev.meta.get("guide", {})
     f = int(g.get("magnify", 1))
     levels = int(np.log2(gp.size // gp.start)) + 1
@@ -173,7 +148,7 @@ def update_guide(prev: Plate, region: np.ndarray, proxy: Plate, source: Plate, g
         crop_long = max(min(hh, H), min(ww, W))
         whole = size is not None and 2 ** round(np.log2(crop_long / gp.size)) != f  # would magnify otherwise
         if whole or (hh >= H and ww >= W):  # the window is the frame: the masked synthesis of the frame
-            sub, _ = synthesize_guide(proxy, source, gp, previous=prev, active=region)
+            sub, _ = synthesize_guide(proxy, source, gp, previous=prev, active=region, memo=memo)
             r0, r1, c0, c1 = 0, H, 0, W
             info["whole"] = True
         else:
@@ -190,7 +165,8 @@ def update_guide(prev: Plate, region: np.ndarray, proxy: Plate, source: Plate, g
             aligned = r0 % f == 0 and c0 % f == 0
             info["fresh"] += not aligned  # synthesized afresh, then pasted inside the region only
             sub, _ = synthesize_guide(crop, source, SimpleNamespace(**dict(vars(gp), size=size or long_side // f)),
-                                      previous=before if aligned else None, active=sel if aligned else None)
+                                      previous=before if aligned else None, active=sel if aligned else None,
+                                      memo=memo)
         win = (slice(r0, r1), slice(c0, c1))
         if info["whole"]:
             sel = region

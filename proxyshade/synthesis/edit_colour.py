@@ -9,7 +9,7 @@ from typing import Callable
 
 import numpy as np
 
-from proxyshade.graph.plate import Plate
+from proxyshade.plate import Plate
 from proxyshade.synthesis.exemplar import provenance
 from proxyshade.synthesis.resynthesis import (SYNTHESIZED, frame_window, paste_window, resynthesize,
                                               resynthesize_window)
@@ -21,19 +21,17 @@ GEOMETRY = ("Z", "P.X", "P.Y", "P.Z", "N.X", "N.Y", "N.Z", "object.id")  # follo
 
 
 def edit_synthesis(guide: Plate, source: Plate, p, *, previous: Plate | None, region: np.ndarray | None,
-                   note: Callable[[str], None] = lambda s: None, timings: dict | None = None) -> Plate:
+                   note: Callable[[str], None] = lambda s: None, timings: dict | None = None, memo=None,
+                   tiles=None) -> Plate:
     """The synthesized frame for the detailed ``guide`` (labels, and depth AOVs passed on):
     without ``previous``, every pixel synthesized (the first frame's steps on the whole
     frame); with it, only ``region``'s pixels (the others keep ``previous``'s colours, map
     and ids bit for bit). ``p``: the ``FloodFill``, ``Correction`` and ``PoissonSolve``
-    parameters, ``factor``, ``scale``, ``seed``."""
-    from proxyshade.synthesis.edit import known_source
-
+    parameters, ``factor``, ``scale``, ``seed``; ``memo``, ``tiles``: as ``resynthesize``'s."""
     H, W = guide.shape
-    source = known_source(source)  # the last run's, when the engine read the same source back
     geometry = {c: guide[c] for c in GEOMETRY if c in guide}
     if previous is not None:
-        out = _update(guide, source, p, previous, region, geometry, note, timings)
+        out = _update(guide, source, p, previous, region, geometry, note, timings, memo, tiles)
         if out is not None:
             return out
     if previous is None:
@@ -50,7 +48,7 @@ def edit_synthesis(guide: Plate, source: Plate, p, *, previous: Plate | None, re
     img = img.with_channels(dict(geometry, **{"label.id": guide["label.id"].astype(np.uint32), "flag": flag}))
     q = dict(vars(p), solve=True, sor_thickness=None if previous is None else THIN)
     out = resynthesize(img, source, SimpleNamespace(**q), 0, note=note, timings=timings,
-                       window=None if previous is None else WINDOW)
+                       window=None if previous is None else WINDOW, memo=memo, tiles=tiles)
     info = dict(out.meta.get("resynthesis", {}))
     meta = dict(out.meta)
     meta.pop("resynthesis", None)
@@ -60,7 +58,7 @@ def edit_synthesis(guide: Plate, source: Plate, p, *, previous: Plate | None, re
 
 
 def _update(guide: Plate, source: Plate, p, previous: Plate, region: np.ndarray, geometry: dict,
-            note: Callable[[str], None], timings: dict | None) -> Plate | None:
+            note: Callable[[str], None], timings: dict | None, memo=None, tiles=None) -> Plate | None:
     """``edit_synthesis`` after an edit, on the region's window only: the window
     (``resynthesis.synthesis_window``) is cut out of ``previous`` and ``guide`` directly
     and the synthesized channels pasted back, the same pixels as ``resynthesize(window=)``
@@ -79,7 +77,8 @@ def _update(guide: Plate, source: Plate, p, previous: Plate, region: np.ndarray,
     crop["flag"] = np.where(sel, np.uint32(FLAG["disoccluded"]), np.uint32(0)).astype(np.uint32)
     q = SimpleNamespace(**dict(vars(p), solve=True, sor_thickness=THIN))
     sub = resynthesize_window(Plate(crop, dict(previous.meta)), source, q, 0, frame_shape=(H, W),
-                              patch_base=int(previous["patch.id"].max()) + 1, note=note, timings=timings)
+                              patch_base=int(previous["patch.id"].max()) + 1, note=note, timings=timings, memo=memo,
+                              tiles=tiles)
     ch = dict(previous.channels)
     ch.update(geometry)
     label = guide["label.id"]

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from proxyshade.errors import NodeInputError
-from proxyshade.graph.plate import Plate
+from proxyshade.plate import Plate
 from proxyshade.kernels import features as kf
 from proxyshade.kernels.lookup import lookup
 from proxyshade.synthesis.labels import source_dense

@@ -27,14 +27,12 @@ from proxyshade.kernels import grain as kgrain
 from proxyshade.kernels import layout as klayout
 from proxyshade.kernels.features import label_heights
 from proxyshade.synthesis.labels import joint_dense
-from proxyshade.synthesis.memo import ArrayMemo
+from proxyshade.synthesis.memo import kept
 
 RADII = (1, 2, 4, 8, 16, 32)  # box radii (px) between the layers: 3, 5, 9, 17, 33, 65 px windows
 SPREAD_RADII = (32, 64, 128, 256)  # the large-scale layers ``spread`` matches (what lies under RADII's last)
 BINS = 4                      # height bins of a label
 MIN_PIXELS = 64               # a (label, bin) with fewer pixels (either side) takes the label's gain
-
-_GRADED = ArrayMemo(4)  # graded sources, for the newest sources and tables
 
 
 def _bins(dense: np.ndarray, bins: int = BINS) -> np.ndarray:
@@ -111,10 +109,10 @@ def spread(rgb: np.ndarray, labels: np.ndarray, source_rgb: np.ndarray, source_l
     return klayout.srgb_decode(kgrain.spread_regrade(enc, out_lab, hbin, radii, g, f))
 
 
-def graded(source, table: dict) -> np.ndarray:
+def graded(source, table: dict, memo=None) -> np.ndarray:
     """The colours of ``source`` (a Plate with ``R,G,B``, ``label.id``), linear (H, W, 3)
     float32, with each layer of each label scaled by ``table`` (``gain_table``), by the
-    source pixel's height bin; labels the table does not name are unchanged. Kept for the newest sources and tables (``memo.ArrayMemo``:
+    source pixel's height bin; labels the table does not name are unchanged. Kept in ``memo`` (``synthesis.memo``:
     shared, not to be written to)."""
     source_labels = source["label.id"]
 
@@ -130,15 +128,15 @@ def graded(source, table: dict) -> np.ndarray:
         return klayout.srgb_decode(kgrain.regrade(klayout.srgb_encode(source.rgb()), dense, _bins(dense, bins),
                                                   radii, gains))
 
-    arrays = (source["R"], source["G"], source["B"], source_labels)  # a plate's channels: the same arrays each frame
-    return _GRADED.get(arrays, json.dumps(table, sort_keys=True), compute)
+    parts = (source["R"], source["G"], source["B"], source_labels, json.dumps(table, sort_keys=True))
+    return kept(memo, "grain.graded", parts, compute, size=4)
 
 
-def source_colours(source, meta: dict) -> np.ndarray:
+def source_colours(source, meta: dict, memo=None) -> np.ndarray:
     """The colours a frame reads through its map: the source graded by the first frame's
     ``meta["grain"]`` table when it has one, else the source as it is (a Plate with
     ``R,G,B`` and ``label.id``)."""
     table = meta.get("grain") if isinstance(meta, dict) else None
     if not table:
         return source.rgb()
-    return graded(source, table)
+    return graded(source, table, memo)

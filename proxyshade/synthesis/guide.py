@@ -13,16 +13,14 @@ from types import SimpleNamespace
 import numpy as np
 
 from proxyshade.errors import NodeInputError
-from proxyshade.graph.plate import Plate
+from proxyshade.plate import Plate
 from proxyshade.kernels import guide as kg
 from proxyshade.kernels.correct import downsample_mask
 from proxyshade.kernels.random import mix_seed
 from proxyshade.kernels.voting import vote_down, vote_filter
 from proxyshade.synthesis.labels import dense_guide, source_table
-from proxyshade.synthesis.memo import ArrayMemo
+from proxyshade.synthesis import memo as M
 
-_SIMILARITY = ArrayMemo(8)  # the exemplar's similarity sets per level, for the newest sources
-_EXEMPLAR = ArrayMemo(16)  # the label exemplar, its levels and masks, the source's adjacencies
 
 
 def _pow2(v: int) -> bool:
@@ -101,7 +99,7 @@ def _windows(col: np.ndarray) -> np.ndarray:
 
 
 def synthesize_guide(proxy: Plate, source: Plate, gp: SimpleNamespace, *, previous: Plate | None = None,
-                     active: np.ndarray | None = None) -> tuple[Plate, str]:
+                     active: np.ndarray | None = None, memo=None) -> tuple[Plate, str]:
     """The detailed guide of ``proxy`` (its ``label.id`` replaced, ``source.x/y`` added,
     metadata ``guide``) and a one-line summary for the run report. ``gp``: the
     ``Guidance`` parameters.
@@ -112,14 +110,15 @@ def synthesize_guide(proxy: Plate, source: Plate, gp: SimpleNamespace, *, previo
     its source positions) except on the active pixels' blocks, which are initialized with
     the new labels (the previous coordinates where their label is still the target's,
     fresh ones of the target's label elsewhere) and corrected with the rest as fixed
-    context. Only the active pixels' results are meant to be used."""
+    context. Only the active pixels' results are meant to be used. ``memo``
+    (``synthesis.memo``) keeps what depends on the source and the parameters only."""
     table = source_table(source)
     n = len(table)
     names = {int(t["id"]): t["name"] for t in source.meta["labels"]}
     tkey = tuple(table.tolist())
 
-    def per_source(what: tuple, compute):  # kept for this source's label map and table (_EXEMPLAR)
-        return _EXEMPLAR.get((source["label.id"],), (tkey,) + what, compute)
+    def per_source(what: tuple, compute):  # kept for this source's label map and table
+        return M.kept(memo, f"guide.{what[0]}", (source["label.id"], tkey) + what[1:], compute, size=4)
 
     src = per_source(("dense",), lambda: dense_guide(source["label.id"], table, "source"))
     tgt = dense_guide(proxy["label.id"], table, "proxy")
@@ -184,11 +183,11 @@ def synthesize_guide(proxy: Plate, source: Plate, gp: SimpleNamespace, *, previo
             tgt_col = np.zeros((1, 1, 75))
         # they depend on the source and the parameters only: an edit's update or a later
         # frame of the run finds them (shared: not written to)
-        sim = _SIMILARITY.get((source["label.id"],),
-                              (tuple(table.tolist()), float(g), h, gp.k, gp.sample, mix_seed(gp.seed, l), metric,
-                               pal.tobytes() if metric == 1 else None),
-                              lambda: kg.similarity_sets(e_l, masks, ex_col, h, gp.k, gp.sample, mix_seed(gp.seed, l),
-                                                         metric))
+        sim = M.kept(memo, "guide.similarity_sets",
+                   (source["label.id"], tkey, float(g), h, gp.k, gp.sample, mix_seed(gp.seed, l), metric,
+                    pal if metric == 1 else None),
+                   lambda: kg.similarity_sets(e_l, masks, ex_col, h, gp.k, gp.sample, mix_seed(gp.seed, l), metric),
+                   size=8)
         if S is None:
             S = kg.init_state(t_l, e_l, gp.seed)
         else:

@@ -20,8 +20,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from proxyshade.errors import NodeInputError
-from proxyshade.graph.plate import Plate
-from proxyshade.synthesis.memo import ArrayMemo
+from proxyshade.plate import Plate
+from proxyshade.synthesis.memo import kept
 
 MAX_EXEMPLARS = 8
 
@@ -311,17 +311,13 @@ def hybrid_plate(atlas: Plate, S: np.ndarray, extra: dict) -> Plate:
     return Plate(ch, meta)
 
 
-_ANALYSES = ArrayMemo(2)  # analyses of the newest atlases
-
-
-def analysis_of(atlas: Plate, bw: int, *, levels: int, L: int, q: int, iterations: int) -> Analysis:
-    """``analyse`` of an atlas plate, kept in memory while its arrays live (every frame of
-    a run passes the same atlas: the analysis runs once)."""
+def analysis_of(atlas: Plate, bw: int, *, levels: int, L: int, q: int, iterations: int, memo=None) -> Analysis:
+    """``analyse`` of an atlas plate, kept in ``memo`` (every frame of a run passes the
+    same atlas: the analysis runs once)."""
     arrays = (atlas["R"], atlas["G"], atlas["B"])
-    key = ("hybrid", bw, levels, L, q, iterations)
 
     def run():
         rgb = np.stack(arrays, -1).astype(np.float32)
         return analyse(rgb, bw, levels=levels, L=L, q=q, iterations=iterations, seed=0)
 
-    return _ANALYSES.get(arrays, key, run)
+    return kept(memo, "hybrid.analysis_of", (arrays, bw, levels, L, q, iterations), run)

@@ -7,11 +7,9 @@ import math
 import numpy as np
 
 from proxyshade.errors import NodeInputError
-from proxyshade.graph.plate import Plate
+from proxyshade.plate import Plate
 from proxyshade.kernels import features as kf
-from proxyshade.synthesis.memo import ArrayMemo
-
-_WORKING = ArrayMemo(2)  # the source labels on the output grid, for the newest sources
+from proxyshade.synthesis.memo import kept
 
 
 def joint_dense(*labs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -80,8 +78,8 @@ def working_labels(source_dense: np.ndarray, scale: float, n: int) -> np.ndarray
     return lab
 
 
-def source_working_labels(source: Plate, table: np.ndarray, scale: float) -> np.ndarray:
+def source_working_labels(source: Plate, table: np.ndarray, scale: float, memo=None) -> np.ndarray:
     """``working_labels`` of the source's own label map, kept for the frames of a run that
-    pass the same source (``memo.ArrayMemo``; shared: not to be written to)."""
-    return _WORKING.get((source["label.id"], table), (float(scale),),
-                        lambda: working_labels(source_dense(source, table), scale, len(table)))
+    pass the same source, in ``memo`` (``synthesis.memo``; shared: not to be written to)."""
+    return kept(memo, "labels.source_working_labels", (source["label.id"], table, float(scale)),
+                lambda: working_labels(source_dense(source, table), scale, len(table)))

@@ -1,36 +1,21 @@
-"""Results that depend only on arrays every frame of a run passes again (the source, the
-first frame's plates), kept while those arrays live instead of being rebuilt each frame.
+"""Results that every frame of a run would compute again from the same data (a source's
+similarity sets, the first frame's grid), kept in the memo the engine hands the node
+(``ctx.memo``, ``graph.memo``) and the node passes to the layer's functions.
 
-An entry is found by the identity of its arrays (weak references: nothing is kept alive
-by the memo, and an array freed and reallocated at the same address is not mistaken for
-the old one) and by a key of every other value the result depends on.
+A step names its result and every value it depends on: ``kept(memo, "grain.graded",
+(source, table), compute)``. The memo keys it like a plate (the step, the code of the
+module that computes it, the parts, plates and arrays by their content), so an entry is
+never found for other parameters or other data. ``memo=None`` keeps nothing: the functions
+stay plain functions of their arguments.
 """
 from __future__ import annotations
 
-import threading
-import weakref
 from typing import Any, Callable
 
 
-class ArrayMemo:
-    """The newest ``size`` results of ``compute`` by (arrays, key)."""
-
-    def __init__(self, size: int = 2):
-        self.size = size
-        self._entries: list = []
-        self._lock = threading.Lock()
-
-    def get(self, arrays: tuple, key: Any, compute: Callable[[], Any]) -> Any:
-        with self._lock:
-            for refs, k, value in self._entries:
-                if k == key and all((r() if r is not None else None) is a for r, a in zip(refs, arrays)):
-                    return value
-        value = compute()
-        try:
-            refs = tuple(weakref.ref(a) if a is not None else None for a in arrays)
-        except TypeError:
-            return value
-        with self._lock:
-            self._entries.append((refs, key, value))
-            del self._entries[:-self.size]
-        return value
+def kept(memo, step: str, parts: Any, compute: Callable[[], Any], *, size: int = 2) -> Any:
+    """``compute()``, or the result kept in ``memo`` for ``step`` and ``parts`` (the newest
+    ``size`` of the step are kept; shared: not to be written to)."""
+    if memo is None:
+        return compute()
+    return memo.get(step, parts, compute, size=size)

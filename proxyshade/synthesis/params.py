@@ -10,7 +10,7 @@ from __future__ import annotations
 from types import SimpleNamespace
 from typing import Any
 
-from proxyshade.graph.node import Input, Param
+from proxyshade.declare import Input, Param
 
 
 class ParamGroup:

@@ -18,10 +18,7 @@ from proxyshade.kernels.distance import nearest_site
 from proxyshade.kernels import magnify as kmag
 from proxyshade.kernels import patch as kpatch
 from proxyshade.synthesis.exemplar import SynthesisSetup, grid_to_source
-from proxyshade.synthesis import tiles
-from proxyshade.synthesis.memo import ArrayMemo
-
-_SITES = ArrayMemo(32)  # nearest source pixel of each label, per working-label grid
+from proxyshade.synthesis.memo import kept
 
 
 def fill_patches(st: SynthesisSetup, fill: SimpleNamespace, *, seed: int, mask: np.ndarray | None = None,
@@ -44,21 +41,22 @@ def similarity_sets(st: SynthesisSetup, corr: SimpleNamespace, *, seed: int) -> 
 
 def correct_map(st: SynthesisSetup, S0: np.ndarray, corr: SimpleNamespace, *, seed: int,
                 mask: np.ndarray | None = None, similarity: list | None = None,
-                near_copy: int = 0) -> tuple[np.ndarray, list, dict]:
+                near_copy: int = 0, tiles=None) -> tuple[np.ndarray, list, dict]:
     """k-coherent correction of the map ``S0`` (or of its ``mask`` pixels) from the
     coarsest level up to the synthesis size, then ``repair_map``. ``corr``: the
     ``Correction`` parameters; ``near_copy``: the smallest near-copy radius in exemplar
     pixels (Correct's parameter, capped by ``near_copy_radius``; 0, the rule's radius
     alone, for the resyntheses of Resynthesize and EditSynth, whose windows would cap it
-    differently from the whole frame). Large levels' sub-passes run in row bands on other workers
-    when the executor set a runner (``synthesis.tiles``; bit-identical). Returns (S,
+    differently from the whole frame). ``tiles``: the executor's row-band runner (``ctx.tiles``,
+    ``synthesis.tiles``), which runs large levels' sub-passes on other workers (bit-identical;
+    None: here). Returns (S,
     per-level stats, the repair's counts)."""
     S, stats = kcorrect.synthesize(st.levels, S0, passes=corr.passes, passes_finest=corr.passes_finest, k=corr.k,
                                    w=corr.w, seed=seed, knn_iterations=corr.knn_iterations, use_rgb=corr.use_rgb,
                                    kappa=corr.kappa, mask=mask, radius_rule=corr.radius, similarity=similarity,
                                    height_weight=corr.height_weight, uniformity=corr.uniformity,
                                    min_radius=near_copy_radius(st, near_copy),
-                                   tiles=tiles.current())
+                                   tiles=tiles)
     S, rep = repair_map(st, S)
     return S, stats, rep
 
@@ -83,12 +81,13 @@ def repair_map(st: SynthesisSetup, S: np.ndarray) -> tuple[np.ndarray, dict]:
 
 def magnify_map(S: np.ndarray, factor: int, shape: tuple[int, int], *, scale: float,
                 target: np.ndarray | None = None, labels: np.ndarray | None = None,
-                only: np.ndarray | None = None):
+                only: np.ndarray | None = None, memo=None):
     """The exemplar map ``S`` magnified by ``factor`` to the output size ``shape`` (each
     patch keeps its translation, the source is read at full detail). With ``target``,
     pixels whose ``labels`` (the source's on the output-scale grid,
     ``labels.working_labels``) differ from ``target`` are moved onto theirs; with
-    ``only``, just those pixels are (the others are taken to be where they land).
+    ``only``, just those pixels are (the others are taken to be where they land). ``memo``
+    (``synthesis.memo``) keeps the nearest sites of each label of ``labels``.
 
     Returns (source.x, source.y float32, patch ids uint32 from 1, patch count, the
     repair's counts)."""
@@ -97,14 +96,14 @@ def magnify_map(S: np.ndarray, factor: int, shape: tuple[int, int], *, scale: fl
     if target is not None:
         if only is not None:
             target = kmag.only_target(Sw, labels, only, target)
-        Sw, rep = kmag.repair_labels(Sw, target, labels, sites_of=lambda lab: nearest_sites(labels, lab))
+        Sw, rep = kmag.repair_labels(Sw, target, labels, sites_of=lambda lab: nearest_sites(labels, lab, memo))
     patch, npatch = patch_ids(Sw)
     return grid_to_source(Sw[..., 1], scale), grid_to_source(Sw[..., 0], scale), patch, npatch, rep
 
 
-def nearest_sites(labels: np.ndarray, lab: int) -> np.ndarray | None:
-    """``distance.nearest_site(labels == lab)`` (None where the label is absent), kept while
-    ``labels`` lives: the same working-label grid serves every frame of a run."""
+def nearest_sites(labels: np.ndarray, lab: int, memo=None) -> np.ndarray | None:
+    """``distance.nearest_site(labels == lab)`` (None where the label is absent), kept in
+    ``memo``: the same working-label grid serves every frame of a run."""
     def compute():
         sites = labels == lab
         if not sites.any():
@@ -113,7 +112,7 @@ def nearest_sites(labels: np.ndarray, lab: int) -> np.ndarray | None:
         ft.flags.writeable = False
         return ft
 
-    return _SITES.get((labels,), int(lab), compute)
+    return kept(memo, "patches.nearest_sites", (labels, int(lab)), compute, size=32)
 
 
 def patch_ids(S: np.ndarray) -> tuple[np.ndarray, int]:

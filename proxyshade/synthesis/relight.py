@@ -15,7 +15,7 @@ from types import SimpleNamespace
 import numpy as np
 
 from proxyshade.errors import NodeInputError
-from proxyshade.graph.plate import Plate
+from proxyshade.plate import Plate
 from proxyshade.kernels.lookup import lookup
 from proxyshade.synthesis.blend import blend_frame
 from proxyshade.synthesis.exemplar import provenance
@@ -23,7 +23,8 @@ from proxyshade.synthesis.grain import source_colours
 from proxyshade.synthesis.temporal import CORRECTION
 
 
-def relight(img: Plate, photo: Plate, solve: SimpleNamespace, *, filter: str = "auto") -> tuple[Plate, dict]:
+def relight(img: Plate, photo: Plate, solve: SimpleNamespace, *, filter: str = "auto",
+            memo=None) -> tuple[Plate, dict]:
     """``img`` (a synthesized frame: ``source.x/y``, ``patch.id``, ``label.id``) with its
     ``R,G,B`` read from ``photo`` (a SourceRead plate of another photo of the view)
     through its map and Poisson-blended over the whole frame (``solve``: the
@@ -43,7 +44,7 @@ def relight(img: Plate, photo: Plate, solve: SimpleNamespace, *, filter: str = "
                              "same view at the size the frame was synthesized from")
     if filter == "auto":
         filter = img.meta.get("temporal", {}).get("filter", "bilinear")
-    rgb = source_colours(photo, img.meta)  # graded by the frame's grain table, as the frame read its source
+    rgb = source_colours(photo, img.meta, memo)  # graded by the frame's grain table, as the frame read its source
     scale = float(img.meta.get("synthesis", {}).get("scale", 1.0))
     labels = img["label.id"] if "label.id" in img else None
     if solve.label_dirichlet and labels is None:

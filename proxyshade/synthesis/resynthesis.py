@@ -17,14 +17,13 @@ equation on the flagged pixels. Unflagged pixels keep Reproject's colours and ma
 """
 from __future__ import annotations
 
-import hashlib
 import time
 from types import SimpleNamespace
 from typing import Callable
 
 import numpy as np
 
-from proxyshade.graph.plate import Plate
+from proxyshade.plate import Plate
 from proxyshade.kernels.correct import downsample_mask
 from proxyshade.kernels.lookup import lookup_many
 from proxyshade.kernels import temporal as kt
@@ -33,49 +32,26 @@ from proxyshade.synthesis import labels as L
 from proxyshade.synthesis.blend import blend_regions
 from proxyshade.synthesis.exemplar import levels_for, setup
 from proxyshade.synthesis.grain import source_colours
-from proxyshade.synthesis.memo import ArrayMemo
+from proxyshade.synthesis.memo import kept
 from proxyshade.synthesis.params import Correction, FloodFill, PoissonSolve
 from proxyshade.synthesis.patches import correct_map, fill_patches, magnify_map, repair_map, similarity_sets
 from proxyshade.synthesis.temporal import CORRECTION, FLAG
 
 SYNTHESIZED = ("R", "G", "B", "source.x", "source.y", "patch.id")  # what the resynthesis writes
-_SIMILARITY = ArrayMemo(2)  # similarity sets of the newest sources
-_SIMILARITY_BY_CONTENT = ArrayMemo(2)
+def exemplar_similarity(source: Plate, st, corr: SimpleNamespace, *, seed: int, memo=None) -> list:
+    """``patches.similarity_sets`` of the exemplar, kept in ``memo``: they depend on the
+    source, the exemplar's geometry (factor, scale, levels), its features' parameters and
+    the search's, not on the frame or the window, so within one run they are searched once
+    per source (and an interactive loop that reads the same source back finds them)."""
+    parts = (source, st.table, st.factor, st.scale, len(st.levels), corr.max_distance, corr.interior, corr.use_rgb,
+             corr.k, corr.knn_iterations, corr.w, corr.height_weight, seed)
+    return kept(memo, "resynthesis.similarity_sets", parts, lambda: similarity_sets(st, corr, seed=seed))
 
 
-def exemplar_similarity(source: Plate, st, corr: SimpleNamespace, *, seed: int) -> list:
-    """``patches.similarity_sets`` of the exemplar: they depend on the source, the
-    exemplar geometry (factor, scale, levels) and the correction parameters, not on the
-    frame, so within one run they are searched once per source and reused."""
-    # coarse_size only sets the number of levels (in the key): a window's run shares the frame's sets
-    key = (st.factor, st.scale, len(st.levels), st.ex_lab.shape,
-           tuple(sorted((k, v) for k, v in vars(corr).items() if k != "coarse_size")), seed)
-    # by the arrays' identity (the frames of one run), else by their content (a later run that read
-    # the same source back from the cache, as each re-run of an interactive edit loop does)
-    return _SIMILARITY.get((source["R"], source["label.id"]), key,
-                           lambda: _SIMILARITY_BY_CONTENT.get((), key + (_digest(source["R"], source["label.id"]),),
-                                                              lambda: similarity_sets(st, corr, seed=seed)))
-
-
-def _digest(*arrays: np.ndarray) -> str:
-    h = hashlib.blake2b(digest_size=16)
-    for a in arrays:
-        a = np.ascontiguousarray(a)
-        h.update(str((a.dtype.str, a.shape)).encode())
-        h.update(a.view(np.uint8).reshape(-1))
-    return h.hexdigest()
-
-
-_TABLE = ArrayMemo(4)  # the source's label table, one array per source: the memos keyed by it then find it
-
-
-def source_table(source: Plate) -> np.ndarray:
-    """``labels.source_table``, the same array for every frame that passes the same source,
-    so that what is kept by the table's identity (``labels.source_working_labels``, and by
-    that grid the nearest sites of ``patches.magnify_map``'s repair) is found again instead
-    of being rebuilt for each frame."""
+def source_table(source: Plate, memo=None) -> np.ndarray:
+    """``labels.source_table``, kept in ``memo`` for the frames that pass the same source."""
     ids = tuple(int(t["id"]) for t in source.meta.get("labels") or ())
-    return _TABLE.get((source["label.id"],), ids, lambda: L.source_table(source))
+    return kept(memo, "resynthesis.source_table", (source["label.id"], ids), lambda: L.source_table(source), size=4)
 
 
 def block_sample(a: np.ndarray, f: int, shape: tuple[int, int]) -> np.ndarray:
@@ -102,7 +78,7 @@ def synthesis_window(flagged: np.ndarray, f: int, nlev: int, margin: int) -> tup
 
 
 def resynthesize(img: Plate, source: Plate, p, frame: int, *, note: Callable[[str], None] = lambda s: None,
-                 timings: dict | None = None, window: int | None = None) -> Plate:
+                 timings: dict | None = None, window: int | None = None, memo=None, tiles=None) -> Plate:
     """The flagged pixels of Reproject's plate ``img`` resynthesized. ``p``: the
     parameters (``FloodFill``, ``Correction``, ``PoissonSolve`` groups, ``factor``,
     ``scale``, ``seed``, ``solve``); per-stage seconds are added to ``timings`` (features,
@@ -113,12 +89,14 @@ def resynthesize(img: Plate, source: Plate, p, frame: int, *, note: Callable[[st
     frame's number of levels and new patch ids above the frame's: the unflagged pixels
     are the same, the flagged ones differ from a whole-frame run only by what the window
     leaves out (the correction's over-use statistics count the window's pixels, the flood
-    fill's random draws are the window's). The edit path (``edit_colour``) uses it."""
+    fill's random draws are the window's). The edit path (``edit_colour``) uses it.
+    ``memo``: the run's memo (``synthesis.memo``); ``tiles``: the executor's row-band runner
+    of the correction (``patches.correct_map``)."""
     if window is not None:
-        out = _windowed(img, source, p, frame, note, timings, int(window))
+        out = _windowed(img, source, p, frame, note, timings, int(window), memo, tiles)
         if out is not None:
             return out
-    return _resynthesize(img, source, p, frame, note=note, timings=timings)
+    return _resynthesize(img, source, p, frame, note=note, timings=timings, memo=memo, tiles=tiles)
 
 
 def paste_window(frame: Plate, sub: Plate, win: tuple[slice, slice], *, skip=()) -> dict:
@@ -157,7 +135,8 @@ def frame_window(meta: dict, p, region: np.ndarray, margin: int) -> tuple[slice,
     return slice(r0, r1), slice(c0, c1)
 
 
-def _windowed(img: Plate, source: Plate, p, frame: int, note, timings, margin: int) -> Plate | None:
+def _windowed(img: Plate, source: Plate, p, frame: int, note, timings, margin: int, memo=None,
+              tiles=None) -> Plate | None:
     """``resynthesize`` on ``synthesis_window``'s window, pasted into the frame; None when
     there is no gain (nothing flagged or a window of most of the frame)."""
     flagged = img["flag"] != 0
@@ -170,7 +149,7 @@ def _windowed(img: Plate, source: Plate, p, frame: int, note, timings, margin: i
     read = SYNTHESIZED + CORRECTION + ("flag", "label.id")  # what _resynthesize reads; the rest passes through
     crop = Plate({c: np.ascontiguousarray(img[c][win]) for c in read if c in img}, dict(img.meta))
     sub = resynthesize_window(crop, source, p, frame, frame_shape=(H, W), patch_base=int(img["patch.id"].max()) + 1,
-                              note=note, timings=timings)
+                              note=note, timings=timings, memo=memo, tiles=tiles)
     unchanged = [c for c in sub.names() if c in img and img[c].dtype == sub[c].dtype
                  and np.array_equal(img[c][win], sub[c])]  # flag, label.id: img's arrays
     out = paste_window(img, sub, win, skip=unchanged)
@@ -183,7 +162,8 @@ def _windowed(img: Plate, source: Plate, p, frame: int, note, timings, margin: i
 
 
 def resynthesize_window(crop: Plate, source: Plate, p, frame: int, *, frame_shape: tuple[int, int], patch_base: int,
-                        note: Callable[[str], None] = lambda s: None, timings: dict | None = None) -> Plate:
+                        note: Callable[[str], None] = lambda s: None, timings: dict | None = None, memo=None,
+                        tiles=None) -> Plate:
     """``_windowed``'s run on a window its caller cut out of the frame already (``crop``:
     the channels ``_resynthesize`` reads, the window's corners on ``synthesis_window``'s
     grid): the same levels as the frame of ``frame_shape`` (its coarsest level as many
@@ -193,11 +173,12 @@ def resynthesize_window(crop: Plate, source: Plate, p, frame: int, *, frame_shap
     long_win = max(-(-crop.shape[0] // f), -(-crop.shape[1] // f))
     coarse = long_win / 2 ** (nlev - 1) if nlev > 1 else max(long_win, p.coarse_size)
     q = SimpleNamespace(**dict(vars(p), coarse_size=coarse))
-    return _resynthesize(crop, source, q, frame, note=note, timings=timings, patch_base=patch_base)
+    return _resynthesize(crop, source, q, frame, note=note, timings=timings, patch_base=patch_base, memo=memo,
+                         tiles=tiles)
 
 
 def _resynthesize(img: Plate, source: Plate, p, frame: int, *, note: Callable[[str], None] = lambda s: None,
-                  timings: dict | None = None, patch_base: int | None = None) -> Plate:
+                  timings: dict | None = None, patch_base: int | None = None, memo=None, tiles=None) -> Plate:
     tm = timings if timings is not None else {}
     t = time.perf_counter()
 
@@ -224,14 +205,14 @@ def _resynthesize(img: Plate, source: Plate, p, frame: int, *, note: Callable[[s
     filt = img.meta.get("temporal", {}).get("filter", "bilinear")  # Reproject's, so kept and new pixels match
     if redo.any():
         sx, sy, patch, ex_factor = _synthesize(img, source, p, redo, f, scale, mix_seed(p.seed, frame), info, lap,
-                                               filt, rgb, patch_base)
+                                               filt, rgb, patch_base, memo, tiles)
     lap("magnify")
     out = {}
     before = rgb
     correct = False
     if p.solve:
         rgb, pinfo = blend_regions(rgb, patch, img["label.id"], flagged, PoissonSolve.of(p),
-                                   source_rgb=source_colours(source, img.meta), sx=sx, sy=sy, scale=scale, filter=filt,
+                                   source_rgb=source_colours(source, img.meta, memo), sx=sx, sy=sy, scale=scale, filter=filt,
                                    thin=getattr(p, "sor_thickness", None) or None)
         # flagged pixels were the source through the map: the correction adds the solve's change
         correct = all(c in img for c in CORRECTION)
@@ -254,13 +235,13 @@ def _resynthesize(img: Plate, source: Plate, p, frame: int, *, note: Callable[[s
 
 
 def _synthesize(img: Plate, source: Plate, p, redo: np.ndarray, f: int, scale: float, seed: int, info: dict, lap,
-                filt: str, rgb: np.ndarray, patch_base: int | None = None):
+                filt: str, rgb: np.ndarray, patch_base: int | None = None, memo=None, tiles=None):
     """The first frame's steps on the pixels in ``redo``; the rest keep the carried map.
     The ``redo`` pixels of ``rgb`` (the carried colours, (H, W, 3)) take the source
     through their new map, in place. Returns source.x, source.y, patch.id and the
     exemplar factor."""
     flag = img["flag"]
-    table = source_table(source)
+    table = source_table(source, memo)
     n = len(table)
     H, W = img.shape
     g = L.dense_guide(img["label.id"], table, "image")
@@ -279,15 +260,16 @@ def _synthesize(img: Plate, source: Plate, p, redo: np.ndarray, f: int, scale: f
     lap("flood fill")
     corr = Correction.of(p)
     if p.passes > 0 or p.passes_finest > 0:
-        S, _, _ = correct_map(st, S, corr, seed=p.seed, mask=active,
-                              similarity=exemplar_similarity(source, st, corr, seed=p.seed))
+        S, _, _ = correct_map(st, S, corr, seed=p.seed, mask=active, tiles=tiles,
+                              similarity=exemplar_similarity(source, st, corr, seed=p.seed, memo=memo))
     else:
         S, _ = repair_map(st, S)
     lap("corrections")
     # magnify to the output size and repair labels against the detailed labels; only redo
     # pixels take the new map: the others are told the label they land on (nothing to repair)
-    wl = L.source_working_labels(source, table, scale)
-    sx_new, sy_new, new_patch, _, rep = magnify_map(S, f, (H, W), scale=scale, target=g, labels=wl, only=redo)
+    wl = L.source_working_labels(source, table, scale, memo)
+    sx_new, sy_new, new_patch, _, rep = magnify_map(S, f, (H, W), scale=scale, target=g, labels=wl, only=redo,
+                                                    memo=memo)
     base = np.uint32(int(img["patch.id"].max()) + 1 if patch_base is None else patch_base)
     sx, sy, patch = kt.merge_redo(np.ascontiguousarray(redo, np.bool_), sx_new, sy_new,
                                   np.ascontiguousarray(new_patch, np.uint32), base,
@@ -295,15 +277,15 @@ def _synthesize(img: Plate, source: Plate, p, redo: np.ndarray, f: int, scale: f
                                   np.ascontiguousarray(img["source.y"], np.float32),
                                   np.ascontiguousarray(img["patch.id"], np.uint32))
     ii, jj = np.nonzero(redo)
-    rgb[ii, jj] = lookup_many(source_colours(source, img.meta), sx[ii, jj], sy[ii, jj], filt)
+    rgb[ii, jj] = lookup_many(source_colours(source, img.meta, memo), sx[ii, jj], sy[ii, jj], filt)
     info.update(synthesis_pixels=int(active.sum()), flood_filled=int(fresh.sum()), patches=int(npatch),
                 repaired=int(rep["wrong"]))
     return sx, sy, patch, st.ex_factor
 
 
 def resynthesize_update(old: Plate, old_image: Plate | None, img: Plate, source: Plate, old_source: Plate | None, p,
-                        frame: int, *, note: Callable[[str], None] = lambda s: None, window: int = 64
-                        ) -> Plate | None:
+                        frame: int, *, note: Callable[[str], None] = lambda s: None, window: int = 64,
+                        memo=None, tiles=None) -> Plate | None:
     """Resynthesize after an edit of the first frame (Bonneel et al. 2010, §7, carried
     through a camera move): ``old`` is this frame's last result, made from ``old_image``.
     Pixels whose input (Reproject's state: ``SYNTHESIZED``, label, flag, correction) is the
@@ -335,7 +317,7 @@ def resynthesize_update(old: Plate, old_image: Plate | None, img: Plate, source:
         ch[c] = a
     flag = ch["flag"]
     ch["flag"] = np.where(diff, flag, np.uint32(0)).astype(np.uint32)
-    out = resynthesize(Plate(ch, dict(img.meta)), source, p, frame, note=note, window=window)
+    out = resynthesize(Plate(ch, dict(img.meta)), source, p, frame, note=note, window=window, memo=memo, tiles=tiles)
     info = dict(out.meta.get("resynthesis", {}))
     info["edit"] = {"pixels": int(diff.sum()), "share": float(diff.mean())}
     note(f"progressive: {int(diff.sum())} pixels ({100 * diff.mean():.2f}%) changed by the edit, "

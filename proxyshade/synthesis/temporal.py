@@ -16,14 +16,14 @@ from types import SimpleNamespace
 import numpy as np
 
 from proxyshade.errors import NodeInputError
-from proxyshade.graph.plate import Plate
-from proxyshade.io.usd import CameraInfo
+from proxyshade.plate import Plate
+from proxyshade.io.camera import CameraInfo
 from proxyshade.kernels import reproject as kr
 from proxyshade.kernels import temporal as kt
 from proxyshade.kernels.lookup import lookup
 from proxyshade.kernels.random import uniform_field
 from proxyshade.synthesis.grain import source_colours
-from proxyshade.synthesis.memo import ArrayMemo
+from proxyshade.synthesis.memo import kept
 
 from proxyshade.synthesis.state import CATEGORY, CATEGORY_C, CORRECTION, FLAG, GEOMETRY, STATE  # noqa: F401
 
@@ -143,8 +143,6 @@ def absorb_fragments(have, patch, lab, sx, sy, scale, min_area, src_lab, min_wid
     return absorbed, sx, sy, patch
 
 
-_GRID = ArrayMemo(2)  # Frame0 of the newest first frames
-
 
 class Frame0:
     """What the first frame contributes to every later frame: inverse depth, grid corners,
@@ -163,11 +161,13 @@ class Frame0:
             self.on_proxy = np.ones(self.w0.shape, bool)
 
 
-def frame0_grid(Z0: np.ndarray, lab0: np.ndarray, Zp0: np.ndarray | None, cut_tol: float, tol: float) -> Frame0:
+def frame0_grid(Z0: np.ndarray, lab0: np.ndarray, Zp0: np.ndarray | None, cut_tol: float, tol: float,
+                memo=None) -> Frame0:
     """``Frame0`` of the first frame's plates. It depends on the first frame only: within one
-    run every later frame passes the same arrays, so it is kept (``memo.ArrayMemo``)
+    run every later frame passes the same plates, so it is kept in ``memo`` (``synthesis.memo``)
     instead of being rebuilt each frame."""
-    return _GRID.get((Z0, lab0, Zp0), (cut_tol, tol), lambda: Frame0(Z0, lab0, Zp0, cut_tol, tol))
+    return kept(memo, "temporal.frame0_grid", (Z0, lab0, Zp0, float(cut_tol), float(tol)),
+                lambda: Frame0(Z0, lab0, Zp0, cut_tol, tol))
 
 
 def camera_of(name: str, *plates) -> CameraInfo:
@@ -180,7 +180,7 @@ def camera_of(name: str, *plates) -> CameraInfo:
 
 
 def carry(cd: Plate, prev: Plate | None, first: Plate | None, source: Plate, p, *, frame: int, first_frame: int,
-          note=lambda s: None, window: tuple[int, int, int, int] | None = None) -> Plate:
+          note=lambda s: None, window: tuple[int, int, int, int] | None = None, memo=None) -> Plate:
     """The previous frame's synthesis state ``prev`` carried into the camera of ``cd``
     (this frame's ConsistentDepth), with its flags; at the first frame (no ``prev``) the
     ``first`` plate with no flags, or everything flagged without one. ``p``: the
@@ -210,7 +210,7 @@ def carry(cd: Plate, prev: Plate | None, first: Plate | None, source: Plate, p, 
     lab = np.ascontiguousarray(cd["label.id"], np.uint32)
     k1 = kr.intrinsics(cam1) if offset is None else kr.intrinsics(cam1) - offset  # the window's principal point
     u, v, q, ok = kr.transfer(w1, kr.relative_matrix(cam1, cam0), k1, kr.intrinsics(cam0), cam0.near)
-    src_rgb = source_colours(source, prev.meta)  # graded by the first frame's grain table, if any
+    src_rgb = source_colours(source, prev.meta, memo)  # graded by the first frame's grain table, if any
     if p.colour == "map" and all(c in prev for c in CORRECTION):
         # carried by Resynthesize: no second read of the source (its planes as they are)
         planes = [np.ascontiguousarray(prev[c], np.float32) for c in CORRECTION]
@@ -361,7 +361,7 @@ def _carried(prev: Plate) -> tuple[str, ...]:
 
 
 def carry_update(old: Plate, old_inputs: dict, cd: Plate, prev: Plate | None, first: Plate | None, source: Plate, p,
-                 *, frame: int, first_frame: int, note=lambda s: None) -> tuple[Plate, np.ndarray] | None:
+                 *, frame: int, first_frame: int, note=lambda s: None, memo=None) -> tuple[Plate, np.ndarray] | None:
     """Reproject after an edit of the first frame (Bonneel et al. 2010, §7, carried
     through a camera move): ``old`` is this frame's last carry, made from ``old_inputs``
     (``depth``, ``prev``, ``source``). The pixels the edit reaches here are those whose
@@ -422,7 +422,7 @@ def carry_update(old: Plate, old_inputs: dict, cd: Plate, prev: Plate | None, fi
     win = (slice(r0, r1), slice(c0, c1))
     # the carry of the region's window (its pixels' whole neighbourhoods), the camera cut decided on the frame below
     new = carry(cd, prev, first, source, SimpleNamespace(**dict(vars(p), cut_threshold=1.0)), frame=frame,
-                first_frame=first_frame, window=(r0, r1, c0, c1))
+                first_frame=first_frame, window=(r0, r1, c0, c1), memo=memo)
     if set(new.names()) != set(old.names()):
         return None
     sel = region[win]

@@ -39,7 +39,10 @@ def edit(root: Path, module: str, text: str) -> None:
 
 @pytest.mark.parametrize("module, changed, unchanged", [
     # io behind a node (the USD reader behind ProxyRender)
-    ("proxyshade.io.usd", {"ProxyRender", "CgRender", "ShadowMap", "ConsistentDepth", "Reproject", "DepthExtend"},
+    ("proxyshade.io.usd", {"ProxyRender", "CgRender", "ShadowMap"},
+     {"Fog", "SourceRead", "PatchInit", "Poisson", "ConsistentDepth", "Reproject", "DepthExtend"}),
+    # the camera a temporal node reads from a plate: io.camera, not the USD reader
+    ("proxyshade.io.camera", {"ProxyRender", "ConsistentDepth", "Reproject", "DepthExtend"},
      {"Fog", "SourceRead", "PatchInit", "Poisson"}),
     # a kernel imported only inside a function (kernels/poisson.py -> lookup)
     ("proxyshade.kernels.lookup", {"Poisson", "Magnify", "Resynthesize", "Reproject"}, {"Fog", "ProxyRender"}),

@@ -137,6 +137,7 @@ def test_the_colour_similarity_sets_are_found_again_for_a_source_read_back(monke
     from types import SimpleNamespace
 
     from proxyshade.nodes.resynthesize import Resynthesize
+    from proxyshade.graph.memo import Memo, RunMemo
     from proxyshade.synthesis import resynthesis as RS
     from tests.nodes import _temporal as TT
 
@@ -146,11 +147,12 @@ def test_the_colour_similarity_sets_are_found_again_for_a_source_read_back(monke
     img = rp.with_channels({"flag": flag})
     p = SimpleNamespace(**Resynthesize.validate_params({"seed": 3}))
     src = TT.source("renoir")
-    first = RS.resynthesize(img, src, p, 2)
+    memo = RunMemo(Memo())  # the engine's (graph.memo): kept by content, not by the arrays
+    first = RS.resynthesize(img, src, p, 2, memo=memo)
     searched = []
     monkeypatch.setattr(RS, "similarity_sets", lambda *a, **k: searched.append(1))
     again = Plate({c: src[c].copy() for c in src.names()}, dict(src.meta))
-    out = RS.resynthesize(img, again, p, 2)
+    out = RS.resynthesize(img, again, p, 2, memo=memo)
     assert not searched
     assert all(np.array_equal(out[c], first[c]) for c in ("R", "G", "B", "source.x", "source.y", "patch.id"))
 
@@ -247,27 +249,27 @@ def test_a_depth_update_gives_the_numbers_of_the_frames_unprojection():
         assert np.array_equal(whole[c].view(np.uint32), v.astype(prev[c].dtype).view(np.uint32)), c
 
 
-def test_a_source_read_back_is_the_last_runs_and_its_results_are_found_again(monkeypatch):
-    """The engine reads the source back from its cache at each run (new arrays): the edit
-    steps take the earlier plate of the same content, so the guide's per-source results
-    (similarity sets, exemplar levels) are not searched again; another content is not
-    mistaken for it."""
+def test_a_source_read_back_finds_the_last_runs_results_and_another_content_does_not(monkeypatch):
+    """The engine reads the source back from its cache at each run (new arrays, same content):
+    the guide's per-source results (similarity sets, exemplar levels) are found in the memo,
+    keyed by content, and not searched again; another content is not mistaken for it."""
+    from proxyshade.graph.memo import Memo, RunMemo
     from proxyshade.kernels import guide as kg
-    from proxyshade.synthesis import edit as E
 
     src, proxy, gp, prev, edited, water = painted(slice(300, 320), slice(200, 230))
     region = changed_region({"proxy": proxy}, {"proxy": edited}, {"proxy": ("label.id",)}, 8)
-    first, _ = update_guide(prev, region, edited, src, gp, context=16)
+    memo = RunMemo(Memo())
+    first, _ = update_guide(prev, region, edited, src, gp, context=16, memo=memo)
     again = Plate({c: src[c].copy() for c in src.names()}, dict(src.meta))
-    canon = E.known_source(src)  # src, or a plate of its content an earlier test passed
-    assert E.known_source(again) is canon and canon is not again
     searched = []
     real = kg.similarity_sets
     monkeypatch.setattr(kg, "similarity_sets", lambda *a, **k: searched.append(1) or real(*a, **k))
-    out, _ = update_guide(prev, region, edited, again, gp, context=16)
-    assert not searched
+    out, _ = update_guide(prev, region, edited, again, gp, context=16, memo=memo)
+    assert not searched and memo.hits > 0
     assert all(np.array_equal(out[c], first[c]) for c in ("label.id", "source.x", "source.y"))
-    other = again.with_channels({"label.id": np.where(again["label.id"] == water, 0, again["label.id"]).astype(
-        again["label.id"].dtype)})
-    assert E.known_source(other) is other
-    assert E.known_source(Plate(dict(again.channels), dict(again.meta, note="another table"))) is not canon
+    lab = again["label.id"].copy()
+    lab[:8, :8] = next(int(i) for i in np.unique(lab) if i != lab[0, 0])  # a corner of another label
+    other = again.with_channels({"label.id": lab})
+    hits = memo.hits
+    update_guide(prev, region, edited, other, gp, context=16, memo=memo)
+    assert searched and memo.hits == hits  # another label map: nothing of the source's is found

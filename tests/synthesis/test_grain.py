@@ -1,6 +1,7 @@
 """synthesis.grain: the gains that match a frame's detail to the photo's, label by label."""
 import numpy as np
 
+from proxyshade.graph.memo import Memo, RunMemo
 from proxyshade.graph.plate import Plate
 from proxyshade.kernels import grain as kgrain
 from proxyshade.kernels import layout as klayout
@@ -53,8 +54,9 @@ def test_source_colours_are_the_graded_source_only_with_a_table():
     src = plate(rgb, lab)
     assert np.array_equal(grain.source_colours(src, {}), src.rgb())
     table = {"radii": [1, 2], "bins": 1, "gains": {"3": [[2.0, 2.0]]}}
-    g = grain.source_colours(src, {"grain": table})
-    assert g is grain.source_colours(src, {"grain": table})  # kept for the next frame
+    memo = RunMemo(Memo())
+    g = grain.source_colours(src, {"grain": table}, memo)
+    assert g is grain.source_colours(src, {"grain": table}, memo)  # kept for the next frame
     np.testing.assert_allclose(g[lab == 1], rgb[lab == 1], atol=1e-5)  # labels the table does not name
     assert g[lab == 3].std() > 1.5 * rgb[lab == 3].std()
 

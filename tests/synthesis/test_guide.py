@@ -4,6 +4,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
+from proxyshade.graph.memo import Memo, RunMemo
 from proxyshade.io.source import load_source
 from proxyshade.kernels import guide as kg
 from proxyshade.synthesis import guide as G
@@ -19,12 +20,13 @@ def test_similarity_sets_are_found_again_for_the_same_source_and_searched_anew_f
     real = kg.similarity_sets
     monkeypatch.setattr(kg, "similarity_sets", lambda *a: calls.append(a[6]) or real(*a))
     gp = SimpleNamespace(**{**vars(Guidance.defaults()), "size": 128, "start": 32, "seed": 3})
-    first, _ = G.synthesize_guide(proxy, src, gp)
+    memo = RunMemo(Memo())
+    first, _ = G.synthesize_guide(proxy, src, gp, memo=memo)
     n = len(calls)
     assert n == 3  # one search per level
-    again, _ = G.synthesize_guide(proxy, src, gp)
+    again, _ = G.synthesize_guide(proxy, src, gp, memo=memo)
     assert len(calls) == n  # found again
     for c in first.names():
         assert np.array_equal(first[c], again[c])
-    G.synthesize_guide(proxy, src, SimpleNamespace(**{**vars(gp), "seed": 4}))
+    G.synthesize_guide(proxy, src, SimpleNamespace(**{**vars(gp), "seed": 4}), memo=memo)
     assert len(calls) == 2 * n  # another seed: other sets
