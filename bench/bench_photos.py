@@ -64,6 +64,10 @@ from proxyshade.io.colourlib import colour_science  # noqa: E402
 from proxyshade.io.images import read_u8, write_png  # noqa: E402
 from proxyshade.io.source import labels_from_map, load_source  # noqa: E402
 from proxyshade.kernels import quality as Q  # noqa: E402
+from proxyshade.kernels.display import id_palette  # noqa: E402
+
+sys.path.insert(0, str(ROOT / "bench"))
+from bench_fidelity import resize_ids  # noqa: E402
 
 BUNDLED = ["renoir", "monet", "creek"]
 WIDTH = 1024
@@ -110,11 +114,6 @@ def bundled_cases() -> list[dict]:
         out.append({"name": s, "table": table, "held": False, "layout": (table.parent / lay).resolve(),
                     "mirror": False, "layout_name": Path(lay).name})
     return out
-
-
-def resize_ids(ids: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
-    h, w = shape
-    return ids[(np.arange(h) * ids.shape[0] // h)][:, (np.arange(w) * ids.shape[1] // w)]
 
 
 def case_guide(case: dict, src: Plate, width: int = WIDTH) -> np.ndarray:
@@ -177,19 +176,11 @@ def proxyshade(src: Plate, ids: np.ndarray, variants: dict[str, dict]) -> dict[s
     return out
 
 
-def colour_ids(ids: np.ndarray, table: list[dict]) -> np.ndarray:
-    lut = np.zeros((int(ids.max()) + 1, 3), np.uint8)
-    for t in table:
-        c = t["color"].lstrip("#")
-        lut[int(t["id"])] = [int(c[i:i + 2], 16) for i in (0, 2, 4)]
-    return lut[ids]
-
-
 def ebsynth(exe: Path, src: Plate, ids: np.ndarray, cache: Path) -> tuple[np.ndarray, float]:
     """EbSynth's output (sRGB in [0, 1]) and seconds (0 when read back from ``cache``)."""
     photo = Path(src.meta["source"]["image"])
     table = src.meta["labels"]
-    g_src, g_tgt = colour_ids(src["label.id"], table), colour_ids(ids, table)
+    g_src, g_tgt = id_palette(src["label.id"], table), id_palette(ids, table)  # the label map's colours
     h = hashlib.sha256(photo.read_bytes() + g_src.tobytes() + g_tgt.tobytes() + repr(g_tgt.shape).encode())
     path = cache / f"ebsynth_{h.hexdigest()[:16]}.png"
     if path.exists():
