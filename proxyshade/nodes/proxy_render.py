@@ -7,7 +7,6 @@ time." (Bonneel et al. 2010, §3.)
 """
 from __future__ import annotations
 
-import functools
 import hashlib
 from pathlib import Path
 
@@ -23,20 +22,22 @@ np = lazy_loader.load("numpy")  # on first use: a fully cached run never loads n
 # a cached run loads neither
 
 
-@functools.lru_cache(maxsize=8)
-def _stage(path: str, content: str):
-    from proxyshade.io import usd
-
-    return usd.open_stage(path)
+_STAGES: dict[str, tuple[str, object]] = {}  # path -> (content hash, stage)
 
 
 def open_cached(path: Path):
-    """The stage at ``path``, reopened only when the file's content changes."""
+    """The stage at ``path``, reopened only when the file's content changes. One stage per
+    path: USD keeps one layer per path in the process, so a stage kept for an earlier content
+    (a scene edited, then the edit undone) would show the layer as last reloaded."""
     from proxyshade.io import usd
 
     if not path.is_file():
         return usd.open_stage(path)  # raises the one-line error
-    return _stage(str(path), hashlib.sha256(path.read_bytes()).hexdigest())
+    content = hashlib.sha256(path.read_bytes()).hexdigest()
+    got = _STAGES.get(str(path))
+    if got is None or got[0] != content:
+        got = _STAGES[str(path)] = (content, usd.open_stage(path))
+    return got[1]
 
 
 def render_prims(prims: list, cam, *, max_error_px: float = 0.25):

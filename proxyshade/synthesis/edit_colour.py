@@ -90,6 +90,7 @@ def _update(guide: Plate, source: Plate, p, previous: Plate, region: np.ndarray,
     info = dict(sub.meta.get("resynthesis", {}))
     meta = dict(sub.meta)
     meta.pop("resynthesis", None)
+    meta.update({k: guide.meta[k] for k in ("camera", "up_axis", "objects") if k in guide.meta})  # the edited scene's
     n = int(sel.sum())
     meta["edit"] = {"pixels": n, "share": n / (H * W), "synthesis_pixels": int(info.get("synthesis_pixels", 0)),
                     "whole": False}

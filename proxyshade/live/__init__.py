@@ -1,0 +1,1 @@
+"""The live editing page: ``proxyshade edit`` (docs/editing.md)."""
