@@ -214,6 +214,29 @@ def run(
         _wait_for_change(watched, poll)
 
 
+@app.command()
+def edit(
+    graph: Path = typer.Argument(..., metavar="GRAPH", help="YAML graph with a ProxyRender (graphs/edit.yaml)"),
+    var: List[str] = typer.Option([], "--var", help="set a graph variable: name=value (repeatable)"),
+    set_: List[str] = typer.Option([], "--set", help="override a parameter: node.param=value (repeatable)"),
+    port: int = typer.Option(8800, "--port", min=0, max=65535, help="port on 127.0.0.1 (0: any free one)"),
+    open_: bool = typer.Option(False, "--open", help="open the page in the default browser"),
+    cache: Optional[Path] = typer.Option(None, "--cache", help="plate cache folder (as for run)"),
+    threads: int = typer.Option(0, "--threads", min=0, help="numba threads per kernel (0: all cores)"),
+):
+    """Edit GRAPH's scene on a live page: sculpt the terrain, add or remove spheres, undo; each
+    edit updates the frame progressively (docs/editing.md). Prints the page's URL."""
+    try:
+        from proxyshade.live.server import serve
+        from proxyshade.live.session import Session
+    except ImportError as e:
+        raise UserError(f"proxyshade edit needs the live extra ({e.name} is missing): "
+                        "pip install 'proxyshade[live]'") from None
+    session = Session(graph, _vars(var), cache=cache, overrides=set_, threads=threads,
+                      log=lambda m: _say(err, m))
+    serve(session, port=port, open_browser=open_)
+
+
 def _snapshot(paths) -> dict:
     """Each path's (mtime, size), None where it does not exist."""
     snap = {}
