@@ -36,6 +36,11 @@ def live(tmp_path_factory):
         yield server, client
 
 
+def usda_text(data, spec) -> str:
+    stage = build_stage(data, str(spec))  # held: the layer lives as long as its stage
+    return stage.GetRootLayer().ExportToString()
+
+
 def receive(ws, until=("edit", "error")) -> list[dict]:
     """Messages up to the first of type ``until``."""
     out = []
@@ -80,7 +85,7 @@ def test_stroke_reaches_the_scene_files_and_every_page(live):
     ground = lambda d: next(t for t in d["terrains"] if t["name"] == "Ground")  # noqa: E731
     assert len(ground(spec)["strokes"]) == len(ground(spec_before)["strokes"]) + 1
     assert ground(spec)["strokes"][-1]["radius"] == 7.0 and ground(spec)["strokes"][-1]["amount"] == 9.0
-    assert s.usda.read_text() == build_stage(spec, str(s.spec)).GetRootLayer().ExportToString()
+    assert s.usda.read_text() == usda_text(spec, s.spec)
 
 
 BAD = [
@@ -135,7 +140,7 @@ def test_undo_redo_restore_the_scene(live):
         ws.send_text(json.dumps({"type": "undo"}))
         assert receive(ws)[-1]["type"] == "edit"
         assert load_spec(s.spec) == before
-        assert s.usda.read_text() == build_stage(before, str(s.spec)).GetRootLayer().ExportToString()
+        assert s.usda.read_text() == usda_text(before, s.spec)
         ws.send_text(json.dumps({"type": "redo"}))
         assert receive(ws)[-1]["type"] == "edit"
         assert load_spec(s.spec) == after
