@@ -149,6 +149,8 @@ class LiveServer:
     async def websocket(self, ws):
         from starlette.websockets import WebSocketDisconnect
 
+        gone = (WebSocketDisconnect, RuntimeError)  # RuntimeError: Starlette's WebSocketDisconnected (a page gone)
+
         if not secrets.compare_digest(str(ws.query_params.get("token", "")), self.token):
             await ws.close(code=1008)
             return
@@ -163,7 +165,7 @@ class LiveServer:
             while True:
                 text = await ws.receive_text()
                 await self.handle(client, text)
-        except WebSocketDisconnect:
+        except gone:
             pass
         finally:
             self.clients.discard(client)
@@ -227,8 +229,8 @@ class LiveServer:
                 await self.send_bytes(client, data)
                 return
             if kind == "save":
-                files = await asyncio.get_running_loop().run_in_executor(self.sinks, self._write_sinks, True)
-                await self.broadcast({"type": "saved", "files": [str(f) for f in files]})
+                files, secs = await asyncio.get_running_loop().run_in_executor(self.sinks, self._write_sinks, True)
+                await self.broadcast({"type": "saved", "files": [str(f) for f in files], "seconds": secs})
                 return
             edits = {"stroke": self._stroke, "sphere": self._sphere, "remove": self._remove,
                      "undo": lambda m: self.session.undo(), "redo": lambda m: self.session.redo()}
@@ -247,7 +249,8 @@ class LiveServer:
             await self.send_json(client, {"type": "error", "message": f"refused: {e}"})
             return
         ms = (time.perf_counter() - t0) * 1000
-        await self.broadcast({"type": "edit", "what": what, "ms": round(ms, 1), "seq": self.seq,
+        share = (self.session.plates.get((self.session.view_node, client.frame)).meta.get("edit") or {}).get("share")
+        await self.broadcast({"type": "edit", "what": what, "ms": round(ms, 1), "seq": self.seq, "share": share,
                               "undo": len(self.session.undo_stack), "redo": len(self.session.redo_stack),
                               "undo_what": self.session.undo_stack[-1][2] if self.session.undo_stack else None,
                               "redo_what": self.session.redo_stack[-1][2] if self.session.redo_stack else None})
@@ -325,16 +328,19 @@ class LiveServer:
             return
         self.sink_pending = False
         fut = self.loop.run_in_executor(self.sinks, self._write_sinks, False)
-        fut.add_done_callback(lambda f: f.exception() is None and f.result() and asyncio.ensure_future(
-            self.broadcast({"type": "saved", "files": [str(p) for p in f.result()]})))
+        fut.add_done_callback(lambda f: f.exception() is None and f.result()[0] and asyncio.ensure_future(
+            self.broadcast({"type": "saved", "files": [str(p) for p in f.result()[0]], "seconds": f.result()[1]})))
 
-    def _write_sinks(self, now: bool) -> list[Path]:
-        frames = sorted(self.dirty) if not now else sorted(self.dirty | {c.frame for c in self.clients})
-        self.dirty.clear()
+    def _write_sinks(self, now: bool) -> tuple[list[Path], float]:
+        """(files written, seconds) of the sinks at the frames edited since the last write
+        (``now``: and the frames the pages show)."""
+        t = time.perf_counter()
+        dirty, self.dirty = self.dirty, set()  # one swap: an edit's frame added meanwhile goes to the next write
+        frames = sorted(dirty | ({c.frame for c in self.clients} if now else set()))
         if not frames:
-            return []
-        snap = self.session.snapshot()
-        return self.session.write_outputs(frames, snap)
+            return [], 0.0
+        files = self.session.write_outputs(frames, self.session.snapshot())
+        return files, round(time.perf_counter() - t, 3)
 
 
 def bind(port: int) -> socket.socket:
