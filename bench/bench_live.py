@@ -89,6 +89,7 @@ def main(argv=None):
             until({"pixels"})
             client: dict[str, list[float]] = {}
             server: dict[str, list[float]] = {}
+            cpu: dict[str, list[float]] = {}
             shares: dict[str, float] = {}
 
             def timed(name, msg):
@@ -98,6 +99,7 @@ def main(argv=None):
                 dt = time.perf_counter() - t
                 edit = first if first["type"] == "edit" else until({"edit"})
                 client.setdefault(name, []).append(dt)
+                cpu.setdefault(name, []).append(edit["cpu_s"])
                 server.setdefault(name, []).append(edit["ms"] / 1000)
                 if edit.get("share") is not None:
                     shares[name] = edit["share"]
@@ -111,6 +113,7 @@ def main(argv=None):
                 if r == 0:
                     client.clear()
                     server.clear()
+                    cpu.clear()
             ws.send(json.dumps({"type": "save"}))
             saved = until({"saved"})
         rows = []
@@ -121,6 +124,8 @@ def main(argv=None):
             rows.append((f"{name}{share}: page", {"median": statistics.median(c), "min": min(c)}, target))
             rows.append((f"  server only", {"median": statistics.median(s), "min": min(s)}, None))
         table(f"stroke -> updated pixels through proxyshade edit, lake {a.size}² ({a.rounds} rounds, bench_live)", rows)
+        print("server CPU seconds per edit (every thread, median): "
+              + ", ".join(f"{k} {statistics.median(v):.3f}" for k, v in cpu.items()))
         print(f"EXR + preview written after the edits rest: {saved['seconds']:.2f} s "
               f"({', '.join(Path(f).name for f in saved['files'])})")
     finally:

@@ -251,6 +251,7 @@ class LiveServer:
         ms = (time.perf_counter() - t0) * 1000
         share = (self.session.plates.get((self.session.view_node, client.frame)).meta.get("edit") or {}).get("share")
         await self.broadcast({"type": "edit", "what": what, "ms": round(ms, 1), "seq": self.seq, "share": share,
+                              "cpu_s": round(self.session.timings.get("update_cpu", 0.0), 3),
                               "undo": len(self.session.undo_stack), "redo": len(self.session.redo_stack),
                               "undo_what": self.session.undo_stack[-1][2] if self.session.undo_stack else None,
                               "redo_what": self.session.redo_stack[-1][2] if self.session.redo_stack else None})
@@ -284,6 +285,7 @@ class LiveServer:
         the changed box of each, as pixel messages. An edit whose update fails is undone."""
         s = self.session
         gen = s.gen
+        cpu = time.process_time()
         what = fn(msg)  # EditError: nothing written
         self.seq += 1
         try:
@@ -294,6 +296,7 @@ class LiveServer:
                 s.redo_stack.clear()
             raise UserError(f"the update failed and the edit was undone: {e}") from e
         s.timings["update"] = time.perf_counter() - t0
+        s.timings["update_cpu"] = time.process_time() - cpu  # the process's CPU seconds, every thread
         return what, out
 
     def _updates(self, wanted) -> dict[tuple[int, str], list[bytes]]:
