@@ -186,8 +186,14 @@ class Session:
                 raise UserError(f"{g.source}: nodes.{name}.inputs.{inp}: reads a whole sequence; the live page shows "
                                 "one frame at a time: show a node upstream of it")
             f2 = ref.frame(frame, self.first)
-            out[inp] = (ref.node, f2) if self.first <= f2 <= self.last else None
+            out[inp] = self._canonical((ref.node, f2)) if self.first <= f2 <= self.last else None
         return out
+
+    def _canonical(self, inst) -> tuple[str, int]:
+        """A node whose result does not depend on the frame has one instance, at the first
+        frame (as the engine's keys make it one: the source is read once)."""
+        name, frame = inst
+        return inst if self.graph.nodes[name].depends_on_frame() else (name, self.first)
 
     def _ancestors(self, inst) -> list[tuple[str, int]]:
         """``inst`` and everything it reads, inputs first."""
@@ -218,7 +224,7 @@ class Session:
     def current(self, inst) -> bool:
         return inst in self.plates and (inst[0] not in self.dependent or self.made_at[inst] == self.gen)
 
-    def value(self, inst, progress=None):
+    def value(self, inst):
         """The plate of (node, frame) for the scene as it is now: held, or computed from its
         inputs (a progressive node updating its held result)."""
         from proxyshade.graph.graph import load_array_libraries, set_kernel_threads
@@ -227,13 +233,12 @@ class Session:
 
         load_array_libraries()
         set_kernel_threads(self.threads)
+        inst = self._canonical(inst)
         for i in self._ancestors(inst):
             if self.current(i):
                 continue
             name, frame = i
             node = self.graph.nodes[name]
-            if progress is not None and name == self.view_node:
-                progress(frame)
             inputs = {inp: (self.plates[src] if src else None) for inp, src in self._input_refs(i).items()}
             notes: list[str] = []
             ctx = Context(node, frame, self.first, inputs, dict(node.params), self.graph.graph_dir, self.threads, notes)
@@ -251,9 +256,9 @@ class Session:
             self.inputs_of[i] = inputs
         return self.plates[inst]
 
-    def frame_plate(self, frame: int, progress=None):
+    def frame_plate(self, frame: int):
         self.check_frame(frame)
-        return self.value((self.view_node, frame), progress)
+        return self.value((self.view_node, frame))
 
     def proxy_plate(self, frame: int):
         return self.value((self.scene_node, frame))
@@ -262,9 +267,6 @@ class Session:
         if not isinstance(frame, int) or isinstance(frame, bool) or not self.first <= frame <= self.last:
             raise EditError(f"frame {frame!r}: pick a frame from {self.first} to {self.last}")
         return frame
-
-    def held_frames(self) -> list[int]:
-        return sorted({f for (n, f) in self.plates if n == self.view_node})
 
     # -- edits ---------------------------------------------------------------------
     def _load(self) -> dict:
@@ -415,7 +417,8 @@ class Session:
         return [t["name"] for t in table]
 
     def views(self, frame: int) -> list[str]:
-        p = self.plates.get((self.view_node, frame)) or self.plates[(self.view_node, self.first)]
+        p = self.plates.get((self.view_node, frame))
+        p = self.plates[(self.view_node, self.first)] if p is None else p
         return [v for v, chans in VIEWS.items() if all(c in p.names() for c in chans)]
 
     def snapshot(self) -> dict:
