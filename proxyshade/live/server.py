@@ -24,6 +24,7 @@ import json
 import secrets
 import socket
 import struct
+import sys
 import threading
 import time
 from concurrent.futures import ThreadPoolExecutor
@@ -372,5 +373,12 @@ def serve(session: Session, port: int = 8800, open_browser: bool = False) -> Non
         import webbrowser
 
         threading.Timer(0.5, webbrowser.open, args=(url,)).start()
+    def warm():  # before the first edit: the update path's memo entries and kernels
+        try:
+            session.warm()
+        except Exception as e:  # noqa: BLE001 - only the first edit's speed depends on it
+            print(f"warning: warming the update path failed ({type(e).__name__}: {e})", file=sys.stderr)
+
+    live.worker.submit(warm)
     config = uvicorn.Config(live.app(), log_level="warning", ws_max_size=MAX_MESSAGE, lifespan="off")
     uvicorn.Server(config).run(sockets=[sock])

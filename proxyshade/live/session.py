@@ -224,37 +224,69 @@ class Session:
     def current(self, inst) -> bool:
         return inst in self.plates and (inst[0] not in self.dependent or self.made_at[inst] == self.gen)
 
-    def value(self, inst):
-        """The plate of (node, frame) for the scene as it is now: held, or computed from its
-        inputs (a progressive node updating its held result)."""
+    def _compute(self, inst, inputs: dict, previous=None):
+        """(plate, context) of one node instance computed from ``inputs`` on this thread, as
+        the engine computes it (``ctx.previous`` for a progressive node, the memo)."""
         from proxyshade.graph.graph import load_array_libraries, set_kernel_threads
         from proxyshade.graph.memo import RunMemo
-        from proxyshade.graph.node import Context, Previous
+        from proxyshade.graph.node import Context
 
         load_array_libraries()
         set_kernel_threads(self.threads)
+        name, frame = inst
+        node = self.graph.nodes[name]
+        ctx = Context(node, frame, self.first, inputs, dict(node.params), self.graph.graph_dir, self.threads, [])
+        ctx.memo = RunMemo(self.graph.memo)
+        ctx.previous = previous
+        node.check_inputs(inputs)
+        try:
+            return node.compute(ctx), ctx
+        except UserError as e:
+            raise UserError(f"{name}@{frame}: {e}") from None
+
+    def _previous(self, inst):
+        from proxyshade.graph.node import Previous
+
+        if not self.graph.nodes[inst[0]].is_progressive() or inst not in self.plates:
+            return None
+        return Previous(self.plates[inst], {k: v for k, v in self.inputs_of[inst].items() if v is not None})
+
+    def value(self, inst):
+        """The plate of (node, frame) for the scene as it is now: held, or computed from its
+        inputs (a progressive node updating its held result)."""
         inst = self._canonical(inst)
         for i in self._ancestors(inst):
             if self.current(i):
                 continue
-            name, frame = i
-            node = self.graph.nodes[name]
             inputs = {inp: (self.plates[src] if src else None) for inp, src in self._input_refs(i).items()}
-            notes: list[str] = []
-            ctx = Context(node, frame, self.first, inputs, dict(node.params), self.graph.graph_dir, self.threads, notes)
-            ctx.memo = RunMemo(self.graph.memo)
-            if node.is_progressive() and i in self.plates:
-                ctx.previous = Previous(self.plates[i], {k: v for k, v in self.inputs_of[i].items() if v is not None})
             t = time.perf_counter()
-            node.check_inputs(inputs)
-            try:
-                plate = node.compute(ctx)
-            except UserError as e:
-                raise UserError(f"{name}@{frame}: {e}") from None
-            self.timings[name] = time.perf_counter() - t
+            plate, _ = self._compute(i, inputs, self._previous(i))
+            self.timings[i[0]] = time.perf_counter() - t
             self._hold(i, plate)
             self.inputs_of[i] = inputs
         return self.plates[inst]
+
+    def warm(self) -> float:
+        """Run the first frame's update path once on a made-up edit (a 16-pixel square of the
+        proxy's labels changed), the results thrown away: the memo's entries (the source's
+        similarity sets, its exemplar levels) and the update's kernels are then ready, and
+        the user's first edit is as fast as the next ones. Returns the seconds it took."""
+        from proxyshade.graph.plate import Plate
+
+        t = time.perf_counter()
+        proxy = (self.scene_node, self.first)
+        p = self.plates[proxy]
+        lab = p["label.id"].copy()
+        H, W = lab.shape
+        lab[H // 2:H // 2 + 16, W // 2:W // 2 + 16] = lab[0, 0]
+        made = {proxy: Plate(dict(p.channels, **{"label.id": lab}), dict(p.meta))}
+        for i in self._ancestors((self.view_node, self.first)):
+            if i[0] not in self.dependent or i == proxy:
+                continue
+            inputs = {inp: (made.get(src, self.plates.get(src)) if src else None)
+                      for inp, src in self._input_refs(i).items()}
+            made[i], _ = self._compute(i, inputs, self._previous(i))
+        return time.perf_counter() - t
 
     def frame_plate(self, frame: int):
         self.check_frame(frame)
@@ -429,12 +461,6 @@ class Session:
         """Run the graph's sinks (EXR, preview) at ``frames`` on the held plates (the nodes
         between the view and the sinks, such as Cryptomatte, computed here and not kept).
         Safe on another thread than the edits' with a ``snapshot``."""
-        from proxyshade.graph.graph import load_array_libraries, set_kernel_threads
-        from proxyshade.graph.memo import RunMemo
-        from proxyshade.graph.node import Context
-
-        load_array_libraries()
-        set_kernel_threads(self.threads)
         plates = dict(snapshot if snapshot is not None else self.snapshot())
         written: list[Path] = []
         g = self.graph
@@ -457,11 +483,7 @@ class Session:
                     if n2.is_progressive() or any(src not in plates for src in self._input_refs(i).values() if src):
                         break
                     inputs = {inp: (plates[src] if src else None) for inp, src in self._input_refs(i).items()}
-                    notes: list[str] = []
-                    ctx = Context(n2, i[1], self.first, inputs, dict(n2.params), g.graph_dir, self.threads, notes)
-                    ctx.memo = RunMemo(g.memo)
-                    n2.check_inputs(inputs)
-                    plates[i] = n2.compute(ctx)
+                    plates[i], ctx = self._compute(i, inputs)
                     if n2.sink:
                         written += n2.written_files(ctx)
         return written
