@@ -5,7 +5,10 @@ restore the scene, and no request reaches a file by its path."""
 from __future__ import annotations
 
 import json
+import os
+import sys
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -223,3 +226,56 @@ def test_sinks_written_after_the_update(live):
 
     plate = read_plate(exr)
     assert np.array_equal(plate["R"], s.frame_plate(1)["R"])
+
+
+_WRITES: list | None = None
+
+
+def _audit(event, args):
+    if _WRITES is None:
+        return
+    if event == "open":
+        path, mode, flags = args
+        writing = (mode is not None and any(c in str(mode) for c in "wax+")) or \
+                  (mode is None and isinstance(flags, int) and flags & (os.O_WRONLY | os.O_RDWR | os.O_CREAT))
+        if writing and isinstance(path, (str, bytes, os.PathLike)):
+            _WRITES.append(Path(os.fsdecode(path)).resolve())
+    elif event in ("os.rename", "os.replace", "os.remove", "os.unlink"):
+        _WRITES.append(Path(os.fsdecode(args[-1] if event in ("os.rename", "os.replace") and len(args) == 2
+                                        else args[1] if event in ("os.rename", "os.replace") else args[0])).resolve())
+
+
+sys.addaudithook(_audit)
+
+
+def test_edits_write_only_the_scene_and_the_outputs(live):
+    """Every file an edit, an undo or a save writes, renames or removes (Python's audit
+    events, every thread of the server) lies in the scene's folder or the output folder."""
+    global _WRITES
+    server, client = live
+    s = server.session
+    allowed = [s.spec.parent.resolve(), s.out_dir.resolve()]
+    from proxyshade.kernels import _cache
+
+    kernels = Path(_cache.folder()).resolve().parent  # numba's compiled kernels (a first call compiles)
+    with connect(client) as ws:
+        receive(ws, until=("pixels",))
+        time.sleep(4 * server.sink_delay)
+        server.sinks.submit(lambda: None).result()
+        _WRITES = []
+        try:
+            for msg in ({"type": "stroke", "frame": 1, "points": [[100, 170]], "radius": 4, "strength": 3},
+                        {"type": "sphere", "frame": 1, "at": [150, 160], "radius": 3, "label": "tree"},
+                        {"type": "undo"}, {"type": "redo"}):
+                ws.send_text(json.dumps(msg))
+                assert receive(ws)[-1]["type"] == "edit"
+            ws.send_text(json.dumps({"type": "save"}))
+            receive(ws, until=("saved",))
+            written = list(_WRITES)
+        finally:
+            _WRITES = None
+    assert any(s.spec.parent.resolve() in p.parents for p in written)  # the hook saw the scene's writes
+    assert any(s.out_dir.resolve() in p.parents or p.parent == s.out_dir.resolve() for p in written)
+    stray = [p for p in written if not any(a == p.parent or a in p.parents for a in allowed)
+             and kernels not in p.parents and "kernels" not in p.parts and not str(p).startswith("/dev/")]
+    assert stray == []
