@@ -59,7 +59,9 @@ def main(argv=None):
     ap.add_argument("--pause", type=float, default=0.4)
     ap.add_argument("--cache", type=Path, default=None, help="plate cache (default: a new one: the first frame cold)")
     ap.add_argument("--size", type=int, default=1024)
-    a = ap.parse_args(sys.argv[1:] if argv is None else argv)
+    if argv is None:  # its own command line; under bench/run.py (``run.py live``) the defaults
+        argv = sys.argv[1:] if Path(sys.argv[0]).name == "bench_live.py" else []
+    a = ap.parse_args(argv)
     from websockets.sync.client import connect
 
     tmp = Path(tempfile.mkdtemp())

@@ -237,7 +237,7 @@ class LiveServer:
                      "undo": lambda m: self.session.undo(), "redo": lambda m: self.session.redo()}
             if kind not in edits:
                 raise EditError(f"message type {kind!r}: one of stroke, sphere, remove, undo, redo, view, frame, save")
-            await self.broadcast({"type": "busy", "message": "updating…"})
+            await self.send_json(client, {"type": "busy", "message": "updating…"})
             what, updates = await self.run(self._edit, edits[kind], msg, client.frame, t0)
             await self.send_updates(updates)  # the editing page's frame first
             others = sorted({(c.frame, c.view) for c in self.clients} - set(updates) - {(client.frame, "frame")})
