@@ -227,6 +227,10 @@ def edit(
     """Edit GRAPH's scene on a live page: sculpt the terrain, add or remove spheres, undo; each
     edit updates the frame progressively (docs/editing.md). Prints the page's URL."""
     try:
+        import starlette  # noqa: F401
+        import uvicorn  # noqa: F401
+        import websockets  # noqa: F401
+
         from proxyshade.live.server import serve
         from proxyshade.live.session import Session
     except ImportError as e:

@@ -72,3 +72,15 @@ def test_edit_command_refuses_a_bad_port_in_one_line(tmp_path):
     r = subprocess.run([sys.executable, "-m", "proxyshade.cli", "edit", str(GRAPH), "--port", "70000"],
                        capture_output=True, text=True, cwd=ROOT)
     assert r.returncode == 2 and "--port" in r.stderr and len(r.stderr.strip().splitlines()) == 1
+
+
+def test_edit_command_refuses_a_graph_without_a_scene(tmp_path):
+    import subprocess
+    import sys
+
+    from ._live import ROOT
+
+    r = subprocess.run([sys.executable, "-m", "proxyshade.cli", "edit", str(ROOT / "graphs/texture.yaml"), "--port", "0",
+                        "--var", f"out={tmp_path}"], capture_output=True, text=True, cwd=ROOT, timeout=120)
+    assert r.returncode == 2 and "ProxyRender" in r.stderr and len(r.stderr.strip().splitlines()) == 1
+    assert not any(tmp_path.iterdir())
