@@ -70,6 +70,11 @@ def test_drag_a_stroke_on_the_page(tmp_path):
             time.sleep(0.3)  # the flash outline is on the overlay, not the image: nothing to wait for but paint
             after = canvas(driver)
             status = driver.find_element(By.ID, "status").text
+            # a click shows the label AOV: the source's label colours, a few flat colours
+            n = driver.execute_script("return window.live.pixels")
+            driver.find_element(By.CSS_SELECTOR, "#views button[data-view=label]").click()
+            wait.until(lambda d: d.execute_script("return window.live.pixels") > n)
+            labels = canvas(driver)
         finally:
             driver.quit()
     changed = (before != after).any(-1)
@@ -78,6 +83,8 @@ def test_drag_a_stroke_on_the_page(tmp_path):
     assert changed.sum() > 50 and (d < 20).sum() > 20  # near the stroke
     assert np.abs(ys - STROKE_AT[1]).max() <= 64  # and nowhere far from it (the shoreline moves across the width)
     assert "raise terrain" in status and " ms" in status
+    colours = np.unique(labels[..., :3].reshape(-1, 3), axis=0)
+    assert 2 <= len(colours) <= 8 and len(np.unique(after[..., :3].reshape(-1, 3), axis=0)) > 1000
     data = load_spec(spec)
     strokes = next(t for t in data["terrains"] if t["name"] == "Ground")["strokes"]
     assert len(strokes) > n0 and all(s["amount"] > 0 for s in strokes[n0:])
