@@ -27,7 +27,7 @@ from pathlib import Path
 from typing import Any
 
 from proxyshade.errors import GraphFileError, ParamError
-from proxyshade.io import yamlfile
+from proxyshade.io import files, yamlfile
 
 FORMAT = "proxyshade/1"
 MAX_FRAMES = 100_000  # frames in one range: far beyond a shot, far below exhausting memory
@@ -130,10 +130,39 @@ def _resolve_vars(declared: dict, given: dict, f: str, line: int) -> dict:
             out[name] = _bundled_or_path(value, spec["bundled"])
             out[f"{name}_name"] = _short_name(value)
         else:
-            out[name] = given.get(name, spec)
+            out[name] = _typed_var(name, given[name], spec) if name in given else spec
     for name, value in given.items():
         out.setdefault(name, value)
     return out
+
+
+def _typed_var(name: str, value: Any, default: Any) -> Any:
+    """A ``--var`` value (text from the command line) as the type of the variable's default:
+    a number for a number (``vars: {value: 1.0}``, ``--var value=2.0``), true/false for a bool;
+    text for text or no default."""
+    if not isinstance(value, str) or isinstance(default, str) or default is None:
+        return value
+    if isinstance(default, bool):
+        kind, ok = "true or false", lambda v: isinstance(v, bool)
+    elif isinstance(default, int):
+        kind, ok = "an integer", lambda v: isinstance(v, int) and not isinstance(v, bool)
+    elif isinstance(default, float):
+        kind, ok = "a number", lambda v: isinstance(v, (int, float)) and not isinstance(v, bool)
+    else:
+        return value  # a list or mapping: given in YAML flow style (the CLI parses it)
+    try:
+        parsed = yamlfile.parse(value, f"--var {name}", error=GraphFileError)
+    except GraphFileError:
+        parsed = value
+    if isinstance(parsed, str) and isinstance(default, float):  # 1e3: a number YAML 1.1 reads as text
+        try:
+            parsed = float(parsed)
+        except ValueError:
+            pass
+    if not ok(parsed):
+        raise GraphFileError(f"--var {name}={yamlfile.short(value, 80)[1:-1]}: the variable {name} is "
+                             f"{kind} (its default is {default!r}); give {kind}, e.g. --var {name}={default!r}")
+    return float(parsed) if isinstance(default, float) else parsed
 
 
 def _bundled_or_path(value: Any, pattern: str) -> Any:
@@ -317,7 +346,25 @@ def build_graph(data: Any, path: Path, graph_cls: type, *, cache=None, overrides
             g.set(target.strip(), value)
         except ParamError as e:
             raise GraphFileError(f"--set {_short(o)}: {_short(str(e))}") from None
+    _check_outputs(g, nodes, f)
     return g
+
+
+def _check_outputs(g, nodes: dict, f: str) -> None:
+    """Every enabled writer's output path (a sink node's ``path``, at the first frame) checked
+    before anything computes: a file or a symlink loop where a folder of it must be, or a
+    folder, device or loop at the file itself, is a one-line error now rather than an I/O
+    error after the whole compute."""
+    for name, node in g.nodes.items():
+        value = getattr(node, "params", {}).get("path")
+        if not (getattr(type(node), "sink", False) and g.enabled.get(name, True) and isinstance(value, (str, Path))):
+            continue
+        text = re.sub(r"#+", lambda m: f"{g.frames[0]:0{len(m.group(0))}d}", str(value))
+        p = Path(text).expanduser()
+        problem = files.output_problem(p if p.is_absolute() else Path(g.graph_dir) / p)
+        if problem:
+            raise GraphFileError(f"{f}:{_line(nodes, name)}: nodes.{name}.params.path: cannot write "
+                                 f"{_short(str(value), 200)}: {problem}")
 
 
 def load_graph(path: str | Path, graph_cls: type, *, cache=None, overrides: list[str] = (), variables=None):
