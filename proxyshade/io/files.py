@@ -69,15 +69,15 @@ def output_problem(path: Path) -> str | None:
             return None  # made by the writer, with everything below it
         except OSError as e:
             if e.errno == errno.ELOOP:
-                return f"{p} is a symlink loop; remove it or point the output elsewhere"
+                return f"{p}: is a symlink loop; remove it or point the output elsewhere"
             if e.errno == errno.ENOTDIR:
-                return f"a part of {p} is a file, not a folder; point the output at a folder"
+                return f"{p}: a part of it is a file, not a folder; point the output at a folder"
             return None  # permissions and the like: the writer says what the system says
         if p != path and not stat.S_ISDIR(st.st_mode):
-            return f"{p} is a file, not a folder; point the output at a folder (or move the file)"
+            return f"{p}: is a file, not a folder; point the output at a folder (or move the file)"
         if p == path and not stat.S_ISREG(st.st_mode):
             kind = next((k for test, k in _KINDS if test(st.st_mode)), "special file")
-            return f"{p} is a {kind}, not a regular file; give an output file path"
+            return f"{p}: is a {kind}, not a regular file; proxyshade will not replace it: give an output file path"
     return None
 
 

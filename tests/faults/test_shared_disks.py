@@ -394,8 +394,8 @@ def test_an_output_that_cannot_be_written_is_refused_before_any_compute(tmp_path
     (tmp_path / "loop").symlink_to("loop")
     (tmp_path / "s.0001.exr").mkdir()
     out = {"file": "afile", "inside_file": "afile/sub", "loop": "loop", "folder": "."}[case]
-    expect = {"file": f"{tmp_path}/afile is a file, not a folder", "inside_file": f"{tmp_path}/afile is a file",
-              "loop": f"{tmp_path}/loop is a symlink loop", "folder": f"{tmp_path}/s.0001.exr is a folder"}[case]
+    expect = {"file": f"{tmp_path}/afile: is a file, not a folder", "inside_file": f"{tmp_path}/afile: is a file",
+              "loop": f"{tmp_path}/loop: is a symlink loop", "folder": f"{tmp_path}/s.0001.exr: is a folder"}[case]
     COMPUTES.clear()
     g = write_graph(tmp_path, frames="1")
     code, _, err = cli(capsys, "run", g, "-q", "--var", f"out={out}")
