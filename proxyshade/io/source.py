@@ -115,6 +115,11 @@ def srgb_to_linear(rgb8: np.ndarray) -> np.ndarray:
     return np.asarray(colour_science().cctf_decoding(rgb8.astype(np.float64) / 255.0, function="sRGB"), dtype=np.float32)
 
 
+def _share(k: int, n: int) -> str:
+    """k of n as a percentage for a message ('<0.1%' rather than '0.0%' for a few)."""
+    return f"{k / n:.1%}" if k == 0 or k / n >= 0.001 else "<0.1%"
+
+
 def read_photo(path: str | Path) -> np.ndarray:
     """A photo as (H, W, 3) float32 linear light. An sRGB-encoded file (8-bit PNG, JPEG, TIFF)
     is decoded with colour-science; a linear one (EXR, HDR, float TIFF: ``images.is_linear``)
@@ -127,13 +132,13 @@ def read_photo(path: str | Path) -> np.ndarray:
     n = rgb.shape[0] * rgb.shape[1]
     bad = int((~np.isfinite(rgb)).any(axis=2).sum())
     if bad:
-        which = "all" if bad == n else f"{bad} ({bad / n:.1%})"
+        which = "all" if bad == n else f"{bad} ({_share(bad, n)})"
         raise UserError(f"{path}: {which} of the photo's {n} pixels are NaN or infinite; a photo needs finite "
                         "linear values: re-render or re-export it with those pixels filled")
     low = float(rgb.min()) if n else 0.0
     if low < 0:
         neg = int((rgb < 0).any(axis=2).sum())
-        raise UserError(f"{path}: {neg} ({neg / n:.1%}) of the photo's pixels have negative values (lowest "
+        raise UserError(f"{path}: {neg} ({_share(neg, n)}) of the photo's pixels have negative values (lowest "
                         f"{low:.3g}); light is never negative: clamp them to 0 in the export")
     return np.ascontiguousarray(rgb, dtype=np.float32)
 

@@ -218,7 +218,10 @@ def test_read_only_cache_miss_is_computed_and_noted(tmp_path, registry, capsys, 
 
 # -- 6 and 5: bad source tables are bad input (exit 2), never internal errors --------------------------
 LABELS = 'labels_map: style_mask.png\nlabels:\n  sky: {id: 2, color: "#ffffff"}\n'
-BOMB = "".join(f"l{i}: &l{i} [{', '.join([f'*l{i - 1}'] * 8)}]\n" for i in range(1, 12))
+# anchors l0..l5, each eight aliases of the one before (l5: 8**5 items, within the limit by itself);
+# a value of four *l5 is the bomb, so each probe is refused at its own line, not at the anchors
+BOMB = "".join(f"l{i}: &l{i} [{', '.join([f'*l{i - 1}'] * 8)}]\n" for i in range(1, 6))
+USE = "[*l5, *l5, *l5, *l5]"
 
 
 @pytest.mark.parametrize("table,expect", [
@@ -233,7 +236,7 @@ BOMB = "".join(f"l{i}: &l{i} [{', '.join([f'*l{i - 1}'] * 8)}]\n" for i in range
     (b"image: style.png\n\xff\xfe\n", "s.yaml:2: not a UTF-8 text file (byte 0xff at offset 17)"),
     ("image: style.png\nlabels_map: style_mask.png\nlabels: " + "[" * 20000 + "]" * 20000 + "\n", "s.yaml: nested too deeply"),
     ("image: style.png\nlabels_map: style_mask.png\nlabels: " + "[" * 150 + "]" * 150 + "\n", "nests deeper than 100"),
-    ("l0: &l0 [x]\n" + BOMB + "image: *l11\n" + LABELS, "s.yaml:7: the value expands to more than 100000 items"),
+    ("l0: &l0 [x]\n" + BOMB + f"image: {USE}\n" + LABELS, "s.yaml:7: the value expands to more than 100000 items"),
     ("image: style.png\nimage: style.png\n" + LABELS, "s.yaml:2: key 'image' appears twice in one mapping (lines 1 and 2)"),
 ])
 def test_bad_source_tables_are_bad_input(tmp_path, capsys, table, expect):
@@ -252,36 +255,39 @@ def _bomb_lines(indent: str) -> str:
     return f"{indent}l0: &l0 [x]\n" + "".join(f"{indent}{line}" for line in BOMB.splitlines(keepends=True))
 
 
-@pytest.mark.parametrize("where", ["frames", "format", "type", "enabled", "input", "set"])
-def test_alias_bombs_are_refused_everywhere_quickly(tmp_path, where):
+@pytest.mark.parametrize("where,line", [("frames", 9), ("format", 8), ("type", 10), ("enabled", 10), ("input", 11),
+                                        ("set", 1), ("var", 1)])
+def test_alias_bombs_are_refused_everywhere_quickly(tmp_path, where, line):
     """A value that expands past 100000 items through aliases, anywhere in a graph file or in a
-    --set value: refused by the one YAML loader before anything walks it (it hung before)."""
+    --set or --var value: refused by the one YAML loader before anything walks it (it hung
+    before), at the line of the value."""
     from tests.faults.test_faults import subprocess_cli
 
-    head = "format: proxyshade/1\ndoc:\n" + _bomb_lines("  ")  # anchors in the free-form doc
+    head = "format: proxyshade/1\ndoc:\n" + _bomb_lines("  ")  # anchors in the free-form doc, lines 3-8
     nodes = {"c": "{type: TConst}", "d": "{type: TAdd, inputs: {a: c}}"}
     args = []
     if where == "frames":
-        head += "frames: *l11\n"
+        head += f"frames: {USE}\n"
     elif where == "format":
-        head = head.replace("format: proxyshade/1\n", "") + "format: *l11\n"
+        head = head.replace("format: proxyshade/1\n", "") + f"format: {USE}\n"
     elif where == "type":
-        nodes["c"] = "{type: *l11}"
+        nodes["c"] = f"{{type: {USE}}}"
     elif where == "enabled":
-        nodes["c"] = "{type: TConst, enabled: *l11}"
+        nodes["c"] = f"{{type: TConst, enabled: {USE}}}"
     elif where == "input":
-        nodes["d"] = "{type: TAdd, inputs: {a: *l11}}"
+        nodes["d"] = f"{{type: TAdd, inputs: {{a: {USE}}}}}"
     text = head + "nodes:\n" + "".join(f"  {k}: {v}\n" for k, v in nodes.items())
-    if where == "set":
-        text = "format: proxyshade/1\nnodes:\n  c: {type: TConst}\n"
-        bomb = "{l0: &l0 [x], " + ", ".join(f"l{i}: &l{i} [{', '.join([f'*l{i - 1}'] * 8)}]" for i in range(1, 12)) + "}"
-        args = ["--set", f"c.value={bomb}"]
+    if where in ("set", "var"):
+        text = "format: proxyshade/1\nvars: {v: 1.0}\nnodes:\n  c: {type: TConst, params: {value: \"${v}\"}}\n"
+        bomb = "{l0: &l0 [x], " + ", ".join(f"l{i}: &l{i} [{', '.join([f'*l{i - 1}'] * 8)}]" for i in range(1, 6)) + \
+            f", use: {USE}}}"
+        args = ["--set", f"c.value={bomb}"] if where == "set" else ["--var", f"v={bomb}"]
     g = tmp_path / "g.yaml"
     g.write_text(text)
     r = subprocess_cli(["run", str(g), "-q", *args], timeout=60)
     lines = r.stderr.strip().splitlines()
     assert r.returncode == EXIT_BAD_INPUT and len(lines) == 1, r.stderr[-2000:]
-    assert "expands to more than 100000 items" in lines[0] and len(lines[0]) < 600, lines[0][:2000]
+    assert f":{line}: the value expands to more than 100000 items" in lines[0] and len(lines[0]) < 600, lines[0][:2000]
 
 
 # -- 6: scene descriptions beyond what can be built -------------------------------------------------------
