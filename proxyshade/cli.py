@@ -388,7 +388,7 @@ def _vars(items: List[str]) -> dict:
             from proxyshade.io import yamlfile
 
             try:
-                value = yamlfile.parse(value, f"--var {yamlfile.short(item, 200)[1:-1]}")
+                value = yamlfile.parse(value, f"--var {yamlfile.cut(item, 200)}")
             except UserError as e:
                 if "not valid YAML" not in str(e):
                     raise

@@ -160,7 +160,7 @@ def _typed_var(name: str, value: Any, default: Any) -> Any:
         except ValueError:
             pass
     if not ok(parsed):
-        raise GraphFileError(f"--var {name}={yamlfile.short(value, 80)[1:-1]}: the variable {name} is "
+        raise GraphFileError(f"--var {name}={yamlfile.cut(value, 80)}: the variable {name} is "
                              f"{kind} (its default is {default!r}); give {kind}, e.g. --var {name}={default!r}")
     return float(parsed) if isinstance(default, float) else parsed
 
