@@ -22,6 +22,7 @@ frame range of more than ``MAX_FRAMES`` frames are such errors too.
 """
 from __future__ import annotations
 
+import os
 import re
 from pathlib import Path
 from typing import Any
@@ -120,7 +121,7 @@ def _resolve_vars(declared: dict, given: dict, f: str, line: int) -> dict:
         if isinstance(spec, dict) and spec.get("path") is True and set(spec) <= {"default", "path", "doc"}:
             # a folder or file: the graph's default resolves against the graph file, a value
             # given on the command line against the current folder
-            out[name] = str(Path(given[name]).expanduser().resolve()) if name in given else spec.get("default")
+            out[name] = str(_absolute(Path(given[name]).expanduser())) if name in given else spec.get("default")
         elif isinstance(spec, dict) and "bundled" in spec:
             extra = set(spec) - {"default", "bundled", "doc"}
             if extra or not isinstance(spec["bundled"], str) or "{}" not in spec["bundled"]:
@@ -134,6 +135,15 @@ def _resolve_vars(declared: dict, given: dict, f: str, line: int) -> dict:
     for name, value in given.items():
         out.setdefault(name, value)
     return out
+
+
+def _absolute(p: Path) -> Path:
+    """``p`` made absolute with its symlinks resolved; a symlink loop (which ``resolve`` raises on)
+    left as it is, for the output check or the reader to name."""
+    try:
+        return p.resolve()
+    except (RuntimeError, OSError):
+        return Path(os.path.abspath(p))
 
 
 def _typed_var(name: str, value: Any, default: Any) -> Any:
@@ -170,7 +180,7 @@ def _bundled_or_path(value: Any, pattern: str) -> Any:
         return value
     p = Path(value).expanduser()
     if p.is_absolute() or "/" in value or "\\" in value or p.suffix or p.is_file():
-        return str(p.resolve())
+        return str(_absolute(p))
     return pattern.replace("{}", value)
 
 

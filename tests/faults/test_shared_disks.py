@@ -392,18 +392,21 @@ def test_a_numeric_var_takes_its_defaults_type(tmp_path, registry, capsys):
     assert code == EXIT_BAD_INPUT and "the variable n is an integer (its default is 4)" in err[0], err
 
 
-@pytest.mark.parametrize("case", ["file", "inside_file", "loop", "folder"])
+@pytest.mark.parametrize("case", ["file", "inside_file", "loop", "folder", "loop_path_var"])
 def test_an_output_that_cannot_be_written_is_refused_before_any_compute(tmp_path, registry, capsys, case):
     from tests.conftest import COMPUTES
 
     (tmp_path / "afile").write_text("keep")
     (tmp_path / "loop").symlink_to("loop")
     (tmp_path / "s.0001.exr").mkdir()
-    out = {"file": "afile", "inside_file": "afile/sub", "loop": "loop", "folder": "."}[case]
+    out = {"file": "afile", "inside_file": "afile/sub", "loop": "loop", "folder": ".",
+           "loop_path_var": f"{tmp_path}/loop"}[case]
     expect = {"file": f"{tmp_path}/afile: is a file, not a folder", "inside_file": f"{tmp_path}/afile: is a file",
-              "loop": f"{tmp_path}/loop: is a symlink loop", "folder": f"{tmp_path}/s.0001.exr: is a folder"}[case]
+              "folder": f"{tmp_path}/s.0001.exr: is a folder"}.get(case, f"{tmp_path}/loop: is a symlink loop")
     COMPUTES.clear()
-    g = write_graph(tmp_path, frames="1")
+    # the bundled graphs' out is a path variable (made absolute when given): a loop there raised RuntimeError
+    g = write_graph(tmp_path, frames="1", vars_="value: 1.0, out: {default: out, path: true}"
+                    if case == "loop_path_var" else "value: 1.0, out: out")
     code, _, err = cli(capsys, "run", g, "-q", "--var", f"out={out}")
     assert code == EXIT_BAD_INPUT and len(err) == 1, err
     assert f"g.yaml:8: nodes.w.params.path: cannot write {out}/s.####.exr: {expect}" in err[0], err
