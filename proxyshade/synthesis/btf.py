@@ -184,6 +184,18 @@ def render_views(points, tris, normals, light: dict, views: list[dict], *, size:
     return out
 
 
+def height_views(points, tris, normals, views: list[dict], *, size: int, window: float, centre=(0.0, 0.0),
+                 plane: float = 0.0) -> np.ndarray:
+    """(V, size, size) float32: ``render_views`` of the world height instead of a colour
+    (what each pixel's ray meets first, at which height; 0 where it meets nothing): the
+    sample's known heights, for the shard measure (``surface_hits``)."""
+    pts = np.asarray(points, np.float64)
+    out = render_views(pts, tris, normals, {"direction": [0.0, -1.0, 0.0], "intensity": 0.0}, views, size=size,
+                       window=window, centre=centre, plane=plane, ambient=1.0, albedo=np.repeat(pts[:, 1:2], 3, 1),
+                       shadow_size=16, bias=0.0)
+    return out[..., 0]
+
+
 def height_albedo(points: np.ndarray, low=(0.16, 0.12, 0.09), high=(0.62, 0.52, 0.40)) -> np.ndarray:
     """(V, 3) albedo ramping from ``low`` at the lowest vertex to ``high`` at the highest."""
     y = points[:, 1]
@@ -562,34 +574,62 @@ def tile_jumps(image: np.ndarray) -> tuple[float, float]:
 LUMA = np.array([0.2126, 0.7152, 0.0722])
 
 
-def parallax_range(image: np.ndarray, slant: float, tilt: float, reach: float) -> tuple[np.ndarray, np.ndarray]:
-    """(lo, hi), each (h, w): the least and largest luminance of an input view over the 3×3
-    pixels around every point of its parallax segment: x + s (cos φ, sin φ), |s| ≤
-    ``reach``·tan θ pixels (``reach``: how far the sample's heights lie from the stack's
-    plane, in pixels). What the view shows of the surface column at x lies on that
-    segment, so a synthesized pixel of that surface point has a luminance in [lo, hi]
-    unless it is a fragment from elsewhere (a shard)."""
-    lum = image.astype(np.float64) @ LUMA
+def luma_range3(image: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(luminance, lo, hi) of an (h, w, 3) image: lo/hi the least and largest luminance over
+    each pixel's 3×3 neighbourhood (edge pixels repeated)."""
+    lum = np.asarray(image, np.float64) @ LUMA
     h, w = lum.shape
     pad = np.pad(lum, 1, mode="edge")
     win = np.stack([pad[dy:dy + h, dx:dx + w] for dy in range(3) for dx in range(3)])
-    mn, mx = win.min(0), win.max(0)
-    n = int(math.ceil(abs(reach) * math.tan(math.radians(slant))))
-    rows, cols = np.mgrid[0:h, 0:w]
-    lo, hi = mn.copy(), mx.copy()
+    return lum, win.min(0), win.max(0)
+
+
+def local_spread(images) -> float:
+    """The median over views and pixels of the 3×3 luminance spread (hi − lo) of input
+    views: how much a pixel's luminance varies within one pixel of misregistration. The
+    shard margin: a synthesized pixel that far off the range it should lie in is not a
+    resampling or alignment error."""
+    return float(np.median([np.median(hi - lo) for _, lo, hi in (luma_range3(im) for im in images)]))
+
+
+def surface_hits(heights: np.ndarray, qay: np.ndarray, qax: np.ndarray, slant: float, tilt: float, plane: float,
+                 pixel: float, *, wrap: bool) -> tuple[np.ndarray, np.ndarray]:
+    """(iy, ix), each (H, W) int64: the input pixel of the view at ``slant``, ``tilt`` that
+    shows what the synthesized view should show at each output pixel, for a sample of
+    known ``heights`` (h, w: world height of each pixel of the support's input).
+
+    The synthesized surface is the input's at the support's sources: at output pixel X the
+    input point q_A(X), at height heights[q_A(X)]. The view's ray through plane point p
+    meets height y above X = p + s·(cos φ, sin φ), s = (y − plane)·tan θ / ``pixel``; it is
+    cast from the highest s down and stops at the first X whose surface reaches the ray.
+    That surface point appears in the input view at q_A(X) − s·(cos φ, sin φ). Inside one
+    patch of the support that is q_A(p) for every s: the view copies its own input there.
+    ``wrap``: the output tiles (X wraps around), else X is clamped to it."""
+    H, W = qay.shape
+    h, w = heights.shape
+    t = math.tan(math.radians(slant))
     ct, st = math.cos(math.radians(tilt)), math.sin(math.radians(tilt))
-    for s in range(-n, n + 1):
-        r = np.clip(np.rint(rows + s * st).astype(np.int64), 0, h - 1)
-        c = np.clip(np.rint(cols + s * ct).astype(np.int64), 0, w - 1)
-        lo = np.minimum(lo, mn[r, c])
-        hi = np.maximum(hi, mx[r, c])
-    return lo, hi
+    rows, cols = np.mgrid[0:H, 0:W]
+    iy, ix = qay.astype(np.int64).copy(), qax.astype(np.int64).copy()
+    if t < 1e-9:
+        return iy, ix
+    found = np.zeros((H, W), np.bool_)
+    lo, hi = float(heights.min()), float(heights.max())
+    for s in range(int(math.ceil((hi - plane) * t / pixel)) + 1, int(math.floor((lo - plane) * t / pixel)) - 2, -1):
+        r = np.rint(rows + s * st).astype(np.int64)
+        c = np.rint(cols + s * ct).astype(np.int64)
+        r, c = (r % H, c % W) if wrap else (np.clip(r, 0, H - 1), np.clip(c, 0, W - 1))
+        y, x = qay[r, c], qax[r, c]
+        hit = ~found & (heights[y, x] >= plane + s * pixel / t)
+        iy[hit] = np.clip(np.rint(y - s * st).astype(np.int64), 0, h - 1)[hit]
+        ix[hit] = np.clip(np.rint(x - s * ct).astype(np.int64), 0, w - 1)[hit]
+        found |= hit
+    return iy, ix
 
 
-def shard_share(lum: np.ndarray, lo: np.ndarray, hi: np.ndarray, margin: float) -> float:
-    """The share of pixels whose luminance ``lum`` lies outside [lo − margin, hi + margin]."""
-    bad = (lum > hi + margin) | (lum < lo - margin)
-    return float(bad.mean()) if bad.size else 0.0
+def shard_mask(lum: np.ndarray, lo: np.ndarray, hi: np.ndarray, margin: float) -> np.ndarray:
+    """Where ``lum`` lies outside [lo − margin, hi + margin]: the shards."""
+    return (lum > hi + margin) | (lum < lo - margin)
 
 
 def contact_sheet(images: np.ndarray, views: list[dict], *, gap: int = 2) -> np.ndarray:
