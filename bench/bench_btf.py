@@ -7,10 +7,14 @@ E_c = mean ‖A(q_v(p)) − A′(p)‖ and seams E_s = mean colour jump across e
 are not neighbours; pass: E_c(sequential) < E_c(independent), E_s(sequential) < E_s(columns).
 Alignment: the chosen plane against the sample's heights, and the RMSE of a 27.5° view
 interpolated from 25° and 30° with that plane and with planes outside the heights.
-Shaded move (``--move``, also after the rest): graphs/btf_move.yaml's stack (57 views, tilts
-around the circle) synthesized sequentially and as independent views, each shading the 12
-frames of btf_move (BtfShade, 256²): frame-to-frame warp error of the shaded surface, seams
-E_s of the stacks, and the shard share at 60–70° slant for the stacks and the shaded frames.
+Shaded move (``--move`` alone, or after the rest): graphs/btf_move.yaml's stack (57 views, tilts
+around the circle) synthesized sequentially (5 levels, tiled), as independent views, and
+sequentially with 3 levels untiled, each shading the 12 frames of btf_move (BtfShade,
+256²) against per-frame independent shading: frame-to-frame warp error, seams E_s, tile
+seams of the stack and of the move (against the same pixels with the tile moved by half),
+and the shard share at 60–70° of the stacks and the frames (against the view cast through
+the synthesized surface with the sample's heights; bound: the input views tiled, per seam
+edge). ``--figures DIR``: the docs images.
 """
 import os
 import sys
@@ -100,6 +104,7 @@ def main():
     print(f"E_c(sequential) / E_c(independent) = {ec_ratio:.3f} ({'pass' if ec_ratio < 1 else 'FAIL'})")
     print(f"E_s(sequential) / E_s(columns)     = {es_ratio:.3f} ({'pass' if es_ratio < 1 else 'FAIL'})")
     alignment()
+    shaded_move()
 
 
 MOVE_TILTS = [0, 45, 90, 135, 180, 225, 270, 315]
@@ -326,6 +331,17 @@ def shard_figure(path: Path):
             for n in pick]
     hgap = np.ones((4, rows[0].shape[1], 3), np.float32)
     jpeg(path, np.concatenate([rows[0], hgap, rows[1], hgap, rows[2]], 0))
+    # the tile's border in the move's last (overhead) frame: BtfSynth with tile off, then on
+    src = run_node("SourceRead", {"table": str(ROOT / "samples/renoir/source.yaml")})
+    proxy = run_node("ProxyRender", {"scene": str(ROOT / "samples/scenes/btf_move.usda"), "resolution": [256, 256],
+                                     "labels": {"bumps": "vegetation"}}, {"source": src}, frame=12)
+    aligned = run_node("BtfAlign", {}, {"stack": capture})
+    crops = []
+    for tile in (False, True):
+        synth = run_node("BtfSynth", {"size": [256, 256], "seed": 1, "tile": tile}, {"stack": aligned})
+        f = run_node("BtfShade", {"label": "bumps", "origin": MOVE_ORIGIN}, {"stack": synth, "proxy": proxy})
+        crops.append(np.stack([f[c] for c in "RGB"], -1)[40:200, 20:180])
+    jpeg(path.with_name("btf_tile.jpg"), np.concatenate([crops[0], np.ones((160, 4, 3), np.float32), crops[1]], 1))
 
 
 def figures(folder: Path):
@@ -372,4 +388,3 @@ if __name__ == "__main__":
         shaded_move()
     else:
         main()
-        shaded_move()
