@@ -7,10 +7,14 @@ E_c = mean ‖A(q_v(p)) − A′(p)‖ and seams E_s = mean colour jump across e
 are not neighbours; pass: E_c(sequential) < E_c(independent), E_s(sequential) < E_s(columns).
 Alignment: the chosen plane against the sample's heights, and the RMSE of a 27.5° view
 interpolated from 25° and 30° with that plane and with planes outside the heights.
-Shaded move (``--move``, also after the rest): graphs/btf_move.yaml's stack (57 views, tilts
-around the circle) synthesized sequentially and as independent views, each shading the 12
-frames of btf_move (BtfShade, 256²): frame-to-frame warp error of the shaded surface, seams
-E_s of the stacks, and the shard share at 60–70° slant for the stacks and the shaded frames.
+Shaded move (``--move`` alone, or after the rest): graphs/btf_move.yaml's stack (57 views, tilts
+around the circle) synthesized sequentially (5 levels, tiled), as independent views, and
+sequentially with 3 levels untiled, each shading the 12 frames of btf_move (BtfShade,
+256²) against per-frame independent shading: frame-to-frame warp error, seams E_s, tile
+seams of the stack and of the move (against the same pixels with the tile moved by half),
+and the shard share at 60–70° of the stacks and the frames (against the view cast through
+the synthesized surface with the sample's heights; bound: the input views tiled, per seam
+edge). ``--figures DIR``: the docs images.
 """
 import os
 import sys
@@ -100,10 +104,12 @@ def main():
     print(f"E_c(sequential) / E_c(independent) = {ec_ratio:.3f} ({'pass' if ec_ratio < 1 else 'FAIL'})")
     print(f"E_s(sequential) / E_s(columns)     = {es_ratio:.3f} ({'pass' if es_ratio < 1 else 'FAIL'})")
     alignment()
+    shaded_move()
 
 
 MOVE_TILTS = [0, 45, 90, 135, 180, 225, 270, 315]
-SHARD_MARGIN = 0.05  # of the luminance range of the input views at 60-70°
+STEEP = (60.0, 70.0)
+MOVE_ORIGIN = [-0.5, -0.5]  # graphs/btf_move.yaml's: the tile's borders cross the plane at x, z = -0.5
 
 
 def warp_error(frames, cams):
@@ -125,6 +131,103 @@ def warp_error(frames, cams):
     return float(np.mean(errs)), errs
 
 
+def frame_tile_jumps(frames, shifted, size):
+    """(border, control): the mean RGB jump between 4-neighbour surface pixels of the shaded
+    frames whose texture coordinates lie in different repeats of the tile (the tile's
+    border runs between them), and over the same pixel pairs of ``shifted``: the frames
+    shaded with the tile moved by half its size, where those pairs lie inside the tile.
+    Same pixels, same footprint: border / control ≈ 1 when the border shows no seam."""
+    border, control = [], []
+    H, W = size
+    for f, g in zip(frames, shifted):
+        on = f["A"] == 1
+        rgb = np.stack([f[c] for c in "RGB"], -1).astype(np.float64)
+        ref = np.stack([g[c] for c in "RGB"], -1).astype(np.float64)
+        tile = np.floor((f["btf.u"] + 0.5) / W) * 1000 + np.floor((f["btf.v"] + 0.5) / H)
+        for a, b in (((slice(None), slice(None, -1)), (slice(None), slice(1, None))),
+                     ((slice(None, -1), slice(None)), (slice(1, None), slice(None)))):
+            cross = on[a] & on[b] & (tile[a] != tile[b])
+            border.append(np.linalg.norm(rgb[a] - rgb[b], axis=-1)[cross])
+            control.append(np.linalg.norm(ref[a] - ref[b], axis=-1)[cross])
+    return float(np.concatenate(border).mean()), float(np.concatenate(control).mean())
+
+
+def sample_heights(capture, aligned):
+    """The sample's heights at each pixel of the aligned support view (the frontal one):
+    ``height_views`` of the bundled sample, cropped as BtfAlign cropped the views."""
+    from proxyshade.io import usd
+
+    prims = [q for q in usd.scene_prims(usd.open_stage(SCENE), 1) if not q.cg and q.kind == "mesh"]
+    pts, tris, nrm, _ = usd.world_meshes(prims)
+    size = capture.width
+    pixel = capture.meta["btf"]["pixel"]
+    hv = btf.height_views(pts, tris, nrm, [{"slant": 0.0, "tilt": 0.0}], size=size, window=size * pixel)[0]
+    m = int(round((aligned.meta["btf"]["origin"][0] - capture.meta["btf"]["origin"][0]) / pixel))
+    return hv[m:size - m, m:size - m]
+
+
+def stack_shards(imgs, views, qy, qx, s, heights, meta, margin, wrap):
+    """Per steep view n: the input's 3×3 range (lo, hi) at the pixel it should show for the
+    synthesized surface (``surface_hits``), on the output grid; and the share of the
+    view's pixels outside it by more than ``margin`` (all, and the bright ones only)."""
+    ranges, shares, bright = {}, [], []
+    for n, v in enumerate(views):
+        if v["slant"] not in STEEP:
+            continue
+        iy, ix = btf.surface_hits(heights, qy[s], qx[s], v["slant"], v["tilt"], meta["plane"], meta["pixel"],
+                                  wrap=wrap)
+        lum, lo, hi = btf.luma_range3(imgs[n])
+        ranges[n] = (lo[iy, ix], hi[iy, ix])
+        out = lum[qy[n], qx[n]]
+        shares.append(btf.shard_mask(out, *ranges[n], margin).mean())
+        bright.append((out > ranges[n][1] + margin).mean())
+    return ranges, float(np.mean(shares)), float(np.mean(bright))
+
+
+def move_shards(frames, g, ranges, size, margin):
+    """The share of the shaded frames' surface pixels at 60–70° outside the union of the
+    ranges of the four views they blend (``stack_shards``) by more than ``margin``."""
+    H, W = size
+    step = 360.0 / len(MOVE_TILTS)
+    bad = tot = 0
+    for f in frames:
+        on = (f["A"] == 1) & (f["btf.slant"] >= STEEP[0]) & (f["btf.slant"] <= STEEP[1])
+        if not on.any():
+            continue
+        ty = np.rint(f["btf.v"][on]).astype(np.int64) % H
+        tx = np.rint(f["btf.u"][on]).astype(np.int64) % W
+        j0 = np.floor(np.mod(f["btf.tilt"][on], 360.0) / step).astype(np.int64) % len(MOVE_TILTS)
+        lo = np.full(on.sum(), np.inf)
+        hi = np.full(on.sum(), -np.inf)
+        for sl in STEEP:
+            k = int(round(sl / g["step"]))
+            for jj in (j0, (j0 + 1) % len(MOVE_TILTS)):
+                for t in range(len(MOVE_TILTS)):
+                    sel = jj == t
+                    n = g["index"][(k, float(MOVE_TILTS[t]))]
+                    lo[sel] = np.minimum(lo[sel], ranges[n][0][ty[sel], tx[sel]])
+                    hi[sel] = np.maximum(hi[sel], ranges[n][1][ty[sel], tx[sel]])
+        lum = np.stack([f[c][on] for c in "RGB"], -1).astype(np.float64) @ btf.LUMA
+        bad += int(btf.shard_mask(lum, lo, hi, margin).sum())
+        tot += int(on.sum())
+    return bad / max(tot, 1), tot
+
+
+def seam_share(qy, qx):
+    """The share of a source map's 4-neighbour edges whose sources are not neighbours the
+    same way (its seams)."""
+    h = (qy[:, 1:] != qy[:, :-1]) | (qx[:, 1:] != qx[:, :-1] + 1)
+    v = (qy[1:] != qy[:-1] + 1) | (qx[1:] != qx[:-1])
+    return float((h.sum() + v.sum()) / (h.size + v.size))
+
+
+MOVE_STACKS = {  # row: BtfSynth params
+    "sequential": {"mode": "sequential"},
+    "independent": {"mode": "independent"},
+    "seq. 3 levels, no tile": {"mode": "sequential", "levels": 3, "tile": False},
+}
+
+
 def shaded_move():
     from proxyshade.io.usd import CameraInfo
 
@@ -134,71 +237,111 @@ def shaded_move():
     aligned = run_node("BtfAlign", {}, {"stack": capture})
     views, imgs = btf.stack_arrays(aligned)
     meta = aligned.meta["btf"]
-    lo_h, hi_h = capture.meta["btf"]["heights"]
-    reach = max(abs(lo_h - meta["plane"]), abs(hi_h - meta["plane"])) / meta["pixel"]
+    heights = sample_heights(capture, aligned)
     g = btf.check_views(views)
-    steep = [n for n, v in enumerate(views) if 60 <= v["slant"] <= 70]
-    lum_in = imgs[steep].astype(np.float64) @ btf.LUMA
-    margin = SHARD_MARGIN * float(lum_in.max() - lum_in.min())
-    ranges = {n: btf.parallax_range(imgs[n], views[n]["slant"], views[n]["tilt"], reach) for n in steep}
+    margin = btf.local_spread([imgs[n] for n, v in enumerate(views) if v["slant"] in STEEP])
     src = run_node("SourceRead", {"table": str(ROOT / "samples/renoir/source.yaml")})
     shot = str(ROOT / "samples/scenes/btf_move.usda")
     proxies = [run_node("ProxyRender", {"scene": shot, "resolution": [256, 256], "labels": {"bumps": "vegetation"}},
                         {"source": src}, frame=f) for f in range(1, 13)]
     cams = [CameraInfo.from_meta(p.meta["camera"]) for p in proxies]
+    # the bound, from the input views alone: the inputs repeated as tiles (every view the
+    # same sources), whose only seams are the tile borders
+    h, w = imgs.shape[1:3]
+    ty, tx = np.mgrid[0:256, 0:256]
+    ty, tx = ty % h, tx % w
+    V = len(views)
+    _, bt, bb = stack_shards(imgs, views, np.repeat(ty[None], V, 0), np.repeat(tx[None], V, 0), 0, heights, meta,
+                             margin, False)
+    bound_seams = seam_share(ty, tx)
     rows = {}
-    for mode in ("sequential", "independent"):
-        synth = run_node("BtfSynth", {"size": [256, 256], "seed": 1, "mode": mode}, {"stack": aligned})
+    for name, params in MOVE_STACKS.items():
+        synth = run_node("BtfSynth", dict(params, size=[256, 256], seed=1), {"stack": aligned})
         V = len(views)
         qy = np.stack([synth[f"v{n}.sy"] for n in range(V)]).astype(np.int64)
         qx = np.stack([synth[f"v{n}.sx"] for n in range(V)]).astype(np.int64)
         s = synth.meta["btf"]["support"]
         others = [n for n in range(V) if n != s]
         es = float(btf.seam_error(imgs, qy, qx)[others].mean())
-        # shards of the stack: each steep view against its input view's parallax range at
-        # the surface point the support shows there
-        st = np.mean([btf.shard_share(imgs[n][qy[n], qx[n]].astype(np.float64) @ btf.LUMA,
-                                      ranges[n][0][qy[s], qx[s]], ranges[n][1][qy[s], qx[s]], margin)
-                      for n in steep])
-        frames = [run_node("BtfShade", {"label": "bumps", "origin": [-0.96, -0.96]}, {"stack": synth, "proxy": p})
+        out = btf.gather_stack(imgs, qy, qx)
+        tj = np.mean([btf.tile_jumps(out[n]) for n in range(V)], 0)
+        ranges, st, sb = stack_shards(imgs, views, qy, qx, s, heights, meta, margin, synth.meta["btf"]["tile"])
+        frames = [run_node("BtfShade", {"label": "bumps", "origin": MOVE_ORIGIN}, {"stack": synth, "proxy": p})
                   for p in proxies]
+        half = [o + qy.shape[2] // 2 * meta["pixel"] for o in MOVE_ORIGIN]
+        shifted = [run_node("BtfShade", {"label": "bumps", "origin": half}, {"stack": synth, "proxy": p})
+                   for p in proxies]
         we, per = warp_error(frames, cams)
-        # shards of the shaded frames: pixels at 60-70° against the union of the ranges of
-        # the views around them, at the surface point the support shows there
-        bad = tot = 0
-        for f in frames:
-            on = (f["A"] == 1) & (f["btf.slant"] >= 60) & (f["btf.slant"] <= 70)
-            if not on.any():
-                continue
-            H, W = qy.shape[1:]
-            ty = np.rint(f["btf.v"][on]).astype(np.int64) % H
-            tx = np.rint(f["btf.u"][on]).astype(np.int64) % W
-            ay, ax = qy[s][ty, tx], qx[s][ty, tx]
-            phi = np.mod(f["btf.tilt"][on], 360.0)
-            j0 = np.floor(phi / 45.0).astype(np.int64) % 8
-            lo = np.full(on.sum(), np.inf)
-            hi = np.full(on.sum(), -np.inf)
-            for k in (6, 7):
-                for jj in (j0, (j0 + 1) % 8):
-                    for t in range(8):
-                        sel = jj == t
-                        n = g["index"][(k, float(MOVE_TILTS[t]))]
-                        lo[sel] = np.minimum(lo[sel], ranges[n][0][ay[sel], ax[sel]])
-                        hi[sel] = np.maximum(hi[sel], ranges[n][1][ay[sel], ax[sel]])
-            lum = np.stack([f[c][on] for c in "RGB"], -1).astype(np.float64) @ btf.LUMA
-            bad += int(((lum > hi + margin) | (lum < lo - margin)).sum())
-            tot += int(on.sum())
-        rows[mode] = (we, es, st, bad / max(tot, 1), tot, per)
-    print(f"\n## shaded move: btf_move, 12 frames 256², stack {len(views)} views -> 256² "
-          f"(shard margin {margin:.4f} = {SHARD_MARGIN:g} × the 60-70° input luminance range, "
-          f"parallax reach {reach:.1f} px)")
-    print(f"{'stack':<12} {'warp err':>9} {'E_s':>8} {'shards stack 60-70':>19} {'shards move 60-70':>18} {'px':>7}")
-    for mode, (we, es, st, sm, tot, _) in rows.items():
-        print(f"{mode:<12} {we:9.4f} {es:8.4f} {100 * st:18.2f}% {100 * sm:17.2f}% {tot:7d}")
-    print("warp error per frame pair (sequential): " + " ".join(f"{e:.3f}" for e in rows["sequential"][5]))
-    print("warp error per frame pair (independent): " + " ".join(f"{e:.3f}" for e in rows["independent"][5]))
+        fj = frame_tile_jumps(frames, shifted, qy.shape[1:])
+        sm, tot = move_shards(frames, g, ranges, qy.shape[1:], margin)
+        rows[name] = (we, es, tj, fj, st, sb, sm, tot, per, synth.meta["btf"]["levels"], seam_share(qy[s], qx[s]))
+    print(f"\n## shaded move: btf_move, 12 frames 256², stack {len(views)} views {imgs.shape[2]}² -> 256² "
+          f"(shard margin {margin:.4f}: the median 3×3 luminance spread of the 60-70° input views)")
+    print(f"{'stack':<24} {'levels':>6} {'warp err':>9} {'E_s':>7} {'tile seam stack':>16} {'tile seam move':>16} "
+          f"{'shards stack':>13} {'(bright)':>9} {'seams':>6} {'per seam':>8} {'shards move':>12} {'px':>6}")
+    for name, (we, es, tj, fj, st, sb, sm, tot, _, lv, ss) in rows.items():
+        print(f"{name:<24} {lv:>6} {we:9.4f} {es:7.4f} {tj[0]:7.4f} / {tj[1]:.4f} {fj[0]:7.4f} / {fj[1]:.4f} "
+              f"{100 * st:12.2f}% {100 * sb:8.2f}% {100 * ss:5.2f}% {st / ss:8.2f} {100 * sm:11.2f}% {tot:6d}")
+    print(f"{'input tiled (the bound)':<24} {'':>6} {'':>9} {'':>7} {'':>16} {'':>16} {100 * bt:12.2f}% "
+          f"{100 * bb:8.2f}% {100 * bound_seams:5.2f}% {bt / bound_seams:8.2f}")
+    print("seams: the share of the support's 4-neighbour edges that are seams; per seam: shard share / seam share")
+    per = rows["sequential"][4] / rows["sequential"][10]
+    print(f"shards per seam edge, sequential {per:.2f} against {bt / bound_seams:.2f} for the input tiled "
+          f"({'pass' if per < bt / bound_seams else 'FAIL'}: a seam of the synthesis breaks no more than a tile border)")
+    for name in rows:
+        print(f"warp error per frame pair ({name}): " + " ".join(f"{e:.3f}" for e in rows[name][8]))
     r = rows["sequential"][0] / rows["independent"][0]
     print(f"warp error sequential / independent = {r:.3f} ({'pass' if r < 1 else 'FAIL'})")
+    seam = rows["sequential"][3][0] / rows["sequential"][3][1]
+    print(f"tile seam in the move, border / control jump = {seam:.2f} ({'pass' if seam < 1.2 else 'FAIL'}: "
+          "< 1.2, the tile's border no more visible than its inside)")
+    print("tile seam columns: stack = border / interior jump of the views; move = border / control (the same "
+          "pixel pairs with the tile moved by half)")
+
+
+def jpeg(path: Path, rgb):
+    """A linear image as a small sRGB JPEG (a docs image)."""
+    import OpenImageIO as oiio
+    from proxyshade.graph.plate import Plate
+    from proxyshade.kernels.display import to_display
+
+    img = np.ascontiguousarray(to_display(Plate({c: np.ascontiguousarray(rgb[..., i]) for i, c in enumerate("RGB")}),
+                                          ["R", "G", "B"]))
+    buf = oiio.ImageBuf(oiio.ImageSpec(img.shape[1], img.shape[0], 3, oiio.UINT8))
+    buf.set_pixels(oiio.ROI(), img)
+    buf.specmod().attribute("Compression", "jpeg:90")
+    if not buf.write(str(path)):
+        raise SystemExit(f"{path}: {buf.geterror()}")
+    print(f"wrote {path}")
+
+
+def shard_figure(path: Path):
+    """Before/after of the shards: the aligned input views at 60° tilt 0, 70° tilt 0 and 70°
+    tilt 90 (rows), then the sequential stack with 3 levels (before) and with the default
+    levels (5 here, after), 128² crops at 100% (the move's grid, 57 views)."""
+    capture = run_node("BtfRender", {"scene": SCENE, "size": 160, "slant_step": 10, "slant_max": 70,
+                                     "tilts": MOVE_TILTS})
+    views, imgs = btf.stack_arrays(run_node("BtfAlign", {}, {"stack": capture}))
+    idx = {(v["slant"], v["tilt"]): n for n, v in enumerate(views)}
+    pick = [idx[(60.0, 0.0)], idx[(70.0, 0.0)], idx[(70.0, 90.0)]]
+    before = btf.gather_stack(imgs, *btf.synthesize_stack(imgs, idx[(0.0, 0.0)], (256, 256), levels=3, seed=1))
+    after = btf.gather_stack(imgs, *btf.synthesize_stack(imgs, idx[(0.0, 0.0)], (256, 256), seed=1))
+    gap = np.ones((120, 4, 3), np.float32)
+    rows = [np.concatenate([imgs[n, :120, :120], gap, before[n, 64:184, 64:184], gap, after[n, 64:184, 64:184]], 1)
+            for n in pick]
+    hgap = np.ones((4, rows[0].shape[1], 3), np.float32)
+    jpeg(path, np.concatenate([rows[0], hgap, rows[1], hgap, rows[2]], 0))
+    # the tile's border in the move's last (overhead) frame: BtfSynth with tile off, then on
+    src = run_node("SourceRead", {"table": str(ROOT / "samples/renoir/source.yaml")})
+    proxy = run_node("ProxyRender", {"scene": str(ROOT / "samples/scenes/btf_move.usda"), "resolution": [256, 256],
+                                     "labels": {"bumps": "vegetation"}}, {"source": src}, frame=12)
+    aligned = run_node("BtfAlign", {}, {"stack": capture})
+    crops = []
+    for tile in (False, True):
+        synth = run_node("BtfSynth", {"size": [256, 256], "seed": 1, "tile": tile}, {"stack": aligned})
+        f = run_node("BtfShade", {"label": "bumps", "origin": MOVE_ORIGIN}, {"stack": synth, "proxy": proxy})
+        crops.append(np.stack([f[c] for c in "RGB"], -1)[40:200, 20:180])
+    jpeg(path.with_name("btf_tile.jpg"), np.concatenate([crops[0], np.ones((160, 4, 3), np.float32), crops[1]], 1))
 
 
 def figures(folder: Path):
@@ -235,6 +378,7 @@ def figures(folder: Path):
     qy, qx = btf.synthesize_stack(imgs, 0, (256, 256), seed=1)
     out = btf.gather_stack(imgs, qy, qx)
     png(folder / "btf_sheet.png", btf.contact_sheet(out[:, 80:160, 80:160], views, gap=2))
+    shard_figure(folder / "btf_shards.jpg")
 
 
 if __name__ == "__main__":
@@ -244,4 +388,3 @@ if __name__ == "__main__":
         shaded_move()
     else:
         main()
-        shaded_move()

@@ -415,7 +415,7 @@ def _vars(items: List[str]) -> dict:
             from proxyshade.io import yamlfile
 
             try:
-                value = yamlfile.parse(value, f"--var {yamlfile.short(item, 200)[1:-1]}")
+                value = yamlfile.parse(value, f"--var {yamlfile.cut(item, 200)}")
             except UserError as e:
                 if "not valid YAML" not in str(e):
                     raise
@@ -570,6 +570,18 @@ def main(argv: list[str] | None = None) -> int:
             signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
+def _closed_pipe() -> int:
+    """Exit 0 after the reader of stdout went away: stdout pointed at the null device, so the
+    interpreter's last flush finds nothing to complain about."""
+    try:
+        null = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(null, sys.stdout.fileno())
+        os.close(null)
+    except (OSError, ValueError):
+        pass
+    return 0
+
+
 def _main(argv: list[str] | None) -> int:
     try:
         code = app(args=argv, prog_name="proxyshade", standalone_mode=False)
@@ -578,7 +590,11 @@ def _main(argv: list[str] | None) -> int:
         return getattr(e, "exit_code", EXIT_BAD_INPUT)
     except KeyboardInterrupt:
         code = EXIT_INTERRUPTED
+    except BrokenPipeError:  # the reader closed the pipe ('proxyshade nodes | head -1'): it read what it wanted
+        return _closed_pipe()
     except (typer.Exit, SystemExit) as e:
+        if isinstance(e.__context__, BrokenPipeError):  # click turns a closed pipe into exit 1
+            return _closed_pipe()
         code = getattr(e, "exit_code", getattr(e, "code", 0))
     except _USAGE_ERROR as e:
         if type(e).__name__ == "NoArgsIsHelpError":  # a bare 'proxyshade' or 'proxyshade cache'

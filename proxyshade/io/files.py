@@ -54,6 +54,33 @@ def output_target(path: str | Path) -> Path:
     return target
 
 
+def output_problem(path: Path) -> str | None:
+    """Why no file can be written at ``path``, checked before anything is computed, or None:
+    a file (or a device) where one of its folders must be, a symlink loop on the way, or a
+    folder, device or loop at ``path`` itself. Folders that do not exist yet are fine (the
+    writer makes them)."""
+    path = Path(os.path.abspath(path))
+    for p in [*reversed(path.parents), path]:
+        try:
+            st = os.stat(p)
+        except FileNotFoundError:
+            if os.path.islink(p):  # a symlink to nothing: the write goes through it
+                continue
+            return None  # made by the writer, with everything below it
+        except OSError as e:
+            if e.errno == errno.ELOOP:
+                return f"{p}: is a symlink loop; remove it or point the output elsewhere"
+            if e.errno == errno.ENOTDIR:
+                return f"{p}: a part of it is a file, not a folder; point the output at a folder"
+            return None  # permissions and the like: the writer says what the system says
+        if p != path and not stat.S_ISDIR(st.st_mode):
+            return f"{p}: is a file, not a folder; point the output at a folder (or move the file)"
+        if p == path and not stat.S_ISREG(st.st_mode):
+            kind = next((k for test, k in _KINDS if test(st.st_mode)), "special file")
+            return f"{p}: is a {kind}, not a regular file; proxyshade will not replace it: give an output file path"
+    return None
+
+
 def _host() -> str:
     """This machine, in temporaries' names: 8 hex digits of a hash of its host name."""
     return hashlib.sha256(socket.gethostname().encode()).hexdigest()[:8]

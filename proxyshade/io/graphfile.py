@@ -22,12 +22,13 @@ frame range of more than ``MAX_FRAMES`` frames are such errors too.
 """
 from __future__ import annotations
 
+import os
 import re
 from pathlib import Path
 from typing import Any
 
 from proxyshade.errors import GraphFileError, ParamError
-from proxyshade.io import yamlfile
+from proxyshade.io import files, yamlfile
 
 FORMAT = "proxyshade/1"
 MAX_FRAMES = 100_000  # frames in one range: far beyond a shot, far below exhausting memory
@@ -120,7 +121,7 @@ def _resolve_vars(declared: dict, given: dict, f: str, line: int) -> dict:
         if isinstance(spec, dict) and spec.get("path") is True and set(spec) <= {"default", "path", "doc"}:
             # a folder or file: the graph's default resolves against the graph file, a value
             # given on the command line against the current folder
-            out[name] = str(Path(given[name]).expanduser().resolve()) if name in given else spec.get("default")
+            out[name] = str(_absolute(Path(given[name]).expanduser())) if name in given else spec.get("default")
         elif isinstance(spec, dict) and "bundled" in spec:
             extra = set(spec) - {"default", "bundled", "doc"}
             if extra or not isinstance(spec["bundled"], str) or "{}" not in spec["bundled"]:
@@ -130,10 +131,48 @@ def _resolve_vars(declared: dict, given: dict, f: str, line: int) -> dict:
             out[name] = _bundled_or_path(value, spec["bundled"])
             out[f"{name}_name"] = _short_name(value)
         else:
-            out[name] = given.get(name, spec)
+            out[name] = _typed_var(name, given[name], spec) if name in given else spec
     for name, value in given.items():
         out.setdefault(name, value)
     return out
+
+
+def _absolute(p: Path) -> Path:
+    """``p`` made absolute with its symlinks resolved; a symlink loop (which ``resolve`` raises on)
+    left as it is, for the output check or the reader to name."""
+    try:
+        return p.resolve()
+    except (RuntimeError, OSError):
+        return Path(os.path.abspath(p))
+
+
+def _typed_var(name: str, value: Any, default: Any) -> Any:
+    """A ``--var`` value (text from the command line) as the type of the variable's default:
+    a number for a number (``vars: {value: 1.0}``, ``--var value=2.0``), true/false for a bool;
+    text for text or no default."""
+    if not isinstance(value, str) or isinstance(default, str) or default is None:
+        return value
+    if isinstance(default, bool):
+        kind, ok = "true or false", lambda v: isinstance(v, bool)
+    elif isinstance(default, int):
+        kind, ok = "an integer", lambda v: isinstance(v, int) and not isinstance(v, bool)
+    elif isinstance(default, float):
+        kind, ok = "a number", lambda v: isinstance(v, (int, float)) and not isinstance(v, bool)
+    else:
+        return value  # a list or mapping: given in YAML flow style (the CLI parses it)
+    try:
+        parsed = yamlfile.parse(value, f"--var {name}", error=GraphFileError)
+    except GraphFileError:
+        parsed = value
+    if isinstance(parsed, str) and isinstance(default, float):  # 1e3: a number YAML 1.1 reads as text
+        try:
+            parsed = float(parsed)
+        except ValueError:
+            pass
+    if not ok(parsed):
+        raise GraphFileError(f"--var {name}={yamlfile.cut(value, 80)}: the variable {name} is "
+                             f"{kind} (its default is {default!r}); give {kind}, e.g. --var {name}={default!r}")
+    return float(parsed) if isinstance(default, float) else parsed
 
 
 def _bundled_or_path(value: Any, pattern: str) -> Any:
@@ -141,7 +180,7 @@ def _bundled_or_path(value: Any, pattern: str) -> Any:
         return value
     p = Path(value).expanduser()
     if p.is_absolute() or "/" in value or "\\" in value or p.suffix or p.is_file():
-        return str(p.resolve())
+        return str(_absolute(p))
     return pattern.replace("{}", value)
 
 
@@ -317,7 +356,25 @@ def build_graph(data: Any, path: Path, graph_cls: type, *, cache=None, overrides
             g.set(target.strip(), value)
         except ParamError as e:
             raise GraphFileError(f"--set {_short(o)}: {_short(str(e))}") from None
+    _check_outputs(g, nodes, f)
     return g
+
+
+def _check_outputs(g, nodes: dict, f: str) -> None:
+    """Every enabled writer's output path (a sink node's ``path``, at the first frame) checked
+    before anything computes: a file or a symlink loop where a folder of it must be, or a
+    folder, device or loop at the file itself, is a one-line error now rather than an I/O
+    error after the whole compute."""
+    for name, node in g.nodes.items():
+        value = getattr(node, "params", {}).get("path")
+        if not (getattr(type(node), "sink", False) and g.enabled.get(name, True) and isinstance(value, (str, Path))):
+            continue
+        text = re.sub(r"#+", lambda m: f"{g.frames[0]:0{len(m.group(0))}d}", str(value))
+        p = Path(text).expanduser()
+        problem = files.output_problem(p if p.is_absolute() else Path(g.graph_dir) / p)
+        if problem:
+            raise GraphFileError(f"{f}:{_line(nodes, name)}: nodes.{name}.params.path: cannot write "
+                                 f"{_short(str(value), 200)}: {problem}")
 
 
 def load_graph(path: str | Path, graph_cls: type, *, cache=None, overrides: list[str] = (), variables=None):

@@ -98,8 +98,10 @@ def _gif_problem(path: Path, images: int) -> str | None:
     return f"the file ends at byte {n}, before its trailer ({seen} of {images} frames read)"
 
 
-def read_u8(path: str | Path) -> np.ndarray:
-    """An 8-bit image as an (H, W, 3) uint8 array (alpha dropped, grey expanded)."""
+def _open(path: str | Path):
+    """An image file as an OpenImageIO ImageBuf, its colours as stored: alpha unassociated (a
+    PNG or TIFF with alpha is not premultiplied on read, which darkened photos and moved
+    label-map colours). One-line errors naming the file."""
     import OpenImageIO as oiio
 
     path = Path(path)
@@ -109,19 +111,75 @@ def read_u8(path: str | Path) -> np.ndarray:
         problem = _png_problem(path)
         if problem:
             raise UserError(f"{path}: cannot read image ({problem}); re-export it")
-    buf = oiio.ImageBuf(str(path))
+    config = oiio.ImageSpec()
+    config.attribute("oiio:UnassociatedAlpha", 1)
+    buf = oiio.ImageBuf(str(path), 0, 0, config)
     if buf.has_error:
         raise UserError(f"{path}: cannot read image: {_msg(buf.geterror())}; re-export it")
-    px = buf.get_pixels(oiio.UINT8)
+    return buf
+
+
+def _pixels(path: Path, buf, fmt) -> np.ndarray:
+    """The ImageBuf's pixels as (H, W, C) of ``fmt``; a damaged file is a one-line error."""
+    px = buf.get_pixels(fmt)
     if px is None or buf.has_error:
         raise UserError(f"{path}: cannot read pixels ({_msg(buf.geterror())}); the file is damaged or truncated: "
                         "re-export it")
     px = np.asarray(px)
-    if px.ndim == 2:
-        px = px[..., None]
-    if px.shape[2] == 1:
-        px = np.repeat(px, 3, axis=2)
-    return np.ascontiguousarray(px[..., :3])
+    return px[..., None] if px.ndim == 2 else px
+
+
+def _rgb_alpha(px: np.ndarray, buf, opaque) -> tuple[np.ndarray, np.ndarray]:
+    """(H, W, 3) colour (grey expanded) and (H, W) alpha (``opaque`` where the file has none)."""
+    spec = buf.spec()
+    names = list(spec.channelnames)
+    a = spec.alpha_channel if spec.alpha_channel >= 0 else (
+        names.index("A") if "A" in names else 1 if px.shape[2] == 2 else 3 if px.shape[2] >= 4 else -1)
+    colour = [names.index(c) for c in "RGB"] if {"R", "G", "B"} <= set(names) else \
+        [c for c in range(px.shape[2]) if c != a][:3]
+    rgb = px[..., colour]
+    if rgb.shape[2] < 3:
+        rgb = np.repeat(rgb[..., :1], 3, axis=2)
+    alpha = px[..., a] if a >= 0 else np.full(px.shape[:2], opaque, px.dtype)
+    return np.ascontiguousarray(rgb), np.ascontiguousarray(alpha)
+
+
+def read_u8(path: str | Path, *, alpha: bool = False) -> np.ndarray:
+    """An 8-bit image as an (H, W, 3) uint8 array, its colours as stored (alpha unassociated,
+    then dropped; grey expanded). ``alpha``: (H, W, 4), alpha last (255 where the file has none)."""
+    import OpenImageIO as oiio
+
+    path = Path(path)
+    buf = _open(path)
+    rgb, a = _rgb_alpha(_pixels(path, buf, oiio.UINT8), buf, 255)
+    return np.concatenate([rgb, a[..., None]], axis=2) if alpha else rgb
+
+
+_LINEAR_FORMATS = ("openexr", "hdr")  # scene-referred linear light by definition
+
+
+def is_linear(path: str | Path) -> bool:
+    """Whether an image file holds linear light (an EXR or Radiance HDR, float pixels, or a
+    linear colour space in its metadata) rather than sRGB-encoded values."""
+    import OpenImageIO as oiio
+
+    path = Path(path)
+    buf = _open(path)
+    spec = buf.spec()
+    space = spec.get_string_attribute("oiio:ColorSpace").lower()
+    return (buf.file_format_name in _LINEAR_FORMATS or spec.format.basetype in (oiio.FLOAT, oiio.HALF, oiio.DOUBLE)
+            or space.startswith(("lin", "scene_linear", "acescg", "aces2065")))
+
+
+def read_float(path: str | Path) -> np.ndarray:
+    """An image's colour as (H, W, 3) float32 exactly as stored: no clamping, no decoding
+    (a linear EXR's values above 1 kept); alpha dropped, grey expanded."""
+    import OpenImageIO as oiio
+
+    path = Path(path)
+    buf = _open(path)
+    rgb, _ = _rgb_alpha(_pixels(path, buf, oiio.FLOAT), buf, 1.0)
+    return rgb.astype(np.float32, copy=False)
 
 
 def write_png(path: str | Path, rgb8: np.ndarray) -> Path:

@@ -1,9 +1,11 @@
 """Annotated sources: a photo, its label map and a YAML label table.
 
 The label table (``source.yaml``) names the photo, the label map and each label's id and
-colour_science(). Loading decodes the 8-bit sRGB photo to linear light with colour-science and
-snaps every label-map pixel to the nearest table colour, counting how many were snapped
-and failing when too many are far from every table colour_science().
+colour. Loading decodes an 8-bit sRGB photo to linear light with colour-science (a linear
+EXR photo is read as it is, values above 1 kept) and snaps every label-map pixel to the
+nearest table colour, counting how many were snapped and failing when too many are far
+from every table colour. Alpha is ignored in both: colours are read as stored, never
+premultiplied.
 """
 from __future__ import annotations
 
@@ -16,7 +18,7 @@ from proxyshade.errors import UserError
 from proxyshade.plate import Plate
 from proxyshade.io import yamlfile
 from proxyshade.io.colourlib import colour_science
-from proxyshade.io.images import read_u8
+from proxyshade.io.images import is_linear, read_float, read_u8
 
 np = lazy_loader.load("numpy")  # on first use: a fully cached run never loads numpy
 
@@ -113,6 +115,34 @@ def srgb_to_linear(rgb8: np.ndarray) -> np.ndarray:
     return np.asarray(colour_science().cctf_decoding(rgb8.astype(np.float64) / 255.0, function="sRGB"), dtype=np.float32)
 
 
+def _share(k: int, n: int) -> str:
+    """k of n as a percentage for a message ('<0.1%' rather than '0.0%' for a few)."""
+    return f"{k / n:.1%}" if k == 0 or k / n >= 0.001 else "<0.1%"
+
+
+def read_photo(path: str | Path) -> np.ndarray:
+    """A photo as (H, W, 3) float32 linear light. An sRGB-encoded file (8-bit PNG, JPEG, TIFF)
+    is decoded with colour-science; a linear one (EXR, HDR, float TIFF: ``images.is_linear``)
+    is scene-referred and read as it is, values above 1 kept. Alpha is ignored. A linear file
+    with NaN, infinite or negative values is a one-line error naming it."""
+    path = Path(path)
+    if not is_linear(path):
+        return srgb_to_linear(read_u8(path))
+    rgb = read_float(path)
+    n = rgb.shape[0] * rgb.shape[1]
+    bad = int((~np.isfinite(rgb)).any(axis=2).sum())
+    if bad:
+        which = "all" if bad == n else f"{bad} ({_share(bad, n)})"
+        raise UserError(f"{path}: {which} of the photo's {n} pixels are NaN or infinite; a photo needs finite "
+                        "linear values: re-render or re-export it with those pixels filled")
+    low = float(rgb.min()) if n else 0.0
+    if low < 0:
+        neg = int((rgb < 0).any(axis=2).sum())
+        raise UserError(f"{path}: {neg} ({_share(neg, n)}) of the photo's pixels have negative values (lowest "
+                        f"{low:.3g}); light is never negative: clamp them to 0 in the export")
+    return np.ascontiguousarray(rgb, dtype=np.float32)
+
+
 def snap_labels(rgb8: np.ndarray, table: list[dict], *, far_distance: float = 100.0):
     """Snap each pixel of a label map to the nearest table colour_science().
 
@@ -137,11 +167,21 @@ def snap_labels(rgb8: np.ndarray, table: list[dict], *, far_distance: float = 10
 
 def labels_from_map(path: Path, table: list[dict], *, far_distance: float, max_far_fraction: float,
                     where: str) -> tuple[np.ndarray, dict]:
-    """Read a label-map image and snap it to ``table``; returns ids and snap statistics."""
-    rgb8 = read_u8(path)
+    """Read a label-map image and snap it to ``table``; returns ids and snap statistics.
+    Alpha is ignored: a pixel's label is its colour as stored, transparent or not."""
+    rgba = read_u8(path, alpha=True)
+    rgb8 = np.ascontiguousarray(rgba[..., :3])
     ids, snapped, far = snap_labels(rgb8, table, far_distance=far_distance)
     n = ids.size
     if far > max_far_fraction * n:
+        clear = rgba[..., 3] < 255
+        far_clear = snap_labels(rgb8[clear][None], table, far_distance=far_distance)[2] if clear.any() else 0
+        if far_clear > far / 2:  # mostly transparent pixels whose stored colour is no label's
+            raise UserError(
+                f"{where}: {path.name}: {far / n:.1%} of pixels are further than {far_distance:g} from every label "
+                f"colour (limit {max_far_fraction:.1%}), {far_clear / far:.0%} of them transparent; alpha is ignored "
+                "(a pixel's label is its colour): fill the transparent areas with label colours, or flatten the map "
+                "onto a label's colour")
         raise UserError(
             f"{where}: {path.name}: {far / n:.1%} of pixels are further than {far_distance:g} from every "
             f"label colour (limit {max_far_fraction:.1%}); add the missing colours to the label table "
@@ -162,21 +202,20 @@ def load_source(table_path: str | Path, *, far_distance: float = 100.0, max_far_
     table_path = Path(table_path)
     t = load_table(table_path)
     image = series_photo(t, table_path, photo)
-    rgb8 = read_u8(image)
+    lin = read_photo(image)
     ids, stats = labels_from_map(Path(t["labels_map"]), t["labels"], far_distance=far_distance,
                                  max_far_fraction=max_far_fraction, where=where)
-    if ids.shape != rgb8.shape[:2]:
+    if ids.shape != lin.shape[:2]:
         field = f"images.{photo}" if photo is not None else "image"
         raise UserError(
             f"{table_path}: labels_map is {ids.shape[1]}x{ids.shape[0]} but {field} is "
-            f"{rgb8.shape[1]}x{rgb8.shape[0]}; they must be the same size (photos of one view, one label map)"
+            f"{lin.shape[1]}x{lin.shape[0]}; they must be the same size (photos of one view, one label map)"
         )
-    lin = srgb_to_linear(rgb8)
     ch = {"R": lin[..., 0].copy(), "G": lin[..., 1].copy(), "B": lin[..., 2].copy(), "label.id": ids}
     meta = {
         "labels": t["labels"],
         "source": {"table": str(table_path.resolve()), "image": image, "labels_map": t["labels_map"],
-                   "credit": t.get("credit", ""), "photo": photo, "size": [int(rgb8.shape[1]), int(rgb8.shape[0])]},
+                   "credit": t.get("credit", ""), "photo": photo, "size": [int(lin.shape[1]), int(lin.shape[0])]},
         "snap": stats,
     }
     if t.get("layout"):
@@ -201,10 +240,10 @@ def new_table(photo: Path, label_map: Path, out: Path, *, min_share: float = 0.0
     ``label_map``: one label per palette colour (named ``label_1``, ... by area, to be
     renamed after the scene's labels), ids from 1. Returns (YAML text, report: labels,
     snapped pixels and their share)."""
-    rgb8, lab8 = read_u8(photo), read_u8(label_map)
-    if rgb8.shape != lab8.shape:
+    rgb, lab8 = read_photo(photo), read_u8(label_map)
+    if rgb.shape != lab8.shape:
         raise UserError(f"{label_map}: the label map is {lab8.shape[1]}x{lab8.shape[0]} but the photo "
-                        f"{rgb8.shape[1]}x{rgb8.shape[0]}; paint the label map at the photo's size")
+                        f"{rgb.shape[1]}x{rgb.shape[0]}; paint the label map at the photo's size")
     colours, other = palette(lab8, min_share=min_share)
     if len(colours) < 2:
         raise UserError(f"{label_map}: fewer than two colours cover {min_share:.1%} of the map each; paint at "
@@ -216,7 +255,7 @@ def new_table(photo: Path, label_map: Path, out: Path, *, min_share: float = 0.0
     lines = ["# written by 'proxyshade source new'; rename the labels after your scene's (UsdSemantics texture",
              "# labels) and keep the colours: they are the label map's",
              f"image: {rel(photo)}", f"labels_map: {rel(label_map)}", "labels:"]
-    n = rgb8.shape[0] * rgb8.shape[1]
+    n = rgb.shape[0] * rgb.shape[1]
     for i, (c, count) in enumerate(colours, 1):
         lines.append(f"  label_{i}: {{id: {i}, color: \"#{c[0]:02x}{c[1]:02x}{c[2]:02x}\"}}   # {count / n:.1%} of the map")
     return "\n".join(lines) + "\n", {"labels": len(colours), "snapped": other, "snapped_share": other / n}

@@ -17,6 +17,8 @@ import functools
 import hashlib
 import math
 import re
+import threading
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -43,17 +45,58 @@ def load_plugins() -> None:
         p.Load() for p in Plug.Registry().GetAllPlugins()]
 
 
+_DIAGNOSTICS = None  # USD's warnings, collected instead of printed (UsdUtils.CoalescingDiagnosticDelegate)
+_DIAGNOSTICS_LOCK = threading.Lock()
+
+
+def _collect_diagnostics() -> None:
+    """From now on USD's warnings and status messages are collected, not printed to stderr as
+    C++ text ("Warning: in _ReportErrors at line 3326 of .../stage.cpp -- ..."): ``usd_warnings``
+    turns them into one-line Python warnings. Errors still raise (``tf_message``)."""
+    global _DIAGNOSTICS
+    with _DIAGNOSTICS_LOCK:
+        if _DIAGNOSTICS is None:
+            from pxr import UsdUtils
+
+            _DIAGNOSTICS = UsdUtils.CoalescingDiagnosticDelegate()
+
+
+def diagnostic_line(commentary: str) -> str:
+    """A USD diagnostic's text as one line: no C++ namespaces, no object addresses."""
+    text = re.sub(r"pxrInternal_v\w+?__pxrReserved__::", "", str(commentary))
+    text = re.sub(r"\s*<0x[0-9a-fA-F]+>", "", text)
+    return " ".join(text.split())
+
+
+def usd_warnings(where: str | Path) -> list[str]:
+    """The USD warnings collected since the last call, each issued as one Python warning
+    ``'<where>: USD: <message>'`` (the CLI prints it as one ``warning:`` line); returns them."""
+    _collect_diagnostics()
+    with _DIAGNOSTICS_LOCK:
+        taken = _DIAGNOSTICS.TakeUncoalescedDiagnostics()
+    from pxr import Tf
+
+    lines = [f"{where}: USD: {diagnostic_line(d.commentary)}" for d in taken
+             if d.diagnosticCode != Tf.TF_DIAGNOSTIC_STATUS_TYPE]  # status lines are chatter
+    for line in dict.fromkeys(lines):
+        warnings.warn(line, stacklevel=2)
+    return lines
+
+
 def open_stage(path: str | Path) -> Usd.Stage:
     path = Path(path)
     if not path.is_file():
         raise UserError(f"{path}: no such USD file; check the scene path")
+    _collect_diagnostics()
     try:
         loaded = Sdf.Layer.Find(str(path))
         if loaded:  # USD keeps layers it has opened: re-read what is on disk now
             loaded.Reload(force=True)
         stage = Usd.Stage.Open(str(path))
     except Exception as e:  # noqa: BLE001 - pxr raises Tf errors
+        usd_warnings(path)
         raise UserError(f"{path}: cannot open USD stage: {tf_message(e)}; fix the file") from None
+    usd_warnings(path)
     if stage is None:
         raise UserError(f"{path}: cannot open USD stage")
     return stage
@@ -303,6 +346,7 @@ def scene_prims(stage: Usd.Stage, frame: int) -> list[ScenePrim]:
         h.update(repr((rec.label, rec.cg, rec.color)).encode())
         rec.digest = h.hexdigest()
         out.append(rec)
+    usd_warnings(stage_name(stage))
     return out
 
 

@@ -171,3 +171,9 @@ def short(value: Any, limit: int = 200) -> str:
     """``repr(value)`` for a message, cut to ``limit`` characters (a value may be large)."""
     text = repr(value) if not isinstance(value, str) or len(value) <= limit else repr(value[:limit])
     return text if len(text) <= limit else f"{text[:limit]}... ({len(text)} characters)"
+
+
+def cut(text: str, limit: int = 200) -> str:
+    """Text as it is for a message (no quotes), cut to ``limit`` characters."""
+    text = str(text)
+    return text if len(text) <= limit else f"{text[:limit]}... ({len(text)} characters)"

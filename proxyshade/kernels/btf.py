@@ -48,17 +48,20 @@ def disk_offsets(r: int) -> np.ndarray:
 
 
 @njit(**JIT)
-def _disk_sum(out, k, T, inp, out_a, inp_a, cw, pair, py, px, cy, cx, offs, so, si, bound):
+def _disk_sum(out, k, T, inp, out_a, inp_a, cw, pair, py, px, cy, cx, offs, so, si, bound, wrap):
     """Σ over the disk ``offs`` (stepped ``so`` in the output, ``si`` in the input) of
     w‖out − in‖², plus cw (1 − w)‖A′ − A‖² with ``pair``; w = k / T. Stops once the sum
-    exceeds ``bound``."""
+    exceeds ``bound``. With ``wrap`` the output is a torus (its neighbours wrap around)."""
     H, W = out.shape[0], out.shape[1]
     h, w = inp.shape[0], inp.shape[1]
     acc = 0.0
     for o in range(offs.shape[0]):
         qy = py + offs[o, 0] * so
         qx = px + offs[o, 1] * so
-        if qy < 0 or qy >= H or qx < 0 or qx >= W:
+        if wrap:
+            qy %= H
+            qx %= W
+        elif qy < 0 or qy >= H or qx < 0 or qx >= W:
             continue
         wt = k[qy, qx] / T
         wa = cw * (1.0 - wt) if pair else 0.0
@@ -88,14 +91,14 @@ def disk_distance(out, k, T, inp, py, px, cy, cx, offs, so, si, bound):
     """eq. 3 at output pixel (py, px) against input pixel (cy, cx): Σ w‖out − in‖² over the
     disk ``offs``, stepped by ``so`` in the output and ``si`` in the input (a level's
     scale), w = k / T; stops once the sum exceeds ``bound``."""
-    return _disk_sum(out, k, T, inp, out, inp, 0.0, False, py, px, cy, cx, offs, so, si, bound)
+    return _disk_sum(out, k, T, inp, out, inp, 0.0, False, py, px, cy, cx, offs, so, si, bound, False)
 
 
 @njit(**JIT)
 def pair_distance(out_b, k, T, inp_b, out_a, inp_a, cw, py, px, cy, cx, offs, so, si, bound):
     """Other-view distance at (py, px) against input (cy, cx): Σ w‖B′ − B‖² +
     cw (1 − w)‖A′ − A‖² over the stepped disk (A the support view, B this view)."""
-    return _disk_sum(out_b, k, T, inp_b, out_a, inp_a, cw, True, py, px, cy, cx, offs, so, si, bound)
+    return _disk_sum(out_b, k, T, inp_b, out_a, inp_a, cw, True, py, px, cy, cx, offs, so, si, bound, False)
 
 
 @njit(**JIT)
@@ -125,13 +128,16 @@ def _fenwick_find(tree, r):
 
 
 @njit(**JIT)
-def synth_level(inp, out, qy, qx, k, T, offs, so, si, seed, level, pair, out_a, inp_a, qay, qax, cw, visits):
+def synth_level(inp, out, qy, qx, k, T, offs, so, si, seed, level, pair, out_a, inp_a, qay, qax, cw, visits,
+                wrap):
     """One level of sequential synthesis, in place: ``out`` (H, W, 3) = ``inp`` at the
     sources (``qy``, ``qx``), confidences ``k`` (visits, w = k / T) raised to T; the disk
     steps ``so`` output pixels and ``si`` input pixels (the neighbour n = p + o·so
     proposes q(n) − o·si).
     With ``pair``, the other-view distance against the support (``out_a`` = A′, ``inp_a``
     = A, its sources ``qay``/``qax`` as extra candidates). ``visits`` counts the visits.
+    With ``wrap`` the output is a torus: disk neighbours wrap around its borders, so the
+    result tiles without a seam.
     Returns the number of updates."""
     H, W = out.shape[0], out.shape[1]
     h, w = inp.shape[0], inp.shape[1]
@@ -154,14 +160,17 @@ def synth_level(inp, out, qy, qx, k, T, offs, so, si, seed, level, pair, out_a, 
         px = p % W
         by = qy[py, px]
         bx = qx[py, px]
-        best = _disk_sum(out, k, T, inp, out_a, inp_a, cw, pair, py, px, by, bx, offs, so, si, np.inf)
+        best = _disk_sum(out, k, T, inp, out_a, inp_a, cw, pair, py, px, by, bx, offs, so, si, np.inf, wrap)
         ncand = 2 * nc + 1 if pair else nc
         for m in range(ncand):
             if m < 2 * nc:  # a neighbour's source shifted back: this view's map, then the support's
                 mm = m % nc
                 ny = py + offs[mm, 0] * so
                 nx = px + offs[mm, 1] * so
-                if ny < 0 or ny >= H or nx < 0 or nx >= W:
+                if wrap:
+                    ny %= H
+                    nx %= W
+                elif ny < 0 or ny >= H or nx < 0 or nx >= W:
                     continue
                 own = m < nc
                 cy = (qy[ny, nx] if own else qay[ny, nx]) - offs[mm, 0] * si
@@ -173,7 +182,7 @@ def synth_level(inp, out, qy, qx, k, T, offs, so, si, seed, level, pair, out_a, 
                 continue
             if cy == by and cx == bx:
                 continue
-            d = _disk_sum(out, k, T, inp, out_a, inp_a, cw, pair, py, px, cy, cx, offs, so, si, best)
+            d = _disk_sum(out, k, T, inp, out_a, inp_a, cw, pair, py, px, cy, cx, offs, so, si, best, wrap)
             if d < best:
                 best = d
                 by = cy
@@ -204,7 +213,7 @@ def gather(inp, qy, qx):
 
 
 @njit(**PJIT)
-def synth_others(inp_b, inp_a, out_a, qay, qax, T, k0, offs, seeds, cw, qy, qx, visits):
+def synth_others(inp_b, inp_a, out_a, qay, qax, T, k0, offs, seeds, cw, qy, qx, visits, wrap):
     """Every other view given the support, in parallel over views: view v starts from the
     support's sources with w = k0 / T and runs ``synth_level`` with ``pair_distance``
     (seed ``seeds[v]``). Writes ``qy[v]``, ``qx[v]``, ``visits[v]``; returns updates per view."""
@@ -219,7 +228,7 @@ def synth_others(inp_b, inp_a, out_a, qay, qax, T, k0, offs, seeds, cw, qy, qx, 
         k = np.full((H, W), k0, np.int64)
         out = gather(inp_b[v], qy[v], qx[v])
         changed[v] = synth_level(inp_b[v], out, qy[v], qx[v], k, T, offs, 1, 1, seeds[v], 0, True, out_a, inp_a,
-                                 qay, qax, cw, visits[v])
+                                 qay, qax, cw, visits[v], wrap)
     return changed
 
 

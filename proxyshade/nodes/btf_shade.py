@@ -18,9 +18,11 @@ np = lazy_loader.load("numpy")  # on first use: a fully cached run never loads n
 class BtfShade(Node):
     """Shade the pixels of ``label`` in a proxy render from a BTF stack (BtfSynth's output).
 
-    Per pixel: texture coordinates from ``P`` by the planar parametrization along Y
-    (``scale`` world units per stack pixel, default the stack's own ``pixel``: the sample's
-    true size; ``origin`` the world (x, z) of the stack's corner; the stack tiles the plane),
+    Per pixel: texture coordinates from ``P`` (``scale`` world units per stack pixel, default
+    the stack's own ``pixel``: the sample's true size; ``origin`` the world (x, z) of the
+    stack's corner; the stack tiles the surface, seamlessly when BtfSynth's ``tile`` is on)
+    by ``uv``: ``planar`` along Y, or ``terrain``: the labelled heightfield mesh's own grid,
+    by arc length along its rows and columns (a texel keeps its size up a slope),
     and the direction toward the camera in the surface frame (``N`` up, world +X projected
     onto the surface as tilt 0°): bilinear between the four views around that (slant, tilt)
     on the stack's grid, each view read bilinearly. Directions beyond the grid take its
@@ -41,6 +43,8 @@ class BtfShade(Node):
     label = Param(str, doc="the label to shade: a scene label (e.g. bumps) or a source label")
     scale = Param(float, None, optional=True, min=1e-9, doc="world units per stack pixel (default: the stack's pixel)")
     origin = Param(list, [0.0, 0.0], length=2, doc="world (x, z) of the stack's pixel corner (0, 0)")
+    uv = Param(str, "planar", choices=("planar", "terrain"),
+               doc="texture coordinates: planar along Y, or the terrain mesh's own grid (arc length)")
     background = Param(list, [0.0, 0.0, 0.0], length=3, doc="linear RGB of the pixels off the label")
 
     def compute(self, ctx) -> Plate:
@@ -61,7 +65,10 @@ class BtfShade(Node):
         N = np.stack([proxy[f"N.{a}"] for a in "XYZ"], -1)
         slant, tilt = btf.surface_directions(P, N, eye)
         scale = float(p.scale if p.scale is not None else ctx.stack.meta["btf"].get("pixel", 1.0))
-        u, v = btf.planar_uv(P, p.origin, scale)
+        if p.uv == "terrain":
+            u, v = self._terrain_uv(ctx, proxy, P, mask, p.origin, scale)
+        else:
+            u, v = btf.planar_uv(P, p.origin, scale)
         rgb = btf.shade_surface(imgs, views, (u, v), slant, tilt, mask)
         rgb[~mask] = np.asarray(p.background, np.float32)
         out = btf.outside_grid(views, slant, tilt) & mask
@@ -80,6 +87,36 @@ class BtfShade(Node):
         meta = {k: proxy.meta[k] for k in ("labels", "camera", "scene", "objects") if k in proxy.meta}
         meta["btf"] = dict(ctx.stack.meta["btf"], label=p.label, scale=scale)
         return Plate(ch, meta)
+
+    @staticmethod
+    def _terrain_uv(ctx, proxy, P, mask, origin, scale):
+        """Texture coordinates from the labelled meshes' own grids (``synthesis.btf.grid_uv``),
+        per object of the label."""
+        from proxyshade.errors import UserError
+        from proxyshade.io import usd
+        from proxyshade.synthesis import btf
+
+        label = ctx.p.label
+        objs = {o["name"]: int(o["id"]) for o in proxy.meta.get("objects", []) if o.get("label") == label}
+        if not objs or "scene" not in proxy.meta:
+            raise ctx.error(f"uv: terrain needs a scene label with its meshes (proxy meta['objects'], "
+                            f"meta['scene']); {label!r} is not one: use uv: planar")
+        try:
+            stage = usd.open_stage(proxy.meta["scene"])
+        except UserError as e:
+            raise ctx.error(str(e)) from None
+        u = np.zeros(mask.shape)
+        v = np.zeros(mask.shape)
+        for prim in usd.scene_prims(stage, ctx.frame):
+            if prim.path not in objs:
+                continue
+            grid = btf.grid_surface(usd.world_mesh(prim)[0]) if prim.kind == "mesh" else None
+            if grid is None:
+                raise ctx.error(f"uv: terrain: {prim.path} (label {label!r}) is not a heightfield grid (points on "
+                                "a regular x-z grid, as the scene builder's terrains); use uv: planar")
+            on = mask & (proxy["object.id"] == objs[prim.path])
+            u[on], v[on] = btf.grid_uv(P[on], grid, origin, scale)
+        return u, v
 
     @staticmethod
     def _mask(ctx, proxy, label):

@@ -20,7 +20,11 @@ class BtfSynth(Node):
     ``columns`` (every view copies the support's sources). ``support``: the view index of
     the support (default: the frontal view). Radii: ``radius`` for the support (3 or 4 in
     the paper), ``radius_other`` for the others (2). ``T`` visits per pixel from w = 0
-    (w += 1/T), ``levels`` of the multigrid (the disk scaled by 2 per level).
+    (w += 1/T), ``levels`` of the multigrid (the disk scaled by 2 per level; default: as
+    many as the input allows, up to 5: the coarse levels keep the support's patches as large
+    as a bump's footprint in the steepest views, so no seam cuts a bump into a sliver).
+    ``tile``: synthesize on a torus (disk neighbours wrap around the borders), so the stack
+    repeats without a seam when a surface is shaded from it (BtfShade wraps).
 
     Output: ``v{n}.R/G/B`` synthesized and ``v{n}.sx/sy`` (the input pixel each output
     pixel copies, column and row), the input's ``meta['views']`` and ``meta['btf']``.
@@ -34,7 +38,9 @@ class BtfSynth(Node):
     radius = Param(int, 3, min=1, max=8, doc="disk radius of the support view")
     radius_other = Param(int, 2, min=1, max=8, doc="disk radius of the other views")
     T = Param(int, 4, min=2, max=64, doc="visits per pixel (w += 1/T)")
-    levels = Param(int, 3, min=1, max=6, doc="multigrid levels")
+    levels = Param(int, None, optional=True, min=1, max=6,
+                   doc="multigrid levels (default: the most, up to 5, the input allows)")
+    tile = Param(bool, True, doc="the stack tiles without a seam (the output wraps around its borders)")
     c = Param(float, 0.25, min=0.0, doc="weight of the support term for the other views")
     seed = Param(int, 0, doc="seed of the visiting order and the initial map")
 
@@ -50,10 +56,12 @@ class BtfSynth(Node):
         support = btf.check_views(views)["index"][(0, 0.0)] if p.support is None else p.support
         if support >= len(views):
             raise ctx.error(f"support {support} is not a view of the stack (it has {len(views)}); give 0..{len(views) - 1}")
-        btf.check_synthesis_size(imgs.shape[1:3], max(p.radius, p.radius_other), p.levels)
+        levels = btf.auto_levels(imgs.shape[1:3], max(p.radius, p.radius_other)) if p.levels is None else p.levels
+        btf.check_synthesis_size(imgs.shape[1:3], max(p.radius, p.radius_other), levels)
         W, H = p.size
         qy, qx = btf.synthesize_stack(imgs, support, (H, W), mode=p.mode, radius=p.radius,
-                                      radius_other=p.radius_other, T=p.T, levels=p.levels, c=p.c, seed=p.seed)
+                                      radius_other=p.radius_other, T=p.T, levels=levels, c=p.c, seed=p.seed,
+                                      wrap=p.tile)
         out = btf.gather_stack(imgs, qy, qx)
         extra = {}
         for n in range(len(views)):
@@ -62,7 +70,8 @@ class BtfSynth(Node):
         ec = btf.consistency_error(imgs, support, qy, qx)
         es = btf.seam_error(imgs, qy, qx)
         others = [n for n in range(len(views)) if n != support]
-        meta = dict(ctx.stack.meta["btf"], support=support, mode=p.mode, input_size=[imgs.shape[2], imgs.shape[1]])
+        meta = dict(ctx.stack.meta["btf"], support=support, mode=p.mode, input_size=[imgs.shape[2], imgs.shape[1]],
+                    levels=levels, tile=bool(p.tile))
         if others:
             ctx.note(f"{len(views)} views {W}x{H} ({p.mode}); other views: E_c {ec[others].mean():.4f}, "
                      f"E_s {es[others].mean():.4f}")

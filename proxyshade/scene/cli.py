@@ -131,7 +131,7 @@ def camera(spec: Path = typer.Argument(..., help="scene description YAML"),
         if "=" not in p:
             raise UserError(f"--param {p!r}: expected key=value, e.g. radius=40")
         k, v = p.split("=", 1)
-        entry[k.strip()] = yamlfile.parse(v, f"--param {yamlfile.short(p, 200)[1:-1]}")
+        entry[k.strip()] = yamlfile.parse(v, f"--param {yamlfile.cut(p, 200)}")
     data = _load(spec)
     old = {c.get("name"): c for c in data.get("cameras") or []}
     if name in old and "clipping" in old[name]:

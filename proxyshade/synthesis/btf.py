@@ -184,6 +184,18 @@ def render_views(points, tris, normals, light: dict, views: list[dict], *, size:
     return out
 
 
+def height_views(points, tris, normals, views: list[dict], *, size: int, window: float, centre=(0.0, 0.0),
+                 plane: float = 0.0) -> np.ndarray:
+    """(V, size, size) float32: ``render_views`` of the world height instead of a colour
+    (what each pixel's ray meets first, at which height; 0 where it meets nothing): the
+    sample's known heights, for the shard measure (``surface_hits``)."""
+    pts = np.asarray(points, np.float64)
+    out = render_views(pts, tris, normals, {"direction": [0.0, -1.0, 0.0], "intensity": 0.0}, views, size=size,
+                       window=window, centre=centre, plane=plane, ambient=1.0, albedo=np.repeat(pts[:, 1:2], 3, 1),
+                       shadow_size=16, bias=0.0)
+    return out[..., 0]
+
+
 def height_albedo(points: np.ndarray, low=(0.16, 0.12, 0.09), high=(0.62, 0.52, 0.40)) -> np.ndarray:
     """(V, 3) albedo ramping from ``low`` at the lowest vertex to ``high`` at the highest."""
     y = points[:, 1]
@@ -258,7 +270,21 @@ def check_synthesis_size(shape, radius: int, levels: int, field: str = "stack") 
                              "smaller radius or larger views")
 
 
-def synthesize_view(image: np.ndarray, size, *, radius: int, T: int, levels: int, seed: int):
+MOST_LEVELS = 5
+
+
+def auto_levels(shape, radius: int, most: int = MOST_LEVELS) -> int:
+    """The most multigrid levels (up to ``most``) whose coarsest disk (2·radius·2^(l−1) + 1
+    pixels across) fits the (H, W) input: the coarse levels keep the support's patches as
+    large as a bump's footprint in the steepest views (fewer seams cutting a bump, which a
+    grazing view shows as a sliver)."""
+    n = 1
+    while n < most and 2 * radius * 2 ** n + 1 <= min(shape):
+        n += 1
+    return n
+
+
+def synthesize_view(image: np.ndarray, size, *, radius: int, T: int, levels: int, seed: int, wrap: bool = False):
     """One view on its own, coarse to fine: (qy, qx) int64 sources (H, W) and the visit
     counts per level (list, coarsest first).
 
@@ -267,7 +293,9 @@ def synthesize_view(image: np.ndarray, size, *, radius: int, T: int, levels: int
     its source − o·2^l). The coarsest level starts from a random permutation of the
     input's pixels (the output's histogram is the input's when the sizes divide) at
     w = 0; each finer level inherits the sources of the coarser one (pixel p from
-    p // 2, shifted by the remainder) at w = ½."""
+    p // 2, shifted by the remainder) at w = ½. With ``wrap`` every level's output is a
+    torus (the result tiles without a seam; exactly when the size is a multiple of
+    2^(levels − 1))."""
     from proxyshade.kernels.btf import disk_offsets, gather, synth_level
     from proxyshade.kernels.random import mix_seed, permutation
 
@@ -297,13 +325,13 @@ def synthesize_view(image: np.ndarray, size, *, radius: int, T: int, levels: int
         k = np.full((Hl, Wl), k0, np.int64)
         vis = np.zeros((Hl, Wl), np.int64)
         synth_level(image, gather(image, qy, qx), qy, qx, k, int(T), offs, 1, s, mix_seed(seed, 2), lv, False,
-                    dummy_img, dummy_img, dummy_q, dummy_q, 0.0, vis)
+                    dummy_img, dummy_img, dummy_q, dummy_q, 0.0, vis, bool(wrap))
         visits.append(vis)
     return qy, qx, visits
 
 
 def synthesize_others(images: np.ndarray, support: int, qay: np.ndarray, qax: np.ndarray, *, radius: int, T: int,
-                      c: float, seed: int):
+                      c: float, seed: int, wrap: bool = False):
     """Every view but ``support`` given the support's sources: (qy, qx, visits), each
     (V, H, W) int64 (the support's own entries are its sources, visits 0)."""
     from proxyshade.kernels.btf import disk_offsets, gather, synth_others
@@ -320,7 +348,7 @@ def synthesize_others(images: np.ndarray, support: int, qay: np.ndarray, qax: np
     vis = np.zeros_like(qy)
     seeds = np.array([mix_seed(seed, 3, n) for n in others], np.int64)
     synth_others(np.ascontiguousarray(images[others]), inp_a, out_a, qay, qax, int(T), int(T) // 2,
-                 disk_offsets(radius), seeds, float(c), qy, qx, vis)
+                 disk_offsets(radius), seeds, float(c), qy, qx, vis, bool(wrap))
     QY = np.empty((V, H, W), np.int64)
     QX = np.empty_like(QY)
     VIS = np.zeros_like(QY)
@@ -333,19 +361,23 @@ MODES = ("sequential", "independent", "columns")
 
 
 def synthesize_stack(images: np.ndarray, support: int, size, *, mode: str = "sequential", radius: int = 3,
-                     radius_other: int = 2, T: int = 4, levels: int = 3, c: float = 0.25, seed: int = 0):
+                     radius_other: int = 2, T: int = 4, levels: int | None = None, c: float = 0.25, seed: int = 0,
+                     wrap: bool = False):
     """Sources (qy, qx) (V, H, W) int64 of a synthesized stack.
 
     ``sequential`` (the paper): the support view, then every other view given it
     (``synthesize_others``). ``independent``: every view on its own, like the support.
-    ``columns``: every view copies the support's sources (whole columns of the stack)."""
+    ``columns``: every view copies the support's sources (whole columns of the stack).
+    ``levels`` None: ``auto_levels``. ``wrap``: the stack tiles without a seam."""
+    if levels is None:
+        levels = auto_levels(images.shape[1:3], radius)
     if mode not in MODES:
         raise NodeInputError(f"mode {mode!r} is not valid; valid modes are {', '.join(MODES)}")
     V = images.shape[0]
     check_synthesis_size(images.shape[1:3], radius, levels)
-    qay, qax, _ = synthesize_view(images[support], size, radius=radius, T=T, levels=levels, seed=seed)
+    qay, qax, _ = synthesize_view(images[support], size, radius=radius, T=T, levels=levels, seed=seed, wrap=wrap)
     if mode == "sequential":
-        qy, qx, _ = synthesize_others(images, support, qay, qax, radius=radius_other, T=T, c=c, seed=seed)
+        qy, qx, _ = synthesize_others(images, support, qay, qax, radius=radius_other, T=T, c=c, seed=seed, wrap=wrap)
         return qy, qx
     qy = np.repeat(qay[None], V, 0)
     qx = np.repeat(qax[None], V, 0)
@@ -355,7 +387,7 @@ def synthesize_stack(images: np.ndarray, support: int, size, *, mode: str = "seq
         for n in range(V):
             if n != support:
                 qy[n], qx[n], _ = synthesize_view(images[n], size, radius=radius, T=T, levels=levels,
-                                                  seed=mix_seed(seed, 4, n))
+                                                  seed=mix_seed(seed, 4, n), wrap=wrap)
     return qy, qx
 
 
@@ -428,6 +460,48 @@ def planar_uv(P: np.ndarray, origin, scale: float) -> tuple[np.ndarray, np.ndarr
     return (P[..., 0] - origin[0]) / scale - 0.5, (P[..., 2] - origin[1]) / scale - 0.5
 
 
+def grid_surface(points: np.ndarray):
+    """A heightfield mesh's own parametrization: ``(xs, zs, U, V)`` for world ``points`` (N,
+    3) laid on a regular x–z grid (every x of ``xs`` with every z of ``zs``; a terrain of
+    the scene builder), or None for another mesh. U, V (nz, nx) are arc lengths along the
+    grid's rows and columns, from its first column and row (offset by the first x and z,
+    so a flat grid's U, V are its x, z): the texture keeps its size up a slope, where the
+    planar parametrization stretches it by 1/cos of the slope."""
+    P = np.asarray(points, np.float64)
+    xs, xi = np.unique(np.round(P[:, 0], 9), return_inverse=True)
+    zs, zi = np.unique(np.round(P[:, 2], 9), return_inverse=True)
+    if len(xs) < 2 or len(zs) < 2 or len(xs) * len(zs) != len(P):
+        return None
+    G = np.full((len(zs), len(xs), 3), np.nan)
+    G[zi.ravel(), xi.ravel()] = P
+    if np.isnan(G).any():
+        return None
+    du = np.linalg.norm(np.diff(G, axis=1), axis=-1)
+    dv = np.linalg.norm(np.diff(G, axis=0), axis=-1)
+    U = xs[0] + np.concatenate([np.zeros((len(zs), 1)), np.cumsum(du, 1)], 1)
+    V = zs[0] + np.concatenate([np.zeros((1, len(xs))), np.cumsum(dv, 0)], 0)
+    return xs, zs, U, V
+
+
+def grid_uv(P: np.ndarray, grid, origin, scale: float) -> tuple[np.ndarray, np.ndarray]:
+    """Texture coordinates (column, row) of world points ``P`` (..., 3) on a ``grid_surface``:
+    its U, V read bilinearly at the points' (x, z), then as ``planar_uv``: (U − origin x) /
+    ``scale`` − ½, (V − origin z) / ``scale`` − ½."""
+    xs, zs, U, V = grid
+    P = np.asarray(P, np.float64)
+    fx = np.interp(P[..., 0], xs, np.arange(len(xs), dtype=np.float64))
+    fz = np.interp(P[..., 2], zs, np.arange(len(zs), dtype=np.float64))
+    x0 = np.clip(np.floor(fx).astype(np.int64), 0, len(xs) - 2)
+    z0 = np.clip(np.floor(fz).astype(np.int64), 0, len(zs) - 2)
+    a, b = fx - x0, fz - z0
+
+    def bil(M):
+        return ((1 - b) * ((1 - a) * M[z0, x0] + a * M[z0, x0 + 1])
+                + b * ((1 - a) * M[z0 + 1, x0] + a * M[z0 + 1, x0 + 1]))
+
+    return (bil(U) - origin[0]) / scale - 0.5, (bil(V) - origin[1]) / scale - 0.5
+
+
 def shade_surface(images: np.ndarray, views: list[dict], uv, slant: np.ndarray, tilt: np.ndarray,
                   mask: np.ndarray) -> np.ndarray:
     """(H, W, 3) float32: the pixels of ``mask`` shaded from the stack (``kernels.btf.
@@ -486,37 +560,76 @@ def seam_error(images: np.ndarray, qy: np.ndarray, qx: np.ndarray) -> np.ndarray
     return out
 
 
+def tile_jumps(image: np.ndarray) -> tuple[float, float]:
+    """(border, interior): the mean colour jump ‖B(p) − B(p′)‖ of an (H, W, 3) tile over the
+    4-neighbour edges its repeats add (last column to first, last row to first) and over
+    its own edges. A tile that repeats without a seam has border ≈ interior."""
+    B = np.asarray(image, np.float64)
+    border = np.concatenate([np.linalg.norm(B[:, -1] - B[:, 0], axis=-1), np.linalg.norm(B[-1] - B[0], axis=-1)])
+    inner = np.concatenate([np.linalg.norm(np.diff(B, axis=1), axis=-1).ravel(),
+                            np.linalg.norm(np.diff(B, axis=0), axis=-1).ravel()])
+    return float(border.mean()), float(inner.mean())
+
+
 LUMA = np.array([0.2126, 0.7152, 0.0722])
 
 
-def parallax_range(image: np.ndarray, slant: float, tilt: float, reach: float) -> tuple[np.ndarray, np.ndarray]:
-    """(lo, hi), each (h, w): the least and largest luminance of an input view over the 3×3
-    pixels around every point of its parallax segment: x + s (cos φ, sin φ), |s| ≤
-    ``reach``·tan θ pixels (``reach``: how far the sample's heights lie from the stack's
-    plane, in pixels). What the view shows of the surface column at x lies on that
-    segment, so a synthesized pixel of that surface point has a luminance in [lo, hi]
-    unless it is a fragment from elsewhere (a shard)."""
-    lum = image.astype(np.float64) @ LUMA
+def luma_range3(image: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(luminance, lo, hi) of an (h, w, 3) image: lo/hi the least and largest luminance over
+    each pixel's 3×3 neighbourhood (edge pixels repeated)."""
+    lum = np.asarray(image, np.float64) @ LUMA
     h, w = lum.shape
     pad = np.pad(lum, 1, mode="edge")
     win = np.stack([pad[dy:dy + h, dx:dx + w] for dy in range(3) for dx in range(3)])
-    mn, mx = win.min(0), win.max(0)
-    n = int(math.ceil(abs(reach) * math.tan(math.radians(slant))))
-    rows, cols = np.mgrid[0:h, 0:w]
-    lo, hi = mn.copy(), mx.copy()
+    return lum, win.min(0), win.max(0)
+
+
+def local_spread(images) -> float:
+    """The median over views and pixels of the 3×3 luminance spread (hi − lo) of input
+    views: how much a pixel's luminance varies within one pixel of misregistration. The
+    shard margin: a synthesized pixel that far off the range it should lie in is not a
+    resampling or alignment error."""
+    return float(np.median([np.median(hi - lo) for _, lo, hi in (luma_range3(im) for im in images)]))
+
+
+def surface_hits(heights: np.ndarray, qay: np.ndarray, qax: np.ndarray, slant: float, tilt: float, plane: float,
+                 pixel: float, *, wrap: bool) -> tuple[np.ndarray, np.ndarray]:
+    """(iy, ix), each (H, W) int64: the input pixel of the view at ``slant``, ``tilt`` that
+    shows what the synthesized view should show at each output pixel, for a sample of
+    known ``heights`` (h, w: world height of each pixel of the support's input).
+
+    The synthesized surface is the input's at the support's sources: at output pixel X the
+    input point q_A(X), at height heights[q_A(X)]. The view's ray through plane point p
+    meets height y above X = p + s·(cos φ, sin φ), s = (y − plane)·tan θ / ``pixel``; it is
+    cast from the highest s down and stops at the first X whose surface reaches the ray.
+    That surface point appears in the input view at q_A(X) − s·(cos φ, sin φ). Inside one
+    patch of the support that is q_A(p) for every s: the view copies its own input there.
+    ``wrap``: the output tiles (X wraps around), else X is clamped to it."""
+    H, W = qay.shape
+    h, w = heights.shape
+    t = math.tan(math.radians(slant))
     ct, st = math.cos(math.radians(tilt)), math.sin(math.radians(tilt))
-    for s in range(-n, n + 1):
-        r = np.clip(np.rint(rows + s * st).astype(np.int64), 0, h - 1)
-        c = np.clip(np.rint(cols + s * ct).astype(np.int64), 0, w - 1)
-        lo = np.minimum(lo, mn[r, c])
-        hi = np.maximum(hi, mx[r, c])
-    return lo, hi
+    rows, cols = np.mgrid[0:H, 0:W]
+    iy, ix = qay.astype(np.int64).copy(), qax.astype(np.int64).copy()
+    if t < 1e-9:
+        return iy, ix
+    found = np.zeros((H, W), np.bool_)
+    lo, hi = float(heights.min()), float(heights.max())
+    for s in range(int(math.ceil((hi - plane) * t / pixel)) + 1, int(math.floor((lo - plane) * t / pixel)) - 2, -1):
+        r = np.rint(rows + s * st).astype(np.int64)
+        c = np.rint(cols + s * ct).astype(np.int64)
+        r, c = (r % H, c % W) if wrap else (np.clip(r, 0, H - 1), np.clip(c, 0, W - 1))
+        y, x = qay[r, c], qax[r, c]
+        hit = ~found & (heights[y, x] >= plane + s * pixel / t)
+        iy[hit] = np.clip(np.rint(y - s * st).astype(np.int64), 0, h - 1)[hit]
+        ix[hit] = np.clip(np.rint(x - s * ct).astype(np.int64), 0, w - 1)[hit]
+        found |= hit
+    return iy, ix
 
 
-def shard_share(lum: np.ndarray, lo: np.ndarray, hi: np.ndarray, margin: float) -> float:
-    """The share of pixels whose luminance ``lum`` lies outside [lo − margin, hi + margin]."""
-    bad = (lum > hi + margin) | (lum < lo - margin)
-    return float(bad.mean()) if bad.size else 0.0
+def shard_mask(lum: np.ndarray, lo: np.ndarray, hi: np.ndarray, margin: float) -> np.ndarray:
+    """Where ``lum`` lies outside [lo − margin, hi + margin]: the shards."""
+    return (lum > hi + margin) | (lum < lo - margin)
 
 
 def contact_sheet(images: np.ndarray, views: list[dict], *, gap: int = 2) -> np.ndarray:

@@ -136,8 +136,14 @@ def synthesize_guide(proxy: Plate, source: Plate, gp: SimpleNamespace, *, previo
         raise NodeInputError(f"size {gp.size} and start {gp.start} must be powers of two with start <= size "
                              "(e.g. size 256, start 64)")
     if gp.size > max(H, W):
-        raise NodeInputError(f"size {gp.size} is larger than the output {W}x{H}; use a power of two up to "
-                             f"{max(H, W)}")
+        smallest = 8  # Guidance.size and .start's minimum
+        if max(H, W) < smallest:
+            raise NodeInputError(f"the output {W}x{H} is smaller than the smallest guide ({smallest} pixels on the "
+                                 f"long side); render at least {smallest} pixels wide or high (the proxy's resolution)")
+        fit = 2 ** int(np.log2(max(H, W)))
+        sizes = f"size {fit}" if fit == smallest else f"size a power of two from {smallest} to {fit} (e.g. {fit})"
+        raise NodeInputError(f"size {gp.size} is larger than the output {W}x{H}; set {sizes}"
+                             + (f" and start at most that (e.g. start {fit})" if gp.start > fit else ""))
     # magnification: the power of two nearest to output / size; the proxy guide is padded
     # (edge pixels repeated) to a multiple of every level's block and the result cropped,
     # so any output size and aspect works

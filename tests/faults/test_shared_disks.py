@@ -218,7 +218,10 @@ def test_read_only_cache_miss_is_computed_and_noted(tmp_path, registry, capsys, 
 
 # -- 6 and 5: bad source tables are bad input (exit 2), never internal errors --------------------------
 LABELS = 'labels_map: style_mask.png\nlabels:\n  sky: {id: 2, color: "#ffffff"}\n'
-BOMB = "".join(f"l{i}: &l{i} [{', '.join([f'*l{i - 1}'] * 8)}]\n" for i in range(1, 12))
+# anchors l0..l5, each eight aliases of the one before (l5: 8**5 items, within the limit by itself);
+# a value of four *l5 is the bomb, so each probe is refused at its own line, not at the anchors
+BOMB = "".join(f"l{i}: &l{i} [{', '.join([f'*l{i - 1}'] * 8)}]\n" for i in range(1, 6))
+USE = "[*l5, *l5, *l5, *l5]"
 
 
 @pytest.mark.parametrize("table,expect", [
@@ -233,7 +236,7 @@ BOMB = "".join(f"l{i}: &l{i} [{', '.join([f'*l{i - 1}'] * 8)}]\n" for i in range
     (b"image: style.png\n\xff\xfe\n", "s.yaml:2: not a UTF-8 text file (byte 0xff at offset 17)"),
     ("image: style.png\nlabels_map: style_mask.png\nlabels: " + "[" * 20000 + "]" * 20000 + "\n", "s.yaml: nested too deeply"),
     ("image: style.png\nlabels_map: style_mask.png\nlabels: " + "[" * 150 + "]" * 150 + "\n", "nests deeper than 100"),
-    ("l0: &l0 [x]\n" + BOMB + "image: *l11\n" + LABELS, "s.yaml:7: the value expands to more than 100000 items"),
+    ("l0: &l0 [x]\n" + BOMB + f"image: {USE}\n" + LABELS, "s.yaml:7: the value expands to more than 100000 items"),
     ("image: style.png\nimage: style.png\n" + LABELS, "s.yaml:2: key 'image' appears twice in one mapping (lines 1 and 2)"),
 ])
 def test_bad_source_tables_are_bad_input(tmp_path, capsys, table, expect):
@@ -252,36 +255,39 @@ def _bomb_lines(indent: str) -> str:
     return f"{indent}l0: &l0 [x]\n" + "".join(f"{indent}{line}" for line in BOMB.splitlines(keepends=True))
 
 
-@pytest.mark.parametrize("where", ["frames", "format", "type", "enabled", "input", "set"])
-def test_alias_bombs_are_refused_everywhere_quickly(tmp_path, where):
+@pytest.mark.parametrize("where,line", [("frames", 9), ("format", 8), ("type", 10), ("enabled", 10), ("input", 11),
+                                        ("set", 1), ("var", 1)])
+def test_alias_bombs_are_refused_everywhere_quickly(tmp_path, where, line):
     """A value that expands past 100000 items through aliases, anywhere in a graph file or in a
-    --set value: refused by the one YAML loader before anything walks it (it hung before)."""
+    --set or --var value: refused by the one YAML loader before anything walks it (it hung
+    before), at the line of the value."""
     from tests.faults.test_faults import subprocess_cli
 
-    head = "format: proxyshade/1\ndoc:\n" + _bomb_lines("  ")  # anchors in the free-form doc
+    head = "format: proxyshade/1\ndoc:\n" + _bomb_lines("  ")  # anchors in the free-form doc, lines 3-8
     nodes = {"c": "{type: TConst}", "d": "{type: TAdd, inputs: {a: c}}"}
     args = []
     if where == "frames":
-        head += "frames: *l11\n"
+        head += f"frames: {USE}\n"
     elif where == "format":
-        head = head.replace("format: proxyshade/1\n", "") + "format: *l11\n"
+        head = head.replace("format: proxyshade/1\n", "") + f"format: {USE}\n"
     elif where == "type":
-        nodes["c"] = "{type: *l11}"
+        nodes["c"] = f"{{type: {USE}}}"
     elif where == "enabled":
-        nodes["c"] = "{type: TConst, enabled: *l11}"
+        nodes["c"] = f"{{type: TConst, enabled: {USE}}}"
     elif where == "input":
-        nodes["d"] = "{type: TAdd, inputs: {a: *l11}}"
+        nodes["d"] = f"{{type: TAdd, inputs: {{a: {USE}}}}}"
     text = head + "nodes:\n" + "".join(f"  {k}: {v}\n" for k, v in nodes.items())
-    if where == "set":
-        text = "format: proxyshade/1\nnodes:\n  c: {type: TConst}\n"
-        bomb = "{l0: &l0 [x], " + ", ".join(f"l{i}: &l{i} [{', '.join([f'*l{i - 1}'] * 8)}]" for i in range(1, 12)) + "}"
-        args = ["--set", f"c.value={bomb}"]
+    if where in ("set", "var"):
+        text = "format: proxyshade/1\nvars: {v: 1.0}\nnodes:\n  c: {type: TConst, params: {value: \"${v}\"}}\n"
+        bomb = "{l0: &l0 [x], " + ", ".join(f"l{i}: &l{i} [{', '.join([f'*l{i - 1}'] * 8)}]" for i in range(1, 6)) + \
+            f", use: {USE}}}"
+        args = ["--set", f"c.value={bomb}"] if where == "set" else ["--var", f"v={bomb}"]
     g = tmp_path / "g.yaml"
     g.write_text(text)
     r = subprocess_cli(["run", str(g), "-q", *args], timeout=60)
     lines = r.stderr.strip().splitlines()
     assert r.returncode == EXIT_BAD_INPUT and len(lines) == 1, r.stderr[-2000:]
-    assert "expands to more than 100000 items" in lines[0] and len(lines[0]) < 600, lines[0][:2000]
+    assert f":{line}: the value expands to more than 100000 items" in lines[0] and len(lines[0]) < 600, lines[0][:2000]
 
 
 # -- 6: scene descriptions beyond what can be built -------------------------------------------------------
@@ -363,3 +369,105 @@ def test_bad_usd_values_are_bad_input(tmp_path, capsys, case, expect):
     code, out, err = cli(capsys, "run", _scene_graph(tmp_path, "s.usda"), "-q")
     assert code == EXIT_BAD_INPUT and len(err) == 1, err
     assert expect in err[0] and "s.usda" in err[0], err
+
+
+# -- 9: smaller things ------------------------------------------------------------------------------------
+def test_a_numeric_var_takes_its_defaults_type(tmp_path, registry, capsys):
+    """``vars: {value: 1.0}`` and ``--var value=2.5``: the text is read as the default's type."""
+    from proxyshade.io.exr import read_plate
+
+    g = write_graph(tmp_path, frames="1")
+    code, out, err = cli(capsys, "run", g, "-q", "--var", "value=2.5")
+    assert code == 0, err
+    assert (read_plate(tmp_path / "out" / "s.0001.exr")["R"] == 3.5).all()  # 2.5 + frame 1
+    code, out, err = cli(capsys, "run", g, "-q", "--var", "value=1e3")
+    assert code == 0 and (read_plate(tmp_path / "out" / "s.0001.exr")["R"] == 1001).all(), err
+    code, out, err = cli(capsys, "run", g, "-q", "--var", "value=lots")
+    assert code == EXIT_BAD_INPUT and err == ["error: --var value=lots: the variable value is a number (its default "
+                                              "is 1.0); give a number, e.g. --var value=1.0"], err
+    nodes = "  a: {type: TConst, params: {size: \"${n}\"}}\n"
+    g = write_graph(tmp_path, nodes, frames="1", vars_="n: 4")
+    assert cli(capsys, "run", g, "-q", "--var", "n=6")[0] == 0
+    code, out, err = cli(capsys, "run", g, "-q", "--var", "n=6.5")
+    assert code == EXIT_BAD_INPUT and "the variable n is an integer (its default is 4)" in err[0], err
+
+
+@pytest.mark.parametrize("case", ["file", "inside_file", "loop", "folder", "loop_path_var"])
+def test_an_output_that_cannot_be_written_is_refused_before_any_compute(tmp_path, registry, capsys, case):
+    from tests.conftest import COMPUTES
+
+    (tmp_path / "afile").write_text("keep")
+    (tmp_path / "loop").symlink_to("loop")
+    (tmp_path / "s.0001.exr").mkdir()
+    out = {"file": "afile", "inside_file": "afile/sub", "loop": "loop", "folder": ".",
+           "loop_path_var": f"{tmp_path}/loop"}[case]
+    expect = {"file": f"{tmp_path}/afile: is a file, not a folder", "inside_file": f"{tmp_path}/afile: is a file",
+              "folder": f"{tmp_path}/s.0001.exr: is a folder"}.get(case, f"{tmp_path}/loop: is a symlink loop")
+    COMPUTES.clear()
+    # the bundled graphs' out is a path variable (made absolute when given): a loop there raised RuntimeError
+    g = write_graph(tmp_path, frames="1", vars_="value: 1.0, out: {default: out, path: true}"
+                    if case == "loop_path_var" else "value: 1.0, out: out")
+    code, _, err = cli(capsys, "run", g, "-q", "--var", f"out={out}")
+    assert code == EXIT_BAD_INPUT and len(err) == 1, err
+    assert f"g.yaml:8: nodes.w.params.path: cannot write {out}/s.####.exr: {expect}" in err[0], err
+    assert not COMPUTES and not (tmp_path / ".proxyshade").exists()  # nothing computed, nothing cached
+    assert (tmp_path / "afile").read_text() == "keep"
+
+
+def test_a_reader_closing_the_pipe_early_is_not_an_error():
+    """``proxyshade nodes | head -1``: a pipe of one page, closed after the first line, so the
+    writer meets the closed pipe for certain."""
+    import fcntl
+    import sys
+
+    r, w = os.pipe()
+    fcntl.fcntl(w, 1031, 4096)  # F_SETPIPE_SZ: one page
+    p = subprocess.Popen([sys.executable, "-m", "proxyshade.cli", "nodes"], stdout=w, stderr=subprocess.PIPE,
+                         text=True)
+    os.close(w)
+    with os.fdopen(r, "rb") as reader:
+        first = reader.readline()
+    _, errors = p.communicate(timeout=120)
+    assert p.returncode == 0 and errors == "" and first.startswith(b"AnnotatedSourceRead"), (first, errors)
+
+
+def test_usd_warnings_are_one_line_each(tmp_path):
+    """A reference to a missing file: USD printed a C++ diagnostic ('Warning: in _ReportErrors
+    at line ... of .../stage.cpp -- ...'); now one 'warning:' line naming the stage and prim."""
+    from tests.faults.test_faults import _scene_graph, subprocess_cli
+
+    scene = tmp_path / "s.usda"
+    scene.write_text('#usda 1.0\n(\n    defaultPrim = "World"\n)\ndef Xform "World"\n{\n'
+                     '    def Camera "Cam"\n    {\n        float2 clippingRange = (0.1, 1000)\n    }\n'
+                     '    def Mesh "Missing" (\n        references = @./nothere.usda@\n    )\n    {\n    }\n}\n')
+    r = subprocess_cli(["run", str(_scene_graph(tmp_path, "s.usda")), "-q"])
+    lines = r.stderr.strip().splitlines()
+    assert r.returncode == 0, r.stderr
+    usd = [line for line in lines if "nothere.usda" in line]
+    assert len(usd) == 1 and usd[0].startswith(f"warning: {scene}: USD: In </World/Missing>: Could not open asset "
+                                               f"@{tmp_path}/nothere.usda@ for reference"), lines
+    assert all(line.startswith("warning: ") for line in lines), lines
+    assert "stage.cpp" not in r.stderr and "0x" not in r.stderr and "pxrInternal" not in r.stderr
+
+
+def test_a_first_frame_under_8_px_suggests_a_fix_that_works(tmp_path, capsys):
+    """Below the guide's smallest size the suggestion was 'a power of two up to 4', which the
+    size parameter (>= 8) then refused; each suggestion now runs."""
+    nodes = (f"  src:   {{type: SourceRead, params: {{table: {ROOT}/samples/renoir/source.yaml}}}}\n"
+             f"  proxy: {{type: ProxyRender, inputs: {{source: src}}, params: {{scene: {ROOT}/samples/scenes/lake.usda, "
+             "resolution: [4, null]}}\n"
+             "  guide: {type: GuideSynth, inputs: {proxy: proxy, source: src}, params: {size: 256, start: 64}}\n")
+    g = write_graph(tmp_path, nodes, frames="1", vars_="")
+    code, _, err = cli(capsys, "run", g, "-q")
+    assert code == EXIT_BAD_INPUT and len(err) == 1, err
+    assert "guide@1: the output 4x4 is smaller than the smallest guide (8 pixels on the long side); render at " \
+           "least 8 pixels wide or high (the proxy's resolution)" in err[0], err
+    code, _, err = cli(capsys, "run", g, "-q", "--set", "proxy.resolution=[8, null]")
+    assert code == EXIT_BAD_INPUT and "set size 8 and start at most that (e.g. start 8)" in err[0], err
+    code, _, err = cli(capsys, "run", g, "-q", "--set", "proxy.resolution=[8, null]", "--set", "guide.size=8",
+                       "--set", "guide.start=8")
+    assert code == 0, err
+    code, _, err = cli(capsys, "run", g, "-q", "--set", "proxy.resolution=[40, null]")
+    assert "set size a power of two from 8 to 32 (e.g. 32) and start at most that (e.g. start 32)" in err[0], err
+    assert cli(capsys, "run", g, "-q", "--set", "proxy.resolution=[40, null]", "--set", "guide.size=32",
+               "--set", "guide.start=32")[0] == 0

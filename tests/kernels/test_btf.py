@@ -23,14 +23,17 @@ def naive_disk(r):
     return {(dy, dx) for dy in range(-r, r + 1) for dx in range(-r, r + 1) if 0 < dy * dy + dx * dx <= r * r}
 
 
-def naive_distance(out, k, T, inp, p, c, r, so, si=None, pair=None, cw=0.0):
+def naive_distance(out, k, T, inp, p, c, r, so, si=None, pair=None, cw=0.0, wrap=False):
     """Σ over the disk of w‖out − in‖² (+ cw (1 − w)‖A′ − A‖² with ``pair`` = (A′, A));
-    input neighbours outside the input cost 1 per channel, output ones outside are skipped."""
+    input neighbours outside the input cost 1 per channel, output ones outside are skipped
+    (with ``wrap``, taken from the opposite border)."""
     si = so if si is None else si
     total = 0.0
     for dy, dx in sorted(naive_disk(r)):
         qy, qx = p[0] + dy * so, p[1] + dx * so
         iy, ix = c[0] + dy * si, c[1] + dx * si
+        if wrap:
+            qy, qx = qy % out.shape[0], qx % out.shape[1]
         if not (0 <= qy < out.shape[0] and 0 <= qx < out.shape[1]):
             continue
         w = k[qy, qx] / T
@@ -78,7 +81,7 @@ def test_pair_distance_matches_the_other_view_form(rng):
         assert got == pytest.approx(want, rel=1e-12, abs=1e-12)
 
 
-def naive_level(inp, qy, qx, k, T, r, si, seed, level, pair=None, cw=0.0):
+def naive_level(inp, qy, qx, k, T, r, si, seed, level, pair=None, cw=0.0, wrap=False):
     """The sequential loop written plainly: draw a pixel with probability ∝ T − k by walking
     the pixels in order, try the current source, every neighbour's shifted source (and the
     support's, in the pair form), keep the first strictly better one, raise k."""
@@ -98,18 +101,18 @@ def naive_level(inp, qy, qx, k, T, r, si, seed, level, pair=None, cw=0.0):
                 break
             x -= wgt
         py, px = divmod(p, W)
-        args = dict(pair=None if pair is None else (pair[0], pair[1]), cw=cw)
+        args = dict(pair=None if pair is None else (pair[0], pair[1]), cw=cw, wrap=wrap)
         best_c = (qy[py, px], qx[py, px])
         best = naive_distance(out, k, T, inp, (py, px), best_c, r, 1, si, **args)
         cands = []
         for dy, dx in offs:
-            ny, nx = py + dy, px + dx
+            ny, nx = (py + dy) % H if wrap else py + dy, (px + dx) % W if wrap else px + dx
             if 0 <= ny < H and 0 <= nx < W:
                 cands.append((qy[ny, nx] - dy * si, qx[ny, nx] - dx * si))
         if pair is not None:
             qay, qax = pair[2], pair[3]
             for dy, dx in offs:
-                ny, nx = py + dy, px + dx
+                ny, nx = (py + dy) % H if wrap else py + dy, (px + dx) % W if wrap else px + dx
                 if 0 <= ny < H and 0 <= nx < W:
                     cands.append((qay[ny, nx] - dy * si, qax[ny, nx] - dx * si))
             cands.append((qay[py, px], qax[py, px]))
@@ -127,41 +130,42 @@ def naive_level(inp, qy, qx, k, T, r, si, seed, level, pair=None, cw=0.0):
     return qy, qx, visits
 
 
-def _level(inp, qy, qx, k, T, r, si, seed, level, pair=None, cw=0.0):
+def _level(inp, qy, qx, k, T, r, si, seed, level, pair=None, cw=0.0, wrap=False):
     qy, qx, k = qy.copy(), qx.copy(), k.copy()
     vis = np.zeros(qy.shape, np.int64)
     out = K.gather(inp, qy, qx)
     dimg, dq = np.zeros((1, 1, 3), np.float32), np.zeros((1, 1), np.int64)
     oa, ia, qay, qax = pair if pair is not None else (dimg, dimg, dq, dq)
     K.synth_level(inp, out, qy, qx, k, T, K.disk_offsets(r), 1, si, seed, level, pair is not None, oa, ia, qay, qax,
-                  cw, vis)
+                  cw, vis, wrap)
     assert np.array_equal(out, inp[qy, qx])  # the output is always the input at the sources
     return qy, qx, vis
 
 
-@pytest.mark.parametrize("r,si,k0", [(1, 1, 0), (2, 1, 0), (1, 2, 2)])
-def test_sequential_level_matches_the_plain_loop(rng, r, si, k0):
+@pytest.mark.parametrize("r,si,k0,wrap", [(1, 1, 0, False), (2, 1, 0, False), (1, 2, 2, False), (2, 1, 0, True)])
+def test_sequential_level_matches_the_plain_loop(rng, r, si, k0, wrap):
     inp = _img(rng, 6, 7)
     inp[..., 1] = inp[..., 0]  # some structure: equal channels make ties likelier
     qy = rng.integers(0, 6, (8, 9)).astype(np.int64)
     qx = rng.integers(0, 7, (8, 9)).astype(np.int64)
     k = np.full((8, 9), k0, np.int64)
-    got = _level(inp, qy, qx, k, 4, r, si, 11, 1)
-    want = naive_level(inp, qy, qx, k, 4, r, si, 11, 1)
+    got = _level(inp, qy, qx, k, 4, r, si, 11, 1, wrap=wrap)
+    want = naive_level(inp, qy, qx, k, 4, r, si, 11, 1, wrap=wrap)
     for a, b in zip(got, want):
         assert np.array_equal(a, b)
     assert (got[2] == 4 - k0).all()  # every pixel visited exactly T times from w = 0, T − k0 from k0
     assert not np.array_equal(got[0], qy) or not np.array_equal(got[1], qx)  # it did change something
 
 
-def test_other_view_level_matches_the_plain_loop(rng):
+@pytest.mark.parametrize("wrap", [False, True])
+def test_other_view_level_matches_the_plain_loop(rng, wrap):
     ia, ib = _img(rng, 6, 7), _img(rng, 6, 7)
     qay = rng.integers(0, 6, (8, 8)).astype(np.int64)
     qax = rng.integers(0, 7, (8, 8)).astype(np.int64)
     oa = K.gather(ia, qay, qax)
     k = np.full((8, 8), 2, np.int64)
-    got = _level(ib, qay, qax, k, 4, 2, 1, 5, 0, pair=(oa, ia, qay, qax), cw=0.25)
-    want = naive_level(ib, qay, qax, k, 4, 2, 1, 5, 0, pair=(oa, ia, qay, qax), cw=0.25)
+    got = _level(ib, qay, qax, k, 4, 2, 1, 5, 0, pair=(oa, ia, qay, qax), cw=0.25, wrap=wrap)
+    want = naive_level(ib, qay, qax, k, 4, 2, 1, 5, 0, pair=(oa, ia, qay, qax), cw=0.25, wrap=wrap)
     for a, b in zip(got, want):
         assert np.array_equal(a, b)
     assert (got[2] == 2).all()
@@ -178,7 +182,7 @@ def test_other_views_in_parallel_equal_each_view_alone_with_one_or_two_threads(r
     for threads in (1, 2):
         numba.set_num_threads(threads)
         qy, qx, vis = (np.zeros((3, 12, 12), np.int64) for _ in range(3))
-        K.synth_others(views, ia, oa, qay, qax, 4, 2, K.disk_offsets(2), seeds, 0.25, qy, qx, vis)
+        K.synth_others(views, ia, oa, qay, qax, 4, 2, K.disk_offsets(2), seeds, 0.25, qy, qx, vis, False)
         res.append((qy, qx, vis))
     for a, b in zip(*res):
         assert np.array_equal(a, b)

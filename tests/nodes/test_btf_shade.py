@@ -83,3 +83,21 @@ def test_bad_inputs_are_one_line(proxies):
         run_node("BtfShade", {"label": "bumps"}, {"stack": proxies[1], "proxy": proxies[1]})
     with pytest.raises(UserError, match="proxy.*P.X"):
         run_node("BtfShade", {"label": "bumps"}, {"stack": stack, "proxy": stack})
+
+
+def test_terrain_coordinates_are_the_planes_own_grid(proxies):
+    """uv: terrain reads the labelled mesh's own grid from the scene (btf_move's plane: a 2×2
+    grid, flat): on a flat terrain it is the planar parametrization, pixel for pixel."""
+    proxy = proxies[12]
+    rng = np.random.default_rng(8)
+    pic = rng.random((8, 8, 3)).astype(np.float32)
+    views = btf.view_grid(10.0, 80.0, TILTS)
+    stack = btf.stack_plate(np.repeat(pic[None], len(views), 0), views, {"pixel": 0.05, "plane": 0.0})
+    params = {"label": "bumps", "origin": [-0.3, 0.1]}
+    planar = run_node("BtfShade", params, {"stack": stack, "proxy": proxy})
+    terrain = run_node("BtfShade", dict(params, uv="terrain"), {"stack": stack, "proxy": proxy})
+    on = planar["A"] == 1
+    for c in ("btf.u", "btf.v", "R", "G", "B"):
+        np.testing.assert_allclose(terrain[c][on], planar[c][on], atol=2e-5)
+    with pytest.raises(UserError, match="uv: terrain needs a scene label.*use uv: planar"):
+        run_node("BtfShade", {"label": "vegetation", "uv": "terrain"}, {"stack": stack, "proxy": proxy})

@@ -123,3 +123,20 @@ def test_the_graph_writes_the_stack_exr_and_a_contact_sheet(tmp_path):
     assert sheet.shape == (3 * 32 + 2 * 2, 2 * 32 + 2, 3)  # slants 0, 35, 70 by tilts 0, 90
     assert sheet[:32, :32].std() > 2  # a picture of the frontal view
     assert (tmp_path / "out/btf_input_sheet.png").is_file()
+
+
+def test_a_tiled_stack_repeats_without_a_seam(stack, results):
+    """tile (the default): the output wraps, so the edges its repeats add jump no more than
+    its own edges do; with tile off the border is a seam (sources unrelated across it)."""
+    off = run_node("BtfSynth", dict(SMALL, mode="sequential", tile=False), {"stack": stack})
+    views = results["sequential"].meta["views"]
+    on_b, off_b, inner = [], [], []
+    for n in range(len(views)):
+        a = np.stack([results["sequential"][f"v{n}.{c}"] for c in "RGB"], -1)
+        b = np.stack([off[f"v{n}.{c}"] for c in "RGB"], -1)
+        on_b.append(btf.tile_jumps(a)[0])
+        inner.append(btf.tile_jumps(a)[1])
+        off_b.append(btf.tile_jumps(b)[0])
+    assert results["sequential"].meta["btf"]["tile"] is True and off.meta["btf"]["tile"] is False
+    assert np.mean(on_b) < 1.5 * np.mean(inner) and np.mean(off_b) > 2 * np.mean(inner)
+    assert np.mean(on_b) < 0.6 * np.mean(off_b)
