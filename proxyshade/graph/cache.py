@@ -35,6 +35,7 @@ from concurrent.futures import Future, ThreadPoolExecutor, wait
 from pathlib import Path
 
 from proxyshade.errors import UserError, WriteError
+from proxyshade.graph import profile as _profile
 from proxyshade.graph.plate import Plate
 from proxyshade.io.exr import cache_compression, header_strings, read_plate, write_plate_temp
 from proxyshade.io.files import READ_ONLY, io_error, remove_stale_temps, stale_temps, temp_of, write_text_atomic
@@ -212,6 +213,7 @@ class Cache:
     def _write(self, key: str, plate: Plate, record: dict, replace: bool = False) -> None:
         exr, js = self._paths(key)
         tmp = None
+        t = time.perf_counter()
         try:
             if self.read_only:
                 self.unstored += 1
@@ -235,6 +237,8 @@ class Cache:
         finally:
             if tmp is not None and os.path.lexists(tmp):
                 tmp.unlink()
+            if _profile.ACTIVE is not None:
+                _profile.ACTIVE.cache_write(record.get("node"), record.get("frame"), time.perf_counter() - t)
             with self._lock:
                 self._pinned.discard(key)
                 if key in self._forgotten:

@@ -8,10 +8,13 @@ function of its inputs.
 """
 from __future__ import annotations
 
+import time
 from concurrent.futures import FIRST_COMPLETED, Future, ThreadPoolExecutor, wait
 from typing import Callable, Hashable
 
 import networkx as nx
+
+from proxyshade.graph import profile
 
 
 class LocalExecutor:
@@ -25,7 +28,10 @@ class LocalExecutor:
             try:
                 self.run(job.todo, job.work)
             finally:
+                t = time.perf_counter()
                 job.graph.cache.flush()  # every background cache write done (or failed)
+                if profile.ACTIVE is not None:
+                    profile.ACTIVE.flush_wait += time.perf_counter() - t
 
 
 class SerialExecutor(LocalExecutor):
