@@ -81,11 +81,12 @@ class Profile:
         self._stop = threading.Event()
 
     # -- attribution ---------------------------------------------------------
-    def _current(self) -> NodeTimes:
-        return self._running.get(threading.get_ident(), self.outside)
-
     def add(self, what: str, seconds: float) -> None:
-        nt = self._current()
+        nt = self._running.get(threading.get_ident())
+        if nt is None:
+            if threading.current_thread() is not threading.main_thread():
+                return  # a helper thread (the precompile's): not on the run's path
+            nt = self.outside
         with self._lock:
             setattr(nt, what, getattr(nt, what) + seconds)
 
