@@ -466,7 +466,7 @@ class Graph:
                 if inst in plan.previous:
                     reason += "; progressive: updates the last run's result"
                 runs[inst] = NodeRun(name, frame, key, "computed", reason)
-                todo.add_node(inst)
+                todo.add_node(inst, first=self.nodes[name].sink)  # writers run once ready: their input is freed
         # edges between instances to compute, through reused/passthrough ones
         for inst in todo:
             for pred in plan.dag.predecessors(inst):

@@ -125,6 +125,58 @@ def manifest_modules(graph) -> set[str]:
     return units
 
 
+class Prefetch:
+    """Loads the manifest's kernels of the node types a run computes from numba's cache on a
+    background thread, in the order the nodes run, while the first nodes compute (a load is
+    mostly LLVM work that releases the GIL): a node then finds its kernels loaded instead of
+    loading them on the run's critical path. Only where every one of those node types was
+    precompiled into this version's kernel cache (loads, never compiles; a kernel missing
+    from the cache compiles when first called, on the thread calling it). The kernel modules
+    are imported on the calling thread (imports on two threads at once went wrong before:
+    ``graph.load_array_libraries``). Loading code changes no result."""
+
+    def __init__(self, graph, todo):
+        import threading
+
+        from proxyshade.kernels import _cache
+
+        self.thread, self._stop = None, threading.Event()
+        found = callers()
+        types = []
+        for name, _ in sorted(todo, key=str):
+            t = type(graph.nodes[name]).__name__
+            if t not in types:
+                types.append(t)
+        if not found or not types or not _cache.kernels_cached([node_unit(t) for t in types]):
+            return
+        rank = {t: i for i, t in enumerate(types)}
+        entries = sorted(((rank[t], k, text) for (k, text), t in found.items() if t in rank))
+        self.jobs = []
+        for _, kernel, text in entries:
+            try:
+                self.jobs.append((_dispatcher(kernel), parse_types(text)))
+            except Exception:  # noqa: BLE001 - a stale entry: left to the call
+                continue
+        if self.jobs:
+            self.thread = threading.Thread(target=self._load, name="proxyshade-kernels", daemon=True)
+            self.thread.start()
+
+    def _load(self) -> None:
+        for disp, sig in self.jobs:
+            if self._stop.is_set():
+                return
+            try:
+                disp.compile(sig)
+            except Exception:  # noqa: BLE001 - the call compiles it, or says what is wrong
+                continue
+
+    def stop(self) -> None:
+        """Stop after the load under way and wait for it (before the run returns)."""
+        self._stop.set()
+        if self.thread is not None:
+            self.thread.join()
+
+
 def _units(kernel: str, text: str, found: dict) -> list[str]:
     """The precompile units an entry belongs to: its module, and its caller's node type."""
     caller = found.get((kernel, text))
