@@ -94,6 +94,17 @@ def _read_only(e: BaseException) -> bool:
     return e is not None and e.errno in READ_ONLY
 
 
+def _yield_cpu() -> None:
+    """The writer thread runs at a lower CPU priority (nice + 10, Linux threads have their
+    own): it encodes while a core is free (a node's Python steps, imports, the writers)
+    instead of taking one from a parallel kernel; ``flush`` waits for what is left."""
+    try:
+        tid = threading.get_native_id()
+        os.setpriority(os.PRIO_PROCESS, tid, min(19, os.getpriority(os.PRIO_PROCESS, tid) + 10))
+    except (OSError, AttributeError):
+        pass
+
+
 class Cache:
     """Disk store of plates by key. ``memory`` keeps plates of the current run."""
 
@@ -103,7 +114,8 @@ class Cache:
         self._lock = threading.Lock()
         # entries are compressed and written on a writer thread while the next nodes compute;
         # ``flush`` waits for them (the engine calls it at the end of every run)
-        self._writer = ThreadPoolExecutor(max_workers=1, thread_name_prefix="proxyshade-cache") if background else None
+        self._writer = ThreadPoolExecutor(max_workers=1, thread_name_prefix="proxyshade-cache",
+                                          initializer=_yield_cpu) if background else None
         self._pending: list[Future] = []
         self._writing: dict[str, Future] = {}  # key -> its background write, until done
         self._pinned: set[str] = set()
