@@ -14,7 +14,9 @@ average before and after, then this checkout's ``--profile`` of one more run: wh
 time went and the resident memory before and during each node, the node holding the peak
 and the plates in memory then.
 
-Run: ``python bench/bench_cli.py --ebsynth /tmp/ebsynth --baseline /work/main``
+Run: ``python bench/bench_cli.py --ebsynth /tmp/ebsynth --baseline /work/main``. On a machine
+shared with other checkouts, give this one a kernel cache of its own (``NUMBA_CACHE_DIR``):
+``proxyshade cache clean`` in another checkout removes every other version's compiled kernels.
 (``--format 4k --rounds 1`` for 4K: EbSynth is left out above 1024 wide unless ``--ebsynth-4k``).
 Bars (issue 41): median wall <= 3 s on 2 idle cores at 1024 wide, >= 5x faster than
 EbSynth; peak RSS <= 400 MiB at 1024 wide, <= 1.5 GiB at 4K.
@@ -85,6 +87,8 @@ def main(argv=None) -> None:
     ap.add_argument("--ebsynth", type=Path, help="EbSynth's binary (built from ../shared/peers/ebsynth)")
     ap.add_argument("--ebsynth-4k", action="store_true", help="run EbSynth above 1024 wide too")
     ap.add_argument("--baseline", type=Path, help="another checkout (e.g. main) run beside this one")
+    ap.add_argument("--baseline-kernels", type=Path, help="the baseline's NUMBA_CACHE_DIR (default: a folder of "
+                    "its own in the temporary directory)")
     ap.add_argument("--no-profile", action="store_true")
     args = ap.parse_args(argv)
 
@@ -96,11 +100,13 @@ def main(argv=None) -> None:
         # the kernels compiled and the guide made, untimed
         photo, g_src, g_tgt = guide_pngs(args.format, work)
         cmds = {"proxyshade": lambda c, o: child(proxyshade_argv(args.format, c, o))}
+        base_env = None
         if args.baseline:
             # its own kernel cache: numba's index is stamped with the source file's mtime, so
             # checkouts of one kernels version sharing a folder would compile it again in turn
-            env = dict(os.environ, PYTHONPATH=str(args.baseline.resolve()),
-                       NUMBA_CACHE_DIR=str(Path(tempfile.gettempdir(), f"bench_cli_numba_{os.getuid()}")))
+            env = base_env = dict(os.environ, PYTHONPATH=str(args.baseline.resolve()),
+                       NUMBA_CACHE_DIR=str(args.baseline_kernels
+                                           or Path(tempfile.gettempdir(), f"bench_cli_numba_{os.getuid()}")))
             child(proxyshade_argv(args.format, work / "warm_base", work / "o"), env)  # its kernels compiled, untimed
             cmds["baseline"] = lambda c, o: child(proxyshade_argv(args.format, c, o), env)
         if args.ebsynth and (args.ebsynth_4k or not args.format):
@@ -125,8 +131,14 @@ def main(argv=None) -> None:
                       f"{med(rows[name], 'rss') / med(p, 'rss'):.2f}x")
         print(f"load after: {os.getloadavg()[0]:.1f}")
         if not args.no_profile:
-            res = child(proxyshade_argv(args.format, work / "c_profile", work / "o_profile", ["--profile"]))
-            print(res["out"][res["out"].index("profile ("):].rstrip())
+            for name, env in [("proxyshade", None)] + ([("baseline", base_env)] if args.baseline else []):
+                try:
+                    res = child(proxyshade_argv(args.format, work / f"c_profile_{name}", work / f"o_profile_{name}",
+                                                ["--profile"]), env)
+                except SystemExit:  # a baseline without --profile
+                    continue
+                print(f"# {name} --profile")
+                print(res["out"][res["out"].index("profile ("):].rstrip())
     finally:
         shutil.rmtree(work, ignore_errors=True)
 
