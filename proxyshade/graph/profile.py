@@ -67,6 +67,7 @@ class Profile:
     before_command: float = 0.0  # process start to the command's start (interpreter, imports)
     plan_s: float = 0.0  # graph load, keys, plan (set by the caller)
     flush_wait: float = 0.0  # the run waiting for the cache writer at its end
+    precompile_s: float = 0.0  # the first run's kernel precompile (warmup.precompile), imports in it included
     nodes: dict = field(default_factory=dict)  # (node, frame) -> NodeTimes
     outside: NodeTimes = field(default_factory=lambda: NodeTimes("(outside nodes)", 0))
     peak_mb: float = 0.0
@@ -139,11 +140,15 @@ class Profile:
     # -- report --------------------------------------------------------------
     def rows(self, wall: float) -> list[tuple[str, float, str]]:
         """(phase, seconds, note) rows; ``wall``: the command's time so far since process start."""
-        before = self.outside.imports + self.outside.kernel_compile + self.outside.kernel_load
-        out = [("process start + imports", self.before_command, "interpreter, CLI and engine modules"),
-               ("imports before the nodes", before, "numba, OpenEXR, USD: loaded once a node is to compute"),
-               ("graph load + keys", max(0.0, self.plan_s - before), "YAML, variables, code hashes, cache lookups, "
-                                                                       "USD plugins")]
+        before = self.outside.imports + self.outside.kernel_compile + self.outside.kernel_load - self.precompile_s
+        out = [("process start + imports", self.before_command, "interpreter, CLI and engine modules")]
+        if self.precompile_s:
+            out.append(("kernel precompile", self.precompile_s, "first run after an install: the graph's kernels "
+                                                                "compiled into numba's cache"))
+        out += [
+               ("imports before the nodes", max(0.0, before), "numba, OpenEXR, USD: loaded once a node is to compute"),
+               ("graph load + keys", max(0.0, self.plan_s - max(0.0, before) - self.precompile_s),
+                "YAML, variables, code hashes, cache lookups, USD plugins")]
         comp = lambda nt: nt.seconds - nt.imports - nt.kernel_load - nt.kernel_compile  # noqa: E731
         imports = sum(nt.imports for nt in self.nodes.values())
         load = sum(nt.kernel_load for nt in self.nodes.values())
@@ -251,6 +256,21 @@ def start() -> Profile:
     ACTIVE = p
     builtins.__import__ = _timed_import
     _install_numba_timers(p)
+    from proxyshade.graph import warmup
+
+    if not getattr(warmup.precompile, "_profiled", False):
+        orig = warmup.precompile
+
+        def precompile(*a, **k):
+            t = time.perf_counter()
+            try:
+                return orig(*a, **k)
+            finally:
+                if ACTIVE is not None:
+                    ACTIVE.precompile_s += time.perf_counter() - t
+
+        precompile._profiled = True
+        warmup.precompile = precompile
     threading.Thread(target=p._sample, name="proxyshade-profile", daemon=True).start()
     return p
 
