@@ -40,9 +40,12 @@ RUN = "import sys; from proxyshade.cli import main; sys.exit(main())"
 
 
 def child(argv: list[str], env: dict | None = None) -> dict:
-    """Run ``argv``; its wall seconds, CPU seconds (user + system) and peak RSS (MiB)."""
+    """Run ``argv``; its wall seconds, CPU seconds (user + system) and peak RSS (MiB). With
+    ``env``'s PYTHONPATH (a baseline checkout) it runs in that folder, whose package
+    ``python -c`` then imports ('' first on sys.path)."""
     t0 = time.perf_counter()
-    p = subprocess.Popen(argv, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
+    cwd = (env or {}).get("PYTHONPATH") or ROOT
+    p = subprocess.Popen(argv, env=env, cwd=cwd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
     out = p.stdout.read()
     _, status, ru = os.wait4(p.pid, 0)
     wall = time.perf_counter() - t0
