@@ -201,8 +201,21 @@ def run(
                                "its nodes read (scene, source table, ...) changes; Ctrl-C stops"),
     poll: float = typer.Option(0.5, "--poll", min=0.01, help="--watch: seconds between checks for changed files"),
     watch_runs: int = typer.Option(0, "--watch-runs", min=0, hidden=True, help="--watch: stop after this many runs"),
+    profile: bool = typer.Option(False, "--profile", help="print where the run's time and memory went: imports, "
+                                 "kernel loading, each node, cache and output writes (docs/engine.md)"),
 ):
     """Run GRAPH(s): compute what the cache lacks, reuse the rest."""
+    if profile:
+        from proxyshade.graph import profile as prof
+
+        prof.start()
+        try:
+            _run_once(graphs, frames, set_, var, sweep, cache, explain, jobs, force, threads, executor,
+                      scheduler, workers, quiet)
+        finally:
+            p = prof.finish()
+        _say(out, p.text())
+        return
     runs = 0
     while True:
         watched = _run_once(graphs, frames, set_, var, sweep, cache, explain, jobs, force, threads, executor,

@@ -35,6 +35,7 @@ from concurrent.futures import Future, ThreadPoolExecutor, wait
 from pathlib import Path
 
 from proxyshade.errors import UserError, WriteError
+from proxyshade.graph import profile as _profile
 from proxyshade.graph.plate import Plate
 from proxyshade.io.exr import cache_compression, header_strings, read_plate, write_plate_temp
 from proxyshade.io.files import READ_ONLY, io_error, remove_stale_temps, stale_temps, temp_of, write_text_atomic
@@ -93,6 +94,17 @@ def _read_only(e: BaseException) -> bool:
     return e is not None and e.errno in READ_ONLY
 
 
+def _yield_cpu() -> None:
+    """The writer thread runs at a lower CPU priority (nice + 10, Linux threads have their
+    own): it encodes while a core is free (a node's Python steps, imports, the writers)
+    instead of taking one from a parallel kernel; ``flush`` waits for what is left."""
+    try:
+        tid = threading.get_native_id()
+        os.setpriority(os.PRIO_PROCESS, tid, min(19, os.getpriority(os.PRIO_PROCESS, tid) + 10))
+    except (OSError, AttributeError):
+        pass
+
+
 class Cache:
     """Disk store of plates by key. ``memory`` keeps plates of the current run."""
 
@@ -102,7 +114,8 @@ class Cache:
         self._lock = threading.Lock()
         # entries are compressed and written on a writer thread while the next nodes compute;
         # ``flush`` waits for them (the engine calls it at the end of every run)
-        self._writer = ThreadPoolExecutor(max_workers=1, thread_name_prefix="proxyshade-cache") if background else None
+        self._writer = ThreadPoolExecutor(max_workers=1, thread_name_prefix="proxyshade-cache",
+                                          initializer=_yield_cpu) if background else None
         self._pending: list[Future] = []
         self._writing: dict[str, Future] = {}  # key -> its background write, until done
         self._pinned: set[str] = set()
@@ -212,6 +225,7 @@ class Cache:
     def _write(self, key: str, plate: Plate, record: dict, replace: bool = False) -> None:
         exr, js = self._paths(key)
         tmp = None
+        t = time.perf_counter()
         try:
             if self.read_only:
                 self.unstored += 1
@@ -235,6 +249,8 @@ class Cache:
         finally:
             if tmp is not None and os.path.lexists(tmp):
                 tmp.unlink()
+            if _profile.ACTIVE is not None:
+                _profile.ACTIVE.cache_write(record.get("node"), record.get("frame"), time.perf_counter() - t)
             with self._lock:
                 self._pinned.discard(key)
                 if key in self._forgotten:

@@ -8,10 +8,13 @@ function of its inputs.
 """
 from __future__ import annotations
 
+import time
 from concurrent.futures import FIRST_COMPLETED, Future, ThreadPoolExecutor, wait
 from typing import Callable, Hashable
 
 import networkx as nx
+
+from proxyshade.graph import profile
 
 
 class LocalExecutor:
@@ -21,18 +24,33 @@ class LocalExecutor:
         raise NotImplementedError
 
     def run_jobs(self, jobs) -> None:
+        from proxyshade.graph.warmup import Prefetch
+
         for job in jobs:
+            prefetch = Prefetch(job.graph, job.todo) if len(job.todo) else None
             try:
                 self.run(job.todo, job.work)
             finally:
+                if prefetch is not None:
+                    prefetch.stop()
+                t = time.perf_counter()
                 job.graph.cache.flush()  # every background cache write done (or failed)
+                if profile.ACTIVE is not None:
+                    profile.ACTIVE.flush_wait += time.perf_counter() - t
+
+
+def order_key(dag: nx.DiGraph) -> Callable[[Hashable], tuple]:
+    """Among vertices ready to run, those marked ``first`` (the engine marks writers: a
+    preview or an EXR writer frees its input plate as soon as it has run) before the rest,
+    then by name: a deterministic order that holds fewer plates in memory at once."""
+    return lambda v: (not dag.nodes[v].get("first", False), str(v))
 
 
 class SerialExecutor(LocalExecutor):
-    """One vertex at a time, in a deterministic topological order."""
+    """One vertex at a time, in a deterministic topological order (``order_key``)."""
 
     def run(self, dag: nx.DiGraph, fn: Callable[[Hashable], None]) -> None:
-        for v in nx.lexicographical_topological_sort(dag, key=str):
+        for v in nx.lexicographical_topological_sort(dag, key=order_key(dag)):
             fn(v)
 
 
@@ -46,7 +64,8 @@ class ThreadExecutor(LocalExecutor):
         if self.jobs == 1:
             return SerialExecutor().run(dag, fn)
         remaining = {v: dag.in_degree(v) for v in dag}
-        ready = sorted((v for v, d in remaining.items() if d == 0), key=str)
+        key = order_key(dag)
+        ready = sorted((v for v, d in remaining.items() if d == 0), key=key)
         running: dict[Future, Hashable] = {}
         with ThreadPoolExecutor(max_workers=self.jobs, thread_name_prefix="proxyshade") as pool:
             try:
@@ -62,7 +81,7 @@ class ThreadExecutor(LocalExecutor):
                             remaining[s] -= 1
                             if remaining[s] == 0:
                                 ready.append(s)
-                    ready.sort(key=str)
+                    ready.sort(key=key)
             except BaseException:
                 for fut in running:
                     fut.cancel()

@@ -30,6 +30,7 @@ import networkx as nx
 
 from proxyshade.errors import CycleError, GraphFileError, ParamError, UserError
 from proxyshade.graph import keys as K
+from proxyshade.graph import profile as _profile
 from proxyshade.graph.cache import Cache, CacheWarning, size_limit
 from proxyshade.graph.executor import make_executor
 from proxyshade.graph.memo import Memo, RunMemo
@@ -465,7 +466,7 @@ class Graph:
                 if inst in plan.previous:
                     reason += "; progressive: updates the last run's result"
                 runs[inst] = NodeRun(name, frame, key, "computed", reason)
-                todo.add_node(inst)
+                todo.add_node(inst, first=self.nodes[name].sink)  # writers run once ready: their input is freed
         # edges between instances to compute, through reused/passthrough ones
         for inst in todo:
             for pred in plan.dag.predecessors(inst):
@@ -480,9 +481,17 @@ class Graph:
         instance still to compute reads."""
         plan, nr = job.plan, job.runs[inst]
         job.hooks.start(nr)
+        prof = _profile.ACTIVE
+        if prof is not None:
+            prof.watch(self, plan)
+            prof.node_start(nr.node, nr.frame, self.nodes[nr.node].sink)
         t = time.perf_counter()
-        self._compute(plan, inst, nr)
-        nr.seconds = time.perf_counter() - t
+        try:
+            self._compute(plan, inst, nr)
+        finally:
+            nr.seconds = time.perf_counter() - t
+            if prof is not None:
+                prof.node_end(nr.node, nr.frame, nr.seconds)
         with guard:
             for k in plan.held_keys(inst):
                 consumers[k] -= 1

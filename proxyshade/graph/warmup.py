@@ -95,14 +95,92 @@ def manifest() -> list[tuple[str, str, float, tuple]]:
     return list(kernel_manifest.ENTRIES)
 
 
+def callers() -> dict[tuple[str, str], str]:
+    """(kernel, argument types) -> the node type whose compute first called it when the
+    manifest was recorded; {} for a manifest without them."""
+    try:
+        from proxyshade.graph import kernel_manifest
+    except ImportError:
+        return {}
+    entries, found = list(kernel_manifest.ENTRIES), getattr(kernel_manifest, "CALLERS", {})
+    return {(entries[i][0], entries[i][1]): t for i, t in found.items() if i < len(entries)}
+
+
+def node_unit(node_type: str) -> str:
+    """The precompile unit (and mark) of a node type's manifest entries."""
+    return f"node.{node_type}"
+
+
 def manifest_modules(graph) -> set[str]:
-    """The kernel modules a graph's nodes import (``import_closure``, read from sources)."""
+    """What a graph's run precompiles: its enabled node types (``node_unit``: the manifest
+    entries their computes called when it was recorded, nothing else: a kernel module the
+    graph imports but never calls is not compiled), and the kernel modules its nodes import
+    (``import_closure``, read from sources) where the manifest names no caller."""
     from proxyshade.graph.keys import import_closure
 
-    mods = set()
-    for mod in {type(n).__module__ for n in graph.nodes.values()}:
-        mods.update(m for m in import_closure(mod) if m.startswith("proxyshade.kernels."))
-    return mods
+    units = {node_unit(type(n).__name__) for name, n in graph.nodes.items() if graph.enabled.get(name, True)}
+    if not callers():
+        for mod in {type(n).__module__ for n in graph.nodes.values()}:
+            units.update(m for m in import_closure(mod) if m.startswith("proxyshade.kernels."))
+    return units
+
+
+class Prefetch:
+    """Loads the manifest's kernels of the node types a run computes from numba's cache on a
+    background thread, in the order the nodes run, while the first nodes compute (a load is
+    mostly LLVM work that releases the GIL): a node then finds its kernels loaded instead of
+    loading them on the run's critical path. Only where every one of those node types was
+    precompiled into this version's kernel cache (loads, never compiles; a kernel missing
+    from the cache compiles when first called, on the thread calling it). The kernel modules
+    are imported on the calling thread (imports on two threads at once went wrong before:
+    ``graph.load_array_libraries``). Loading code changes no result."""
+
+    def __init__(self, graph, todo):
+        import threading
+
+        from proxyshade.kernels import _cache
+
+        self.thread, self._stop = None, threading.Event()
+        found = callers()
+        types = []
+        for name, _ in sorted(todo, key=str):
+            t = type(graph.nodes[name]).__name__
+            if t not in types:
+                types.append(t)
+        if not found or not types or not _cache.kernels_cached([node_unit(t) for t in types]):
+            return
+        rank = {t: i for i, t in enumerate(types)}
+        entries = sorted(((rank[t], k, text) for (k, text), t in found.items() if t in rank))
+        self.jobs = []
+        for _, kernel, text in entries:
+            try:
+                self.jobs.append((_dispatcher(kernel), parse_types(text)))
+            except Exception:  # noqa: BLE001 - a stale entry: left to the call
+                continue
+        if self.jobs:
+            self.thread = threading.Thread(target=self._load, name="proxyshade-kernels", daemon=True)
+            self.thread.start()
+
+    def _load(self) -> None:
+        for disp, sig in self.jobs:
+            if self._stop.is_set():
+                return
+            try:
+                disp.compile(sig)
+            except Exception:  # noqa: BLE001 - the call compiles it, or says what is wrong
+                continue
+
+    def stop(self) -> None:
+        """Stop after the load under way and wait for it (before the run returns)."""
+        self._stop.set()
+        if self.thread is not None:
+            self.thread.join()
+
+
+def _units(kernel: str, text: str, found: dict) -> list[str]:
+    """The precompile units an entry belongs to: its module, and its caller's node type."""
+    caller = found.get((kernel, text))
+    return [kernel.rpartition(".")[0]] + ([node_unit(caller)] if caller else [])
 
 
 def parse_types(text: str) -> tuple:
@@ -178,10 +256,12 @@ def pending(modules=None) -> list[tuple[str, str, float]]:
     numba) only when there are some; an entry naming a kernel that is gone is skipped."""
     from proxyshade.kernels import _cache
 
-    todo = []
+    todo, found = [], callers()
     for kernel, text, seconds, _ in manifest():
-        mod = kernel.rpartition(".")[0]
-        if (modules is not None and mod not in modules) or _cache.kernels_cached([mod]):
+        mine = _units(kernel, text, found)
+        if modules is not None:
+            mine = [u for u in mine if u in modules]
+        if not mine or _cache.kernels_cached(mine):
             continue
         try:
             _dispatcher(kernel)
@@ -198,7 +278,9 @@ def mark_precompiled(modules=None) -> None:
     cache: later runs skip the precompile (``kernels._cache.kernels_cached``)."""
     from proxyshade.kernels import _cache
 
-    _cache.mark_precompiled(_cache.modules() if modules is None else modules)
+    if modules is None:
+        modules = set(_cache.modules()) | {node_unit(t) for t in callers().values()}
+    _cache.mark_precompiled(modules)
 
 
 def precompile(modules=None, progress=None, workers=None) -> dict:
@@ -300,6 +382,23 @@ class Rec(event.Listener):
 
 rec = Rec()
 event.register("numba:compile", rec)
+# the node type computing when a kernel compiles: precompile compiles a graph's node types' kernels only
+from proxyshade.graph.graph import Graph
+_compute, _types = Graph._compute_locked, []
+def _tracked(self, plan, inst, nr):
+    _types.append(type(self.nodes[inst[0]]).__name__)
+    try:
+        return _compute(self, plan, inst, nr)
+    finally:
+        _types.pop()
+Graph._compute_locked = _tracked
+_on_end = Rec.on_end
+def on_end(self, ev):
+    n = len(self.roots)
+    _on_end(self, ev)
+    if len(self.roots) > n:
+        self.roots[-1] = (*self.roots[-1], _types[-1] if _types else None)
+Rec.on_end = on_end
 warmup.warm_up(cache=sys.argv[1], first=False)
 print(json.dumps(rec.roots))
 """
@@ -325,7 +424,7 @@ def record_manifest(raw: Path | None = None) -> list:
         roots = json.loads(res.stdout.strip().splitlines()[-1])
         if raw is not None:
             raw.write_text(json.dumps(roots))
-    for kernel, text, _, _ in roots:  # every entry must read back as written
+    for kernel, text, *_ in roots:  # every entry must read back as written
         parse_types(text)
     return roots
 
@@ -337,13 +436,17 @@ def write_manifest(path: Path = MANIFEST, raw: Path | None = None) -> int:
     lines = ['"""Kernel signatures the demo graphs reach, for ``warmup.precompile``: written by',
              "``python -m proxyshade.graph.warmup --write-manifest`` (numba "
              f"{numba.__version__}), do not edit.",
-             "(kernel, argument types, compile seconds, (kernel, argument types) compiled inside).\"\"\"",
+             "(kernel, argument types, compile seconds, (kernel, argument types) compiled inside);",
+             "CALLERS: the node type whose compute first called each entry (by index).\"\"\"",
              "ENTRIES = ["]
-    for kernel, text, seconds, inner in roots:
+    for kernel, text, seconds, inner, *_ in roots:
         lines.append(f"    ({kernel!r}, {text!r}, {seconds!r}, (")
         lines.extend(f"        ({k!r}, {t!r})," for k, t in inner)
         lines.append("    )),")
     lines.append("]")
+    lines.append("CALLERS = {")
+    lines.extend(f"    {i}: {r[4]!r}," for i, r in enumerate(roots) if len(r) > 4 and r[4])
+    lines.append("}")
     path.write_text("\n".join(lines) + "\n")
     return len(roots)
 

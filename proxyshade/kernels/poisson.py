@@ -38,7 +38,7 @@ from __future__ import annotations
 
 import numba
 import numpy as np
-from numba import njit, prange, typed
+from numba import njit, prange
 
 from proxyshade.kernels._config import JIT, PJIT
 from proxyshade.kernels.distance import contour_mask
@@ -402,24 +402,43 @@ def _prolong_add_serial(xc, x, diag, alpha):
         _prolong_add_row(xc, x, diag, alpha, i)
 
 
+@njit(inline="always", **JIT)
+def _level2(flat, shapes, offsets, l):
+    """Level ``l``'s (h, w) array in a flat buffer of levels (``_Hierarchy``: one after another)."""
+    h, w = shapes[l, 0], shapes[l, 1]
+    return flat[offsets[l]:offsets[l] + h * w].reshape((h, w))
+
+
+@njit(inline="always", **JIT)
+def _level3(flat, shapes, offsets, l):
+    """Level ``l``'s (h, w, 3) array in a flat buffer of levels."""
+    h, w = shapes[l, 0], shapes[l, 1]
+    return flat[3 * offsets[l]:3 * offsets[l] + 3 * h * w].reshape((h, w, 3))
+
+
 @njit(**JIT)
-def _vcycle_serial(diags, wes, wss, xs, bs, level, sweeps, coarse_sweeps):
-    """``_Hierarchy.vcycle`` from ``level`` down, on one thread: the same kernels in the
-    same order (levels as typed lists; the right-hand side of ``level`` in ``bs[level]``,
-    the result in ``xs[level]``)."""
-    last = len(diags) - 1
-    for l in range(level, last):
-        d, e, sw, x, b = diags[l], wes[l], wss[l], xs[l], bs[l]
+def _vcycle_serial(diags, wes, wss, xs, bs, shapes, offsets, sweeps, coarse_sweeps):
+    """``_Hierarchy.vcycle`` from the first serial level down, on one thread: the same kernels
+    in the same order. The serial levels lie one after another in flat buffers (level l at
+    ``offsets[l]`` cells, of shape ``shapes[l]``; ``xs``, ``bs`` three values a cell): the
+    right-hand side of the first in ``bs``, the result in ``xs``."""
+    last = shapes.shape[0] - 1
+    for l in range(0, last):
+        d, e, sw = _level2(diags, shapes, offsets, l), _level2(wes, shapes, offsets, l), _level2(wss, shapes, offsets, l)
+        x, b = _level3(xs, shapes, offsets, l), _level3(bs, shapes, offsets, l)
         _jacobi_start_serial(d, x, b, 0)
         _smooth_serial(d, e, sw, x, b, 1)
         for _ in range(sweeps - 1):
             _smooth_serial(d, e, sw, x, b, 0)
             _smooth_serial(d, e, sw, x, b, 1)
-        _residual_restrict_serial(d, e, sw, x, b, bs[l + 1])
-    _coarse_solve(diags[last], wes[last], wss[last], xs[last], bs[last], coarse_sweeps)
-    for l in range(last - 1, level - 1, -1):
-        d, e, sw, x, b = diags[l], wes[l], wss[l], xs[l], bs[l]
-        _prolong_add_serial(xs[l + 1], x, d, 1.0)
+        _residual_restrict_serial(d, e, sw, x, b, _level3(bs, shapes, offsets, l + 1))
+    _coarse_solve(_level2(diags, shapes, offsets, last), _level2(wes, shapes, offsets, last),
+                  _level2(wss, shapes, offsets, last), _level3(xs, shapes, offsets, last),
+                  _level3(bs, shapes, offsets, last), coarse_sweeps)
+    for l in range(last - 1, -1, -1):
+        d, e, sw = _level2(diags, shapes, offsets, l), _level2(wes, shapes, offsets, l), _level2(wss, shapes, offsets, l)
+        x, b = _level3(xs, shapes, offsets, l), _level3(bs, shapes, offsets, l)
+        _prolong_add_serial(_level3(xs, shapes, offsets, l + 1), x, d, 1.0)
         for _ in range(sweeps):
             _smooth_serial(d, e, sw, x, b, 1)
             _smooth_serial(d, e, sw, x, b, 0)
@@ -583,13 +602,21 @@ class _Hierarchy:
             diag, we, ws, mass = _coarsen(diag, we, ws, mass, np.float32(alpha))
             ops.append((diag, we, ws))
         self.ops = ops
-        self.x = [np.zeros(op[0].shape + (3,), np.float32) for op in ops]
-        self.b = [np.zeros(op[0].shape + (3,), np.float32) for op in ops]
-        # from the first level below SERIAL_CELLS down, one serial call (typed lists)
-        self.serial_from = next((k for k, op in enumerate(ops) if op[0].size < SERIAL_CELLS), len(ops))
-        if self.serial_from < len(ops):
-            tl = [typed.List(a) for a in zip(*ops)]
-            self.lists = (tl[0], tl[1], tl[2], typed.List(self.x), typed.List(self.b))
+        # from the first level below SERIAL_CELLS down, one serial call: those levels lie one
+        # after another in flat buffers (one signature whatever their count; x and b of a
+        # serial level are views of its buffers)
+        self.serial_from = k0 = next((k for k, op in enumerate(ops) if op[0].size < SERIAL_CELLS), len(ops))
+        self.x = [np.zeros(op[0].shape + (3,), np.float32) for op in ops[:k0]]
+        self.b = [np.zeros(op[0].shape + (3,), np.float32) for op in ops[:k0]]
+        if k0 < len(ops):
+            shapes = np.array([op[0].shape for op in ops[k0:]], np.int64)
+            offsets = np.concatenate([[0], np.cumsum(shapes[:, 0] * shapes[:, 1])]).astype(np.int64)
+            flat = [np.concatenate([op[i].ravel() for op in ops[k0:]]) for i in range(3)]
+            xs, bs = np.zeros(3 * offsets[-1], np.float32), np.zeros(3 * offsets[-1], np.float32)
+            for (h, w), o in zip(shapes, offsets):
+                self.x.append(xs[3 * o:3 * (o + h * w)].reshape(h, w, 3))
+                self.b.append(bs[3 * o:3 * (o + h * w)].reshape(h, w, 3))
+            self.serial = (*flat, xs, bs, shapes, offsets[:-1].copy())
 
     def vcycle(self, b: np.ndarray, x: np.ndarray, *, sweeps: int = 1, coarse_sweeps: int = 30,
                level: int = 0) -> None:
@@ -597,9 +624,9 @@ class _Hierarchy:
         after), so it can precondition conjugate gradients."""
         diag, we, ws = self.ops[level]
         if level >= self.serial_from:
-            if b is not self.b[level]:  # the lists hold self.b / self.x (shared buffers)
+            if b is not self.b[level]:  # self.b / self.x of a serial level are views of its buffers
                 self.b[level][...] = b
-            _vcycle_serial(*self.lists, level, sweeps, coarse_sweeps)
+            _vcycle_serial(*self.serial, sweeps, coarse_sweeps)
             if x is not self.x[level]:
                 x[...] = self.x[level]
             return

@@ -35,11 +35,12 @@ class DepthExtend(Progressive, Node):
 
     def compute(self, ctx) -> Plate:
         from proxyshade.synthesis.depth import depth_plate
-        from proxyshade.synthesis.edit import changed_region
 
         proxy, guide, p = ctx.proxy, ctx.guide, ctx.p
         region = None
-        if ctx.previous is not None:
+        if ctx.previous is not None:  # the edit kernels are loaded only for a progressive update
+            from proxyshade.synthesis.edit import changed_region
+
             region = changed_region(ctx.previous.inputs, {"proxy": proxy, "guide": guide},
                                     {"proxy": ("label.id", "Z"), "guide": ("label.id",)}, p.dilate)
             if region is not None:

@@ -31,11 +31,12 @@ class GuideSynth(Guidance, Progressive, Node):
     context = Param(int, 32, min=0, max=1024, doc="progressive: output pixels of proxy around those synthesized with them")
 
     def compute(self, ctx) -> Plate:
-        from proxyshade.synthesis.edit import changed_region, update_guide
         from proxyshade.synthesis.guide import synthesize_guide
 
         prev = ctx.previous
-        if prev is not None:
+        if prev is not None:  # the edit kernels are loaded only for a progressive update
+            from proxyshade.synthesis.edit import changed_region, update_guide
+
             region = changed_region(prev.inputs, {"proxy": ctx.proxy, "source": ctx.source},
                                     {"proxy": ("label.id",), "source": ("label.id",)}, ctx.p.dilate)
             if region is not None and not region.any():

@@ -1,0 +1,285 @@
+"""Where a run's time and memory go (``proxyshade run --profile``).
+
+``start()`` (before the run) installs timers; the engine tells the active profile when
+each node instance starts and ends (``node_start``/``node_end``), the cache when it
+encodes a plate (``cache_write``). ``table()`` then splits the process's wall time into:
+process start and imports (before the command runs), graph load and keys, each node's
+compute with what it spent importing modules, loading numba kernels from their cache
+and compiling numba code (typed containers, a kernel not in the cache), the cache's
+EXR writes (on the writer thread: how long it was busy, and how long the run waited
+for it at the end) and the output writers. A sampler thread reads the resident set size
+every few milliseconds: the node running at the peak, the peak during each node, and the
+plates held in memory at the peak (node and MiB).
+
+Nothing here changes a result: timers wrap numba's cache loading, its compile events and
+Python's ``__import__``, only while a profile is active.
+"""
+from __future__ import annotations
+
+import builtins
+import os
+import sys
+import threading
+import time
+from dataclasses import dataclass, field
+
+ACTIVE: "Profile | None" = None
+_PAGE = os.sysconf("SC_PAGE_SIZE")
+
+
+def process_age() -> float:
+    """Seconds since this process started (``/proc/self/stat``; 0 where there is none)."""
+    try:
+        with open("/proc/self/stat") as f:
+            fields = f.read().rpartition(")")[2].split()
+        start = int(fields[19]) / os.sysconf("SC_CLK_TCK")
+        return max(0.0, time.clock_gettime(time.CLOCK_BOOTTIME) - start)
+    except (OSError, ValueError, IndexError, AttributeError):
+        return 0.0
+
+
+def rss_mb() -> float:
+    """This process's resident set size now, MiB."""
+    try:
+        with open("/proc/self/statm") as f:
+            return int(f.read().split()[1]) * _PAGE / 2**20
+    except (OSError, ValueError, IndexError):
+        return 0.0
+
+
+@dataclass
+class NodeTimes:
+    node: str
+    frame: int
+    seconds: float = 0.0
+    imports: float = 0.0
+    kernel_load: float = 0.0
+    kernel_compile: float = 0.0
+    cache_write: float = 0.0  # the writer thread's time for this node's plate
+    rss_before: float = 0.0
+    rss_peak: float = 0.0
+    sink: bool = False
+
+
+@dataclass
+class Profile:
+    t0: float = field(default_factory=time.perf_counter)
+    before_command: float = 0.0  # process start to the command's start (interpreter, imports)
+    plan_s: float = 0.0  # graph load, keys, plan (set by the caller)
+    flush_wait: float = 0.0  # the run waiting for the cache writer at its end
+    precompile_s: float = 0.0  # the first run's kernel precompile (warmup.precompile), imports in it included
+    nodes: dict = field(default_factory=dict)  # (node, frame) -> NodeTimes
+    outside: NodeTimes = field(default_factory=lambda: NodeTimes("(outside nodes)", 0))
+    peak_mb: float = 0.0
+    peak_node: str = ""
+    peak_held: list = field(default_factory=list)  # (node, MiB) of plates in memory at the peak
+    memory_of: object = None  # () -> [(node, MiB)]: plates in memory now (set by the engine)
+
+    def __post_init__(self):
+        self._local = threading.local()
+        self._lock = threading.Lock()
+        self._running: dict[int, NodeTimes] = {}  # thread id -> the node it computes
+        self._stop = threading.Event()
+
+    # -- attribution ---------------------------------------------------------
+    def add(self, what: str, seconds: float) -> None:
+        nt = self._running.get(threading.get_ident())
+        if nt is None:
+            if threading.current_thread() is not threading.main_thread():
+                return  # a helper thread (the precompile's): not on the run's path
+            nt = self.outside
+        with self._lock:
+            setattr(nt, what, getattr(nt, what) + seconds)
+
+    def watch(self, graph, plan) -> None:
+        """The first node of a run: the time since the profile started is the graph's load
+        and plan; the plates of ``graph``'s cache memory are named by ``plan``'s nodes."""
+        if self.memory_of is not None:
+            return
+        self.plan_s = time.perf_counter() - self.t0
+        names = {k: f"{n}@{f}" for (n, f), k in plan.keys.items()}
+
+        def held():
+            return [(names.get(k, k[:8]), sum(a.nbytes for a in pl.channels.values()) / 2**20)
+                    for k, pl in list(graph.cache.memory.items())]
+
+        self.memory_of = held
+
+    def node_start(self, node: str, frame: int, sink: bool) -> None:
+        nt = self.nodes.setdefault((node, frame), NodeTimes(node, frame, sink=sink))
+        nt.rss_before = rss_mb()
+        nt.rss_peak = max(nt.rss_peak, nt.rss_before)
+        self._running[threading.get_ident()] = nt
+
+    def node_end(self, node: str, frame: int, seconds: float) -> None:
+        nt = self._running.pop(threading.get_ident(), None)
+        if nt is not None:
+            nt.seconds += seconds
+            nt.rss_peak = max(nt.rss_peak, rss_mb())
+
+    def cache_write(self, node: str, frame, seconds: float) -> None:
+        nt = self.nodes.get((node, frame))
+        with self._lock:
+            (nt or self.outside).cache_write += seconds
+
+    # -- sampling ------------------------------------------------------------
+    def _sample(self) -> None:
+        while not self._stop.wait(0.005):
+            r = rss_mb()
+            for nt in list(self._running.values()):
+                nt.rss_peak = max(nt.rss_peak, r)
+            if r > self.peak_mb:
+                self.peak_mb = r
+                self.peak_node = ", ".join(f"{nt.node}@{nt.frame}" for nt in list(self._running.values())) or "(none)"
+                if self.memory_of is not None:
+                    try:
+                        self.peak_held = self.memory_of()
+                    except RuntimeError:  # the dict changed size while read: the next sample
+                        pass
+
+    # -- report --------------------------------------------------------------
+    def rows(self, wall: float) -> list[tuple[str, float, str]]:
+        """(phase, seconds, note) rows; ``wall``: the command's time so far since process start."""
+        before = self.outside.imports + self.outside.kernel_compile + self.outside.kernel_load - self.precompile_s
+        out = [("process start + imports", self.before_command, "interpreter, CLI and engine modules")]
+        if self.precompile_s:
+            out.append(("kernel precompile", self.precompile_s, "first run after an install: the graph's kernels "
+                                                                "compiled into numba's cache"))
+        out += [
+               ("imports before the nodes", max(0.0, before), "numba, OpenEXR, USD: loaded once a node is to compute"),
+               ("graph load + keys", max(0.0, self.plan_s - max(0.0, before) - self.precompile_s),
+                "YAML, variables, code hashes, cache lookups, USD plugins")]
+        comp = lambda nt: nt.seconds - nt.imports - nt.kernel_load - nt.kernel_compile  # noqa: E731
+        imports = sum(nt.imports for nt in self.nodes.values())
+        load = sum(nt.kernel_load for nt in self.nodes.values())
+        compile_ = sum(nt.kernel_compile for nt in self.nodes.values())
+        out.append(("imports in nodes", imports, "modules a node loads on first use (colour, USD, synthesis)"))
+        out.append(("kernel loading", load, "numba cache loads of the kernels called"))
+        if compile_ or self.outside.kernel_compile:
+            out.append(("numba compiling", compile_, "code numba compiles at run time (not in its cache)"))
+        for nt in self.nodes.values():
+            if not nt.sink:
+                out.append((f"  {nt.node}@{nt.frame}", comp(nt), "compute"))
+        out.append(("output writes", sum(comp(nt) for nt in self.nodes.values() if nt.sink),
+                    ", ".join(nt.node for nt in self.nodes.values() if nt.sink)))
+        busy = sum(nt.cache_write for nt in self.nodes.values()) + self.outside.cache_write
+        out.append(("cache writes (waited)", self.flush_wait, f"the writer thread was busy {busy:.2f} s, beside the nodes"))
+        accounted = sum(s for name, s, _ in out if not name.startswith("  ") and name != "cache writes (waited)")
+        accounted += sum(s for name, s, _ in out if name.startswith("  ")) + self.flush_wait
+        out.append(("rest", max(0.0, wall - accounted), "scheduling, report, cache bookkeeping"))
+        out.append(("total", wall, "process start to the report"))
+        return out
+
+    def memory_rows(self) -> list[tuple[str, float, float]]:
+        """(node@frame, RSS before, peak RSS during) in the order they ran."""
+        return [(f"{nt.node}@{nt.frame}", nt.rss_before, nt.rss_peak) for nt in self.nodes.values()]
+
+    def text(self) -> str:
+        wall = process_age() or (time.perf_counter() - self.t0 + self.before_command)
+        lines = ["profile (seconds, wall of this process):"]
+        for name, s, note in self.rows(wall):
+            lines.append(f"  {name:<26} {s:7.3f}  {note}")
+        lines.append("memory (MiB, resident): node, before, peak during")
+        for name, before, peak in self.memory_rows():
+            lines.append(f"  {name:<26} {before:7.0f} {peak:7.0f}")
+        held = sorted(self.peak_held, key=lambda x: -x[1])
+        lines.append(f"  peak {self.peak_mb:.0f} MiB while {self.peak_node}; plates held then: "
+                     + (", ".join(f"{n} {mb:.0f}" for n, mb in held) or "none")
+                     + f" (= {sum(mb for _, mb in held):.0f} MiB)")
+        return "\n".join(lines)
+
+    def stop(self) -> None:
+        self._stop.set()
+
+
+# -- timers ----------------------------------------------------------------------
+_orig_import = builtins.__import__
+_depth = threading.local()
+
+
+def _timed_import(name, globals=None, locals=None, fromlist=(), level=0):
+    p = ACTIVE
+    if p is None or getattr(_depth, "n", 0):
+        return _orig_import(name, globals, locals, fromlist, level)
+    if level == 0 and name in sys.modules and not fromlist:
+        return _orig_import(name, globals, locals, fromlist, level)
+    _depth.n = 1
+    t = time.perf_counter()
+    try:
+        return _orig_import(name, globals, locals, fromlist, level)
+    finally:
+        _depth.n = 0
+        p.add("imports", time.perf_counter() - t)
+
+
+def _install_numba_timers(p: Profile) -> None:
+    """Time numba's cache loads (``Cache.load_overload``) and its compiles (the
+    ``numba:compile`` event, outermost only) on every thread."""
+    from numba.core import caching, event
+
+    if not getattr(caching.Cache.load_overload, "_profiled", False):
+        orig = caching.Cache.load_overload
+
+        def load_overload(self, *a, **k):
+            t = time.perf_counter()
+            try:
+                return orig(self, *a, **k)
+            finally:
+                if ACTIVE is not None:
+                    ACTIVE.add("kernel_load", time.perf_counter() - t)
+
+        load_overload._profiled = True
+        caching.Cache.load_overload = load_overload
+
+    class Compiles(event.Listener):
+        def __init__(self):
+            self.depth = threading.local()
+
+        def on_start(self, ev):
+            d = getattr(self.depth, "n", 0)
+            self.depth.n = d + 1
+            if d == 0:
+                self.depth.t = time.perf_counter()
+
+        def on_end(self, ev):
+            self.depth.n -= 1
+            if self.depth.n == 0 and ACTIVE is not None:
+                ACTIVE.add("kernel_compile", time.perf_counter() - self.depth.t)
+
+    event.register("numba:compile", Compiles())
+
+
+def start() -> Profile:
+    """Start profiling this process's run (``ACTIVE``); imports numba."""
+    global ACTIVE
+    p = Profile(before_command=process_age())
+    ACTIVE = p
+    builtins.__import__ = _timed_import
+    _install_numba_timers(p)
+    from proxyshade.graph import warmup
+
+    if not getattr(warmup.precompile, "_profiled", False):
+        orig = warmup.precompile
+
+        def precompile(*a, **k):
+            t = time.perf_counter()
+            try:
+                return orig(*a, **k)
+            finally:
+                if ACTIVE is not None:
+                    ACTIVE.precompile_s += time.perf_counter() - t
+
+        precompile._profiled = True
+        warmup.precompile = precompile
+    threading.Thread(target=p._sample, name="proxyshade-profile", daemon=True).start()
+    return p
+
+
+def finish() -> Profile | None:
+    """Stop the active profile and return it."""
+    global ACTIVE
+    p, ACTIVE = ACTIVE, None
+    builtins.__import__ = _orig_import
+    if p is not None:
+        p.stop()
+    return p

@@ -1,0 +1,79 @@
+"""Where a run's time goes (``proxyshade run --profile``, proxyshade/graph/profile.py), the
+order writers run in, and which kernels a graph's first run precompiles."""
+from __future__ import annotations
+
+import re
+import shutil
+from pathlib import Path
+
+import networkx as nx
+
+from proxyshade.cli import main
+from proxyshade.graph import warmup
+from proxyshade.graph.executor import SerialExecutor, ThreadExecutor
+from proxyshade.kernels import _cache
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def _graph(tmp_path: Path) -> Path:
+    (tmp_path / "graphs").mkdir()
+    shutil.copytree(ROOT / "samples" / "renoir", tmp_path / "samples" / "renoir")
+    shutil.copy(ROOT / "graphs" / "import_source.yaml", tmp_path / "graphs" / "import_source.yaml")
+    return tmp_path / "graphs" / "import_source.yaml"
+
+
+def test_profile_splits_the_wall_time_and_names_the_peak(tmp_path, capsys):
+    """The profile's rows add up to its total (the process's age at the report), every
+    computed node has a row, and the memory part names a node and the plates held."""
+    graph = _graph(tmp_path)
+    assert main(["run", str(graph), "-q", "--profile", "--cache", str(tmp_path / "c")]) == 0
+    text = capsys.readouterr().out
+    rows = dict(re.findall(r"^ +(\S[^\n]*?)\s{2,}(\d+\.\d{3})  ", text, re.M))
+    for name in ("process start + imports", "kernel loading", "output writes", "cache writes (waited)", "total"):
+        assert name in rows, text
+    assert "src@1" in rows and float(rows["src@1"]) > 0
+    parts = sum(float(v) for k, v in rows.items() if k not in ("total",))
+    assert abs(parts - float(rows["total"])) <= 0.01 + 0.01 * float(rows["total"]), text
+    m = re.search(r"peak (\d+) MiB while (\S+); plates held then: (.*)", text)
+    assert m and int(m[1]) > 50 and "@1" in m[2]
+    assert "4 computed" in text  # the run itself as without --profile
+    assert main(["run", str(graph), "-q", "--cache", str(tmp_path / "c")]) == 0
+    assert "0 computed, 4 reused" in capsys.readouterr().out
+
+
+def test_writers_run_as_soon_as_their_input_is_ready():
+    """Among ready instances the writers (marked ``first``) run before the others, in both
+    local executors, so the plate they read leaves memory sooner; the order is the same
+    every time."""
+    dag = nx.DiGraph()
+    dag.add_node(("a", 1))
+    dag.add_node(("b", 1))
+    dag.add_node(("preview", 1), first=True)
+    dag.add_node(("z_write", 1), first=True)
+    dag.add_edges_from([(("a", 1), ("b", 1)), (("a", 1), ("preview", 1)), (("b", 1), ("z_write", 1))])
+    for ex in (SerialExecutor(), ThreadExecutor(1)):
+        seen = []
+        ex.run(dag, seen.append)
+        assert seen == [("a", 1), ("preview", 1), ("b", 1), ("z_write", 1)]
+
+
+class _G:
+    def __init__(self, types):
+        self.nodes = {t.lower(): type(t, (), {})() for t in types}
+        self.enabled = {n: True for n in self.nodes}
+
+
+def test_a_graph_precompiles_the_kernels_its_node_types_called_only(monkeypatch):
+    """With callers in the manifest, a graph's precompile units are its node types, and
+    ``pending`` lists the entries those types called, not the other entries of the same
+    kernel modules (kernels the graph never calls are not compiled)."""
+    e1 = ("proxyshade.kernels.random._keys", "(int64, int64)", 0.5, ())
+    e2 = ("proxyshade.kernels.random._mix", "(uint64,)", 0.5, ())
+    monkeypatch.setattr(warmup, "manifest", lambda: [e1, e2])
+    monkeypatch.setattr(warmup, "callers", lambda: {e1[:2]: "SourceRead", e2[:2]: "Correct"})
+    monkeypatch.setattr(_cache, "kernels_cached", lambda names=(): False)
+    units = warmup.manifest_modules(_G(["SourceRead", "ExrWrite"]))
+    assert units == {"node.SourceRead", "node.ExrWrite"}
+    assert [e[0] for e in warmup.pending(units)] == [e1[0]]
+    assert sorted(e[0] for e in warmup.pending()) == sorted([e1[0], e2[0]])
