@@ -1,14 +1,15 @@
 """Annotated-exemplar synthesis (Diamanti et al. 2015) on arrays: clusters of the source's
 annotation points (mean shift), ε-ball scales and eq. 2 weights per cluster, coarse-to-fine
-constrained PatchMatch + voting in each cluster, then the CIELAB merge and a screened
-Poisson reconstruction of L*.
+constrained PatchMatch + voting in each cluster, the clusters melded at every scale (CIELAB
+merge and a screened Poisson reconstruction of L*).
 
 Choices the paper leaves open (docs/annotated.md): annotations are quantised to 1/32 for
 the ε-balls and the PatchMatch constraint (the balls are then exact on the quantised
 points); mean shift runs on points binned so that at most ~1024 distinct points remain;
 5×5 patches; scales as many as keep the coarsest exemplar at least 8 pixels a side (at most
-5); 4 EM rounds (vote, then 4 PatchMatch iterations) per scale; an occurrence penalty
-(Kaspar et al. 2015, as EbSynth counts it) against large flat copies.
+5); 4 EM rounds (vote, then 4 PatchMatch iterations) per scale (with one cluster 2 at the
+second finest and 1 of 2 iterations at the finest); the output is the vote of the central 3×3 of each patch; an
+occurrence penalty (Kaspar et al. 2015, as EbSynth counts it) against large flat copies.
 """
 from __future__ import annotations
 
@@ -32,9 +33,11 @@ class PatchOptimisation(ParamGroup):
     patch = Param(int, 5, min=3, max=15, doc="patch size (odd)")
     levels = Param(int, 0, min=0, max=6, doc="scales (coarse to fine, factor 2); 0: as many as keep the coarsest "
                                              "exemplar at least 8 pixels a side, at most 5")
-    em = Param(int, 4, min=1, max=10, doc="search + vote rounds per scale")
-    iterations = Param(int, 4, min=1, max=20, doc="PatchMatch iterations per round")
-    uniformity = Param(float, 0.005, min=0.0, max=1.0,
+    em = Param(int, 4, min=1, max=10, doc="search + vote rounds per scale; with one cluster the finest scale "
+                                          "runs 1, the next 2 (they refine what the coarser scales laid out)")
+    iterations = Param(int, 4, min=1, max=20,
+                       doc="PatchMatch iterations per round (with one cluster half at the finest scale)")
+    uniformity = Param(float, 0.001, min=0.0, max=1.0,
                        doc="weight of the penalty on source patches used more often than an even use (Kaspar et al. "
                            "2015); 0: none (large flat copies, washed-out texture)")
 
@@ -50,7 +53,7 @@ class AnnotatedParams:
     alpha_weight: float = 10.0
     gradient_screen: float = 0.2
     # weight of the occurrence penalty (Kaspar et al. 2015), per patch pixel, in squared feature units
-    uniformity: float = 0.005
+    uniformity: float = 0.001
     ann_weight: float = 1.0  # analogies baseline only
     # the annotations in the patch distance of the full method (and the binary and single
     # ablations), weight against the CIELAB/alpha/gradient features: copies stay near
@@ -301,6 +304,10 @@ def synthesize(src_rgb, src_alpha, src_ann, usable, tgt_ann, p: AnnotatedParams,
     n_levels = p.levels or auto_levels((H, W), (h, w))
     for lev in range(n_levels - 1, -1, -1):
         f = 2 ** lev
+        # one cluster: the finest scales refine what the coarser ones laid out; several: each
+        # scale starts from a merged (blended) image and takes every round to sharpen again
+        rounds = p.em if C > 1 else min(p.em, f)
+        iters = p.iterations if lev or C > 1 else max(1, p.iterations // 2)
         s_rgb, s_a = _down(src_rgb, f), _down(src_alpha, f)
         s_ann = _quant(_down(src_ann, f))
         Hl, Wl = s_rgb.shape[:2]
@@ -339,7 +346,7 @@ def synthesize(src_rgb, src_alpha, src_ann, usable, tgt_ann, p: AnnotatedParams,
             else:
                 ny, nx = _upsample_nnf(*nnfs[i], (hl, wl))
                 ka.repair(s_ann, s_cl, i, sel, eps, t_ann, s_l, ny, nx, iy, ix)
-            for e in range(p.em):
+            for e in range(rounds):
                 if e == 0 and start is not None:
                     tgt = start
                 else:
@@ -347,10 +354,10 @@ def synthesize(src_rgb, src_alpha, src_ann, usable, tgt_ann, p: AnnotatedParams,
                     if aw:
                         tgt[..., -d:] = aw * t_ann
                 ny, nx, _ = ka.patchmatch(feat, tgt, s_ann, s_cl, i, sel, eps, t_ann, s_l, ny, nx, hw=hw,
-                                          iterations=p.iterations, seed=seed * 16 + e, members=order,
+                                          iterations=iters, seed=seed * 16 + e, members=order,
                                           uniformity=p.uniformity * p.patch * p.patch)
             nnfs[i] = (ny, nx)
-            votes.append(ka.vote(out_src, ny, nx, hw))
+            votes.append(ka.vote(out_src, ny, nx, min(hw, 1) if lev == 0 else hw))
             present.append(True)
         if C == 1:  # one cluster: its vote is the result; its next scale starts from its own map
             merged = (votes[0][..., :3], votes[0][..., 3])
