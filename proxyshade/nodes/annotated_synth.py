@@ -33,7 +33,7 @@ class AnnotatedSynth(PatchOptimisation, Node):
     replaced inside the mask. See docs/annotated.md.
     """
 
-    version = 3
+    version = 4
     source = Input("annotated source plate", channels=("R", "G", "B"), finite=("R", "G", "B"),
                    fix="connect an AnnotatedSourceRead node")
     target = Input("target annotation plate (ann.* channels)", fix="connect an AnnotationRender node")
@@ -80,12 +80,22 @@ class AnnotatedSynth(PatchOptimisation, Node):
             if not tmask.any():
                 raise ctx.error("target mask is empty; render a label the view shows")
             tgt_ann = np.where(tmask[..., None], tgt_ann, tgt_ann[tmask].mean(axis=0))
+        box = (slice(None), slice(None))
+        if tmask is not None:  # only the mask's bounding box is synthesized
+            rows, cols = np.flatnonzero(tmask.any(axis=1)), np.flatnonzero(tmask.any(axis=0))
+            box = (slice(rows[0], rows[-1] + 1), slice(cols[0], cols[-1] + 1))
         try:
             r = synthesize(src.rgb(), alpha, src.layer(["ann." + n for n in names], np.float64), usable,
-                           tgt_ann, p, names=names)
+                           np.ascontiguousarray(tgt_ann[box]), p, names=names)
         except NodeInputError as e:
             raise ctx.error(str(e)) from None
-        ctx.note(f"{r['n_clusters']} clusters; {100 * r['missing'].mean():.1f}% of the target outside every "
+        if tmask is not None:
+            for k in ("rgb", "alpha", "sx", "sy", "cluster", "missing"):
+                full = np.zeros(tmask.shape + r[k].shape[2:], r[k].dtype)
+                full[box] = r[k]
+                r[k] = full
+        share = r["missing"][tmask].mean() if tmask is not None else r["missing"].mean()
+        ctx.note(f"{r['n_clusters']} clusters; {100 * share:.1f}% of the target outside every "
                  f"cluster's ε-ball (interpolated)")
         rgb = r["rgb"]
         if tmask is not None:
