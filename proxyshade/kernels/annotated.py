@@ -291,6 +291,7 @@ def _pm_sweep(src, tgt, src_ann, src_cluster, cluster, usable, inv_eps, tgt_ann,
         j = kk % w
         a = tgt_ann[i, j]
         smax = max(1.0, tgt_s[i, j])
+        cur = nd[i, j] + lam * _omega(cover, hw, ny[i, j], nx[i, j])  # only this pixel moves its own cover
         for c in range(2 + 12 + 2):
             if c < 2:  # propagation from the previous pixel of the row and of the column
                 yy, xx = (i, j - q) if c == 0 else (i - q, j)
@@ -317,7 +318,6 @@ def _pm_sweep(src, tgt, src_ann, src_cluster, cluster, usable, inv_eps, tgt_ann,
                 continue
             if not _ok(src_ann, src_cluster, cluster, usable, inv_eps, cy, cx, a, smax):
                 continue
-            cur = nd[i, j] + lam * _omega(cover, hw, by, bx)
             pen = lam * (_omega(cover, hw, cy, cx) + (2 * hw + 1) ** 2)
             if pen >= cur:
                 continue
@@ -328,6 +328,7 @@ def _pm_sweep(src, tgt, src_ann, src_cluster, cluster, usable, inv_eps, tgt_ann,
                 ny[i, j] = cy
                 nx[i, j] = cx
                 nd[i, j] = d
+                cur = d + lam * _omega(cover, hw, cy, cx)
 
 
 @njit(**PJIT)

@@ -20,10 +20,11 @@ class AnnotatedSourceRead(Node):
     and ``mask`` (float 1/0; pixels > 127 of the optional ``mask`` map, all without one).
     """
 
-    version = 1
+    version = 2
     table = Param(Path, doc="label table YAML (source.yaml) with an 'annotations' mapping")
     far_distance = Param(float, 100.0, min=0.0, doc="8-bit RGB distance beyond which a label-map pixel is 'far'")
     max_far_fraction = Param(float, 0.02, min=0.0, max=1.0, doc="fail when more label-map pixels than this are far")
+    annotations = Param(list, None, doc="names of the table's annotations to read, e.g. [light] (default: all)")
 
     def key_extra(self, frame, graph_dir):
         from proxyshade.graph.node import resolve_path
@@ -50,6 +51,13 @@ class AnnotatedSourceRead(Node):
         except UserError as e:
             raise ctx.error(str(e)) from None
         ch = {k: v for k, v in extra.items() if k.startswith("ann.")}
+        if ctx.p.annotations is not None:
+            have = [k[4:] for k in ch]
+            for n in ctx.p.annotations:
+                if n not in have:
+                    raise ctx.error(f"annotations: {n!r} is not in {path.name}'s annotations ({', '.join(have)}); "
+                                    f"pick some of those")
+            ch = {f"ann.{n}": ch[f"ann.{n}"] for n in ctx.p.annotations}
         ch["A"] = extra.get("A", np.ones(plate.shape, np.float32))
         ch["mask"] = extra.get("mask", np.ones(plate.shape, bool)).astype(np.float32)
         meta = dict(plate.meta)

@@ -28,13 +28,18 @@ class AnnotatedSynth(PatchOptimisation, Node):
     heaviest, 1..C) and ``missing`` (1 where no cluster holds N_i source pixels inside the
     ε-ball: appearance interpolated). A source with ``exemplar.id`` (an atlas of several
     exemplars, given ``ann.*`` channels) copies only patches lying inside one exemplar.
-    See docs/annotated.md.
+    With a ``background`` (a frame of the target's size, e.g. the first frame's final
+    plate), the result goes over it by the target mask: the frame's channels with R,G,B
+    replaced inside the mask. See docs/annotated.md.
     """
 
-    version = 2
+    version = 4
     source = Input("annotated source plate", channels=("R", "G", "B"), finite=("R", "G", "B"),
                    fix="connect an AnnotatedSourceRead node")
     target = Input("target annotation plate (ann.* channels)", fix="connect an AnnotationRender node")
+    background = Input("optional frame (R,G,B) the result is composited over by the target mask", optional=True,
+                       channels=("R", "G", "B"), finite=("R", "G", "B"),
+                       fix="connect the first frame's final node (a Poisson or Magnify plate)")
     eps = Param(float, 0.1, min=0.01, max=1.0, doc="ε-ball radius per annotation (0.05: closer match, 0.2: less repetition)")
     bandwidth = Param(float, 0.5, min=0.01, max=2.0, doc="mean-shift bandwidth of the clusters (the paper's 0.5)")
     ann_distance = Param(float, 0.0, min=0.0, max=100.0,
@@ -75,12 +80,22 @@ class AnnotatedSynth(PatchOptimisation, Node):
             if not tmask.any():
                 raise ctx.error("target mask is empty; render a label the view shows")
             tgt_ann = np.where(tmask[..., None], tgt_ann, tgt_ann[tmask].mean(axis=0))
+        box = (slice(None), slice(None))
+        if tmask is not None:  # only the mask's bounding box is synthesized
+            rows, cols = np.flatnonzero(tmask.any(axis=1)), np.flatnonzero(tmask.any(axis=0))
+            box = (slice(rows[0], rows[-1] + 1), slice(cols[0], cols[-1] + 1))
         try:
             r = synthesize(src.rgb(), alpha, src.layer(["ann." + n for n in names], np.float64), usable,
-                           tgt_ann, p, names=names)
+                           np.ascontiguousarray(tgt_ann[box]), p, names=names)
         except NodeInputError as e:
             raise ctx.error(str(e)) from None
-        ctx.note(f"{r['n_clusters']} clusters; {100 * r['missing'].mean():.1f}% of the target outside every "
+        if tmask is not None:
+            for k in ("rgb", "alpha", "sx", "sy", "cluster", "missing"):
+                full = np.zeros(tmask.shape + r[k].shape[2:], r[k].dtype)
+                full[box] = r[k]
+                r[k] = full
+        share = r["missing"][tmask].mean() if tmask is not None else r["missing"].mean()
+        ctx.note(f"{r['n_clusters']} clusters; {100 * share:.1f}% of the target outside every "
                  f"cluster's ε-ball (interpolated)")
         rgb = r["rgb"]
         if tmask is not None:
@@ -90,4 +105,14 @@ class AnnotatedSynth(PatchOptimisation, Node):
               "source.x": r["sx"], "source.y": r["sy"], "cluster.id": r["cluster"], "missing": r["missing"]}
         meta = {k: v for k, v in src.meta.items() if k in ("labels", "source")}
         meta["annotations"] = names
+        bg = ctx.inputs.get("background")
+        if bg is not None:
+            if bg.shape != tgt.shape:
+                raise ctx.error(f"background is {bg.shape[1]}x{bg.shape[0]}, the target {tgt.shape[1]}x{tgt.shape[0]}; "
+                                f"render the proxy of the annotations at the frame's resolution")
+            k = (tmask if tmask is not None else np.ones(tgt.shape, bool)).astype(np.float32) * r["alpha"]
+            over = {c: ch[c] + (1.0 - k) * bg[c] for c in ("R", "G", "B")}  # ch is premultiplied by the mask
+            over["A"] = k + (1.0 - k) * (bg["A"] if "A" in bg else 1.0)
+            ch = {**{c: bg[c] for c in bg.names()}, **ch, **over}
+            meta = {**bg.meta, "annotations": names}
         return Plate(ch, meta)

@@ -16,7 +16,8 @@ class AnnotationRender(Node):
 
     - ``light``: max(N·L, 0), times 1 − ``shadow`` when the optional ``shadow`` input (a
       ``ShadowMap`` plate) is connected; L is that plate's ``meta['light']`` direction, else
-      the ``sun`` parameter (direction towards the sun, world space);
+      the ``sun`` parameter (direction towards the sun, world space); ``light_range`` maps
+      [shaded, lit] to [0, 1] (clipped);
     - ``depth``: camera depth Z mapped linearly from ``depth_range`` (default: the finite
       Z of the masked pixels) to [0, 1] (near 0, far 1);
     - ``up``: (N.Y + 1) / 2 (1 facing up, 0.5 a vertical wall).
@@ -25,7 +26,7 @@ class AnnotationRender(Node):
     other pixels get the masked pixels' mean values (inside the source's range).
     """
 
-    version = 1
+    version = 2
     proxy = Input("proxy render with N.X/N.Y/N.Z, Z and label.id", channels=("N.X", "N.Y", "N.Z", "Z", "label.id"),
                   finite=("N.X", "N.Y", "N.Z"), inf_ok=("Z",), fix="connect a ProxyRender node")
     shadow = Input("optional ShadowMap plate (its 'shadow' AOV and meta['light'])", optional=True,
@@ -34,6 +35,9 @@ class AnnotationRender(Node):
                         doc="annotation name -> what it is (light, depth, up), e.g. {light: light, scale: depth}")
     sun = Param(list, [0.3, 0.8, 0.5], length=3, doc="direction towards the sun (world) when no shadow plate gives one")
     depth_range = Param(list, None, length=2, doc="[near, far] camera depth mapped to 0 and 1 (default: the masked range)")
+    light_range = Param(list, None, length=2,
+                        doc="[shaded, lit] light values mapped to 0 and 1, e.g. [0.2, 0.75] where a painted source "
+                            "light map spans 0..1 for the shade and the full sun its photo shows (default: as is)")
     label = Param(str, None, doc="only this proxy label is a target (mask); default: every non-empty pixel")
 
     def compute(self, ctx) -> Plate:
@@ -67,6 +71,12 @@ class AnnotationRender(Node):
                 v = np.clip(N @ L, 0.0, 1.0)
                 if shadow is not None:
                     v = v * (1.0 - np.clip(shadow["shadow"], 0.0, 1.0))
+                if ctx.p.light_range is not None:
+                    lo, hi = (float(x) for x in ctx.p.light_range)
+                    if not 0 <= lo < hi <= 1:
+                        raise ctx.error(f"light_range {ctx.p.light_range!r} is not [shaded, lit] with 0 <= shaded < "
+                                        f"lit <= 1; write e.g. [0.2, 0.75]")
+                    v = np.clip((v - lo) / (hi - lo), 0.0, 1.0)
             elif kind == "up":
                 v = np.clip((N[..., 1] + 1.0) / 2.0, 0.0, 1.0)
             else:

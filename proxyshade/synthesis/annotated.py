@@ -1,14 +1,15 @@
 """Annotated-exemplar synthesis (Diamanti et al. 2015) on arrays: clusters of the source's
 annotation points (mean shift), ε-ball scales and eq. 2 weights per cluster, coarse-to-fine
-constrained PatchMatch + voting in each cluster, then the CIELAB merge and a screened
-Poisson reconstruction of L*.
+constrained PatchMatch + voting in each cluster, the clusters melded at every scale (CIELAB
+merge and a screened Poisson reconstruction of L*).
 
 Choices the paper leaves open (docs/annotated.md): annotations are quantised to 1/32 for
 the ε-balls and the PatchMatch constraint (the balls are then exact on the quantised
 points); mean shift runs on points binned so that at most ~1024 distinct points remain;
 5×5 patches; scales as many as keep the coarsest exemplar at least 8 pixels a side (at most
-5); 4 EM rounds (vote, then 4 PatchMatch iterations) per scale; an occurrence penalty
-(Kaspar et al. 2015, as EbSynth counts it) against large flat copies.
+5); 4 EM rounds (vote, then 4 PatchMatch iterations) per scale (with one cluster 2 at the
+second finest and 1 of 2 iterations at the finest); the output is the vote of the central 3×3 of each patch; an
+occurrence penalty (Kaspar et al. 2015, as EbSynth counts it) against large flat copies.
 """
 from __future__ import annotations
 
@@ -32,9 +33,11 @@ class PatchOptimisation(ParamGroup):
     patch = Param(int, 5, min=3, max=15, doc="patch size (odd)")
     levels = Param(int, 0, min=0, max=6, doc="scales (coarse to fine, factor 2); 0: as many as keep the coarsest "
                                              "exemplar at least 8 pixels a side, at most 5")
-    em = Param(int, 4, min=1, max=10, doc="search + vote rounds per scale")
-    iterations = Param(int, 4, min=1, max=20, doc="PatchMatch iterations per round")
-    uniformity = Param(float, 0.005, min=0.0, max=1.0,
+    em = Param(int, 4, min=1, max=10, doc="search + vote rounds per scale; with one cluster the finest scale "
+                                          "runs 1, the next 2 (they refine what the coarser scales laid out)")
+    iterations = Param(int, 4, min=1, max=20,
+                       doc="PatchMatch iterations per round (with one cluster half at the finest scale)")
+    uniformity = Param(float, 0.001, min=0.0, max=1.0,
                        doc="weight of the penalty on source patches used more often than an even use (Kaspar et al. "
                            "2015); 0: none (large flat copies, washed-out texture)")
 
@@ -50,7 +53,7 @@ class AnnotatedParams:
     alpha_weight: float = 10.0
     gradient_screen: float = 0.2
     # weight of the occurrence penalty (Kaspar et al. 2015), per patch pixel, in squared feature units
-    uniformity: float = 0.005
+    uniformity: float = 0.001
     ann_weight: float = 1.0  # analogies baseline only
     # the annotations in the patch distance of the full method (and the binary and single
     # ablations), weight against the CIELAB/alpha/gradient features: copies stay near
@@ -213,6 +216,59 @@ def analyse(src_ann, usable, tgt_ann, p: AnnotatedParams):
     return cl, C, Wt, missing
 
 
+def _up2(img, shape):
+    """Bilinear ×2 upsampling of (h, w, F) to ``shape`` (rows, columns) (pixel centres
+    aligned, edges clamped)."""
+    h, w = img.shape[:2]
+    H, W = shape
+
+    def axis(n_out, n_in):
+        c = np.clip((np.arange(n_out) + 0.5) / 2 - 0.5, 0, n_in - 1)
+        i0 = np.floor(c).astype(int)
+        i1 = np.minimum(i0 + 1, n_in - 1)
+        return i0, i1, (c - i0)
+
+    y0, y1, fy = axis(H, h)
+    x0, x1, fx = axis(W, w)
+    top = img[y0][:, x0] * (1 - fx)[None, :, None] + img[y0][:, x1] * fx[None, :, None]
+    bot = img[y1][:, x0] * (1 - fx)[None, :, None] + img[y1][:, x1] * fx[None, :, None]
+    return (top * (1 - fy)[:, None, None] + bot * fy[:, None, None]).astype(np.float32)
+
+
+def _upsample_nnf(ny, nx, shape):
+    """The coarser map on the finer grid: child (2y+a, 2x+b) of (y, x) reads 2·src + (a, b)
+    (-1 outside the coarser map's cover)."""
+    hl, wl = shape
+    uy = np.full((hl, wl), -1, np.int32)
+    ux = np.full((hl, wl), -1, np.int32)
+    ph, pw = min(hl, 2 * ny.shape[0]), min(wl, 2 * ny.shape[1])
+    yy, xx = np.mgrid[0:ph, 0:pw]
+    uy[:ph, :pw] = 2 * ny[yy // 2, xx // 2] + yy % 2
+    ux[:ph, :pw] = 2 * nx[yy // 2, xx // 2] + xx % 2
+    return uy, ux
+
+
+def _lab_grad(lab):
+    """(H, W, 2) forward differences of L* (x, y), zero on the last column / row."""
+    g = np.zeros(lab.shape[:2] + (2,), np.float32)
+    g[:, :-1, 0] = lab[:, 1:, 0] - lab[:, :-1, 0]
+    g[:-1, :, 1] = lab[1:, :, 0] - lab[:-1, :, 0]
+    return g
+
+
+def meld(votes, Wt, p: AnnotatedParams):
+    """The merge of C cluster votes at one scale: votes (C, h, w, 6) of (R, G, B, α, ∂L*/∂x,
+    ∂L*/∂y); Wt (h, w, C). L*, a*, b*, α are W-weighted means, the L* gradient the
+    cluster's with the largest ‖W_i ∇L*_i‖, L* rebuilt by screened Poisson. Returns
+    ((h, w, 3) linear RGB, (h, w) α)."""
+    from proxyshade.kernels import annotated as ka
+
+    vals = np.stack([np.concatenate([_lab(v[..., :3]), v[..., 3:4]], axis=2) for v in votes])
+    mean, g = ka.merge_channels(vals, votes[..., 4:6], Wt)
+    mean[..., 0] = ka.screened_poisson(mean[..., 0], g[..., 0], g[..., 1], p.gradient_screen)
+    return _rgb(mean[..., :3]).astype(np.float32), mean[..., 3].astype(np.float32)
+
+
 def synthesize(src_rgb, src_alpha, src_ann, usable, tgt_ann, p: AnnotatedParams, names=None) -> dict:
     """Fill a target with the source's material following the annotations.
 
@@ -220,7 +276,13 @@ def synthesize(src_rgb, src_alpha, src_ann, usable, tgt_ann, p: AnnotatedParams,
     [0, 1]; usable (H, W) bool. Returns a dict of arrays: rgb (h, w, 3), alpha, sx, sy
     (source pixel of the heaviest cluster), cluster (h, w) uint32 (1..C, heaviest),
     missing (h, w) float32 (1 where no cluster holds N_i points inside the ε-ball:
-    interpolated appearance), weights (h, w, C), and n_clusters.
+    interpolated appearance), weights (h, w, C), n_clusters, and melds (the scales at which
+    the clusters were merged: every scale when C > 1, none with one cluster).
+
+    Melding (the paper's §5): scales run coarse to fine with all clusters in step; at the
+    end of each scale the clusters' votes are merged (``meld``) and the merged image,
+    upsampled, is the first target every cluster matches at the next scale, so the
+    clusters' textures stay registered where their weights overlap.
     """
     from proxyshade.kernels import annotated as ka
 
@@ -235,73 +297,84 @@ def synthesize(src_rgb, src_alpha, src_ann, usable, tgt_ann, p: AnnotatedParams,
     usable[:hw], usable[H - hw:], usable[:, :hw], usable[:, W - hw:] = False, False, False, False
     eps = np.full(d, p.eps)
     cl, C, Wt, missing = analyse(src_ann, usable, tgt_ann, p)
-    lab_src = _lab(src_rgb)
-    Lg = np.zeros((H, W, 2), np.float32)
-    Lg[:, :-1, 0] = lab_src[:, 1:, 0] - lab_src[:, :-1, 0]
-    Lg[:-1, :, 1] = lab_src[1:, :, 0] - lab_src[:-1, :, 0]
-    vals, grads, nnfs = [], [], []
+    aw = p.ann_weight if p.mode == "analogies" else p.ann_distance
+    nnfs = [None] * C
+    merged = None  # (rgb, alpha) of the previous scale's meld
+    melds = 0
     n_levels = p.levels or auto_levels((H, W), (h, w))
-    for i in range(C):
-        ny = nx = None
-        for lev in range(n_levels - 1, -1, -1):
-            f = 2 ** lev
-            s_rgb, s_a = _down(src_rgb, f), _down(src_alpha, f)
-            s_ann = _quant(_down(src_ann, f))
-            Hl, Wl = s_rgb.shape[:2]
-            s_use = _down(usable.astype(np.float64), f) == 1.0
-            s_cl = cl[:Hl * f:f, :Wl * f:f].copy()
+    for lev in range(n_levels - 1, -1, -1):
+        f = 2 ** lev
+        # one cluster: the finest scales refine what the coarser ones laid out; several: each
+        # scale starts from a merged (blended) image and takes every round to sharpen again
+        rounds = p.em if C > 1 else min(p.em, f)
+        iters = p.iterations if lev or C > 1 else max(1, p.iterations // 2)
+        s_rgb, s_a = _down(src_rgb, f), _down(src_alpha, f)
+        s_ann = _quant(_down(src_ann, f))
+        Hl, Wl = s_rgb.shape[:2]
+        s_use = _down(usable.astype(np.float64), f) == 1.0
+        s_cl = cl[:Hl * f:f, :Wl * f:f].copy()
+        t_ann = _quant(_down(tgt_ann, f))
+        hl, wl = t_ann.shape[:2]
+        feat = _features(s_rgb, s_a, p)
+        if aw:
+            feat = np.concatenate([feat, aw * s_ann.astype(np.float32)], axis=2)
+        out_src = np.concatenate([s_rgb, s_a[..., None], _lab_grad(_lab(s_rgb))], axis=2).astype(np.float32)
+        start = None
+        if merged is not None and C > 1:  # the common start of every cluster at this scale
+            up = _up2(np.concatenate([merged[0], merged[1][..., None]], axis=2), (hl, wl))
+            start = _features(up[..., :3], up[..., 3], p)
+            if aw:
+                start = np.concatenate([start, aw * t_ann.astype(np.float32)], axis=2)
+        votes, present = [], []
+        for i in range(C):
             sel = s_use & (s_cl == i)
             sel[:hw], sel[Hl - hw:], sel[:, :hw], sel[:, Wl - hw:] = False, False, False, False
             if not sel.any():
+                votes.append(np.zeros((hl, wl, out_src.shape[2]), np.float32))
+                present.append(False)
                 continue
-            t_ann = _quant(_down(tgt_ann, f))
-            hl, wl = t_ann.shape[:2]
-            feat = _features(s_rgb, s_a, p)
-            aw = p.ann_weight if p.mode == "analogies" else p.ann_distance
-            if aw:
-                feat = np.concatenate([feat, aw * s_ann.astype(np.float32)], axis=2)
-            bins, cnt, order, start = _bins(s_ann, sel)
+            bins, cnt, order, bstart = _bins(s_ann, sel)
             n_i = int(sel.sum())
             n_hold = max(1, min(n_i, max(1000, n_i // 30) // (f * f)))
             s_l, tb = _scales(bins, cnt, eps, t_ann, n_hold)
             if p.mode == "analogies":
                 s_l = np.full((hl, wl), np.inf)
             seed = p.seed * 7919 + i * 101 + lev
-            iy, ix = ka.draw_members(tb, start, cnt, order, Wl, seed)
-            if ny is None:
+            iy, ix = ka.draw_members(tb, bstart, cnt, order, Wl, seed)
+            if nnfs[i] is None:
                 ny, nx = iy, ix
-            else:  # upsample the coarser map: child (2y+a, 2x+b) of (y, x) reads 2·src + (a, b)
-                uy = np.zeros((hl, wl), np.int32)
-                ux = np.zeros((hl, wl), np.int32)
-                ph, pw = min(hl, 2 * ny.shape[0]), min(wl, 2 * ny.shape[1])
-                yy, xx = np.mgrid[0:ph, 0:pw]
-                uy[:ph, :pw] = 2 * ny[yy // 2, xx // 2] + yy % 2
-                ux[:ph, :pw] = 2 * nx[yy // 2, xx // 2] + xx % 2
-                uy[ph:], ux[ph:], uy[:, pw:], ux[:, pw:] = -1, -1, -1, -1
-                ny, nx = uy, ux
+            else:
+                ny, nx = _upsample_nnf(*nnfs[i], (hl, wl))
                 ka.repair(s_ann, s_cl, i, sel, eps, t_ann, s_l, ny, nx, iy, ix)
-            for e in range(p.em):
-                tgt = ka.vote(feat, ny, nx, hw)
-                if aw:
-                    tgt[..., -d:] = aw * t_ann
+            for e in range(rounds):
+                if e == 0 and start is not None:
+                    tgt = start
+                else:
+                    tgt = ka.vote(feat, ny, nx, hw)
+                    if aw:
+                        tgt[..., -d:] = aw * t_ann
                 ny, nx, _ = ka.patchmatch(feat, tgt, s_ann, s_cl, i, sel, eps, t_ann, s_l, ny, nx, hw=hw,
-                                          iterations=p.iterations, seed=seed * 16 + e, members=order,
+                                          iterations=iters, seed=seed * 16 + e, members=order,
                                           uniformity=p.uniformity * p.patch * p.patch)
-        out = ka.vote(np.concatenate([src_rgb, src_alpha[..., None], Lg], axis=2), ny, nx, hw)
-        lab = _lab(out[..., :3])
-        vals.append(np.concatenate([lab, out[..., 3:4]], axis=2))
-        grads.append(out[..., 4:6])
-        nnfs.append((ny, nx))
-    mean, g = ka.merge_channels(np.stack(vals), np.stack(grads), Wt)
-    if C > 1:
-        L = ka.screened_poisson(mean[..., 0], g[..., 0], g[..., 1], p.gradient_screen)
-        mean[..., 0] = L
-    rgb = _rgb(mean[..., :3]).astype(np.float32)
+            nnfs[i] = (ny, nx)
+            votes.append(ka.vote(out_src, ny, nx, min(hw, 1) if lev == 0 else hw))
+            present.append(True)
+        if C == 1:  # one cluster: its vote is the result; its next scale starts from its own map
+            merged = (votes[0][..., :3], votes[0][..., 3])
+            continue
+        Wl_ = _down(Wt, f)[:hl, :wl] * np.asarray(present, np.float64)
+        Wl_ /= np.maximum(Wl_.sum(axis=2, keepdims=True), 1e-12)
+        merged = meld(np.stack(votes), Wl_, p)
+        melds += 1
+    for i in range(C):
+        if nnfs[i] is None:
+            nnfs[i] = (np.full((h, w), hw, np.int32), np.full((h, w), hw, np.int32))
+    rgb, alpha = merged
     heavy = np.argmax(Wt, axis=2)
     sy = np.choose(heavy, [n[0] for n in nnfs]).astype(np.float32)
     sx = np.choose(heavy, [n[1] for n in nnfs]).astype(np.float32)
-    return dict(rgb=rgb, alpha=mean[..., 3].astype(np.float32), sx=sx, sy=sy,
-                cluster=(heavy + 1).astype(np.uint32), missing=missing, weights=Wt, n_clusters=C)
+    return dict(rgb=rgb.astype(np.float32), alpha=alpha.astype(np.float32), sx=sx, sy=sy,
+                cluster=(heavy + 1).astype(np.uint32), missing=missing, weights=Wt, n_clusters=C, melds=melds)
 
 
 def plain_texture(src_rgb, size: tuple[int, int], p: AnnotatedParams) -> dict:

@@ -73,3 +73,11 @@ def test_cli_exits_2_with_one_line_naming_the_node(tmp_path, capsys):
     assert main(["run", str(g), "-q"]) == 2
     err = [line for line in capsys.readouterr().err.splitlines() if "annotations.light" in line]
     assert len(err) == 1 and "src" in err[0] and "paint it on the photo's pixel grid" in err[0]
+
+
+def test_annotations_param_selects_names_and_refuses_unknown_ones():
+    out = run_node("AnnotatedSourceRead", {"table": str(CREEK / "annotated.yaml"), "annotations": ["light"]})
+    assert out.meta["annotations"] == ["light"] and "ann.scale" not in out
+    with pytest.raises(UserError, match=r"^src: .*'slope' is not in annotated.yaml's annotations \(light, scale\)") as e:
+        run_node("AnnotatedSourceRead", {"table": str(CREEK / "annotated.yaml"), "annotations": ["slope"]}, name="src")
+    assert "\n" not in str(e.value)

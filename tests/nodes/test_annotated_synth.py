@@ -74,6 +74,25 @@ def test_target_mask_limits_the_output_and_the_range_check():
     assert out["A"][mask > 0].min() > 0.99 and out["G"][mask > 0].min() > 0
 
 
+def test_background_is_kept_outside_the_mask_and_covered_inside():
+    src, tgt = two_clusters()
+    mask = np.zeros((N, N), np.float32)
+    mask[10:30, 5:40] = 1
+    rng = np.random.default_rng(4)
+    bg = Plate({c: rng.random((N, N)).astype(np.float32) for c in ("R", "G", "B")} | {"Z": np.ones((N, N), np.float32)},
+               {"frame": 1})
+    alone = run_node("AnnotatedSynth", FAST, {"source": src, "target": tgt.with_channels({"mask": mask})})
+    out = run_node("AnnotatedSynth", FAST, {"source": src, "target": tgt.with_channels({"mask": mask}), "background": bg})
+    m = mask > 0
+    for c in ("R", "G", "B"):
+        np.testing.assert_array_equal(out[c][~m], bg[c][~m])
+        np.testing.assert_allclose(out[c][m], alone[c][m], atol=1e-6)
+    assert np.all(out["Z"] == 1) and np.all(out["A"] == 1) and out.meta["frame"] == 1
+    with pytest.raises(NodeInputError, match="background is 24x48, the target 48x48; render the proxy"):
+        run_node("AnnotatedSynth", FAST, {"source": src, "target": tgt,
+                                          "background": Plate({c: bg[c][:, :24].copy() for c in "RGB"}, {})})
+
+
 def _err(src, tgt, match, params=FAST):
     with pytest.raises(NodeInputError, match=match) as e:
         run_node("AnnotatedSynth", params, {"source": src, "target": tgt}, name="synth")

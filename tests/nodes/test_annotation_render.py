@@ -50,3 +50,15 @@ def test_sun_parameter_without_shadow_plate():
 def test_bad_params(params, match):
     with pytest.raises(NodeInputError, match=f"^ann: {match}"):
         run_node("AnnotationRender", params, {"proxy": proxy(np.random.default_rng(2))}, name="ann")
+
+
+def test_light_range_maps_shaded_and_lit_to_0_and_1():
+    rng = np.random.default_rng(2)
+    p = proxy(rng)
+    plain = run_node("AnnotationRender", {"annotations": {"l": "light"}, "sun": [0, 1, 0]}, {"proxy": p})
+    got = run_node("AnnotationRender", {"annotations": {"l": "light"}, "sun": [0, 1, 0], "light_range": [0.2, 0.6]},
+                   {"proxy": p})
+    m = got["mask"] > 0.5
+    np.testing.assert_allclose(got["ann.l"][m], np.clip((plain["ann.l"][m] - 0.2) / 0.4, 0, 1), atol=1e-6)
+    with pytest.raises(NodeInputError, match="light_range .*0 <= shaded < lit <= 1"):
+        run_node("AnnotationRender", {"annotations": {"l": "light"}, "light_range": [0.6, 0.2]}, {"proxy": p})
