@@ -555,9 +555,11 @@ def cache_clean(graph: Optional[Path] = _GRAPH_ARG,
         n, size = c.info()["entries"], c.size()
         c.clean(label)
         _say(out, f"removed {n} entries ({size_text(size)}) from {c.root}")
-    old = kernels.remove_old()
+    old, in_use = kernels.remove_old()
+    kept = f" and {len(in_use)} other version(s) used in the last hour" if in_use else ""
     _say(out, f"removed compiled kernels of other versions ({len(old)} folder(s) or file(s), "
-              f"{size_text(sum(n for _, n in old))}) from {kernels.root()}; kept this version's ({kernels.folder().name})")
+              f"{size_text(sum(n for _, n in old))}) from {kernels.root()}; kept this version's "
+              f"({kernels.folder().name}){kept}")
 
 
 def _show_warning(message, category, filename, lineno, file=None, line=None):

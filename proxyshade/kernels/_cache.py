@@ -25,6 +25,7 @@ import hashlib
 import json
 import os
 import shutil
+import time
 from pathlib import Path
 
 from proxyshade.io.files import strip_comments, user_cache_dir, write_text_atomic
@@ -145,13 +146,32 @@ def info() -> dict:
             "old": [(p, _bytes(p)) for p in sorted(old)] + [(p, p.stat().st_size) for p in _in_tree()]}
 
 
-def remove_old() -> list[tuple[Path, int]]:
-    """Delete what ``info`` lists as old; returns (path, bytes) of each."""
-    removed = []
+def _last_used(path: Path) -> float:
+    """The newest modification time of a folder or of any file in it (0 when unreadable)."""
+    newest = 0.0
+    for base, _, files in os.walk(path):
+        for f in [base, *(os.path.join(base, f) for f in files)]:
+            try:
+                newest = max(newest, os.lstat(f).st_mtime)
+            except OSError:
+                continue
+    return newest
+
+
+def remove_old(idle: float = 3600.0) -> tuple[list[tuple[Path, int]], list[Path]]:
+    """Delete what ``info`` lists as old, except folders written to in the last ``idle``
+    seconds: another checkout or install of proxyshade on this machine (a second version)
+    may be compiling into it or running from it right now, and numba would fail on a folder
+    removed under it. Returns ((path, bytes) of each removed, the folders kept in use)."""
+    removed, in_use = [], []
+    now = time.time()
     for p, n in info()["old"]:
+        if p.is_dir() and now - _last_used(p) < idle:
+            in_use.append(p)
+            continue
         if p.is_dir():
             shutil.rmtree(p, ignore_errors=True)
         else:
             p.unlink(missing_ok=True)
         removed.append((p, n))
-    return removed
+    return removed, in_use

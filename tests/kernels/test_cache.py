@@ -7,6 +7,7 @@ import json
 import os
 import shutil
 import subprocess
+import time
 import sys
 from pathlib import Path
 
@@ -73,6 +74,13 @@ def test_an_edit_to_a_kernel_module_recompiles_the_kernels_that_inline_it(tmp_pa
     commented = json.loads(child())
     assert commented == dict(edited, hits=1)
 
+    # a version written to in the last hour may be another checkout's, running: kept
+    out = child("from proxyshade.cli import main; main(['cache', 'clean'])")
+    assert "(0 folder(s) or file(s)" in out and "1 other version(s) used in the last hour" in out
+    assert Path(first["folder"]).is_dir()
+    for base, dirs, files in os.walk(first["folder"]):  # idle for two hours: removed
+        for f in [base, *(os.path.join(base, f) for f in files)]:
+            os.utime(f, (time.time() - 7200, time.time() - 7200))
     out = child("from proxyshade.cli import main; main(['cache', 'clean'])")
     assert "compiled kernels of other versions (1 folder(s) or file(s)" in out
     assert sorted(p.name for p in (tmp_path / "numba" / "proxyshade-kernels").iterdir()
