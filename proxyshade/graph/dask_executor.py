@@ -35,6 +35,8 @@ import functools
 import logging
 import os
 import resource
+import socket
+import struct
 import threading
 import time
 import uuid
@@ -56,6 +58,105 @@ def _distributed():
         raise UserError(f"--executor dask needs Dask's distributed scheduler, which is not installed ({e}); "
                         f"install the extra: {EXTRA}") from None
     return distributed
+
+
+# a LocalCluster's housekeeping, made rarer: by default each worker samples its threads' stacks
+# every 10 ms (the dashboard's profile), every server runs an event-loop watchdog every 20 ms and
+# reads psutil every 500 ms; together about 5 % of a core while the cluster is idle
+LOCAL_CONFIG = {
+    "distributed.worker.profile.enabled": False,
+    "distributed.admin.tick.interval": "1s",
+    "distributed.admin.system-monitor.interval": "5s",
+    "distributed.worker.memory.monitor-interval": "1s",
+}
+
+
+def _first_line(e: BaseException) -> str:
+    text = str(e).strip()
+    return text.splitlines()[0][:200] if text else type(e).__name__
+
+
+def _connect_timeout() -> float:
+    """Dask's connect timeout in seconds (``distributed.comm.timeouts.connect``, 30 s by default)."""
+    import dask
+    from dask.utils import parse_timedelta
+
+    return float(parse_timedelta(dask.config.get("distributed.comm.timeouts.connect"), default="seconds"))
+
+
+def _recv(sock: socket.socket, n: int, deadline: float) -> bytes:
+    """Exactly ``n`` bytes before ``deadline`` (``time.monotonic``): TimeoutError, or EOFError
+    when the peer closes first."""
+    buf = bytearray()
+    while len(buf) < n:
+        left = deadline - time.monotonic()
+        if left <= 0:
+            raise TimeoutError
+        sock.settimeout(left)
+        try:
+            chunk = sock.recv(n - len(buf))
+        except socket.timeout:
+            raise TimeoutError from None
+        if not chunk:
+            raise EOFError(bytes(buf))
+        buf += chunk
+    return bytes(buf)
+
+
+def probe_scheduler(address: str, timeout: float) -> None:
+    """Check that ``address`` (tcp://host:port) is a Dask scheduler before Dask's client
+    connects to it: a scheduler greets first, with a small handshake frame (its Python and
+    compression options). Anything else listening there (a service that speaks first, like
+    SSH, would make the client allocate whatever length its first 8 bytes spell; one that
+    waits, like HTTP, would leave it waiting for ever) is a one-line ``UserError`` within
+    ``timeout`` seconds. The scheduler's handshake is echoed back, so it sees a client that
+    came and left. Other schemes (tls://, ucx://) are left to Dask."""
+    from distributed.comm.addressing import parse_address, parse_host_port
+
+    def refuse(why: str, fix: str = "give the address the scheduler printed when it started "
+                                   "(dask scheduler: 'Scheduler at: tcp://host:8786')"):
+        return UserError(f"--scheduler {address}: not a Dask scheduler at {address} ({why}); {fix}")
+
+    try:
+        scheme, loc = parse_address(address, strict=False)
+        if scheme != "tcp":
+            return
+        host, port = parse_host_port(loc)
+    except (ValueError, TypeError) as e:
+        raise UserError(f"--scheduler {address}: not a scheduler address ({_first_line(e)}); "
+                        "give one like tcp://host:8786") from None
+    deadline = time.monotonic() + timeout
+    try:
+        sock = socket.create_connection((host, port), timeout=timeout)
+    except OSError as e:
+        raise UserError(f"--scheduler {address}: cannot connect ({_first_line(e)}); "
+                        "start one (dask scheduler) and give its address, e.g. tcp://host:8786") from None
+    with sock:
+        try:
+            head = _recv(sock, 8, deadline)
+            (size,) = struct.unpack("Q", head)  # the byte count of the frames that follow (distributed.comm.tcp)
+            if not 0 < size <= 1 << 16:
+                with contextlib.suppress(OSError, TimeoutError, EOFError):
+                    head += _recv(sock, 16, min(deadline, time.monotonic() + 0.2))
+                raise refuse(f"it sent {head[:24]!r}, not Dask's handshake")
+            body = _recv(sock, size, deadline)
+        except TimeoutError:
+            raise refuse(f"no Dask handshake within {timeout:g} s (distributed.comm.timeouts.connect)") from None
+        except EOFError as e:
+            raise refuse(f"it closed the connection after {e.args[0][:24]!r}") from None
+        except OSError as e:
+            raise refuse(f"reading its greeting failed: {_first_line(e)}") from None
+        try:
+            from distributed.protocol import loads
+            from distributed.protocol.utils import unpack_frames
+
+            msg = loads(unpack_frames(body))
+        except Exception:  # noqa: BLE001 - any undecodable greeting
+            msg = None
+        if not (isinstance(msg, dict) and "compression" in msg and "python" in msg):
+            raise refuse(f"it sent {(head + body)[:24]!r}, not Dask's handshake")
+        with contextlib.suppress(OSError):
+            sock.sendall(head + body)
 
 
 class _SameKeyFilter(logging.Filter):
@@ -101,15 +202,20 @@ class DaskExecutor:
         d = _distributed()
         logging.getLogger("distributed.scheduler").addFilter(_SameKeyFilter())
         if self.scheduler:
+            timeout = _connect_timeout()
+            probe_scheduler(self.scheduler, timeout)
             try:
-                self.client = d.Client(self.scheduler)  # waits distributed.comm.timeouts.connect (30 s)
+                self.client = d.Client(self.scheduler, timeout=timeout)
             except (OSError, TimeoutError, ValueError) as e:
-                raise UserError(f"--scheduler {self.scheduler}: cannot connect ({str(e).splitlines()[0] if str(e) else type(e).__name__}); "
+                raise UserError(f"--scheduler {self.scheduler}: cannot connect ({_first_line(e)}); "
                                 "start one (dask scheduler) and give its address, e.g. tcp://host:8786") from None
             return
-        self.cluster = d.LocalCluster(n_workers=self.workers, threads_per_worker=1, processes=True,
-                                      host="127.0.0.1", scheduler_port=0, dashboard_address="127.0.0.1:0",
-                                      silence_logs=logging.CRITICAL)
+        import dask
+
+        with dask.config.set(LOCAL_CONFIG):  # the nannies hand it to the workers they start (and restart)
+            self.cluster = d.LocalCluster(n_workers=self.workers, threads_per_worker=1, processes=True,
+                                          host="127.0.0.1", scheduler_port=0, dashboard_address="127.0.0.1:0",
+                                          silence_logs=logging.CRITICAL)
         self.client = d.Client(self.cluster)
 
     def close(self) -> None:

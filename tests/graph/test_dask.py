@@ -291,6 +291,88 @@ def test_an_unreachable_scheduler_is_a_one_line_error(tmp_path, registry, capsys
     assert rc == 2 and len(err) == 1 and f"--scheduler tcp://127.0.0.1:{port}: cannot connect" in err[0], err
 
 
+class _Banner(threading.Thread):
+    """A real TCP service on 127.0.0.1 that is not a Dask scheduler: it greets every
+    connection with ``banner`` (an SSH server does) or, with None, waits for the client to
+    speak (an HTTP server does), holding the connection open until the test ends."""
+
+    def __init__(self, banner: bytes | None):
+        import socket
+
+        super().__init__(daemon=True)
+        self.banner = banner
+        self.sock = socket.socket()
+        self.sock.bind(("127.0.0.1", 0))
+        self.sock.listen()
+        self.address = "tcp://127.0.0.1:%d" % self.sock.getsockname()[1]
+        self.conns = []
+
+    def run(self):
+        while True:
+            try:
+                conn, _ = self.sock.accept()
+            except OSError:
+                return
+            self.conns.append(conn)
+            if self.banner is not None:
+                conn.sendall(self.banner)
+
+    def __enter__(self):
+        self.start()
+        return self
+
+    def __exit__(self, *exc):
+        self.sock.close()
+        for c in self.conns:
+            c.close()
+
+
+@pytest.mark.parametrize("kind", ["ssh", "http"])
+def test_a_scheduler_address_of_another_service_is_a_one_line_error(tmp_path, registry, capsys, monkeypatch, kind):
+    """--scheduler naming a service that speaks first (an SSH banner: Dask's client read its
+    first 8 bytes as a length and asked for exabytes) or one that waits for a request (a
+    silent HTTP server: the client waited for ever): exit 2 within the connect timeout, one
+    line naming the address and what to give instead; nothing written."""
+    import dask
+    from http.server import BaseHTTPRequestHandler, HTTPServer
+
+    monkeypatch.chdir(tmp_path)
+    write_sweep_graph(tmp_path)
+    if kind == "ssh":
+        service = _Banner(b"SSH-2.0-OpenSSH_9.6p1 Ubuntu-3ubuntu13.5\r\n")
+    else:
+        http = HTTPServer(("127.0.0.1", 0), BaseHTTPRequestHandler)
+        service = threading.Thread(target=http.serve_forever, daemon=True)
+        service.address = "tcp://127.0.0.1:%d" % http.server_address[1]
+    service.start()
+    try:
+        done = {}
+
+        def run():
+            with dask.config.set({"distributed.comm.timeouts.connect": "2s"}):
+                done["rc"] = main(["run", "g.yaml", "-q", "--scheduler", service.address])
+
+        t = time.monotonic()
+        runner = threading.Thread(target=run, daemon=True)  # a hang fails the test instead of stalling it
+        runner.start()
+        runner.join(60)
+        seconds = time.monotonic() - t
+        assert not runner.is_alive(), "the run still waits on the service after 60 s"
+        rc = done["rc"]
+    finally:
+        if kind == "ssh":
+            service.__exit__()
+        else:
+            http.shutdown()
+            http.server_close()
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1, err
+    assert f"not a Dask scheduler at {service.address}" in err[0] and "tcp://host:8786" in err[0], err
+    assert ("SSH-2.0" in err[0]) if kind == "ssh" else ("no Dask handshake within 2 s" in err[0]), err
+    assert seconds < 2 + 8  # the connect timeout, plus the CLI's start on a busy machine
+    assert not (tmp_path / "out").exists()
+
+
 def test_a_worker_on_other_code_is_a_one_line_error():
     """A worker whose proxyshade differs from the client's (another version on a farm node)
     refuses to store results under keys that name the client's code."""
