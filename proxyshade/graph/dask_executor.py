@@ -26,9 +26,7 @@ naming ``pip install 'proxyshade[dask]'``.
 """
 from __future__ import annotations
 
-import asyncio
 import collections
-import concurrent.futures
 import contextlib
 import dataclasses
 import functools
@@ -41,13 +39,17 @@ import threading
 import time
 import uuid
 import warnings
-import weakref
 
 import networkx as nx
 
 from proxyshade.errors import UserError
 
 EXTRA = "pip install 'proxyshade[dask]'"
+
+try:  # the worker plugin's base class (``Preload``); without Dask, DaskExecutor names the extra
+    from distributed import WorkerPlugin as _PluginBase
+except ImportError:
+    _PluginBase = object
 
 
 def _distributed():
@@ -188,6 +190,7 @@ class DaskExecutor:
         self.client = None
         self.cluster = None
         self.records: list[dict] = []  # the last run_jobs' task records (worker, pid, start, end, seconds)
+        self._plugins: set[str] = set()  # worker plugins registered on the scheduler
 
     def __enter__(self) -> "DaskExecutor":
         self.start()
@@ -239,6 +242,7 @@ class DaskExecutor:
         futures: dict[str, object] = {}  # Dask key -> future, once per key over every job
         owners: dict[str, list] = collections.defaultdict(list)  # Dask key -> [(job, instance)]
         plans = []
+        self._preload(jobs)
         home = self._homes(jobs)
         for job in jobs:
             plan = job.plan
@@ -266,7 +270,6 @@ class DaskExecutor:
                 self.records.append(dict(res, key=fut.key))
                 for job, inst in owners[fut.key]:
                     _apply(job, inst, res, by_token)
-            client.run(_flush_all)  # every entry on disk before the run reports (a write's failure raised)
         except BaseException:
             client.cancel(list(futures.values()))
             raise
@@ -279,19 +282,56 @@ class DaskExecutor:
                                  + ", ".join(f"{n} on {w}" for w, n in sorted(job.workers.items())))
             job.cleaned += job.graph.cache.remove_stale_temps()  # of workers lost mid-write
 
+    def _preload(self, jobs) -> None:
+        """Every worker (and any that joins or restarts later) loads numpy, the OpenEXR
+        bindings and, when a node to compute reads USD, USD with its plugins on its main thread
+        before it runs a task (``Preload``): what ``graph.load_native_libraries`` does before
+        a local run's threads start (the loader/GIL deadlock of two runs on one cache)."""
+        from proxyshade.graph import keys as K
+
+        usd = any("proxyshade.io.usd" in K.import_closure(type(job.graph.nodes[name]).__module__)
+                  for job in jobs for name, _ in job.todo)
+        name = "proxyshade-preload" + ("-usd" if usd else "")
+        if name not in self._plugins and any(len(job.todo) for job in jobs):
+            self.client.register_plugin(Preload(usd), name=name)
+            self._plugins.add(name)
+
     def _homes(self, jobs) -> dict:
         """id(job) -> submit options placing its instances on one worker, when there are at
-        least as many jobs with work as workers (independent shots): job i prefers worker
-        i mod n, so a shot's chain stays where its source, first frame, previous frame and
-        memoised analyses are in memory. A preference only (``allow_other_workers``): a
-        lost worker's tasks run elsewhere. Fewer jobs than workers: no preference, so one
-        shot's independent instances (proxy renders of every frame) spread."""
+        least as many jobs with work as workers (independent shots), so a shot's chain stays
+        where its source, first frame, previous frame and memoised analyses are in memory.
+        Shots that share keys (one source for two scenes: its read and its analyses) are
+        placed side by side in one list, which is cut into one run of consecutive shots per
+        worker with about equal work (instances to compute): sharing shots land on one
+        worker unless the balance needs them apart. A preference only
+        (``allow_other_workers``): a lost worker's tasks run elsewhere. Fewer jobs than
+        workers: no preference, so one shot's independent instances (proxy renders of every
+        frame) spread."""
         busy = [job for job in jobs if len(job.todo)]
         workers = sorted(self.client.scheduler_info().get("workers", {}))
         if len(workers) < 2 or len(busy) < len(workers):
             return {}
-        return {id(job): {"workers": [workers[i % len(workers)]], "allow_other_workers": True}
-                for i, job in enumerate(busy)}
+        owner: dict[str, int] = {}  # key -> the first job having it
+        group = list(range(len(busy)))  # union-find over jobs sharing a key
+
+        def root(i: int) -> int:
+            while group[i] != i:
+                group[i] = group[group[i]]
+                i = group[i]
+            return i
+
+        for i, job in enumerate(busy):
+            for key in set(job.plan.keys.values()):
+                j = owner.setdefault(key, i)
+                if root(j) != root(i):
+                    group[max(root(i), root(j))] = min(root(i), root(j))
+        order = sorted(range(len(busy)), key=lambda i: (root(i), i))
+        total, done, out = sum(len(busy[i].todo) for i in order), 0, {}
+        for i in order:  # the worker whose share of the work holds the middle of this shot's
+            w = min(len(workers) - 1, int((done + len(busy[i].todo) / 2) * len(workers) / total))
+            out[id(busy[i])] = {"workers": [workers[w]], "allow_other_workers": True}
+            done += len(busy[i].todo)
+        return out
 
 
 def _dask_key(key: str) -> str:
@@ -341,16 +381,43 @@ _USING: dict[int, set[str]] = {}  # thread -> keys its task reads or writes (kep
 # often reads them again (the source, the first frame, the previous frame), without loading
 # them from the cache
 _RECENT: "collections.OrderedDict[tuple[int, str], object]" = collections.OrderedDict()  # (cache id, key) -> cache
-_CACHES: "weakref.WeakSet" = weakref.WeakSet()  # the caches this worker's tasks wrote to
-_RELEASER = concurrent.futures.ThreadPoolExecutor(1, thread_name_prefix="proxyshade-unlock")
+_CACHES: dict[str, object] = {}  # cache folder -> this worker's Cache of it (``_worker_cache``)
 KEEP_MB = float(os.environ.get("PROXYSHADE_WORKER_KEEP_MB", "1024"))
 
 
 @contextlib.contextmanager
 def _key_lock(key: str):
-    """A Dask lock named by the cache key: one worker computes a key at a time."""
-    with _distributed().Lock(f"proxyshade-lock-{key}"):
-        yield
+    """A Dask lock named by the cache key: one worker computes a key at a time (an input
+    found missing or corrupt). Its lease refresh stops once released: each lock object
+    would otherwise keep a periodic callback on the worker's event loop."""
+    lock = _distributed().Lock(f"proxyshade-lock-{key}")
+    try:
+        with lock:
+            yield
+    finally:
+        pc = getattr(lock, "refresh_callback", None)
+        if pc is not None:
+            pc.stop()
+
+
+class Preload(_PluginBase):
+    """A worker plugin: numpy, the OpenEXR bindings and (``usd``) USD with every plugin,
+    loaded on the worker's main thread when it joins, before its first task
+    (``DaskExecutor._preload``)."""
+
+    idempotent = True
+
+    def __init__(self, usd: bool):
+        self.usd = usd
+
+    def setup(self, worker) -> None:
+        from proxyshade.graph.graph import load_array_libraries
+
+        load_array_libraries()
+        if self.usd:
+            from proxyshade.io.usd import load_plugins
+
+            load_plugins()
 
 
 def _recomputed(run) -> None:
@@ -406,6 +473,7 @@ def _task(plan, by: tuple, inst: tuple[str, int], forced: bool, *deps) -> dict:
     t_start = time.time()
     _capture_warnings()
     g = plan.graph
+    g.cache = _worker_cache(g.cache)
     g.key_lock, g.on_recompute = _key_lock, _recomputed
     g.tile_runner = functools.partial(_tiles, plan.threads)  # each instance a runner of its own
     key = plan.keys[inst]
@@ -423,7 +491,6 @@ def _task(plan, by: tuple, inst: tuple[str, int], forced: bool, *deps) -> dict:
             t = time.perf_counter()
             g._compute(plan, inst, nr)
             nr.seconds = time.perf_counter() - t
-            _hand_over(g.cache, key)
         return {"by": by, "status": nr.status, "reason": nr.reason, "seconds": nr.seconds, "notes": list(nr.notes),
                 "memo": [nr.memo_hits, nr.memo_misses],
                 "warnings": _LOCAL.warnings, "recomputed": _LOCAL.recomputed, "worker": _distributed().get_worker().address,
@@ -446,36 +513,24 @@ def _tiles(threads: int):
     return DaskTiles(setup=functools.partial(set_kernel_threads, threads))
 
 
-def _hand_over(cache, key: str) -> None:
-    """The task is done before its entry is written: the entry's Dask lock is held until the
-    write ends, so a task on another worker that reads the key waits for it (``Graph._value``
-    loads an entry missing at first under that lock) while this worker computes on."""
-    _CACHES.add(cache)
-    fut = cache.writing(key)
-    if fut is None:
-        return
-    lock = _distributed().Lock(f"proxyshade-lock-{key}")
-    lock.acquire()
-    fut.add_done_callback(lambda f: _RELEASER.submit(_release, lock))  # the writer thread writes on
+def _worker_cache(cache):
+    """This worker's cache object for ``cache``'s folder, shared by every graph (shot) whose
+    tasks run here: a plate one shot computed or loaded (a source two shots read) is in
+    memory for the other. Its writes are synchronous: a task ends once its entry is on disk,
+    so a task on another worker that reads it finds it whole (no lock to hand it over, no
+    write left to wait for), and a failed write fails the task. The worker's cores are busy
+    with the other tasks meanwhile (one task per core)."""
+    from proxyshade.graph.cache import Cache
 
-
-def _release(lock) -> None:
-    try:
-        lock.release()
-    except Exception:  # noqa: BLE001 - a lease already expired: nothing is held
-        pass
-
-
-async def _flush_all() -> int:
-    """Wait for this worker's background writes (every run's), re-raising the first failure;
-    on a thread, so the worker's event loop stays free to release the entries' locks."""
-    def flush() -> int:
-        caches = list(_CACHES)
-        for c in caches:
-            c.flush()
-        return len(caches)
-
-    return await asyncio.get_running_loop().run_in_executor(None, flush)
+    if getattr(cache, "_worker_shared", False):
+        return cache
+    root = str(cache.root.absolute())
+    with _GUARD:
+        shared = _CACHES.get(root)
+        if shared is None:
+            shared = _CACHES[root] = Cache(root, background=False)
+            shared._worker_shared = True
+    return shared
 
 
 def _keep_recent(cache, used: list[str], busy: set[str]) -> None:
