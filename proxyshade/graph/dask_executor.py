@@ -9,17 +9,24 @@ graphs (shots, variants) as tasks on worker processes sharing one cache folder.
 Every instance the cache lacks is one task whose Dask key is ``proxyshade-<cache key>``,
 depending on the tasks of the instances it reads: what needs the previous frame waits for
 it, everything else (proxy renders of all frames, independent shots) spreads over the
-workers. The scheduler runs a key once however many graphs or clients (other runs on the
-same scheduler) submit it: the others wait for it. Plates never travel through Dask: a task
-reads its inputs from the cache, stores its result there and returns a small record (its
-row of the report, warnings, the worker's peak memory), so the cache folder must be one
-folder for every worker (a shared filesystem on a farm).
+workers; independent shots each prefer one worker, shots sharing keys the same one
+(``_homes``). The scheduler runs a key once however many graphs or clients (other runs on
+the same scheduler) submit it: the others wait for it. Plates never travel through Dask: a
+task reads its inputs from its worker's memory or the cache, writes its entry to the cache
+before it ends and returns a small record (its row of the report, warnings, the worker's
+peak memory), so the cache folder must be one folder for every worker (a shared
+filesystem on a farm). A worker plugin (``Preload``) loads the native libraries on each
+worker's main thread before its first task, as ``graph.load_native_libraries`` does for a
+local run.
 
 A worker that dies mid-task leaves at most a temporary (removed once its process is gone)
 and never an entry (entries are renamed into place, the record last, first writer wins);
 the scheduler runs the task again on another worker. An input found missing or corrupt by
 a task is computed under a Dask lock named by its key, so two workers never compute it
 together (the second loads the first's result).
+
+``--scheduler``'s address is checked first (``probe_scheduler``): something other than a
+Dask scheduler listening there is a one-line error within the connect timeout.
 
 Dask is an optional extra: without it, ``DaskExecutor`` raises a one-line ``UserError``
 naming ``pip install 'proxyshade[dask]'``.

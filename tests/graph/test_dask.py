@@ -122,9 +122,12 @@ def test_the_correction_in_row_bands_on_two_workers_is_bit_identical(tmp_path, m
     assert sum(t["key"].startswith("_band") for t in ts.data) >= 8  # the sub-passes ran as bands
 
 
-def test_a_killed_worker_is_replaced_and_the_run_completes(tmp_path, dask_ex, registry):
-    """kill -9 of the worker computing frame 1: the scheduler runs the task again on
-    another worker; outputs equal a local run's and every cache entry is whole."""
+def test_a_killed_worker_is_replaced_and_the_run_completes(tmp_path, registry):
+    """kill -9 of the worker computing frame 1: the scheduler runs the task again in another
+    process (the other worker, or the nanny's replacement if it is up first); outputs equal
+    a local run's and every cache entry is whole. A cluster of its own: however long the
+    replacement takes to start on a busy machine, no other test waits for it, and this one
+    does not need it (the surviving worker finishes the run)."""
     ref = tmp_path / "ref"
     ref.mkdir()
     slow_graph(ref, seconds=0.0).run()
@@ -132,16 +135,21 @@ def test_a_killed_worker_is_replaced_and_the_run_completes(tmp_path, dask_ex, re
     killed = []
 
     def kill_first_compute():
-        while not log.exists() or not log.read_text():
+        deadline = time.monotonic() + 300
+        while time.monotonic() < deadline:
+            text = log.read_text() if log.exists() else ""
+            if "\n" in text:  # a whole line: 'node frame pid'
+                pid = int(text.split("\n", 1)[0].split()[2])
+                os.kill(pid, signal.SIGKILL)
+                killed.append(pid)
+                return
             time.sleep(0.02)
-        _, _, pid = computes(log)[0]
-        os.kill(pid, signal.SIGKILL)
-        killed.append(pid)
 
-    killer = threading.Thread(target=kill_first_compute)
-    killer.start()
-    r = slow_graph(tmp_path, seconds=1.5).run(executor=dask_ex)
-    killer.join()
+    with DaskExecutor(workers=2) as ex:
+        killer = threading.Thread(target=kill_first_compute, daemon=True)
+        killer.start()
+        r = slow_graph(tmp_path, seconds=1.5).run(executor=ex)
+        killer.join(5)
     assert killed and all(x.status == "computed" for x in r.runs)
     done = computes(log)
     assert done[0][2] == killed[0] and [c[:2] for c in done].count(done[0][:2]) == 2  # its task ran again
@@ -150,7 +158,6 @@ def test_a_killed_worker_is_replaced_and_the_run_completes(tmp_path, dask_ex, re
     intact = entries_intact(tmp_path / "cache")
     assert len(intact) == 8 and all(intact.values())
     assert not [p for p in (tmp_path / "cache").rglob(".*") if ".tmp" in p.name]
-    dask_ex.client.wait_for_workers(2, timeout=180)  # the nanny restarts the worker (slow on a busy machine)
 
 
 def test_two_concurrent_runs_on_one_scheduler_compute_each_key_once(tmp_path, dask_ex, registry):
@@ -216,7 +223,6 @@ def test_several_graphs_share_their_common_keys(tmp_path, dask_ex, registry):
 def test_independent_shots_each_stay_on_one_worker(tmp_path, dask_ex, registry):
     """As many shots as workers: each shot's chain runs on one worker (its plates and
     memoised analyses stay in that worker's memory), the shots on different workers."""
-    dask_ex.client.wait_for_workers(2, timeout=180)  # both workers up (one may be restarting after a kill)
     a, b = slow_graph(tmp_path, "a", 0.05), slow_graph(tmp_path, "b", 0.05)
     b.set("slow.value", 1.5)
     run_graphs([(a, None), (b, None)], executor=dask_ex, labels=["shot a", "shot b"])
