@@ -1,11 +1,13 @@
 """The Dask executor against the local one (issue: run the same graphs on Dask).
 
-  shots      4 shots x 12 frames of graphs/camera_move.yaml at ``--size`` (default 256 wide;
-             synthesis 64, start 16): lake/renoir, cliffs/monet, farm/creek and lake/renoir
-             with other seeds (a variant). Local executor (this process, the graphs one after
-             the other, every core to each kernel) against a LocalCluster of 2 worker
-             processes (the 4 graphs at once, one numba thread per worker); fresh cache each
-             repetition, median wall time and the ratio. Bar: >= 1.6x on 2 cores.
+  shots      the issue's four independent shots as the command a user types: ``proxyshade run
+             graphs/camera_move.yaml --frames 1-12 --sweep source=renoir,creek --sweep
+             scene=lake,farm --threads 1`` at ``--size`` wide (default the graph's 512; smaller:
+             synthesis a quarter of it), each time from a fresh plate cache (numba's kernel cache
+             warm), local executor (``--jobs 1``) and ``--executor dask --workers 2``,
+             interleaved. Wall time, CPU of the command (the client: scheduler and nannies live
+             in it) and of the processes it reaped (the workers); medians, the ratios, and
+             whether the two runs' outputs are byte-identical. Bars: >= 1.7x wall, CPU <= 1.1x.
   overhead   a chain of 100 tiny instances (each reads the previous frame's, nothing else to
              run): per task, the time between a task's end and the next one's start on the
              workers (the scheduler's round trip), median. Bar: <= 5 ms. The wall time per task
@@ -18,7 +20,7 @@
              folder: every computed key is counted from the runs' rows and from the cache's
              records; no key may be computed twice.
 
-Run: ``python bench/run.py dask`` (``python bench/bench_dask.py --size 256 --repeat 3``).
+Run: ``python bench/run.py dask`` (``python bench/bench_dask.py --only shots --size 256 --frames 6``).
 The machine's load is printed with each figure (2 shared cores: medians of several runs).
 """
 from __future__ import annotations
@@ -157,7 +159,7 @@ def bench_overhead(frames: int = 100, repeat: int = 3) -> None:
             walls.append(wall / len([x for x in r.runs if x.status == "computed"]))
             recs = sorted((x for x in ex.records), key=lambda x: x["start"])
             by_key = {x.key: x for x in r.runs}
-            chain = [x for x in recs if by_key[x["key"].removeprefix("proxyshade-")].node == "s"]
+            chain = [x for x in recs if by_key[x["cache_key"]].node == "s"]
             gaps += [b["start"] - a["end"] for a, b in zip(chain, chain[1:])]
             own += [(x["end"] - x["start"]) - x["seconds"] for x in recs]
     print(f"between a task's end and the next one's start: median {1e3 * statistics.median(gaps):.2f} ms "

@@ -247,6 +247,10 @@ class DaskExecutor:
         d = _distributed()
         client = self.client
         futures: dict[str, object] = {}  # Dask key -> future, once per key over every job
+        dkeys: dict[str, str] = {}  # cache key -> its Dask key in this run
+        # a scheduler other runs may submit to (_dask_key); a LocalCluster this executor started
+        # serves this run alone: its tasks take no lock
+        shared = self.cluster is None
         owners: dict[str, list] = collections.defaultdict(list)  # Dask key -> [(job, instance)]
         plans = []
         self._preload(jobs)
@@ -262,11 +266,14 @@ class DaskExecutor:
             shipped = dataclasses.replace(plan, rows={})  # the rows are the client's report
             plans.append(client.scatter(shipped, broadcast=True, hash=False))
             for inst in nx.lexicographical_topological_sort(job.todo, key=str):
-                key = _dask_key(plan.keys[inst])
-                if key not in futures:
-                    deps = [futures[_dask_key(plan.keys[p])] for p in job.todo.predecessors(inst)]
-                    futures[key] = client.submit(_task, plans[-1], (job.token, inst), inst, inst[0] in plan.force,
-                                                 *deps, key=key, pure=False, **home.get(id(job), {}))
+                ck = plan.keys[inst]
+                if ck not in dkeys:
+                    deps = [futures[dkeys[plan.keys[p]]] for p in job.todo.predecessors(inst)]
+                    dkeys[ck] = _dask_key(ck, [f.key for f in deps] if shared else ())
+                    futures[dkeys[ck]] = client.submit(_task, plans[-1], (job.token, inst), inst, inst[0] in plan.force,
+                                                       shared, *deps, key=dkeys[ck], pure=False,
+                                                       **home.get(id(job), {}))
+                key = dkeys[ck]
                 owners[key].append((job, inst))
                 job.hooks.start(job.runs[inst])
         by_token = {job.token: job for job in jobs}
@@ -341,8 +348,19 @@ class DaskExecutor:
         return out
 
 
-def _dask_key(key: str) -> str:
-    return f"proxyshade-{key}"
+def _dask_key(key: str, deps=()) -> str:
+    """The Dask key of a cache key's task: ``proxyshade-<key>``, and on a scheduler that other
+    runs share, a digest of the Dask keys it depends on. Two runs that planned alike submit
+    the same key and share its task; two that found different inputs already stored (one
+    planned after the other's tasks wrote them) submit different keys: Dask's scheduler does
+    not support one key with two sets of dependencies (it warns of deadlocks, and a client
+    waited for ever). Those tasks compute the key under a Dask lock named by it, the second
+    finding the first's entry (``_task``)."""
+    if not deps:
+        return f"proxyshade-{key}"
+    import hashlib
+
+    return f"proxyshade-{key}-{hashlib.sha256(' '.join(sorted(deps)).encode()).hexdigest()[:12]}"
 
 
 def _apply(job, inst, res: dict, by_token: dict) -> None:
@@ -471,7 +489,7 @@ def _check_code(cls: type, want: str) -> None:
                         "library versions differ); install the same proxyshade and libraries on every worker")
 
 
-def _task(plan, by: tuple, inst: tuple[str, int], forced: bool, *deps) -> dict:
+def _task(plan, by: tuple, inst: tuple[str, int], forced: bool, shared: bool, *deps) -> dict:
     """Compute one instance on a worker (its inputs from the cache, its entry to the cache)
     unless another run stored its key meanwhile; returns its record for the client. ``plan``
     is the run's (one copy per worker), ``deps`` the records of the tasks it waits for."""
@@ -491,14 +509,15 @@ def _task(plan, by: tuple, inst: tuple[str, int], forced: bool, *deps) -> dict:
     with _GUARD:
         _USING[me] = {key} | plan.held_keys(inst)
     try:
-        ok, why = (False, "") if forced else g.cache.has(key)
-        if ok:
-            nr.status, nr.reason = "reused", f"stored meanwhile by another run ({why})"
-        else:
-            t = time.perf_counter()
-            g._compute(plan, inst, nr)
-            nr.seconds = time.perf_counter() - t
-        return {"by": by, "status": nr.status, "reason": nr.reason, "seconds": nr.seconds, "notes": list(nr.notes),
+        with _key_lock(key) if shared else contextlib.nullcontext():  # other runs' tasks of this key
+            ok, why = (False, "") if forced else g.cache.has(key)
+            if ok:
+                nr.status, nr.reason = "reused", f"stored meanwhile by another run ({why})"
+            else:
+                t = time.perf_counter()
+                g._compute(plan, inst, nr)
+                nr.seconds = time.perf_counter() - t
+        return {"by": by, "cache_key": key, "status": nr.status, "reason": nr.reason, "seconds": nr.seconds, "notes": list(nr.notes),
                 "memo": [nr.memo_hits, nr.memo_misses],
                 "warnings": _LOCAL.warnings, "recomputed": _LOCAL.recomputed, "worker": _distributed().get_worker().address,
                 "pid": os.getpid(), "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
