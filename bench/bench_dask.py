@@ -1,11 +1,13 @@
 """The Dask executor against the local one (issue: run the same graphs on Dask).
 
-  shots      4 shots x 12 frames of graphs/camera_move.yaml at ``--size`` (default 256 wide;
-             synthesis 64, start 16): lake/renoir, cliffs/monet, farm/creek and lake/renoir
-             with other seeds (a variant). Local executor (this process, the graphs one after
-             the other, every core to each kernel) against a LocalCluster of 2 worker
-             processes (the 4 graphs at once, one numba thread per worker); fresh cache each
-             repetition, median wall time and the ratio. Bar: >= 1.6x on 2 cores.
+  shots      the issue's four independent shots as the command a user types: ``proxyshade run
+             graphs/camera_move.yaml --frames 1-12 --sweep source=renoir,creek --sweep
+             scene=lake,farm --threads 1`` at ``--size`` wide (default the graph's 512; smaller:
+             synthesis a quarter of it), each time from a fresh plate cache (numba's kernel cache
+             warm), local executor (``--jobs 1``) and ``--executor dask --workers 2``,
+             interleaved. Wall time, CPU of the command (the client: scheduler and nannies live
+             in it) and of the processes it reaped (the workers); medians, the ratios, and
+             whether the two runs' outputs are byte-identical. Bars: >= 1.7x wall, CPU <= 1.1x.
   overhead   a chain of 100 tiny instances (each reads the previous frame's, nothing else to
              run): per task, the time between a task's end and the next one's start on the
              workers (the scheduler's round trip), median. Bar: <= 5 ms. The wall time per task
@@ -18,7 +20,7 @@
              folder: every computed key is counted from the runs' rows and from the cache's
              records; no key may be computed twice.
 
-Run: ``python bench/run.py dask`` (``python bench/bench_dask.py --size 256 --repeat 3``).
+Run: ``python bench/run.py dask`` (``python bench/bench_dask.py --only shots --size 256 --frames 6``).
 The machine's load is printed with each figure (2 shared cores: medians of several runs).
 """
 from __future__ import annotations
@@ -26,6 +28,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import shutil
 import statistics
 import sys
 import tempfile
@@ -57,48 +60,79 @@ def shot(scene: str, source: str, seed: int, size: int, cache: Path, out: Path) 
                       variables={"scene": scene, "source": source, "out": str(out / f"seed{seed}")})
 
 
-def cpu_seconds(executor) -> float:
-    """CPU seconds used so far by this process and, on Dask, by the workers."""
-    import resource
+# the command's own CPU and that of the processes it started and reaped (Dask's workers), written
+# when it returns: the client's share and the workers' apart
+WRAP = """import json, resource, sys
+from proxyshade.cli import main
+rc = main(sys.argv[2:])
+s, c = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+open(sys.argv[1], "w").write(json.dumps({"client": s.ru_utime + s.ru_stime, "children": c.ru_utime + c.ru_stime}))
+sys.exit(rc)
+"""
 
-    def own() -> float:
-        r = resource.getrusage(resource.RUSAGE_SELF)
-        return r.ru_utime + r.ru_stime
 
-    workers = executor.client.run(own).values() if isinstance(executor, DaskExecutor) else ()
-    return own() + sum(workers)
+def command(size: int, frames: int, folder: Path, dask: bool) -> list[str]:
+    """The issue's run: camera_move.yaml, frames 1-N, sources x scenes swept (4 shots), fresh
+    cache in ``folder``; the local executor with 1 job and 1 thread, or 2 Dask workers of 1 thread."""
+    args = ["run", str(ROOT / "graphs" / "camera_move.yaml"), "--frames", f"1-{frames}", "--sweep", "source=renoir,creek",
+            "--sweep", "scene=lake,farm", "--cache", str(folder / "cache"), "--var", f"out={folder / 'out'}", "-q",
+            "--threads", "1"]
+    if size != 512:  # the graph's own width is 512 (synthesis 128); smaller: synthesis a quarter of it
+        args += ["--set", f"proxy.resolution=[{size},null]", "--set", f"guide.size={size // 4}",
+                 "--set", f"guide.start={min(32, size // 8)}"]
+    return args + (["--executor", "dask", "--workers", "2"] if dask else ["--jobs", "1"])
 
 
-def shots_wall(executor, size: int, frames: list[int], cpu: list | None = None) -> float:
-    with tempfile.TemporaryDirectory() as d:
-        gs = [(shot(*s, size, Path(d) / "cache", Path(d) / "out"), frames) for s in SHOTS]
-        c = cpu_seconds(executor)
-        t = time.perf_counter()
-        run_graphs(gs, executor=executor)
-        wall = time.perf_counter() - t
-        if cpu is not None:
-            cpu.append(cpu_seconds(executor) - c)
-        return wall
+def run_command(size: int, frames: int, folder: Path, dask: bool) -> dict:
+    """Wall seconds, the command's CPU seconds and its children's (the workers), as a new
+    process from a fresh cache: process start, imports, kernels loaded from numba's cache."""
+    import subprocess
+
+    cpu = folder / "cpu.json"
+    t = time.perf_counter()
+    r = subprocess.run([sys.executable, "-c", WRAP, str(cpu), *command(size, frames, folder, dask)],
+                       cwd=ROOT, capture_output=True, text=True)
+    wall = time.perf_counter() - t
+    if r.returncode != 0:
+        raise SystemExit(f"proxyshade run failed ({r.returncode}): {r.stderr[-2000:]}")
+    c = json.loads(cpu.read_text())
+    return {"wall": wall, "client": c["client"], "workers": c["children"], "cpu": c["client"] + c["children"]}
+
+
+def outputs(folder: Path) -> dict[str, bytes]:
+    return {str(p.relative_to(folder)): p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()}
 
 
 def bench_shots(size: int, repeat: int, frames: int) -> None:
-    fl = list(range(1, frames + 1))
-    print(f"\n## 4 shots x {frames} frames, camera_move at {size} wide (synthesis {size // 4})")
-    local = make_executor(1)
-    shots_wall(local, size, fl[:2])  # warm-up: numba kernels loaded in this process
-    c_local, c_dask = [], []
-    t_local = [shots_wall(local, size, fl, c_local) for _ in range(repeat)]
-    print(f"local executor (1 job, every core per kernel): median {statistics.median(t_local):7.2f} s "
-          f"(min {min(t_local):.2f}, max {max(t_local):.2f}; CPU {statistics.median(c_local):.1f} s; {load()})")
-    t0 = time.perf_counter()
-    with DaskExecutor(workers=2) as ex:
-        print(f"LocalCluster of 2 workers started in {time.perf_counter() - t0:.2f} s")
-        shots_wall(ex, size, fl[:2])  # warm-up: each worker loads the kernels from numba's cache
-        t_dask = [shots_wall(ex, size, fl, c_dask) for _ in range(repeat)]
-    print(f"dask, 2 workers:                            median {statistics.median(t_dask):7.2f} s "
-          f"(min {min(t_dask):.2f}, max {max(t_dask):.2f}; CPU {statistics.median(c_dask):.1f} s, client and "
-          f"workers; {load()})")
-    print(f"ratio local / dask: {statistics.median(t_local) / statistics.median(t_dask):.2f}x (bar >= 1.6x)")
+    """The issue's four shots as the command a user types, local (1 job, 1 thread) and on
+    Dask (2 workers, 1 thread each), interleaved (L D L D ...), fresh caches each time."""
+    print(f"\n## 4 shots x {frames} frames of camera_move.yaml at {size} wide (--sweep source=renoir,creek "
+          f"--sweep scene=lake,farm), the command from a fresh cache, interleaved, {repeat} rounds")
+    print("   " + " ".join(command(size, frames, Path("DIR"), True)))
+    rows = {"local": [], "dask": []}
+    same = None
+    with tempfile.TemporaryDirectory() as d:
+        run_command(128, 2, Path(d) / "warm", False)  # kernels compiled (numba's cache) before anything is timed
+        for i in range(repeat):
+            for mode in ("local", "dask"):
+                folder = Path(d) / f"{mode}{i}"
+                r = run_command(size, frames, folder, mode == "dask")
+                r["load"] = os.getloadavg()[0]
+                rows[mode].append(r)
+                print(f"   round {i + 1} {mode:<5} wall {r['wall']:6.1f} s  CPU {r['cpu']:6.1f} s (client "
+                      f"{r['client']:5.1f}, workers {r['workers']:5.1f})  load {r['load']:.1f}", flush=True)
+            if i == 0:
+                same = outputs(Path(d) / "local0" / "out") == outputs(Path(d) / "dask0" / "out")
+            for mode in ("local", "dask"):
+                shutil.rmtree(Path(d) / f"{mode}{i}")
+    med = {m: {k: statistics.median(r[k] for r in rs) for k in ("wall", "cpu", "client", "workers", "load")}
+           for m, rs in rows.items()}
+    L, D = med["local"], med["dask"]
+    print(f"local, 1 job x 1 thread:        wall {L['wall']:6.1f} s, CPU {L['cpu']:6.1f} s  (medians; load {L['load']:.1f})")
+    print(f"dask, 2 workers x 1 thread:     wall {D['wall']:6.1f} s, CPU {D['cpu']:6.1f} s = client {D['client']:.1f} + "
+          f"workers {D['workers']:.1f}  (load {D['load']:.1f})")
+    print(f"wall: dask {L['wall'] / D['wall']:.2f}x faster (bar >= 1.7x); CPU: dask / local {D['cpu'] / L['cpu']:.2f}x "
+          f"(bar <= 1.1x), client alone {D['client'] / L['cpu']:.2f}x; outputs identical: {'yes' if same else 'NO'}")
 
 
 def chain_graph(cache: Path, frames: int) -> Graph:
@@ -125,7 +159,7 @@ def bench_overhead(frames: int = 100, repeat: int = 3) -> None:
             walls.append(wall / len([x for x in r.runs if x.status == "computed"]))
             recs = sorted((x for x in ex.records), key=lambda x: x["start"])
             by_key = {x.key: x for x in r.runs}
-            chain = [x for x in recs if by_key[x["key"].removeprefix("proxyshade-")].node == "s"]
+            chain = [x for x in recs if by_key[x["cache_key"]].node == "s"]
             gaps += [b["start"] - a["end"] for a, b in zip(chain, chain[1:])]
             own += [(x["end"] - x["start"]) - x["seconds"] for x in recs]
     print(f"between a task's end and the next one's start: median {1e3 * statistics.median(gaps):.2f} ms "
@@ -203,9 +237,10 @@ def bench_tiles(repeat: int) -> None:
 
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser()
-    ap.add_argument("--size", type=int, default=256)
+    ap.add_argument("--size", type=int, default=512)
     ap.add_argument("--frames", type=int, default=12)
     ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--farm-size", type=int, default=256)
     ap.add_argument("--only", choices=("shots", "overhead", "farm", "tiles"), action="append")
     a = ap.parse_known_args(argv)[0]  # bench/run.py passes bench names too
     only = set(a.only or ("shots", "overhead", "farm"))
@@ -214,7 +249,7 @@ def main(argv=None) -> None:
     if "shots" in only:
         bench_shots(a.size, a.repeat, a.frames)
     if "farm" in only:
-        bench_farm(a.size, a.frames)
+        bench_farm(a.farm_size, a.frames)
     if "tiles" in only:
         bench_tiles(max(1, a.repeat // 2))
 

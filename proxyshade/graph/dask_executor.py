@@ -9,11 +9,15 @@ graphs (shots, variants) as tasks on worker processes sharing one cache folder.
 Every instance the cache lacks is one task whose Dask key is ``proxyshade-<cache key>``,
 depending on the tasks of the instances it reads: what needs the previous frame waits for
 it, everything else (proxy renders of all frames, independent shots) spreads over the
-workers. The scheduler runs a key once however many graphs or clients (other runs on the
-same scheduler) submit it: the others wait for it. Plates never travel through Dask: a task
-reads its inputs from the cache, stores its result there and returns a small record (its
-row of the report, warnings, the worker's peak memory), so the cache folder must be one
-folder for every worker (a shared filesystem on a farm).
+workers; independent shots each prefer one worker, shots sharing keys the same one
+(``_homes``). The scheduler runs a key once however many graphs or clients (other runs on
+the same scheduler) submit it: the others wait for it. Plates never travel through Dask: a
+task reads its inputs from its worker's memory or the cache, writes its entry to the cache
+before it ends and returns a small record (its row of the report, warnings, the worker's
+peak memory), so the cache folder must be one folder for every worker (a shared
+filesystem on a farm). A worker plugin (``Preload``) loads the native libraries on each
+worker's main thread before its first task, as ``graph.load_native_libraries`` does for a
+local run.
 
 A worker that dies mid-task leaves at most a temporary (removed once its process is gone)
 and never an entry (entries are renamed into place, the record last, first writer wins);
@@ -21,31 +25,38 @@ the scheduler runs the task again on another worker. An input found missing or c
 a task is computed under a Dask lock named by its key, so two workers never compute it
 together (the second loads the first's result).
 
+``--scheduler``'s address is checked first (``probe_scheduler``): something other than a
+Dask scheduler listening there is a one-line error within the connect timeout.
+
 Dask is an optional extra: without it, ``DaskExecutor`` raises a one-line ``UserError``
 naming ``pip install 'proxyshade[dask]'``.
 """
 from __future__ import annotations
 
-import asyncio
 import collections
-import concurrent.futures
 import contextlib
 import dataclasses
 import functools
 import logging
 import os
 import resource
+import socket
+import struct
 import threading
 import time
 import uuid
 import warnings
-import weakref
 
 import networkx as nx
 
 from proxyshade.errors import UserError
 
 EXTRA = "pip install 'proxyshade[dask]'"
+
+try:  # the worker plugin's base class (``Preload``); without Dask, DaskExecutor names the extra
+    from distributed import WorkerPlugin as _PluginBase
+except ImportError:
+    _PluginBase = object
 
 
 def _distributed():
@@ -56,6 +67,105 @@ def _distributed():
         raise UserError(f"--executor dask needs Dask's distributed scheduler, which is not installed ({e}); "
                         f"install the extra: {EXTRA}") from None
     return distributed
+
+
+# a LocalCluster's housekeeping, made rarer: by default each worker samples its threads' stacks
+# every 10 ms (the dashboard's profile), every server runs an event-loop watchdog every 20 ms and
+# reads psutil every 500 ms; together about 5 % of a core while the cluster is idle
+LOCAL_CONFIG = {
+    "distributed.worker.profile.enabled": False,
+    "distributed.admin.tick.interval": "1s",
+    "distributed.admin.system-monitor.interval": "5s",
+    "distributed.worker.memory.monitor-interval": "1s",
+}
+
+
+def _first_line(e: BaseException) -> str:
+    text = str(e).strip()
+    return text.splitlines()[0][:200] if text else type(e).__name__
+
+
+def _connect_timeout() -> float:
+    """Dask's connect timeout in seconds (``distributed.comm.timeouts.connect``, 30 s by default)."""
+    import dask
+    from dask.utils import parse_timedelta
+
+    return float(parse_timedelta(dask.config.get("distributed.comm.timeouts.connect"), default="seconds"))
+
+
+def _recv(sock: socket.socket, n: int, deadline: float) -> bytes:
+    """Exactly ``n`` bytes before ``deadline`` (``time.monotonic``): TimeoutError, or EOFError
+    when the peer closes first."""
+    buf = bytearray()
+    while len(buf) < n:
+        left = deadline - time.monotonic()
+        if left <= 0:
+            raise TimeoutError
+        sock.settimeout(left)
+        try:
+            chunk = sock.recv(n - len(buf))
+        except socket.timeout:
+            raise TimeoutError from None
+        if not chunk:
+            raise EOFError(bytes(buf))
+        buf += chunk
+    return bytes(buf)
+
+
+def probe_scheduler(address: str, timeout: float) -> None:
+    """Check that ``address`` (tcp://host:port) is a Dask scheduler before Dask's client
+    connects to it: a scheduler greets first, with a small handshake frame (its Python and
+    compression options). Anything else listening there (a service that speaks first, like
+    SSH, would make the client allocate whatever length its first 8 bytes spell; one that
+    waits, like HTTP, would leave it waiting for ever) is a one-line ``UserError`` within
+    ``timeout`` seconds. The scheduler's handshake is echoed back, so it sees a client that
+    came and left. Other schemes (tls://, ucx://) are left to Dask."""
+    from distributed.comm.addressing import parse_address, parse_host_port
+
+    def refuse(why: str, fix: str = "give the address the scheduler printed when it started "
+                                   "(dask scheduler: 'Scheduler at: tcp://host:8786')"):
+        return UserError(f"--scheduler {address}: not a Dask scheduler at {address} ({why}); {fix}")
+
+    try:
+        scheme, loc = parse_address(address, strict=False)
+        if scheme != "tcp":
+            return
+        host, port = parse_host_port(loc)
+    except (ValueError, TypeError) as e:
+        raise UserError(f"--scheduler {address}: not a scheduler address ({_first_line(e)}); "
+                        "give one like tcp://host:8786") from None
+    deadline = time.monotonic() + timeout
+    try:
+        sock = socket.create_connection((host, port), timeout=timeout)
+    except OSError as e:
+        raise UserError(f"--scheduler {address}: cannot connect ({_first_line(e)}); "
+                        "start one (dask scheduler) and give its address, e.g. tcp://host:8786") from None
+    with sock:
+        try:
+            head = _recv(sock, 8, deadline)
+            (size,) = struct.unpack("Q", head)  # the byte count of the frames that follow (distributed.comm.tcp)
+            if not 0 < size <= 1 << 16:
+                with contextlib.suppress(OSError, TimeoutError, EOFError):
+                    head += _recv(sock, 16, min(deadline, time.monotonic() + 0.2))
+                raise refuse(f"it sent {head[:24]!r}, not Dask's handshake")
+            body = _recv(sock, size, deadline)
+        except TimeoutError:
+            raise refuse(f"no Dask handshake within {timeout:g} s (distributed.comm.timeouts.connect)") from None
+        except EOFError as e:
+            raise refuse(f"it closed the connection after {e.args[0][:24]!r}") from None
+        except OSError as e:
+            raise refuse(f"reading its greeting failed: {_first_line(e)}") from None
+        try:
+            from distributed.protocol import loads
+            from distributed.protocol.utils import unpack_frames
+
+            msg = loads(unpack_frames(body))
+        except Exception:  # noqa: BLE001 - any undecodable greeting
+            msg = None
+        if not (isinstance(msg, dict) and "compression" in msg and "python" in msg):
+            raise refuse(f"it sent {(head + body)[:24]!r}, not Dask's handshake")
+        with contextlib.suppress(OSError):
+            sock.sendall(head + body)
 
 
 class _SameKeyFilter(logging.Filter):
@@ -87,6 +197,7 @@ class DaskExecutor:
         self.client = None
         self.cluster = None
         self.records: list[dict] = []  # the last run_jobs' task records (worker, pid, start, end, seconds)
+        self._plugins: set[str] = set()  # worker plugins registered on the scheduler
 
     def __enter__(self) -> "DaskExecutor":
         self.start()
@@ -101,15 +212,20 @@ class DaskExecutor:
         d = _distributed()
         logging.getLogger("distributed.scheduler").addFilter(_SameKeyFilter())
         if self.scheduler:
+            timeout = _connect_timeout()
+            probe_scheduler(self.scheduler, timeout)
             try:
-                self.client = d.Client(self.scheduler)  # waits distributed.comm.timeouts.connect (30 s)
+                self.client = d.Client(self.scheduler, timeout=timeout)
             except (OSError, TimeoutError, ValueError) as e:
-                raise UserError(f"--scheduler {self.scheduler}: cannot connect ({str(e).splitlines()[0] if str(e) else type(e).__name__}); "
+                raise UserError(f"--scheduler {self.scheduler}: cannot connect ({_first_line(e)}); "
                                 "start one (dask scheduler) and give its address, e.g. tcp://host:8786") from None
             return
-        self.cluster = d.LocalCluster(n_workers=self.workers, threads_per_worker=1, processes=True,
-                                      host="127.0.0.1", scheduler_port=0, dashboard_address="127.0.0.1:0",
-                                      silence_logs=logging.CRITICAL)
+        import dask
+
+        with dask.config.set(LOCAL_CONFIG):  # the nannies hand it to the workers they start (and restart)
+            self.cluster = d.LocalCluster(n_workers=self.workers, threads_per_worker=1, processes=True,
+                                          host="127.0.0.1", scheduler_port=0, dashboard_address="127.0.0.1:0",
+                                          silence_logs=logging.CRITICAL)
         self.client = d.Client(self.cluster)
 
     def close(self) -> None:
@@ -131,8 +247,13 @@ class DaskExecutor:
         d = _distributed()
         client = self.client
         futures: dict[str, object] = {}  # Dask key -> future, once per key over every job
+        dkeys: dict[str, str] = {}  # cache key -> its Dask key in this run
+        # a scheduler other runs may submit to (_dask_key); a LocalCluster this executor started
+        # serves this run alone: its tasks take no lock
+        shared = self.cluster is None
         owners: dict[str, list] = collections.defaultdict(list)  # Dask key -> [(job, instance)]
         plans = []
+        self._preload(jobs)
         home = self._homes(jobs)
         for job in jobs:
             plan = job.plan
@@ -145,11 +266,14 @@ class DaskExecutor:
             shipped = dataclasses.replace(plan, rows={})  # the rows are the client's report
             plans.append(client.scatter(shipped, broadcast=True, hash=False))
             for inst in nx.lexicographical_topological_sort(job.todo, key=str):
-                key = _dask_key(plan.keys[inst])
-                if key not in futures:
-                    deps = [futures[_dask_key(plan.keys[p])] for p in job.todo.predecessors(inst)]
-                    futures[key] = client.submit(_task, plans[-1], (job.token, inst), inst, inst[0] in plan.force,
-                                                 *deps, key=key, pure=False, **home.get(id(job), {}))
+                ck = plan.keys[inst]
+                if ck not in dkeys:
+                    deps = [futures[dkeys[plan.keys[p]]] for p in job.todo.predecessors(inst)]
+                    dkeys[ck] = _dask_key(ck, [f.key for f in deps] if shared else ())
+                    futures[dkeys[ck]] = client.submit(_task, plans[-1], (job.token, inst), inst, inst[0] in plan.force,
+                                                       shared, *deps, key=dkeys[ck], pure=False,
+                                                       **home.get(id(job), {}))
+                key = dkeys[ck]
                 owners[key].append((job, inst))
                 job.hooks.start(job.runs[inst])
         by_token = {job.token: job for job in jobs}
@@ -160,7 +284,6 @@ class DaskExecutor:
                 self.records.append(dict(res, key=fut.key))
                 for job, inst in owners[fut.key]:
                     _apply(job, inst, res, by_token)
-            client.run(_flush_all)  # every entry on disk before the run reports (a write's failure raised)
         except BaseException:
             client.cancel(list(futures.values()))
             raise
@@ -173,23 +296,71 @@ class DaskExecutor:
                                  + ", ".join(f"{n} on {w}" for w, n in sorted(job.workers.items())))
             job.cleaned += job.graph.cache.remove_stale_temps()  # of workers lost mid-write
 
+    def _preload(self, jobs) -> None:
+        """Every worker (and any that joins or restarts later) loads numpy, the OpenEXR
+        bindings and, when a node to compute reads USD, USD with its plugins on its main thread
+        before it runs a task (``Preload``): what ``graph.load_native_libraries`` does before
+        a local run's threads start (the loader/GIL deadlock of two runs on one cache)."""
+        from proxyshade.graph import keys as K
+
+        usd = any("proxyshade.io.usd" in K.import_closure(type(job.graph.nodes[name]).__module__)
+                  for job in jobs for name, _ in job.todo)
+        name = "proxyshade-preload" + ("-usd" if usd else "")
+        if name not in self._plugins and any(len(job.todo) for job in jobs):
+            self.client.register_plugin(Preload(usd), name=name)
+            self._plugins.add(name)
+
     def _homes(self, jobs) -> dict:
         """id(job) -> submit options placing its instances on one worker, when there are at
-        least as many jobs with work as workers (independent shots): job i prefers worker
-        i mod n, so a shot's chain stays where its source, first frame, previous frame and
-        memoised analyses are in memory. A preference only (``allow_other_workers``): a
-        lost worker's tasks run elsewhere. Fewer jobs than workers: no preference, so one
-        shot's independent instances (proxy renders of every frame) spread."""
+        least as many jobs with work as workers (independent shots), so a shot's chain stays
+        where its source, first frame, previous frame and memoised analyses are in memory.
+        Shots that share keys (one source for two scenes: its read and its analyses) are
+        placed side by side in one list, which is cut into one run of consecutive shots per
+        worker with about equal work (instances to compute): sharing shots land on one
+        worker unless the balance needs them apart. A preference only
+        (``allow_other_workers``): a lost worker's tasks run elsewhere. Fewer jobs than
+        workers: no preference, so one shot's independent instances (proxy renders of every
+        frame) spread."""
         busy = [job for job in jobs if len(job.todo)]
         workers = sorted(self.client.scheduler_info().get("workers", {}))
         if len(workers) < 2 or len(busy) < len(workers):
             return {}
-        return {id(job): {"workers": [workers[i % len(workers)]], "allow_other_workers": True}
-                for i, job in enumerate(busy)}
+        owner: dict[str, int] = {}  # key -> the first job having it
+        group = list(range(len(busy)))  # union-find over jobs sharing a key
+
+        def root(i: int) -> int:
+            while group[i] != i:
+                group[i] = group[group[i]]
+                i = group[i]
+            return i
+
+        for i, job in enumerate(busy):
+            for key in set(job.plan.keys.values()):
+                j = owner.setdefault(key, i)
+                if root(j) != root(i):
+                    group[max(root(i), root(j))] = min(root(i), root(j))
+        order = sorted(range(len(busy)), key=lambda i: (root(i), i))
+        total, done, out = sum(len(busy[i].todo) for i in order), 0, {}
+        for i in order:  # the worker whose share of the work holds the middle of this shot's
+            w = min(len(workers) - 1, int((done + len(busy[i].todo) / 2) * len(workers) / total))
+            out[id(busy[i])] = {"workers": [workers[w]], "allow_other_workers": True}
+            done += len(busy[i].todo)
+        return out
 
 
-def _dask_key(key: str) -> str:
-    return f"proxyshade-{key}"
+def _dask_key(key: str, deps=()) -> str:
+    """The Dask key of a cache key's task: ``proxyshade-<key>``, and on a scheduler that other
+    runs share, a digest of the Dask keys it depends on. Two runs that planned alike submit
+    the same key and share its task; two that found different inputs already stored (one
+    planned after the other's tasks wrote them) submit different keys: Dask's scheduler does
+    not support one key with two sets of dependencies (it warns of deadlocks, and a client
+    waited for ever). Those tasks compute the key under a Dask lock named by it, the second
+    finding the first's entry (``_task``)."""
+    if not deps:
+        return f"proxyshade-{key}"
+    import hashlib
+
+    return f"proxyshade-{key}-{hashlib.sha256(' '.join(sorted(deps)).encode()).hexdigest()[:12]}"
 
 
 def _apply(job, inst, res: dict, by_token: dict) -> None:
@@ -235,16 +406,43 @@ _USING: dict[int, set[str]] = {}  # thread -> keys its task reads or writes (kep
 # often reads them again (the source, the first frame, the previous frame), without loading
 # them from the cache
 _RECENT: "collections.OrderedDict[tuple[int, str], object]" = collections.OrderedDict()  # (cache id, key) -> cache
-_CACHES: "weakref.WeakSet" = weakref.WeakSet()  # the caches this worker's tasks wrote to
-_RELEASER = concurrent.futures.ThreadPoolExecutor(1, thread_name_prefix="proxyshade-unlock")
+_CACHES: dict[str, object] = {}  # cache folder -> this worker's Cache of it (``_worker_cache``)
 KEEP_MB = float(os.environ.get("PROXYSHADE_WORKER_KEEP_MB", "1024"))
 
 
 @contextlib.contextmanager
 def _key_lock(key: str):
-    """A Dask lock named by the cache key: one worker computes a key at a time."""
-    with _distributed().Lock(f"proxyshade-lock-{key}"):
-        yield
+    """A Dask lock named by the cache key: one worker computes a key at a time (an input
+    found missing or corrupt). Its lease refresh stops once released: each lock object
+    would otherwise keep a periodic callback on the worker's event loop."""
+    lock = _distributed().Lock(f"proxyshade-lock-{key}")
+    try:
+        with lock:
+            yield
+    finally:
+        pc = getattr(lock, "refresh_callback", None)
+        if pc is not None:
+            pc.stop()
+
+
+class Preload(_PluginBase):
+    """A worker plugin: numpy, the OpenEXR bindings and (``usd``) USD with every plugin,
+    loaded on the worker's main thread when it joins, before its first task
+    (``DaskExecutor._preload``)."""
+
+    idempotent = True
+
+    def __init__(self, usd: bool):
+        self.usd = usd
+
+    def setup(self, worker) -> None:
+        from proxyshade.graph.graph import load_array_libraries
+
+        load_array_libraries()
+        if self.usd:
+            from proxyshade.io.usd import load_plugins
+
+            load_plugins()
 
 
 def _recomputed(run) -> None:
@@ -291,7 +489,7 @@ def _check_code(cls: type, want: str) -> None:
                         "library versions differ); install the same proxyshade and libraries on every worker")
 
 
-def _task(plan, by: tuple, inst: tuple[str, int], forced: bool, *deps) -> dict:
+def _task(plan, by: tuple, inst: tuple[str, int], forced: bool, shared: bool, *deps) -> dict:
     """Compute one instance on a worker (its inputs from the cache, its entry to the cache)
     unless another run stored its key meanwhile; returns its record for the client. ``plan``
     is the run's (one copy per worker), ``deps`` the records of the tasks it waits for."""
@@ -300,6 +498,7 @@ def _task(plan, by: tuple, inst: tuple[str, int], forced: bool, *deps) -> dict:
     t_start = time.time()
     _capture_warnings()
     g = plan.graph
+    g.cache = _worker_cache(g.cache)
     g.key_lock, g.on_recompute = _key_lock, _recomputed
     g.tile_runner = functools.partial(_tiles, plan.threads)  # each instance a runner of its own
     key = plan.keys[inst]
@@ -310,15 +509,15 @@ def _task(plan, by: tuple, inst: tuple[str, int], forced: bool, *deps) -> dict:
     with _GUARD:
         _USING[me] = {key} | plan.held_keys(inst)
     try:
-        ok, why = (False, "") if forced else g.cache.has(key)
-        if ok:
-            nr.status, nr.reason = "reused", f"stored meanwhile by another run ({why})"
-        else:
-            t = time.perf_counter()
-            g._compute(plan, inst, nr)
-            nr.seconds = time.perf_counter() - t
-            _hand_over(g.cache, key)
-        return {"by": by, "status": nr.status, "reason": nr.reason, "seconds": nr.seconds, "notes": list(nr.notes),
+        with _key_lock(key) if shared else contextlib.nullcontext():  # other runs' tasks of this key
+            ok, why = (False, "") if forced else g.cache.has(key)
+            if ok:
+                nr.status, nr.reason = "reused", f"stored meanwhile by another run ({why})"
+            else:
+                t = time.perf_counter()
+                g._compute(plan, inst, nr)
+                nr.seconds = time.perf_counter() - t
+        return {"by": by, "cache_key": key, "status": nr.status, "reason": nr.reason, "seconds": nr.seconds, "notes": list(nr.notes),
                 "memo": [nr.memo_hits, nr.memo_misses],
                 "warnings": _LOCAL.warnings, "recomputed": _LOCAL.recomputed, "worker": _distributed().get_worker().address,
                 "pid": os.getpid(), "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
@@ -340,36 +539,24 @@ def _tiles(threads: int):
     return DaskTiles(setup=functools.partial(set_kernel_threads, threads))
 
 
-def _hand_over(cache, key: str) -> None:
-    """The task is done before its entry is written: the entry's Dask lock is held until the
-    write ends, so a task on another worker that reads the key waits for it (``Graph._value``
-    loads an entry missing at first under that lock) while this worker computes on."""
-    _CACHES.add(cache)
-    fut = cache.writing(key)
-    if fut is None:
-        return
-    lock = _distributed().Lock(f"proxyshade-lock-{key}")
-    lock.acquire()
-    fut.add_done_callback(lambda f: _RELEASER.submit(_release, lock))  # the writer thread writes on
+def _worker_cache(cache):
+    """This worker's cache object for ``cache``'s folder, shared by every graph (shot) whose
+    tasks run here: a plate one shot computed or loaded (a source two shots read) is in
+    memory for the other. Its writes are synchronous: a task ends once its entry is on disk,
+    so a task on another worker that reads it finds it whole (no lock to hand it over, no
+    write left to wait for), and a failed write fails the task. The worker's cores are busy
+    with the other tasks meanwhile (one task per core)."""
+    from proxyshade.graph.cache import Cache
 
-
-def _release(lock) -> None:
-    try:
-        lock.release()
-    except Exception:  # noqa: BLE001 - a lease already expired: nothing is held
-        pass
-
-
-async def _flush_all() -> int:
-    """Wait for this worker's background writes (every run's), re-raising the first failure;
-    on a thread, so the worker's event loop stays free to release the entries' locks."""
-    def flush() -> int:
-        caches = list(_CACHES)
-        for c in caches:
-            c.flush()
-        return len(caches)
-
-    return await asyncio.get_running_loop().run_in_executor(None, flush)
+    if getattr(cache, "_worker_shared", False):
+        return cache
+    root = str(cache.root.absolute())
+    with _GUARD:
+        shared = _CACHES.get(root)
+        if shared is None:
+            shared = _CACHES[root] = Cache(root, background=False)
+            shared._worker_shared = True
+    return shared
 
 
 def _keep_recent(cache, used: list[str], busy: set[str]) -> None:
