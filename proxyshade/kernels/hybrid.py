@@ -1,4 +1,4 @@
-"""Kernels of structured image hybrids (Risser, Han, Dumas, Lefebvre 2010).
+"""Kernels of structured image hybrids (Risser, Han, Dahyot, Grinspun, SIGGRAPH 2010).
 
 The exemplars sit side by side in an *atlas*: equal boxes of ``bw`` columns in a row, box
 ``b`` owning columns ``b bw .. (b + 1) bw - 1``. Nothing here reads across a box border:
@@ -34,8 +34,8 @@ The exemplars sit side by side in an *atlas*: equal boxes of ``bw`` columns in a
 
 References
 ----------
-L. Risser, C. Han, L. Dumas, S. Lefebvre. Synthesizing structured image hybrids.
-SIGGRAPH 2010.
+E. Risser, C. Han, R. Dahyot, E. Grinspun. Synthesizing structured image hybrids.
+SIGGRAPH 2010 (ACM Transactions on Graphics 29(4)).
 S. Lefebvre, H. Hoppe. Parallel controllable texture synthesis. SIGGRAPH 2005.
 C. Barnes, E. Shechtman, A. Finkelstein, D. Goldman. PatchMatch. SIGGRAPH 2009.
 """

@@ -1,6 +1,7 @@
 """HybridSynth: one structured image hybrid per frame from an exemplar atlas.
 
-Risser, Han, Dumas, Lefebvre 2010, "Synthesizing structured image hybrids": coarse to
+E. Risser, C. Han, R. Dahyot and E. Grinspun, "Synthesizing Structured Image Hybrids"
+(SIGGRAPH 2010): coarse to
 fine, the pointers into the exemplars are upsampled, jittered among candidates whose
 neighbourhoods match (structure-preserving jitter, threshold ``J``) and corrected
 (Lefebvre and Hoppe 2005). Layer: ``proxyshade.synthesis.hybrid``; kernels

@@ -1,4 +1,4 @@
-"""Structured image hybrids (Risser, Han, Dumas, Lefebvre 2010): the layer shared by the
+"""Structured image hybrids (Risser, Han, Dahyot, Grinspun, SIGGRAPH 2010): the layer shared by the
 ``ExemplarAtlas`` and ``HybridSynth`` nodes and ``bench/bench_hybrids.py``.
 
 An *atlas* packs 1..8 annotated exemplars of one size side by side in a row: exemplar
@@ -10,8 +10,8 @@ state is an (H, W, 2) int32 map of atlas (row, column): the column names the exe
 
 References
 ----------
-L. Risser, C. Han, L. Dumas, S. Lefebvre. Synthesizing structured image hybrids.
-SIGGRAPH 2010.
+E. Risser, C. Han, R. Dahyot, E. Grinspun. Synthesizing structured image hybrids.
+SIGGRAPH 2010 (ACM Transactions on Graphics 29(4)).
 """
 from __future__ import annotations
 
