@@ -271,8 +271,8 @@ def reference_subpass(an, s, inv_w, S, pi, pj, h, J, seed, salt):
                     for py, px in ptrs:
                         cy, cx = py - h * di, px - h * dj
                         x0 = px // bw * bw
-                        if 0 <= cy < Ha and x0 <= cx < x0 + bw and inv_w[px // bw] != np.inf:
-                            cands.append((cy, cx, ((nd - P[cy, cx]) ** 2).sum() * inv_w[px // bw]))
+                        if 0 <= cy < Ha and x0 <= cx < x0 + bw and inv_w[i, j, px // bw] != np.inf:
+                            cands.append((cy, cx, ((nd - P[cy, cx]) ** 2).sum() * inv_w[i, j, px // bw]))
             d = np.array([c[2] for c in cands])
             if J == 0:
                 k = int(np.argmin(d))
@@ -288,12 +288,14 @@ def reference_subpass(an, s, inv_w, S, pi, pj, h, J, seed, salt):
 def test_subpass_matches_the_written_out_reference(J, weights):
     rng, an, S = small_level(int(J * 10) + 1)
     inv_w = np.array([1.0 / w if w > 0 else np.inf for w in weights])
+    per_pixel = np.ascontiguousarray(np.broadcast_to(inv_w, S.shape[:2] + inv_w.shape)).copy()
+    per_pixel[::3, ::2] = per_pixel[::3, ::2, ::-1]  # weights that vary over the output
     for s, h in ((0, 1), (1, 2)):
         for pi, pj in ((0, 0), (1, 0)):
             S_new = S.copy()
-            kh._subpass(an.stacks[s], an.means[s], an.bases[s], an.P[s], an.cands[s], inv_w, S, S_new, pi, pj, h,
-                        an.bw, J, 77, 3)
-            want = reference_subpass(an, s, inv_w, S, pi, pj, h, J, 77, 3)
+            kh._subpass(an.stacks[s], an.means[s], an.bases[s], an.P[s], an.cands[s], per_pixel, S, S_new, pi, pj,
+                        h, an.bw, J, 77, 3)
+            want = reference_subpass(an, s, per_pixel, S, pi, pj, h, J, 77, 3)
             np.testing.assert_allclose(S_new, want)  # float64 sums in the same order: exact
     if J > 0:
         S1 = kh.run_pass(an.stacks[0], an.means[0], an.bases[0], an.P[0], an.cands[0], inv_w, S, h=1, bw=an.bw, J=J,
