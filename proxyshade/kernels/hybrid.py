@@ -451,7 +451,7 @@ def _neigh_desc(stack, mean, basis, S, i, j, h, bw, x, out):
 
 
 @njit(**PJIT)
-def _subpass(stack, mean, basis, P, cand, inv_w, S_old, S_new, pi, pj, h, bw, J, seed, salt):
+def _subpass(stack, mean, basis, P, cand, inv_w, S_old, S_new, pi, pj, h, bw, J, seed, salt, coherence):
     Ht, Wt = S_old.shape[0], S_old.shape[1]
     Ha = P.shape[0]
     nb = cand.shape[2]
@@ -499,6 +499,8 @@ def _subpass(stack, mean, basis, P, cand, inv_w, S_old, S_new, pi, pj, h, bw, J,
                             e = nd[a] - P[cy, cx, a]
                             s += e * e
                         s *= inv_w[i, j, px // bw]
+                        if t == 0:
+                            s *= coherence
                         cyl[nc] = cy
                         cxl[nc] = cx
                         dl[nc] = s
@@ -535,11 +537,14 @@ def _subpass(stack, mean, basis, P, cand, inv_w, S_old, S_new, pi, pj, h, bw, J,
 PARITIES = ((0, 0), (1, 1), (0, 1), (1, 0))
 
 
-def run_pass(stack, mean, basis, P, cand, inv_w, S, *, h: int, bw: int, J: float, seed: int, salt: int) -> np.ndarray:
+def run_pass(stack, mean, basis, P, cand, inv_w, S, *, h: int, bw: int, J: float, seed: int, salt: int,
+             coherence: float = 1.0) -> np.ndarray:
     """One pass of 4 parity sub-passes (each reads the state the previous left); J = 0:
     correction, J > 0: structure-preserving jitter. ``inv_w``: 1 / weight per exemplar (nb,)
     or per state pixel and exemplar (Ht, Wt, nb); inf: never a candidate. Returns the new
-    state."""
+    state. ``coherence`` (<= 1) multiplies the cost of the coherent candidates (a
+    neighbour's pointer continued, S[q] − h (q − p)): below 1 it favours copying whole
+    regions (Ashikhmin 2001's coherence, as a factor)."""
     S_old = np.ascontiguousarray(S, np.int32).copy()
     inv_w = np.asarray(inv_w, np.float64)
     if inv_w.ndim == 1:
@@ -548,7 +553,7 @@ def run_pass(stack, mean, basis, P, cand, inv_w, S, *, h: int, bw: int, J: float
     S_new = S_old.copy()
     for k, (pi, pj) in enumerate(PARITIES):
         _subpass(stack, mean, basis, P, cand, inv_w, S_old, S_new, pi, pj, int(h), int(bw), float(J), int(seed),
-                 int(salt) * 4 + k)
+                 int(salt) * 4 + k, float(coherence))
         S_old[...] = S_new
     return S_old
 

@@ -333,7 +333,7 @@ def mirror_state(S: np.ndarray, bw: int) -> np.ndarray:
 
 def synthesize(an: Analysis, shape: tuple[int, int], *, J: float, seed: int, weights: np.ndarray, passes: int,
                jitter: str = "structure", r: float = 0.0, jitter_levels: int | None = None, level_weights=None,
-               weight_map: np.ndarray | None = None, symmetric: bool = False) -> np.ndarray:
+               weight_map: np.ndarray | None = None, symmetric: bool = False, coherence: float = 1.0) -> np.ndarray:
     """A hybrid's state: (Ht, Wt, 2) int32 atlas (row, column), coarse to fine: identity
     pointers at the coarsest level into exemplars drawn by the weights; per level upsample
     (``correct.upsample_state`` on box-local coordinates), jitter (``structure``: one pass
@@ -369,8 +369,9 @@ def synthesize(an: Analysis, shape: tuple[int, int], *, J: float, seed: int, wei
             total = w.sum(-1, keepdims=True)
             cum = np.cumsum(w, -1) / np.where(total > 0, total, 1.0)
             e = np.minimum((u[..., None] >= cum).sum(-1), an.nb - 1)
-            S = np.stack([np.minimum(h * ii + h // 2, an.bh - 1),
-                          np.minimum(h * jj + h // 2, an.bw - 1) + e * an.bw], -1).astype(np.int32)
+            # the exemplar's own layout, tiled past its size (an output larger than the box)
+            y, x = (h * ii + h // 2) % an.bh, (h * jj + h // 2) % an.bw
+            S = np.stack([y, x + e * an.bw], -1).astype(np.int32)
         else:
             e = S[..., 1] // an.bw
             local = S.copy()
@@ -389,7 +390,7 @@ def synthesize(an: Analysis, shape: tuple[int, int], *, J: float, seed: int, wei
         elif r > 0:
             S = kh.spatial_jitter(S, h=h, r=r, bw=an.bw, atlas_height=an.bh, seed=lseed)
         for k in range(passes):
-            S = kh.run_pass(*args, S, h=h, bw=an.bw, J=0.0, seed=lseed, salt=k + 1)
+            S = kh.run_pass(*args, S, h=h, bw=an.bw, J=0.0, seed=lseed, salt=k + 1, coherence=coherence)
         if symmetric:
             S = mirror_state(S, an.bw)
     return S
@@ -418,3 +419,19 @@ def analysis_of(atlas: Plate, bw: int, *, levels: int, L: int, q: int, iteration
         return analyse(rgb, bw, levels=levels, L=L, q=q, iterations=iterations, seed=0)
 
     return kept(memo, "hybrid.analysis_of", (arrays, bw, levels, L, q, iterations), run)
+
+
+def plain_texture(rgb: np.ndarray, size: tuple[int, int], *, seed: int, J: float = 0.1, levels: int | None = None,
+                  passes: int = 3, L: int = 8, q: int = 2, iterations: int = 4, coherence: float = 0.2) -> dict:
+    """A texture of ``size`` = (h, w) from one exemplar image ((H, W, 3) linear): the
+    hybrid synthesis with a single exemplar (``TextureSynth`` method ``hybrid``). Levels
+    default to the most whose coarsest 5 × 5 neighbourhood fits the exemplar. Returns
+    ``rgb`` (h, w, 3) float32 and ``sx``, ``sy`` (float32 exemplar column, row)."""
+    rgb = np.ascontiguousarray(rgb, np.float32)
+    bh, bw = rgb.shape[:2]
+    if levels is None:
+        levels = max(l for l in range(1, 13) if coarsest_span(l) <= min(bh, bw)) if min(bh, bw) >= 5 else 1
+    check_levels(levels, bh, bw)
+    an = analyse(rgb, bw, levels=levels, L=L, q=q, iterations=iterations, seed=0)
+    S = synthesize(an, size, J=J, seed=seed, weights=np.ones(1), passes=passes, coherence=coherence)
+    return {"rgb": rgb[S[..., 0], S[..., 1]], "sx": S[..., 1].astype(np.float32), "sy": S[..., 0].astype(np.float32)}
