@@ -47,6 +47,8 @@ class HybridSynth(Node):
     jitter_levels = Param(int, None, optional=True, min=1, max=12,
                           doc="jitter only the finest this many levels (less variation; default: every level)")
     passes = Param(int, 2, min=0, max=8, doc="correction passes per level")
+    coherence = Param(float, 0.3, min=0.0, max=1.0, doc="cost factor of the coherent candidates in the correction "
+                                                        "(1: none; lower copies larger pieces: sharper, less mixed)")
     iterations = Param(int, 4, min=1, max=16, doc="PatchMatch iterations of the candidate search (finest level)")
 
     def compute(self, ctx):
@@ -70,10 +72,12 @@ class HybridSynth(Node):
                            iterations=p.iterations, memo=ctx.memo)
         wmap = H.ramp_map(shape, ramp, nb, axis=1 if p.ramp_axis == "x" else 0) if ramp else None
         S = H.synthesize(an, shape, J=p.J, seed=ctx.frame, weights=w, passes=p.passes,
-                         jitter_levels=p.jitter_levels, level_weights=lw, weight_map=wmap, symmetric=p.symmetric)
+                         jitter_levels=p.jitter_levels, level_weights=lw, weight_map=wmap, symmetric=p.symmetric,
+                         coherence=p.coherence)
         out = H.hybrid_plate(atlas, S, {"J": p.J, "seed": ctx.frame, "weights": [float(v) for v in w],
                                         "level_weights": [] if lw is None else lw.tolist(),
-                                        "ramp": [e + 1 for e in ramp], "symmetric": bool(p.symmetric)})
+                                        "ramp": [e + 1 for e in ramp], "symmetric": bool(p.symmetric),
+                                        "coherence": p.coherence})
         share = np.bincount(S[..., 1].ravel() // bw, minlength=nb) / S[..., 0].size
         ctx.note(f"hybrid {shape[1]}x{shape[0]} from {nb} exemplars (shares "
                  + ", ".join(f"{s:.0%}" for s in share) + f"); analysis {an.seconds:.1f} s")
