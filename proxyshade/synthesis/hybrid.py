@@ -435,3 +435,34 @@ def plain_texture(rgb: np.ndarray, size: tuple[int, int], *, seed: int, J: float
     an = analyse(rgb, bw, levels=levels, L=L, q=q, iterations=iterations, seed=0)
     S = synthesize(an, size, J=J, seed=seed, weights=np.ones(1), passes=passes, coherence=coherence)
     return {"rgb": rgb[S[..., 0], S[..., 1]], "sx": S[..., 1].astype(np.float32), "sy": S[..., 0].astype(np.float32)}
+
+
+def with_variants(source: Plate, n: int, *, seed: int = 1, J: float = 0.1, coherence: float = 0.3,
+                  passes: int = 2, L: int = 8, q: int = 2, iterations: int = 4, memo=None) -> Plate:
+    """An annotated source widened by ``n`` hybrid variants of itself: the photo and its
+    label map, then ``n`` single-exemplar hybrids of the same size (seeds ``seed`` ..
+    ``seed + n − 1``; colour and labels looked up at the same pointers) side by side. A
+    synthesis from the widened source draws a large region from more, differently arranged
+    copies of each label. Channels ``R, G, B, label.id`` and ``origin.x/y`` (float32, the
+    photo pixel each pixel copies: the identity on the photo); meta ``source.variants``
+    = n, ``source.size`` the widened size. The analysis is kept in ``memo``."""
+    Hs, Ws = source.shape
+    rgb = np.ascontiguousarray(source.rgb(), np.float32)
+    levels = max(l for l in range(1, 9) if coarsest_span(l) <= min(Hs, Ws)) if min(Hs, Ws) >= 5 else 1
+
+    def run():
+        an = analyse(rgb, Ws, levels=levels, L=L, q=q, iterations=iterations, seed=0)
+        return [synthesize(an, (Hs, Ws), J=J, seed=seed + k, weights=np.ones(1), passes=passes,
+                           coherence=coherence) for k in range(n)]
+
+    states = kept(memo, "hybrid.with_variants", (rgb, n, seed, J, coherence, passes, L, q, iterations), run)
+    ii, jj = np.mgrid[0:Hs, 0:Ws]
+    ys = [ii] + [S[..., 0] for S in states]
+    xs = [jj] + [S[..., 1] for S in states]
+    ch = {c: np.ascontiguousarray(np.concatenate([source[c][y, x] for y, x in zip(ys, xs)], 1))
+          for c in ("R", "G", "B", "label.id")}
+    ch["origin.x"] = np.concatenate(xs, 1).astype(np.float32)
+    ch["origin.y"] = np.concatenate(ys, 1).astype(np.float32)
+    meta = dict(source.meta)
+    meta["source"] = dict(meta.get("source", {}), variants=int(n), size=[int(Ws * (n + 1)), int(Hs)])
+    return Plate(ch, meta)
