@@ -437,7 +437,7 @@ def plain_texture(rgb: np.ndarray, size: tuple[int, int], *, seed: int, J: float
     return {"rgb": rgb[S[..., 0], S[..., 1]], "sx": S[..., 1].astype(np.float32), "sy": S[..., 0].astype(np.float32)}
 
 
-def with_variants(source: Plate, n: int, *, seed: int = 1, J: float = 0.1, coherence: float = 0.3,
+def with_variants(source: Plate, n: int, *, seed: int = 1, J: float = 0.3, coherence: float = 0.5,
                   passes: int = 2, L: int = 8, q: int = 2, iterations: int = 4, memo=None) -> Plate:
     """An annotated source widened by ``n`` hybrid variants of itself: the photo and its
     label map, then ``n`` single-exemplar hybrids of the same size (seeds ``seed`` ..
@@ -445,7 +445,10 @@ def with_variants(source: Plate, n: int, *, seed: int = 1, J: float = 0.1, coher
     synthesis from the widened source draws a large region from more, differently arranged
     copies of each label. Channels ``R, G, B, label.id`` and ``origin.x/y`` (float32, the
     photo pixel each pixel copies: the identity on the photo); meta ``source.variants``
-    = n, ``source.size`` the widened size. The analysis is kept in ``memo``."""
+    = n, ``source.size`` the widened size. The analysis is kept in ``memo``. J = 0.3 and
+    coherence 0.5 move about 95 % of the pointers of a variant of renoir (at J = 0.1,
+    coherence 0.3, about 82 % stay put: near-copies, which would lower a repetition count on
+    the widened source without showing the photo less)."""
     Hs, Ws = source.shape
     rgb = np.ascontiguousarray(source.rgb(), np.float32)
     levels = max(l for l in range(1, 9) if coarsest_span(l) <= min(Hs, Ws)) if min(Hs, Ws) >= 5 else 1

@@ -88,3 +88,31 @@ def test_plain_texture_is_a_new_arrangement_not_the_tiled_exemplar():
     assert ((sy == ii % 40) & (sx == jj % 40)).mean() < 0.5
     r2 = H.plain_texture(ex, (64, 80), seed=1, levels=3, iterations=2)
     np.testing.assert_array_equal(r2["sx"], r["sx"])
+
+
+def test_variants_widen_a_source_with_rearranged_copies_that_keep_colour_and_label_together(tmp_path):
+    from proxyshade.io.images import write_png
+
+    rng = np.random.default_rng(8)
+    cell = rng.integers(0, 200, (8, 12, 3))  # a texture: a repeated cell with noise, many places match
+    photo = (np.tile(cell, (5, 4, 1)) + rng.integers(0, 40, (40, 48, 3))).astype(np.uint8)
+    labels = np.zeros((40, 48, 3), np.uint8)
+    labels[:20] = (255, 255, 255)
+    labels[20:] = (0, 255, 0)
+    write_png(tmp_path / "p.png", photo)
+    write_png(tmp_path / "l.png", labels)
+    (tmp_path / "source.yaml").write_text("image: p.png\nlabels_map: l.png\nlabels:\n  sky: {id: 1, color: '#ffffff'}\n"
+                                          "  grass: {id: 2, color: '#00ff00'}\n")
+    plain = run_node("SourceRead", {"table": "source.yaml"}, graph_dir=tmp_path)
+    wide = run_node("SourceRead", {"table": "source.yaml", "variants": 2}, graph_dir=tmp_path)
+    assert wide.shape == (40, 144) and wide.meta["source"]["variants"] == 2
+    assert wide.meta["source"]["size"] == [144, 40]
+    for c in ("R", "G", "B", "label.id"):
+        np.testing.assert_array_equal(wide[c][:, :48], plain[c])
+        ox, oy = wide["origin.x"].astype(int), wide["origin.y"].astype(int)
+        np.testing.assert_array_equal(wide[c], plain[c][oy, ox])  # colour and label from the same photo pixel
+    ii, jj = np.mgrid[0:40, 0:48]
+    for k in (1, 2):
+        same = (wide["origin.x"][:, 48 * k:48 * (k + 1)] == jj) & (wide["origin.y"][:, 48 * k:48 * (k + 1)] == ii)
+        assert same.mean() < 0.9  # a variant, not a copy
+    assert (wide["origin.x"][:, 48:96] != wide["origin.x"][:, 96:]).any()  # two different variants
