@@ -116,3 +116,16 @@ def test_variants_widen_a_source_with_rearranged_copies_that_keep_colour_and_lab
         same = (wide["origin.x"][:, 48 * k:48 * (k + 1)] == jj) & (wide["origin.y"][:, 48 * k:48 * (k + 1)] == ii)
         assert same.mean() < 0.9  # a variant, not a copy
     assert (wide["origin.x"][:, 48:96] != wide["origin.x"][:, 96:]).any()  # two different variants
+
+
+def test_texture_synth_runs_the_hybrid_core(tmp_path):
+    from proxyshade.io.images import write_png
+    from proxyshade.io.source import srgb_to_linear
+
+    rng = np.random.default_rng(9)
+    ex8 = rng.integers(0, 256, (40, 40, 3)).astype(np.uint8)
+    write_png(tmp_path / "ex.png", ex8)
+    out = run_node("TextureSynth", {"exemplar": "ex.png", "size": "48", "method": "hybrid"}, graph_dir=tmp_path)
+    assert out.shape == (48, 48) and out.meta["texture"]["method"] == "hybrid"
+    sx, sy = out["source.x"].astype(int), out["source.y"].astype(int)
+    np.testing.assert_allclose(np.stack([out["R"], out["G"], out["B"]], -1), srgb_to_linear(ex8)[sy, sx])
