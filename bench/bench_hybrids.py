@@ -17,8 +17,8 @@ Rows: ``renoir + creek`` is the graph main shipped before the sets (two 256² so
 labels, J = 0.1, no coherence factor): the collage the issue reports. Then the bundled sets
 (samples/hybrids, three 128² exemplars each): free, ramp 1 → 3, brick per level.
 
-Run: ``.venv/bin/python bench/run.py hybrids`` (or ``bench/bench_hybrids.py``; ``--sheet``
-writes docs/img/hybrids_sheet.jpg and docs/img/hybrids_before_after.jpg).
+Run: ``.venv/bin/python bench/run.py hybrids`` (or ``bench/bench_hybrids.py``; ``--sheet
+[--before MAIN_SHEET.jpg]`` writes docs/img/hybrids_sheet.jpg and docs/img/hybrids_before_after.jpg).
 """
 from __future__ import annotations
 
@@ -138,7 +138,8 @@ def main(argv=None):
     argv = sys.argv[1:] if argv is None else argv
     argv = [a for a in argv if a != "hybrids"]
     if "--sheet" in argv:
-        return sheets()
+        k = argv.index("--before") if "--before" in argv else -1
+        return sheets(Path(argv[k + 1]) if k >= 0 else None)
     print(f"{'hybrid':<26} {'region':>7} {'border':>7} {'window':>8} {'s':>6} {'analysis s':>10}")
     for name, load, shape, kw in configs():
         m, _, _ = run(name, load, shape, kw)
@@ -169,21 +170,27 @@ def _rows(blocks):
     return np.concatenate([np.pad(b, ((0, 0), (0, w - b.shape[1]), (0, 0)), constant_values=1.0) for b in blocks], 0)
 
 
-def sheets():
-    """hybrids_before_after.jpg: main's renoir + creek hybrids (seeds 1, 2), then the foliage
-    set's exemplars, a free hybrid and the ramp. hybrids_sheet.jpg: per set its exemplars, a
-    free hybrid (seed 1) and the ramp 1 -> 3; brick's per-level hybrid."""
+def sheets(before_jpg: Path | None):
+    """hybrids_before_after.jpg: the top row of main's sheet (``--before``: renoir, creek and
+    hybrids 1-3 of the graph main shipped; ``git show main:docs/img/hybrids_sheet.jpg``), then
+    the foliage set's exemplars, a free hybrid and the ramp 1 -> 3. hybrids_sheet.jpg: per set
+    its exemplars, the top halves of two free hybrids (seeds 1, 2) and the ramp; brick's two
+    per-level hybrids."""
+    from proxyshade.io.images import read_u8
+    from proxyshade.io.source import srgb_to_linear
+
     out = {}
-    for name, load, shape, kw in configs():
+    for name, load, shape, kw in configs()[1:]:
         _, rgb, states = run(name, load, shape, kw, seeds=(1, 2))
         out[name] = (rgb, [rgb[S[..., 0], S[..., 1]] for S in states])
-    rc_rgb, rc = out["renoir + creek (before)"]
     f_rgb, f = out["foliage"]
-    before = np.concatenate([_tile(rc_rgb[::2, ::2][:, :128]), _tile(rc_rgb[::2, ::2][:, 128:])] + [_tile(x) for x in rc], 1)
-    after = _rows([np.concatenate([_tile(f_rgb)], 1),
-                   np.concatenate([_tile(f[0]), _tile(out["foliage ramp 1->3"][1][0][:, :256]),
-                                   _tile(out["foliage ramp 1->3"][1][0][:, 256:])], 1)])
-    save_jpeg(_rows([before, after]), ROOT / "docs/img/hybrids_before_after.jpg")
+    ramp = out["foliage ramp 1->3"][1][0]
+    after = _rows([_tile(f_rgb), np.concatenate([_tile(f[0]), _tile(ramp[:, :256]), _tile(ramp[:, 256:])], 1)])
+    blocks = [after]
+    if before_jpg is not None:
+        top = srgb_to_linear(read_u8(before_jpg)[:260, :, :3])  # main's first row of 260² tiles
+        blocks.insert(0, top[::2, ::2])
+    save_jpeg(_rows(blocks), ROOT / "docs/img/hybrids_before_after.jpg")
     blocks = []
     for s in SETS:
         rgb, free = out[s]
