@@ -173,7 +173,7 @@ def _rows(blocks):
 def sheets(before_jpg: Path | None):
     """hybrids_before_after.jpg: the top row of main's sheet (``--before``: renoir, creek and
     hybrids 1-3 of the graph main shipped; ``git show main:docs/img/hybrids_sheet.jpg``), then
-    the foliage set's exemplars, a free hybrid and the ramp 1 -> 3. hybrids_sheet.jpg: per set
+    the foliage set's exemplars, two free hybrids and the ramp 1 -> 3. hybrids_sheet.jpg: per set
     its exemplars, the top halves of two free hybrids (seeds 1, 2) and the ramp; brick's two
     per-level hybrids."""
     from proxyshade.io.images import read_u8
@@ -185,7 +185,7 @@ def sheets(before_jpg: Path | None):
         out[name] = (rgb, [rgb[S[..., 0], S[..., 1]] for S in states])
     f_rgb, f = out["foliage"]
     ramp = out["foliage ramp 1->3"][1][0]
-    after = _rows([_tile(f_rgb), np.concatenate([_tile(f[0]), _tile(ramp[:, :256]), _tile(ramp[:, 256:])], 1)])
+    after = _rows([_tile(f_rgb), np.concatenate([_tile(f[0]), _tile(f[1])], 1), _tile(ramp)])
     blocks = [after]
     if before_jpg is not None:
         top = srgb_to_linear(read_u8(before_jpg)[:260, :, :3])  # main's first row of 260² tiles
