@@ -27,7 +27,8 @@ demo: $(STAMP)
 	$(VENV)/bin/proxyshade run graphs/relight.yaml --frames 1
 	$(VENV)/bin/proxyshade run graphs/annotated.yaml  # the lake's vegetation from annotated creek, lit and shaded, in the frame
 	$(VENV)/bin/proxyshade run graphs/btf_move.yaml  # BTF-shaded plane, 12 frames: out/btf_move/*.png and move.gif
-	@echo "demo output: out/first_frame/*.png, out/composite/farm_creek.0001.png, out/camera_move/lake_renoir/*.png (and move.gif, the shot as a movie), out/relight/lake_renoir_relit.0001.png (the lake relit from a graded photo), out/annotated/lake_creek_annotated.0001.png (annotated synthesis in the lake's frame) and their EXRs"
+	$(VENV)/bin/proxyshade run graphs/hybrids.yaml --frames 1  # hybrids of the bundled sets: out/hybrids/*.png
+	@echo "demo output: out/first_frame/*.png, out/composite/farm_creek.0001.png, out/camera_move/lake_renoir/*.png (and move.gif, the shot as a movie), out/relight/lake_renoir_relit.0001.png (the lake relit from a graded photo), out/annotated/lake_creek_annotated.0001.png (annotated synthesis in the lake's frame), out/hybrids/*.png (structured image hybrids), out/btf_move/move.gif (a BTF-shaded plane) and their EXRs"
 
 test: $(STAMP)
 	$(PY) -m pytest

@@ -9,7 +9,11 @@ how unevenly each label's own source pixels are used). ``CPU s``: the run's CPU 
 process), steadier than the wall time on a shared machine; ``--nodes``: each node's wall. Bars (issue: production formats): HD <= 6 s, 4K <= 20 s, RSS at 4K
 <= 6 GB, repetition at HD and 4K within 1.5x of 1024²'s.
 
-Run: ``python bench/run.py formats`` (``--sizes 512x512 1024x1024 hd uhd 4k``).
+``photo rep``: with hybrid variants (``--set src.variants=N``: the source widened by N hybrids of
+itself, docs/hybrids.md) the repetition counted on the photo's own pixels (each variant pixel
+mapped back to the photo pixel it copies); without, the repetition.
+
+Run: ``python bench/run.py formats`` (``--sizes 512x512 1024x1024 hd uhd 4k``, ``--set src.variants=2``).
 """
 from __future__ import annotations
 
@@ -29,7 +33,7 @@ from proxyshade import Graph
 from proxyshade.io.source import load_source
 from proxyshade.kernels.quality import label_repetition, repetition
 size = {size!r}
-over = ["preview.enabled=false", "proxy_labels.enabled=false", "detail_labels.enabled=false"]
+over = ["preview.enabled=false", "proxy_labels.enabled=false", "detail_labels.enabled=false", *{sets!r}]
 var = {{"out": tempfile.mkdtemp()}}
 if "x" in size:
     w, h = size.split("x")
@@ -53,20 +57,28 @@ with tempfile.TemporaryDirectory() as cache:
         # after the last node: the cache's background writes (flush) and the engine's own work
         nodes.setdefault("(rest)", []).append(walls[-1] - sum(r.seconds for r in rep_.runs if r.status == "computed"))
     plate = g.value("final", 1)
-    src = load_source({source!r})
+    src = g.value("src", 1)  # the source as the graph read it (with src.variants: widened)
     rep = repetition(plate["source.x"], plate["source.y"], src.shape)
     lrep, floor = label_repetition(plate["source.x"], plate["source.y"], plate["label.id"], src["label.id"])
+    photo_rep = rep
+    if "origin.x" in src:  # hybrid variants: the photo pixel each source pixel copies
+        import numpy as np
+        r = np.clip(np.rint(plate["source.y"]), 0, src.shape[0] - 1).astype(int)
+        c = np.clip(np.rint(plate["source.x"]), 0, src.shape[1] - 1).astype(int)
+        photo = load_source({source!r})
+        photo_rep = repetition(src["origin.x"][r, c], src["origin.y"][r, c], photo.shape)
 walls.sort()
 cpus.sort()
 nodes = {{k: sorted(v)[len(v) // 2] for k, v in nodes.items()}}
 print(json.dumps({{"size": size, "shape": list(plate.shape), "wall": walls[len(walls) // 2], "cpu": cpus[len(cpus) // 2], "nodes": nodes,
                   "rss_gb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2 ** 20, "repetition": rep,
-                  "label_repetition": lrep, "floor": floor}}))
+                  "label_repetition": lrep, "floor": floor, "photo_repetition": photo_rep}}))
 """
 
 
-def measure(size: str, repeat: int) -> dict:
-    code = _CHILD.format(root=str(ROOT), size=size, repeat=repeat, graph=str(ROOT / "graphs" / "first_frame.yaml"),
+def measure(size: str, repeat: int, sets=()) -> dict:
+    code = _CHILD.format(root=str(ROOT), size=size, repeat=repeat, sets=list(sets),
+                         graph=str(ROOT / "graphs" / "first_frame.yaml"),
                          source=str(ROOT / "samples" / "renoir" / "source.yaml"))
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     return json.loads(out.stdout.strip().splitlines()[-1])
@@ -79,18 +91,22 @@ def main(argv=None) -> None:
     ap.add_argument("--nodes", action="store_true",
                     help="also print each node's median wall time (and '(rest)': the run's wall less its nodes', "
                          "mostly waiting for the cache's background writes)")
+    ap.add_argument("--set", action="append", default=[], metavar="NODE.PARAM=VALUE",
+                    help="a graph override, e.g. src.variants=2 (hybrid variants widen the source, docs/hybrids.md)")
     args = ap.parse_args(sys.argv[2:] if argv is None and len(sys.argv) > 1 and sys.argv[1] == "formats" else argv)
-    rows = [measure(s, args.repeat) for s in args.sizes]
+    rows = [measure(s, args.repeat, args.set) for s in args.sizes]
     ref = next((r for r in rows if r["size"] == "1024x1024"), rows[0])
     print(f"{'size':>10} {'pixels':>10} {'first frame s':>14} {'CPU s':>7} {'s/Mpx':>7} {'peak RSS GB':>12} "
-          f"{'repetition':>11} {'vs 1024²':>9} {'floor':>7} {'vs':>5} {'per label':>10} {'vs':>5} {'bar s':>6}")
+          f"{'repetition':>11} {'vs 1024²':>9} {'floor':>7} {'vs':>5} {'per label':>10} {'vs':>5} {'bar s':>6}"
+          f" {'photo rep':>10} {'vs':>5}")
     for r in rows:
         h, w = r["shape"]
         mp = w * h / 1e6
         print(f"{w}x{h:<5} {w * h:>10} {r['wall']:>14.2f} {r['cpu']:>7.2f} {r['wall'] / mp:>7.2f} {r['rss_gb']:>12.2f} "
               f"{r['repetition']:>11.4f} {r['repetition'] / ref['repetition']:>9.2f} {r['floor']:>7.4f} "
               f"{r['floor'] / ref['floor']:>5.2f} {r['label_repetition']:>10.4f} "
-              f"{r['label_repetition'] / ref['label_repetition']:>5.2f} {BARS.get(r['size'], float('nan')):>6.1f}")
+              f"{r['label_repetition'] / ref['label_repetition']:>5.2f} {BARS.get(r['size'], float('nan')):>6.1f}"
+              f" {r['photo_repetition']:>10.4f} {r['photo_repetition'] / ref['photo_repetition']:>5.2f}")
     if args.nodes:
         names = list(dict.fromkeys(n for r in rows for n in r["nodes"]))
         print(f"{'node s':>10} " + " ".join(f"{r['size']:>10}" for r in rows))

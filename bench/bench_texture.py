@@ -4,7 +4,7 @@ Exemplars (sRGB 8-bit, the same bytes for every method): scikit-image's brick, g
 gravel (samples/textures, CC0: the central 256² box-filtered to 128²) and two 160² crops
 of the bundled photos at 100 % (creek's grassy bank, rows 440-599, columns 620-779;
 Renoir's trees, rows 60-219, columns 350-509). Methods: each core of ``TextureSynth``
-(``method``), and with ``--ebsynth PATH`` EbSynth with constant guides on both sides
+(``method``: annotated, hybrid; ``--methods``), and with ``--ebsynth PATH`` EbSynth with constant guides on both sides
 (plain synthesis: ``-style ex.png -guide grey_ex.png grey_out.png``, its defaults).
 
 Measures (sRGB in [0, 1], ``kernels.quality``), output against the exemplar:
@@ -66,6 +66,10 @@ def ours(ex8: np.ndarray, method: str = "annotated", seed: int = 0) -> np.ndarra
     from proxyshade.io.source import srgb_to_linear
     from proxyshade.synthesis.annotated import AnnotatedParams, plain_texture
 
+    if method == "hybrid":
+        from proxyshade.synthesis.hybrid import plain_texture as hybrid_texture
+
+        return encode(hybrid_texture(srgb_to_linear(ex8), (SIZE, SIZE), seed=seed)["rgb"])
     assert method == "annotated", method
     r = plain_texture(srgb_to_linear(ex8), (SIZE, SIZE), AnnotatedParams(seed=seed))
     return encode(r["rgb"])
@@ -119,6 +123,7 @@ def main(argv=None) -> None:
     ap.add_argument("--repeat", type=int, default=3, help="timed runs per method and exemplar (median)")
     ap.add_argument("--only", help="comma-separated exemplar names")
     ap.add_argument("--out", type=Path, help="folder for the outputs and contact sheets")
+    ap.add_argument("--methods", default="annotated,hybrid", help="comma-separated cores of TextureSynth")
     args = ap.parse_args(argv if argv is not None else [a for a in sys.argv[1:] if a != "texture"])
     exs = exemplars()
     if args.only:
@@ -130,10 +135,11 @@ def main(argv=None) -> None:
     print(f"{'exemplar':<11} {'method':<10} " + " ".join(f"{k:>8}" for k in keys))
     for name, ex8 in exs.items():
         ex = ex8.astype(np.float64) / 255.0
-        rows = {}
-        o, t = _median_time(lambda: ours(ex8), args.repeat)
-        rows["annotated"] = dict(measures(o, ex), time=t)
-        outs = {"annotated": o}
+        rows, outs = {}, {}
+        for meth in args.methods.split(","):
+            o, t = _median_time(lambda: ours(ex8, meth), args.repeat)
+            rows[meth] = dict(measures(o, ex), time=t)
+            outs[meth] = o
         if args.ebsynth:
             b, t = _median_time(lambda: ebsynth(args.ebsynth, ex8), args.repeat)
             rows["EbSynth"] = dict(measures(b, ex), time=t)
@@ -141,13 +147,14 @@ def main(argv=None) -> None:
         for meth, r in rows.items():
             print(f"{name:<11} {meth:<10} " + " ".join(f"{r[k]:8.4f}" if k != "time" else f"{r[k]:7.2f}s"
                                                        for k in keys))
-        if args.ebsynth:
-            a, e = rows["annotated"], rows["EbSynth"]
+        for meth in (args.methods.split(",") if args.ebsynth else []):
+            a, e = rows[meth], rows["EbSynth"]
             ratio = {k: a[k] / e[k] if e[k] > 0 else float("inf") for k in keys}
             met = {k: ratio[k] <= BARS[k] for k in ("hist", "window", "orient", "time")}
             met["grad"] = a["grad"] >= BARS["grad"]
             met_all &= all(v for k, v in met.items() if k != "time")
-            print(f"{name:<11} {'ratio':<10} " + " ".join(f"{ratio[k]:7.2f}{'' if met[k] else '!'}" for k in keys))
+            print(f"{name:<11} {meth[:4] + '/Eb':<10} " + " ".join(f"{ratio[k]:7.2f}{'' if met[k] else '!'}"
+                                                                  for k in keys))
         if args.out:
             args.out.mkdir(parents=True, exist_ok=True)
             sheet = np.zeros((SIZE, SIZE * (1 + len(outs)), 3), np.uint8)

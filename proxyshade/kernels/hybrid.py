@@ -1,4 +1,4 @@
-"""Kernels of structured image hybrids (Risser, Han, Dumas, Lefebvre 2010).
+"""Kernels of structured image hybrids (Risser, Han, Dahyot, Grinspun, SIGGRAPH 2010).
 
 The exemplars sit side by side in an *atlas*: equal boxes of ``bw`` columns in a row, box
 ``b`` owning columns ``b bw .. (b + 1) bw - 1``. Nothing here reads across a box border:
@@ -24,8 +24,8 @@ The exemplars sit side by side in an *atlas*: equal boxes of ``bw`` columns in a
   colours at the 5 × 5 neighbours' pointers (past the grid's border: the nearest pointer
   continued by h per pixel, clamped into its box); the candidates are, for each 3 × 3
   neighbour q, S[q] − h (q − p) and its candidate set shifted the same way (staying in
-  the pointer's box); d_i = ‖Ñ_S(p) − Ñ_E(c_i)‖² / weight(exemplar of c_i) (weight 0:
-  never a candidate). Correction
+  the pointer's box); d_i = ‖Ñ_S(p) − Ñ_E(c_i)‖² / weight(p, exemplar of c_i) (a weight
+  per output pixel and exemplar, ``inv_w`` holding 1 / weight; weight 0: never a candidate). Correction
   takes the first smallest d_i; jitter drops candidates with
   (d_i − d_min) / (d_max − d_min) > J and picks uniformly among the rest (duplicates
   count once per occurrence) with ``random.rand``;
@@ -34,8 +34,8 @@ The exemplars sit side by side in an *atlas*: equal boxes of ``bw`` columns in a
 
 References
 ----------
-L. Risser, C. Han, L. Dumas, S. Lefebvre. Synthesizing structured image hybrids.
-SIGGRAPH 2010.
+E. Risser, C. Han, R. Dahyot, E. Grinspun. Synthesizing structured image hybrids.
+SIGGRAPH 2010 (ACM Transactions on Graphics 29(4)).
 S. Lefebvre, H. Hoppe. Parallel controllable texture synthesis. SIGGRAPH 2005.
 C. Barnes, E. Shechtman, A. Finkelstein, D. Goldman. PatchMatch. SIGGRAPH 2009.
 """
@@ -451,7 +451,7 @@ def _neigh_desc(stack, mean, basis, S, i, j, h, bw, x, out):
 
 
 @njit(**PJIT)
-def _subpass(stack, mean, basis, P, cand, inv_w, S_old, S_new, pi, pj, h, bw, J, seed, salt):
+def _subpass(stack, mean, basis, P, cand, inv_w, S_old, S_new, pi, pj, h, bw, J, seed, salt, coherence):
     Ht, Wt = S_old.shape[0], S_old.shape[1]
     Ha = P.shape[0]
     nb = cand.shape[2]
@@ -492,13 +492,15 @@ def _subpass(stack, mean, basis, P, cand, inv_w, S_old, S_new, pi, pj, h, bw, J,
                         cy = py - h * di
                         cx = px - h * dj
                         x0 = (px // bw) * bw
-                        if cy < 0 or cy >= Ha or cx < x0 or cx >= x0 + bw or inv_w[px // bw] == np.inf:
+                        if cy < 0 or cy >= Ha or cx < x0 or cx >= x0 + bw or inv_w[i, j, px // bw] == np.inf:
                             continue
                         s = 0.0
                         for a in range(dims):
                             e = nd[a] - P[cy, cx, a]
                             s += e * e
-                        s *= inv_w[px // bw]
+                        s *= inv_w[i, j, px // bw]
+                        if t == 0:
+                            s *= coherence
                         cyl[nc] = cy
                         cxl[nc] = cx
                         dl[nc] = s
@@ -535,14 +537,23 @@ def _subpass(stack, mean, basis, P, cand, inv_w, S_old, S_new, pi, pj, h, bw, J,
 PARITIES = ((0, 0), (1, 1), (0, 1), (1, 0))
 
 
-def run_pass(stack, mean, basis, P, cand, inv_w, S, *, h: int, bw: int, J: float, seed: int, salt: int) -> np.ndarray:
+def run_pass(stack, mean, basis, P, cand, inv_w, S, *, h: int, bw: int, J: float, seed: int, salt: int,
+             coherence: float = 1.0) -> np.ndarray:
     """One pass of 4 parity sub-passes (each reads the state the previous left); J = 0:
-    correction, J > 0: structure-preserving jitter. Returns the new state."""
+    correction, J > 0: structure-preserving jitter. ``inv_w``: 1 / weight per exemplar (nb,)
+    or per state pixel and exemplar (Ht, Wt, nb); inf: never a candidate. Returns the new
+    state. ``coherence`` (<= 1) multiplies the cost of the coherent candidates (a
+    neighbour's pointer continued, S[q] − h (q − p)): below 1 it favours copying whole
+    regions (Ashikhmin 2001's coherence, as a factor)."""
     S_old = np.ascontiguousarray(S, np.int32).copy()
+    inv_w = np.asarray(inv_w, np.float64)
+    if inv_w.ndim == 1:
+        inv_w = np.broadcast_to(inv_w, S_old.shape[:2] + inv_w.shape)
+    inv_w = np.ascontiguousarray(inv_w)
     S_new = S_old.copy()
     for k, (pi, pj) in enumerate(PARITIES):
         _subpass(stack, mean, basis, P, cand, inv_w, S_old, S_new, pi, pj, int(h), int(bw), float(J), int(seed),
-                 int(salt) * 4 + k)
+                 int(salt) * 4 + k, float(coherence))
         S_old[...] = S_new
     return S_old
 

@@ -1,6 +1,6 @@
 """ExemplarAtlas: pack 1..8 annotated exemplars into one atlas plate.
 
-Risser et al. 2010 (structured image hybrids) synthesize from several roughly aligned
+Risser, Han, Dahyot and Grinspun (SIGGRAPH 2010, structured image hybrids) synthesize from several roughly aligned
 exemplars at once; the state points into this atlas. Layer:
 ``proxyshade.synthesis.hybrid.pack_atlas``.
 """
@@ -23,7 +23,7 @@ class ExemplarAtlas(Node):
     All exemplars must share one label table (names and ids).
     """
 
-    version = 1
+    version = 2  # 2: split
     exemplar1 = source_input("annotated exemplar 1 (SourceRead)", optional=True)
     exemplar2 = source_input("annotated exemplar 2", optional=True)
     exemplar3 = source_input("annotated exemplar 3", optional=True)
@@ -33,14 +33,18 @@ class ExemplarAtlas(Node):
     exemplar7 = source_input("annotated exemplar 7", optional=True)
     exemplar8 = source_input("annotated exemplar 8", optional=True)
     size = Param(list, [256, 256], length=2, doc="[width, height] of each exemplar's box in the atlas")
+    split = Param(int, 1, min=1, max=8, doc="each connected source holds this many exemplars side by side "
+                                             "(a bundled set as one strip, samples/hybrids): cut it into them")
 
     def compute(self, ctx):
-        from proxyshade.synthesis.hybrid import pack_atlas
+        from proxyshade.synthesis.hybrid import pack_atlas, split_plate
 
         size = ctx.p.size
         if not all(isinstance(v, int) and not isinstance(v, bool) and v >= 1 for v in size):
             raise ctx.error(f"size: expected [width, height] of positive integers, got {size}; write e.g. [256, 256]")
         plates = [(k, getattr(ctx, k)) for k in SLOTS if getattr(ctx, k) is not None]
+        if ctx.p.split > 1:
+            plates = [part for k, p in plates for part in split_plate(k, p, ctx.p.split)]
         out = pack_atlas(plates, (size[1], size[0]))
         ctx.note(f"{len(plates)} exemplars at {size[0]}x{size[1]}")
         return out

@@ -1,6 +1,7 @@
 """HybridSynth: one structured image hybrid per frame from an exemplar atlas.
 
-Risser, Han, Dumas, Lefebvre 2010, "Synthesizing structured image hybrids": coarse to
+E. Risser, C. Han, R. Dahyot and E. Grinspun, "Synthesizing Structured Image Hybrids"
+(SIGGRAPH 2010): coarse to
 fine, the pointers into the exemplars are upsampled, jittered among candidates whose
 neighbourhoods match (structure-preserving jitter, threshold ``J``) and corrected
 (Lefebvre and Hoppe 2005). Layer: ``proxyshade.synthesis.hybrid``; kernels
@@ -21,7 +22,7 @@ class HybridSynth(Node):
     atlas and kept in memory for the run.
     """
 
-    version = 3  # 2: candidates from the coarser, per-level scaled multiscale descriptor; 3: the Gaussian
+    version = 4  # 4: level_weights, ramp, symmetric;  2: candidates from the coarser, per-level scaled multiscale descriptor; 3: the Gaussian
     # stack and the finer levels, each scaled (and J 0.1 by default)
     time_dependent = True
     atlas = Input("exemplar atlas: R,G,B, label.id, exemplar.id and meta['atlas']",
@@ -30,6 +31,15 @@ class HybridSynth(Node):
     J = Param(float, 0.1, min=0.0, max=1.0, doc="jitter threshold: 0 keeps the best match, 1 any candidate "
                                                  "(0.3: more mixing, regions break into blotches)")
     weights = Param(list, [], doc="one weight >= 0 per exemplar biasing the mix (d_i / weight); empty: all 1")
+    level_weights = Param(list, [], doc="per-level weights, coarsest level first: a list of rows, one weight >= 0 "
+                                        "per exemplar (e.g. [[1, 0], [0, 1]]: exemplar 1's layout, exemplar 2's "
+                                        "detail); the last row repeats for the finer levels; empty: all 1")
+    ramp = Param(list, [], doc="a per-pixel weight map: a smooth transition across the output through these "
+                               "exemplars (1-based, e.g. [1, 2]: all 1 at the left, all 2 at the right); others "
+                               "weigh 0; empty: none")
+    ramp_axis = Param(str, "x", choices=("x", "y"), doc="the ramp's direction: x left to right, y top to bottom")
+    symmetric = Param(bool, False, doc="mirror the left half onto the right at every level (symmetric exemplars, "
+                                       "e.g. aligned faces)")
     size = Param(list, None, optional=True, length=2, doc="[width, height] of the hybrid; default the exemplar size")
     levels = Param(int, 6, min=1, max=12, doc="synthesis levels (coarsest spacing 2^(levels-1))")
     descriptor_levels = Param(int, 8, min=1, max=12, doc="L: successive finer levels (each scaled to unit RMS) concatenated in the candidates' descriptor")
@@ -37,6 +47,8 @@ class HybridSynth(Node):
     jitter_levels = Param(int, None, optional=True, min=1, max=12,
                           doc="jitter only the finest this many levels (less variation; default: every level)")
     passes = Param(int, 2, min=0, max=8, doc="correction passes per level")
+    coherence = Param(float, 0.3, min=0.0, max=1.0, doc="cost factor of the coherent candidates in the correction "
+                                                        "(1: none; lower copies larger pieces: sharper, less mixed)")
     iterations = Param(int, 4, min=1, max=16, doc="PatchMatch iterations of the candidate search (finest level)")
 
     def compute(self, ctx):
@@ -48,6 +60,8 @@ class HybridSynth(Node):
         nb, bh, bw = H.atlas_boxes(atlas)
         H.check_levels(p.levels, bh, bw)
         w = H.check_weights(p.weights, nb)
+        lw = H.check_level_weights(p.level_weights, nb)
+        ramp = H.check_ramp(p.ramp, nb)
         if p.size is not None:
             if not all(isinstance(v, int) and not isinstance(v, bool) and v >= 1 for v in p.size):
                 raise ctx.error(f"size: expected [width, height] of positive integers, got {p.size}; write e.g. [256, 256]")
@@ -56,9 +70,14 @@ class HybridSynth(Node):
             shape = (bh, bw)
         an = H.analysis_of(atlas, bw, levels=p.levels, L=p.descriptor_levels, q=p.candidates,
                            iterations=p.iterations, memo=ctx.memo)
+        wmap = H.ramp_map(shape, ramp, nb, axis=1 if p.ramp_axis == "x" else 0) if ramp else None
         S = H.synthesize(an, shape, J=p.J, seed=ctx.frame, weights=w, passes=p.passes,
-                         jitter_levels=p.jitter_levels)
-        out = H.hybrid_plate(atlas, S, {"J": p.J, "seed": ctx.frame, "weights": [float(v) for v in w]})
+                         jitter_levels=p.jitter_levels, level_weights=lw, weight_map=wmap, symmetric=p.symmetric,
+                         coherence=p.coherence)
+        out = H.hybrid_plate(atlas, S, {"J": p.J, "seed": ctx.frame, "weights": [float(v) for v in w],
+                                        "level_weights": [] if lw is None else lw.tolist(),
+                                        "ramp": [e + 1 for e in ramp], "symmetric": bool(p.symmetric),
+                                        "coherence": p.coherence})
         share = np.bincount(S[..., 1].ravel() // bw, minlength=nb) / S[..., 0].size
         ctx.note(f"hybrid {shape[1]}x{shape[0]} from {nb} exemplars (shares "
                  + ", ".join(f"{s:.0%}" for s in share) + f"); analysis {an.seconds:.1f} s")

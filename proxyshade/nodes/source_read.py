@@ -20,12 +20,15 @@ class SourceRead(Node):
     and how many pixels were snapped (``snap``).
     """
 
-    version = 1
+    version = 2  # 2: variants
     table = Param(Path, doc="label table YAML (source.yaml) naming the photo and label map")
     far_distance = Param(float, 100.0, min=0.0, doc="8-bit RGB distance beyond which a map pixel is 'far' from every label colour")
     max_far_fraction = Param(float, 0.02, min=0.0, max=1.0, doc="fail when more pixels than this are far from every label colour")
     photo = Param(str, None, doc="name of one of the table's 'images' (a photo of the same view at another time) "
                                  "to read instead of 'image'")
+    variants = Param(int, 0, min=0, max=8, doc="widen the source by this many hybrid variants of itself, side by "
+                                               "side (synthesis.hybrid.with_variants, docs/hybrids.md): a large "
+                                               "region of a big frame draws on more arrangements; 0: the photo only")
 
     def key_extra(self, frame, graph_dir):
         # the table's own content is hashed by the engine; add the files it names
@@ -46,6 +49,10 @@ class SourceRead(Node):
     def compute(self, ctx) -> Plate:
         plate = load_source(ctx.path(ctx.p.table), far_distance=ctx.p.far_distance,
                             max_far_fraction=ctx.p.max_far_fraction, where=self.name, photo=ctx.p.photo)
+        if ctx.p.variants:
+            from proxyshade.synthesis.hybrid import with_variants
+
+            plate = with_variants(plate, ctx.p.variants, memo=ctx.memo)
         s = plate.meta["snap"]
         ctx.note(f"snapped {s['snapped']} of {s['pixels']} label-map pixels to the nearest table colour "
                  f"({s['far']} far from every colour)")

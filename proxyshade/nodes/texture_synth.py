@@ -13,14 +13,15 @@ from proxyshade.synthesis.annotated import PatchOptimisation
 
 np = lazy_loader.load("numpy")  # on first use: a fully cached run never loads numpy
 
-METHODS = ("annotated",)
+METHODS = ("annotated", "hybrid")
 
 
 class TextureSynth(PatchOptimisation, Node):
     """Synthesize a ``size``×``size`` texture from an exemplar image (PNG/JPEG, sRGB-decoded
     to linear, or an EXR plate's ``R,G,B``). ``method``: the synthesis core, ``annotated``
     (``AnnotatedSynth``'s coarse-to-fine PatchMatch + voting with constant annotations:
-    docs/annotated.md). Out: ``R,G,B,A`` and ``source.x/y`` (the exemplar pixel each output
+    docs/annotated.md) or ``hybrid`` (``HybridSynth``'s pointer synthesis on one exemplar,
+    ``synthesis.hybrid.plain_texture``: docs/hybrids.md). Out: ``R,G,B,A`` and ``source.x/y`` (the exemplar pixel each output
     pixel's patch centre copies)."""
 
     version = 1
@@ -44,13 +45,18 @@ class TextureSynth(PatchOptimisation, Node):
         rgb = _read(path, ctx)
         levels = p.levels or auto_levels(rgb.shape, (size, size))
         need = (p.patch + 1) * 2 ** (levels - 1)
-        if min(rgb.shape[:2]) < need:
+        if p.method == "annotated" and min(rgb.shape[:2]) < need:
             raise ctx.error(f"exemplar {path.name} is {rgb.shape[1]}x{rgb.shape[0]}, too small for {levels} scales "
                             f"of {p.patch}-pixel patches; use an exemplar of at least {need} pixels a side or "
                             f"fewer levels")
-        a = AnnotatedParams(patch=p.patch, levels=levels, em=p.em, iterations=p.iterations,
-                            uniformity=p.uniformity, seed=p.seed)
-        r = plain_texture(rgb, (size, size), a)
+        if p.method == "hybrid":
+            from proxyshade.synthesis import hybrid
+
+            r = hybrid.plain_texture(rgb, (size, size), seed=p.seed)
+        else:
+            a = AnnotatedParams(patch=p.patch, levels=levels, em=p.em, iterations=p.iterations,
+                                uniformity=p.uniformity, seed=p.seed)
+            r = plain_texture(rgb, (size, size), a)
         out = r["rgb"]
         ch = {"R": out[..., 0].copy(), "G": out[..., 1].copy(), "B": out[..., 2].copy(),
               "A": np.ones(out.shape[:2], np.float32), "source.x": r["sx"], "source.y": r["sy"]}

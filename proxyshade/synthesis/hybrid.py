@@ -1,4 +1,4 @@
-"""Structured image hybrids (Risser, Han, Dumas, Lefebvre 2010): the layer shared by the
+"""Structured image hybrids (Risser, Han, Dahyot, Grinspun, SIGGRAPH 2010): the layer shared by the
 ``ExemplarAtlas`` and ``HybridSynth`` nodes and ``bench/bench_hybrids.py``.
 
 An *atlas* packs 1..8 annotated exemplars of one size side by side in a row: exemplar
@@ -10,8 +10,8 @@ state is an (H, W, 2) int32 map of atlas (row, column): the column names the exe
 
 References
 ----------
-L. Risser, C. Han, L. Dumas, S. Lefebvre. Synthesizing structured image hybrids.
-SIGGRAPH 2010.
+E. Risser, C. Han, R. Dahyot, E. Grinspun. Synthesizing structured image hybrids.
+SIGGRAPH 2010 (ACM Transactions on Graphics 29(4)).
 """
 from __future__ import annotations
 
@@ -48,6 +48,18 @@ def fit_exemplar(rgb: np.ndarray, dense: np.ndarray, n: int, size: tuple[int, in
     _area_resample(crop_rgb, oh, ow, float(f), out_rgb)
     _mode_resample(crop_lab, oh, ow, float(f), n, out_lab)
     return out_rgb, out_lab
+
+
+def split_plate(name: str, plate: Plate, n: int) -> list[tuple[str, Plate]]:
+    """A source holding ``n`` exemplars side by side (a bundled set as one strip) -> ``n``
+    named plates of equal width (the strip's width must divide by ``n``)."""
+    H, W = plate.shape
+    if n < 1 or W % n:
+        raise NodeInputError(f"input '{name}' is {W} px wide, not {n} equal exemplars side by side; "
+                             f"set split to a divisor of {W}")
+    w = W // n
+    return [(f"{name}.{k + 1}", Plate({c: np.ascontiguousarray(plate[c][:, k * w:(k + 1) * w]) for c in plate.channels},
+                                      dict(plate.meta))) for k in range(n)]
 
 
 def pack_atlas(plates: list[tuple[str, Plate]], size: tuple[int, int]) -> Plate:
@@ -159,6 +171,34 @@ def check_weights(weights, n: int) -> np.ndarray:
     return w
 
 
+def check_level_weights(rows, n: int) -> np.ndarray | None:
+    """Per-level weights (rows of ``n`` weights >= 0, coarsest level first; empty: None) ->
+    float64 (levels, n); a wrong row length, a negative or non-finite value, or a row of
+    zeros are errors."""
+    if not rows:
+        return None
+    out = []
+    for k, row in enumerate(rows):
+        if not isinstance(row, (list, tuple)) or len(row) != n:
+            raise NodeInputError(f"level_weights: row {k + 1} is {row!r}, not {n} weights (one per exemplar); "
+                                 f"write e.g. {[[1] * n, [1] * n]}")
+        out.append(check_weights(row, n) if any(float(v) != 0 for v in row) else None)
+        if out[-1] is None:
+            raise NodeInputError(f"level_weights: row {k + 1} is all zero; give at least one exemplar a positive "
+                                 "weight per level")
+    return np.array(out)
+
+
+def check_ramp(order, n: int) -> list[int]:
+    """A ramp's exemplars (1-based, at least 2, each once) -> 0-based list."""
+    if not order:
+        return []
+    if (len(order) < 2 or not all(isinstance(v, int) and not isinstance(v, bool) and 1 <= v <= n for v in order)
+            or len(set(order)) != len(order)):
+        raise NodeInputError(f"ramp: {order!r}; give 2 or more distinct exemplar numbers 1..{n}, e.g. [1, 2]")
+    return [v - 1 for v in order]
+
+
 def standardised(rgb: np.ndarray, bw: int) -> np.ndarray:
     """Per exemplar box: 255 sRGB colour, centred and divided by the square root of the
     dominant eigenvalue of its colour covariance (the paper's standardisation), float32."""
@@ -246,36 +286,92 @@ def analyse(rgb: np.ndarray, bw: int, *, levels: int, L: int, q: int, iterations
     return Analysis(bw, bh, nb, L, q, sep, stacks, means, bases, P, cands, time.perf_counter() - t0)
 
 
+def ramp_map(shape: tuple[int, int], order, nb: int, axis: int = 1) -> np.ndarray:
+    """A per-pixel weight map (Ht, Wt, nb) float64 for a smooth transition across the output:
+    along ``axis`` (1: left to right, 0: top to bottom) the weight moves piecewise linearly
+    through the exemplars ``order`` (0-based, e.g. (0, 1): all exemplar 0 at the first
+    column, all exemplar 1 at the last); exemplars not in ``order`` weigh 0."""
+    Ht, Wt = shape
+    n = shape[axis]
+    k = len(order)
+    t = (np.arange(n) + 0.5) / n * (k - 1) if k > 1 else np.zeros(n)
+    w = np.zeros((n, nb))
+    for a, e in enumerate(order):
+        w[:, e] += np.clip(1.0 - np.abs(t - a), 0.0, 1.0)
+    return np.ascontiguousarray(np.broadcast_to(w[None, :, :] if axis == 1 else w[:, None, :], (Ht, Wt, nb)))
+
+
+def level_field(weights: np.ndarray, level_row, weight_map, sh: tuple[int, int], h: int) -> np.ndarray:
+    """One level's weights per state pixel and exemplar, (sh[0], sh[1], nb) float64:
+    ``weights`` × ``level_row`` (that level's per-exemplar weights, or None) × ``weight_map``
+    (None, or (Ht, Wt, nb) at the output size) sampled at each state pixel's centre output
+    pixel (spacing ``h``)."""
+    w = np.asarray(weights, np.float64)
+    if level_row is not None:
+        w = w * np.asarray(level_row, np.float64)
+    field = np.broadcast_to(w, sh + (len(w),))
+    if weight_map is not None:
+        Hm, Wm = weight_map.shape[:2]
+        ii = np.minimum(np.arange(sh[0]) * h + h // 2, Hm - 1)
+        jj = np.minimum(np.arange(sh[1]) * h + h // 2, Wm - 1)
+        field = field * weight_map[ii][:, jj]
+    return np.ascontiguousarray(field, np.float64)
+
+
+def mirror_state(S: np.ndarray, bw: int) -> np.ndarray:
+    """The symmetric option: the state's right half becomes the left half mirrored, each
+    pointer's column reflected inside its exemplar's box (for exemplars symmetric about
+    their vertical axis, like aligned faces)."""
+    S = S.copy()
+    Wt = S.shape[1]
+    left = S[:, :Wt // 2][:, ::-1]
+    x0 = (left[..., 1] // bw) * bw
+    S[:, Wt - Wt // 2:, 0] = left[..., 0]
+    S[:, Wt - Wt // 2:, 1] = x0 + bw - 1 - (left[..., 1] - x0)
+    return S
+
+
 def synthesize(an: Analysis, shape: tuple[int, int], *, J: float, seed: int, weights: np.ndarray, passes: int,
-               jitter: str = "structure", r: float = 0.0, jitter_levels: int | None = None) -> np.ndarray:
+               jitter: str = "structure", r: float = 0.0, jitter_levels: int | None = None, level_weights=None,
+               weight_map: np.ndarray | None = None, symmetric: bool = False, coherence: float = 1.0) -> np.ndarray:
     """A hybrid's state: (Ht, Wt, 2) int32 atlas (row, column), coarse to fine: identity
-    pointers at the coarsest level into exemplars drawn by ``weights``; per level upsample
+    pointers at the coarsest level into exemplars drawn by the weights; per level upsample
     (``correct.upsample_state`` on box-local coordinates), jitter (``structure``: one pass
     of the structure-preserving jitter with threshold J; ``spatial``: the baseline's
     ⌊h r ξ + ½⌋), then ``passes`` correction passes. The coarsest exemplars are one fixed
-    draw (by ``weights``): the seed acts through the jitter only, and J = 0 (or r = 0) gives
+    draw (by the weights): the seed acts through the jitter only, and J = 0 (or r = 0) gives
     one result whatever the seed. ``jitter_levels``: jitter only the finest that many levels
-    (None: all); the coarser keep the exemplars' layout exactly."""
+    (None: all); the coarser keep the exemplars' layout exactly.
+
+    Weights (the paper's per-exemplar, per-level and per-pixel control): at level s a
+    candidate from exemplar e at state pixel p costs d / (weights[e] × level_weights[row][e]
+    × weight_map[p, e]), ``row`` counting from the coarsest level (the last row repeats for
+    the finer levels); a zero product: never a candidate there. ``weight_map``: (Ht, Wt, nb)
+    or None (``ramp_map`` makes a transition across the output). ``symmetric``: after each
+    level the right half mirrors the left (``mirror_state``)."""
     from proxyshade.kernels import hybrid as kh
     from proxyshade.kernels.correct import upsample_state
     from proxyshade.kernels.random import mix_seed, uniform_field
 
     Ht, Wt = shape
     levels = len(an.stacks)
-    w = np.asarray(weights, np.float64)
-    inv_w = np.where(w > 0, 1.0 / np.maximum(w, 1e-300), np.inf)  # weight 0: never a candidate
-    cum = np.cumsum(w) / w.sum()
+    lw = None if level_weights is None or not len(level_weights) else np.asarray(level_weights, np.float64)
     S = None
     for s in range(levels - 1, -1, -1):
         h = 2 ** s
         sh = (-(-Ht // h), -(-Wt // h))
+        w = level_field(weights, None if lw is None else lw[min(levels - 1 - s, len(lw) - 1)], weight_map, sh, h)
+        inv_w = np.where(w > 0, 1.0 / np.maximum(w, 1e-300), np.inf)  # weight 0: never a candidate
         if S is None:
             ii, jj = np.mgrid[0:sh[0], 0:sh[1]]
             # one fixed draw, not the seed's: with J = 0 every seed gives the same result
             u = uniform_field(0xE7, (ii * sh[1] + jj).astype(np.int64))
-            e = np.minimum(np.searchsorted(cum, u, side="right"), an.nb - 1)
-            S = np.stack([np.minimum(h * ii + h // 2, an.bh - 1),
-                          np.minimum(h * jj + h // 2, an.bw - 1) + e * an.bw], -1).astype(np.int32)
+            total = w.sum(-1, keepdims=True)
+            cum = np.cumsum(w, -1) / np.where(total > 0, total, 1.0)
+            e = np.minimum((u[..., None] >= cum).sum(-1), an.nb - 1)
+            # the exemplar's own layout, tiled past its size (an output larger than the box)
+            y, x = (h * ii + h // 2) % an.bh, (h * jj + h // 2) % an.bw
+            S = np.stack([y, x + e * an.bw], -1).astype(np.int32)
         else:
             e = S[..., 1] // an.bw
             local = S.copy()
@@ -294,7 +390,9 @@ def synthesize(an: Analysis, shape: tuple[int, int], *, J: float, seed: int, wei
         elif r > 0:
             S = kh.spatial_jitter(S, h=h, r=r, bw=an.bw, atlas_height=an.bh, seed=lseed)
         for k in range(passes):
-            S = kh.run_pass(*args, S, h=h, bw=an.bw, J=0.0, seed=lseed, salt=k + 1)
+            S = kh.run_pass(*args, S, h=h, bw=an.bw, J=0.0, seed=lseed, salt=k + 1, coherence=coherence)
+        if symmetric:
+            S = mirror_state(S, an.bw)
     return S
 
 
@@ -321,3 +419,53 @@ def analysis_of(atlas: Plate, bw: int, *, levels: int, L: int, q: int, iteration
         return analyse(rgb, bw, levels=levels, L=L, q=q, iterations=iterations, seed=0)
 
     return kept(memo, "hybrid.analysis_of", (arrays, bw, levels, L, q, iterations), run)
+
+
+def plain_texture(rgb: np.ndarray, size: tuple[int, int], *, seed: int, J: float = 0.1, levels: int | None = None,
+                  passes: int = 3, L: int = 8, q: int = 2, iterations: int = 4, coherence: float = 0.2) -> dict:
+    """A texture of ``size`` = (h, w) from one exemplar image ((H, W, 3) linear): the
+    hybrid synthesis with a single exemplar (``TextureSynth`` method ``hybrid``). Levels
+    default to the most whose coarsest 5 × 5 neighbourhood fits the exemplar. Returns
+    ``rgb`` (h, w, 3) float32 and ``sx``, ``sy`` (float32 exemplar column, row)."""
+    rgb = np.ascontiguousarray(rgb, np.float32)
+    bh, bw = rgb.shape[:2]
+    if levels is None:
+        levels = max(l for l in range(1, 13) if coarsest_span(l) <= min(bh, bw)) if min(bh, bw) >= 5 else 1
+    check_levels(levels, bh, bw)
+    an = analyse(rgb, bw, levels=levels, L=L, q=q, iterations=iterations, seed=0)
+    S = synthesize(an, size, J=J, seed=seed, weights=np.ones(1), passes=passes, coherence=coherence)
+    return {"rgb": rgb[S[..., 0], S[..., 1]], "sx": S[..., 1].astype(np.float32), "sy": S[..., 0].astype(np.float32)}
+
+
+def with_variants(source: Plate, n: int, *, seed: int = 1, J: float = 0.3, coherence: float = 0.5,
+                  passes: int = 2, L: int = 8, q: int = 2, iterations: int = 4, memo=None) -> Plate:
+    """An annotated source widened by ``n`` hybrid variants of itself: the photo and its
+    label map, then ``n`` single-exemplar hybrids of the same size (seeds ``seed`` ..
+    ``seed + n − 1``; colour and labels looked up at the same pointers) side by side. A
+    synthesis from the widened source draws a large region from more, differently arranged
+    copies of each label. Channels ``R, G, B, label.id`` and ``origin.x/y`` (float32, the
+    photo pixel each pixel copies: the identity on the photo); meta ``source.variants``
+    = n, ``source.size`` the widened size. The analysis is kept in ``memo``. J = 0.3 and
+    coherence 0.5 move about 95 % of the pointers of a variant of renoir (at J = 0.1,
+    coherence 0.3, about 82 % stay put: near-copies, which would lower a repetition count on
+    the widened source without showing the photo less)."""
+    Hs, Ws = source.shape
+    rgb = np.ascontiguousarray(source.rgb(), np.float32)
+    levels = max(l for l in range(1, 9) if coarsest_span(l) <= min(Hs, Ws)) if min(Hs, Ws) >= 5 else 1
+
+    def run():
+        an = analyse(rgb, Ws, levels=levels, L=L, q=q, iterations=iterations, seed=0)
+        return [synthesize(an, (Hs, Ws), J=J, seed=seed + k, weights=np.ones(1), passes=passes,
+                           coherence=coherence) for k in range(n)]
+
+    states = kept(memo, "hybrid.with_variants", (rgb, n, seed, J, coherence, passes, L, q, iterations), run)
+    ii, jj = np.mgrid[0:Hs, 0:Ws]
+    ys = [ii] + [S[..., 0] for S in states]
+    xs = [jj] + [S[..., 1] for S in states]
+    ch = {c: np.ascontiguousarray(np.concatenate([source[c][y, x] for y, x in zip(ys, xs)], 1))
+          for c in ("R", "G", "B", "label.id")}
+    ch["origin.x"] = np.concatenate(xs, 1).astype(np.float32)
+    ch["origin.y"] = np.concatenate(ys, 1).astype(np.float32)
+    meta = dict(source.meta)
+    meta["source"] = dict(meta.get("source", {}), variants=int(n), size=[int(Ws * (n + 1)), int(Hs)])
+    return Plate(ch, meta)

@@ -241,7 +241,7 @@ def small_level(seed, Ht=10, Wt=12, bh=16, bw=16, nb=2, q=2):
     return rng, an, S
 
 
-def reference_subpass(an, s, inv_w, S, pi, pj, h, J, seed, salt):
+def reference_subpass(an, s, inv_w, S, pi, pj, h, J, seed, salt, coherence=1.0):
     """Written out: Ñ_S(p), candidates of the 3×3 neighbours, d_i / weight, then the
     first minimum (J = 0) or a uniform pick among (d − dmin) <= J (dmax − dmin)."""
     st, mean, B, P, cand = an.stacks[s], an.means[s], an.bases[s], an.P[s], an.cands[s]
@@ -268,11 +268,12 @@ def reference_subpass(an, s, inv_w, S, pi, pj, h, J, seed, salt):
                     if not (0 <= ii < Ht and 0 <= jj < Wt):
                         continue
                     ptrs = [tuple(S[ii, jj])] + [tuple(p) for p in cand[S[ii, jj, 0], S[ii, jj, 1]].reshape(-1, 2)]
-                    for py, px in ptrs:
+                    for u, (py, px) in enumerate(ptrs):
                         cy, cx = py - h * di, px - h * dj
                         x0 = px // bw * bw
-                        if 0 <= cy < Ha and x0 <= cx < x0 + bw and inv_w[px // bw] != np.inf:
-                            cands.append((cy, cx, ((nd - P[cy, cx]) ** 2).sum() * inv_w[px // bw]))
+                        if 0 <= cy < Ha and x0 <= cx < x0 + bw and inv_w[i, j, px // bw] != np.inf:
+                            d = ((nd - P[cy, cx]) ** 2).sum() * inv_w[i, j, px // bw]
+                            cands.append((cy, cx, d * coherence if u == 0 else d))  # u = 0: the coherent one
             d = np.array([c[2] for c in cands])
             if J == 0:
                 k = int(np.argmin(d))
@@ -284,16 +285,19 @@ def reference_subpass(an, s, inv_w, S, pi, pj, h, J, seed, salt):
     return out
 
 
-@pytest.mark.parametrize("J,weights", [(0.0, (1.0, 1.0)), (0.0, (1.0, 3.0)), (0.3, (1.0, 1.0)), (1.0, (2.0, 0.5)), (0.5, (0.0, 1.0))])
-def test_subpass_matches_the_written_out_reference(J, weights):
+@pytest.mark.parametrize("J,weights,coherence", [(0.0, (1.0, 1.0), 1.0), (0.0, (1.0, 3.0), 0.3), (0.3, (1.0, 1.0), 1.0),
+                                               (1.0, (2.0, 0.5), 0.5), (0.5, (0.0, 1.0), 1.0)])
+def test_subpass_matches_the_written_out_reference(J, weights, coherence):
     rng, an, S = small_level(int(J * 10) + 1)
     inv_w = np.array([1.0 / w if w > 0 else np.inf for w in weights])
+    per_pixel = np.ascontiguousarray(np.broadcast_to(inv_w, S.shape[:2] + inv_w.shape)).copy()
+    per_pixel[::3, ::2] = per_pixel[::3, ::2, ::-1]  # weights that vary over the output
     for s, h in ((0, 1), (1, 2)):
         for pi, pj in ((0, 0), (1, 0)):
             S_new = S.copy()
-            kh._subpass(an.stacks[s], an.means[s], an.bases[s], an.P[s], an.cands[s], inv_w, S, S_new, pi, pj, h,
-                        an.bw, J, 77, 3)
-            want = reference_subpass(an, s, inv_w, S, pi, pj, h, J, 77, 3)
+            kh._subpass(an.stacks[s], an.means[s], an.bases[s], an.P[s], an.cands[s], per_pixel, S, S_new, pi, pj,
+                        h, an.bw, J, 77, 3, coherence)
+            want = reference_subpass(an, s, per_pixel, S, pi, pj, h, J, 77, 3, coherence)
             np.testing.assert_allclose(S_new, want)  # float64 sums in the same order: exact
     if J > 0:
         S1 = kh.run_pass(an.stacks[0], an.means[0], an.bases[0], an.P[0], an.cands[0], inv_w, S, h=1, bw=an.bw, J=J,
