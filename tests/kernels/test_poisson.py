@@ -4,7 +4,7 @@ import pytest
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from proxyshade.kernels import poisson
+from proxyshade.kernels import poisson, sor
 from proxyshade.kernels.distance import contour_mask
 
 
@@ -248,15 +248,15 @@ def _sor_case(rng, h=40, w=60):
 def test_sor_regions_match_direct_solve():
     rng = np.random.default_rng(21)
     colors, ref, fixed, b, rows, cols, region = _sor_case(rng)
-    omega = poisson.sor_omega(np.full(len(rows), 8.0), np.full(len(rows), 8.0))
-    v, info = poisson.solve_sor_regions(fixed, b, rows, cols, omega, region, screen=0.01, tol=1e-6)
+    omega = sor.sor_omega(np.full(len(rows), 8.0), np.full(len(rows), 8.0))
+    v, info = sor.solve_sor_regions(fixed, b, rows, cols, omega, region, screen=0.01, tol=1e-6)
     u = colors.astype(np.float64) + v
     np.testing.assert_allclose(u[rows, cols], ref[rows, cols], atol=1e-5)
     assert np.all(v[fixed] == 0)
     # each region stops on its own: the mean sweeps per pixel are below the most sweeps
     assert info["sweeps"] < info["iterations"] and info["residual"] <= 1e-6
     # the same answer as the one-list solve to the tolerance
-    w1, _ = poisson.solve_sor(fixed, b, rows, cols, omega, screen=0.01, tol=1e-6)
+    w1, _ = sor.solve_sor(fixed, b, rows, cols, omega, screen=0.01, tol=1e-6)
     np.testing.assert_allclose(v, w1, atol=1e-5)
 
 
@@ -264,12 +264,12 @@ def test_sor_regions_do_not_depend_on_threads_or_balance():
     import numba
     rng = np.random.default_rng(22)
     _, _, fixed, b, rows, cols, region = _sor_case(rng)
-    omega = poisson.sor_omega(np.full(len(rows), 12.0), np.full(len(rows), 12.0))
-    a, _ = poisson.solve_sor_regions(fixed, b, rows, cols, omega, region, screen=0.01, threads=2)
-    c, _ = poisson.solve_sor_regions(fixed, b, rows, cols, omega, region, screen=0.01, threads=5)
+    omega = sor.sor_omega(np.full(len(rows), 12.0), np.full(len(rows), 12.0))
+    a, _ = sor.solve_sor_regions(fixed, b, rows, cols, omega, region, screen=0.01, threads=2)
+    c, _ = sor.solve_sor_regions(fixed, b, rows, cols, omega, region, screen=0.01, threads=5)
     numba.set_num_threads(1)
     try:
-        d, _ = poisson.solve_sor_regions(fixed, b, rows, cols, omega, region, screen=0.01, threads=1)
+        d, _ = sor.solve_sor_regions(fixed, b, rows, cols, omega, region, screen=0.01, threads=1)
     finally:
         numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
     assert np.array_equal(a, c) and np.array_equal(a, d)
@@ -301,21 +301,21 @@ def test_sor_at_is_the_frame_sized_solve_bit_for_bit(step, filt):
     comp, _ = cc(free)
     rows, cols = np.nonzero(free)
     region = (comp[rows, cols] - 1) * 3 + 2  # ids with gaps (the large components' left out)
-    omega = poisson.sor_omega(np.full(len(rows), 6.0), np.full(len(rows), 6.0)) - rng.uniform(0, .2, len(rows))
+    omega = sor.sor_omega(np.full(len(rows), 6.0), np.full(len(rows), 6.0)) - rng.uniform(0, .2, len(rows))
     for source in (src, None):
         if source is not None:
             gx, gy = poisson.seam_gradients_at(source, sx, sy, patch, free, step, filter=filt)
         else:
             gx = gy = np.zeros((h, w, 3), np.float32)
         b = poisson.rhs(colors, patch, fixed, gx, gy)
-        ref, rinfo = poisson.solve_sor_regions(fixed, b, rows, cols, omega, region, screen=0.01, tol=1e-6)
-        got, info = poisson.solve_sor_at(colors, patch, rows, cols, omega, region, source=source, sx=sx, sy=sy,
+        ref, rinfo = sor.solve_sor_regions(fixed, b, rows, cols, omega, region, screen=0.01, tol=1e-6)
+        got, info = sor.solve_sor_at(colors, patch, rows, cols, omega, region, source=source, sx=sx, sy=sy,
                                          step=step, filter=filt, screen=0.01, tol=1e-6)
         assert np.array_equal(got.view(np.uint32), ref[rows, cols].view(np.uint32)) and info == rinfo
         assert np.abs(got).max() > 1e-3
         numba.set_num_threads(1)
         try:
-            one, _ = poisson.solve_sor_at(colors, patch, rows, cols, omega, region, source=source, sx=sx, sy=sy,
+            one, _ = sor.solve_sor_at(colors, patch, rows, cols, omega, region, source=source, sx=sx, sy=sy,
                                           step=step, filter=filt, screen=0.01, tol=1e-6, threads=1)
         finally:
             numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
