@@ -211,8 +211,8 @@ def region_thickness(mask: np.ndarray, comp: np.ndarray, n: int) -> np.ndarray:
 
 def poisson_regions(colors: np.ndarray, patch: np.ndarray, labels: np.ndarray | None, free: np.ndarray, *,
                     source: np.ndarray | None = None, sx: np.ndarray | None = None, sy: np.ndarray | None = None,
-                    step: float = 1.0, label_dirichlet: bool = True, screen: float = 0.0, tol: float = 1e-5,
-                    max_iter: int = 100, slack: int = 4096, filter: str = "bilinear",
+                    step: float = 1.0, label_dirichlet: bool = True, screen: float = 0.0, tol: float,
+                    max_iter: int, slack: int = 4096, filter: str = "bilinear",
                     small: int = 64, thin: float | None = None) -> tuple[np.ndarray, dict]:
     """``kernels.poisson.poisson_transfer`` restricted to the ``free`` pixels (Dirichlet
     ``colors`` everywhere else).

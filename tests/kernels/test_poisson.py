@@ -6,6 +6,9 @@ import scipy.sparse.linalg as spla
 
 from proxyshade.kernels import poisson, sor
 from proxyshade.kernels.distance import contour_mask
+from proxyshade.synthesis.params import PoissonSolve
+
+SOLVE = dict(tol=PoissonSolve.tol.default, max_iter=PoissonSolve.max_iter.default)  # the node's defaults
 
 
 def direct_solve(colors, patch, labels, fixed=None, values=None, gx=None, gy=None, screen=0.0):
@@ -90,7 +93,7 @@ def rel_err(u, ref):
 def test_matches_direct_solve(seed, h, w):
     rng = np.random.default_rng(seed)
     colors, patch, labels = random_case(rng, h, w)
-    u, info = poisson.poisson_transfer(colors, patch, labels)
+    u, info = poisson.poisson_transfer(colors, patch, labels, **SOLVE)
     ref = direct_solve(colors, patch, labels)
     assert rel_err(u, ref) <= 1e-4, info
     # label boundaries are left as they were
@@ -103,7 +106,7 @@ def test_seam_gradients_match_direct_solve():
     colors, patch, labels = random_case(rng, 45, 38)
     gx = rng.normal(0, 0.05, (45, 38, 3)).astype(np.float32)
     gy = rng.normal(0, 0.05, (45, 38, 3)).astype(np.float32)
-    u, _ = poisson.poisson_transfer(colors, patch, labels, seam_gx=gx, seam_gy=gy)
+    u, _ = poisson.poisson_transfer(colors, patch, labels, seam_gx=gx, seam_gy=gy, **SOLVE)
     ref = direct_solve(colors, patch, labels, gx=gx, gy=gy)
     assert rel_err(u, ref) <= 1e-4
 
@@ -124,7 +127,7 @@ def test_seam_gradients_from_source():
     patch = (sx > sx[:, :1] + np.arange(30)).astype(np.uint32)
     fixed = np.zeros((8, 30), bool)
     fixed[:, 0] = True
-    u, _ = poisson.poisson_transfer(f, patch, None, fixed=fixed, seam_gx=gx, seam_gy=gy)
+    u, _ = poisson.poisson_transfer(f, patch, None, fixed=fixed, seam_gx=gx, seam_gy=gy, **SOLVE)
     assert np.allclose(np.diff(u[..., 0], axis=1), step, atol=1e-5)
 
 
@@ -155,12 +158,12 @@ def test_seam_gradients_at_seams_equal_the_full_map(step):
 def test_screened_matches_direct_solve(screen):
     rng = np.random.default_rng(12)
     colors, patch, labels = random_case(rng, 41, 47)
-    u, _ = poisson.poisson_transfer(colors, patch, labels, screen=screen)
+    u, _ = poisson.poisson_transfer(colors, patch, labels, screen=screen, **SOLVE)
     ref = direct_solve(colors, patch, labels, screen=screen)
     assert rel_err(u, ref) <= 1e-4
     # a single label (no Dirichlet pixel) is well posed once screened
     one = np.ones_like(labels)
-    u, info = poisson.poisson_transfer(colors, patch, one, screen=screen)
+    u, info = poisson.poisson_transfer(colors, patch, one, screen=screen, **SOLVE)
     assert info["floating"] == 0
     assert rel_err(u, direct_solve(colors, patch, one, screen=screen)) <= 1e-4
 
@@ -169,7 +172,7 @@ def test_single_label_floating_mean():
     rng = np.random.default_rng(4)
     colors, patch, _ = random_case(rng, 40, 37)
     labels = np.ones((40, 37), np.uint32)
-    u, info = poisson.poisson_transfer(colors, patch, labels)
+    u, info = poisson.poisson_transfer(colors, patch, labels, **SOLVE)
     assert info["floating"] == 1
     ref = direct_solve(colors, patch, labels)
     assert rel_err(u, ref) <= 1e-4
@@ -182,7 +185,7 @@ def test_fixed_mask_and_values():
     fixed = np.ones((48, 48), bool)
     fixed[10:30, 12:40] = False  # only this window is re-solved
     values = rng.random((48, 48, 3)).astype(np.float32)
-    u, _ = poisson.poisson_transfer(colors, patch, labels, fixed=fixed, values=values)
+    u, _ = poisson.poisson_transfer(colors, patch, labels, fixed=fixed, values=values, **SOLVE)
     ref = direct_solve(colors, patch, labels, fixed=fixed, values=values)
     assert rel_err(u, ref) <= 1e-4
     outside = fixed & ~contour_mask(labels)
@@ -195,7 +198,7 @@ def test_one_patch_is_identity():
     colors = rng.random((30, 30, 3)).astype(np.float32)
     labels = np.ones((30, 30), np.uint32)
     labels[:, 20:] = 2
-    u, _ = poisson.poisson_transfer(colors, np.zeros((30, 30), np.uint32), labels)
+    u, _ = poisson.poisson_transfer(colors, np.zeros((30, 30), np.uint32), labels, **SOLVE)
     assert np.abs(u - colors).max() < 1e-5
 
 
@@ -208,7 +211,7 @@ def test_seam_is_blended():
     patch[:, 20:] = 1
     fixed = np.zeros((8, 40), bool)
     fixed[:, 0] = fixed[:, -1] = True
-    u, _ = poisson.poisson_transfer(colors, patch, None, fixed=fixed)
+    u, _ = poisson.poisson_transfer(colors, patch, None, fixed=fixed, **SOLVE)
     # linear ramp from 0.2 to 0.8
     assert np.allclose(u[3, :, 0], np.linspace(0.2, 0.8, 40), atol=1e-4)
 
@@ -217,10 +220,10 @@ def test_deterministic_across_threads():
     import numba
     rng = np.random.default_rng(8)
     colors, patch, labels = random_case(rng, 90, 70)
-    a, _ = poisson.poisson_transfer(colors, patch, labels)
+    a, _ = poisson.poisson_transfer(colors, patch, labels, **SOLVE)
     numba.set_num_threads(1)
     try:
-        b, _ = poisson.poisson_transfer(colors, patch, labels)
+        b, _ = poisson.poisson_transfer(colors, patch, labels, **SOLVE)
     finally:
         numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
     assert np.array_equal(a, b)
