@@ -399,7 +399,7 @@ class _Hierarchy:
             _smooth(diag, we, ws, x, b, 0)
 
 
-def solve_system(fixed: np.ndarray, b: np.ndarray, *, screen: float = 0.0, tol: float = 1e-5, max_iter: int = 100,
+def solve_system(fixed: np.ndarray, b: np.ndarray, *, screen: float = 0.0, tol: float, max_iter: int,
                  sweeps: int = 1, alpha: float = 1.9) -> tuple[np.ndarray, dict]:
     """Solve A v = b for three channels with multigrid-preconditioned conjugate gradients.
 

@@ -163,8 +163,8 @@ def _recentre(v, comp, ncomp, which):
 def poisson_transfer(colors: np.ndarray, patch: np.ndarray, labels: np.ndarray | None = None, *,
                      fixed: np.ndarray | None = None, values: np.ndarray | None = None,
                      label_dirichlet: bool = True, seam_gx: np.ndarray | None = None,
-                     seam_gy: np.ndarray | None = None, screen: float = 0.0, tol: float = 1e-5,
-                     max_iter: int = 100) -> tuple[np.ndarray, dict]:
+                     seam_gy: np.ndarray | None = None, screen: float = 0.0, tol: float,
+                     max_iter: int) -> tuple[np.ndarray, dict]:
     """Gradient transfer of a synthesized image (Bonneel et al. 2010, §5 step 3).
 
     Parameters
@@ -193,8 +193,9 @@ def poisson_transfer(colors: np.ndarray, patch: np.ndarray, labels: np.ndarray |
         Poisson problem; a small λ keeps each region's low frequencies (far from any
         fixed pixel the removed seam jumps otherwise add up to a colour drift) while
         seams are still blended over about 1/sqrt(λ) pixels.
-    tol : float
-        Relative residual at which conjugate gradients stops.
+    tol, max_iter : float, int
+        Relative residual at which conjugate gradients stops, and its most iterations (no
+        defaults here: the Poisson node's ``PoissonSolve`` group declares them).
 
     Returns
     -------
