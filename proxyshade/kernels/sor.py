@@ -430,7 +430,7 @@ def _rhs_at(f, patch, rows, cols, nb, eid, fs, screen, bl, dl):
 def solve_sor_at(colors: np.ndarray, patch: np.ndarray, rows: np.ndarray, cols: np.ndarray, omega: np.ndarray,
                  region: np.ndarray, *, source: np.ndarray | None = None, sx: np.ndarray | None = None,
                  sy: np.ndarray | None = None, step: float = 1.0, filter: str = "bilinear", screen: float = 0.0,
-                 tol: float = 1e-5, max_sweeps: int = 2000, check: int = 8,
+                 tol: float, max_sweeps: int = 2000, check: int = 8,
                  threads: int | None = None) -> tuple[np.ndarray, dict]:
     """``solve_sor_regions`` of the correction equation with every pixel but the listed
     ones (``rows``, ``cols`` in scan order, as ``np.nonzero`` gives them) fixed, its
