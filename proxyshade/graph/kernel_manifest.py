@@ -135,35 +135,35 @@ ENTRIES = [
     )),
     ('proxyshade.kernels.poisson._rhs', "(Array(float32, 3, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 1.02, (
     )),
-    ('proxyshade.kernels.poisson._fine_operator', "(Array(bool, 2, 'C', False, aligned=True), float32)", 1.14, (
+    ('proxyshade.kernels.stencil.fine_operator', "(Array(bool, 2, 'C', False, aligned=True), float32)", 1.14, (
     )),
-    ('proxyshade.kernels.poisson._coarsen', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float32)", 1.13, (
+    ('proxyshade.kernels.multigrid._coarsen', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float32)", 1.13, (
     )),
-    ('proxyshade.kernels.poisson._residual', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 0.97, (
+    ('proxyshade.kernels.multigrid._residual', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 0.97, (
     )),
-    ('proxyshade.kernels.poisson._dot3', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True))", 0.63, (
+    ('proxyshade.kernels.multigrid._dot3', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True))", 0.63, (
     )),
-    ('proxyshade.kernels.poisson._jacobi_start', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), int64)", 0.43, (
+    ('proxyshade.kernels.multigrid._jacobi_start', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), int64)", 0.43, (
     )),
-    ('proxyshade.kernels.poisson._smooth', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), int64)", 0.65, (
+    ('proxyshade.kernels.multigrid._smooth', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), int64)", 0.65, (
     )),
-    ('proxyshade.kernels.poisson._residual_restrict', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 1.41, (
+    ('proxyshade.kernels.multigrid._residual_restrict', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 1.41, (
     )),
-    ('proxyshade.kernels.poisson._vcycle_serial', "(ListType(Array(float32, 2, 'C', False, aligned=True)), ListType(Array(float32, 2, 'C', False, aligned=True)), ListType(Array(float32, 2, 'C', False, aligned=True)), ListType(Array(float32, 3, 'C', False, aligned=True)), ListType(Array(float32, 3, 'C', False, aligned=True)), int64, int64, int64)", 2.96, (
-        ('proxyshade.kernels.poisson._coarse_solve', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), int64)"),
-        ('proxyshade.kernels.poisson._jacobi_start_serial', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Literal[int](0))"),
-        ('proxyshade.kernels.poisson._prolong_add_serial', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float64)"),
-        ('proxyshade.kernels.poisson._residual_restrict_serial', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))"),
-        ('proxyshade.kernels.poisson._smooth_serial', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Literal[int](0))"),
-        ('proxyshade.kernels.poisson._smooth_serial', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Literal[int](1))"),
+    ('proxyshade.kernels.multigrid._vcycle_serial', "(ListType(Array(float32, 2, 'C', False, aligned=True)), ListType(Array(float32, 2, 'C', False, aligned=True)), ListType(Array(float32, 2, 'C', False, aligned=True)), ListType(Array(float32, 3, 'C', False, aligned=True)), ListType(Array(float32, 3, 'C', False, aligned=True)), int64, int64, int64)", 2.96, (
+        ('proxyshade.kernels.multigrid._coarse_solve', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), int64)"),
+        ('proxyshade.kernels.multigrid._jacobi_start_serial', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Literal[int](0))"),
+        ('proxyshade.kernels.multigrid._prolong_add_serial', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float64)"),
+        ('proxyshade.kernels.multigrid._residual_restrict_serial', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))"),
+        ('proxyshade.kernels.multigrid._smooth_serial', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Literal[int](0))"),
+        ('proxyshade.kernels.multigrid._smooth_serial', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Literal[int](1))"),
     )),
-    ('proxyshade.kernels.poisson._prolong_add', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float64)", 0.31, (
+    ('proxyshade.kernels.multigrid._prolong_add', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float64)", 0.31, (
     )),
-    ('proxyshade.kernels.poisson._matvec_dot', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True))", 1.42, (
+    ('proxyshade.kernels.multigrid._matvec_dot', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True))", 1.42, (
     )),
-    ('proxyshade.kernels.poisson._cg_update', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True))", 0.71, (
+    ('proxyshade.kernels.multigrid._cg_update', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True))", 0.71, (
     )),
-    ('proxyshade.kernels.poisson._xpby3', "(Array(float32, 3, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 0.4, (
+    ('proxyshade.kernels.multigrid._xpby3', "(Array(float32, 3, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 0.4, (
     )),
     ('proxyshade.kernels.cryptomatte._rank', "(Array(uint32, 2, 'C', False, aligned=True), int64, Array(float32, 1, 'C', False, aligned=True), int64, Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 1.46, (
     )),
@@ -273,19 +273,19 @@ ENTRIES = [
     )),
     ('proxyshade.kernels.temporal.area_perimeter', "(Array(bool, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), int64)", 0.14, (
     )),
-    ('proxyshade.kernels.poisson._dense_ranks', "(Array(int64, 1, 'C', False, aligned=True),)", 0.13, (
+    ('proxyshade.kernels.sor._dense_ranks', "(Array(int64, 1, 'C', False, aligned=True),)", 0.13, (
     )),
-    ('proxyshade.kernels.poisson._group_order', "(Array(int64, 1, 'C', False, aligned=True), int64)", 0.11, (
+    ('proxyshade.kernels.sor._group_order', "(Array(int64, 1, 'C', False, aligned=True), int64)", 0.11, (
     )),
-    ('proxyshade.kernels.poisson._list_neighbours', "(Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), int64, int64)", 0.23, (
+    ('proxyshade.kernels.sor._list_neighbours', "(Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), int64, int64)", 0.23, (
     )),
-    ('proxyshade.kernels.poisson._seam_edges', "(Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float32)", 0.32, (
+    ('proxyshade.kernels.sor._seam_edges', "(Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float32)", 0.32, (
     )),
-    ('proxyshade.kernels.poisson._rhs_at', "(Array(float32, 3, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float32, Array(float32, 2, 'C', False, aligned=True), Array(float32, 1, 'C', False, aligned=True))", 0.66, (
+    ('proxyshade.kernels.sor._rhs_at', "(Array(float32, 3, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float32, Array(float32, 2, 'C', False, aligned=True), Array(float32, 1, 'C', False, aligned=True))", 0.66, (
     )),
-    ('proxyshade.kernels.poisson._sor_regions', "(Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(float32, 1, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float64, int64, int64, Array(int64, 1, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True))", 1.68, (
-        ('proxyshade.kernels.poisson._run_residual', "(Array(int64, 2, 'C', False, aligned=True), Array(float32, 1, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), int64, int64, Array(float32, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True))"),
-        ('proxyshade.kernels.poisson._sor_run', "(Array(int64, 2, 'C', False, aligned=True), Array(float32, 1, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), int64, int64, Array(float32, 2, 'C', False, aligned=True))"),
+    ('proxyshade.kernels.sor._sor_regions', "(Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(float32, 1, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float64, int64, int64, Array(int64, 1, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True))", 1.68, (
+        ('proxyshade.kernels.sor._run_residual', "(Array(int64, 2, 'C', False, aligned=True), Array(float32, 1, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), int64, int64, Array(float32, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True))"),
+        ('proxyshade.kernels.sor._sor_run', "(Array(int64, 2, 'C', False, aligned=True), Array(float32, 1, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), int64, int64, Array(float32, 2, 'C', False, aligned=True))"),
     )),
     ('proxyshade.kernels.temporal.colour_planes', "(Array(float32, 3, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), bool)", 1.17, (
     )),
