@@ -4,9 +4,11 @@ channels, bit for bit (native types, OpenEXR), and whether the files are byte-id
 
     python bench/compare_exrs.py /tmp/before /tmp/after   # folders of `proxyshade run --var out=...`
 """
-import sys, hashlib
+import hashlib
+import sys
 from pathlib import Path
-import numpy as np, OpenEXR
+
+import OpenEXR
 
 a, b = Path(sys.argv[1]), Path(sys.argv[2])
 bad = 0
