@@ -14,7 +14,7 @@ Resynthesize every frame), at each output size, per frame:
             carries exactly. Unfiltered (``warp L4``, ``warp bil``) a texture exactly attached
             to the surface scores 0.09-0.10 on cliffs at 1024² in patch interiors (Monet's
             pixel-level noise is not reproduced by resampling it between pixel grids):
-            that floor is printed alongside (docs/temporal.md, "The warp measure")
+            that floor is printed alongside (docs/temporal.md, "Measuring a shot")
   share     share of pixels flagged (resynthesized or re-anchored) in the frame
   update s  seconds of the frame after the first (proxy render + ConsistentDepth +
             Reproject + Resynthesize)

@@ -27,7 +27,11 @@ sys.path.insert(0, str(ROOT))
 from proxyshade.graph.plate import Plate  # noqa: E402
 from proxyshade.graph.testing import run_node  # noqa: E402
 from proxyshade.io.source import labels_from_map, load_source  # noqa: E402
+from proxyshade.kernels import multigrid as kmg  # noqa: E402
 from proxyshade.kernels import poisson as kpo  # noqa: E402
+from proxyshade.synthesis.params import PoissonSolve  # noqa: E402
+
+SOLVE = dict(tol=PoissonSolve.tol.default, max_iter=PoissonSolve.max_iter.default)
 from proxyshade.kernels.lookup import lookup  # noqa: E402
 from proxyshade.synthesis import labels as L  # noqa: E402
 from proxyshade.synthesis.exemplar import setup  # noqa: E402
@@ -76,7 +80,7 @@ def stages(sample: str, repeat: int) -> tuple[list, dict]:
     def poisson():
         gx, gy = kpo.seam_gradients(src.rgb(), state["sx"], state["sy"])
         state["u"], state["pinfo"] = kpo.poisson_transfer(state["rgb"], state["patch"], guide["label.id"],
-                                                          seam_gx=gx, seam_gy=gy, screen=0.01)
+                                                          seam_gx=gx, seam_gy=gy, screen=0.01, **SOLVE)
 
     rows = []
     for name, fn in (("features", features), ("flood fill", flood), ("corrections", corrections),
@@ -87,7 +91,7 @@ def stages(sample: str, repeat: int) -> tuple[list, dict]:
     b = np.empty(state["rgb"].shape, np.float32)
     gx, gy = kpo.seam_gradients(src.rgb(), state["sx"], state["sy"])
     kpo._rhs(state["rgb"], state["patch"], fx, np.zeros_like(b), gx, gy, b)
-    rows.append((f"{sample}: Poisson solve only", measure(lambda: kpo.solve_system(fx, b, screen=0.01), repeat=repeat),
+    rows.append((f"{sample}: Poisson solve only", measure(lambda: kmg.solve_system(fx, b, screen=0.01, **SOLVE), repeat=repeat),
                  0.3))
     src_l = lookup(src["label.id"], state["sx"], state["sy"])
     info = {"fidelity": float((src_l == guide["label.id"]).mean()), "patches": int(state["patch"].max()),

@@ -5,13 +5,10 @@ Kernels are pure functions on arrays: ``@njit(**JIT)`` for serial code,
 ``nogil`` lets the graph executor run independent nodes on threads.
 
 Threads wait passively between parallel loops (``OMP_WAIT_POLICY=PASSIVE`` unless the
-environment sets it): numba's OpenMP layer otherwise spins for milliseconds after every
-parallel loop, and on cores shared with other processes a spinning thread holds the core
-the thread with the work needs. Lake update frame at 1024² on 2 cores (docs/temporal.md):
-one other job running, 0.73 s passive against 0.98 s with a 0.1 ms spin
-(``GOMP_SPINCOUNT=10000``) and 3.7–10.7 s with the default spin; idle cores, 0.58–0.61 s
-passive against 0.50–0.54 s spinning (waking a sleeping thread costs ~50 µs per parallel
-loop). Set ``OMP_WAIT_POLICY=ACTIVE`` (or ``GOMP_SPINCOUNT``) on a machine of one's own.
+environment sets it): numba's OpenMP layer otherwise spins after every parallel loop, and
+on cores shared with other processes a spinning thread holds the core the thread with the
+work needs. Set ``OMP_WAIT_POLICY=ACTIVE`` (or ``GOMP_SPINCOUNT``) on a machine of one's own
+(measurements: docs/temporal.md, "Tried and not kept").
 
 Every kernel is cached (``cache=True``) in the folder of this version of the kernels
 package (``_cache.folder()``): importing this module puts ``KernelsLocator`` first among

@@ -1,5 +1,9 @@
 """Grain: a label's detail, scale by scale, measured and re-weighted.
 
+An option of the Poisson step (§5 step 3) of N. Bonneel, M. van de Panne, S. Lefebvre, G.
+Drettakis, "Proxy-Guided Texture Synthesis for Rendering Natural Scenes", INRIA RR-7298,
+2010; the paper has no such step.
+
 A patch synthesis copies a label's texture from the source photo but not in the photo's
 proportions: the correction's colour term favours the blander parts of a region (they are
 the easiest to continue coherently) and the Poisson step smooths what is left near seams,

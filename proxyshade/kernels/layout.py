@@ -1,5 +1,9 @@
 """Low frequencies of a label's colour by height: the layout the Poisson step restores.
 
+An option of the Poisson step (§5 step 3) of N. Bonneel, M. van de Panne, S. Lefebvre, G.
+Drettakis, "Proxy-Guided Texture Synthesis for Rendering Natural Scenes", INRIA RR-7298,
+2010; the paper has no such step.
+
 A patch synthesis reproduces a label's texture but not where in the label its colours
 sit: a sky from patches of anywhere in the photo's sky loses the photo's darker top and
 hazier horizon, a lake drawn mostly from the thick (sunlit) part of the photo's lake

@@ -1,5 +1,9 @@
 """Looking images up through a coordinate map.
 
+The synthesis state of N. Bonneel, M. van de Panne, S. Lefebvre, G. Drettakis, "Proxy-Guided
+Texture Synthesis for Rendering Natural Scenes", INRIA RR-7298, 2010 (§5) is a coordinate
+map; this reads through it.
+
 The synthesis state is a map from each output pixel to a position in the source
 (``source.x``, ``source.y``: column and row in source pixels, pixel centres at integer
 values). Every colour of a synthesized plate is read through this one function, so the

@@ -9,11 +9,12 @@ from proxyshade.graph import keys
 from proxyshade.graph.node import Node, Param
 from proxyshade.graph.plate import Plate
 from proxyshade.io.source import load_source, load_table
+from proxyshade.synthesis.params import LabelMapSnap
 
 np = lazy_loader.load("numpy")  # on first use: a fully cached run never loads numpy
 
 
-class AnnotatedSourceRead(Node):
+class AnnotatedSourceRead(LabelMapSnap, Node):
     """Read an annotated source: ``R,G,B``, ``label.id`` (as ``SourceRead``), one
     ``ann.<name>`` channel per entry of the table's ``annotations: {light: light.png, ...}``
     (grey maps, 0..255 -> [0, 1]), ``A`` from the optional ``alpha`` map (1 without one)
@@ -22,8 +23,6 @@ class AnnotatedSourceRead(Node):
 
     version = 2
     table = Param(Path, doc="label table YAML (source.yaml) with an 'annotations' mapping")
-    far_distance = Param(float, 100.0, min=0.0, doc="8-bit RGB distance beyond which a label-map pixel is 'far'")
-    max_far_fraction = Param(float, 0.02, min=0.0, max=1.0, doc="fail when more label-map pixels than this are far")
     annotations = Param(list, None, doc="names of the table's annotations to read, e.g. [light] (default: all)")
 
     def key_extra(self, frame, graph_dir):

@@ -12,10 +12,10 @@ from __future__ import annotations
 
 from proxyshade.graph.node import Input, Node, Param, Progressive
 from proxyshade.graph.plate import Plate
-from proxyshade.synthesis.params import Correction, FloodFill, PoissonSolve, source_input
+from proxyshade.synthesis.params import Correction, FloodFill, PoissonSolve, SynthesisGrid, source_input
 
 
-class EditSynth(FloodFill, Correction, PoissonSolve, Progressive, Node):
+class EditSynth(FloodFill, Correction, PoissonSolve, SynthesisGrid, Progressive, Node):
     """The synthesized frame of a detailed guide, updated progressively after edits.
 
     Output at the guide's size: ``R,G,B``, ``label.id``, ``source.x/y``, ``patch.id`` and
@@ -28,9 +28,6 @@ class EditSynth(FloodFill, Correction, PoissonSolve, Progressive, Node):
                   channels=("label.id",), dtype={"label.id": "uint32"}, fix="connect DepthExtend's output")
     source = source_input()
     progressive = Param(bool, True, doc="after an edit, synthesize only where the guide's labels changed")
-    factor = Param(int, 4, min=1, max=64, doc="output pixels per synthesis pixel")
-    scale = Param(float, 1.0, min=0.01, max=100.0,
-                  doc="source pixels per output pixel (the texture scale, as PatchInit's)")
     seed = Param(int, 0, doc="seed of the flood fill and of the similarity sets")
     dilate = Param(int, 8, min=0, max=256, doc="output pixels around a changed guide label that are synthesized again")
 

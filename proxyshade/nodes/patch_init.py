@@ -14,9 +14,9 @@ from __future__ import annotations
 
 from proxyshade.graph.node import Input, Node, Param
 from proxyshade.graph.plate import Plate
-from proxyshade.synthesis.params import FloodFill, source_input
+from proxyshade.synthesis.params import CoarseLevel, FloodFill, SynthesisGrid, source_input
 
-class PatchInit(FloodFill, Node):
+class PatchInit(FloodFill, SynthesisGrid, CoarseLevel, Node):
     """Cover the guide with source patches grown by flood fill (Bonneel et al. 2010, §5).
 
     Output at the synthesis size (guide / factor): ``source.x/y`` (float32 source
@@ -29,9 +29,6 @@ class PatchInit(FloodFill, Node):
     guide = Input("detailed guide at output size: label.id (GuideSynth or DepthExtend)", channels=("label.id",),
                   fix="connect the detailed guide (GuideSynth)")
     source = source_input()
-    factor = Param(int, 4, min=1, max=64, doc="output pixels per synthesis pixel (power of two; 1024 -> 256 is 4)")
-    scale = Param(float, 1.0, min=0.01, max=100.0, doc="source pixels per output pixel (texture scale)")
-    coarse_size = Param(int, 32, min=4, doc="coarsest pyramid level (long edge) of the later correction")
     seed = Param(int, 0, doc="order of the patch seeds")
 
     def compute(self, ctx) -> Plate:

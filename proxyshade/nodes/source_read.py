@@ -7,9 +7,10 @@ from proxyshade.graph import keys
 from proxyshade.graph.node import Node, Param
 from proxyshade.graph.plate import Plate
 from proxyshade.io.source import load_source, load_table
+from proxyshade.synthesis.params import LabelMapSnap
 
 
-class SourceRead(Node):
+class SourceRead(LabelMapSnap, Node):
     """Read an annotated source: linear ``R,G,B`` (sRGB decoded with colour-science) and
     ``label.id`` (uint32 ids of the label table, the map snapped to the nearest table colour).
 
@@ -22,8 +23,6 @@ class SourceRead(Node):
 
     version = 2  # 2: variants
     table = Param(Path, doc="label table YAML (source.yaml) naming the photo and label map")
-    far_distance = Param(float, 100.0, min=0.0, doc="8-bit RGB distance beyond which a map pixel is 'far' from every label colour")
-    max_far_fraction = Param(float, 0.02, min=0.0, max=1.0, doc="fail when more pixels than this are far from every label colour")
     photo = Param(str, None, doc="name of one of the table's 'images' (a photo of the same view at another time) "
                                  "to read instead of 'image'")
     variants = Param(int, 0, min=0, max=8, doc="widen the source by this many hybrid variants of itself, side by "

@@ -6,7 +6,7 @@ source's own gradient read through the map on both sides of the seam instead), u
 boundaries between label ids (Γ2). The restricted solve (``poisson_regions``) splits
 the free pixels into their 4-connected regions: narrow ones by SOR on their own pixels,
 the others in windows by multigrid-preconditioned CG. Kernels:
-``proxyshade.kernels.poisson``, ``proxyshade.kernels.temporal.components4``.
+``proxyshade.kernels.poisson`` (with ``kernels.multigrid`` and ``kernels.sor``), ``proxyshade.kernels.temporal.components4``.
 
 With ``layout`` (``layout_move``) the synthesized colours are first moved, label by
 label and by relative height in the label, onto the source photo's mean colours there:
@@ -22,6 +22,7 @@ import numpy as np
 from proxyshade.kernels import layout as klayout
 from proxyshade.kernels.lookup import lookup
 from proxyshade.kernels import poisson as kpoisson
+from proxyshade.kernels import sor as ksor
 from proxyshade.kernels import temporal as kt
 from proxyshade.kernels.features import label_heights
 from proxyshade.synthesis import grain
@@ -210,8 +211,8 @@ def region_thickness(mask: np.ndarray, comp: np.ndarray, n: int) -> np.ndarray:
 
 def poisson_regions(colors: np.ndarray, patch: np.ndarray, labels: np.ndarray | None, free: np.ndarray, *,
                     source: np.ndarray | None = None, sx: np.ndarray | None = None, sy: np.ndarray | None = None,
-                    step: float = 1.0, label_dirichlet: bool = True, screen: float = 0.0, tol: float = 1e-5,
-                    max_iter: int = 100, slack: int = 4096, filter: str = "bilinear",
+                    step: float = 1.0, label_dirichlet: bool = True, screen: float = 0.0, tol: float,
+                    max_iter: int, slack: int = 4096, filter: str = "bilinear",
                     small: int = 64, thin: float | None = None) -> tuple[np.ndarray, dict]:
     """``kernels.poisson.poisson_transfer`` restricted to the ``free`` pixels (Dirichlet
     ``colors`` everywhere else).
@@ -220,7 +221,7 @@ def poisson_regions(colors: np.ndarray, patch: np.ndarray, labels: np.ndarray | 
     independent problem whose only data outside it is its one-pixel ring of fixed
     neighbours. Components whose bounding box is at most ``small`` pixels across (its
     shorter side; smaller than the frame) are solved together by red-black SOR on their
-    own pixels (``poisson.solve_sor_at``, its system built at those pixels only: the
+    own pixels (``sor.solve_sor_at``, its system built at those pixels only: the
     work follows the free pixels, however scattered, and each region is swept until its
     own residual has fallen by ``tol``, at the pace of its width); the
     others in windows around them (``group_boxes``), each the same linear system as the
@@ -268,11 +269,11 @@ def poisson_regions(colors: np.ndarray, patch: np.ndarray, labels: np.ndarray | 
         # each region converged on its own; omega of a square 2.5 x its thickness: fewest sweeps on
         # lake (as few as from the inscribed width, without a distance transform of the frame)
         width = region_thickness(todo, np.ascontiguousarray(cb), len(boxes))
-        omega = kpoisson.sor_omega(2.5 * width, 2.5 * width)[k]  # per region, then per pixel
+        omega = ksor.sor_omega(2.5 * width, 2.5 * width)[k]  # per region, then per pixel
         # right-hand side, seam gradients and operator at the listed pixels only (the frame-sized
         # rhs / seam_gradients_at / solve_sor_regions numbers)
         sxb, syb = (None, None) if source is None else (sx[box], sy[box])
-        v, inf = kpoisson.solve_sor_at(colors_b, patch_b, rows, cols, omega, k, source=source, sx=sxb, sy=syb,
+        v, inf = ksor.solve_sor_at(colors_b, patch_b, rows, cols, omega, k, source=source, sx=sxb, sy=syb,
                                        step=step, filter=filter, screen=screen, tol=tol)
         u[rows + y0, cols + x0] = colors_b[rows, cols] + v
         info.update(sor_pixels=int(len(rows)), sor_sweeps=int(inf["iterations"]), sor_mean_sweeps=inf["sweeps"])

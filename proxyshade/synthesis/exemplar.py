@@ -1,5 +1,8 @@
 """The exemplar, its pyramid levels and the coordinate conversions of the synthesis state.
 
+§5 of N. Bonneel, M. van de Panne, S. Lefebvre, G. Drettakis, "Proxy-Guided Texture
+Synthesis for Rendering Natural Scenes", INRIA RR-7298, 2010.
+
 Three pixel grids meet in synthesis: the source photo (``source.x/y``, pixel centres at
 integer values), the exemplar (the source resampled by ``ex_factor`` = scale × factor
 source pixels per pixel: what the synthesis-size kernels search) and the output-scale

@@ -1,5 +1,9 @@
 """Grain: the photo's detail, scale by scale, label by label (issue 19).
 
+An option of the Poisson step (§5 step 3) of N. Bonneel, M. van de Panne, S. Lefebvre, G.
+Drettakis, "Proxy-Guided Texture Synthesis for Rendering Natural Scenes", INRIA RR-7298,
+2010; the paper has no such step.
+
 A first frame copies each label's texture from the photo, but the correction favours the
 blander parts of a region and the Poisson step smooths near seams: renoir's sky came out
 with half the photo's contrast at every scale, creek's sky with two thirds of its pixel

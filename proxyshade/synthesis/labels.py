@@ -1,5 +1,8 @@
 """Label tables and label maps: the source's table, dense label indices, the guide taken
-down to the synthesis size and the source's labels on the output-scale grid."""
+down to the synthesis size and the source's labels on the output-scale grid.
+
+The label guides of N. Bonneel, M. van de Panne, S. Lefebvre, G. Drettakis, "Proxy-Guided
+Texture Synthesis for Rendering Natural Scenes", INRIA RR-7298, 2010 (§3, §4)."""
 from __future__ import annotations
 
 import math

@@ -58,10 +58,22 @@ class FloodFill(PatchMetric):
     threshold_offset = Param(float, 5.0, min=0.0, doc="see threshold_scale")
 
 
-class Correction(PatchMetric):
-    """k-coherent correction, coarse to fine (§5 step 2)."""
+class SynthesisGrid(ParamGroup):
+    """The synthesis grid (§5): output pixels per synthesis pixel and the texture scale."""
+
+    factor = Param(int, 4, min=1, max=64, doc="output pixels per synthesis pixel (power of two; 1024 -> 256 is 4)")
+    scale = Param(float, 1.0, min=0.01, max=100.0, doc="source pixels per output pixel (texture scale)")
+
+
+class CoarseLevel(ParamGroup):
+    """Where the correction starts: PatchInit checks the source holds it, Correct starts there."""
 
     coarse_size = Param(int, 32, min=4, doc="long edge of the coarsest level where correction starts")
+
+
+class Correction(CoarseLevel, PatchMetric):
+    """k-coherent correction, coarse to fine (§5 step 2)."""
+
     passes = Param(int, 5, min=0, doc="correction passes per level (each four parity sub-passes)")
     passes_finest = Param(int, 3, min=0, doc="correction passes at the synthesis size")
     k = Param(int, 2, min=0, max=16, doc="similarity set size (k-coherence); 0 = coherent candidates only")
@@ -175,3 +187,12 @@ def source_input(doc: str = "annotated source (SourceRead): R,G,B, label.id and 
     uint32 label ids."""
     return Input(doc, optional=optional, channels=("R", "G", "B", "label.id"), finite=("R", "G", "B"),
                  dtype={"label.id": "uint32"}, fix="connect a SourceRead node")
+
+
+class LabelMapSnap(ParamGroup):
+    """How a source reader snaps its label map to the table's colours (§3's annotated exemplar)."""
+
+    far_distance = Param(float, 100.0, min=0.0,
+                         doc="8-bit RGB distance beyond which a label-map pixel is 'far' from every label colour")
+    max_far_fraction = Param(float, 0.02, min=0.0, max=1.0,
+                             doc="fail when more label-map pixels than this are far from every label colour")

@@ -4,8 +4,11 @@ import pytest
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from proxyshade.kernels import poisson
+from proxyshade.kernels import poisson, sor
 from proxyshade.kernels.distance import contour_mask
+from proxyshade.synthesis.params import PoissonSolve
+
+SOLVE = dict(tol=PoissonSolve.tol.default, max_iter=PoissonSolve.max_iter.default)  # the node's defaults
 
 
 def direct_solve(colors, patch, labels, fixed=None, values=None, gx=None, gy=None, screen=0.0):
@@ -90,7 +93,7 @@ def rel_err(u, ref):
 def test_matches_direct_solve(seed, h, w):
     rng = np.random.default_rng(seed)
     colors, patch, labels = random_case(rng, h, w)
-    u, info = poisson.poisson_transfer(colors, patch, labels)
+    u, info = poisson.poisson_transfer(colors, patch, labels, **SOLVE)
     ref = direct_solve(colors, patch, labels)
     assert rel_err(u, ref) <= 1e-4, info
     # label boundaries are left as they were
@@ -103,7 +106,7 @@ def test_seam_gradients_match_direct_solve():
     colors, patch, labels = random_case(rng, 45, 38)
     gx = rng.normal(0, 0.05, (45, 38, 3)).astype(np.float32)
     gy = rng.normal(0, 0.05, (45, 38, 3)).astype(np.float32)
-    u, _ = poisson.poisson_transfer(colors, patch, labels, seam_gx=gx, seam_gy=gy)
+    u, _ = poisson.poisson_transfer(colors, patch, labels, seam_gx=gx, seam_gy=gy, **SOLVE)
     ref = direct_solve(colors, patch, labels, gx=gx, gy=gy)
     assert rel_err(u, ref) <= 1e-4
 
@@ -124,7 +127,7 @@ def test_seam_gradients_from_source():
     patch = (sx > sx[:, :1] + np.arange(30)).astype(np.uint32)
     fixed = np.zeros((8, 30), bool)
     fixed[:, 0] = True
-    u, _ = poisson.poisson_transfer(f, patch, None, fixed=fixed, seam_gx=gx, seam_gy=gy)
+    u, _ = poisson.poisson_transfer(f, patch, None, fixed=fixed, seam_gx=gx, seam_gy=gy, **SOLVE)
     assert np.allclose(np.diff(u[..., 0], axis=1), step, atol=1e-5)
 
 
@@ -155,12 +158,12 @@ def test_seam_gradients_at_seams_equal_the_full_map(step):
 def test_screened_matches_direct_solve(screen):
     rng = np.random.default_rng(12)
     colors, patch, labels = random_case(rng, 41, 47)
-    u, _ = poisson.poisson_transfer(colors, patch, labels, screen=screen)
+    u, _ = poisson.poisson_transfer(colors, patch, labels, screen=screen, **SOLVE)
     ref = direct_solve(colors, patch, labels, screen=screen)
     assert rel_err(u, ref) <= 1e-4
     # a single label (no Dirichlet pixel) is well posed once screened
     one = np.ones_like(labels)
-    u, info = poisson.poisson_transfer(colors, patch, one, screen=screen)
+    u, info = poisson.poisson_transfer(colors, patch, one, screen=screen, **SOLVE)
     assert info["floating"] == 0
     assert rel_err(u, direct_solve(colors, patch, one, screen=screen)) <= 1e-4
 
@@ -169,7 +172,7 @@ def test_single_label_floating_mean():
     rng = np.random.default_rng(4)
     colors, patch, _ = random_case(rng, 40, 37)
     labels = np.ones((40, 37), np.uint32)
-    u, info = poisson.poisson_transfer(colors, patch, labels)
+    u, info = poisson.poisson_transfer(colors, patch, labels, **SOLVE)
     assert info["floating"] == 1
     ref = direct_solve(colors, patch, labels)
     assert rel_err(u, ref) <= 1e-4
@@ -182,7 +185,7 @@ def test_fixed_mask_and_values():
     fixed = np.ones((48, 48), bool)
     fixed[10:30, 12:40] = False  # only this window is re-solved
     values = rng.random((48, 48, 3)).astype(np.float32)
-    u, _ = poisson.poisson_transfer(colors, patch, labels, fixed=fixed, values=values)
+    u, _ = poisson.poisson_transfer(colors, patch, labels, fixed=fixed, values=values, **SOLVE)
     ref = direct_solve(colors, patch, labels, fixed=fixed, values=values)
     assert rel_err(u, ref) <= 1e-4
     outside = fixed & ~contour_mask(labels)
@@ -195,7 +198,7 @@ def test_one_patch_is_identity():
     colors = rng.random((30, 30, 3)).astype(np.float32)
     labels = np.ones((30, 30), np.uint32)
     labels[:, 20:] = 2
-    u, _ = poisson.poisson_transfer(colors, np.zeros((30, 30), np.uint32), labels)
+    u, _ = poisson.poisson_transfer(colors, np.zeros((30, 30), np.uint32), labels, **SOLVE)
     assert np.abs(u - colors).max() < 1e-5
 
 
@@ -208,7 +211,7 @@ def test_seam_is_blended():
     patch[:, 20:] = 1
     fixed = np.zeros((8, 40), bool)
     fixed[:, 0] = fixed[:, -1] = True
-    u, _ = poisson.poisson_transfer(colors, patch, None, fixed=fixed)
+    u, _ = poisson.poisson_transfer(colors, patch, None, fixed=fixed, **SOLVE)
     # linear ramp from 0.2 to 0.8
     assert np.allclose(u[3, :, 0], np.linspace(0.2, 0.8, 40), atol=1e-4)
 
@@ -217,10 +220,10 @@ def test_deterministic_across_threads():
     import numba
     rng = np.random.default_rng(8)
     colors, patch, labels = random_case(rng, 90, 70)
-    a, _ = poisson.poisson_transfer(colors, patch, labels)
+    a, _ = poisson.poisson_transfer(colors, patch, labels, **SOLVE)
     numba.set_num_threads(1)
     try:
-        b, _ = poisson.poisson_transfer(colors, patch, labels)
+        b, _ = poisson.poisson_transfer(colors, patch, labels, **SOLVE)
     finally:
         numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
     assert np.array_equal(a, b)
@@ -248,15 +251,15 @@ def _sor_case(rng, h=40, w=60):
 def test_sor_regions_match_direct_solve():
     rng = np.random.default_rng(21)
     colors, ref, fixed, b, rows, cols, region = _sor_case(rng)
-    omega = poisson.sor_omega(np.full(len(rows), 8.0), np.full(len(rows), 8.0))
-    v, info = poisson.solve_sor_regions(fixed, b, rows, cols, omega, region, screen=0.01, tol=1e-6)
+    omega = sor.sor_omega(np.full(len(rows), 8.0), np.full(len(rows), 8.0))
+    v, info = sor.solve_sor_regions(fixed, b, rows, cols, omega, region, screen=0.01, tol=1e-6)
     u = colors.astype(np.float64) + v
     np.testing.assert_allclose(u[rows, cols], ref[rows, cols], atol=1e-5)
     assert np.all(v[fixed] == 0)
     # each region stops on its own: the mean sweeps per pixel are below the most sweeps
     assert info["sweeps"] < info["iterations"] and info["residual"] <= 1e-6
     # the same answer as the one-list solve to the tolerance
-    w1, _ = poisson.solve_sor(fixed, b, rows, cols, omega, screen=0.01, tol=1e-6)
+    w1, _ = sor.solve_sor(fixed, b, rows, cols, omega, screen=0.01, tol=1e-6)
     np.testing.assert_allclose(v, w1, atol=1e-5)
 
 
@@ -264,12 +267,12 @@ def test_sor_regions_do_not_depend_on_threads_or_balance():
     import numba
     rng = np.random.default_rng(22)
     _, _, fixed, b, rows, cols, region = _sor_case(rng)
-    omega = poisson.sor_omega(np.full(len(rows), 12.0), np.full(len(rows), 12.0))
-    a, _ = poisson.solve_sor_regions(fixed, b, rows, cols, omega, region, screen=0.01, threads=2)
-    c, _ = poisson.solve_sor_regions(fixed, b, rows, cols, omega, region, screen=0.01, threads=5)
+    omega = sor.sor_omega(np.full(len(rows), 12.0), np.full(len(rows), 12.0))
+    a, _ = sor.solve_sor_regions(fixed, b, rows, cols, omega, region, screen=0.01, threads=2)
+    c, _ = sor.solve_sor_regions(fixed, b, rows, cols, omega, region, screen=0.01, threads=5)
     numba.set_num_threads(1)
     try:
-        d, _ = poisson.solve_sor_regions(fixed, b, rows, cols, omega, region, screen=0.01, threads=1)
+        d, _ = sor.solve_sor_regions(fixed, b, rows, cols, omega, region, screen=0.01, threads=1)
     finally:
         numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
     assert np.array_equal(a, c) and np.array_equal(a, d)
@@ -301,21 +304,21 @@ def test_sor_at_is_the_frame_sized_solve_bit_for_bit(step, filt):
     comp, _ = cc(free)
     rows, cols = np.nonzero(free)
     region = (comp[rows, cols] - 1) * 3 + 2  # ids with gaps (the large components' left out)
-    omega = poisson.sor_omega(np.full(len(rows), 6.0), np.full(len(rows), 6.0)) - rng.uniform(0, .2, len(rows))
+    omega = sor.sor_omega(np.full(len(rows), 6.0), np.full(len(rows), 6.0)) - rng.uniform(0, .2, len(rows))
     for source in (src, None):
         if source is not None:
             gx, gy = poisson.seam_gradients_at(source, sx, sy, patch, free, step, filter=filt)
         else:
             gx = gy = np.zeros((h, w, 3), np.float32)
         b = poisson.rhs(colors, patch, fixed, gx, gy)
-        ref, rinfo = poisson.solve_sor_regions(fixed, b, rows, cols, omega, region, screen=0.01, tol=1e-6)
-        got, info = poisson.solve_sor_at(colors, patch, rows, cols, omega, region, source=source, sx=sx, sy=sy,
+        ref, rinfo = sor.solve_sor_regions(fixed, b, rows, cols, omega, region, screen=0.01, tol=1e-6)
+        got, info = sor.solve_sor_at(colors, patch, rows, cols, omega, region, source=source, sx=sx, sy=sy,
                                          step=step, filter=filt, screen=0.01, tol=1e-6)
         assert np.array_equal(got.view(np.uint32), ref[rows, cols].view(np.uint32)) and info == rinfo
         assert np.abs(got).max() > 1e-3
         numba.set_num_threads(1)
         try:
-            one, _ = poisson.solve_sor_at(colors, patch, rows, cols, omega, region, source=source, sx=sx, sy=sy,
+            one, _ = sor.solve_sor_at(colors, patch, rows, cols, omega, region, source=source, sx=sx, sy=sy,
                                           step=step, filter=filt, screen=0.01, tol=1e-6, threads=1)
         finally:
             numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)

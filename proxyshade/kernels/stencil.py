@@ -1,0 +1,104 @@
+"""The 5-point operator of the Poisson correction (``kernels.poisson``), shared by its two
+solvers (``kernels.multigrid``, ``kernels.sor``).
+
+Bonneel, van de Panne, Lefebvre, Drettakis. Proxy-Guided Texture Synthesis for Rendering
+Natural Scenes. INRIA RR-7298, 2010 (§5 step 3: the Poisson transfer this operator poses).
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, prange
+
+from proxyshade.kernels._config import JIT, PJIT
+
+# ---------------------------------------------------------------------------
+# operators: level = (diag, wE, wS); (A x)_p = diag_p x_p - sum_q w_pq x_q.
+# diag == 0 marks a cell with no unknown (fixed).
+
+
+@njit(inline="always", **JIT)
+def neighbour_sum(x, we, ws, i, j, h, w):
+    """Sum over the 4 neighbours of (i, j) of edge weight × x, per channel (east weights
+    ``we[i, j]`` join (i, j)-(i, j+1), south weights ``ws[i, j]`` join (i, j)-(i+1, j))."""
+    s0 = 0.0
+    s1 = 0.0
+    s2 = 0.0
+    if j + 1 < w:
+        c = we[i, j]
+        s0 += c * x[i, j + 1, 0]
+        s1 += c * x[i, j + 1, 1]
+        s2 += c * x[i, j + 1, 2]
+    if j > 0:
+        c = we[i, j - 1]
+        s0 += c * x[i, j - 1, 0]
+        s1 += c * x[i, j - 1, 1]
+        s2 += c * x[i, j - 1, 2]
+    if i + 1 < h:
+        c = ws[i, j]
+        s0 += c * x[i + 1, j, 0]
+        s1 += c * x[i + 1, j, 1]
+        s2 += c * x[i + 1, j, 2]
+    if i > 0:
+        c = ws[i - 1, j]
+        s0 += c * x[i - 1, j, 0]
+        s1 += c * x[i - 1, j, 1]
+        s2 += c * x[i - 1, j, 2]
+    return s0, s1, s2
+
+
+@njit(**PJIT)
+def fine_operator(fixed, screen):
+    h, w = fixed.shape
+    diag = np.zeros((h, w), np.float32)
+    we = np.zeros((h, w), np.float32)
+    ws = np.zeros((h, w), np.float32)
+    for i in prange(h):
+        for j in range(w):
+            if fixed[i, j]:
+                continue
+            n = 0
+            if i > 0:
+                n += 1
+            if i + 1 < h:
+                n += 1
+                if not fixed[i + 1, j]:
+                    ws[i, j] = 1.0
+            if j > 0:
+                n += 1
+            if j + 1 < w:
+                n += 1
+                if not fixed[i, j + 1]:
+                    we[i, j] = 1.0
+            diag[i, j] = n + screen
+    return diag, we, ws
+
+
+@njit(inline="always", **JIT)
+def apply_at(diag, we, ws, x, i, j):
+    """(A x)_(i, j) for the three channels."""
+    h, w = diag.shape
+    d = diag[i, j]
+    s0 = d * x[i, j, 0]
+    s1 = d * x[i, j, 1]
+    s2 = d * x[i, j, 2]
+    if j + 1 < w:
+        c = we[i, j]
+        s0 -= c * x[i, j + 1, 0]
+        s1 -= c * x[i, j + 1, 1]
+        s2 -= c * x[i, j + 1, 2]
+    if j > 0:
+        c = we[i, j - 1]
+        s0 -= c * x[i, j - 1, 0]
+        s1 -= c * x[i, j - 1, 1]
+        s2 -= c * x[i, j - 1, 2]
+    if i + 1 < h:
+        c = ws[i, j]
+        s0 -= c * x[i + 1, j, 0]
+        s1 -= c * x[i + 1, j, 1]
+        s2 -= c * x[i + 1, j, 2]
+    if i > 0:
+        c = ws[i - 1, j]
+        s0 -= c * x[i - 1, j, 0]
+        s1 -= c * x[i - 1, j, 1]
+        s2 -= c * x[i - 1, j, 2]
+    return s0, s1, s2
