@@ -394,7 +394,8 @@ def compile_kernels(quiet: bool = typer.Option(False, "--quiet", "-q", help="no 
     graphs' caches for the demo; a kernel the list missed compiles there)."""
     import time
 
-    from proxyshade.graph.warmup import kernel_signatures, warm_up
+    from proxyshade.graph.warmup import kernel_signatures
+    from proxyshade.graph.warmup_graphs import warm_up
 
     t0 = time.perf_counter()
     _precompile(None, quiet)

@@ -181,7 +181,9 @@ def test_compile_precompiles_every_manifest_kernel_then_runs_the_demo_graphs(cap
                                                      ("proxyshade.kernels.random._keys", "(int64, int64)", 0.5, ())])
     monkeypatch.setattr(_cache, "kernels_cached", lambda modules=(): False)  # as right after an install
     ran = []
-    monkeypatch.setattr(warmup, "WARMUP", [])  # the demo graphs: too slow for a test
+    from proxyshade.graph import warmup_graphs
+
+    monkeypatch.setattr(warmup_graphs, "WARMUP", [])  # the demo graphs: too slow for a test
     monkeypatch.setattr(warmup, "precompile", lambda modules=None, progress=None, workers=None: ran.append(
         sorted(modules or ())) or {"compiled": 2, "failed": [], "seconds": 0.1, "workers": 1})
     assert main(["compile", "-q"]) == 0

@@ -29,38 +29,7 @@ import sys
 import time
 from pathlib import Path
 
-# (graph file, frames, variables): the demo's graphs, each kernel type signature they reach
-WARMUP = [
-    ("first_frame.yaml", [1], {"scene": "lake", "source": "renoir"}),
-    ("composite.yaml", [1], {}),
-    ("camera_move.yaml", [1, 2], {}),
-]
-
 MANIFEST = Path(__file__).with_name("kernel_manifest.py")
-
-
-def graphs_dir() -> Path:
-    """The bundled graphs (a source checkout's ``graphs/``)."""
-    return Path(__file__).resolve().parents[2] / "graphs"
-
-
-def warm_up(hooks=None, cache=None, progress=None, workers=None, first=True) -> dict:
-    """Precompile the manifest's signatures (``precompile``), then run the warm-up graphs
-    (writers disabled; ``cache``: one cache folder instead of each graph's default;
-    ``first=False``: no precompile, every kernel compiles lazily).
-    Returns {'seconds', 'precompile', 'signatures'}: wall time, the precompile's report
-    and how many kernel signatures numba holds afterwards (compiled or loaded)."""
-    from proxyshade.graph.graph import Graph
-
-    t0 = time.perf_counter()
-    pre = precompile(progress=progress, workers=workers) if first else None
-    for name, frames, variables in WARMUP:
-        g = Graph.load(graphs_dir() / name, cache=cache, variables=variables)
-        for node, n in g.nodes.items():
-            if n.sink:
-                g.set(f"{node}.enabled", False)
-        g.run(frames, hooks=hooks)
-    return {"seconds": time.perf_counter() - t0, "precompile": pre, "signatures": kernel_signatures()}
 
 
 def kernel_dispatchers() -> dict:
@@ -362,7 +331,7 @@ def precompile(modules=None, progress=None, workers=None) -> dict:
 _RECORD = r"""
 import json, sys, time
 from numba.core import event
-from proxyshade.graph import warmup
+from proxyshade.graph import warmup_graphs
 
 class Rec(event.Listener):
     # kernels compiled from Python (no compile under way) with their seconds and what they compiled inside
@@ -399,7 +368,7 @@ def on_end(self, ev):
     if len(self.roots) > n:
         self.roots[-1] = (*self.roots[-1], _types[-1] if _types else None)
 Rec.on_end = on_end
-warmup.warm_up(cache=sys.argv[1], first=False)
+warmup_graphs.warm_up(cache=sys.argv[1], first=False)
 print(json.dumps(rec.roots))
 """
 
