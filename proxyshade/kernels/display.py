@@ -20,6 +20,7 @@ np = lazy_loader.load("numpy")  # on first use: a fully cached run never loads n
 DEFAULT_CHANNELS = ("R", "G", "B")
 VIEWS = ("shoulder", "clip")
 KNEE = 0.9  # linear value where the shoulder view starts to roll off
+ROWS = 128  # rows converted at a time by to_display (each pixel on its own: the same bytes in any band)
 
 
 def view_transform(rgb: np.ndarray, view: str = "shoulder") -> np.ndarray:
@@ -82,9 +83,14 @@ def to_display(plate, channels: list[str], exposure: float = 0.0, view: str = "s
             out[fin] = 1.0 - np.clip((z[fin] - lo) / max(hi - lo, 1e-12), 0, 1)
         g = (out * 255 + 0.5).astype(np.uint8)
         return np.repeat(g[..., None], 3, axis=2)
-    rgb = np.stack([a.astype(np.float64) for a in arrs], -1)
-    if rgb.shape[-1] == 1:
-        rgb = np.repeat(rgb, 3, axis=-1)
-    rgb = np.nan_to_num(rgb * 2.0 ** exposure, nan=0.0, posinf=1e6, neginf=0.0)
-    enc = colour_science().cctf_encoding(view_transform(rgb[..., :3], view), function="sRGB")
-    return (np.clip(enc, 0, 1) * 255 + 0.5).astype(np.uint8)
+    h, w = arrs[0].shape[:2]
+    out = np.empty((h, w, 3), np.uint8)
+    for r0 in range(0, h, ROWS):  # a band of rows at a time: the float64 temporaries of a band, not a frame
+        band = [a[r0:r0 + ROWS] for a in arrs]
+        rgb = np.stack([a.astype(np.float64) for a in band], -1)
+        if rgb.shape[-1] == 1:
+            rgb = np.repeat(rgb, 3, axis=-1)
+        rgb = np.nan_to_num(rgb * 2.0 ** exposure, nan=0.0, posinf=1e6, neginf=0.0)
+        enc = colour_science().cctf_encoding(view_transform(rgb[..., :3], view), function="sRGB")
+        out[r0:r0 + ROWS] = (np.clip(enc, 0, 1) * 255 + 0.5).astype(np.uint8)
+    return out

@@ -33,3 +33,22 @@ def test_negative_values_show_black():
 def test_unknown_view_is_refused():
     with pytest.raises(ValueError, match="shoulder"):
         view_transform(np.zeros(3), "aces")
+
+
+def test_to_display_in_bands_gives_the_whole_frame_encoding():
+    """to_display converts a band of rows at a time (memory): a frame taller than a band,
+    with values above 1, negatives, NaN and infinities, gives the bytes of the whole frame
+    encoded at once (sRGB of the shoulder view, rounded)."""
+    from proxyshade.io.colourlib import colour_science
+    from proxyshade.kernels import display
+    from proxyshade.plate import Plate
+
+    rng = np.random.default_rng(3)
+    h = 2 * display.ROWS + 37
+    rgb = (rng.random((h, 23, 3)) * 1.6 - 0.1).astype(np.float32)
+    rgb[5, 3, 0], rgb[h - 1, 0, 1], rgb[display.ROWS, 7, 2] = np.nan, np.inf, -np.inf
+    plate = Plate({c: rgb[..., k].copy() for k, c in enumerate("RGB")}, {})
+    lin = np.nan_to_num(rgb.astype(np.float64) * 2.0 ** 0.5, nan=0.0, posinf=1e6, neginf=0.0)
+    enc = colour_science().cctf_encoding(display.view_transform(lin), function="sRGB")
+    want = (np.clip(enc, 0, 1) * 255 + 0.5).astype(np.uint8)
+    np.testing.assert_array_equal(display.to_display(plate, ["R", "G", "B"], exposure=0.5), want)
