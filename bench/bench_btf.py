@@ -23,7 +23,7 @@ from pathlib import Path
 import numba
 import numpy as np
 
-from harness import measure, table
+from harness import measure, table, write_jpeg
 from proxyshade.graph.testing import run_node
 from proxyshade.synthesis import btf
 
@@ -299,22 +299,6 @@ def shaded_move():
           "pixel pairs with the tile moved by half)")
 
 
-def jpeg(path: Path, rgb):
-    """A linear image as a small sRGB JPEG (a docs image)."""
-    import OpenImageIO as oiio
-    from proxyshade.graph.plate import Plate
-    from proxyshade.kernels.display import to_display
-
-    img = np.ascontiguousarray(to_display(Plate({c: np.ascontiguousarray(rgb[..., i]) for i, c in enumerate("RGB")}),
-                                          ["R", "G", "B"]))
-    buf = oiio.ImageBuf(oiio.ImageSpec(img.shape[1], img.shape[0], 3, oiio.UINT8))
-    buf.set_pixels(oiio.ROI(), img)
-    buf.specmod().attribute("Compression", "jpeg:90")
-    if not buf.write(str(path)):
-        raise SystemExit(f"{path}: {buf.geterror()}")
-    print(f"wrote {path}")
-
-
 def shard_figure(path: Path):
     """Before/after of the shards: the aligned input views at 60° tilt 0, 70° tilt 0 and 70°
     tilt 90 (rows), then the sequential stack with 3 levels (before) and with the default
@@ -330,7 +314,7 @@ def shard_figure(path: Path):
     rows = [np.concatenate([imgs[n, :120, :120], gap, before[n, 64:184, 64:184], gap, after[n, 64:184, 64:184]], 1)
             for n in pick]
     hgap = np.ones((4, rows[0].shape[1], 3), np.float32)
-    jpeg(path, np.concatenate([rows[0], hgap, rows[1], hgap, rows[2]], 0))
+    write_jpeg(path, np.concatenate([rows[0], hgap, rows[1], hgap, rows[2]], 0))
     # the tile's border in the move's last (overhead) frame: BtfSynth with tile off, then on
     src = run_node("SourceRead", {"table": str(ROOT / "samples/renoir/source.yaml")})
     proxy = run_node("ProxyRender", {"scene": str(ROOT / "samples/scenes/btf_move.usda"), "resolution": [256, 256],
@@ -341,7 +325,7 @@ def shard_figure(path: Path):
         synth = run_node("BtfSynth", {"size": [256, 256], "seed": 1, "tile": tile}, {"stack": aligned})
         f = run_node("BtfShade", {"label": "bumps", "origin": MOVE_ORIGIN}, {"stack": synth, "proxy": proxy})
         crops.append(np.stack([f[c] for c in "RGB"], -1)[40:200, 20:180])
-    jpeg(path.with_name("btf_tile.jpg"), np.concatenate([crops[0], np.ones((160, 4, 3), np.float32), crops[1]], 1))
+    write_jpeg(path.with_name("btf_tile.jpg"), np.concatenate([crops[0], np.ones((160, 4, 3), np.float32), crops[1]], 1))
 
 
 def figures(folder: Path):

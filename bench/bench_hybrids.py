@@ -33,6 +33,7 @@ sys.path.insert(0, str(ROOT))
 
 from proxyshade.kernels import quality as Q  # noqa: E402
 from proxyshade.synthesis import hybrid as H  # noqa: E402
+from harness import write_jpeg  # noqa: E402
 
 SEEDS = (1, 2, 3, 4)
 SETS = ("foliage", "gravel", "brick")
@@ -153,18 +154,6 @@ def _tile(img, pad=2):
     return np.pad(img, ((pad, pad), (pad, pad), (0, 0)), constant_values=1.0)
 
 
-def save_jpeg(img_lin, path: Path):
-    import OpenImageIO as oiio
-
-    img = np.ascontiguousarray(np.round(srgb(img_lin) * 255).astype(np.uint8))
-    buf = oiio.ImageBuf(oiio.ImageSpec(img.shape[1], img.shape[0], 3, oiio.UINT8))
-    buf.set_pixels(oiio.ROI(), img)
-    buf.specmod().attribute("Compression", "jpeg:85")
-    if not buf.write(str(path)):
-        raise SystemExit(f"{path}: {buf.geterror()}")
-    print(f"wrote {path}")
-
-
 def _rows(blocks):
     w = max(b.shape[1] for b in blocks)
     return np.concatenate([np.pad(b, ((0, 0), (0, w - b.shape[1]), (0, 0)), constant_values=1.0) for b in blocks], 0)
@@ -190,14 +179,14 @@ def sheets(before_jpg: Path | None):
     if before_jpg is not None:
         top = srgb_to_linear(read_u8(before_jpg)[:260, :, :3])  # main's first row of 260² tiles
         blocks.insert(0, top[::2, ::2])
-    save_jpeg(_rows(blocks), ROOT / "docs/img/hybrids_before_after.jpg")
+    write_jpeg(ROOT / "docs/img/hybrids_before_after.jpg", _rows(blocks), quality=85, view="clip")
     blocks = []
     for s in SETS:
         rgb, free = out[s]
         blocks.append(np.concatenate([_tile(rgb), _tile(free[0][:128]), _tile(free[1][:128])], 1))
         blocks.append(_tile(out[f"{s} ramp 1->3"][1][0]))
     blocks.append(np.concatenate([_tile(x) for x in out["brick per level 1|3"][1]], 1))
-    save_jpeg(_rows(blocks), ROOT / "docs/img/hybrids_sheet.jpg")
+    write_jpeg(ROOT / "docs/img/hybrids_sheet.jpg", _rows(blocks), quality=85, view="clip")
 
 
 if __name__ == "__main__":

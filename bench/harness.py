@@ -93,3 +93,23 @@ def print_graph_medians(title: str, res: dict, targets: dict | None = None) -> N
     rows.append(("whole graph (forced)", {"median": res["wall"], "min": res["wall"]}, (targets or {}).get("whole")))
     rows.append(("cache-hit re-run (load + plan)", {"median": res["cache_hit_rerun"], "min": res["cache_hit_rerun"]}, None))
     table(title, rows)
+
+
+def write_jpeg(path, rgb, *, quality: int = 90, view: str = "shoulder") -> None:
+    """A linear (H, W, 3) image as an sRGB JPEG (a docs figure): the preview's display
+    transform (``kernels.display.to_display`` with ``view``), then OpenImageIO."""
+    import numpy as np
+    import OpenImageIO as oiio
+
+    from proxyshade.kernels.display import to_display
+    from proxyshade.plate import Plate
+
+    rgb = np.asarray(rgb, np.float32)
+    img = np.ascontiguousarray(to_display(Plate({c: np.ascontiguousarray(rgb[..., i]) for i, c in enumerate("RGB")}),
+                                          ["R", "G", "B"], view=view))
+    buf = oiio.ImageBuf(oiio.ImageSpec(img.shape[1], img.shape[0], 3, oiio.UINT8))
+    buf.set_pixels(oiio.ROI(), img)
+    buf.specmod().attribute("Compression", f"jpeg:{quality}")
+    if not buf.write(str(path)):
+        raise SystemExit(f"{path}: {buf.geterror()}")
+    print(f"wrote {path}")
