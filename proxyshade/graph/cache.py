@@ -395,8 +395,10 @@ class Cache:
                 "warning)")
 
     def remove_stale_temps(self) -> list[tuple[Path, int]]:
-        """Delete temporaries left by killed runs (their process is gone, or a day old)."""
-        removed = []
+        """Delete temporaries left by killed runs (their process is gone, or a day old): in
+        the entry folders, and the root's ``MARKER`` written by a run killed as it tagged the
+        folder."""
+        removed = remove_stale_temps(self.root, {MARKER}) if self.root.is_dir() else []
         for d in self._folders():
             removed += remove_stale_temps(d)
         return removed

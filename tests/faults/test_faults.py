@@ -429,7 +429,10 @@ def test_stale_temporaries_are_counted_and_removed(tmp_path, registry, capsys):
     dead.wait()
     cache = tmp_path / ".proxyshade" / "cache"
     sub = next(p for p in cache.iterdir() if p.name != "runs")
+    from proxyshade.io.files import HOST
+
     stale = [sub / f".{'a' * 64}.exr.{dead.pid}.0.tmp.exr", cache / "runs" / f".x.json.{dead.pid}.3.tmp",
+             cache / f".CACHEDIR.TAG.{dead.pid}-{HOST}.0.tmp",  # a run killed as it tagged the cache folder
              tmp_path / "out" / f".s.0001.exr.{dead.pid}.7.tmp.exr", tmp_path / "out" / ".a.png.1.2.tmp.png"]
     live = tmp_path / "out" / ".a.png.1.3.tmp.png"  # pid 1 is alive: another run's write in progress
     for p in stale + [live]:
@@ -439,7 +442,7 @@ def test_stale_temporaries_are_counted_and_removed(tmp_path, registry, capsys):
     code, out, _ = cli(capsys, "cache", "info", g)
     assert code == 0 and "2 temporary file(s) (0.0 MB, 2 left by killed runs" in out
     code, out, err = cli(capsys, "run", g, "-q")
-    assert code == 0 and err == [] and "note removed 4 temporary file(s) left by killed runs" in out
+    assert code == 0 and err == [] and "note removed 5 temporary file(s) left by killed runs" in out
     assert temps(tmp_path) == [live]
     assert "temporary" not in cli(capsys, "cache", "info", g)[1]
 
