@@ -37,12 +37,16 @@ class Magnify(Node):
                   channels=("Z",), finite=("Z",), inf_ok=("Z",), dtype={"object.id": "uint32"},
                   fix="connect DepthExtend's output")
     repair = Param(bool, True, doc="move pixels whose source label differs from the guide's onto the right label")
+    seam_passes = Param(int, 4, min=0, max=64,
+                        doc="passes moving patch seams, one output pixel at a time, to where the patches on "
+                            "either side agree (Kwatra et al. 2003's seam cost; needs repair); 0 = the "
+                            "factor-pixel staircase of the synthesis")
 
     def compute(self, ctx) -> Plate:
         from proxyshade.kernels.lookup import lookup
         from proxyshade.synthesis import labels as L
         from proxyshade.synthesis.exemplar import provenance, source_to_grid
-        from proxyshade.synthesis.patches import magnify_map
+        from proxyshade.synthesis.patches import magnify_map, working_colours
 
         synth, source, guide = ctx.synth, ctx.source, ctx.guide
         syn = synth.meta.get("synthesis")
@@ -57,11 +61,16 @@ class Magnify(Node):
         g = L.dense_guide(guide["label.id"], table)
         S = np.stack([source_to_grid(synth["source.y"], F), source_to_grid(synth["source.x"], F)], -1)
         wl = L.source_working_labels(source, table, scale, ctx.memo)
+        colours = None
+        if ctx.p.seam_passes and ctx.p.repair:
+            colours = working_colours(source.rgb(), L.source_dense(source, table), scale, len(table), ctx.memo)
         sx, sy, patch, npatch, rep = magnify_map(S.astype(np.int32), f, (Ho, Wo), scale=scale,
-                                                 target=g if ctx.p.repair else None, labels=wl, memo=ctx.memo)
+                                                 target=g if ctx.p.repair else None, labels=wl, memo=ctx.memo,
+                                                 colours=colours, seam_passes=ctx.p.seam_passes)
         if ctx.p.repair:
             ctx.note(f"{rep['wrong']} pixels landed on another label: {rep['extended']} continued a neighbour's "
-                     f"patch, {rep['nearest']} took the nearest right-label source pixel")
+                     f"patch, {rep['nearest']} took the nearest right-label source pixel; "
+                     f"{rep['seam_moves']} seam moves")
         rgb = lookup(source.rgb(), sx, sy)
         ch = {"R": rgb[..., 0].copy(), "G": rgb[..., 1].copy(), "B": rgb[..., 2].copy(),
               "label.id": guide["label.id"].astype(np.uint32), "source.x": sx, "source.y": sy,

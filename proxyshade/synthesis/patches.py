@@ -17,6 +17,7 @@ from proxyshade.kernels import correct as kcorrect
 from proxyshade.kernels.distance import nearest_site
 from proxyshade.kernels import magnify as kmag
 from proxyshade.kernels import patch as kpatch
+from proxyshade.kernels import seams as kseams
 from proxyshade.synthesis.exemplar import SynthesisSetup, grid_to_source
 from proxyshade.synthesis.memo import kept
 
@@ -81,24 +82,45 @@ def repair_map(st: SynthesisSetup, S: np.ndarray) -> tuple[np.ndarray, dict]:
 
 def magnify_map(S: np.ndarray, factor: int, shape: tuple[int, int], *, scale: float,
                 target: np.ndarray | None = None, labels: np.ndarray | None = None,
-                only: np.ndarray | None = None, memo=None):
+                only: np.ndarray | None = None, memo=None, colours: np.ndarray | None = None,
+                seam_passes: int = 0):
     """The exemplar map ``S`` magnified by ``factor`` to the output size ``shape`` (each
     patch keeps its translation, the source is read at full detail). With ``target``,
     pixels whose ``labels`` (the source's on the output-scale grid,
     ``labels.working_labels``) differ from ``target`` are moved onto theirs; with
     ``only``, just those pixels are (the others are taken to be where they land). ``memo``
-    (``synthesis.memo``) keeps the nearest sites of each label of ``labels``.
+    (``synthesis.memo``) keeps the nearest sites of each label of ``labels``. With
+    ``colours`` (the source on the same grid as ``labels``) and ``seam_passes``, the seams
+    between patches then move to where their colours agree (``kernels.seams``; needs
+    ``target``).
 
     Returns (source.x, source.y float32, patch ids uint32 from 1, patch count, the
-    repair's counts)."""
+    repair's counts, with ``seam_moves``)."""
     Sw = kmag.magnify(S, factor, shape)
     rep = {"wrong": 0, "extended": 0, "nearest": 0}
     if target is not None:
         if only is not None:
             target = kmag.only_target(Sw, labels, only, target)
         Sw, rep = kmag.repair_labels(Sw, target, labels, sites_of=lambda lab: nearest_sites(labels, lab, memo))
+    rep["seam_moves"] = 0
+    if seam_passes > 0 and colours is not None and target is not None:
+        Sw, rep["seam_moves"] = kseams.refine_seams(Sw, colours, target, labels, seam_passes)
     patch, npatch = patch_ids(Sw)
     return grid_to_source(Sw[..., 1], scale), grid_to_source(Sw[..., 0], scale), patch, npatch, rep
+
+
+def working_colours(source_rgb: np.ndarray, labels_dense: np.ndarray, scale: float, n: int, memo=None) -> np.ndarray:
+    """The source's colours on the output-scale grid (``labels.working_labels``' grid),
+    display-like (√ of linear, so a seam's cost weighs shadows as the eye does), kept in
+    ``memo`` for the frames of a run."""
+    def compute():
+        from proxyshade.kernels.features import build_exemplar
+        rgb = build_exemplar(np.ascontiguousarray(source_rgb, np.float32), labels_dense, scale, n)[0]
+        out = np.sqrt(np.maximum(rgb, 0.0)).astype(np.float32)
+        out.flags.writeable = False
+        return out
+
+    return kept(memo, "patches.working_colours", (source_rgb, labels_dense, float(scale)), compute)
 
 
 def nearest_sites(labels: np.ndarray, lab: int, memo=None) -> np.ndarray | None:

@@ -1,0 +1,141 @@
+"""Patch seams moved to where the two sources agree, at the output resolution.
+
+Magnify turns each synthesis pixel into ``factor``×``factor`` output pixels, so the seams
+between patches run on a ``factor``-pixel staircase wherever the synthesis put them. This
+moves them, one output pixel at a time, to where the colours of the patches on either side
+agree: the seam cost of Kwatra et al. 2003 ("Graphcut Textures", §3: for neighbours ``p``,
+``q`` read from offsets ``a`` and ``b``, ``‖A(p) − B(p)‖² + ‖A(q) − B(q)‖²``, 0 when
+``a = b``), lowered by iterated conditional modes instead of a graph cut: each pixel next to
+a seam takes, among its own offset and its four neighbours', the one with the least summed
+seam cost to its neighbours, as long as the source pixel it then reads has the pixel's
+label. Checkerboard sub-passes (a pixel's neighbours are all of the other parity), so the
+result does not depend on the number of threads. Pixels of different target labels are not
+neighbours here (a label border is not a patch seam).
+
+``S``: (H, W, 2) int32 map (row, column) into a source grid; ``img``: (Hs, Ws, C) float32
+colours of that grid; ``target``: (H, W) int32 labels the output needs; ``labels``: (Hs, Ws)
+int32 labels of the grid.
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, prange
+
+from proxyshade.kernels._config import JIT, PJIT
+
+OUTSIDE = 4.0  # cost of reading a source pixel off the grid (per term; colours are ~[0, 1])
+
+_DY = (-1, 0, 0, 1)
+_DX = (0, -1, 1, 0)
+
+
+@njit(**JIT)
+def _dist2(img, ay, ax, by, bx):
+    """‖img[a] − img[b]‖², OUTSIDE when either lies off the grid."""
+    Hs, Ws, C = img.shape
+    if ay < 0 or ax < 0 or by < 0 or bx < 0 or ay >= Hs or ax >= Ws or by >= Hs or bx >= Ws:
+        return OUTSIDE
+    d = 0.0
+    for c in range(C):
+        t = img[ay, ax, c] - img[by, bx, c]
+        d += t * t
+    return d
+
+
+@njit(**JIT)
+def _energy(S, img, target, i, j, oy, ox):
+    """Summed seam cost between pixel (i, j) read at offset (oy, ox) and its same-label
+    neighbours read at their own offsets."""
+    H, W = target.shape
+    e = 0.0
+    for k in range(4):
+        y, x = i + _DY[k], j + _DX[k]
+        if y < 0 or x < 0 or y >= H or x >= W or target[y, x] != target[i, j]:
+            continue
+        qy, qx = S[y, x, 0] - y, S[y, x, 1] - x
+        if qy == oy and qx == ox:
+            continue
+        e += _dist2(img, i + oy, j + ox, i + qy, j + qx) + _dist2(img, y + oy, x + ox, y + qy, x + qx)
+    return e
+
+
+@njit(**PJIT)
+def _sub_pass(S, img, target, labels, parity):
+    """One checkerboard half: every pixel of ``parity`` takes its best offset; the number
+    of pixels that changed."""
+    H, W = target.shape
+    Hs, Ws = labels.shape
+    changed = np.zeros(H, np.int64)
+    for i in prange(H):
+        for j in range((i + parity) % 2, W, 2):
+            oy, ox = S[i, j, 0] - i, S[i, j, 1] - j
+            seam = False
+            for k in range(4):
+                y, x = i + _DY[k], j + _DX[k]
+                if 0 <= y < H and 0 <= x < W and target[y, x] == target[i, j] and (
+                        S[y, x, 0] - y != oy or S[y, x, 1] - x != ox):
+                    seam = True
+                    break
+            if not seam:
+                continue
+            best = _energy(S, img, target, i, j, oy, ox)
+            by, bx = oy, ox
+            for k in range(4):
+                y, x = i + _DY[k], j + _DX[k]
+                if y < 0 or x < 0 or y >= H or x >= W or target[y, x] != target[i, j]:
+                    continue
+                cy, cx = S[y, x, 0] - y, S[y, x, 1] - x
+                if (cy == oy and cx == ox) or (cy == by and cx == bx):
+                    continue
+                sy, sx = i + cy, j + cx
+                if sy < 0 or sx < 0 or sy >= Hs or sx >= Ws or labels[sy, sx] != target[i, j]:
+                    continue
+                e = _energy(S, img, target, i, j, cy, cx)
+                if e < best:
+                    best, by, bx = e, cy, cx
+            if by != oy or bx != ox:
+                S[i, j, 0] = i + by
+                S[i, j, 1] = j + bx
+                changed[i] += 1
+    return changed.sum()
+
+
+def refine_seams(S: np.ndarray, img: np.ndarray, target: np.ndarray, labels: np.ndarray,
+                 passes: int) -> tuple[np.ndarray, int]:
+    """``S`` (copied) after ``passes`` passes of seam moves (each two checkerboard halves),
+    stopping early when a pass changes nothing; and the number of pixel moves made."""
+    S = np.ascontiguousarray(S, np.int32).copy()
+    img = np.ascontiguousarray(img, np.float32)
+    target = np.ascontiguousarray(target, np.int32)
+    labels = np.ascontiguousarray(labels, np.int32)
+    moves = 0
+    for _ in range(passes):
+        n = _sub_pass(S, img, target, labels, 0) + _sub_pass(S, img, target, labels, 1)
+        moves += int(n)
+        if n == 0:
+            break
+    return S, moves
+
+
+def seam_cost(S: np.ndarray, img: np.ndarray, target: np.ndarray) -> float:
+    """The total seam cost of a map (each neighbouring pair of one target label counted once)."""
+    return float(_seam_cost(np.ascontiguousarray(S, np.int32), np.ascontiguousarray(img, np.float32),
+                            np.ascontiguousarray(target, np.int32)))
+
+
+@njit(**JIT)
+def _seam_cost(S, img, target):
+    H, W = target.shape
+    tot = 0.0
+    for i in range(H):
+        for j in range(W):
+            oy, ox = S[i, j, 0] - i, S[i, j, 1] - j
+            for k in range(2, 4):  # right and down: each pair once
+                y, x = i + _DY[k], j + _DX[k]
+                if y >= H or x >= W or target[y, x] != target[i, j]:
+                    continue
+                qy, qx = S[y, x, 0] - y, S[y, x, 1] - x
+                if qy == oy and qx == ox:
+                    continue
+                tot += _dist2(img, i + oy, j + ox, i + qy, j + qx) + _dist2(img, y + oy, x + ox, y + qy, x + qx)
+    return tot

@@ -1,0 +1,122 @@
+"""Patch seams moved to where the patches agree (kernels.seams) against a plain-Python
+reference of the same iterated conditional modes."""
+import numpy as np
+import pytest
+
+from proxyshade.kernels import seams as ks
+
+N4 = ((-1, 0), (0, -1), (0, 1), (1, 0))
+
+
+def ref_cost(img, a, b):
+    Hs, Ws, _ = img.shape
+    if not (0 <= a[0] < Hs and 0 <= a[1] < Ws and 0 <= b[0] < Hs and 0 <= b[1] < Ws):
+        return ks.OUTSIDE
+    return float(((img[a].astype(np.float64) - img[b]) ** 2).sum())
+
+
+def ref_energy(S, img, target, i, j, off):
+    H, W = target.shape
+    e = 0.0
+    for dy, dx in N4:
+        y, x = i + dy, j + dx
+        if not (0 <= y < H and 0 <= x < W) or target[y, x] != target[i, j]:
+            continue
+        q = (S[y, x, 0] - y, S[y, x, 1] - x)
+        if q == off:
+            continue
+        e += ref_cost(img, (i + off[0], j + off[1]), (i + q[0], j + q[1]))
+        e += ref_cost(img, (y + off[0], x + off[1]), (y + q[0], x + q[1]))
+    return e
+
+
+def ref_refine(S, img, target, labels, passes):
+    S = S.copy()
+    H, W = target.shape
+    for _ in range(passes):
+        moved = 0
+        for parity in (0, 1):
+            new = S.copy()  # a half reads only the other parity, so order inside it is free
+            for i in range(H):
+                for j in range(W):
+                    if (i + j) % 2 != parity:
+                        continue
+                    own = (S[i, j, 0] - i, S[i, j, 1] - j)
+                    nbr = [(S[i + dy, j + dx, 0] - i - dy, S[i + dy, j + dx, 1] - j - dx) for dy, dx in N4
+                           if 0 <= i + dy < H and 0 <= j + dx < W and target[i + dy, j + dx] == target[i, j]]
+                    if all(o == own for o in nbr):
+                        continue
+                    best, pick = ref_energy(S, img, target, i, j, own), own
+                    for o in nbr:
+                        sy, sx = i + o[0], j + o[1]
+                        if o in (own, pick) or not (0 <= sy < labels.shape[0] and 0 <= sx < labels.shape[1]):
+                            continue
+                        if labels[sy, sx] != target[i, j]:
+                            continue
+                        e = ref_energy(S, img, target, i, j, o)
+                        if e < best:
+                            best, pick = e, o
+                    if pick != own:
+                        new[i, j] = (i + pick[0], j + pick[1])
+                        moved += 1
+            S = new
+        if moved == 0:
+            break
+    return S
+
+
+def random_case(seed, H=14, W=17, Hs=30, Ws=32, nlab=2):
+    rng = np.random.default_rng(seed)
+    img = rng.random((Hs, Ws, 3)).astype(np.float32)
+    labels = (rng.random((Hs, Ws)) < 0.15).astype(np.int32) if nlab == 2 else np.zeros((Hs, Ws), np.int32)
+    target = np.zeros((H, W), np.int32)
+    target[:, W - 3:] = nlab - 1
+    # blocks of 4x4 pixels, each with one random offset (a magnified synthesis map)
+    S = np.empty((H, W, 2), np.int32)
+    for bi in range(0, H, 4):
+        for bj in range(0, W, 4):
+            oy, ox = rng.integers(-bi, Hs - bi - 4), rng.integers(-bj, Ws - bj - 4)
+            ii, jj = np.mgrid[bi:min(bi + 4, H), bj:min(bj + 4, W)]
+            S[ii, jj, 0], S[ii, jj, 1] = ii + oy, jj + ox
+    return S, img, target, labels
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_matches_reference_exactly(seed):
+    S, img, target, labels = random_case(seed)
+    got, moves = ks.refine_seams(S, img, target, labels, 3)
+    want = ref_refine(S, img, target, labels, 3)
+    assert np.array_equal(got, want)
+    assert moves >= int((got != S).any(-1).sum())  # a pixel may move twice
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_seam_cost_never_rises_and_labels_hold(seed):
+    S, img, target, labels = random_case(seed, nlab=2)
+    before = ks.seam_cost(S, img, target)
+    out, moves = ks.refine_seams(S, img, target, labels, 6)
+    assert moves > 0
+    assert ks.seam_cost(out, img, target) < before
+    # every pixel that moved reads a source pixel of its own label
+    moved = (out != S).any(-1)
+    assert (labels[out[moved, 0], out[moved, 1]] == target[moved]).all()
+
+
+def test_a_seam_moves_to_where_the_patches_agree():
+    # one row read by two patches at offsets 0 and +10 columns from an image of period 10
+    # except a stripe at columns 4-5: a seam costs only where it touches the stripe, so the
+    # seam put at 4|5 moves left off it (a single row: each pixel's only neighbours are along
+    # it; a straight seam across many rows is a local minimum of these one-pixel moves)
+    rng = np.random.default_rng(3)
+    img = np.tile(rng.random((1, 10, 1)).astype(np.float32), (1, 4, 1))
+    img[:, 4:6] += 1.0
+    S = np.stack(np.mgrid[0:1, 0:12], -1).astype(np.int32)
+    S[:, 8:, 1] += 10
+    target, labels = np.zeros((1, 12), np.int32), np.zeros((1, 40), np.int32)
+    assert ks.seam_cost(S, img, target) == 0.0  # 7|8 reads agree already: nothing to do
+    out, moves = ks.refine_seams(S, img, target, labels, 4)
+    assert moves == 0 and np.array_equal(out, S)
+    S[:, 5:, 1] = np.arange(5, 12)[None] + 10  # the seam moved into the stripe: it costs
+    assert ks.seam_cost(S, img, target) > 0
+    out, moves = ks.refine_seams(S, img, target, labels, 8)
+    assert ks.seam_cost(out, img, target) == 0.0 and moves > 0
