@@ -63,7 +63,9 @@ def test_distorted_areas_start_from_their_own_map():
     f = flag == FLAG["disoccluded"]
     same_d = (np.abs(out["source.x"] - img["source.x"]) < 1e-3)[d].mean()
     same_f = (np.abs(out["source.x"] - img["source.x"]) < 1e-3)[f].mean()
-    assert same_d > 0.9 and same_f < 0.5
+    # the synthesis-size map is read back from the output's, whose seams Magnify moved off
+    # the factor-pixel grid: the blocks those seams cross come back on the grid (~16 % here)
+    assert same_d > 0.75 and same_f < 0.25
 
 
 def test_restricted_solve_equals_the_poisson_node_with_keep():
