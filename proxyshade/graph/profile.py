@@ -8,8 +8,11 @@ compute with what it spent importing modules, loading numba kernels from their c
 and compiling numba code (typed containers, a kernel not in the cache), the cache's
 EXR writes (on the writer thread: how long it was busy, and how long the run waited
 for it at the end) and the output writers. A sampler thread reads the resident set size
-every few milliseconds: the node running at the peak, the peak during each node, and the
-plates held in memory at the peak (node and MiB).
+every few milliseconds: the node running at the peak, the peak during each node, the
+plates held in memory at the peak (node and MiB), and what the peak holds (``peak_parts``:
+mapped library files, the heap when the first node started, plates, the rest). With the
+writers on a thread of their own (``executor.SerialExecutor``) the output writes row is the
+run's wait for them.
 
 Nothing here changes a result: timers wrap numba's cache loading, its compile events and
 Python's ``__import__``, only while a profile is active.
