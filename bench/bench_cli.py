@@ -11,8 +11,9 @@ bench/bench_photos.py runs it) with the source's label map and the frame's detai
 child's wall time, CPU seconds (user + system) and peak resident memory come from
 ``os.wait4``. Prints the medians over ``--rounds`` (default 5), the ratios, the load
 average before and after, then this checkout's ``--profile`` of one more run: where the
-time went and the resident memory before and during each node, the node holding the peak
-and the plates in memory then.
+time went and the resident memory before and during each node, the node holding the peak,
+the plates in memory then and what the peak holds (mapped library files, the heap when the
+first node started, plates, the rest).
 
 Run: ``python bench/bench_cli.py --ebsynth /tmp/ebsynth --baseline /work/main``. On a machine
 shared with other checkouts, give this one a kernel cache of its own (``NUMBA_CACHE_DIR``):

@@ -47,11 +47,52 @@ def order_key(dag: nx.DiGraph) -> Callable[[Hashable], tuple]:
 
 
 class SerialExecutor(LocalExecutor):
-    """One vertex at a time, in a deterministic topological order (``order_key``)."""
+    """One computing vertex at a time, in a deterministic topological order (``order_key``).
+    The writers (vertices marked ``first``: previews, EXR writers) run in that order on one
+    thread of their own, beside the nodes that follow (an output's encoding and write are off
+    the computing path); a vertex that reads a writer waits for it. What each vertex computes
+    does not depend on the overlap, so the files are the same; the run raises the first
+    failure in this order."""
 
     def run(self, dag: nx.DiGraph, fn: Callable[[Hashable], None]) -> None:
-        for v in nx.lexicographical_topological_sort(dag, key=order_key(dag)):
-            fn(v)
+        order = list(nx.lexicographical_topological_sort(dag, key=order_key(dag)))
+        if all(dag.nodes[v].get("first", False) for v in order) or not any(
+                dag.nodes[v].get("first", False) for v in order):
+            for v in order:
+                fn(v)
+            return
+        writes: dict[Hashable, Future] = {}
+        prof = profile.ACTIVE
+        if prof is not None:
+            prof.writes_beside = True
+
+        def wait_for(f: Future) -> None:
+            t = time.perf_counter()
+            try:
+                f.result()
+            finally:
+                if prof is not None:
+                    prof.write_wait += time.perf_counter() - t
+
+        with ThreadPoolExecutor(max_workers=1, thread_name_prefix="proxyshade-write") as pool:
+            try:
+                for v in order:
+                    for u in dag.predecessors(v):
+                        if u in writes:
+                            wait_for(writes[u])
+                    for f in writes.values():  # a failed write stops the run before the next node
+                        if f.done() and f.exception() is not None:
+                            f.result()
+                    if dag.nodes[v].get("first", False):
+                        writes[v] = pool.submit(fn, v)
+                    else:
+                        fn(v)
+                for f in writes.values():
+                    wait_for(f)
+            except BaseException:
+                for f in writes.values():
+                    f.cancel()
+                raise
 
 
 class ThreadExecutor(LocalExecutor):

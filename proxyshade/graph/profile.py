@@ -8,8 +8,11 @@ compute with what it spent importing modules, loading numba kernels from their c
 and compiling numba code (typed containers, a kernel not in the cache), the cache's
 EXR writes (on the writer thread: how long it was busy, and how long the run waited
 for it at the end) and the output writers. A sampler thread reads the resident set size
-every few milliseconds: the node running at the peak, the peak during each node, and the
-plates held in memory at the peak (node and MiB).
+every few milliseconds: the node running at the peak, the peak during each node, the
+plates held in memory at the peak (node and MiB), and what the peak holds (``peak_parts``:
+mapped library files, the heap when the first node started, plates, the rest). With the
+writers on a thread of their own (``executor.SerialExecutor``) the output writes row is the
+run's wait for them.
 
 Nothing here changes a result: timers wrap numba's cache loading, its compile events and
 Python's ``__import__``, only while a profile is active.
@@ -40,11 +43,19 @@ def process_age() -> float:
 
 def rss_mb() -> float:
     """This process's resident set size now, MiB."""
+    return rss_split()[0]
+
+
+def rss_split() -> tuple[float, float]:
+    """(resident set size, its file-backed part: pages of mapped files, the shared
+    libraries' code and data above all), MiB; the rest is anonymous memory (the heap:
+    arrays, Python objects, compiled kernels)."""
     try:
         with open("/proc/self/statm") as f:
-            return int(f.read().split()[1]) * _PAGE / 2**20
+            fields = f.read().split()
+        return int(fields[1]) * _PAGE / 2**20, int(fields[2]) * _PAGE / 2**20
     except (OSError, ValueError, IndexError):
-        return 0.0
+        return 0.0, 0.0
 
 
 @dataclass
@@ -67,12 +78,16 @@ class Profile:
     before_command: float = 0.0  # process start to the command's start (interpreter, imports)
     plan_s: float = 0.0  # graph load, keys, plan (set by the caller)
     flush_wait: float = 0.0  # the run waiting for the cache writer at its end
+    writes_beside: bool = False  # the writers ran on a thread of their own (executor.SerialExecutor)
+    write_wait: float = 0.0  # ... and the run waited for them this long
     precompile_s: float = 0.0  # the first run's kernel precompile (warmup.precompile), imports in it included
     nodes: dict = field(default_factory=dict)  # (node, frame) -> NodeTimes
     outside: NodeTimes = field(default_factory=lambda: NodeTimes("(outside nodes)", 0))
     peak_mb: float = 0.0
     peak_node: str = ""
     peak_held: list = field(default_factory=list)  # (node, MiB) of plates in memory at the peak
+    peak_file: float = 0.0  # MiB of the peak resident set that are mapped files (libraries)
+    start_anon: float = 0.0  # anonymous MiB when the first node started (libraries, modules loaded)
     memory_of: object = None  # () -> [(node, MiB)]: plates in memory now (set by the engine)
 
     def __post_init__(self):
@@ -97,6 +112,8 @@ class Profile:
         if self.memory_of is not None:
             return
         self.plan_s = time.perf_counter() - self.t0
+        r, f = rss_split()
+        self.start_anon = r - f
         names = {k: f"{n}@{f}" for (n, f), k in plan.keys.items()}
 
         def held():
@@ -125,11 +142,11 @@ class Profile:
     # -- sampling ------------------------------------------------------------
     def _sample(self) -> None:
         while not self._stop.wait(0.005):
-            r = rss_mb()
+            r, f = rss_split()
             for nt in list(self._running.values()):
                 nt.rss_peak = max(nt.rss_peak, r)
             if r > self.peak_mb:
-                self.peak_mb = r
+                self.peak_mb, self.peak_file = r, f
                 self.peak_node = ", ".join(f"{nt.node}@{nt.frame}" for nt in list(self._running.values())) or "(none)"
                 if self.memory_of is not None:
                     try:
@@ -150,18 +167,26 @@ class Profile:
                ("graph load + keys", max(0.0, self.plan_s - max(0.0, before) - self.precompile_s),
                 "YAML, variables, code hashes, cache lookups, USD plugins")]
         comp = lambda nt: nt.seconds - nt.imports - nt.kernel_load - nt.kernel_compile  # noqa: E731
-        imports = sum(nt.imports for nt in self.nodes.values())
-        load = sum(nt.kernel_load for nt in self.nodes.values())
-        compile_ = sum(nt.kernel_compile for nt in self.nodes.values())
+        # writers beside the nodes: their whole time is the writer thread's, off the run's path
+        path = [nt for nt in self.nodes.values() if not (self.writes_beside and nt.sink)]
+        imports = sum(nt.imports for nt in path)
+        load = sum(nt.kernel_load for nt in path)
+        compile_ = sum(nt.kernel_compile for nt in path)
         out.append(("imports in nodes", imports, "modules a node loads on first use (colour, USD, synthesis)"))
         out.append(("kernel loading", load, "numba cache loads of the kernels called"))
         if compile_ or self.outside.kernel_compile:
             out.append(("numba compiling", compile_, "code numba compiles at run time (not in its cache)"))
         for nt in self.nodes.values():
             if not nt.sink:
-                out.append((f"  {nt.node}@{nt.frame}", comp(nt), "compute"))
-        out.append(("output writes", sum(comp(nt) for nt in self.nodes.values() if nt.sink),
-                    ", ".join(nt.node for nt in self.nodes.values() if nt.sink)))
+                out.append((f"  {nt.node}@{nt.frame}", comp(nt), f"compute (its cache write {nt.cache_write:.2f} s, "
+                                                                 "writer thread)"))
+        sinks = [nt for nt in self.nodes.values() if nt.sink]
+        names = ", ".join(nt.node for nt in sinks)
+        if self.writes_beside:
+            out.append(("output writes (waited)", self.write_wait, f"{names}: the writer thread was busy "
+                        f"{sum(nt.seconds for nt in sinks):.2f} s, beside the nodes"))
+        else:
+            out.append(("output writes", sum(comp(nt) for nt in sinks), names))
         busy = sum(nt.cache_write for nt in self.nodes.values()) + self.outside.cache_write
         out.append(("cache writes (waited)", self.flush_wait, f"the writer thread was busy {busy:.2f} s, beside the nodes"))
         accounted = sum(s for name, s, _ in out if not name.startswith("  ") and name != "cache writes (waited)")
@@ -182,11 +207,25 @@ class Profile:
         lines.append("memory (MiB, resident): node, before, peak during")
         for name, before, peak in self.memory_rows():
             lines.append(f"  {name:<26} {before:7.0f} {peak:7.0f}")
-        held = sorted(self.peak_held, key=lambda x: -x[1])
-        lines.append(f"  peak {self.peak_mb:.0f} MiB while {self.peak_node}; plates held then: "
-                     + (", ".join(f"{n} {mb:.0f}" for n, mb in held) or "none")
-                     + f" (= {sum(mb for _, mb in held):.0f} MiB)")
+        lines.append(self.peak_text())
         return "\n".join(lines)
+
+    def peak_parts(self) -> list[tuple[str, float]]:
+        """What the peak resident set held, MiB: the mapped files (shared libraries), the
+        anonymous memory already there when the first node started (modules and libraries
+        loaded), the plates in the run's memory, and the rest (the nodes' working arrays,
+        modules and kernels loaded since, the allocator's free lists)."""
+        plates = sum(mb for _, mb in self.peak_held)
+        rest = self.peak_mb - self.peak_file - self.start_anon - plates
+        return [("libraries (mapped files)", self.peak_file), ("heap before the first node", self.start_anon),
+                ("plates held", plates), ("working memory and later loads", rest)]
+
+    def peak_text(self) -> str:
+        held = sorted(self.peak_held, key=lambda x: -x[1])
+        parts = ", ".join(f"{name} {mb:.0f}" for name, mb in self.peak_parts())
+        return (f"  peak {self.peak_mb:.0f} MiB while {self.peak_node}; plates held then: "
+                + (", ".join(f"{n} {mb:.0f}" for n, mb in held) or "none")
+                + f" (= {sum(mb for _, mb in held):.0f} MiB)\n  the peak holds: {parts} MiB")
 
     def stop(self) -> None:
         self._stop.set()

@@ -384,8 +384,12 @@ class _Hierarchy:
         # after another in flat buffers (one signature whatever their count; x and b of a
         # serial level are views of its buffers)
         self.serial_from = k0 = next((k for k, op in enumerate(ops) if op[0].size < SERIAL_CELLS), len(ops))
-        self.x = [np.zeros(op[0].shape + (3,), np.float32) for op in ops[:k0]]
-        self.b = [np.zeros(op[0].shape + (3,), np.float32) for op in ops[:k0]]
+        # the finest level's x and b are the caller's (``vcycle`` from level 0 writes into the
+        # x it is given): work arrays from level 1 down only (a whole frame's two buffers less)
+        self.x = [None] + [np.zeros(op[0].shape + (3,), np.float32) for op in ops[1:k0]]
+        self.b = [None] + [np.zeros(op[0].shape + (3,), np.float32) for op in ops[1:k0]]
+        if k0 == 0:
+            self.x, self.b = [], []
         if k0 < len(ops):
             shapes = np.array([op[0].shape for op in ops[k0:]], np.int64)
             offsets = np.concatenate([[0], np.cumsum(shapes[:, 0] * shapes[:, 1])]).astype(np.int64)
@@ -427,7 +431,7 @@ class _Hierarchy:
 
 
 def solve_system(fixed: np.ndarray, b: np.ndarray, *, screen: float = 0.0, tol: float, max_iter: int,
-                 sweeps: int = 1, alpha: float = 1.9) -> tuple[np.ndarray, dict]:
+                 sweeps: int = 1, alpha: float = 1.9, overwrite_b: bool = False) -> tuple[np.ndarray, dict]:
     """Solve A v = b for three channels with multigrid-preconditioned conjugate gradients.
 
     A is the graph Laplacian of the 4-connected grid restricted to the free (not
@@ -437,42 +441,49 @@ def solve_system(fixed: np.ndarray, b: np.ndarray, *, screen: float = 0.0, tol: 
 
     Stops when every channel's residual norm is at most ``tol`` times its initial norm.
     Returns v (M, N, 3) float32 (zero on fixed pixels) and {"iterations", "residual"}.
+
+    Memory: four frame-sized (M, N, 3) float32 arrays besides the operators (v, the
+    residual, p, and one buffer for both the preconditioned residual z and A p: each is
+    dead when the other is written), three when ``overwrite_b`` (a float32 C-contiguous
+    ``b`` the caller no longer needs becomes the residual). The numbers are the same
+    either way.
     """
     hier = _Hierarchy(np.ascontiguousarray(fixed, dtype=np.bool_), screen=screen, alpha=alpha)
     diag, we, ws = hier.ops[0]
+    own = overwrite_b and isinstance(b, np.ndarray) and b.dtype == np.float32 and b.flags.c_contiguous
     b = np.ascontiguousarray(b, dtype=np.float32)
     shape = b.shape
     v = np.zeros(shape, np.float32)
-    r = np.empty(shape, np.float32)
-    _residual(diag, we, ws, v, b, r)  # r = b with the fixed entries zeroed
+    r = b if own else np.empty(shape, np.float32)
+    _residual(diag, we, ws, v, b, r)  # r = b with the fixed entries zeroed (in place: each cell reads only its own b)
+    del b
     rr = np.zeros(3)
     _dot3(r, r, rr)
     r0 = np.sqrt(rr)
     if np.all(r0 == 0.0):
         return v, {"iterations": 0, "residual": 0.0}
     target = tol * r0
-    z = np.empty(shape, np.float32)
-    q = np.empty(shape, np.float32)
-    hier.vcycle(r, z, sweeps=sweeps)
-    p = z.copy()
+    zq = np.empty(shape, np.float32)  # z = M^-1 r, then q = A p (z is dead once p is updated)
+    hier.vcycle(r, zq, sweeps=sweeps)
+    p = zq.copy()
     rz = np.zeros(3)
-    _dot3(r, z, rz)
+    _dot3(r, zq, rz)
     pq = np.zeros(3)
     it = 0
     res = r0
     while it < max_iter:
         it += 1
-        _matvec_dot(diag, we, ws, p, q, pq)
+        _matvec_dot(diag, we, ws, p, zq, pq)
         a = np.where(pq > 0, rz / np.where(pq > 0, pq, 1.0), 0.0)
-        _cg_update(v, r, p, q, a, rr)
+        _cg_update(v, r, p, zq, a, rr)
         res = np.sqrt(rr)
         if np.all(res <= target):
             break
-        hier.vcycle(r, z, sweeps=sweeps)
+        hier.vcycle(r, zq, sweeps=sweeps)  # writes every cell of zq (a Jacobi start from zero)
         rz_new = np.zeros(3)
-        _dot3(r, z, rz_new)
+        _dot3(r, zq, rz_new)
         beta = np.where(rz > 0, rz_new / np.where(rz > 0, rz, 1.0), 0.0)
         rz = rz_new
-        _xpby3(z, beta, p)
+        _xpby3(zq, beta, p)
     rel = float(np.max(np.where(r0 > 0, res / np.where(r0 > 0, r0, 1.0), 0.0)))
     return v, {"iterations": it, "residual": rel}

@@ -163,7 +163,7 @@ def _recentre(v, comp, ncomp, which):
 def poisson_transfer(colors: np.ndarray, patch: np.ndarray, labels: np.ndarray | None = None, *,
                      fixed: np.ndarray | None = None, values: np.ndarray | None = None,
                      label_dirichlet: bool = True, seam_gx: np.ndarray | None = None,
-                     seam_gy: np.ndarray | None = None, screen: float = 0.0, tol: float,
+                     seam_gy: np.ndarray | None = None, seam_gradients=None, screen: float = 0.0, tol: float,
                      max_iter: int) -> tuple[np.ndarray, dict]:
     """Gradient transfer of a synthesized image (Bonneel et al. 2010, §5 step 3).
 
@@ -188,6 +188,10 @@ def poisson_transfer(colors: np.ndarray, patch: np.ndarray, labels: np.ndarray |
         edges that cross a patch seam (read only there). Default zero: ∇u = 0 across
         seams (the paper's Γ1 condition). ``seam_gradients`` computes the source's own
         gradients there instead.
+    seam_gradients : callable, optional
+        Instead of ``seam_gx, seam_gy``: a function returning them, called here and its
+        arrays dropped once the right-hand side is made, so that they are not held through
+        the solve (two frame-sized arrays of 3 channels: 212 MiB at 4K).
     screen : float
         Weight λ of a data term λ (u − f∘s)² (screened Poisson). 0 is the paper's pure
         Poisson problem; a small λ keeps each region's low frequencies (far from any
@@ -242,6 +246,10 @@ def poisson_transfer(colors: np.ndarray, patch: np.ndarray, labels: np.ndarray |
         fx = fx.copy()
         fx.reshape(-1)[pins] = True
         vfix.reshape(-1, 3)[pins] = 0.0
+    if seam_gradients is not None:
+        if seam_gx is not None or seam_gy is not None:
+            raise ValueError("pass seam_gx, seam_gy or seam_gradients, not both")
+        seam_gx, seam_gy = seam_gradients()
     grads = []
     for g, name in ((seam_gx, "seam_gx"), (seam_gy, "seam_gy")):
         if g is None:
@@ -252,12 +260,17 @@ def poisson_transfer(colors: np.ndarray, patch: np.ndarray, labels: np.ndarray |
     gx, gy = grads
     b = np.empty((h, w, 3), np.float32)
     _rhs(colors, patch, fx, vfix, gx, gy, b)
-    v, info = solve_system(fx, b, screen=screen, tol=tol, max_iter=max_iter)
-    v[fx] = vfix[fx]
+    # what the solve no longer reads leaves memory before it: the fixed values (kept at the
+    # fixed pixels only), the seam gradients made here, and b (it becomes the residual)
+    vfix = vfix[fx]
+    del grads, gx, gy, g, seam_gx, seam_gy
+    v, info = solve_system(fx, b, screen=screen, tol=tol, max_iter=max_iter, overwrite_b=True)
+    del b
+    v[fx] = vfix
     if floating.any():
         _recentre(v, comp, len(firsts), floating)
     info.update(fixed=int(fx.sum()), floating=int(floating.sum()))
-    u = colors + v
+    u = np.add(colors, v, out=v)  # u = colors + v, in v's buffer
     if fixed is not None and values is not None:  # exact values, not f + (values - f)
         keep = fixed if labels is None or not label_dirichlet else fixed & ~edge
         u[keep] = values[keep]

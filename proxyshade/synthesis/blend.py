@@ -134,11 +134,12 @@ def blend_frame(rgb: np.ndarray, patch: np.ndarray, labels: np.ndarray | None, s
         if solve.layout:
             colours = layout_move(colours, labels, src, source_labels, keep=solve.layout_keep, spread=spread,
                                   scale=scale)
-        gx = gy = None
+        seams = None
         if solve.seams == "source":  # only the edges across a seam: the only ones the solve reads
-            gx, gy = kpoisson.seam_gradients_at(src, sx, sy, patch, np.ones(patch.shape, np.bool_), scale)
+            # made inside the transfer and dropped before its solve (not held here through it)
+            seams = lambda: kpoisson.seam_gradients_at(src, sx, sy, patch, np.ones(patch.shape, np.bool_), scale)  # noqa: E731
         u, info = kpoisson.poisson_transfer(colours, patch, labels, fixed=fixed, values=values,
-                                            label_dirichlet=solve.label_dirichlet, seam_gx=gx, seam_gy=gy,
+                                            label_dirichlet=solve.label_dirichlet, seam_gradients=seams,
                                             screen=solve.screen, tol=tol, max_iter=solve.max_iter)
         return floor_light(u, info, None if fixed is None else ~fixed)
 

@@ -30,13 +30,18 @@ def test_profile_splits_the_wall_time_and_names_the_peak(tmp_path, capsys):
     assert main(["run", str(graph), "-q", "--profile", "--cache", str(tmp_path / "c")]) == 0
     text = capsys.readouterr().out
     rows = dict(re.findall(r"^ +(\S[^\n]*?)\s{2,}(\d+\.\d{3})  ", text, re.M))
-    for name in ("process start + imports", "kernel loading", "output writes", "cache writes (waited)", "total"):
-        assert name in rows, text
+    for name in ("process start + imports", "kernel loading", "output writes (waited)", "cache writes (waited)", "total"):
+        assert name in rows, text  # the writer ran beside the nodes: the run's wait for it is on its path
     assert "src@1" in rows and float(rows["src@1"]) > 0
     parts = sum(float(v) for k, v in rows.items() if k not in ("total",))
     assert abs(parts - float(rows["total"])) <= 0.01 + 0.01 * float(rows["total"]), text
     m = re.search(r"peak (\d+) MiB while (\S+); plates held then: (.*)", text)
     assert m and int(m[1]) > 50 and "@1" in m[2]
+    # what the peak holds: mapped libraries, the heap at the first node, plates, the rest; adding up to it
+    parts = re.search(r"the peak holds: libraries \(mapped files\) (\d+), heap before the first node (\d+), "
+                      r"plates held (\d+), working memory and later loads (-?\d+) MiB", text)
+    assert parts and int(parts[1]) > 10 and int(parts[2]) > 10, text
+    assert abs(sum(int(x) for x in parts.groups()) - int(m[1])) <= 2, text
     assert "4 computed" in text  # the run itself as without --profile
     assert main(["run", str(graph), "-q", "--cache", str(tmp_path / "c")]) == 0
     assert "0 computed, 4 reused" in capsys.readouterr().out

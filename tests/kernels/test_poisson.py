@@ -109,6 +109,14 @@ def test_seam_gradients_match_direct_solve():
     u, _ = poisson.poisson_transfer(colors, patch, labels, seam_gx=gx, seam_gy=gy, **SOLVE)
     ref = direct_solve(colors, patch, labels, gx=gx, gy=gy)
     assert rel_err(u, ref) <= 1e-4
+    # the same gradients made inside the transfer (``seam_gradients``: dropped before the
+    # solve): the same bits; colors and the gradients' arrays are left as they were
+    keep = colors.copy(), gx.copy(), gy.copy()
+    u2, _ = poisson.poisson_transfer(colors, patch, labels, seam_gradients=lambda: (gx, gy), **SOLVE)
+    assert np.array_equal(u2.view(np.uint32), u.view(np.uint32))
+    assert all(np.array_equal(a, b) for a, b in zip((colors, gx, gy), keep))
+    with pytest.raises(ValueError, match="not both"):
+        poisson.poisson_transfer(colors, patch, labels, seam_gx=gx, seam_gradients=lambda: (gx, gy), **SOLVE)
 
 
 def test_seam_gradients_from_source():
