@@ -115,6 +115,36 @@ def _quant(a):
     return np.round(np.asarray(a, np.float64) * QUANTUM) / QUANTUM
 
 
+def unique_points(pts, q=QUANTUM):
+    """``np.unique(pts, axis=0, return_inverse=True, return_counts=True)`` for (n, d)
+    points whose coordinates are multiples of 1/q in [0, 1] (quantised annotations): the
+    same arrays, from one integer key per point (a histogram of the keys where they are
+    few, a sort otherwise) instead of a sort of the rows."""
+    pts = np.asarray(pts, np.float64)
+    n, d = pts.shape
+    if (q + 1) ** d >= 2 ** 62:
+        u, inv, cnt = np.unique(pts, axis=0, return_inverse=True, return_counts=True)
+        return u, inv.ravel(), cnt
+    k = np.round(pts * q).astype(np.int64)
+    key = np.zeros(n, np.int64)
+    for col in k.T:  # lexicographic, first coordinate most significant: np.unique's order
+        key = key * (q + 1) + col
+    if (q + 1) ** d <= 1 << 22:
+        hist = np.bincount(key, minlength=(q + 1) ** d)
+        ukey = np.flatnonzero(hist)
+        rank = np.zeros(len(hist), np.int64)
+        rank[ukey] = np.arange(len(ukey))
+        inv, cnt = rank[key], hist[ukey]
+    else:
+        ukey, inv, cnt = np.unique(key, return_inverse=True, return_counts=True)
+    digits = np.empty((len(ukey), d), np.int64)
+    rest = ukey.copy()
+    for c in range(d - 1, -1, -1):
+        digits[:, c] = rest % (q + 1)
+        rest //= q + 1
+    return digits / q, inv.ravel(), cnt
+
+
 def _down(a, f):
     """Box-average by ``f`` (crops to a multiple of ``f``)."""
     if f == 1:
@@ -132,7 +162,7 @@ def clusters(src_ann, usable, bandwidth):
     d = src_ann.shape[2]
     nb = max(2, min(QUANTUM, int(1024 ** (1.0 / d))))
     pts = np.round(src_ann[usable] * nb) / nb
-    u, inv, cnt = np.unique(pts, axis=0, return_inverse=True, return_counts=True)
+    u, inv, cnt = unique_points(pts, nb)
     modes = ka.mean_shift(u, cnt, bandwidth)
     lab, centres = ka.group_modes(modes, cnt, bandwidth / 2)
     out = np.full(usable.shape, -1, np.int32)
@@ -142,7 +172,7 @@ def clusters(src_ann, usable, bandwidth):
 
 def _bins(ann_q, sel):
     """Distinct annotation points of the selected pixels, sorted member lists."""
-    bins, inv, cnt = np.unique(ann_q[sel], axis=0, return_inverse=True, return_counts=True)
+    bins, inv, cnt = unique_points(ann_q[sel])
     members = np.flatnonzero(sel)
     order = members[np.argsort(inv.ravel(), kind="stable")]
     start = np.concatenate([[0], np.cumsum(cnt)[:-1]]).astype(np.int64)
@@ -153,7 +183,7 @@ def _scales(bins, cnt, eps, tgt_q, n_hold):
     from proxyshade.kernels import annotated as ka
 
     h, w, d = tgt_q.shape
-    tu, tinv = np.unique(tgt_q.reshape(-1, d), axis=0, return_inverse=True)
+    tu, tinv, _ = unique_points(tgt_q.reshape(-1, d))
     s = ka.ball_scale(bins, cnt, eps, tu, n_hold)
     nb = ka.nearest_bins(bins, tu, eps)
     return s[tinv.ravel()].reshape(h, w), nb[tinv.ravel()].reshape(h, w)
@@ -341,11 +371,12 @@ def synthesize(src_rgb, src_alpha, src_ann, usable, tgt_ann, p: AnnotatedParams,
                 s_l = np.full((hl, wl), np.inf)
             seed = p.seed * 7919 + i * 101 + lev
             iy, ix = ka.draw_members(tb, bstart, cnt, order, Wl, seed)
+            ball = ka.Ball.of(s_ann, s_cl, i, sel, eps, t_ann, s_l)
             if nnfs[i] is None:
                 ny, nx = iy, ix
             else:
                 ny, nx = _upsample_nnf(*nnfs[i], (hl, wl))
-                ka.repair(s_ann, s_cl, i, sel, eps, t_ann, s_l, ny, nx, iy, ix)
+                ka.repair(ball, ny, nx, iy, ix)
             for e in range(rounds):
                 if e == 0 and start is not None:
                     tgt = start
@@ -353,8 +384,8 @@ def synthesize(src_rgb, src_alpha, src_ann, usable, tgt_ann, p: AnnotatedParams,
                     tgt = ka.vote(feat, ny, nx, hw)
                     if aw:
                         tgt[..., -d:] = aw * t_ann
-                ny, nx, _ = ka.patchmatch(feat, tgt, s_ann, s_cl, i, sel, eps, t_ann, s_l, ny, nx, hw=hw,
-                                          iterations=iters, seed=seed * 16 + e, members=order,
+                ny, nx, _ = ka.patchmatch(feat, tgt, ball, ny, nx, hw=hw, iterations=iters, seed=seed * 16 + e,
+                                          members=order,
                                           uniformity=p.uniformity * p.patch * p.patch)
             nnfs[i] = (ny, nx)
             votes.append(ka.vote(out_src, ny, nx, min(hw, 1) if lev == 0 else hw))
