@@ -375,19 +375,20 @@ class Search(NamedTuple):
     lam: float  # occurrence penalty per covering patch pixel
 
 
-BAND = 16  # target rows per band of a PatchMatch sweep (fixed: the result never depends on the threads)
-PHASE = 4  # rows of each band between two updates of the shared occurrence sums
+BANDS = 2  # row bands of the target a PatchMatch sweep runs in parallel (fixed: the result never depends on the threads)
+PHASES = 8  # steps of each band, between which the bands exchange their changes to the occurrence sums
 
 
 @njit(**PJIT)
 def _pm_sweep(src, tgt, nf, ball, members, search, ny, nx, nd):
-    """One PatchMatch iteration. The target is cut in bands of ``BAND`` rows, each scanned
-    in order (reversed on odd iterations) on its own thread, ``PHASE`` rows at a time:
-    between phases the occurrence sums are recounted from the whole map; within one a band
-    reads its own entries as they change and the other bands' as the phase found them,
-    and updates its own copy of the sums at each accepted candidate (as EbSynth does).
-    Every number drawn is named by (pixel, iteration, candidate): the result does not
-    depend on the thread count."""
+    """One PatchMatch iteration. The target is cut in ``BANDS`` bands of rows, each scanned
+    in order (reversed on odd iterations) on its own thread, in ``PHASES`` steps. Each
+    band keeps its own copy of the occurrence sums, updated at each accepted candidate (as
+    EbSynth does); between steps every band adds the others' changes of the step before
+    (one move per changed pixel), so no band goes more than a step without seeing the
+    others'. A band reads its own entries as they change and the others' as they were
+    when the iteration began. Every number drawn is named by (pixel, iteration,
+    candidate): the result does not depend on the thread count."""
     hw, seed, it, lam = search.hw, search.seed, search.it, search.lam
     H = src.shape[0]
     W = src.shape[1] // nf
@@ -395,22 +396,37 @@ def _pm_sweep(src, tgt, nf, ball, members, search, ny, nx, nd):
     nm = members.shape[0]
     q = 1 if it % 2 == 0 else -1
     p2 = (2 * hw + 1) ** 2
-    omega = np.empty((H, W), np.int32)
-    nb = (h + BAND - 1) // BAND
-    for ph in range(0, BAND, PHASE):
-        py = ny.copy()  # the entries at the phase's start, read across band borders
-        px = nx.copy()
-        _occurrences(ny, nx, hw, omega)
-        for b in prange(nb):
-            lo = b * BAND
-            hi = min(h, lo + BAND)
-            om = omega.copy()
-            n = (hi - lo) * w
-            for k in range(min(ph, hi - lo) * w, min(ph + PHASE, hi - lo) * w):
+    bh = (h + BANDS - 1) // BANDS  # rows per band
+    step = (bh + PHASES - 1) // PHASES  # rows per step
+    om = np.empty((BANDS, H, W), np.int32)
+    _occurrences(ny, nx, hw, om[0])
+    for b in range(1, BANDS):
+        om[b] = om[0]
+    py = ny.copy()  # the entries at the iteration's start, read across band borders
+    px = nx.copy()
+    moves = np.empty((2, BANDS, step * w, 4), np.int32)  # per step parity and band: old (y, x), new (y, x)
+    nmoves = np.zeros((2, BANDS), np.int64)
+    for ph in range((bh + step - 1) // step):
+        now = ph % 2
+        for b in prange(BANDS):
+            own = om[b]
+            for o in range(BANDS):  # the other bands' moves of the step before
+                if o != b:
+                    for e in range(nmoves[1 - now, o]):
+                        _move(own, hw, moves[1 - now, o, e, 0], moves[1 - now, o, e, 1], -1)
+                        _move(own, hw, moves[1 - now, o, e, 2], moves[1 - now, o, e, 3], 1)
+            lo = b * bh
+            hi = min(h, lo + bh)
+            n = max(hi - lo, 0) * w
+            made = 0
+            for k in range(min(ph * step, bh) * w, min((ph + 1) * step, bh) * w):
+                if k >= n:
+                    break
                 kk = lo * w + (k if q == 1 else n - 1 - k)
                 i = kk // w
                 j = kk % w
-                cur = nd[i, j] + lam * om[ny[i, j], nx[i, j]]  # only this pixel moves its own patch
+                oy, ox = ny[i, j], nx[i, j]
+                cur = nd[i, j] + lam * own[oy, ox]  # only this pixel moves its own patch
                 for c in range(2 + 12 + 2):
                     if c < 2:  # propagation from the previous pixel of the row and of the column
                         yy = i if c == 0 else i - q
@@ -442,17 +458,24 @@ def _pm_sweep(src, tgt, nf, ball, members, search, ny, nx, nd):
                         continue
                     if not _ok(ball, cy, cx, i, j):
                         continue
-                    pen = lam * (om[cy, cx] + p2)
+                    pen = lam * (own[cy, cx] + p2)
                     if pen >= cur:
                         continue
                     d = _pdist(src, tgt, nf, hw, i, j, cy, cx, cur - pen)
                     if d + pen < cur:
-                        _move(om, hw, by, bx, -1)
-                        _move(om, hw, cy, cx, 1)
+                        _move(own, hw, by, bx, -1)
+                        _move(own, hw, cy, cx, 1)
                         ny[i, j] = cy
                         nx[i, j] = cx
                         nd[i, j] = d
-                        cur = d + lam * om[cy, cx]
+                        cur = d + lam * own[cy, cx]
+                if ny[i, j] != oy or nx[i, j] != ox:
+                    moves[now, b, made, 0] = oy
+                    moves[now, b, made, 1] = ox
+                    moves[now, b, made, 2] = ny[i, j]
+                    moves[now, b, made, 3] = nx[i, j]
+                    made += 1
+            nmoves[now, b] = made
 
 
 @njit(**PJIT)
