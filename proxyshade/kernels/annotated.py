@@ -189,7 +189,7 @@ def _pdist(src, tgt, nf, hw, i, j, cy, cx, bound):
     """Sum of squared differences between the target patch at (i, j) and the source patch
     at (cy, cx), which lies whole inside the source; target pixels outside are skipped.
     src (H, W·nf), tgt (h, w·nf) float32 rows of nf features per pixel. Summed in float32,
-    four running sums per patch row, in a fixed order; returns once a row's total exceeds
+    eight running sums per patch row, in a fixed order; returns once a row's total exceeds
     ``bound``."""
     h = tgt.shape[0]
     w = tgt.shape[1] // nf
@@ -207,22 +207,34 @@ def _pdist(src, tgt, nf, hw, i, j, cy, cx, bound):
         a1 = np.float32(0.0)
         a2 = np.float32(0.0)
         a3 = np.float32(0.0)
+        a4 = np.float32(0.0)
+        a5 = np.float32(0.0)
+        a6 = np.float32(0.0)
+        a7 = np.float32(0.0)
         t = 0
-        while t + 4 <= n:
+        while t + 8 <= n:
             e0 = src[sy, so + t] - tgt[ti, to + t]
             e1 = src[sy, so + t + 1] - tgt[ti, to + t + 1]
             e2 = src[sy, so + t + 2] - tgt[ti, to + t + 2]
             e3 = src[sy, so + t + 3] - tgt[ti, to + t + 3]
+            e4 = src[sy, so + t + 4] - tgt[ti, to + t + 4]
+            e5 = src[sy, so + t + 5] - tgt[ti, to + t + 5]
+            e6 = src[sy, so + t + 6] - tgt[ti, to + t + 6]
+            e7 = src[sy, so + t + 7] - tgt[ti, to + t + 7]
             a0 += e0 * e0
             a1 += e1 * e1
             a2 += e2 * e2
             a3 += e3 * e3
-            t += 4
+            a4 += e4 * e4
+            a5 += e5 * e5
+            a6 += e6 * e6
+            a7 += e7 * e7
+            t += 8
         while t < n:
             e0 = src[sy, so + t] - tgt[ti, to + t]
             a0 += e0 * e0
             t += 1
-        d += (a0 + a1) + (a2 + a3)
+        d += ((a0 + a1) + (a2 + a3)) + ((a4 + a5) + (a6 + a7))
         if d > bound:
             return d
     return d
@@ -427,7 +439,7 @@ def _pm_sweep(src, tgt, nf, ball, members, search, ny, nx, nd):
                 j = kk % w
                 oy, ox = ny[i, j], nx[i, j]
                 cur = nd[i, j] + lam * own[oy, ox]  # only this pixel moves its own patch
-                for c in range(2 + 12 + 2):
+                for c in range(2 + 6 + 2):
                     if c < 2:  # propagation from the previous pixel of the row and of the column
                         yy = i if c == 0 else i - q
                         xx = j - q if c == 0 else j
@@ -439,16 +451,17 @@ def _pm_sweep(src, tgt, nf, ball, members, search, ny, nx, nd):
                         else:
                             cy = py[yy, xx] + (i - yy)
                             cx = px[yy, xx] + (j - xx)
-                    elif c < 14:  # random search around the best, radius halving from the whole source
-                        R = max(H, W) >> (c - 2)
+                    elif c < 8:  # random search around the best, the radius quartered from the whole source
+                        R = max(H, W) >> (2 * (c - 2) + it % 2)  # (from half of it on odd iterations)
                         if R < 1:
                             continue
                         y0, y1 = max(ny[i, j] - R, hw), min(ny[i, j] + R, H - 1 - hw)
                         x0, x1 = max(nx[i, j] - R, hw), min(nx[i, j] + R, W - 1 - hw)
                         if y1 < y0 or x1 < x0:
                             continue
-                        cy = y0 + rand(seed, kk, it * 64 + c, 1) % (y1 - y0 + 1)
-                        cx = x0 + rand(seed, kk, it * 64 + c, 2) % (x1 - x0 + 1)
+                        r = rand(seed, kk, it * 64 + c, 1)  # 53 bits: the low 26 for y, the high 27 for x
+                        cy = y0 + (r & 0x3FFFFFF) % (y1 - y0 + 1)
+                        cx = x0 + (r >> 26) % (x1 - x0 + 1)
                     else:  # a jump anywhere in the cluster (kept only inside the ball)
                         m = members[rand(seed, kk, it * 64 + c, 3) % nm]
                         cy = m // W
@@ -530,8 +543,9 @@ def _vote(src, ny, nx, hw, out):
     H, W, F = src.shape
     h, w = ny.shape
     for i in prange(h):
+        acc = np.empty(F)
         for j in range(w):
-            acc = np.zeros(F)
+            acc[:] = 0.0
             n = 0
             for dy in range(-hw, hw + 1):
                 qi = i - dy
