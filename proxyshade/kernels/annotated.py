@@ -439,7 +439,7 @@ def _pm_sweep(src, tgt, nf, ball, members, search, ny, nx, nd):
                 j = kk % w
                 oy, ox = ny[i, j], nx[i, j]
                 cur = nd[i, j] + lam * own[oy, ox]  # only this pixel moves its own patch
-                for c in range(2 + 6 + 2):
+                for c in range(2 + 12 + 2):
                     if c < 2:  # propagation from the previous pixel of the row and of the column
                         yy = i if c == 0 else i - q
                         xx = j - q if c == 0 else j
@@ -451,8 +451,8 @@ def _pm_sweep(src, tgt, nf, ball, members, search, ny, nx, nd):
                         else:
                             cy = py[yy, xx] + (i - yy)
                             cx = px[yy, xx] + (j - xx)
-                    elif c < 8:  # random search around the best, the radius quartered from the whole source
-                        R = max(H, W) >> (2 * (c - 2) + it % 2)  # (from half of it on odd iterations)
+                    elif c < 14:  # random search around the best, radius halving from the whole source
+                        R = max(H, W) >> (c - 2)
                         if R < 1:
                             continue
                         y0, y1 = max(ny[i, j] - R, hw), min(ny[i, j] + R, H - 1 - hw)
