@@ -11,10 +11,11 @@ semi-axes ``s * eps_k`` around ``a`` is the set of points at scaled distance <= 
 - ``eq2_weights``: W_i(a) = (1/Z) Σ_k ε_k / g(R_ik(a) − ε_k) with the clip of g.
 - ``mean_shift``: Gaussian mean shift of weighted points (every point to its mode).
 - ``nearest_init`` / ``patchmatch`` / ``vote``: generalized PatchMatch restricted to one
-  cluster and to each target pixel's ε-ball (candidates outside are rejected), scan
-  order reversed every iteration, random search over the whole source, an occurrence
-  penalty (serial: the result does not depend on the thread count), and the average of
-  overlapping patches.
+  cluster and to each target pixel's ε-ball (a ``Ball``; candidates outside are
+  rejected), scan order reversed every iteration, random search over the whole source,
+  an occurrence penalty, two row bands in parallel that exchange their occurrence
+  changes in fixed steps (the result does not depend on the thread count), and the
+  average of overlapping patches.
 """
 from __future__ import annotations
 
