@@ -11,12 +11,15 @@ semi-axes ``s * eps_k`` around ``a`` is the set of points at scaled distance <= 
 - ``eq2_weights``: W_i(a) = (1/Z) Σ_k ε_k / g(R_ik(a) − ε_k) with the clip of g.
 - ``mean_shift``: Gaussian mean shift of weighted points (every point to its mode).
 - ``nearest_init`` / ``patchmatch`` / ``vote``: generalized PatchMatch restricted to one
-  cluster and to each target pixel's ε-ball (candidates outside are rejected), scan
-  order reversed every iteration, random search over the whole source, an occurrence
-  penalty (serial: the result does not depend on the thread count), and the average of
-  overlapping patches.
+  cluster and to each target pixel's ε-ball (a ``Ball``; candidates outside are
+  rejected), scan order reversed every iteration, random search over the whole source,
+  an occurrence penalty, two row bands in parallel that exchange their occurrence
+  changes in fixed steps (the result does not depend on the thread count), and the
+  average of overlapping patches.
 """
 from __future__ import annotations
+
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit, prange
@@ -149,44 +152,111 @@ def group_modes(modes: np.ndarray, counts: np.ndarray, radius: float) -> tuple[n
     return rank[lab].astype(np.int32), np.array(centres)[order]
 
 
+class Ball(NamedTuple):
+    """Where the target pixels of one cluster may copy from (``patchmatch``, ``repair``):
+    source pixels that are ``usable``, in ``cluster`` and inside the target pixel's ε-ball
+    (scaled annotation distance <= max(1, tgt_s)). Build it with ``Ball.of``."""
+
+    src_ann: np.ndarray  # (H, W, d) float64
+    src_cluster: np.ndarray  # (H, W) int32
+    cluster: int
+    usable: np.ndarray  # (H, W) bool
+    inv_eps: np.ndarray  # (d,) float64: 1 / ε per annotation
+    tgt_ann: np.ndarray  # (h, w, d) float64
+    tgt_s: np.ndarray  # (h, w) float64: the ball scale of each target pixel
+
+    @classmethod
+    def of(cls, src_ann, src_cluster, cluster, usable, eps, tgt_ann, tgt_s) -> "Ball":
+        """The record with the types the kernels take (``eps``: ε per annotation)."""
+        return cls(np.ascontiguousarray(src_ann, np.float64), np.ascontiguousarray(src_cluster, np.int32),
+                   int(cluster), np.ascontiguousarray(usable, np.bool_), 1.0 / np.asarray(eps, np.float64),
+                   np.ascontiguousarray(tgt_ann, np.float64), np.ascontiguousarray(tgt_s, np.float64))
+
+
 @njit(inline="always", **JIT)
-def _ok(src_ann, src_cluster, cluster, usable, inv_eps, cy, cx, a, s_max):
-    H, W = src_cluster.shape
+def _ok(ball, cy, cx, i, j):
+    """Whether source pixel (cy, cx) is allowed for target pixel (i, j)."""
+    H, W = ball.src_cluster.shape
     if cy < 0 or cy >= H or cx < 0 or cx >= W:
         return False
-    if not usable[cy, cx] or src_cluster[cy, cx] != cluster:
+    if not ball.usable[cy, cx] or ball.src_cluster[cy, cx] != ball.cluster:
         return False
-    return _sdist2(src_ann[cy, cx], a, inv_eps) <= s_max * s_max * (1.0 + 1e-9)
+    s_max = max(1.0, ball.tgt_s[i, j])
+    return _sdist2(ball.src_ann[cy, cx], ball.tgt_ann[i, j], ball.inv_eps) <= s_max * s_max * (1.0 + 1e-9)
 
 
 @njit(inline="always", **JIT)
-def _pdist(src, tgt, hw, i, j, cy, cx, bound):
-    H, W, F = src.shape
-    h, w, _ = tgt.shape
-    d = 0.0
+def _pdist(src, tgt, nf, hw, i, j, cy, cx, bound):
+    """Sum of squared differences between the target patch at (i, j) and the source patch
+    at (cy, cx), which lies whole inside the source; target pixels outside are skipped.
+    src (H, W·nf), tgt (h, w·nf) float32 rows of nf features per pixel. Summed in float32,
+    eight running sums per patch row, in a fixed order; returns once a row's total exceeds
+    ``bound``."""
+    h = tgt.shape[0]
+    w = tgt.shape[1] // nf
+    j0 = max(j - hw, 0)
+    n = (min(j + hw + 1, w) - j0) * nf
+    so = (cx - j + j0) * nf
+    to = j0 * nf
+    d = np.float32(0.0)
     for dy in range(-hw, hw + 1):
         ti = i + dy
         if ti < 0 or ti >= h:
             continue
-        sy = min(max(cy + dy, 0), H - 1)
-        for dx in range(-hw, hw + 1):
-            tj = j + dx
-            if tj < 0 or tj >= w:
-                continue
-            sx = min(max(cx + dx, 0), W - 1)
-            for f in range(F):
-                t = np.float64(src[sy, sx, f]) - np.float64(tgt[ti, tj, f])
-                d += t * t
+        sy = cy + dy
+        a0 = np.float32(0.0)
+        a1 = np.float32(0.0)
+        a2 = np.float32(0.0)
+        a3 = np.float32(0.0)
+        a4 = np.float32(0.0)
+        a5 = np.float32(0.0)
+        a6 = np.float32(0.0)
+        a7 = np.float32(0.0)
+        t = 0
+        while t + 8 <= n:
+            e0 = src[sy, so + t] - tgt[ti, to + t]
+            e1 = src[sy, so + t + 1] - tgt[ti, to + t + 1]
+            e2 = src[sy, so + t + 2] - tgt[ti, to + t + 2]
+            e3 = src[sy, so + t + 3] - tgt[ti, to + t + 3]
+            e4 = src[sy, so + t + 4] - tgt[ti, to + t + 4]
+            e5 = src[sy, so + t + 5] - tgt[ti, to + t + 5]
+            e6 = src[sy, so + t + 6] - tgt[ti, to + t + 6]
+            e7 = src[sy, so + t + 7] - tgt[ti, to + t + 7]
+            a0 += e0 * e0
+            a1 += e1 * e1
+            a2 += e2 * e2
+            a3 += e3 * e3
+            a4 += e4 * e4
+            a5 += e5 * e5
+            a6 += e6 * e6
+            a7 += e7 * e7
+            t += 8
+        while t < n:
+            e0 = src[sy, so + t] - tgt[ti, to + t]
+            a0 += e0 * e0
+            t += 1
+        d += ((a0 + a1) + (a2 + a3)) + ((a4 + a5) + (a6 + a7))
         if d > bound:
             return d
     return d
 
 
+def _rows(a):
+    """(H, W, F) -> contiguous float32 (H, W·F) and F."""
+    a = np.ascontiguousarray(a, np.float32)
+    return a.reshape(a.shape[0], -1), a.shape[2]
+
+
 def patch_distance(src, tgt, hw, i, j, cy, cx):
     """Sum of squared feature differences between the target patch at (i, j) and the
-    source patch at (cy, cx) (target pixels outside the image skipped, source clamped)."""
-    return _pdist(np.ascontiguousarray(src, np.float32), np.ascontiguousarray(tgt, np.float32), int(hw),
-                  int(i), int(j), int(cy), int(cx), np.inf)
+    source patch at (cy, cx) (whole inside the source; target pixels outside the image
+    skipped), as PatchMatch computes it (float32)."""
+    H, W = src.shape[:2]
+    if not (hw <= cy < H - hw and hw <= cx < W - hw):
+        raise ValueError(f"source patch at ({cy}, {cx}) is not whole inside the {H}x{W} source")
+    s, nf = _rows(src)
+    t, _ = _rows(tgt)
+    return float(_pdist(s, t, nf, int(hw), int(i), int(j), int(cy), int(cx), np.inf))
 
 
 @njit(**PJIT)
@@ -242,152 +312,230 @@ def nearest_init(tgt_ann, bins, bin_start, bin_count, order, src_width, eps, see
 
 
 @njit(**PJIT)
-def _repair(src_ann, src_cluster, cluster, usable, inv_eps, tgt_ann, tgt_s, ny, nx, iy, ix):
+def _repair(ball, ny, nx, iy, ix):
     h, w = ny.shape
     for i in prange(h):
         for j in range(w):
-            smax = max(1.0, tgt_s[i, j])
-            if not _ok(src_ann, src_cluster, cluster, usable, inv_eps, ny[i, j], nx[i, j], tgt_ann[i, j], smax):
+            if not _ok(ball, ny[i, j], nx[i, j], i, j):
                 ny[i, j] = iy[i, j]
                 nx[i, j] = ix[i, j]
 
 
-def repair(src_ann, src_cluster, cluster, usable, eps, tgt_ann, tgt_s, ny, nx, iy, ix):
-    """Replace (in place) every entry of (ny, nx) outside the cluster or the target
-    pixel's ε-ball by the start (iy, ix)."""
-    _repair(src_ann, src_cluster, np.int32(cluster), usable, 1.0 / np.asarray(eps, np.float64), tgt_ann,
-            np.ascontiguousarray(tgt_s, np.float64), ny, nx, iy, ix)
+def repair(ball: Ball, ny, nx, iy, ix):
+    """Replace (in place) every entry of (ny, nx) that the ``Ball`` does not allow by the
+    start (iy, ix)."""
+    _repair(ball, ny, nx, iy, ix)
 
 
 @njit(inline="always", **JIT)
-def _omega(cover, hw, cy, cx):
-    """How many target patches cover the source patch at (cy, cx), summed over it."""
-    s = 0
-    for y in range(cy - hw, cy + hw + 1):
-        for x in range(cx - hw, cx + hw + 1):
-            s += cover[y, x]
-    return s
+def _overlap(dy, dx, p):
+    """Pixels shared by two p×p patches whose centres are (dy, dx) apart."""
+    return max(0, p - abs(dy)) * max(0, p - abs(dx))
 
 
 @njit(inline="always", **JIT)
-def _cover(cover, hw, cy, cx, inc):
-    for y in range(cy - hw, cy + hw + 1):
-        for x in range(cx - hw, cx + hw + 1):
-            cover[y, x] += inc
-
-
-@njit(**JIT)
-def _pm_sweep(src, tgt, src_ann, src_cluster, cluster, usable, inv_eps, tgt_ann, tgt_s, members, hw, seed, it, lam,
-              ny, nx, nd, cover):
-    """One PatchMatch iteration in scan order (reversed on odd iterations), each accepted
-    candidate updating the occurrence counts at once (as EbSynth does)."""
-    H, W, _ = src.shape
-    h, w, _ = tgt.shape
-    nm = members.shape[0]
-    q = 1 if it % 2 == 0 else -1
-    for k in range(h * w):
-        kk = k if q == 1 else h * w - 1 - k
-        i = kk // w
-        j = kk % w
-        a = tgt_ann[i, j]
-        smax = max(1.0, tgt_s[i, j])
-        cur = nd[i, j] + lam * _omega(cover, hw, ny[i, j], nx[i, j])  # only this pixel moves its own cover
-        for c in range(2 + 12 + 2):
-            if c < 2:  # propagation from the previous pixel of the row and of the column
-                yy, xx = (i, j - q) if c == 0 else (i - q, j)
-                if yy < 0 or yy >= h or xx < 0 or xx >= w:
-                    continue
-                cy = ny[yy, xx] + (i - yy)
-                cx = nx[yy, xx] + (j - xx)
-            elif c < 14:  # random search around the best, radius halving from the whole source
-                R = max(H, W) >> (c - 2)
-                if R < 1:
-                    continue
-                y0, y1 = max(ny[i, j] - R, hw), min(ny[i, j] + R, H - 1 - hw)
-                x0, x1 = max(nx[i, j] - R, hw), min(nx[i, j] + R, W - 1 - hw)
-                if y1 < y0 or x1 < x0:
-                    continue
-                cy = y0 + rand(seed, kk, it * 64 + c, 1) % (y1 - y0 + 1)
-                cx = x0 + rand(seed, kk, it * 64 + c, 2) % (x1 - x0 + 1)
-            else:  # a jump anywhere in the cluster (kept only inside the ball)
-                m = members[rand(seed, kk, it * 64 + c, 3) % nm]
-                cy = m // W
-                cx = m % W
-            by, bx = ny[i, j], nx[i, j]
-            if (cy == by and cx == bx) or cy < hw or cy >= H - hw or cx < hw or cx >= W - hw:
-                continue
-            if not _ok(src_ann, src_cluster, cluster, usable, inv_eps, cy, cx, a, smax):
-                continue
-            pen = lam * (_omega(cover, hw, cy, cx) + (2 * hw + 1) ** 2)
-            if pen >= cur:
-                continue
-            d = _pdist(src, tgt, hw, i, j, cy, cx, cur - pen)
-            if d + pen < cur:
-                _cover(cover, hw, by, bx, -1)
-                _cover(cover, hw, cy, cx, 1)
-                ny[i, j] = cy
-                nx[i, j] = cx
-                nd[i, j] = d
-                cur = d + lam * _omega(cover, hw, cy, cx)
+def _move(omega, hw, cy, cx, inc):
+    """Add ``inc`` times one patch at (cy, cx) to the occurrence sums ``omega``."""
+    H, W = omega.shape
+    p = 2 * hw + 1
+    for y in range(max(cy - 2 * hw, 0), min(cy + 2 * hw + 1, H)):
+        for x in range(max(cx - 2 * hw, 0), min(cx + 2 * hw + 1, W)):
+            omega[y, x] += inc * _overlap(y - cy, x - cx, p)
 
 
 @njit(**PJIT)
-def _pm_score(src, tgt, hw, ny, nx, nd):
+def _occurrences(ny, nx, hw, omega):
+    """omega[c]: over the source patch at c, the sum of how many target patches (the
+    source patch of each target pixel) hold each of its pixels, i.e. Σ_b count[b]·(pixels
+    patch c shares with patch b); the overlap is separable (a 1-D tent per axis)."""
+    H, W = omega.shape
+    h, w = ny.shape
+    p = 2 * hw + 1
+    count = np.zeros((H, W), np.int32)
+    for i in range(h):
+        for j in range(w):
+            count[ny[i, j], nx[i, j]] += 1
+    rows = np.empty((H, W), np.int32)
+    for y in prange(H):
+        for x in range(W):
+            s = 0
+            for b in range(max(x - 2 * hw, 0), min(x + 2 * hw + 1, W)):
+                s += count[y, b] * max(0, p - abs(b - x))
+            rows[y, x] = s
+    for y in prange(H):
+        for x in range(W):
+            s = 0
+            for b in range(max(y - 2 * hw, 0), min(y + 2 * hw + 1, H)):
+                s += rows[b, x] * max(0, p - abs(b - y))
+            omega[y, x] = s
+
+
+def occurrences(ny, nx, hw, shape) -> np.ndarray:
+    """(H, W) int32 of ``shape``: for each source patch centre, how many of the target's
+    patches (the source patch at (ny, nx) of each target pixel, whole inside the source)
+    hold each pixel of that source patch, summed over the patch."""
+    omega = np.empty(shape, np.int32)
+    _occurrences(np.ascontiguousarray(ny, np.int32), np.ascontiguousarray(nx, np.int32), int(hw), omega)
+    return omega
+
+
+class Search(NamedTuple):
+    """How one PatchMatch iteration searches (``_pm_sweep``)."""
+
+    hw: int  # patch half-width
+    seed: int
+    it: int  # the iteration: its parity sets the scan direction
+    lam: float  # occurrence penalty per covering patch pixel
+
+
+BANDS = 2  # row bands of the target a PatchMatch sweep runs in parallel (fixed: the result never depends on the threads)
+PHASES = 8  # steps of each band, between which the bands exchange their changes to the occurrence sums
+
+
+@njit(**PJIT)
+def _pm_sweep(src, tgt, nf, ball, members, search, ny, nx, nd):
+    """One PatchMatch iteration. The target is cut in ``BANDS`` bands of rows, each scanned
+    in order (reversed on odd iterations) on its own thread, in ``PHASES`` steps. Each
+    band keeps its own copy of the occurrence sums, updated at each accepted candidate (as
+    EbSynth does); between steps every band adds the others' changes of the step before
+    (one move per changed pixel), so no band goes more than a step without seeing the
+    others'. A band reads its own entries as they change and the others' as they were
+    when the iteration began. Every number drawn is named by (pixel, iteration,
+    candidate): the result does not depend on the thread count."""
+    hw, seed, it, lam = search.hw, search.seed, search.it, search.lam
+    H = src.shape[0]
+    W = src.shape[1] // nf
+    h, w = ny.shape
+    nm = members.shape[0]
+    q = 1 if it % 2 == 0 else -1
+    p2 = (2 * hw + 1) ** 2
+    bh = (h + BANDS - 1) // BANDS  # rows per band
+    step = (bh + PHASES - 1) // PHASES  # rows per step
+    om = np.empty((BANDS, H, W), np.int32)
+    _occurrences(ny, nx, hw, om[0])
+    for b in range(1, BANDS):
+        om[b] = om[0]
+    py = ny.copy()  # the entries at the iteration's start, read across band borders
+    px = nx.copy()
+    moves = np.empty((2, BANDS, step * w, 4), np.int32)  # per step parity and band: old (y, x), new (y, x)
+    nmoves = np.zeros((2, BANDS), np.int64)
+    for ph in range((bh + step - 1) // step):
+        now = ph % 2
+        for b in prange(BANDS):
+            own = om[b]
+            for o in range(BANDS):  # the other bands' moves of the step before
+                if o != b:
+                    for e in range(nmoves[1 - now, o]):
+                        _move(own, hw, moves[1 - now, o, e, 0], moves[1 - now, o, e, 1], -1)
+                        _move(own, hw, moves[1 - now, o, e, 2], moves[1 - now, o, e, 3], 1)
+            lo = b * bh
+            hi = min(h, lo + bh)
+            n = max(hi - lo, 0) * w
+            made = 0
+            for k in range(min(ph * step, bh) * w, min((ph + 1) * step, bh) * w):
+                if k >= n:
+                    break
+                kk = lo * w + (k if q == 1 else n - 1 - k)
+                i = kk // w
+                j = kk % w
+                oy, ox = ny[i, j], nx[i, j]
+                cur = nd[i, j] + lam * own[oy, ox]  # only this pixel moves its own patch
+                for c in range(2 + 12 + 2):
+                    if c < 2:  # propagation from the previous pixel of the row and of the column
+                        yy = i if c == 0 else i - q
+                        xx = j - q if c == 0 else j
+                        if yy < 0 or yy >= h or xx < 0 or xx >= w:
+                            continue
+                        if lo <= yy < hi:
+                            cy = ny[yy, xx] + (i - yy)
+                            cx = nx[yy, xx] + (j - xx)
+                        else:
+                            cy = py[yy, xx] + (i - yy)
+                            cx = px[yy, xx] + (j - xx)
+                    elif c < 14:  # random search around the best, radius halving from the whole source
+                        R = max(H, W) >> (c - 2)
+                        if R < 1:
+                            continue
+                        y0, y1 = max(ny[i, j] - R, hw), min(ny[i, j] + R, H - 1 - hw)
+                        x0, x1 = max(nx[i, j] - R, hw), min(nx[i, j] + R, W - 1 - hw)
+                        if y1 < y0 or x1 < x0:
+                            continue
+                        r = rand(seed, kk, it * 64 + c, 1)  # 53 bits: the low 26 for y, the high 27 for x
+                        cy = y0 + (r & 0x3FFFFFF) % (y1 - y0 + 1)
+                        cx = x0 + (r >> 26) % (x1 - x0 + 1)
+                    else:  # a jump anywhere in the cluster (kept only inside the ball)
+                        m = members[rand(seed, kk, it * 64 + c, 3) % nm]
+                        cy = m // W
+                        cx = m % W
+                    by, bx = ny[i, j], nx[i, j]
+                    if (cy == by and cx == bx) or cy < hw or cy >= H - hw or cx < hw or cx >= W - hw:
+                        continue
+                    if not _ok(ball, cy, cx, i, j):
+                        continue
+                    pen = lam * (own[cy, cx] + p2)
+                    if pen >= cur:
+                        continue
+                    d = _pdist(src, tgt, nf, hw, i, j, cy, cx, cur - pen)
+                    if d + pen < cur:
+                        _move(own, hw, by, bx, -1)
+                        _move(own, hw, cy, cx, 1)
+                        ny[i, j] = cy
+                        nx[i, j] = cx
+                        nd[i, j] = d
+                        cur = d + lam * own[cy, cx]
+                if ny[i, j] != oy or nx[i, j] != ox:
+                    moves[now, b, made, 0] = oy
+                    moves[now, b, made, 1] = ox
+                    moves[now, b, made, 2] = ny[i, j]
+                    moves[now, b, made, 3] = nx[i, j]
+                    made += 1
+            nmoves[now, b] = made
+
+
+@njit(**PJIT)
+def _pm_score(src, tgt, nf, hw, ny, nx, nd):
     h, w = ny.shape
     for i in prange(h):
         for j in range(w):
-            nd[i, j] = _pdist(src, tgt, hw, i, j, ny[i, j], nx[i, j], np.inf)
+            nd[i, j] = _pdist(src, tgt, nf, hw, i, j, ny[i, j], nx[i, j], np.inf)
 
 
-@njit(**JIT)
-def _pm_cover(ny, nx, hw, cover):
-    h, w = ny.shape
-    for i in range(h):
-        for j in range(w):
-            _cover(cover, hw, ny[i, j], nx[i, j], 1)
-
-
-def patchmatch(src, tgt, src_ann, src_cluster, cluster, usable, eps, tgt_ann, tgt_s, ny, nx, *, hw, iterations,
-               seed, members=None, uniformity=0.0):
+def patchmatch(src, tgt, ball: Ball, ny, nx, *, hw, iterations, seed, members=None, uniformity=0.0):
     """Generalized PatchMatch in one cluster: for each target pixel the source patch centre
     (ny, nx) minimising the feature distance (``patch_distance``) plus a uniformity
-    penalty, among source pixels that are ``usable``, in ``cluster`` and inside the pixel's
-    ε-ball (scaled annotation distance <= max(1, tgt_s)). (ny, nx) must start valid
-    (``nearest_init``, ``repair``) with whole patches inside the source.
+    penalty, among the source pixels the ``Ball`` allows (usable, in the cluster, inside
+    the pixel's ε-ball). (ny, nx) must start allowed (``nearest_init``, ``repair``);
+    entries are clipped to centres of whole patches inside the source.
 
     The penalty (Kaspar et al. 2015, as EbSynth counts it) is ``uniformity`` times the
-    number of target patches covering the candidate's source patch, over what an even use
-    of the source gives per patch. Iterations scan the target in order, reversed on odd
-    iterations (propagation from the left and upper neighbours, then from the right and
-    lower ones); random search draws in windows around the best that halve from the whole
-    source, then two jumps anywhere in the cluster. Serial, so the result does not depend
-    on the thread count.
+    number of target patches covering the candidate's source patch (``occurrences``), over
+    what an even use of the source gives per patch. Iterations scan the target in order,
+    reversed on odd iterations (propagation from the left and upper neighbours, then from
+    the right and lower ones), in bands of ``BAND`` rows run in parallel (``_pm_sweep``);
+    random search draws in windows around the best that halve from the whole source, then
+    two jumps anywhere in the cluster (``members``: flat indices of the cluster's usable
+    pixels). The result does not depend on the thread count.
 
-    src (H, W, F), tgt (h, w, F) float32 features; src_ann (H, W, d), tgt_ann (h, w, d)
-    float64; src_cluster (H, W) int32; usable (H, W) bool. Returns (ny, nx, nd): nd the
+    src (H, W, F), tgt (h, w, F) float32 features. Returns (ny, nx, nd): nd (float32) the
     patch distances without the penalty.
     """
-    src = np.ascontiguousarray(src, np.float32)
-    tgt = np.ascontiguousarray(tgt, np.float32)
-    inv_eps = 1.0 / np.asarray(eps, np.float64)
-    tgt_s = np.ascontiguousarray(tgt_s, np.float64)
+    s, nf = _rows(src)
+    t, _ = _rows(tgt)
     if members is None:
-        members = np.flatnonzero(usable & (src_cluster == cluster)).astype(np.int64)
+        members = np.flatnonzero(ball.usable & (ball.src_cluster == ball.cluster)).astype(np.int64)
     H, W = src.shape[:2]
     if H <= 2 * hw or W <= 2 * hw:
         raise ValueError(f"source {H}x{W} is smaller than a patch ({2 * hw + 1})")
     ny = np.clip(ny, hw, H - 1 - hw).astype(np.int32)  # whole patches inside the source
     nx = np.clip(nx, hw, W - 1 - hw).astype(np.int32)
-    nd = np.empty(ny.shape, np.float64)
+    nd = np.empty(ny.shape, np.float32)
     h, w = ny.shape
     p2 = (2 * hw + 1) ** 2
     lam = float(uniformity) / (h * w * p2 / (H * W)) if uniformity else 0.0  # per patch over an even use
-    cover = np.zeros((H, W), np.int64)
-    _pm_cover(ny, nx, int(hw), cover)
-    _pm_score(src, tgt, int(hw), ny, nx, nd)
+    _pm_score(s, t, nf, int(hw), ny, nx, nd)
+    members = np.asarray(members, np.int64)
     for it in range(int(iterations)):
-        _pm_sweep(src, tgt, src_ann, src_cluster, np.int32(cluster), usable, inv_eps, tgt_ann, tgt_s, members,
-                  int(hw), int(seed), it, lam, ny, nx, nd, cover)
+        _pm_sweep(s, t, nf, ball, members, Search(int(hw), int(seed), it, lam), ny, nx, nd)
     return ny, nx, nd
 
 
@@ -396,8 +544,9 @@ def _vote(src, ny, nx, hw, out):
     H, W, F = src.shape
     h, w = ny.shape
     for i in prange(h):
+        acc = np.empty(F)
         for j in range(w):
-            acc = np.zeros(F)
+            acc[:] = 0.0
             n = 0
             for dy in range(-hw, hw + 1):
                 qi = i - dy

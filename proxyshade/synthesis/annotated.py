@@ -7,9 +7,10 @@ Choices the paper leaves open (docs/annotated.md): annotations are quantised to 
 the ε-balls and the PatchMatch constraint (the balls are then exact on the quantised
 points); mean shift runs on points binned so that at most ~1024 distinct points remain;
 5×5 patches; scales as many as keep the coarsest exemplar at least 8 pixels a side (at most
-5); 4 EM rounds (vote, then 4 PatchMatch iterations) per scale (with one cluster 2 at the
-second finest and 1 of 2 iterations at the finest); the output is the vote of the central 3×3 of each patch; an
-occurrence penalty (Kaspar et al. 2015, as EbSynth counts it) against large flat copies.
+5); 4 EM rounds (vote, then 3 PatchMatch iterations) per scale (with one cluster 2 at the
+second finest and none at the finest, which votes the upsampled map); the output is the
+vote of the central 3×3 of each patch; an occurrence penalty (Kaspar et al. 2015, as
+EbSynth counts it) against large flat copies.
 """
 from __future__ import annotations
 
@@ -34,8 +35,8 @@ class PatchOptimisation(ParamGroup):
     levels = Param(int, 0, min=0, max=6, doc="scales (coarse to fine, factor 2); 0: as many as keep the coarsest "
                                              "exemplar at least 8 pixels a side, at most 5")
     em = Param(int, 4, min=1, max=10, doc="search + vote rounds per scale; with one cluster the finest scale "
-                                          "runs 1, the next 2 (they refine what the coarser scales laid out)")
-    iterations = Param(int, 4, min=1, max=20,
+                                          "runs none (it votes the next scale's map, upsampled), the next 2")
+    iterations = Param(int, 3, min=1, max=20,
                        doc="PatchMatch iterations per round (with one cluster half at the finest scale)")
     uniformity = Param(float, 0.001, min=0.0, max=1.0,
                        doc="weight of the penalty on source patches used more often than an even use (Kaspar et al. "
@@ -48,7 +49,7 @@ class AnnotatedParams:
     patch: int = 5
     levels: int = 0  # 0: auto_levels
     em: int = 4
-    iterations: int = 4
+    iterations: int = 3
     bandwidth: float = 0.5
     alpha_weight: float = 10.0
     gradient_screen: float = 0.2
@@ -115,6 +116,36 @@ def _quant(a):
     return np.round(np.asarray(a, np.float64) * QUANTUM) / QUANTUM
 
 
+def unique_points(pts, q=QUANTUM):
+    """``np.unique(pts, axis=0, return_inverse=True, return_counts=True)`` for (n, d)
+    points whose coordinates are multiples of 1/q in [0, 1] (quantised annotations): the
+    same arrays, from one integer key per point (a histogram of the keys where they are
+    few, a sort otherwise) instead of a sort of the rows."""
+    pts = np.asarray(pts, np.float64)
+    n, d = pts.shape
+    if (q + 1) ** d >= 2 ** 62:
+        u, inv, cnt = np.unique(pts, axis=0, return_inverse=True, return_counts=True)
+        return u, inv.ravel(), cnt
+    k = np.round(pts * q).astype(np.int64)
+    key = np.zeros(n, np.int64)
+    for col in k.T:  # lexicographic, first coordinate most significant: np.unique's order
+        key = key * (q + 1) + col
+    if (q + 1) ** d <= 1 << 22:
+        hist = np.bincount(key, minlength=(q + 1) ** d)
+        ukey = np.flatnonzero(hist)
+        rank = np.zeros(len(hist), np.int64)
+        rank[ukey] = np.arange(len(ukey))
+        inv, cnt = rank[key], hist[ukey]
+    else:
+        ukey, inv, cnt = np.unique(key, return_inverse=True, return_counts=True)
+    digits = np.empty((len(ukey), d), np.int64)
+    rest = ukey.copy()
+    for c in range(d - 1, -1, -1):
+        digits[:, c] = rest % (q + 1)
+        rest //= q + 1
+    return digits / q, inv.ravel(), cnt
+
+
 def _down(a, f):
     """Box-average by ``f`` (crops to a multiple of ``f``)."""
     if f == 1:
@@ -132,7 +163,7 @@ def clusters(src_ann, usable, bandwidth):
     d = src_ann.shape[2]
     nb = max(2, min(QUANTUM, int(1024 ** (1.0 / d))))
     pts = np.round(src_ann[usable] * nb) / nb
-    u, inv, cnt = np.unique(pts, axis=0, return_inverse=True, return_counts=True)
+    u, inv, cnt = unique_points(pts, nb)
     modes = ka.mean_shift(u, cnt, bandwidth)
     lab, centres = ka.group_modes(modes, cnt, bandwidth / 2)
     out = np.full(usable.shape, -1, np.int32)
@@ -142,7 +173,7 @@ def clusters(src_ann, usable, bandwidth):
 
 def _bins(ann_q, sel):
     """Distinct annotation points of the selected pixels, sorted member lists."""
-    bins, inv, cnt = np.unique(ann_q[sel], axis=0, return_inverse=True, return_counts=True)
+    bins, inv, cnt = unique_points(ann_q[sel])
     members = np.flatnonzero(sel)
     order = members[np.argsort(inv.ravel(), kind="stable")]
     start = np.concatenate([[0], np.cumsum(cnt)[:-1]]).astype(np.int64)
@@ -153,18 +184,22 @@ def _scales(bins, cnt, eps, tgt_q, n_hold):
     from proxyshade.kernels import annotated as ka
 
     h, w, d = tgt_q.shape
-    tu, tinv = np.unique(tgt_q.reshape(-1, d), axis=0, return_inverse=True)
+    tu, tinv, _ = unique_points(tgt_q.reshape(-1, d))
     s = ka.ball_scale(bins, cnt, eps, tu, n_hold)
     nb = ka.nearest_bins(bins, tu, eps)
     return s[tinv.ravel()].reshape(h, w), nb[tinv.ravel()].reshape(h, w)
 
 
 def _features(rgb, alpha, p: AnnotatedParams):
+    """PatchMatch's features: RGB, weighted alpha (``alpha`` None: left out, for a source
+    whose alpha is constant, where it adds the same to every candidate's distance), RGB
+    gradients."""
     gx = np.zeros_like(rgb)
     gy = np.zeros_like(rgb)
     gx[:, :-1] = rgb[:, 1:] - rgb[:, :-1]
     gy[:-1] = rgb[1:] - rgb[:-1]
-    return np.concatenate([rgb, p.alpha_weight * alpha[..., None], gx, gy], axis=2).astype(np.float32)
+    a = [] if alpha is None else [p.alpha_weight * alpha[..., None]]
+    return np.concatenate([rgb, *a, gx, gy], axis=2).astype(np.float32)
 
 
 def _lab(rgb):
@@ -304,9 +339,13 @@ def synthesize(src_rgb, src_alpha, src_ann, usable, tgt_ann, p: AnnotatedParams,
     n_levels = p.levels or auto_levels((H, W), (h, w))
     for lev in range(n_levels - 1, -1, -1):
         f = 2 ** lev
-        # one cluster: the finest scales refine what the coarser ones laid out; several: each
-        # scale starts from a merged (blended) image and takes every round to sharpen again
-        rounds = p.em if C > 1 else min(p.em, f)
+        # one cluster: the finest scales refine what the coarser ones laid out (the finest takes
+        # the upsampled map of the next as it is); several: each scale starts from a merged
+        # (blended) image and takes every round to sharpen again
+        if C > 1:
+            rounds = p.em
+        else:
+            rounds = 0 if lev == 0 and n_levels > 1 else min(p.em, f)
         iters = p.iterations if lev or C > 1 else max(1, p.iterations // 2)
         s_rgb, s_a = _down(src_rgb, f), _down(src_alpha, f)
         s_ann = _quant(_down(src_ann, f))
@@ -315,14 +354,15 @@ def synthesize(src_rgb, src_alpha, src_ann, usable, tgt_ann, p: AnnotatedParams,
         s_cl = cl[:Hl * f:f, :Wl * f:f].copy()
         t_ann = _quant(_down(tgt_ann, f))
         hl, wl = t_ann.shape[:2]
-        feat = _features(s_rgb, s_a, p)
+        flat_alpha = bool(np.all(s_a == s_a.flat[0]))
+        feat = _features(s_rgb, None if flat_alpha else s_a, p)
         if aw:
             feat = np.concatenate([feat, aw * s_ann.astype(np.float32)], axis=2)
         out_src = np.concatenate([s_rgb, s_a[..., None], _lab_grad(_lab(s_rgb))], axis=2).astype(np.float32)
         start = None
         if merged is not None and C > 1:  # the common start of every cluster at this scale
             up = _up2(np.concatenate([merged[0], merged[1][..., None]], axis=2), (hl, wl))
-            start = _features(up[..., :3], up[..., 3], p)
+            start = _features(up[..., :3], None if flat_alpha else up[..., 3], p)
             if aw:
                 start = np.concatenate([start, aw * t_ann.astype(np.float32)], axis=2)
         votes, present = [], []
@@ -341,11 +381,12 @@ def synthesize(src_rgb, src_alpha, src_ann, usable, tgt_ann, p: AnnotatedParams,
                 s_l = np.full((hl, wl), np.inf)
             seed = p.seed * 7919 + i * 101 + lev
             iy, ix = ka.draw_members(tb, bstart, cnt, order, Wl, seed)
+            ball = ka.Ball.of(s_ann, s_cl, i, sel, eps, t_ann, s_l)
             if nnfs[i] is None:
                 ny, nx = iy, ix
             else:
                 ny, nx = _upsample_nnf(*nnfs[i], (hl, wl))
-                ka.repair(s_ann, s_cl, i, sel, eps, t_ann, s_l, ny, nx, iy, ix)
+                ka.repair(ball, ny, nx, iy, ix)
             for e in range(rounds):
                 if e == 0 and start is not None:
                     tgt = start
@@ -353,8 +394,8 @@ def synthesize(src_rgb, src_alpha, src_ann, usable, tgt_ann, p: AnnotatedParams,
                     tgt = ka.vote(feat, ny, nx, hw)
                     if aw:
                         tgt[..., -d:] = aw * t_ann
-                ny, nx, _ = ka.patchmatch(feat, tgt, s_ann, s_cl, i, sel, eps, t_ann, s_l, ny, nx, hw=hw,
-                                          iterations=iters, seed=seed * 16 + e, members=order,
+                ny, nx, _ = ka.patchmatch(feat, tgt, ball, ny, nx, hw=hw, iterations=iters, seed=seed * 16 + e,
+                                          members=order,
                                           uniformity=p.uniformity * p.patch * p.patch)
             nnfs[i] = (ny, nx)
             votes.append(ka.vote(out_src, ny, nx, min(hw, 1) if lev == 0 else hw))

@@ -104,8 +104,8 @@ def test_constrained_patchmatch_stays_in_cluster_and_ball_and_nears_exhaustive(c
     start = np.concatenate([[0], np.cumsum(counts)[:-1]])
     s = ka.ball_scale(bins, counts, eps, tgt_ann.reshape(-1, 2), 60).reshape(n, n)
     iy, ix = ka.nearest_init(tgt_ann, bins, start, counts, order, n, eps, seed=4)
-    ny, nx, nd = ka.patchmatch(src, tgt, ann, cluster, cluster_id, usable, eps, tgt_ann, s, iy, ix, hw=2,
-                               iterations=12, seed=5)
+    ball = ka.Ball.of(ann, cluster, cluster_id, usable, eps, tgt_ann, s)
+    ny, nx, nd = ka.patchmatch(src, tgt, ball, iy, ix, hw=2, iterations=12, seed=5)
     # 100% of the entries in the cluster and in the pixel's ball
     assert np.all(cluster[ny, nx] == cluster_id)
     d = np.sqrt((((ann[ny, nx] - tgt_ann) / eps) ** 2).sum(-1))
@@ -138,7 +138,8 @@ def test_patchmatch_same_result_with_one_and_two_threads():
     for t in (1, 2):
         numba.set_num_threads(t)
         iy, ix = ka.nearest_init(tgt_ann, bins, start, counts, order, 32, eps, seed=1)
-        out.append(ka.patchmatch(src, tgt, ann, cluster, 0, usable, eps, tgt_ann, s, iy, ix, hw=2, iterations=3, seed=2))
+        ball = ka.Ball.of(ann, cluster, 0, usable, eps, tgt_ann, s)
+        out.append(ka.patchmatch(src, tgt, ball, iy, ix, hw=2, iterations=3, seed=2))
     numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
     for a, b in zip(*out):
         np.testing.assert_array_equal(a, b)
@@ -205,3 +206,35 @@ def test_merge_and_screened_poisson_match_spsolve():
     b = G.T @ np.array(gv) + rhs
     ref = spsolve(A, b).reshape(h, w)
     assert np.linalg.norm(u - ref) / np.linalg.norm(ref) <= 1e-4
+
+
+def test_patch_distance_is_the_sum_of_squares_over_the_patch_inside_the_target():
+    rng = np.random.default_rng(9)
+    src = rng.random((13, 11, 7)).astype(np.float32)
+    tgt = rng.random((9, 10, 7)).astype(np.float32)
+    for _ in range(60):
+        hw = int(rng.integers(1, 4))
+        i, j = int(rng.integers(0, 9)), int(rng.integers(0, 10))
+        cy, cx = int(rng.integers(hw, 13 - hw)), int(rng.integers(hw, 11 - hw))
+        ref = 0.0
+        for dy in range(-hw, hw + 1):
+            for dx in range(-hw, hw + 1):
+                if 0 <= i + dy < 9 and 0 <= j + dx < 10:
+                    ref += float(((src[cy + dy, cx + dx].astype(float) - tgt[i + dy, j + dx]) ** 2).sum())
+        assert ka.patch_distance(src, tgt, hw, i, j, cy, cx) == pytest.approx(ref, rel=1e-5)
+    with pytest.raises(ValueError, match="not whole inside"):
+        ka.patch_distance(src, tgt, 2, 0, 0, 1, 5)
+
+
+def test_occurrences_sum_the_patches_holding_each_pixel_of_a_source_patch():
+    rng = np.random.default_rng(10)
+    H, W, hw = 14, 12, 2
+    ny = rng.integers(hw, H - hw, (9, 8)).astype(np.int32)
+    nx = rng.integers(hw, W - hw, (9, 8)).astype(np.int32)
+    cover = np.zeros((H, W), np.int64)  # how many target patches hold each source pixel
+    for cy, cx in zip(ny.ravel(), nx.ravel()):
+        cover[cy - hw:cy + hw + 1, cx - hw:cx + hw + 1] += 1
+    got = ka.occurrences(ny, nx, hw, (H, W))
+    for cy in range(hw, H - hw):
+        for cx in range(hw, W - hw):
+            assert got[cy, cx] == cover[cy - hw:cy + hw + 1, cx - hw:cx + hw + 1].sum()

@@ -212,3 +212,17 @@ def test_luminance_follows_a_light_ramp_and_keeps_the_texture(melded):
         return np.abs(np.diff(a, axis=1)).mean() / a.mean()
 
     assert contrast(lum[-24:]) >= 0.6 * contrast(lit)
+
+
+def test_unique_points_is_numpys_unique_of_the_rows():
+    from proxyshade.synthesis.annotated import unique_points
+
+    rng = np.random.default_rng(11)
+    for d, q in ((1, 32), (2, 32), (3, 10), (5, 32), (13, 32)):
+        pts = rng.integers(0, q + 1, (500, d)) / q
+        pts[:50] = pts[50:100]  # repeated points
+        u, inv, cnt = np.unique(pts, axis=0, return_inverse=True, return_counts=True)
+        gu, ginv, gcnt = unique_points(pts, q)
+        np.testing.assert_array_equal(gu, u)
+        np.testing.assert_array_equal(ginv, inv.ravel())
+        np.testing.assert_array_equal(gcnt, cnt)
