@@ -296,16 +296,14 @@ def synthesize_view(image: np.ndarray, size, *, radius: int, T: int, levels: int
     p // 2, shifted by the remainder) at w = ½. With ``wrap`` every level's output is a
     torus (the result tiles without a seam; exactly when the size is a multiple of
     2^(levels − 1))."""
-    from proxyshade.kernels.btf import disk_offsets, gather, synth_level
+    from proxyshade.kernels.btf import disk, gather, no_support, synth_level
     from proxyshade.kernels.random import mix_seed, permutation
 
     H, W = size
     h, w = image.shape[:2]
     check_synthesis_size((h, w), radius, levels)
     image = np.ascontiguousarray(image, np.float32)
-    offs = disk_offsets(radius)
-    dummy_img = np.zeros((1, 1, 3), np.float32)
-    dummy_q = np.zeros((1, 1), np.int64)
+    alone = no_support()
     visits = []
     qy = qx = None
     for lv in range(levels - 1, -1, -1):
@@ -324,8 +322,8 @@ def synthesize_view(image: np.ndarray, size, *, radius: int, T: int, levels: int
         qy, qx = np.ascontiguousarray(qy, np.int64), np.ascontiguousarray(qx, np.int64)
         k = np.full((Hl, Wl), k0, np.int64)
         vis = np.zeros((Hl, Wl), np.int64)
-        synth_level(image, gather(image, qy, qx), qy, qx, k, int(T), offs, 1, s, mix_seed(seed, 2), lv, False,
-                    dummy_img, dummy_img, dummy_q, dummy_q, 0.0, vis, bool(wrap))
+        synth_level(image, gather(image, qy, qx), qy, qx, k, int(T), disk(radius, 1, s, wrap), mix_seed(seed, 2), lv,
+                    alone, vis)
         visits.append(vis)
     return qy, qx, visits
 
@@ -334,7 +332,7 @@ def synthesize_others(images: np.ndarray, support: int, qay: np.ndarray, qax: np
                       c: float, seed: int, wrap: bool = False):
     """Every view but ``support`` given the support's sources: (qy, qx, visits), each
     (V, H, W) int64 (the support's own entries are its sources, visits 0)."""
-    from proxyshade.kernels.btf import disk_offsets, gather, synth_others
+    from proxyshade.kernels.btf import Support, disk, gather, synth_others
     from proxyshade.kernels.random import mix_seed
 
     images = np.ascontiguousarray(images, np.float32)
@@ -347,8 +345,8 @@ def synthesize_others(images: np.ndarray, support: int, qay: np.ndarray, qax: np
     qx = np.zeros_like(qy)
     vis = np.zeros_like(qy)
     seeds = np.array([mix_seed(seed, 3, n) for n in others], np.int64)
-    synth_others(np.ascontiguousarray(images[others]), inp_a, out_a, qay, qax, int(T), int(T) // 2,
-                 disk_offsets(radius), seeds, float(c), qy, qx, vis, bool(wrap))
+    synth_others(np.ascontiguousarray(images[others]), Support(out_a, inp_a, qay, qax, float(c), True), int(T), int(T) // 2,
+                 disk(radius, wrap=wrap), seeds, qy, qx, vis)
     QY = np.empty((V, H, W), np.int64)
     QX = np.empty_like(QY)
     VIS = np.zeros_like(QY)

@@ -62,22 +62,24 @@ def test_disk_distance_matches_eq3(rng, so, si):
         c = (int(rng.integers(0, 7)), int(rng.integers(0, 8)))
         for r in (2, 3):
             want = naive_distance(out, k, 4, inp, p, c, r, so, si)
-            got = K.disk_distance(out, k, 4, inp, p[0], p[1], c[0], c[1], K.disk_offsets(r), so, si, np.inf)
+            got = K.disk_distance(out, k, 4, inp, p[0], p[1], c[0], c[1], K.disk(r, so, si), np.inf)
             assert got == pytest.approx(want, rel=1e-12, abs=1e-12)
             # a bound below the distance stops early but still says "worse than the bound"
             if want > 0:
-                assert K.disk_distance(out, k, 4, inp, p[0], p[1], c[0], c[1], K.disk_offsets(r), so, si,
+                assert K.disk_distance(out, k, 4, inp, p[0], p[1], c[0], c[1], K.disk(r, so, si),
                                        want * 0.5) > want * 0.5
 
 
 def test_pair_distance_matches_the_other_view_form(rng):
     ob, ib, oa, ia = _img(rng, 8, 8), _img(rng, 6, 7), _img(rng, 8, 8), _img(rng, 6, 7)
+    dq = np.zeros((8, 8), np.int64)
     k = rng.integers(0, 5, (8, 8)).astype(np.int64)
     for _ in range(60):
         p = (int(rng.integers(0, 8)), int(rng.integers(0, 8)))
         c = (int(rng.integers(0, 6)), int(rng.integers(0, 7)))
         want = naive_distance(ob, k, 4, ib, p, c, 2, 1, pair=(oa, ia), cw=0.25)
-        got = K.pair_distance(ob, k, 4, ib, oa, ia, 0.25, p[0], p[1], c[0], c[1], K.disk_offsets(2), 1, 1, np.inf)
+        got = K.pair_distance(ob, k, 4, ib, K.Support(oa, ia, dq, dq, 0.25, True), p[0], p[1], c[0], c[1], K.disk(2),
+                              np.inf)
         assert got == pytest.approx(want, rel=1e-12, abs=1e-12)
 
 
@@ -134,10 +136,8 @@ def _level(inp, qy, qx, k, T, r, si, seed, level, pair=None, cw=0.0, wrap=False)
     qy, qx, k = qy.copy(), qx.copy(), k.copy()
     vis = np.zeros(qy.shape, np.int64)
     out = K.gather(inp, qy, qx)
-    dimg, dq = np.zeros((1, 1, 3), np.float32), np.zeros((1, 1), np.int64)
-    oa, ia, qay, qax = pair if pair is not None else (dimg, dimg, dq, dq)
-    K.synth_level(inp, out, qy, qx, k, T, K.disk_offsets(r), 1, si, seed, level, pair is not None, oa, ia, qay, qax,
-                  cw, vis, wrap)
+    sup = K.no_support() if pair is None else K.Support(*pair, cw, True)
+    K.synth_level(inp, out, qy, qx, k, T, K.disk(r, 1, si, wrap), seed, level, sup, vis)
     assert np.array_equal(out, inp[qy, qx])  # the output is always the input at the sources
     return qy, qx, vis
 
@@ -182,7 +182,7 @@ def test_other_views_in_parallel_equal_each_view_alone_with_one_or_two_threads(r
     for threads in (1, 2):
         numba.set_num_threads(threads)
         qy, qx, vis = (np.zeros((3, 12, 12), np.int64) for _ in range(3))
-        K.synth_others(views, ia, oa, qay, qax, 4, 2, K.disk_offsets(2), seeds, 0.25, qy, qx, vis, False)
+        K.synth_others(views, K.Support(oa, ia, qay, qax, 0.25, True), 4, 2, K.disk(2), seeds, qy, qx, vis)
         res.append((qy, qx, vis))
     for a, b in zip(*res):
         assert np.array_equal(a, b)
