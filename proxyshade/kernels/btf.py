@@ -17,6 +17,8 @@ Neubeck, Zalesny and Van Gool, "Viewpoint consistent texture synthesis" (3DPVT 2
 * ``synth_others``: every non-support view given the support, in parallel over views
   (each view sequential, its own seed): the same loop with ``pair_distance`` and the
   support's sources as extra candidates.
+* ``sweep_costs``: plane-sweep photo-consistency of the support view against the others,
+  per pixel and height: the heights of the sample the other views are cast through.
 * ``edge_distance``: the alignment measure, the mean Euclidean distance between the
   intensities of two views over a crop, for each neighbouring pair of the view grid.
 * ``plane_shift``: where a view rectified to one plane reads to be rectified to another.
@@ -91,6 +93,7 @@ def _disk_sum(out, k, T, inp, sup, py, px, cy, cx, dk, bound):
     h, w = inp.shape[0], inp.shape[1]
     offs, so, si = dk.offsets, dk.out_step, dk.in_step
     pair = sup.on
+    nch = float(out.shape[2])
     acc = 0.0
     for o in range(offs.shape[0]):
         qy = py + offs[o, 0] * so
@@ -107,14 +110,15 @@ def _disk_sum(out, k, T, inp, sup, py, px, cy, cx, dk, bound):
         iy = cy + offs[o, 0] * si
         ix = cx + offs[o, 1] * si
         if iy < 0 or iy >= h or ix < 0 or ix >= w:
-            acc += (wt + wa) * 3.0 * MAXV * MAXV
+            acc += (wt + wa) * nch * MAXV * MAXV
         else:
             db = 0.0
             da = 0.0
-            for c in range(3):
+            for c in range(out.shape[2]):
                 e = np.float64(out[qy, qx, c]) - np.float64(inp[iy, ix, c])
                 db += e * e
-                if pair:
+            if pair:
+                for c in range(sup.out.shape[2]):
                     f = np.float64(sup.out[qy, qx, c]) - np.float64(sup.inp[iy, ix, c])
                     da += f * f
             acc += wt * db + wa * da
@@ -226,7 +230,7 @@ def synth_level(inp, out, qy, qx, k, T, dk, seed, level, sup, visits):
         if by != qy[py, px] or bx != qx[py, px]:
             qy[py, px] = by
             qx[py, px] = bx
-            for c in range(3):
+            for c in range(out.shape[2]):
                 out[py, px, c] = inp[by, bx, c]
             changed += 1
         k[py, px] += 1
@@ -238,34 +242,78 @@ def synth_level(inp, out, qy, qx, k, T, dk, seed, level, sup, visits):
 
 @njit(**JIT)
 def gather(inp, qy, qx):
-    """(H, W, 3) float32: ``inp`` at integer sources (qy, qx)."""
+    """(H, W, C) float32: ``inp`` (h, w, C) at integer sources (qy, qx)."""
     H, W = qy.shape
-    out = np.empty((H, W, 3), np.float32)
+    C = inp.shape[2]
+    out = np.empty((H, W, C), np.float32)
     for i in range(H):
         for j in range(W):
-            for c in range(3):
+            for c in range(C):
                 out[i, j, c] = inp[qy[i, j], qx[i, j], c]
     return out
 
 
 @njit(**PJIT)
 def synth_others(inp_b, sup, T, k0, dk, seeds, qy, qx, visits):
-    """Every other view given the ``Support`` ``sup``, in parallel over views: view v starts
-    from the support's sources with w = k0 / T and runs ``synth_level`` with the pair
-    distance over the ``Disk`` ``dk`` (seed ``seeds[v]``). Writes ``qy[v]``, ``qx[v]``,
-    ``visits[v]``; returns updates per view."""
+    """Every other view given the support, in parallel over views: view v starts from its
+    own support sources ``sup.qy[v]``, ``sup.qx[v]`` (the support's sources as view v sees
+    them) with w = k0 / T and runs ``synth_level`` with the pair distance against
+    ``sup.out[v]`` (A′ as view v sees it: A at those sources) over the ``Disk`` ``dk``
+    (seed ``seeds[v]``). Writes ``qy[v]``, ``qx[v]``, ``visits[v]``; returns updates per view."""
     V = inp_b.shape[0]
-    H, W = sup.qy.shape
+    H, W = sup.qy.shape[1], sup.qy.shape[2]
     changed = np.zeros(V, np.int64)
     for v in prange(V):
         for i in range(H):
             for j in range(W):
-                qy[v, i, j] = sup.qy[i, j]
-                qx[v, i, j] = sup.qx[i, j]
+                qy[v, i, j] = sup.qy[v, i, j]
+                qx[v, i, j] = sup.qx[v, i, j]
         k = np.full((H, W), k0, np.int64)
         out = gather(inp_b[v], qy[v], qx[v])
-        changed[v] = synth_level(inp_b[v], out, qy[v], qx[v], k, T, dk, seeds[v], 0, sup, visits[v])
+        view_sup = Support(sup.out[v], sup.inp, sup.qy[v], sup.qx[v], sup.c, True)
+        changed[v] = synth_level(inp_b[v], out, qy[v], qx[v], k, T, dk, seeds[v], 0, view_sup, visits[v])
     return changed
+
+
+@njit(**PJIT)
+def sweep_costs(images, ref, shifts, offsets, tau, out):
+    """Plane-sweep photo-consistency of view ``ref`` against the others, in place in ``out``
+    (M, h, w) float32: for each height offset ``offsets[m]`` (world units above the views'
+    plane) and pixel (i, j) of ``ref``, the mean over the other views n of
+    min(‖I_n(j + shifts[n, 0]·o, i + shifts[n, 1]·o) − I_ref(i, j)‖², ``tau``) (I_n read
+    bilinearly; a view whose read falls outside it does not count; no view: ``tau``).
+    ``shifts`` (V, 2): the pixels (column, row) a point moves in view n per world unit of
+    height (``plane_shift`` of a unit height)."""
+    V, h, w = images.shape[0], images.shape[1], images.shape[2]
+    M = offsets.shape[0]
+    for i in prange(h):
+        for m in range(M):
+            for j in range(w):
+                acc = 0.0
+                cnt = 0
+                for n in range(V):
+                    if n == ref:
+                        continue
+                    x = j + shifts[n, 0] * offsets[m]
+                    y = i + shifts[n, 1] * offsets[m]
+                    if x < 0.0 or x > w - 1.0 or y < 0.0 or y > h - 1.0:
+                        continue
+                    x0 = int(math.floor(x))
+                    y0 = int(math.floor(y))
+                    fx = x - x0
+                    fy = y - y0
+                    x1 = min(x0 + 1, w - 1)
+                    y1 = min(y0 + 1, h - 1)
+                    d = 0.0
+                    for c in range(3):
+                        val = ((1.0 - fy) * ((1.0 - fx) * images[n, y0, x0, c] + fx * images[n, y0, x1, c])
+                               + fy * ((1.0 - fx) * images[n, y1, x0, c] + fx * images[n, y1, x1, c]))
+                        e = val - images[ref, i, j, c]
+                        d += e * e
+                    acc += min(d, tau)
+                    cnt += 1
+                out[m, i, j] = acc / cnt if cnt > 0 else tau
+    return out
 
 
 @njit(**PJIT)
