@@ -221,10 +221,11 @@ def seam_share(qy, qx):
     return float((h.sum() + v.sum()) / (h.size + v.size))
 
 
-MOVE_STACKS = {  # row: BtfSynth params
-    "sequential": {"mode": "sequential"},
-    "seq., no parallax": {"mode": "sequential", "parallax": False},
-    "independent": {"mode": "independent"},
+MOVE_STACKS = {  # row: BtfSynth params, BtfShade params
+    "sequential": ({"mode": "sequential"}, {}),
+    "seq., shade w/o parallax": ({"mode": "sequential"}, {"parallax": False}),
+    "seq., no parallax": ({"mode": "sequential", "parallax": False}, {}),
+    "independent": ({"mode": "independent"}, {}),
 }
 
 
@@ -255,8 +256,12 @@ def shaded_move():
                              margin, False)
     bound_seams = seam_share(ty, tx)
     rows = {}
-    for name, params in MOVE_STACKS.items():
-        synth = run_node("BtfSynth", dict(params, size=[256, 256], seed=1), {"stack": aligned})
+    synths = {}
+    for name, (params, shade) in MOVE_STACKS.items():
+        key = str(sorted(params.items()))
+        if key not in synths:
+            synths[key] = run_node("BtfSynth", dict(params, size=[256, 256], seed=1), {"stack": aligned})
+        synth = synths[key]
         V = len(views)
         qy = np.stack([synth[f"v{n}.sy"] for n in range(V)]).astype(np.int64)
         qx = np.stack([synth[f"v{n}.sx"] for n in range(V)]).astype(np.int64)
@@ -266,10 +271,10 @@ def shaded_move():
         out = btf.gather_stack(imgs, qy, qx)
         tj = np.mean([btf.tile_jumps(out[n]) for n in range(V)], 0)
         ranges, st, sb = stack_shards(imgs, views, qy, qx, s, heights, meta, margin, synth.meta["btf"]["tile"])
-        frames = [run_node("BtfShade", {"label": "bumps", "origin": MOVE_ORIGIN}, {"stack": synth, "proxy": p})
+        frames = [run_node("BtfShade", dict(shade, label="bumps", origin=MOVE_ORIGIN), {"stack": synth, "proxy": p})
                   for p in proxies]
         half = [o + qy.shape[2] // 2 * meta["pixel"] for o in MOVE_ORIGIN]
-        shifted = [run_node("BtfShade", {"label": "bumps", "origin": half}, {"stack": synth, "proxy": p})
+        shifted = [run_node("BtfShade", dict(shade, label="bumps", origin=half), {"stack": synth, "proxy": p})
                    for p in proxies]
         we, per = warp_error(frames, cams)
         fj = frame_tile_jumps(frames, shifted, qy.shape[1:])

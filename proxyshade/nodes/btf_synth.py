@@ -33,7 +33,8 @@ class BtfSynth(Node):
     repeats without a seam when a surface is shaded from it (BtfShade wraps).
 
     Output: ``v{n}.R/G/B`` synthesized and ``v{n}.sx/sy`` (the input pixel each output
-    pixel copies, column and row), the input's ``meta['views']`` and ``meta['btf']``.
+    pixel copies, column and row), with ``parallax`` ``height`` (the synthesized surface's
+    world height per pixel), the input's ``meta['views']`` and ``meta['btf']``.
     """
 
     version = 1
@@ -67,20 +68,23 @@ class BtfSynth(Node):
         btf.check_synthesis_size(imgs.shape[1:3], max(p.radius, p.radius_other), levels)
         W, H = p.size
         bm = ctx.stack.meta["btf"]
-        geometry = {"views": views, "pixel": float(bm.get("pixel", 1.0)), "plane": float(bm.get("plane", 0.0))}
+        geometry = (btf.stack_geometry(imgs, views, support, float(bm.get("pixel", 1.0)), float(bm.get("plane", 0.0)))
+                    if p.parallax and views[support]["slant"] == 0.0 else None)
         qy, qx = btf.synthesize_stack(imgs, support, (H, W), mode=p.mode, radius=p.radius,
                                       radius_other=p.radius_other, T=p.T, levels=levels, c=p.c, seed=p.seed,
-                                      wrap=p.tile, geometry=geometry if p.parallax else None)
+                                      wrap=p.tile, geometry=geometry)
         out = btf.gather_stack(imgs, qy, qx)
         extra = {}
         for n in range(len(views)):
             extra[f"v{n}.sx"] = qx[n].astype(np.float32)
             extra[f"v{n}.sy"] = qy[n].astype(np.float32)
+        if geometry is not None:  # the synthesized surface's heights, for BtfShade's view interpolation
+            extra["height"] = geometry["heights"][qy[support], qx[support]].astype(np.float32)
         ec = btf.consistency_error(imgs, support, qy, qx)
         es = btf.seam_error(imgs, qy, qx)
         others = [n for n in range(len(views)) if n != support]
         meta = dict(ctx.stack.meta["btf"], support=support, mode=p.mode, input_size=[imgs.shape[2], imgs.shape[1]],
-                    levels=levels, tile=bool(p.tile), parallax=bool(p.parallax))
+                    levels=levels, tile=bool(p.tile), parallax=geometry is not None)
         if others:
             ctx.note(f"{len(views)} views {W}x{H} ({p.mode}); other views: E_c {ec[others].mean():.4f}, "
                      f"E_s {es[others].mean():.4f}")

@@ -374,6 +374,13 @@ def estimate_heights(images: np.ndarray, views: list[dict], support: int, pixel:
     return plane + offsets[best]
 
 
+def stack_geometry(images: np.ndarray, views: list[dict], support: int, pixel: float, plane: float) -> dict:
+    """What ``synthesize_stack`` casts the other views through: {views, pixel, plane,
+    heights} with the sample's heights at the support view's pixels (``estimate_heights``)."""
+    return {"views": views, "pixel": float(pixel), "plane": float(plane),
+            "heights": estimate_heights(images, views, support, pixel, plane)}
+
+
 def cast_sources(heights: np.ndarray, qay: np.ndarray, qax: np.ndarray, views: list[dict], plane: float,
                  pixel: float, *, wrap: bool) -> tuple[np.ndarray, np.ndarray]:
     """(qy, qx), each (V, H, W) int64: for every view, the input pixel that shows what the
@@ -433,10 +440,9 @@ def synthesize_stack(images: np.ndarray, support: int, size, *, mode: str = "seq
     (``synthesize_others``). ``independent``: every view on its own, like the support.
     ``columns``: every view copies the support's sources (whole columns of the stack).
     ``levels`` None: ``auto_levels``. ``wrap``: the stack tiles without a seam.
-    ``geometry`` {views, pixel, plane} (the stack's): sequential views start from the
-    support's surface as each view sees it, with the sample's heights from the views
-    (``estimate_heights``, ``cast_sources``; a frontal support only); None: from the
-    support's sources at the same pixel."""
+    ``geometry`` (``stack_geometry``): sequential views start from the support's surface
+    as each view sees it, cast through the sample's heights (``cast_sources``; a frontal
+    support only); None: from the support's sources at the same pixel."""
     if levels is None:
         levels = auto_levels(images.shape[1:3], radius)
     if mode not in MODES:
@@ -448,8 +454,7 @@ def synthesize_stack(images: np.ndarray, support: int, size, *, mode: str = "seq
         cast = None
         g = geometry
         if g is not None and g["views"][support]["slant"] <= GRID_TOL:
-            heights = estimate_heights(images, g["views"], support, g["pixel"], g["plane"])
-            cast = cast_sources(heights, qay, qax, g["views"], g["plane"], g["pixel"], wrap=wrap)
+            cast = cast_sources(g["heights"], qay, qax, g["views"], g["plane"], g["pixel"], wrap=wrap)
         qy, qx, _ = synthesize_others(images, support, qay, qax, radius=radius_other, T=T, c=c, seed=seed, wrap=wrap,
                                       cast=cast)
         return qy, qx
@@ -476,8 +481,8 @@ def gather_stack(images: np.ndarray, qy: np.ndarray, qx: np.ndarray) -> np.ndarr
 # ---------------------------------------------------------------- shading a surface
 
 def shade_grid(views: list[dict]):
-    """The stack's grid for ``kernels.btf.shade_views``: (table (K + 1, nt) int64, step,
-    tilts (nt,) sorted in [0°, 360°), spans (nt,) bool). ``spans[j]``: the arc from tilt j
+    """The stack's grid for ``kernels.btf.shade_views``: a ``ShadeGrid`` (table (K + 1, nt)
+    int64, step, tilts (nt,) sorted in [0°, 360°), spans (nt,) bool). ``spans[j]``: the arc from tilt j
     to the next one (cyclically) is interpolated across; only the largest arc, when it is
     larger than every other one, is unsampled (a grid of tilts 0–90° covers one quadrant;
     tilts evenly around the circle cover it all)."""
@@ -499,7 +504,9 @@ def shade_grid(views: list[dict]):
         big = int(np.argmax(gaps))
         if gaps[big] > np.delete(gaps, big).max() + 1e-6:
             spans[big] = False
-    return table, float(g["step"]), np.array(tilts, np.float64), spans
+    from proxyshade.kernels.btf import ShadeGrid
+
+    return ShadeGrid(table, float(g["step"]), np.array(tilts, np.float64), spans)
 
 
 def surface_directions(P: np.ndarray, N: np.ndarray, eye) -> tuple[np.ndarray, np.ndarray]:
@@ -577,18 +584,23 @@ def grid_uv(P: np.ndarray, grid, origin, scale: float) -> tuple[np.ndarray, np.n
 
 
 def shade_surface(images: np.ndarray, views: list[dict], uv, slant: np.ndarray, tilt: np.ndarray,
-                  mask: np.ndarray) -> np.ndarray:
+                  mask: np.ndarray, relief: tuple | None = None) -> np.ndarray:
     """(H, W, 3) float32: the pixels of ``mask`` shaded from the stack (``kernels.btf.
     shade_views``): bilinear between the four views around each pixel's (slant, tilt),
-    each read bilinearly at its texture coordinates ``uv`` (wrapped); 0 elsewhere."""
-    from proxyshade.kernels.btf import shade_views
+    each read bilinearly at its texture coordinates ``uv`` (wrapped); 0 elsewhere.
+    ``relief`` (heights (h, w) above the plane in world units, pixel): each view read where
+    it shows the surface point the pixel's direction sees (parallax-corrected)."""
+    from proxyshade.kernels.btf import Relief, shade_views
 
-    table, step, tilts, spans = shade_grid(views)
+    if relief is None:
+        rel = Relief(np.zeros((1, 1)), np.zeros((len(views), 2)), 1.0)
+    else:
+        rel = Relief(np.ascontiguousarray(relief[0], np.float64), parallax_shifts(views, relief[1]), 1.0 / relief[1])
     out = np.zeros(mask.shape + (3,), np.float32)
-    shade_views(np.ascontiguousarray(images, np.float32), table, step, tilts, spans,
+    shade_views(np.ascontiguousarray(images, np.float32), shade_grid(views),
                 np.ascontiguousarray(uv[0], np.float64), np.ascontiguousarray(uv[1], np.float64),
                 np.ascontiguousarray(slant, np.float64), np.ascontiguousarray(tilt, np.float64),
-                np.ascontiguousarray(mask, np.bool_), out)
+                np.ascontiguousarray(mask, np.bool_), rel, out)
     return out
 
 

@@ -10,6 +10,9 @@ from proxyshade.kernels import btf as K
 from proxyshade.kernels.random import rand
 
 
+FLAT = K.Relief(np.zeros((1, 1)), np.zeros((40, 2)), 1.0)  # no parallax correction
+
+
 @pytest.fixture
 def rng():
     return np.random.default_rng(7)
@@ -182,7 +185,8 @@ def test_other_views_in_parallel_equal_each_view_alone_with_one_or_two_threads(r
     for threads in (1, 2):
         numba.set_num_threads(threads)
         qy, qx, vis = (np.zeros((3, 12, 12), np.int64) for _ in range(3))
-        K.synth_others(views, K.Support(oa, ia, qay, qax, 0.25, True), 4, 2, K.disk(2), seeds, qy, qx, vis)
+        per_view = K.Support(np.stack([oa] * 3), ia, np.stack([qay] * 3), np.stack([qax] * 3), 0.25, True)
+        K.synth_others(views, per_view, 4, 2, K.disk(2), seeds, qy, qx, vis)
         res.append((qy, qx, vis))
     for a, b in zip(*res):
         assert np.array_equal(a, b)
@@ -319,7 +323,7 @@ def test_shade_views_matches_reference(rng, tilts):
     tilt = rng.uniform(-400, 400, (H, W))
     mask = rng.random((H, W)) < 0.8
     out = np.full((H, W, 3), -1.0, np.float32)
-    K.shade_views(views, table, st, tl, spans, u, v, slant, tilt, mask, out)
+    K.shade_views(views, K.ShadeGrid(table, st, tl, spans), u, v, slant, tilt, mask, FLAT, out)
     for i in range(H):
         for j in range(W):
             if mask[i, j]:
@@ -340,7 +344,59 @@ def test_shade_views_on_a_grid_direction_is_that_view(rng):
     v = np.array([[1.0, 6.0, -8.0 + 4.0]])
     slant, tilt = np.array([[60.0, 30.0, 0.0]]), np.array([[90.0, 0.0, 45.0]])
     out = np.zeros((1, 3, 3), np.float32)
-    K.shade_views(views, table, st, tl, spans, u, v, slant, tilt, np.ones((1, 3), bool), out)
+    K.shade_views(views, K.ShadeGrid(table, st, tl, spans), u, v, slant, tilt, np.ones((1, 3), bool), FLAT, out)
     np.testing.assert_array_equal(out[0, 0], views[4, 1, 3])
     np.testing.assert_array_equal(out[0, 1], views[1, 6, 5])
     np.testing.assert_array_equal(out[0, 2], views[0, 4, 2])  # frontal, wrapped texel (2, 4)
+
+
+def test_other_views_start_from_and_hold_to_their_own_support_map(rng):
+    """Each view v runs the pair level against its own support map (sup.qy[v], A at it)."""
+    ia = _img(rng, 10, 10)
+    views = np.stack([_img(rng, 10, 10) for _ in range(2)])
+    cy = rng.integers(0, 10, (2, 12, 12)).astype(np.int64)
+    cx = rng.integers(0, 10, (2, 12, 12)).astype(np.int64)
+    oa = np.stack([K.gather(ia, cy[v], cx[v]) for v in range(2)])
+    qy, qx, vis = (np.zeros((2, 12, 12), np.int64) for _ in range(3))
+    K.synth_others(views, K.Support(oa, ia, cy, cx, 0.25, True), 4, 2, K.disk(2), np.array([4, 8], np.int64),
+                   qy, qx, vis)
+    for v, seed in enumerate((4, 8)):
+        alone = naive_level(views[v], cy[v], cx[v], np.full((12, 12), 2, np.int64), 4, 2, 1, seed, 0,
+                            pair=(oa[v], ia, cy[v], cx[v]), cw=0.25)
+        assert np.array_equal(qy[v], alone[0]) and np.array_equal(qx[v], alone[1])
+
+
+def naive_sweep(images, ref, shifts, offsets, tau):
+    """sweep_costs written plainly: per height and pixel, the mean over the other views that
+    read inside of the truncated squared RGB distance, each view read bilinearly."""
+    V, h, w = images.shape[:3]
+    out = np.empty((len(offsets), h, w))
+    for m, o in enumerate(offsets):
+        for i in range(h):
+            for j in range(w):
+                costs = []
+                for n in range(V):
+                    x, y = j + shifts[n, 0] * o, i + shifts[n, 1] * o
+                    if n == ref or not (0 <= x <= w - 1 and 0 <= y <= h - 1):
+                        continue
+                    x0, y0 = int(math.floor(x)), int(math.floor(y))
+                    x1, y1 = min(x0 + 1, w - 1), min(y0 + 1, h - 1)
+                    fx, fy = x - x0, y - y0
+                    im = images[n].astype(np.float64)
+                    val = ((1 - fy) * ((1 - fx) * im[y0, x0] + fx * im[y0, x1])
+                           + fy * ((1 - fx) * im[y1, x0] + fx * im[y1, x1]))
+                    costs.append(min(float(((val - images[ref, i, j].astype(np.float64)) ** 2).sum()), tau))
+                out[m, i, j] = np.mean(costs) if costs else tau
+    return out
+
+
+def test_sweep_costs_match_the_plain_loop(rng):
+    images = rng.random((4, 7, 9, 3)).astype(np.float32)
+    shifts = rng.normal(0, 3, (4, 2))
+    shifts[1] = 0.0  # the reference view: never read
+    offsets = np.linspace(-1.2, 1.2, 5)
+    got = np.empty((5, 7, 9), np.float32)
+    K.sweep_costs(images, 1, shifts, offsets, 0.4, got)
+    want = naive_sweep(images, 1, shifts, offsets, 0.4)
+    np.testing.assert_allclose(got, want, rtol=1e-6, atol=1e-7)
+    assert (want < 0.4).any() and (want == 0.4).any()  # truncated somewhere, not everywhere
