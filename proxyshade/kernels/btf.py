@@ -386,50 +386,17 @@ class ShadeGrid(NamedTuple):
     spans: np.ndarray
 
 
-class Relief(NamedTuple):
-    """The stack's surface heights for parallax-corrected view interpolation: ``heights``
-    (h, w) float64, world units above the views' plane per stack pixel (zeros: no
-    correction); ``shifts`` (V, 2): the pixels (column, row) a point moves in each view per
-    world unit of height (``plane_shift`` of a unit height); ``inv_pixel``: stack pixels
-    per world unit."""
-    heights: np.ndarray
-    shifts: np.ndarray
-    inv_pixel: float
-
-
-@njit(**JIT)
-def _bilinear_wrap(img, n, x, y, wv, rgb):
-    """Add ``wv`` × view ``n`` of ``img`` (V, h, w, 3) read bilinearly at (x, y), wrapped, to ``rgb``."""
-    h, w = img.shape[1], img.shape[2]
-    fx0 = math.floor(x)
-    fy0 = math.floor(y)
-    fx = x - fx0
-    fy = y - fy0
-    x0 = int(fx0) % w
-    y0 = int(fy0) % h
-    x1 = (x0 + 1) % w
-    y1 = (y0 + 1) % h
-    w00 = wv * (1.0 - fy) * (1.0 - fx)
-    w01 = wv * (1.0 - fy) * fx
-    w10 = wv * fy * (1.0 - fx)
-    w11 = wv * fy * fx
-    for c in range(3):
-        rgb[c] += w00 * img[n, y0, x0, c] + w01 * img[n, y0, x1, c] + w10 * img[n, y1, x0, c] + w11 * img[n, y1, x1, c]
-
-
 @njit(**PJIT)
-def shade_views(views, grid, u, v, slant, tilt, mask, relief, out):
+def shade_views(views, grid, u, v, slant, tilt, mask, out):
     """Shade the pixels of ``mask`` from a stack, in place in ``out`` (H, W, 3) float32.
 
     ``views`` (V, h, w, 3) on the ``ShadeGrid`` ``grid``; ``u``, ``v`` the texture
     coordinates (column, row; pixel centres at integers; wrapped); ``slant``, ``tilt`` the
     view direction in the surface frame (degrees). Bilinear in (slant, tilt) between the
     four views around it (slant clamped to [0, K·step]; tilt by ``_tilt_bracket``), each
-    view bilinear at (u, v) moved by the parallax between the pixel's direction and the
-    view's for the ``Relief`` height y at (u, v): y·(shift of the view − shift of the
-    direction), so the four views show the same surface point where they are blended."""
+    view bilinear in (u, v)."""
     table, step, tilts, spans = grid.table, grid.step, grid.tilts, grid.spans
-    hh, hw = relief.heights.shape
+    h, w = views.shape[1], views.shape[2]
     K = table.shape[0] - 1
     H, W = mask.shape
     for i in prange(H):
@@ -448,16 +415,13 @@ def shade_views(views, grid, u, v, slant, tilt, mask, relief, out):
             fy0 = math.floor(y)
             fx = x - fx0
             fy = y - fy0
-            x0 = int(fx0) % hw
-            y0 = int(fy0) % hh
-            x1 = (x0 + 1) % hw
-            y1 = (y0 + 1) % hh
-            hgt = ((1.0 - fy) * (1.0 - fx) * relief.heights[y0, x0] + (1.0 - fy) * fx * relief.heights[y0, x1]
-                   + fy * (1.0 - fx) * relief.heights[y1, x0] + fy * fx * relief.heights[y1, x1])
-            t = math.tan(math.radians(min(slant[i, j], 89.0))) * relief.inv_pixel
-            dcx = -t * math.cos(math.radians(tilt[i, j]))
-            dcy = -t * math.sin(math.radians(tilt[i, j]))
-            rgb = np.zeros(3)
+            x0 = int(fx0) % w
+            y0 = int(fy0) % h
+            x1 = (x0 + 1) % w
+            y1 = (y0 + 1) % h
+            r = 0.0
+            g = 0.0
+            bl = 0.0
             for m in range(4):
                 kk = k0 if m < 2 else k1
                 jj = j0 if m % 2 == 0 else j1
@@ -465,11 +429,16 @@ def shade_views(views, grid, u, v, slant, tilt, mask, relief, out):
                 if wv == 0.0:
                     continue
                 n = table[kk, jj]
-                xn = x
-                yn = y
-                if hgt != 0.0:
-                    xn = x + hgt * (relief.shifts[n, 0] - dcx)
-                    yn = y + hgt * (relief.shifts[n, 1] - dcy)
-                _bilinear_wrap(views, n, xn, yn, wv, rgb)
-            for c in range(3):
-                out[i, j, c] = rgb[c]
+                w00 = wv * (1.0 - fy) * (1.0 - fx)
+                w01 = wv * (1.0 - fy) * fx
+                w10 = wv * fy * (1.0 - fx)
+                w11 = wv * fy * fx
+                r += (w00 * views[n, y0, x0, 0] + w01 * views[n, y0, x1, 0] + w10 * views[n, y1, x0, 0]
+                      + w11 * views[n, y1, x1, 0])
+                g += (w00 * views[n, y0, x0, 1] + w01 * views[n, y0, x1, 1] + w10 * views[n, y1, x0, 1]
+                      + w11 * views[n, y1, x1, 1])
+                bl += (w00 * views[n, y0, x0, 2] + w01 * views[n, y0, x1, 2] + w10 * views[n, y1, x0, 2]
+                       + w11 * views[n, y1, x1, 2])
+            out[i, j, 0] = r
+            out[i, j, 1] = g
+            out[i, j, 2] = bl

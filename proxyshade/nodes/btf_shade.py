@@ -25,11 +25,7 @@ class BtfShade(Node):
     by arc length along its rows and columns (a texel keeps its size up a slope),
     and the direction toward the camera in the surface frame (``N`` up, world +X projected
     onto the surface as tilt 0°): bilinear between the four views around that (slant, tilt)
-    on the stack's grid, each view read bilinearly. With ``parallax`` and a stack that has
-    heights (BtfSynth ``parallax``), each view is read where it shows the surface point the
-    pixel's own direction sees (the texture coordinates moved by the height times the
-    difference of the two directions' parallax), so the four views blended show one point
-    instead of four (a bump between 60° and 70° seen once, not twice). Directions beyond the grid take its
+    on the stack's grid, each view read bilinearly. Directions beyond the grid take its
     nearest views (slant beyond the largest, a tilt outside the captured arc); the note
     says how many pixels. The light is the stack's: the views are used as they were lit.
 
@@ -50,8 +46,6 @@ class BtfShade(Node):
     uv = Param(str, "planar", choices=("planar", "terrain"),
                doc="texture coordinates: planar along Y, or the terrain mesh's own grid (arc length)")
     background = Param(list, [0.0, 0.0, 0.0], length=3, doc="linear RGB of the pixels off the label")
-    parallax = Param(bool, True, doc="read each view where it shows the point the pixel's direction sees "
-                                     "(the stack's height channel; BtfSynth parallax)")
 
     def compute(self, ctx) -> Plate:
         from proxyshade.io.usd import CameraInfo
@@ -75,11 +69,7 @@ class BtfShade(Node):
             u, v = self._terrain_uv(ctx, proxy, P, mask, p.origin, scale)
         else:
             u, v = btf.planar_uv(P, p.origin, scale)
-        bm = ctx.stack.meta["btf"]
-        relief = None
-        if p.parallax and "height" in ctx.stack:
-            relief = (ctx.stack["height"].astype(np.float64) - float(bm.get("plane", 0.0)), float(bm.get("pixel", 1.0)))
-        rgb = btf.shade_surface(imgs, views, (u, v), slant, tilt, mask, relief)
+        rgb = btf.shade_surface(imgs, views, (u, v), slant, tilt, mask)
         rgb[~mask] = np.asarray(p.background, np.float32)
         out = btf.outside_grid(views, slant, tilt) & mask
         if not mask.any():

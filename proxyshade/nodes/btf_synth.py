@@ -33,8 +33,7 @@ class BtfSynth(Node):
     repeats without a seam when a surface is shaded from it (BtfShade wraps).
 
     Output: ``v{n}.R/G/B`` synthesized and ``v{n}.sx/sy`` (the input pixel each output
-    pixel copies, column and row), with ``parallax`` ``height`` (the synthesized surface's
-    world height per pixel), the input's ``meta['views']`` and ``meta['btf']``.
+    pixel copies, column and row), the input's ``meta['views']`` and ``meta['btf']``.
     """
 
     version = 1
@@ -78,8 +77,6 @@ class BtfSynth(Node):
         for n in range(len(views)):
             extra[f"v{n}.sx"] = qx[n].astype(np.float32)
             extra[f"v{n}.sy"] = qy[n].astype(np.float32)
-        if geometry is not None:  # the synthesized surface's heights, for BtfShade's view interpolation
-            extra["height"] = geometry["heights"][qy[support], qx[support]].astype(np.float32)
         ec = btf.consistency_error(imgs, support, qy, qx)
         es = btf.seam_error(imgs, qy, qx)
         others = [n for n in range(len(views)) if n != support]

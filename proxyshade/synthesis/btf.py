@@ -584,23 +584,17 @@ def grid_uv(P: np.ndarray, grid, origin, scale: float) -> tuple[np.ndarray, np.n
 
 
 def shade_surface(images: np.ndarray, views: list[dict], uv, slant: np.ndarray, tilt: np.ndarray,
-                  mask: np.ndarray, relief: tuple | None = None) -> np.ndarray:
+                  mask: np.ndarray) -> np.ndarray:
     """(H, W, 3) float32: the pixels of ``mask`` shaded from the stack (``kernels.btf.
     shade_views``): bilinear between the four views around each pixel's (slant, tilt),
-    each read bilinearly at its texture coordinates ``uv`` (wrapped); 0 elsewhere.
-    ``relief`` (heights (h, w) above the plane in world units, pixel): each view read where
-    it shows the surface point the pixel's direction sees (parallax-corrected)."""
-    from proxyshade.kernels.btf import Relief, shade_views
+    each read bilinearly at its texture coordinates ``uv`` (wrapped); 0 elsewhere."""
+    from proxyshade.kernels.btf import shade_views
 
-    if relief is None:
-        rel = Relief(np.zeros((1, 1)), np.zeros((len(views), 2)), 1.0)
-    else:
-        rel = Relief(np.ascontiguousarray(relief[0], np.float64), parallax_shifts(views, relief[1]), 1.0 / relief[1])
     out = np.zeros(mask.shape + (3,), np.float32)
     shade_views(np.ascontiguousarray(images, np.float32), shade_grid(views),
                 np.ascontiguousarray(uv[0], np.float64), np.ascontiguousarray(uv[1], np.float64),
                 np.ascontiguousarray(slant, np.float64), np.ascontiguousarray(tilt, np.float64),
-                np.ascontiguousarray(mask, np.bool_), rel, out)
+                np.ascontiguousarray(mask, np.bool_), out)
     return out
 
 

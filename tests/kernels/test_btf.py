@@ -10,9 +10,6 @@ from proxyshade.kernels import btf as K
 from proxyshade.kernels.random import rand
 
 
-FLAT = K.Relief(np.zeros((1, 1)), np.zeros((40, 2)), 1.0)  # no parallax correction
-
-
 @pytest.fixture
 def rng():
     return np.random.default_rng(7)
@@ -323,7 +320,7 @@ def test_shade_views_matches_reference(rng, tilts):
     tilt = rng.uniform(-400, 400, (H, W))
     mask = rng.random((H, W)) < 0.8
     out = np.full((H, W, 3), -1.0, np.float32)
-    K.shade_views(views, K.ShadeGrid(table, st, tl, spans), u, v, slant, tilt, mask, FLAT, out)
+    K.shade_views(views, K.ShadeGrid(table, st, tl, spans), u, v, slant, tilt, mask, out)
     for i in range(H):
         for j in range(W):
             if mask[i, j]:
@@ -344,7 +341,7 @@ def test_shade_views_on_a_grid_direction_is_that_view(rng):
     v = np.array([[1.0, 6.0, -8.0 + 4.0]])
     slant, tilt = np.array([[60.0, 30.0, 0.0]]), np.array([[90.0, 0.0, 45.0]])
     out = np.zeros((1, 3, 3), np.float32)
-    K.shade_views(views, K.ShadeGrid(table, st, tl, spans), u, v, slant, tilt, np.ones((1, 3), bool), FLAT, out)
+    K.shade_views(views, K.ShadeGrid(table, st, tl, spans), u, v, slant, tilt, np.ones((1, 3), bool), out)
     np.testing.assert_array_equal(out[0, 0], views[4, 1, 3])
     np.testing.assert_array_equal(out[0, 1], views[1, 6, 5])
     np.testing.assert_array_equal(out[0, 2], views[0, 4, 2])  # frontal, wrapped texel (2, 4)

@@ -180,25 +180,3 @@ def test_cast_sources_of_a_flat_sample_at_the_plane_are_the_support_sources():
     qy, qx = btf.cast_sources(np.full((30, 30), 0.35), qay, qax, views, 0.25, 0.01, wrap=True)
     assert not np.array_equal(qx[-3], qax)
 
-
-def test_parallax_corrected_shading_shows_one_surface_point_from_every_view():
-    """A flat sample at height y above the plane with a linear texture (bilinear reads are
-    exact): view n shows at p the point p − y·shift_n. Shaded with the relief, every view
-    blended reads the point the pixel's own direction sees, so the result is the texture
-    there; without it, the blend of the four views' points."""
-    a, b, c, y, pixel, size = 0.01, 0.02, 0.3, 0.02, 0.01, 24
-    views = btf.view_grid(10, 70, [0, 45, 90, 135, 180, 225, 270, 315])
-    shifts = btf.parallax_shifts(views, pixel)
-    rows, cols = np.mgrid[0:size, 0:size].astype(np.float64)
-    imgs = np.stack([np.repeat((a * (cols - y * sx) + b * (rows - y * sy) + c)[..., None], 3, -1)
-                     for sx, sy in shifts]).astype(np.float32)
-    rng = np.random.default_rng(8)
-    u, v = rng.uniform(8, 16, (6, 7)), rng.uniform(8, 16, (6, 7))
-    slant, tilt = rng.uniform(5, 68, (6, 7)), rng.uniform(-180, 180, (6, 7))
-    t = np.tan(np.radians(slant)) / pixel
-    want = a * (u + y * t * np.cos(np.radians(tilt))) + b * (v + y * t * np.sin(np.radians(tilt))) + c
-    mask = np.ones((6, 7), bool)
-    got = btf.shade_surface(imgs, views, (u, v), slant, tilt, mask, relief=(np.full((size, size), y), pixel))
-    np.testing.assert_allclose(got[..., 0], want, atol=2e-5)
-    plain = btf.shade_surface(imgs, views, (u, v), slant, tilt, mask)
-    assert np.abs(plain[..., 0] - want).max() > 1e-3
