@@ -9,7 +9,8 @@ Alignment: the chosen plane against the sample's heights, and the RMSE of a 27.5
 interpolated from 25° and 30° with that plane and with planes outside the heights.
 Shaded move (``--move`` alone, or after the rest): graphs/btf_move.yaml's stack (57 views, tilts
 around the circle) synthesized sequentially (5 levels, tiled, parallax), sequentially without
-parallax (the paper's other views) and as independent views, each shading the 12 frames of btf_move (BtfShade,
+parallax (the paper's other views), as independent views and with 3 levels untiled without
+parallax, each shading the 12 frames of btf_move (BtfShade,
 256²) against per-frame independent shading: frame-to-frame warp error, seams E_s, tile
 seams of the stack and of the move (against the same pixels with the tile moved by half),
 and the shard share at 60–70° of the stacks and the frames (against the view cast through
@@ -231,6 +232,7 @@ MOVE_STACKS = {  # row: BtfSynth params
     "sequential": {"mode": "sequential"},
     "seq., no parallax": {"mode": "sequential", "parallax": False},
     "independent": {"mode": "independent"},
+    "seq. 3 lv, no tile/par.": {"mode": "sequential", "levels": 3, "tile": False, "parallax": False},
 }
 
 
