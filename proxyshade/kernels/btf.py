@@ -93,7 +93,6 @@ def _disk_sum(out, k, T, inp, sup, py, px, cy, cx, dk, bound):
     h, w = inp.shape[0], inp.shape[1]
     offs, so, si = dk.offsets, dk.out_step, dk.in_step
     pair = sup.on
-    nch = float(out.shape[2])
     acc = 0.0
     for o in range(offs.shape[0]):
         qy = py + offs[o, 0] * so
@@ -110,15 +109,14 @@ def _disk_sum(out, k, T, inp, sup, py, px, cy, cx, dk, bound):
         iy = cy + offs[o, 0] * si
         ix = cx + offs[o, 1] * si
         if iy < 0 or iy >= h or ix < 0 or ix >= w:
-            acc += (wt + wa) * nch * MAXV * MAXV
+            acc += (wt + wa) * 3.0 * MAXV * MAXV
         else:
             db = 0.0
             da = 0.0
-            for c in range(out.shape[2]):
+            for c in range(3):
                 e = np.float64(out[qy, qx, c]) - np.float64(inp[iy, ix, c])
                 db += e * e
-            if pair:
-                for c in range(sup.out.shape[2]):
+                if pair:
                     f = np.float64(sup.out[qy, qx, c]) - np.float64(sup.inp[iy, ix, c])
                     da += f * f
             acc += wt * db + wa * da
@@ -230,7 +228,7 @@ def synth_level(inp, out, qy, qx, k, T, dk, seed, level, sup, visits):
         if by != qy[py, px] or bx != qx[py, px]:
             qy[py, px] = by
             qx[py, px] = bx
-            for c in range(out.shape[2]):
+            for c in range(3):
                 out[py, px, c] = inp[by, bx, c]
             changed += 1
         k[py, px] += 1
@@ -242,13 +240,12 @@ def synth_level(inp, out, qy, qx, k, T, dk, seed, level, sup, visits):
 
 @njit(**JIT)
 def gather(inp, qy, qx):
-    """(H, W, C) float32: ``inp`` (h, w, C) at integer sources (qy, qx)."""
+    """(H, W, 3) float32: ``inp`` at integer sources (qy, qx)."""
     H, W = qy.shape
-    C = inp.shape[2]
-    out = np.empty((H, W, C), np.float32)
+    out = np.empty((H, W, 3), np.float32)
     for i in range(H):
         for j in range(W):
-            for c in range(C):
+            for c in range(3):
                 out[i, j, c] = inp[qy[i, j], qx[i, j], c]
     return out
 
