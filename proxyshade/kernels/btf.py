@@ -2,9 +2,9 @@
 
 Neubeck, Zalesny and Van Gool, "Viewpoint consistent texture synthesis" (3DPVT 2004).
 
-* ``disk_distance`` (eq. 3): Σ_N w·‖out − in‖² over the disk 0 < u² + v² ≤ r² (offsets
-  stepped by a level's factor in the input); ``pair_distance`` the other-view form
-  Σ w‖B′ − B‖² + c(1 − w)‖A′ − A‖². An input neighbour outside the input costs the
+* ``disk_distance`` (eq. 3): Σ_N w·‖out − in‖² over the disk 0 < u² + v² ≤ r² (a ``Disk``:
+  offsets stepped by a level's factor in the input); ``pair_distance`` the other-view form
+  Σ w‖B′ − B‖² + c(1 − w)‖A′ − A‖² (A the ``Support`` view). An input neighbour outside the input costs the
   maximal difference (``MAXV`` per channel, the paper's "maximal value of 255"); an
   output neighbour outside the output is no neighbour (weight 0).
 * ``synth_level``: one level of the confidence-weighted sequential synthesis. A pixel is
@@ -17,6 +17,8 @@ Neubeck, Zalesny and Van Gool, "Viewpoint consistent texture synthesis" (3DPVT 2
 * ``synth_others``: every non-support view given the support, in parallel over views
   (each view sequential, its own seed): the same loop with ``pair_distance`` and the
   support's sources as extra candidates.
+* ``sweep_costs``: plane-sweep photo-consistency of the support view against the others,
+  per pixel and height: the heights of the sample the other views are cast through.
 * ``edge_distance``: the alignment measure, the mean Euclidean distance between the
   intensities of two views over a crop, for each neighbouring pair of the view grid.
 * ``plane_shift``: where a view rectified to one plane reads to be rectified to another.
@@ -30,6 +32,7 @@ only their own view or pair, so 1 and 2 threads give identical results.
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit, prange
@@ -47,24 +50,60 @@ def disk_offsets(r: int) -> np.ndarray:
                      if 0 < dy * dy + dx * dx <= r * r], np.int64).reshape(-1, 2)
 
 
+class Disk(NamedTuple):
+    """The neighbourhood of eq. 3: ``offsets`` (K, 2) int64 (dy, dx) (``disk_offsets``),
+    stepped ``out_step`` pixels in the output and ``in_step`` in the input (a level's
+    scale: the neighbour n = p + o·out_step proposes q(n) − o·in_step); ``wrap``: the
+    output is a torus (its neighbours wrap around its borders)."""
+    offsets: np.ndarray
+    out_step: int
+    in_step: int
+    wrap: bool
+
+
+class Support(NamedTuple):
+    """The support view's part of the other-view distance: its synthesis A′ (``out``
+    (H, W, 3)), its input A (``inp``), its sources (``qy``, ``qx``: extra candidates) and
+    the weight ``c`` of c(1 − w)‖A′ − A‖². ``on`` False: the single-view distance (eq. 3)."""
+    out: np.ndarray
+    inp: np.ndarray
+    qy: np.ndarray
+    qx: np.ndarray
+    c: float
+    on: bool
+
+
+def disk(r: int, out_step: int = 1, in_step: int = 1, wrap: bool = False) -> Disk:
+    """The ``Disk`` of radius ``r`` with numba-stable types (int64 steps, bool wrap)."""
+    return Disk(disk_offsets(r), np.int64(out_step), np.int64(in_step), bool(wrap))
+
+
+def no_support() -> Support:
+    """A ``Support`` that is off: the single-view distance (eq. 3) and candidates."""
+    img, q = np.zeros((1, 1, 3), np.float32), np.zeros((1, 1), np.int64)
+    return Support(img, img, q, q, 0.0, False)
+
+
 @njit(**JIT)
-def _disk_sum(out, k, T, inp, out_a, inp_a, cw, pair, py, px, cy, cx, offs, so, si, bound, wrap):
-    """Σ over the disk ``offs`` (stepped ``so`` in the output, ``si`` in the input) of
-    w‖out − in‖², plus cw (1 − w)‖A′ − A‖² with ``pair``; w = k / T. Stops once the sum
-    exceeds ``bound``. With ``wrap`` the output is a torus (its neighbours wrap around)."""
+def _disk_sum(out, k, T, inp, sup, py, px, cy, cx, dk, bound):
+    """Σ over the disk ``dk`` of w‖out − in‖² at output (py, px) against input (cy, cx),
+    plus c (1 − w)‖A′ − A‖² when the support ``sup`` is on; w = k / T. Stops once the sum
+    exceeds ``bound``."""
     H, W = out.shape[0], out.shape[1]
     h, w = inp.shape[0], inp.shape[1]
+    offs, so, si = dk.offsets, dk.out_step, dk.in_step
+    pair = sup.on
     acc = 0.0
     for o in range(offs.shape[0]):
         qy = py + offs[o, 0] * so
         qx = px + offs[o, 1] * so
-        if wrap:
+        if dk.wrap:
             qy %= H
             qx %= W
         elif qy < 0 or qy >= H or qx < 0 or qx >= W:
             continue
         wt = k[qy, qx] / T
-        wa = cw * (1.0 - wt) if pair else 0.0
+        wa = sup.c * (1.0 - wt) if pair else 0.0
         if wt == 0.0 and wa == 0.0:
             continue
         iy = cy + offs[o, 0] * si
@@ -78,7 +117,7 @@ def _disk_sum(out, k, T, inp, out_a, inp_a, cw, pair, py, px, cy, cx, offs, so, 
                 e = np.float64(out[qy, qx, c]) - np.float64(inp[iy, ix, c])
                 db += e * e
                 if pair:
-                    f = np.float64(out_a[qy, qx, c]) - np.float64(inp_a[iy, ix, c])
+                    f = np.float64(sup.out[qy, qx, c]) - np.float64(sup.inp[iy, ix, c])
                     da += f * f
             acc += wt * db + wa * da
         if acc > bound:
@@ -87,18 +126,18 @@ def _disk_sum(out, k, T, inp, out_a, inp_a, cw, pair, py, px, cy, cx, offs, so, 
 
 
 @njit(**JIT)
-def disk_distance(out, k, T, inp, py, px, cy, cx, offs, so, si, bound):
+def disk_distance(out, k, T, inp, py, px, cy, cx, dk, bound):
     """eq. 3 at output pixel (py, px) against input pixel (cy, cx): Σ w‖out − in‖² over the
-    disk ``offs``, stepped by ``so`` in the output and ``si`` in the input (a level's
-    scale), w = k / T; stops once the sum exceeds ``bound``."""
-    return _disk_sum(out, k, T, inp, out, inp, 0.0, False, py, px, cy, cx, offs, so, si, bound, False)
+    ``Disk`` ``dk`` (its steps a level's scale), w = k / T; stops once the sum exceeds
+    ``bound``."""
+    return _disk_sum(out, k, T, inp, Support(out, inp, k, k, 0.0, False), py, px, cy, cx, dk, bound)
 
 
 @njit(**JIT)
-def pair_distance(out_b, k, T, inp_b, out_a, inp_a, cw, py, px, cy, cx, offs, so, si, bound):
+def pair_distance(out_b, k, T, inp_b, sup, py, px, cy, cx, dk, bound):
     """Other-view distance at (py, px) against input (cy, cx): Σ w‖B′ − B‖² +
-    cw (1 − w)‖A′ − A‖² over the stepped disk (A the support view, B this view)."""
-    return _disk_sum(out_b, k, T, inp_b, out_a, inp_a, cw, True, py, px, cy, cx, offs, so, si, bound, False)
+    c (1 − w)‖A′ − A‖² over the ``Disk`` ``dk`` (A the ``Support``, B this view)."""
+    return _disk_sum(out_b, k, T, inp_b, sup, py, px, cy, cx, dk, bound)
 
 
 @njit(**JIT)
@@ -128,19 +167,18 @@ def _fenwick_find(tree, r):
 
 
 @njit(**JIT)
-def synth_level(inp, out, qy, qx, k, T, offs, so, si, seed, level, pair, out_a, inp_a, qay, qax, cw, visits,
-                wrap):
+def synth_level(inp, out, qy, qx, k, T, dk, seed, level, sup, visits):
     """One level of sequential synthesis, in place: ``out`` (H, W, 3) = ``inp`` at the
-    sources (``qy``, ``qx``), confidences ``k`` (visits, w = k / T) raised to T; the disk
-    steps ``so`` output pixels and ``si`` input pixels (the neighbour n = p + o·so
-    proposes q(n) − o·si).
-    With ``pair``, the other-view distance against the support (``out_a`` = A′, ``inp_a``
-    = A, its sources ``qay``/``qax`` as extra candidates). ``visits`` counts the visits.
-    With ``wrap`` the output is a torus: disk neighbours wrap around its borders, so the
-    result tiles without a seam.
+    sources (``qy``, ``qx``), confidences ``k`` (visits, w = k / T) raised to T, over the
+    ``Disk`` ``dk`` (its steps a level's scale; wrapping: the result tiles without a
+    seam). With the ``Support`` ``sup`` on, the other-view distance against it and its
+    sources as extra candidates. ``visits`` counts the visits.
     Returns the number of updates."""
     H, W = out.shape[0], out.shape[1]
     h, w = inp.shape[0], inp.shape[1]
+    offs, so, si, wrap = dk.offsets, dk.out_step, dk.in_step, dk.wrap
+    pair = sup.on
+    qay, qax = sup.qy, sup.qx
     n = H * W
     tree = np.zeros(n + 1, np.int64)
     total = 0
@@ -160,7 +198,7 @@ def synth_level(inp, out, qy, qx, k, T, offs, so, si, seed, level, pair, out_a, 
         px = p % W
         by = qy[py, px]
         bx = qx[py, px]
-        best = _disk_sum(out, k, T, inp, out_a, inp_a, cw, pair, py, px, by, bx, offs, so, si, np.inf, wrap)
+        best = _disk_sum(out, k, T, inp, sup, py, px, by, bx, dk, np.inf)
         ncand = 2 * nc + 1 if pair else nc
         for m in range(ncand):
             if m < 2 * nc:  # a neighbour's source shifted back: this view's map, then the support's
@@ -182,7 +220,7 @@ def synth_level(inp, out, qy, qx, k, T, offs, so, si, seed, level, pair, out_a, 
                 continue
             if cy == by and cx == bx:
                 continue
-            d = _disk_sum(out, k, T, inp, out_a, inp_a, cw, pair, py, px, cy, cx, offs, so, si, best, wrap)
+            d = _disk_sum(out, k, T, inp, sup, py, px, cy, cx, dk, best)
             if d < best:
                 best = d
                 by = cy
@@ -213,23 +251,66 @@ def gather(inp, qy, qx):
 
 
 @njit(**PJIT)
-def synth_others(inp_b, inp_a, out_a, qay, qax, T, k0, offs, seeds, cw, qy, qx, visits, wrap):
-    """Every other view given the support, in parallel over views: view v starts from the
-    support's sources with w = k0 / T and runs ``synth_level`` with ``pair_distance``
+def synth_others(inp_b, sup, T, k0, dk, seeds, qy, qx, visits):
+    """Every other view given the support, in parallel over views: view v starts from its
+    own support sources ``sup.qy[v]``, ``sup.qx[v]`` (the support's sources as view v sees
+    them) with w = k0 / T and runs ``synth_level`` with the pair distance against
+    ``sup.out[v]`` (A′ as view v sees it: A at those sources) over the ``Disk`` ``dk``
     (seed ``seeds[v]``). Writes ``qy[v]``, ``qx[v]``, ``visits[v]``; returns updates per view."""
     V = inp_b.shape[0]
-    H, W = qay.shape
+    H, W = sup.qy.shape[1], sup.qy.shape[2]
     changed = np.zeros(V, np.int64)
     for v in prange(V):
         for i in range(H):
             for j in range(W):
-                qy[v, i, j] = qay[i, j]
-                qx[v, i, j] = qax[i, j]
+                qy[v, i, j] = sup.qy[v, i, j]
+                qx[v, i, j] = sup.qx[v, i, j]
         k = np.full((H, W), k0, np.int64)
         out = gather(inp_b[v], qy[v], qx[v])
-        changed[v] = synth_level(inp_b[v], out, qy[v], qx[v], k, T, offs, 1, 1, seeds[v], 0, True, out_a, inp_a,
-                                 qay, qax, cw, visits[v], wrap)
+        view_sup = Support(sup.out[v], sup.inp, sup.qy[v], sup.qx[v], sup.c, True)
+        changed[v] = synth_level(inp_b[v], out, qy[v], qx[v], k, T, dk, seeds[v], 0, view_sup, visits[v])
     return changed
+
+
+@njit(**PJIT)
+def sweep_costs(images, ref, shifts, offsets, tau, out):
+    """Plane-sweep photo-consistency of view ``ref`` against the others, in place in ``out``
+    (M, h, w) float32: for each height offset ``offsets[m]`` (world units above the views'
+    plane) and pixel (i, j) of ``ref``, the mean over the other views n of
+    min(‖I_n(j + shifts[n, 0]·o, i + shifts[n, 1]·o) − I_ref(i, j)‖², ``tau``) (I_n read
+    bilinearly; a view whose read falls outside it does not count; no view: ``tau``).
+    ``shifts`` (V, 2): the pixels (column, row) a point moves in view n per world unit of
+    height (``plane_shift`` of a unit height)."""
+    V, h, w = images.shape[0], images.shape[1], images.shape[2]
+    M = offsets.shape[0]
+    for i in prange(h):
+        for m in range(M):
+            for j in range(w):
+                acc = 0.0
+                cnt = 0
+                for n in range(V):
+                    if n == ref:
+                        continue
+                    x = j + shifts[n, 0] * offsets[m]
+                    y = i + shifts[n, 1] * offsets[m]
+                    if x < 0.0 or x > w - 1.0 or y < 0.0 or y > h - 1.0:
+                        continue
+                    x0 = int(math.floor(x))
+                    y0 = int(math.floor(y))
+                    fx = x - x0
+                    fy = y - y0
+                    x1 = min(x0 + 1, w - 1)
+                    y1 = min(y0 + 1, h - 1)
+                    d = 0.0
+                    for c in range(3):
+                        val = ((1.0 - fy) * ((1.0 - fx) * images[n, y0, x0, c] + fx * images[n, y0, x1, c])
+                               + fy * ((1.0 - fx) * images[n, y1, x0, c] + fx * images[n, y1, x1, c]))
+                        e = val - images[ref, i, j, c]
+                        d += e * e
+                    acc += min(d, tau)
+                    cnt += 1
+                out[m, i, j] = acc / cnt if cnt > 0 else tau
+    return out
 
 
 @njit(**PJIT)
@@ -291,16 +372,27 @@ def _tilt_bracket(tilts, spans, phi):
     return jn, jn, 0.0
 
 
+class ShadeGrid(NamedTuple):
+    """A stack's views on their grid, for ``shade_views``: ``table`` (K + 1, nt) int64, the
+    view at slant k·``step`` and tilt ``tilts[j]`` (row 0 the frontal view for every
+    tilt); ``tilts`` (nt,) sorted in [0, 360); ``spans[j]``: the arc from tilt j to the
+    next is sampled (``synthesis.btf.shade_grid``)."""
+    table: np.ndarray
+    step: float
+    tilts: np.ndarray
+    spans: np.ndarray
+
+
 @njit(**PJIT)
-def shade_views(views, table, step, tilts, spans, u, v, slant, tilt, mask, out):
+def shade_views(views, grid, u, v, slant, tilt, mask, out):
     """Shade the pixels of ``mask`` from a stack, in place in ``out`` (H, W, 3) float32.
 
-    ``views`` (V, h, w, 3); ``table`` (K + 1, nt) int64: the view at slant k·``step`` and
-    tilt ``tilts[j]`` (row 0 the frontal view for every tilt); ``u``, ``v`` the texture
+    ``views`` (V, h, w, 3) on the ``ShadeGrid`` ``grid``; ``u``, ``v`` the texture
     coordinates (column, row; pixel centres at integers; wrapped); ``slant``, ``tilt`` the
     view direction in the surface frame (degrees). Bilinear in (slant, tilt) between the
     four views around it (slant clamped to [0, K·step]; tilt by ``_tilt_bracket``), each
     view bilinear in (u, v)."""
+    table, step, tilts, spans = grid.table, grid.step, grid.tilts, grid.spans
     h, w = views.shape[1], views.shape[2]
     K = table.shape[0] - 1
     H, W = mask.shape

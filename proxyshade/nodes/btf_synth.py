@@ -23,6 +23,12 @@ class BtfSynth(Node):
     (w += 1/T), ``levels`` of the multigrid (the disk scaled by 2 per level; default: as
     many as the input allows, up to 5: the coarse levels keep the support's patches as large
     as a bump's footprint in the steepest views, so no seam cuts a bump into a sliver).
+    ``parallax`` (on): the other views start from, and are held to, the support's surface
+    as each of them sees it: the sample's heights from a plane sweep of the views, the
+    view's rays cast through the support's patchwork (where a ray passes a seam it shows the
+    patch beyond it), instead of the support's sources at the same pixel (the paper's,
+    which at steep slants shows bumps cut by the support's seams as shards). Needs the
+    frontal view as support.
     ``tile``: synthesize on a torus (disk neighbours wrap around the borders), so the stack
     repeats without a seam when a surface is shaded from it (BtfShade wraps).
 
@@ -41,6 +47,7 @@ class BtfSynth(Node):
     levels = Param(int, None, optional=True, min=1, max=6,
                    doc="multigrid levels (default: the most, up to 5, the input allows)")
     tile = Param(bool, True, doc="the stack tiles without a seam (the output wraps around its borders)")
+    parallax = Param(bool, True, doc="other views start from the support's surface cast along their direction")
     c = Param(float, 0.25, min=0.0, doc="weight of the support term for the other views")
     seed = Param(int, 0, doc="seed of the visiting order and the initial map")
 
@@ -59,9 +66,12 @@ class BtfSynth(Node):
         levels = btf.auto_levels(imgs.shape[1:3], max(p.radius, p.radius_other)) if p.levels is None else p.levels
         btf.check_synthesis_size(imgs.shape[1:3], max(p.radius, p.radius_other), levels)
         W, H = p.size
+        bm = ctx.stack.meta["btf"]
+        geometry = (btf.stack_geometry(imgs, views, support, float(bm.get("pixel", 1.0)), float(bm.get("plane", 0.0)))
+                    if p.parallax and views[support]["slant"] == 0.0 else None)
         qy, qx = btf.synthesize_stack(imgs, support, (H, W), mode=p.mode, radius=p.radius,
                                       radius_other=p.radius_other, T=p.T, levels=levels, c=p.c, seed=p.seed,
-                                      wrap=p.tile)
+                                      wrap=p.tile, geometry=geometry)
         out = btf.gather_stack(imgs, qy, qx)
         extra = {}
         for n in range(len(views)):
@@ -71,7 +81,7 @@ class BtfSynth(Node):
         es = btf.seam_error(imgs, qy, qx)
         others = [n for n in range(len(views)) if n != support]
         meta = dict(ctx.stack.meta["btf"], support=support, mode=p.mode, input_size=[imgs.shape[2], imgs.shape[1]],
-                    levels=levels, tile=bool(p.tile))
+                    levels=levels, tile=bool(p.tile), parallax=geometry is not None)
         if others:
             ctx.note(f"{len(views)} views {W}x{H} ({p.mode}); other views: E_c {ec[others].mean():.4f}, "
                      f"E_s {es[others].mean():.4f}")

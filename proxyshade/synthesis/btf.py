@@ -296,16 +296,14 @@ def synthesize_view(image: np.ndarray, size, *, radius: int, T: int, levels: int
     p // 2, shifted by the remainder) at w = ½. With ``wrap`` every level's output is a
     torus (the result tiles without a seam; exactly when the size is a multiple of
     2^(levels − 1))."""
-    from proxyshade.kernels.btf import disk_offsets, gather, synth_level
+    from proxyshade.kernels.btf import disk, gather, no_support, synth_level
     from proxyshade.kernels.random import mix_seed, permutation
 
     H, W = size
     h, w = image.shape[:2]
     check_synthesis_size((h, w), radius, levels)
     image = np.ascontiguousarray(image, np.float32)
-    offs = disk_offsets(radius)
-    dummy_img = np.zeros((1, 1, 3), np.float32)
-    dummy_q = np.zeros((1, 1), np.int64)
+    alone = no_support()
     visits = []
     qy = qx = None
     for lv in range(levels - 1, -1, -1):
@@ -324,17 +322,85 @@ def synthesize_view(image: np.ndarray, size, *, radius: int, T: int, levels: int
         qy, qx = np.ascontiguousarray(qy, np.int64), np.ascontiguousarray(qx, np.int64)
         k = np.full((Hl, Wl), k0, np.int64)
         vis = np.zeros((Hl, Wl), np.int64)
-        synth_level(image, gather(image, qy, qx), qy, qx, k, int(T), offs, 1, s, mix_seed(seed, 2), lv, False,
-                    dummy_img, dummy_img, dummy_q, dummy_q, 0.0, vis, bool(wrap))
+        synth_level(image, gather(image, qy, qx), qy, qx, k, int(T), disk(radius, 1, s, wrap), mix_seed(seed, 2), lv,
+                    alone, vis)
         visits.append(vis)
     return qy, qx, visits
 
 
+SWEEP_TAU = 0.003  # truncation of the squared RGB distance per view (an occluded view costs no more)
+SWEEP_RADIUS = 2  # the costs are summed over (2r + 1)² pixels before the least is taken
+SWEEP_REACH = 1 / 3  # the heights tried move the steepest view by up to this share of the views' width
+SWEEP_STEP = 0.5  # pixels the steepest view moves between two heights tried
+
+
+def parallax_shifts(views: list[dict], pixel: float) -> np.ndarray:
+    """(V, 2) float64: the pixels (column, row) a point moves in each view (rectified to
+    the plane) per world unit of height above the plane (``kernels.btf.plane_shift``)."""
+    from proxyshade.kernels.btf import plane_shift
+
+    return np.array([plane_shift(v["slant"], v["tilt"], 1.0, pixel) for v in views], np.float64).reshape(-1, 2)
+
+
+def _box_sum(a: np.ndarray, r: int) -> np.ndarray:
+    """(M, h, w): the sum of each (2r + 1)² window of every slice (edge pixels repeated)."""
+    k = 2 * r + 1
+    c = np.pad(np.pad(a, ((0, 0), (r, r), (r, r)), mode="edge").cumsum(1).cumsum(2), ((0, 0), (1, 0), (1, 0)))
+    return c[:, k:, k:] - c[:, :-k, k:] - c[:, k:, :-k] + c[:, :-k, :-k]
+
+
+def estimate_heights(images: np.ndarray, views: list[dict], support: int, pixel: float, plane: float) -> np.ndarray:
+    """(h, w) float64: the world height of the sample at each pixel of the ``support`` view
+    (the frontal one), from the views themselves: a plane sweep (``kernels.btf.
+    sweep_costs``) over heights that move the steepest view up to ``SWEEP_REACH`` of the
+    views' width either side of the plane, ``SWEEP_STEP`` pixels apart, against the views
+    lit like the support (a Lambert sample looks the same from every view where it is not
+    hidden; a hidden point costs at most ``SWEEP_TAU`` per view); the costs summed over
+    ``SWEEP_RADIUS`` windows, the least taken. No other view lit alike: the plane."""
+    from proxyshade.kernels.btf import sweep_costs
+
+    h, w = images.shape[1:3]
+    sel = [n for n, v in enumerate(views) if n == support or (v["slant"] > GRID_TOL and _same_light(v, views[support]))]
+    if len(sel) < 2:
+        return np.full((h, w), float(plane))
+    shifts = parallax_shifts([views[n] for n in sel], pixel)
+    per_height = float(np.abs(shifts).max())  # pixels per world unit, steepest view
+    reach = SWEEP_REACH * min(h, w)
+    M = 2 * int(math.ceil(reach / SWEEP_STEP)) + 1
+    offsets = np.linspace(-reach / per_height, reach / per_height, M)
+    cost = np.empty((M, h, w), np.float32)
+    sweep_costs(np.ascontiguousarray(images[sel], np.float32), sel.index(support), shifts, offsets, SWEEP_TAU, cost)
+    best = np.argmin(_box_sum(cost.astype(np.float64), SWEEP_RADIUS), 0)
+    return plane + offsets[best]
+
+
+def stack_geometry(images: np.ndarray, views: list[dict], support: int, pixel: float, plane: float) -> dict:
+    """What ``synthesize_stack`` casts the other views through: {views, pixel, plane,
+    heights} with the sample's heights at the support view's pixels (``estimate_heights``)."""
+    return {"views": views, "pixel": float(pixel), "plane": float(plane),
+            "heights": estimate_heights(images, views, support, pixel, plane)}
+
+
+def cast_sources(heights: np.ndarray, qay: np.ndarray, qax: np.ndarray, views: list[dict], plane: float,
+                 pixel: float, *, wrap: bool) -> tuple[np.ndarray, np.ndarray]:
+    """(qy, qx), each (V, H, W) int64: for every view, the input pixel that shows what the
+    support's synthesized surface (the sample at the support's sources ``qay``, ``qax``,
+    at ``heights``) shows at each output pixel from that view's direction
+    (``surface_hits``); the support's sources themselves at slant 0."""
+    QY = np.empty((len(views),) + qay.shape, np.int64)
+    QX = np.empty_like(QY)
+    for n, v in enumerate(views):
+        QY[n], QX[n] = surface_hits(heights, qay, qax, v["slant"], v["tilt"], plane, pixel, wrap=wrap)
+    return QY, QX
+
+
 def synthesize_others(images: np.ndarray, support: int, qay: np.ndarray, qax: np.ndarray, *, radius: int, T: int,
-                      c: float, seed: int, wrap: bool = False):
+                      c: float, seed: int, wrap: bool = False, cast=None):
     """Every view but ``support`` given the support's sources: (qy, qx, visits), each
-    (V, H, W) int64 (the support's own entries are its sources, visits 0)."""
-    from proxyshade.kernels.btf import disk_offsets, gather, synth_others
+    (V, H, W) int64 (the support's own entries are its sources, visits 0). ``cast``: the
+    support's sources as each view sees them (``cast_sources``), the start and the support
+    term of that view; None: the support's sources at the same pixel (the paper)."""
+    from proxyshade.kernels.btf import Support, disk, gather, synth_others
     from proxyshade.kernels.random import mix_seed
 
     images = np.ascontiguousarray(images, np.float32)
@@ -342,13 +408,18 @@ def synthesize_others(images: np.ndarray, support: int, qay: np.ndarray, qax: np
     others = [n for n in range(V) if n != support]
     H, W = qay.shape
     inp_a = images[support]
-    out_a = gather(inp_a, qay, qax)
+    if cast is None:
+        cy, cx = np.repeat(qay[None], len(others), 0), np.repeat(qax[None], len(others), 0)
+        out_a = np.repeat(gather(inp_a, qay, qax)[None], len(others), 0)
+    else:
+        cy, cx = np.ascontiguousarray(cast[0][others]), np.ascontiguousarray(cast[1][others])
+        out_a = np.stack([gather(inp_a, cy[n], cx[n]) for n in range(len(others))])
     qy = np.zeros((len(others), H, W), np.int64)
     qx = np.zeros_like(qy)
     vis = np.zeros_like(qy)
     seeds = np.array([mix_seed(seed, 3, n) for n in others], np.int64)
-    synth_others(np.ascontiguousarray(images[others]), inp_a, out_a, qay, qax, int(T), int(T) // 2,
-                 disk_offsets(radius), seeds, float(c), qy, qx, vis, bool(wrap))
+    synth_others(np.ascontiguousarray(images[others]), Support(out_a, inp_a, cy, cx, float(c), True), int(T),
+                 int(T) // 2, disk(radius, wrap=wrap), seeds, qy, qx, vis)
     QY = np.empty((V, H, W), np.int64)
     QX = np.empty_like(QY)
     VIS = np.zeros_like(QY)
@@ -362,13 +433,16 @@ MODES = ("sequential", "independent", "columns")
 
 def synthesize_stack(images: np.ndarray, support: int, size, *, mode: str = "sequential", radius: int = 3,
                      radius_other: int = 2, T: int = 4, levels: int | None = None, c: float = 0.25, seed: int = 0,
-                     wrap: bool = False):
+                     wrap: bool = False, geometry: dict | None = None):
     """Sources (qy, qx) (V, H, W) int64 of a synthesized stack.
 
     ``sequential`` (the paper): the support view, then every other view given it
     (``synthesize_others``). ``independent``: every view on its own, like the support.
     ``columns``: every view copies the support's sources (whole columns of the stack).
-    ``levels`` None: ``auto_levels``. ``wrap``: the stack tiles without a seam."""
+    ``levels`` None: ``auto_levels``. ``wrap``: the stack tiles without a seam.
+    ``geometry`` (``stack_geometry``): sequential views start from the support's surface
+    as each view sees it, cast through the sample's heights (``cast_sources``; a frontal
+    support only); None: from the support's sources at the same pixel."""
     if levels is None:
         levels = auto_levels(images.shape[1:3], radius)
     if mode not in MODES:
@@ -377,7 +451,12 @@ def synthesize_stack(images: np.ndarray, support: int, size, *, mode: str = "seq
     check_synthesis_size(images.shape[1:3], radius, levels)
     qay, qax, _ = synthesize_view(images[support], size, radius=radius, T=T, levels=levels, seed=seed, wrap=wrap)
     if mode == "sequential":
-        qy, qx, _ = synthesize_others(images, support, qay, qax, radius=radius_other, T=T, c=c, seed=seed, wrap=wrap)
+        cast = None
+        g = geometry
+        if g is not None and g["views"][support]["slant"] <= GRID_TOL:
+            cast = cast_sources(g["heights"], qay, qax, g["views"], g["plane"], g["pixel"], wrap=wrap)
+        qy, qx, _ = synthesize_others(images, support, qay, qax, radius=radius_other, T=T, c=c, seed=seed, wrap=wrap,
+                                      cast=cast)
         return qy, qx
     qy = np.repeat(qay[None], V, 0)
     qx = np.repeat(qax[None], V, 0)
@@ -402,8 +481,8 @@ def gather_stack(images: np.ndarray, qy: np.ndarray, qx: np.ndarray) -> np.ndarr
 # ---------------------------------------------------------------- shading a surface
 
 def shade_grid(views: list[dict]):
-    """The stack's grid for ``kernels.btf.shade_views``: (table (K + 1, nt) int64, step,
-    tilts (nt,) sorted in [0°, 360°), spans (nt,) bool). ``spans[j]``: the arc from tilt j
+    """The stack's grid for ``kernels.btf.shade_views``: a ``ShadeGrid`` (table (K + 1, nt)
+    int64, step, tilts (nt,) sorted in [0°, 360°), spans (nt,) bool). ``spans[j]``: the arc from tilt j
     to the next one (cyclically) is interpolated across; only the largest arc, when it is
     larger than every other one, is unsampled (a grid of tilts 0–90° covers one quadrant;
     tilts evenly around the circle cover it all)."""
@@ -425,7 +504,9 @@ def shade_grid(views: list[dict]):
         big = int(np.argmax(gaps))
         if gaps[big] > np.delete(gaps, big).max() + 1e-6:
             spans[big] = False
-    return table, float(g["step"]), np.array(tilts, np.float64), spans
+    from proxyshade.kernels.btf import ShadeGrid
+
+    return ShadeGrid(table, float(g["step"]), np.array(tilts, np.float64), spans)
 
 
 def surface_directions(P: np.ndarray, N: np.ndarray, eye) -> tuple[np.ndarray, np.ndarray]:
@@ -509,9 +590,8 @@ def shade_surface(images: np.ndarray, views: list[dict], uv, slant: np.ndarray, 
     each read bilinearly at its texture coordinates ``uv`` (wrapped); 0 elsewhere."""
     from proxyshade.kernels.btf import shade_views
 
-    table, step, tilts, spans = shade_grid(views)
     out = np.zeros(mask.shape + (3,), np.float32)
-    shade_views(np.ascontiguousarray(images, np.float32), table, step, tilts, spans,
+    shade_views(np.ascontiguousarray(images, np.float32), shade_grid(views),
                 np.ascontiguousarray(uv[0], np.float64), np.ascontiguousarray(uv[1], np.float64),
                 np.ascontiguousarray(slant, np.float64), np.ascontiguousarray(tilt, np.float64),
                 np.ascontiguousarray(mask, np.bool_), out)

@@ -62,22 +62,24 @@ def test_disk_distance_matches_eq3(rng, so, si):
         c = (int(rng.integers(0, 7)), int(rng.integers(0, 8)))
         for r in (2, 3):
             want = naive_distance(out, k, 4, inp, p, c, r, so, si)
-            got = K.disk_distance(out, k, 4, inp, p[0], p[1], c[0], c[1], K.disk_offsets(r), so, si, np.inf)
+            got = K.disk_distance(out, k, 4, inp, p[0], p[1], c[0], c[1], K.disk(r, so, si), np.inf)
             assert got == pytest.approx(want, rel=1e-12, abs=1e-12)
             # a bound below the distance stops early but still says "worse than the bound"
             if want > 0:
-                assert K.disk_distance(out, k, 4, inp, p[0], p[1], c[0], c[1], K.disk_offsets(r), so, si,
+                assert K.disk_distance(out, k, 4, inp, p[0], p[1], c[0], c[1], K.disk(r, so, si),
                                        want * 0.5) > want * 0.5
 
 
 def test_pair_distance_matches_the_other_view_form(rng):
     ob, ib, oa, ia = _img(rng, 8, 8), _img(rng, 6, 7), _img(rng, 8, 8), _img(rng, 6, 7)
+    dq = np.zeros((8, 8), np.int64)
     k = rng.integers(0, 5, (8, 8)).astype(np.int64)
     for _ in range(60):
         p = (int(rng.integers(0, 8)), int(rng.integers(0, 8)))
         c = (int(rng.integers(0, 6)), int(rng.integers(0, 7)))
         want = naive_distance(ob, k, 4, ib, p, c, 2, 1, pair=(oa, ia), cw=0.25)
-        got = K.pair_distance(ob, k, 4, ib, oa, ia, 0.25, p[0], p[1], c[0], c[1], K.disk_offsets(2), 1, 1, np.inf)
+        got = K.pair_distance(ob, k, 4, ib, K.Support(oa, ia, dq, dq, 0.25, True), p[0], p[1], c[0], c[1], K.disk(2),
+                              np.inf)
         assert got == pytest.approx(want, rel=1e-12, abs=1e-12)
 
 
@@ -134,10 +136,8 @@ def _level(inp, qy, qx, k, T, r, si, seed, level, pair=None, cw=0.0, wrap=False)
     qy, qx, k = qy.copy(), qx.copy(), k.copy()
     vis = np.zeros(qy.shape, np.int64)
     out = K.gather(inp, qy, qx)
-    dimg, dq = np.zeros((1, 1, 3), np.float32), np.zeros((1, 1), np.int64)
-    oa, ia, qay, qax = pair if pair is not None else (dimg, dimg, dq, dq)
-    K.synth_level(inp, out, qy, qx, k, T, K.disk_offsets(r), 1, si, seed, level, pair is not None, oa, ia, qay, qax,
-                  cw, vis, wrap)
+    sup = K.no_support() if pair is None else K.Support(*pair, cw, True)
+    K.synth_level(inp, out, qy, qx, k, T, K.disk(r, 1, si, wrap), seed, level, sup, vis)
     assert np.array_equal(out, inp[qy, qx])  # the output is always the input at the sources
     return qy, qx, vis
 
@@ -182,7 +182,8 @@ def test_other_views_in_parallel_equal_each_view_alone_with_one_or_two_threads(r
     for threads in (1, 2):
         numba.set_num_threads(threads)
         qy, qx, vis = (np.zeros((3, 12, 12), np.int64) for _ in range(3))
-        K.synth_others(views, ia, oa, qay, qax, 4, 2, K.disk_offsets(2), seeds, 0.25, qy, qx, vis, False)
+        per_view = K.Support(np.stack([oa] * 3), ia, np.stack([qay] * 3), np.stack([qax] * 3), 0.25, True)
+        K.synth_others(views, per_view, 4, 2, K.disk(2), seeds, qy, qx, vis)
         res.append((qy, qx, vis))
     for a, b in zip(*res):
         assert np.array_equal(a, b)
@@ -319,7 +320,7 @@ def test_shade_views_matches_reference(rng, tilts):
     tilt = rng.uniform(-400, 400, (H, W))
     mask = rng.random((H, W)) < 0.8
     out = np.full((H, W, 3), -1.0, np.float32)
-    K.shade_views(views, table, st, tl, spans, u, v, slant, tilt, mask, out)
+    K.shade_views(views, K.ShadeGrid(table, st, tl, spans), u, v, slant, tilt, mask, out)
     for i in range(H):
         for j in range(W):
             if mask[i, j]:
@@ -340,7 +341,59 @@ def test_shade_views_on_a_grid_direction_is_that_view(rng):
     v = np.array([[1.0, 6.0, -8.0 + 4.0]])
     slant, tilt = np.array([[60.0, 30.0, 0.0]]), np.array([[90.0, 0.0, 45.0]])
     out = np.zeros((1, 3, 3), np.float32)
-    K.shade_views(views, table, st, tl, spans, u, v, slant, tilt, np.ones((1, 3), bool), out)
+    K.shade_views(views, K.ShadeGrid(table, st, tl, spans), u, v, slant, tilt, np.ones((1, 3), bool), out)
     np.testing.assert_array_equal(out[0, 0], views[4, 1, 3])
     np.testing.assert_array_equal(out[0, 1], views[1, 6, 5])
     np.testing.assert_array_equal(out[0, 2], views[0, 4, 2])  # frontal, wrapped texel (2, 4)
+
+
+def test_other_views_start_from_and_hold_to_their_own_support_map(rng):
+    """Each view v runs the pair level against its own support map (sup.qy[v], A at it)."""
+    ia = _img(rng, 10, 10)
+    views = np.stack([_img(rng, 10, 10) for _ in range(2)])
+    cy = rng.integers(0, 10, (2, 12, 12)).astype(np.int64)
+    cx = rng.integers(0, 10, (2, 12, 12)).astype(np.int64)
+    oa = np.stack([K.gather(ia, cy[v], cx[v]) for v in range(2)])
+    qy, qx, vis = (np.zeros((2, 12, 12), np.int64) for _ in range(3))
+    K.synth_others(views, K.Support(oa, ia, cy, cx, 0.25, True), 4, 2, K.disk(2), np.array([4, 8], np.int64),
+                   qy, qx, vis)
+    for v, seed in enumerate((4, 8)):
+        alone = naive_level(views[v], cy[v], cx[v], np.full((12, 12), 2, np.int64), 4, 2, 1, seed, 0,
+                            pair=(oa[v], ia, cy[v], cx[v]), cw=0.25)
+        assert np.array_equal(qy[v], alone[0]) and np.array_equal(qx[v], alone[1])
+
+
+def naive_sweep(images, ref, shifts, offsets, tau):
+    """sweep_costs written plainly: per height and pixel, the mean over the other views that
+    read inside of the truncated squared RGB distance, each view read bilinearly."""
+    V, h, w = images.shape[:3]
+    out = np.empty((len(offsets), h, w))
+    for m, o in enumerate(offsets):
+        for i in range(h):
+            for j in range(w):
+                costs = []
+                for n in range(V):
+                    x, y = j + shifts[n, 0] * o, i + shifts[n, 1] * o
+                    if n == ref or not (0 <= x <= w - 1 and 0 <= y <= h - 1):
+                        continue
+                    x0, y0 = int(math.floor(x)), int(math.floor(y))
+                    x1, y1 = min(x0 + 1, w - 1), min(y0 + 1, h - 1)
+                    fx, fy = x - x0, y - y0
+                    im = images[n].astype(np.float64)
+                    val = ((1 - fy) * ((1 - fx) * im[y0, x0] + fx * im[y0, x1])
+                           + fy * ((1 - fx) * im[y1, x0] + fx * im[y1, x1]))
+                    costs.append(min(float(((val - images[ref, i, j].astype(np.float64)) ** 2).sum()), tau))
+                out[m, i, j] = np.mean(costs) if costs else tau
+    return out
+
+
+def test_sweep_costs_match_the_plain_loop(rng):
+    images = rng.random((4, 7, 9, 3)).astype(np.float32)
+    shifts = rng.normal(0, 3, (4, 2))
+    shifts[1] = 0.0  # the reference view: never read
+    offsets = np.linspace(-1.2, 1.2, 5)
+    got = np.empty((5, 7, 9), np.float32)
+    K.sweep_costs(images, 1, shifts, offsets, 0.4, got)
+    want = naive_sweep(images, 1, shifts, offsets, 0.4)
+    np.testing.assert_allclose(got, want, rtol=1e-6, atol=1e-7)
+    assert (want < 0.4).any() and (want == 0.4).any()  # truncated somewhere, not everywhere

@@ -140,3 +140,18 @@ def test_a_tiled_stack_repeats_without_a_seam(stack, results):
     assert results["sequential"].meta["btf"]["tile"] is True and off.meta["btf"]["tile"] is False
     assert np.mean(on_b) < 1.5 * np.mean(inner) and np.mean(off_b) > 2 * np.mean(inner)
     assert np.mean(on_b) < 0.6 * np.mean(off_b)
+
+
+def test_parallax_off_gives_the_views_the_support_sources_at_the_same_pixel(stack, results):
+    """parallax off (the paper): the other views start from the support's sources at each
+    pixel; on: from the support's surface cast along their direction. The support is the
+    same; the steep views differ, and where a view keeps its start it copies the cast."""
+    off = run_node("BtfSynth", dict(SMALL, parallax=False), {"stack": stack})
+    on = results["sequential"]
+    assert on.meta["btf"]["parallax"] and not off.meta["btf"]["parallax"]
+    (qy1, qx1), (qy0, qx0) = _maps(on), _maps(off)
+    s = on.meta["btf"]["support"]
+    assert np.array_equal(qy1[s], qy0[s]) and np.array_equal(qx1[s], qx0[s])
+    views, imgs = btf.stack_arrays(stack)
+    steep = [n for n, v in enumerate(views) if v["slant"] == 70.0]
+    assert any(not np.array_equal(qx1[n], qx0[n]) for n in steep)

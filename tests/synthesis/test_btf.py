@@ -138,3 +138,45 @@ def test_surface_hits_see_what_a_render_of_the_sample_sees():
             s_hit[hit] = frontal[r, c][hit]
         err = np.abs(s_hit - steep)[inner]
         assert np.nanmedian(err) < pixel / t and np.nanpercentile(err, 80) < 2 * pixel / t
+
+
+def _shifted_stack(rng, height, plane=0.1, pixel=0.01, size=40):
+    """A flat textured sample at ``height``: the frontal view a smooth random texture, each
+    other view the same texture moved by the parallax of that height (a whole number of
+    pixels), as a view rectified to ``plane`` shows it."""
+    from proxyshade.kernels.btf import plane_shift
+
+    big = rng.random((size + 40, size + 40, 3))
+    big = (big + np.roll(big, 1, 0) + np.roll(big, 1, 1)) / 3
+    views = btf.view_grid(10, 30, [0, 90])
+    imgs = []
+    for v in views:
+        dx, dy = plane_shift(v["slant"], v["tilt"], height - plane, pixel)
+        # a point at column j appears at j + dx: the view at column j shows the texture at j - dx
+        ox, oy = int(round(-dx)), int(round(-dy))
+        imgs.append(big[20 + oy:20 + oy + size, 20 + ox:20 + ox + size])
+    return views, np.stack(imgs).astype(np.float32), plane, pixel
+
+
+@pytest.mark.parametrize("height", [0.1, 0.13, 0.07])
+def test_estimated_heights_find_a_flat_sample(height):
+    views, imgs, plane, pixel = _shifted_stack(np.random.default_rng(3), height)
+    est = btf.estimate_heights(imgs, views, 0, pixel, plane)
+    per_height = np.abs(btf.parallax_shifts(views, pixel)).max()
+    m = 12  # away from the borders, where the shifted views read outside
+    err = np.abs(est[m:-m, m:-m] - height)
+    assert np.median(err) <= btf.SWEEP_STEP / per_height
+    assert (err <= 2 * btf.SWEEP_STEP / per_height).mean() > 0.95
+
+
+def test_cast_sources_of_a_flat_sample_at_the_plane_are_the_support_sources():
+    rng = np.random.default_rng(2)
+    views = btf.view_grid(10, 70, [0, 45, 90])
+    qay = rng.integers(0, 30, (20, 24)).astype(np.int64)
+    qax = rng.integers(0, 30, (20, 24)).astype(np.int64)
+    qy, qx = btf.cast_sources(np.full((30, 30), 0.25), qay, qax, views, 0.25, 0.01, wrap=True)
+    assert all(np.array_equal(qy[n], qay) and np.array_equal(qx[n], qax) for n in range(len(views)))
+    # raised above the plane, a steep view reads the patchwork shifted: it differs
+    qy, qx = btf.cast_sources(np.full((30, 30), 0.35), qay, qax, views, 0.25, 0.01, wrap=True)
+    assert not np.array_equal(qx[-3], qax)
+
