@@ -234,6 +234,11 @@ class Analysis:
     cands: list
     seconds: float = 0.0
 
+    def level(self, s: int) -> tuple:
+        """Level ``s``'s arrays as ``kernels.hybrid.run_pass`` takes them: (stack, PCA mean,
+        PCA basis, descriptors, candidates)."""
+        return self.stacks[s], self.means[s], self.bases[s], self.P[s], self.cands[s]
+
 
 def analyse(rgb: np.ndarray, bw: int, *, levels: int, L: int, q: int, iterations: int, seed: int,
             separation: float = 0.05, coarser: bool = False, stack: str = "gaussian") -> Analysis:
@@ -381,16 +386,16 @@ def synthesize(an: Analysis, shape: tuple[int, int], *, J: float, seed: int, wei
             ec = e[np.minimum(np.arange(sh[0]) // 2, Hp - 1)][:, np.minimum(np.arange(sh[1]) // 2, Wp - 1)]
             up[..., 1] += ec * an.bw
             S = up
-        args = (an.stacks[s], an.means[s], an.bases[s], an.P[s], an.cands[s], inv_w)
+        level = an.level(s)
         lseed = mix_seed(seed, s)
         if jitter_levels is not None and s >= jitter_levels:
             pass  # only the finest ``jitter_levels`` levels are jittered
         elif jitter == "structure":
-            S = kh.run_pass(*args, S, h=h, bw=an.bw, J=J, seed=lseed, salt=0)
+            S = kh.run_pass(level, inv_w, S, h=h, bw=an.bw, J=J, seed=lseed, salt=0)
         elif r > 0:
             S = kh.spatial_jitter(S, h=h, r=r, bw=an.bw, atlas_height=an.bh, seed=lseed)
         for k in range(passes):
-            S = kh.run_pass(*args, S, h=h, bw=an.bw, J=0.0, seed=lseed, salt=k + 1, coherence=coherence)
+            S = kh.run_pass(level, inv_w, S, h=h, bw=an.bw, J=0.0, seed=lseed, salt=k + 1, coherence=coherence)
         if symmetric:
             S = mirror_state(S, an.bw)
     return S
