@@ -391,7 +391,8 @@ def mirror_state(S: np.ndarray, bw: int) -> np.ndarray:
 
 def synthesize(an: Analysis, shape: tuple[int, int], *, J: float, seed: int, weights: np.ndarray, passes: int,
                jitter: str = "structure", r: float = 0.0, jitter_levels: int | None = None, level_weights=None,
-               weight_map: np.ndarray | None = None, symmetric: bool = False, coherence: float = 1.0) -> np.ndarray:
+               weight_map: np.ndarray | None = None, symmetric: bool = False, coherence: float = 1.0,
+               layout: str = "exemplar") -> np.ndarray:
     """A hybrid's state: (Ht, Wt, 2) int32 atlas (row, column), coarse to fine: identity
     pointers at the coarsest level into exemplars drawn by the weights; per level upsample
     (``correct.upsample_state`` on box-local coordinates), jitter (``structure``: one pass
@@ -427,8 +428,12 @@ def synthesize(an: Analysis, shape: tuple[int, int], *, J: float, seed: int, wei
             total = w.sum(-1, keepdims=True)
             cum = np.cumsum(w, -1) / np.where(total > 0, total, 1.0)
             e = np.minimum((u[..., None] >= cum).sum(-1), an.nb - 1)
-            # the exemplar's own layout, tiled past its size (an output larger than the box)
-            y, x = (h * ii + h // 2) % an.bh, (h * jj + h // 2) % an.bw
+            if layout == "exemplar":  # the exemplar's own layout, tiled past its size (an output larger than the box)
+                y, x = (h * ii + h // 2) % an.bh, (h * jj + h // 2) % an.bw
+            else:  # "random": each pixel a random place of its box, from the seed (no tiling)
+                ids = (ii * sh[1] + jj).astype(np.int64)
+                y = (uniform_field(mix_seed(seed, 0x1A), ids) * an.bh).astype(np.int64)
+                x = (uniform_field(mix_seed(seed, 0x1B), ids) * an.bw).astype(np.int64)
             S = np.stack([y, x + e * an.bw], -1).astype(np.int32)
         else:
             e = S[..., 1] // an.bw
@@ -495,47 +500,58 @@ def plain_texture(rgb: np.ndarray, size: tuple[int, int], *, seed: int, J: float
     return {"rgb": rgb[S[..., 0], S[..., 1]], "sx": S[..., 1].astype(np.float32), "sy": S[..., 0].astype(np.float32)}
 
 
-def label_window(ids: np.ndarray, label: int, area: float, smallest: int = 33) -> tuple[int, int, int, int]:
+def label_window(ids: np.ndarray, label: int, area: float, smallest: int = 33, avoid=()) -> tuple[int, int, int, int]:
     """The window (y0, x0, h, w) of about ``area`` pixels (each side at least ``smallest``,
-    at most the image's) holding the largest share of ``label`` in a label map, over
-    the aspects 1:8 .. 8:1 and every position (summed-area table; the first best wins)."""
+    at most the image's) holding the largest share of ``label`` in a label map, over the
+    aspects 1:8 .. 8:1 and every position (summed-area table; the first best wins). With
+    ``avoid`` (earlier windows), the share times 1 − the largest part of the window they
+    cover: another variant reads another part of the photo where it can."""
     M, N = ids.shape
     sat = np.pad(np.cumsum(np.cumsum(ids == label, 0), 1), ((1, 0), (1, 0)))
     best = (-1.0, 0, 0, M, N)
     for aspect in (1 / 8, 1 / 4, 1 / 2, 1, 2, 4, 8):  # width / height
         h = int(min(M, max(smallest, round(np.sqrt(area / aspect)))))
         w = int(min(N, max(smallest, round(area / h))))
-        counts = sat[h:, w:] - sat[:-h, w:] - sat[h:, :-w] + sat[:-h, :-w]
-        k = int(np.argmax(counts))
-        share = counts.flat[k] / float(h * w)
-        if share > best[0]:
-            best = (share, k // counts.shape[1], k % counts.shape[1], h, w)
+        score = (sat[h:, w:] - sat[:-h, w:] - sat[h:, :-w] + sat[:-h, :-w]) / float(h * w)
+        y, x = np.arange(M - h + 1)[:, None], np.arange(N - w + 1)[None, :]
+        for y1, x1, h1, w1 in avoid:
+            oh = np.clip(np.minimum(y + h, y1 + h1) - np.maximum(y, y1), 0, None)
+            ow = np.clip(np.minimum(x + w, x1 + w1) - np.maximum(x, x1), 0, None)
+            score = score * (1.0 - oh * ow / float(h * w))
+        k = int(np.argmax(score))
+        if score.flat[k] > best[0]:
+            best = (float(score.flat[k]), k // score.shape[1], k % score.shape[1], h, w)
     return best[1:]
 
 
 def variant_states(rgb: np.ndarray, ids: np.ndarray, n: int, *, even: bool, seed: int, J: float, coherence: float,
-                   passes: int, L: int, q: int, iterations: int) -> list:
+                   passes: int, L: int, q: int, iterations: int, layout: str = "random") -> list:
     """``n`` hybrid variants of a photo ((Hs, Ws, 3) linear, label ids (Hs, Ws)) as
     photo (row, column) pointer maps (Hs, Ws, 2), seeds ``seed`` .. ``seed + n − 1``.
     ``even``: each variant is one vertical strip per label present, of equal widths, each a
-    texture of the window richest in that label (``label_window``, an eighth of the photo),
-    so every label gets an equal share of the variant; else each variant is a hybrid of
-    the whole photo (the photo's label shares)."""
+    texture of the window richest in that label (``label_window``: half the label's share of
+    the photo, at least an eighth; each variant's window avoids the earlier ones'), so every
+    label gets an equal share of the variant; else each variant is a hybrid of the whole
+    photo (the photo's label shares)."""
     Hs, Ws = ids.shape
 
     def texture(y0, x0, h, w, width, k):
         levels = max(l for l in range(1, 9) if coarsest_span(l) <= min(h, w)) if min(h, w) >= 5 else 1
         an = analyse(np.ascontiguousarray(rgb[y0:y0 + h, x0:x0 + w]), w, levels=levels, L=L, q=q,
                      iterations=iterations, seed=0)
-        S = synthesize(an, (Hs, width), J=J, seed=seed + k, weights=np.ones(1), passes=passes, coherence=coherence)
+        S = synthesize(an, (Hs, width), J=J, seed=seed + k, weights=np.ones(1), passes=passes, coherence=coherence,
+                       layout=layout)
         return S + np.array([y0, x0], np.int32)
 
     if not even:
         return [texture(0, 0, Hs, Ws, Ws, k) for k in range(n)]
-    labels = np.unique(ids)
+    labels, counts = np.unique(ids, return_counts=True)
     edges = np.linspace(0, Ws, len(labels) + 1).astype(int)
-    windows = [label_window(ids, int(lab), Hs * Ws / 8.0) for lab in labels]
-    return [np.concatenate([texture(*win, b - a, k) for win, a, b in zip(windows, edges[:-1], edges[1:])], 1)
+    windows = [[] for _ in labels]
+    for k in range(n):
+        for t, lab in enumerate(labels):
+            windows[t].append(label_window(ids, int(lab), max(counts[t] / 2.0, Hs * Ws / 8.0), avoid=windows[t]))
+    return [np.concatenate([texture(*windows[t][k], b - a, k) for t, (a, b) in enumerate(zip(edges[:-1], edges[1:]))], 1)
             for k in range(n)]
 
 
