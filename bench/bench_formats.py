@@ -10,8 +10,11 @@ process), steadier than the wall time on a shared machine; ``--nodes``: each nod
 <= 6 GB, repetition at HD and 4K within 1.5x of 1024²'s.
 
 ``photo rep``: with hybrid variants (``--set src.variants=N``: the source widened by N hybrids of
-itself, docs/hybrids.md) the repetition counted on the photo's own pixels (each variant pixel
-mapped back to the photo pixel it copies); without, the repetition.
+itself, by default of even label shares, ``--set src.variant_labels=photo`` for whole-photo ones;
+docs/hybrids.md) the repetition counted on the photo's own pixels (each variant pixel mapped
+back to the photo pixel it copies); without, the repetition. ``rep / floor``: the repetition over
+its framing floor (how much more unevenly than the framing forces the source is used; it does not
+move with the framing, so compares sizes fairly).
 
 Run: ``python bench/run.py formats`` (``--sizes 512x512 1024x1024 hd uhd 4k``, ``--set src.variants=2``).
 """
@@ -98,7 +101,7 @@ def main(argv=None) -> None:
     ref = next((r for r in rows if r["size"] == "1024x1024"), rows[0])
     print(f"{'size':>10} {'pixels':>10} {'first frame s':>14} {'CPU s':>7} {'s/Mpx':>7} {'peak RSS GB':>12} "
           f"{'repetition':>11} {'vs 1024²':>9} {'floor':>7} {'vs':>5} {'per label':>10} {'vs':>5} {'bar s':>6}"
-          f" {'photo rep':>10} {'vs':>5}")
+          f" {'photo rep':>10} {'vs':>5} {'rep / floor':>11} {'vs':>5}")
     for r in rows:
         h, w = r["shape"]
         mp = w * h / 1e6
@@ -106,7 +109,8 @@ def main(argv=None) -> None:
               f"{r['repetition']:>11.4f} {r['repetition'] / ref['repetition']:>9.2f} {r['floor']:>7.4f} "
               f"{r['floor'] / ref['floor']:>5.2f} {r['label_repetition']:>10.4f} "
               f"{r['label_repetition'] / ref['label_repetition']:>5.2f} {BARS.get(r['size'], float('nan')):>6.1f}"
-              f" {r['photo_repetition']:>10.4f} {r['photo_repetition'] / ref['photo_repetition']:>5.2f}")
+              f" {r['photo_repetition']:>10.4f} {r['photo_repetition'] / ref['photo_repetition']:>5.2f}"
+              f" {r['repetition'] / r['floor']:>11.2f} {r['repetition'] / r['floor'] / (ref['repetition'] / ref['floor']):>5.2f}")
     if args.nodes:
         names = list(dict.fromkeys(n for r in rows for n in r["nodes"]))
         print(f"{'node s':>10} " + " ".join(f"{r['size']:>10}" for r in rows))

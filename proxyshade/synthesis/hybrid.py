@@ -398,16 +398,19 @@ def synthesize(an: Analysis, shape: tuple[int, int], *, J: float, seed: int, wei
     (``correct.upsample_state`` on box-local coordinates), jitter (``structure``: one pass
     of the structure-preserving jitter with threshold J; ``spatial``: the baseline's
     ⌊h r ξ + ½⌋), then ``passes`` correction passes. The coarsest exemplars are one fixed
-    draw (by the weights): the seed acts through the jitter only, and J = 0 (or r = 0) gives
-    one result whatever the seed. ``jitter_levels``: jitter only the finest that many levels
+    draw (by the weights): with the exemplar layout the seed acts through the jitter only,
+    and J = 0 (or r = 0) gives one result whatever the seed. ``jitter_levels``: jitter only the finest that many levels
     (None: all); the coarser keep the exemplars' layout exactly.
 
     Weights (the paper's per-exemplar, per-level and per-pixel control): at level s a
     candidate from exemplar e at state pixel p costs d / (weights[e] × level_weights[row][e]
     × weight_map[p, e]), ``row`` counting from the coarsest level (the last row repeats for
     the finer levels); a zero product: never a candidate there. ``weight_map``: (Ht, Wt, nb)
-    or None (``ramp_map`` makes a transition across the output). ``symmetric``: after each
-    level the right half mirrors the left (``mirror_state``)."""
+    or None (``ramp_weights`` makes a transition across the output). ``symmetric``: after each
+    level the right half mirrors the left (``mirror_state``). ``layout``: ``"exemplar"``, the
+    coarsest pointers are the exemplars' own layout (tiled past a box); ``"random"``, each a
+    random place of its box drawn from the seed (a texture larger than its exemplar without
+    tiling it; ``with_variants``)."""
     from proxyshade.kernels import hybrid as kh
     from proxyshade.kernels.correct import upsample_state
     from proxyshade.kernels.random import mix_seed, uniform_field
@@ -525,14 +528,15 @@ def label_window(ids: np.ndarray, label: int, area: float, smallest: int = 33, a
 
 
 def variant_states(rgb: np.ndarray, ids: np.ndarray, n: int, *, even: bool, seed: int, J: float, coherence: float,
-                   passes: int, L: int, q: int, iterations: int, layout: str = "random") -> list:
+                   passes: int, L: int, q: int, iterations: int) -> list:
     """``n`` hybrid variants of a photo ((Hs, Ws, 3) linear, label ids (Hs, Ws)) as
     photo (row, column) pointer maps (Hs, Ws, 2), seeds ``seed`` .. ``seed + n − 1``.
     ``even``: each variant is one vertical strip per label present, of equal widths, each a
     texture of the window richest in that label (``label_window``: half the label's share of
     the photo, at least an eighth; each variant's window avoids the earlier ones'), so every
-    label gets an equal share of the variant; else each variant is a hybrid of the whole
-    photo (the photo's label shares)."""
+    label gets an equal share of the variant, each strip grown from a random coarsest layout
+    (a strip is larger than its window: the window's layout tiled would repeat); else each
+    variant is a hybrid of the whole photo (the photo's label shares and layout)."""
     Hs, Ws = ids.shape
 
     def texture(y0, x0, h, w, width, k):
@@ -540,7 +544,7 @@ def variant_states(rgb: np.ndarray, ids: np.ndarray, n: int, *, even: bool, seed
         an = analyse(np.ascontiguousarray(rgb[y0:y0 + h, x0:x0 + w]), w, levels=levels, L=L, q=q,
                      iterations=iterations, seed=0)
         S = synthesize(an, (Hs, width), J=J, seed=seed + k, weights=np.ones(1), passes=passes, coherence=coherence,
-                       layout=layout)
+                       layout="random" if even else "exemplar")
         return S + np.array([y0, x0], np.int32)
 
     if not even:

@@ -76,6 +76,16 @@ def test_a_dithered_ramp_mixes_each_column_by_its_weight(analysis):
     assert (np.diff(share[4]) > -0.1).all()  # rises across the output
 
 
+def test_a_random_layout_is_seeded_and_stays_in_the_boxes(analysis):
+    shape = (48, 80)  # larger than the 32² boxes: the exemplar layout tiles
+    tiled = [H.synthesize(analysis, shape, J=0.0, seed=s, weights=np.ones(2), passes=1) for s in (1, 2)]
+    np.testing.assert_array_equal(tiled[0], tiled[1])  # J = 0: the seed does not act
+    rand = [H.synthesize(analysis, shape, J=0.0, seed=s, weights=np.ones(2), passes=1, layout="random") for s in (1, 2)]
+    assert (rand[0] != rand[1]).mean() > 0.5  # the seed draws the coarsest layout
+    for S in rand:
+        assert (S[..., 0] >= 0).all() and (S[..., 0] < 32).all() and (S[..., 1] >= 0).all() and (S[..., 1] < 64).all()
+
+
 def test_level_weights_take_layout_from_one_exemplar_and_detail_from_another(analysis):
     S = H.synthesize(analysis, (32, 32), J=0.0, seed=1, weights=np.ones(2), passes=1,
                      level_weights=[[1, 0], [0, 1]])
