@@ -122,7 +122,8 @@ def measures(rgb, bw, S, ex_win, wmap=None) -> dict:
     return {"region": region_share(part), "border": border_ratio(lum, ex),
             "window": Q.nearest_window_chi2(Q.window_histograms(lum, np.ones(lum.shape, bool), stride=4), ex_win),
             "ramp": ramp_error(ex, wmap) if wmap is not None else float("nan"),
-            **({f"at{k}": v for k, v in enumerate(ramp_shares(ex, wmap, bins=5)[0][:, -1])} if wmap is not None else {})}
+            **({f"at{k}": v for k, v in enumerate(ramp_shares(ex, wmap, bins=5)[0][:, -1])}
+               if wmap is not None else {})}
 
 
 def configs():
@@ -130,7 +131,8 @@ def configs():
     rows = [("renoir + creek (before)", renoir_creek, (256, 256), dict(BEFORE))]
     for s in SETS:
         rows.append((f"{s}", lambda s=s: bundled(s), (256, 256), dict(DEFAULTS)))
-        rows.append((f"{s} ramp 1->3 (before)", lambda s=s: bundled(s), (128, 512), dict(DEFAULTS, ramp=[0, 2], ramp_cell=0)))
+        rows.append((f"{s} ramp 1->3 (before)", lambda s=s: bundled(s), (128, 512),
+                     dict(DEFAULTS, ramp=[0, 2], ramp_cell=0)))
         rows.append((f"{s} ramp 1->3", lambda s=s: bundled(s), (128, 512), dict(DEFAULTS, ramp=[0, 2], ramp_cell=8)))
     rows.append(("brick per level 1|3", lambda: bundled("brick"), (256, 256),
                  dict(DEFAULTS, level_weights=[[1, 0, 0], [1, 0, 0], [0, 0, 1]])))

@@ -22,8 +22,9 @@ class HybridSynth(Node):
     atlas and kept in memory for the run.
     """
 
-    version = 5  # 5: ramp_cell (the ramp dithered); 4: level_weights, ramp, symmetric;  2: candidates from the coarser, per-level scaled multiscale descriptor; 3: the Gaussian
-    # stack and the finer levels, each scaled (and J 0.1 by default)
+    # 5: ramp_cell (the ramp dithered); 4: level_weights, ramp, symmetric; 3: the Gaussian stack and the finer
+    # levels, each scaled (and J 0.1 by default); 2: candidates from the coarser, per-level scaled descriptor
+    version = 5
     time_dependent = True
     atlas = Input("exemplar atlas: R,G,B, label.id, exemplar.id and meta['atlas']",
                   channels=("R", "G", "B", "label.id", "exemplar.id"), finite=("R", "G", "B"),

@@ -399,8 +399,8 @@ def synthesize(an: Analysis, shape: tuple[int, int], *, J: float, seed: int, wei
     of the structure-preserving jitter with threshold J; ``spatial``: the baseline's
     ⌊h r ξ + ½⌋), then ``passes`` correction passes. The coarsest exemplars are one fixed
     draw (by the weights): with the exemplar layout the seed acts through the jitter only,
-    and J = 0 (or r = 0) gives one result whatever the seed. ``jitter_levels``: jitter only the finest that many levels
-    (None: all); the coarser keep the exemplars' layout exactly.
+    and J = 0 (or r = 0) gives one result whatever the seed. ``jitter_levels``: jitter only
+    the finest that many levels (None: all); the coarser keep the exemplars' layout exactly.
 
     Weights (the paper's per-exemplar, per-level and per-pixel control): at level s a
     candidate from exemplar e at state pixel p costs d / (weights[e] × level_weights[row][e]
@@ -538,13 +538,15 @@ def variant_states(rgb: np.ndarray, ids: np.ndarray, n: int, *, even: bool, seed
     (a strip is larger than its window: the window's layout tiled would repeat); else each
     variant is a hybrid of the whole photo (the photo's label shares and layout)."""
     Hs, Ws = ids.shape
+    analyses = {}
 
     def texture(y0, x0, h, w, width, k):
-        levels = max(l for l in range(1, 9) if coarsest_span(l) <= min(h, w)) if min(h, w) >= 5 else 1
-        an = analyse(np.ascontiguousarray(rgb[y0:y0 + h, x0:x0 + w]), w, levels=levels, L=L, q=q,
-                     iterations=iterations, seed=0)
-        S = synthesize(an, (Hs, width), J=J, seed=seed + k, weights=np.ones(1), passes=passes, coherence=coherence,
-                       layout="random" if even else "exemplar")
+        if (y0, x0, h, w) not in analyses:
+            levels = max(l for l in range(1, 9) if coarsest_span(l) <= min(h, w)) if min(h, w) >= 5 else 1
+            analyses[y0, x0, h, w] = analyse(np.ascontiguousarray(rgb[y0:y0 + h, x0:x0 + w]), w, levels=levels, L=L,
+                                             q=q, iterations=iterations, seed=0)
+        S = synthesize(analyses[y0, x0, h, w], (Hs, width), J=J, seed=seed + k, weights=np.ones(1), passes=passes,
+                       coherence=coherence, layout="random" if even else "exemplar")
         return S + np.array([y0, x0], np.int32)
 
     if not even:
@@ -555,8 +557,8 @@ def variant_states(rgb: np.ndarray, ids: np.ndarray, n: int, *, even: bool, seed
     for k in range(n):
         for t, lab in enumerate(labels):
             windows[t].append(label_window(ids, int(lab), max(counts[t] / 2.0, Hs * Ws / 8.0), avoid=windows[t]))
-    return [np.concatenate([texture(*windows[t][k], b - a, k) for t, (a, b) in enumerate(zip(edges[:-1], edges[1:]))], 1)
-            for k in range(n)]
+    strips = list(zip(edges[:-1], edges[1:]))
+    return [np.concatenate([texture(*windows[t][k], b - a, k) for t, (a, b) in enumerate(strips)], 1) for k in range(n)]
 
 
 def with_variants(source: Plate, n: int, *, even: bool = True, seed: int = 1, J: float = 0.3, coherence: float = 0.5,

@@ -194,11 +194,12 @@ def test_even_variants_give_a_small_label_as_much_room_as_a_large_one(tmp_path):
     labels[84:, :] = (0, 0, 255)  # water: a band, a quarter of the photo
     write_png(tmp_path / "p.png", photo)
     write_png(tmp_path / "l.png", labels)
-    (tmp_path / "source.yaml").write_text("image: p.png\nlabels_map: l.png\nlabels:\n  grass: {id: 1, color: '#00ff00'}\n"
-                                          "  water: {id: 2, color: '#0000ff'}\n")
+    (tmp_path / "source.yaml").write_text("image: p.png\nlabels_map: l.png\nlabels:\n"
+                                          "  grass: {id: 1, color: '#00ff00'}\n  water: {id: 2, color: '#0000ff'}\n")
     shares = {}
     for mix in ("even", "photo"):
-        wide = run_node("SourceRead", {"table": "source.yaml", "variants": 2, "variant_labels": mix}, graph_dir=tmp_path)
+        wide = run_node("SourceRead", {"table": "source.yaml", "variants": 2, "variant_labels": mix},
+                        graph_dir=tmp_path)
         assert wide.shape == (112, 384)
         ox, oy = wide["origin.x"].astype(int), wide["origin.y"].astype(int)
         np.testing.assert_array_equal(wide["label.id"], wide["label.id"][:, :128][oy, ox])  # labels at the pointers
