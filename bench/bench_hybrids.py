@@ -88,19 +88,42 @@ def border_ratio(lum: np.ndarray, ex: np.ndarray) -> float:
     return float(across.mean() / inside.mean()) if len(across) and len(inside) else float("nan")
 
 
+def ramp_shares(ex: np.ndarray, wmap: np.ndarray, bins: int = 16) -> tuple[np.ndarray, np.ndarray]:
+    """Along a ramp (left to right): per column bin, each exemplar's share of the pixels and
+    its share of the weight map (normalised per pixel), (bins, nb) each."""
+    nb = wmap.shape[2]
+    w = wmap / np.maximum(wmap.sum(-1, keepdims=True), 1e-300)
+    edges = np.linspace(0, ex.shape[1], bins + 1).astype(int)
+    share = np.array([np.bincount(ex[:, a:b].ravel(), minlength=nb)[:nb] / ex[:, a:b].size
+                      for a, b in zip(edges[:-1], edges[1:])])
+    want = np.array([w[:, a:b].mean((0, 1)) for a, b in zip(edges[:-1], edges[1:])])
+    return share, want
+
+
+def ramp_error(ex: np.ndarray, wmap: np.ndarray) -> float:
+    """Mean over column bins of the total-variation distance ½ Σₑ |shareₑ − weightₑ| between
+    the exemplars' shares of the pixels and their weights: 0 when the mix follows the ramp,
+    0.25 for a switch from one exemplar to the other in the middle of a linear ramp."""
+    share, want = ramp_shares(ex, wmap)
+    return float(0.5 * np.abs(share - want).sum(1).mean())
+
+
 def exemplar_windows(rgb: np.ndarray, bw: int) -> np.ndarray:
     lum = Q.luma(srgb(rgb))
     return np.concatenate([Q.window_histograms(lum[:, x:x + bw], np.ones((lum.shape[0], bw), bool), stride=1)
                            for x in range(0, lum.shape[1], bw)])
 
 
-def measures(rgb, bw, S, ex_win, middle=False) -> dict:
+def measures(rgb, bw, S, ex_win, wmap=None) -> dict:
     out = srgb(rgb[S[..., 0], S[..., 1]])
     ex = S[..., 1] // bw
     lum = Q.luma(out)
-    part = ex[:, ex.shape[1] // 3:2 * ex.shape[1] // 3] if middle else ex
+    part = ex[:, ex.shape[1] // 3:2 * ex.shape[1] // 3] if wmap is not None else ex
     return {"region": region_share(part), "border": border_ratio(lum, ex),
-            "window": Q.nearest_window_chi2(Q.window_histograms(lum, np.ones(lum.shape, bool), stride=4), ex_win)}
+            "window": Q.nearest_window_chi2(Q.window_histograms(lum, np.ones(lum.shape, bool), stride=4), ex_win),
+            "ramp": ramp_error(ex, wmap) if wmap is not None else float("nan"),
+            **({f"at{k}": v for k, v in enumerate(ramp_shares(ex, wmap, bins=5)[0][:, -1])}
+               if wmap is not None else {})}
 
 
 def configs():
@@ -108,7 +131,9 @@ def configs():
     rows = [("renoir + creek (before)", renoir_creek, (256, 256), dict(BEFORE))]
     for s in SETS:
         rows.append((f"{s}", lambda s=s: bundled(s), (256, 256), dict(DEFAULTS)))
-        rows.append((f"{s} ramp 1->3", lambda s=s: bundled(s), (128, 512), dict(DEFAULTS, ramp=[0, 2])))
+        rows.append((f"{s} ramp 1->3 (before)", lambda s=s: bundled(s), (128, 512),
+                     dict(DEFAULTS, ramp=[0, 2], ramp_cell=0)))
+        rows.append((f"{s} ramp 1->3", lambda s=s: bundled(s), (128, 512), dict(DEFAULTS, ramp=[0, 2], ramp_cell=8)))
     rows.append(("brick per level 1|3", lambda: bundled("brick"), (256, 256),
                  dict(DEFAULTS, level_weights=[[1, 0, 0], [1, 0, 0], [0, 0, 1]])))
     return rows
@@ -121,17 +146,18 @@ def run(name, load, shape, kw, seeds=SEEDS):
     an = H.analyse(rgb, bw, levels=levels, L=8, q=2, iterations=4, seed=0)
     ta = time.perf_counter() - t0
     kw = dict(kw)
-    ramp = kw.pop("ramp", None)
-    wmap = H.ramp_map(shape, ramp, an.nb) if ramp else None
+    ramp, cell = kw.pop("ramp", None), kw.pop("ramp_cell", 0)
+    wmap = H.ramp_map(shape, ramp, an.nb) if ramp else None  # the weights the shares are measured against
     ex_win = exemplar_windows(rgb, bw)
     ms, ts, states = [], [], []
     for s in seeds:
         t0 = time.perf_counter()
-        S = H.synthesize(an, shape, seed=s, weights=np.ones(an.nb), weight_map=wmap, **kw)
+        wm = H.ramp_weights(shape, ramp, an.nb, cell=cell, seed=s) if ramp else None
+        S = H.synthesize(an, shape, seed=s, weights=np.ones(an.nb), weight_map=wm, **kw)
         ts.append(time.perf_counter() - t0)
         states.append(S)
-        ms.append(measures(rgb, bw, S, ex_win, middle=ramp is not None))
-    med = {k: float(np.median([m[k] for m in ms])) for k in ms[0]}
+        ms.append(measures(rgb, bw, S, ex_win, wmap))
+    med = {k: float(np.median([m[k] for m in ms])) for k in ms[0]}  # ramps: at0..at4, the last exemplar's share
     return dict(med, s=float(np.median(ts)), analysis=ta), rgb, states
 
 
@@ -141,13 +167,16 @@ def main(argv=None):
     if "--sheet" in argv:
         k = argv.index("--before") if "--before" in argv else -1
         return sheets(Path(argv[k + 1]) if k >= 0 else None)
-    print(f"{'hybrid':<26} {'region':>7} {'border':>7} {'window':>8} {'s':>6} {'analysis s':>10}")
+    print(f"{'hybrid':<30} {'region':>7} {'border':>7} {'window':>8} {'ramp':>6} {'share of 3 at .1 .3 .5 .7 .9':>29} "
+          f"{'s':>6} {'analysis s':>10}")
     for name, load, shape, kw in configs():
         m, _, _ = run(name, load, shape, kw)
-        print(f"{name:<26} {m['region']:7.3f} {m['border']:7.2f} {m['window']:8.4f} {m['s']:6.2f} "
-              f"{m['analysis']:10.2f}")
+        prof = " ".join(f"{m[f'at{k}']:.2f}" for k in range(5)) if "at0" in m else "-"
+        print(f"{name:<30} {m['region']:7.3f} {m['border']:7.2f} {m['window']:8.4f} {m['ramp']:6.3f} {prof:>29} "
+              f"{m['s']:6.2f} {m['analysis']:10.2f}")
     print("region: Σ area² / N² of single-exemplar regions (ramps: the middle third); border: |Δ luma| across "
-          "exemplar borders / inside; window: 11x11 luma-histogram χ² to the nearest exemplar window")
+          "exemplar borders / inside; window: 11x11 luma-histogram χ² to the nearest exemplar window; ramp: mean "
+          "½ Σ |share − weight| over 16 column bins, and the share of the ramp's last exemplar in 5 bins")
 
 
 def _tile(img, pad=2):
@@ -160,11 +189,12 @@ def _rows(blocks):
 
 
 def sheets(before_jpg: Path | None):
-    """hybrids_before_after.jpg: the top row of main's sheet (``--before``: renoir, creek and
-    hybrids 1-3 of the graph main shipped; ``git show main:docs/img/hybrids_sheet.jpg``), then
-    the foliage set's exemplars, two free hybrids and the ramp 1 -> 3. hybrids_sheet.jpg: per set
-    its exemplars, the top halves of two free hybrids (seeds 1, 2) and the ramp; brick's two
-    per-level hybrids."""
+    """hybrids_sheet.jpg: per set its exemplars, the top halves of two free hybrids (seeds 1,
+    2) and the ramp; brick's two per-level hybrids. hybrids_ramp.jpg: per set the ramp 1 -> 3
+    (seed 1) with the plain weights (ramp_cell 0, before) over the dithered one (after).
+    With ``--before`` (renoir, creek and hybrids 1-3 of the graph main shipped before the
+    sets, the top row of that main's docs/img/hybrids_sheet.jpg), hybrids_before_after.jpg:
+    that row, then the foliage set's exemplars, two free hybrids and the ramp 1 -> 3."""
     from proxyshade.io.images import read_u8
     from proxyshade.io.source import srgb_to_linear
 
@@ -175,11 +205,12 @@ def sheets(before_jpg: Path | None):
     f_rgb, f = out["foliage"]
     ramp = out["foliage ramp 1->3"][1][0]
     after = _rows([_tile(f_rgb), np.concatenate([_tile(f[0]), _tile(f[1])], 1), _tile(ramp)])
-    blocks = [after]
     if before_jpg is not None:
         top = srgb_to_linear(read_u8(before_jpg)[:260, :, :3])  # main's first row of 260² tiles
-        blocks.insert(0, top[::2, ::2])
-    write_jpeg(ROOT / "docs/img/hybrids_before_after.jpg", _rows(blocks), quality=85, view="clip")
+        write_jpeg(ROOT / "docs/img/hybrids_before_after.jpg", _rows([top[::2, ::2], after]), quality=85, view="clip")
+    write_jpeg(ROOT / "docs/img/hybrids_ramp.jpg",
+               _rows([_tile(out[f"{s} ramp 1->3{k}"][1][0]) for s in SETS for k in (" (before)", "")]),
+               quality=85, view="clip")
     blocks = []
     for s in SETS:
         rgb, free = out[s]

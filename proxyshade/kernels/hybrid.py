@@ -334,11 +334,14 @@ def _cand_init(Q, A, bw, nb, q, sep, own_box, seed, init, cy_, cx_, cd_):
 
 
 @njit(**PJIT)
-def _cand_iter(Q, A, bw, nb, q, sep, own_box, seed, it, step, oy, ox, od, ny, nx, nd):
-    """One PatchMatch iteration (reads o*, writes n*): the entries of the 4 neighbours at
-    distance 1 and at ``step`` (jump flooding), shifted back; when Q is A, the entries of
-    each entry's own list (neighbours of neighbours); then a random search around each
-    entry with halving radius."""
+def _cand_iter(Q, A, bw, nb, q, sep, own_box, seed, it, step, old, new):
+    """One PatchMatch iteration (reads the lists ``old``, writes ``new``, each a tuple of
+    rows, columns and distances): the entries of the 4 neighbours at distance 1 and at
+    ``step`` (jump flooding), shifted back; when Q is A, the entries of each entry's own
+    list (neighbours of neighbours); then a random search around each entry with halving
+    radius."""
+    oy, ox, od = old
+    ny, nx, nd = new
     Hq, Wq = Q.shape[0], Q.shape[1]
     Ha = A.shape[0]
     for i in prange(Hq):
@@ -412,8 +415,8 @@ def candidates(Q: np.ndarray, A: np.ndarray, bw: int, q: int, sep: int, *, own_b
     ny, nx, nd = np.empty_like(cy), np.empty_like(cx), np.empty_like(cd)
     for it in range(iterations):
         step = min(2 ** max(iterations - 2 - it, 0), max(bw // 4, 1))  # jump flooding: ..., 4, 2, 1, 1
-        _cand_iter(Q, A, int(bw), nb, int(q), int(sep), bool(own_box), int(seed), it + 1, step, cy, cx, cd, ny, nx,
-                   nd)
+        _cand_iter(Q, A, int(bw), nb, int(q), int(sep), bool(own_box), int(seed), it + 1, step, (cy, cx, cd),
+                   (ny, nx, nd))
         cy, ny = ny, cy
         cx, nx = nx, cx
         cd, nd = nd, cd
@@ -451,7 +454,10 @@ def _neigh_desc(stack, mean, basis, S, i, j, h, bw, x, out):
 
 
 @njit(**PJIT)
-def _subpass(stack, mean, basis, P, cand, inv_w, S_old, S_new, pi, pj, h, bw, J, seed, salt, coherence):
+def _subpass(level, inv_w, S_old, S_new, pi, pj, h, bw, J, seed, salt, coherence):
+    """One parity sub-set (rows pi, pi + 2, ..; columns pj, pj + 2, ..) of a pass, reading
+    ``S_old`` and writing ``S_new``. ``level``: the level's (stack, mean, basis, P, cand)."""
+    stack, mean, basis, P, cand = level
     Ht, Wt = S_old.shape[0], S_old.shape[1]
     Ha = P.shape[0]
     nb = cand.shape[2]
@@ -537,10 +543,11 @@ def _subpass(stack, mean, basis, P, cand, inv_w, S_old, S_new, pi, pj, h, bw, J,
 PARITIES = ((0, 0), (1, 1), (0, 1), (1, 0))
 
 
-def run_pass(stack, mean, basis, P, cand, inv_w, S, *, h: int, bw: int, J: float, seed: int, salt: int,
+def run_pass(level: tuple, inv_w, S, *, h: int, bw: int, J: float, seed: int, salt: int,
              coherence: float = 1.0) -> np.ndarray:
     """One pass of 4 parity sub-passes (each reads the state the previous left); J = 0:
-    correction, J > 0: structure-preserving jitter. ``inv_w``: 1 / weight per exemplar (nb,)
+    correction, J > 0: structure-preserving jitter. ``level``: the analysis of the level,
+    (stack, mean, basis, P, cand) (``synthesis.hybrid.Analysis.level``). ``inv_w``: 1 / weight per exemplar (nb,)
     or per state pixel and exemplar (Ht, Wt, nb); inf: never a candidate. Returns the new
     state. ``coherence`` (<= 1) multiplies the cost of the coherent candidates (a
     neighbour's pointer continued, S[q] − h (q − p)): below 1 it favours copying whole
@@ -552,8 +559,8 @@ def run_pass(stack, mean, basis, P, cand, inv_w, S, *, h: int, bw: int, J: float
     inv_w = np.ascontiguousarray(inv_w)
     S_new = S_old.copy()
     for k, (pi, pj) in enumerate(PARITIES):
-        _subpass(stack, mean, basis, P, cand, inv_w, S_old, S_new, pi, pj, int(h), int(bw), float(J), int(seed),
-                 int(salt) * 4 + k, float(coherence))
+        _subpass(level, inv_w, S_old, S_new, pi, pj, int(h), int(bw), float(J), int(seed), int(salt) * 4 + k,
+                 float(coherence))
         S_old[...] = S_new
     return S_old
 

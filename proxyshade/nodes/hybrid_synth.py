@@ -22,8 +22,9 @@ class HybridSynth(Node):
     atlas and kept in memory for the run.
     """
 
-    version = 4  # 4: level_weights, ramp, symmetric;  2: candidates from the coarser, per-level scaled multiscale descriptor; 3: the Gaussian
-    # stack and the finer levels, each scaled (and J 0.1 by default)
+    # 5: ramp_cell (the ramp dithered); 4: level_weights, ramp, symmetric; 3: the Gaussian stack and the finer
+    # levels, each scaled (and J 0.1 by default); 2: candidates from the coarser, per-level scaled descriptor
+    version = 5
     time_dependent = True
     atlas = Input("exemplar atlas: R,G,B, label.id, exemplar.id and meta['atlas']",
                   channels=("R", "G", "B", "label.id", "exemplar.id"), finite=("R", "G", "B"),
@@ -38,6 +39,10 @@ class HybridSynth(Node):
                                "exemplars (1-based, e.g. [1, 2]: all 1 at the left, all 2 at the right); others "
                                "weigh 0; empty: none")
     ramp_axis = Param(str, "x", choices=("x", "y"), doc="the ramp's direction: x left to right, y top to bottom")
+    ramp_cell = Param(int, 8, min=0, max=512, doc="the ramp's patch size in pixels: each pixel prefers one exemplar, "
+                                                  "drawn by a noise this smooth against the ramp's weights, so each "
+                                                  "exemplar's share follows its weight across the output; 0: the "
+                                                  "plain weights (a narrow switch)")
     symmetric = Param(bool, False, doc="mirror the left half onto the right at every level (symmetric exemplars, "
                                        "e.g. aligned faces)")
     size = Param(list, None, optional=True, length=2, doc="[width, height] of the hybrid; default the exemplar size")
@@ -70,13 +75,15 @@ class HybridSynth(Node):
             shape = (bh, bw)
         an = H.analysis_of(atlas, bw, levels=p.levels, L=p.descriptor_levels, q=p.candidates,
                            iterations=p.iterations, memo=ctx.memo)
-        wmap = H.ramp_map(shape, ramp, nb, axis=1 if p.ramp_axis == "x" else 0) if ramp else None
+        wmap = (H.ramp_weights(shape, ramp, nb, axis=1 if p.ramp_axis == "x" else 0, cell=p.ramp_cell, seed=ctx.frame)
+                if ramp else None)
         S = H.synthesize(an, shape, J=p.J, seed=ctx.frame, weights=w, passes=p.passes,
                          jitter_levels=p.jitter_levels, level_weights=lw, weight_map=wmap, symmetric=p.symmetric,
                          coherence=p.coherence)
         out = H.hybrid_plate(atlas, S, {"J": p.J, "seed": ctx.frame, "weights": [float(v) for v in w],
                                         "level_weights": [] if lw is None else lw.tolist(),
-                                        "ramp": [e + 1 for e in ramp], "symmetric": bool(p.symmetric),
+                                        "ramp": [e + 1 for e in ramp], "ramp_cell": p.ramp_cell,
+                                        "symmetric": bool(p.symmetric),
                                         "coherence": p.coherence})
         share = np.bincount(S[..., 1].ravel() // bw, minlength=nb) / S[..., 0].size
         ctx.note(f"hybrid {shape[1]}x{shape[0]} from {nb} exemplars (shares "

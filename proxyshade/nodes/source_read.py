@@ -21,13 +21,18 @@ class SourceRead(LabelMapSnap, Node):
     and how many pixels were snapped (``snap``).
     """
 
-    version = 2  # 2: variants
+    version = 3  # 2: variants; 3: variant_labels (even by default)
     table = Param(Path, doc="label table YAML (source.yaml) naming the photo and label map")
     photo = Param(str, None, doc="name of one of the table's 'images' (a photo of the same view at another time) "
                                  "to read instead of 'image'")
     variants = Param(int, 0, min=0, max=8, doc="widen the source by this many hybrid variants of itself, side by "
                                                "side (synthesis.hybrid.with_variants, docs/hybrids.md): a large "
                                                "region of a big frame draws on more arrangements; 0: the photo only")
+    variant_labels = Param(str, "even", choices=("even", "photo"),
+                           doc="what the variants hold: 'even', one strip per label, each a texture of the photo's "
+                               "window richest in that label (a label small in the photo gets as many variant pixels "
+                               "as a large one, so a frame showing much of it repeats less); 'photo', hybrids of the "
+                               "whole photo (its label shares)")
 
     def key_extra(self, frame, graph_dir):
         # the table's own content is hashed by the engine; add the files it names
@@ -51,7 +56,7 @@ class SourceRead(LabelMapSnap, Node):
         if ctx.p.variants:
             from proxyshade.synthesis.hybrid import with_variants
 
-            plate = with_variants(plate, ctx.p.variants, memo=ctx.memo)
+            plate = with_variants(plate, ctx.p.variants, even=ctx.p.variant_labels == "even", memo=ctx.memo)
         s = plate.meta["snap"]
         ctx.note(f"snapped {s['snapped']} of {s['pixels']} label-map pixels to the nearest table colour "
                  f"({s['far']} far from every colour)")

@@ -234,6 +234,11 @@ class Analysis:
     cands: list
     seconds: float = 0.0
 
+    def level(self, s: int) -> tuple:
+        """Level ``s``'s arrays as ``kernels.hybrid.run_pass`` takes them: (stack, PCA mean,
+        PCA basis, descriptors, candidates)."""
+        return self.stacks[s], self.means[s], self.bases[s], self.P[s], self.cands[s]
+
 
 def analyse(rgb: np.ndarray, bw: int, *, levels: int, L: int, q: int, iterations: int, seed: int,
             separation: float = 0.05, coarser: bool = False, stack: str = "gaussian") -> Analysis:
@@ -301,6 +306,59 @@ def ramp_map(shape: tuple[int, int], order, nb: int, axis: int = 1) -> np.ndarra
     return np.ascontiguousarray(np.broadcast_to(w[None, :, :] if axis == 1 else w[:, None, :], (Ht, Wt, nb)))
 
 
+def smooth_noise(shape: tuple[int, int], cell: int, seed: int) -> np.ndarray:
+    """(H, W) float64 noise, uniform on [0, 1) in distribution (rank-transformed), smooth
+    over ``cell`` pixels: uniform numbers on a lattice of that spacing (``random.uniform_field``),
+    interpolated with smoothstep weights."""
+    from proxyshade.kernels.random import uniform_field
+
+    H, W = shape
+    cell = max(1, int(cell))
+    gh, gw = H // cell + 2, W // cell + 2
+    ii, jj = np.mgrid[0:gh, 0:gw]
+    g = uniform_field(int(seed), (ii * gw + jj).astype(np.int64)).astype(np.float64)
+    y = (np.arange(H) + 0.5) / cell
+    x = (np.arange(W) + 0.5) / cell
+    y0, x0 = y.astype(int), x.astype(int)
+    fy, fx = y - y0, x - x0
+    fy, fx = fy * fy * (3 - 2 * fy), fx * fx * (3 - 2 * fx)
+    top = g[y0][:, x0] * (1 - fx) + g[y0][:, x0 + 1] * fx
+    bot = g[y0 + 1][:, x0] * (1 - fx) + g[y0 + 1][:, x0 + 1] * fx
+    v = (top * (1 - fy[:, None]) + bot * fy[:, None]).ravel()
+    rank = np.empty(v.size)
+    rank[np.argsort(v, kind="stable")] = np.arange(v.size)
+    return ((rank + 0.5) / v.size).reshape(H, W)
+
+
+def dithered_map(weight_map: np.ndarray, cell: int, seed: int, others: float) -> np.ndarray:
+    """A per-pixel weight map whose exemplars' shares follow its weights in patches: each
+    pixel prefers the exemplar that ``smooth_noise`` (feature size ``cell``) picks by the
+    cumulative normalised weights there (so along a ramp each exemplar's share of a column
+    is its weight), weight 1; the other exemplars with a positive weight get ``others``
+    (0: only the preferred one; 1: every positive one alike), those at 0 stay 0."""
+    w = np.asarray(weight_map, np.float64)
+    total = w.sum(-1, keepdims=True)
+    cum = np.cumsum(w, -1) / np.where(total > 0, total, 1.0)
+    u = smooth_noise(w.shape[:2], cell, seed)
+    pick = np.minimum((u[..., None] >= cum).sum(-1), w.shape[2] - 1)
+    out = np.where(np.arange(w.shape[2]) == pick[..., None], 1.0, float(others))
+    return np.ascontiguousarray(np.where(w > 0, out, 0.0))
+
+
+RAMP_OTHERS = 0.5  # a dithered ramp's weight of the exemplars a pixel does not prefer
+
+
+def ramp_weights(shape: tuple[int, int], order, nb: int, *, axis: int = 1, cell: int = 8, seed: int = 0) -> np.ndarray:
+    """The per-pixel weights of a ramp through ``order``: ``ramp_map``, dithered
+    (``dithered_map``, feature size ``cell``, the other exemplars at ``RAMP_OTHERS``) so
+    each exemplar's share of a column follows its weight; ``cell`` 0: the plain map, whose
+    cost divisor switches from one exemplar to the next over a narrow band."""
+    from proxyshade.kernels.random import mix_seed
+
+    w = ramp_map(shape, order, nb, axis)
+    return dithered_map(w, cell, mix_seed(seed, 0xD17), RAMP_OTHERS) if cell > 0 else w
+
+
 def level_field(weights: np.ndarray, level_row, weight_map, sh: tuple[int, int], h: int) -> np.ndarray:
     """One level's weights per state pixel and exemplar, (sh[0], sh[1], nb) float64:
     ``weights`` × ``level_row`` (that level's per-exemplar weights, or None) × ``weight_map``
@@ -333,22 +391,26 @@ def mirror_state(S: np.ndarray, bw: int) -> np.ndarray:
 
 def synthesize(an: Analysis, shape: tuple[int, int], *, J: float, seed: int, weights: np.ndarray, passes: int,
                jitter: str = "structure", r: float = 0.0, jitter_levels: int | None = None, level_weights=None,
-               weight_map: np.ndarray | None = None, symmetric: bool = False, coherence: float = 1.0) -> np.ndarray:
+               weight_map: np.ndarray | None = None, symmetric: bool = False, coherence: float = 1.0,
+               layout: str = "exemplar") -> np.ndarray:
     """A hybrid's state: (Ht, Wt, 2) int32 atlas (row, column), coarse to fine: identity
     pointers at the coarsest level into exemplars drawn by the weights; per level upsample
     (``correct.upsample_state`` on box-local coordinates), jitter (``structure``: one pass
     of the structure-preserving jitter with threshold J; ``spatial``: the baseline's
     ⌊h r ξ + ½⌋), then ``passes`` correction passes. The coarsest exemplars are one fixed
-    draw (by the weights): the seed acts through the jitter only, and J = 0 (or r = 0) gives
-    one result whatever the seed. ``jitter_levels``: jitter only the finest that many levels
-    (None: all); the coarser keep the exemplars' layout exactly.
+    draw (by the weights): with the exemplar layout the seed acts through the jitter only,
+    and J = 0 (or r = 0) gives one result whatever the seed. ``jitter_levels``: jitter only
+    the finest that many levels (None: all); the coarser keep the exemplars' layout exactly.
 
     Weights (the paper's per-exemplar, per-level and per-pixel control): at level s a
     candidate from exemplar e at state pixel p costs d / (weights[e] × level_weights[row][e]
     × weight_map[p, e]), ``row`` counting from the coarsest level (the last row repeats for
     the finer levels); a zero product: never a candidate there. ``weight_map``: (Ht, Wt, nb)
-    or None (``ramp_map`` makes a transition across the output). ``symmetric``: after each
-    level the right half mirrors the left (``mirror_state``)."""
+    or None (``ramp_weights`` makes a transition across the output). ``symmetric``: after each
+    level the right half mirrors the left (``mirror_state``). ``layout``: ``"exemplar"``, the
+    coarsest pointers are the exemplars' own layout (tiled past a box); ``"random"``, each a
+    random place of its box drawn from the seed (a texture larger than its exemplar without
+    tiling it; ``with_variants``)."""
     from proxyshade.kernels import hybrid as kh
     from proxyshade.kernels.correct import upsample_state
     from proxyshade.kernels.random import mix_seed, uniform_field
@@ -369,8 +431,12 @@ def synthesize(an: Analysis, shape: tuple[int, int], *, J: float, seed: int, wei
             total = w.sum(-1, keepdims=True)
             cum = np.cumsum(w, -1) / np.where(total > 0, total, 1.0)
             e = np.minimum((u[..., None] >= cum).sum(-1), an.nb - 1)
-            # the exemplar's own layout, tiled past its size (an output larger than the box)
-            y, x = (h * ii + h // 2) % an.bh, (h * jj + h // 2) % an.bw
+            if layout == "exemplar":  # the exemplar's own layout, tiled past its size (an output larger than the box)
+                y, x = (h * ii + h // 2) % an.bh, (h * jj + h // 2) % an.bw
+            else:  # "random": each pixel a random place of its box, from the seed (no tiling)
+                ids = (ii * sh[1] + jj).astype(np.int64)
+                y = (uniform_field(mix_seed(seed, 0x1A), ids) * an.bh).astype(np.int64)
+                x = (uniform_field(mix_seed(seed, 0x1B), ids) * an.bw).astype(np.int64)
             S = np.stack([y, x + e * an.bw], -1).astype(np.int32)
         else:
             e = S[..., 1] // an.bw
@@ -381,16 +447,16 @@ def synthesize(an: Analysis, shape: tuple[int, int], *, J: float, seed: int, wei
             ec = e[np.minimum(np.arange(sh[0]) // 2, Hp - 1)][:, np.minimum(np.arange(sh[1]) // 2, Wp - 1)]
             up[..., 1] += ec * an.bw
             S = up
-        args = (an.stacks[s], an.means[s], an.bases[s], an.P[s], an.cands[s], inv_w)
+        level = an.level(s)
         lseed = mix_seed(seed, s)
         if jitter_levels is not None and s >= jitter_levels:
             pass  # only the finest ``jitter_levels`` levels are jittered
         elif jitter == "structure":
-            S = kh.run_pass(*args, S, h=h, bw=an.bw, J=J, seed=lseed, salt=0)
+            S = kh.run_pass(level, inv_w, S, h=h, bw=an.bw, J=J, seed=lseed, salt=0)
         elif r > 0:
             S = kh.spatial_jitter(S, h=h, r=r, bw=an.bw, atlas_height=an.bh, seed=lseed)
         for k in range(passes):
-            S = kh.run_pass(*args, S, h=h, bw=an.bw, J=0.0, seed=lseed, salt=k + 1, coherence=coherence)
+            S = kh.run_pass(level, inv_w, S, h=h, bw=an.bw, J=0.0, seed=lseed, salt=k + 1, coherence=coherence)
         if symmetric:
             S = mirror_state(S, an.bw)
     return S
@@ -437,28 +503,87 @@ def plain_texture(rgb: np.ndarray, size: tuple[int, int], *, seed: int, J: float
     return {"rgb": rgb[S[..., 0], S[..., 1]], "sx": S[..., 1].astype(np.float32), "sy": S[..., 0].astype(np.float32)}
 
 
-def with_variants(source: Plate, n: int, *, seed: int = 1, J: float = 0.3, coherence: float = 0.5,
+def label_window(ids: np.ndarray, label: int, area: float, smallest: int = 33, avoid=()) -> tuple[int, int, int, int]:
+    """The window (y0, x0, h, w) of about ``area`` pixels (each side at least ``smallest``,
+    at most the image's) holding the largest share of ``label`` in a label map, over the
+    aspects 1:8 .. 8:1 and every position (summed-area table; the first best wins). With
+    ``avoid`` (earlier windows), the share times 1 − the largest part of the window they
+    cover: another variant reads another part of the photo where it can."""
+    M, N = ids.shape
+    sat = np.pad(np.cumsum(np.cumsum(ids == label, 0), 1), ((1, 0), (1, 0)))
+    best = (-1.0, 0, 0, M, N)
+    for aspect in (1 / 8, 1 / 4, 1 / 2, 1, 2, 4, 8):  # width / height
+        h = int(min(M, max(smallest, round(np.sqrt(area / aspect)))))
+        w = int(min(N, max(smallest, round(area / h))))
+        score = (sat[h:, w:] - sat[:-h, w:] - sat[h:, :-w] + sat[:-h, :-w]) / float(h * w)
+        y, x = np.arange(M - h + 1)[:, None], np.arange(N - w + 1)[None, :]
+        for y1, x1, h1, w1 in avoid:
+            oh = np.clip(np.minimum(y + h, y1 + h1) - np.maximum(y, y1), 0, None)
+            ow = np.clip(np.minimum(x + w, x1 + w1) - np.maximum(x, x1), 0, None)
+            score = score * (1.0 - oh * ow / float(h * w))
+        k = int(np.argmax(score))
+        if score.flat[k] > best[0]:
+            best = (float(score.flat[k]), k // score.shape[1], k % score.shape[1], h, w)
+    return best[1:]
+
+
+def variant_states(rgb: np.ndarray, ids: np.ndarray, n: int, *, even: bool, seed: int, J: float, coherence: float,
+                   passes: int, L: int, q: int, iterations: int) -> list:
+    """``n`` hybrid variants of a photo ((Hs, Ws, 3) linear, label ids (Hs, Ws)) as
+    photo (row, column) pointer maps (Hs, Ws, 2), seeds ``seed`` .. ``seed + n − 1``.
+    ``even``: each variant is one vertical strip per label present, of equal widths, each a
+    texture of the window richest in that label (``label_window``: half the label's share of
+    the photo, at least an eighth; each variant's window avoids the earlier ones'), so every
+    label gets an equal share of the variant, each strip grown from a random coarsest layout
+    (a strip is larger than its window: the window's layout tiled would repeat); else each
+    variant is a hybrid of the whole photo (the photo's label shares and layout)."""
+    Hs, Ws = ids.shape
+    analyses = {}
+
+    def texture(y0, x0, h, w, width, k):
+        if (y0, x0, h, w) not in analyses:
+            levels = max(l for l in range(1, 9) if coarsest_span(l) <= min(h, w)) if min(h, w) >= 5 else 1
+            analyses[y0, x0, h, w] = analyse(np.ascontiguousarray(rgb[y0:y0 + h, x0:x0 + w]), w, levels=levels, L=L,
+                                             q=q, iterations=iterations, seed=0)
+        S = synthesize(analyses[y0, x0, h, w], (Hs, width), J=J, seed=seed + k, weights=np.ones(1), passes=passes,
+                       coherence=coherence, layout="random" if even else "exemplar")
+        return S + np.array([y0, x0], np.int32)
+
+    if not even:
+        return [texture(0, 0, Hs, Ws, Ws, k) for k in range(n)]
+    labels, counts = np.unique(ids, return_counts=True)
+    edges = np.linspace(0, Ws, len(labels) + 1).astype(int)
+    windows = [[] for _ in labels]
+    for k in range(n):
+        for t, lab in enumerate(labels):
+            windows[t].append(label_window(ids, int(lab), max(counts[t] / 2.0, Hs * Ws / 8.0), avoid=windows[t]))
+    strips = list(zip(edges[:-1], edges[1:]))
+    return [np.concatenate([texture(*windows[t][k], b - a, k) for t, (a, b) in enumerate(strips)], 1) for k in range(n)]
+
+
+def with_variants(source: Plate, n: int, *, even: bool = True, seed: int = 1, J: float = 0.3, coherence: float = 0.5,
                   passes: int = 2, L: int = 8, q: int = 2, iterations: int = 4, memo=None) -> Plate:
-    """An annotated source widened by ``n`` hybrid variants of itself: the photo and its
-    label map, then ``n`` single-exemplar hybrids of the same size (seeds ``seed`` ..
-    ``seed + n − 1``; colour and labels looked up at the same pointers) side by side. A
-    synthesis from the widened source draws a large region from more, differently arranged
-    copies of each label. Channels ``R, G, B, label.id`` and ``origin.x/y`` (float32, the
-    photo pixel each pixel copies: the identity on the photo); meta ``source.variants``
-    = n, ``source.size`` the widened size. The analysis is kept in ``memo``. J = 0.3 and
-    coherence 0.5 move about 95 % of the pointers of a variant of renoir (at J = 0.1,
-    coherence 0.3, about 82 % stay put: near-copies, which would lower a repetition count on
-    the widened source without showing the photo less)."""
+    """An annotated source widened by ``n`` hybrid variants of itself (``variant_states``):
+    the photo and its label map, then the variants, each of the photo's size, side by side;
+    colour and labels looked up at the same pointers. A synthesis from the widened source
+    draws a large region from more, differently arranged copies of each label; with
+    ``even`` a label small in the photo gets as many variant pixels as a large one.
+    Channels ``R, G, B, label.id`` and ``origin.x/y`` (float32, the photo pixel each pixel
+    copies: the identity on the photo); meta ``source.variants`` = n, ``source.size`` the
+    widened size. The states are kept in ``memo``. J = 0.3 and coherence 0.5 move about
+    95 % of the pointers of a whole-photo variant of renoir (at J = 0.1, coherence 0.3,
+    about 82 % stay put: near-copies, which would lower a repetition count on the widened
+    source without showing the photo less)."""
     Hs, Ws = source.shape
     rgb = np.ascontiguousarray(source.rgb(), np.float32)
-    levels = max(l for l in range(1, 9) if coarsest_span(l) <= min(Hs, Ws)) if min(Hs, Ws) >= 5 else 1
+    ids = np.ascontiguousarray(source["label.id"], np.int64)
 
     def run():
-        an = analyse(rgb, Ws, levels=levels, L=L, q=q, iterations=iterations, seed=0)
-        return [synthesize(an, (Hs, Ws), J=J, seed=seed + k, weights=np.ones(1), passes=passes,
-                           coherence=coherence) for k in range(n)]
+        return variant_states(rgb, ids, n, even=even, seed=seed, J=J, coherence=coherence, passes=passes, L=L,
+                              q=q, iterations=iterations)
 
-    states = kept(memo, "hybrid.with_variants", (rgb, n, seed, J, coherence, passes, L, q, iterations), run)
+    states = kept(memo, "hybrid.with_variants", (rgb, ids, n, even, seed, J, coherence, passes, L, q, iterations),
+                  run)
     ii, jj = np.mgrid[0:Hs, 0:Ws]
     ys = [ii] + [S[..., 0] for S in states]
     xs = [jj] + [S[..., 1] for S in states]

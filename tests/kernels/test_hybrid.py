@@ -295,15 +295,12 @@ def test_subpass_matches_the_written_out_reference(J, weights, coherence):
     for s, h in ((0, 1), (1, 2)):
         for pi, pj in ((0, 0), (1, 0)):
             S_new = S.copy()
-            kh._subpass(an.stacks[s], an.means[s], an.bases[s], an.P[s], an.cands[s], per_pixel, S, S_new, pi, pj,
-                        h, an.bw, J, 77, 3, coherence)
+            kh._subpass(an.level(s), per_pixel, S, S_new, pi, pj, h, an.bw, J, 77, 3, coherence)
             want = reference_subpass(an, s, per_pixel, S, pi, pj, h, J, 77, 3, coherence)
             np.testing.assert_allclose(S_new, want)  # float64 sums in the same order: exact
     if J > 0:
-        S1 = kh.run_pass(an.stacks[0], an.means[0], an.bases[0], an.P[0], an.cands[0], inv_w, S, h=1, bw=an.bw, J=J,
-                         seed=1, salt=0)
-        S2 = kh.run_pass(an.stacks[0], an.means[0], an.bases[0], an.P[0], an.cands[0], inv_w, S, h=1, bw=an.bw, J=J,
-                         seed=2, salt=0)
+        S1 = kh.run_pass(an.level(0), inv_w, S, h=1, bw=an.bw, J=J, seed=1, salt=0)
+        S2 = kh.run_pass(an.level(0), inv_w, S, h=1, bw=an.bw, J=J, seed=2, salt=0)
         assert (S1 != S2).any()  # the seed matters when J > 0
 
 
@@ -314,16 +311,15 @@ def test_an_exemplars_own_map_is_a_fixed_point_of_the_correction():
     for s, h in ((0, 1), (2, 4)):
         ii, jj = np.mgrid[0:32 // h, 0:32 // h]
         S = np.stack([ii * h + h // 2, jj * h + h // 2 + 32], -1).astype(np.int32)  # exemplar 2's own map
-        args = (an.stacks[s], an.means[s], an.bases[s], an.P[s], an.cands[s], np.ones(2))
-        np.testing.assert_array_equal(kh.run_pass(*args, S, h=h, bw=32, J=0.0, seed=0, salt=1), S)
+        np.testing.assert_array_equal(kh.run_pass(an.level(s), np.ones(2), S, h=h, bw=32, J=0.0, seed=0, salt=1), S)
 
 
 def test_jitter_with_J_0_is_exactly_the_correction_pass():
     _, an, S = small_level(9)
-    args = (an.stacks[1], an.means[1], an.bases[1], an.P[1], an.cands[1], np.ones(2))
-    corr = kh.run_pass(*args, S, h=2, bw=an.bw, J=0.0, seed=0, salt=1)
+    corr = kh.run_pass(an.level(1), np.ones(2), S, h=2, bw=an.bw, J=0.0, seed=0, salt=1)
     for seed, salt in ((1, 0), (123, 5)):
-        np.testing.assert_array_equal(kh.run_pass(*args, S, h=2, bw=an.bw, J=0.0, seed=seed, salt=salt), corr)
+        np.testing.assert_array_equal(kh.run_pass(an.level(1), np.ones(2), S, h=2, bw=an.bw, J=0.0, seed=seed, salt=salt),
+                                      corr)
     assert (corr != S).any()
 
 

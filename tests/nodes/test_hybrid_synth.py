@@ -49,6 +49,19 @@ def test_the_frame_is_the_seed_and_weights_bias_the_mix(atlas):
     assert shares[0] < shares[1]
 
 
+def test_a_ramp_goes_from_one_exemplar_to_the_other_in_mixed_patches(atlas):
+    kw = dict(SMALL, size=[256, 64], ramp=[1, 2])
+    out = {cell: run_node("HybridSynth", dict(kw, ramp_cell=cell), {"atlas": atlas}, frame=1)["exemplar.id"]
+           for cell in (0, 8)}
+    for e in out.values():
+        assert (e[:, :32] == 1).mean() > 0.8 and (e[:, -32:] == 2).mean() > 0.8
+    share = {c: np.array([(e[:, a:a + 32] == 2).mean() for a in range(0, 256, 32)]) for c, e in out.items()}
+    want = (np.arange(8) + 0.5) / 8
+    assert np.abs(share[8] - want).mean() < np.abs(share[0] - want).mean()
+    mid = out[8][:, 96:160]
+    assert 0.2 < (mid == 2).mean() < 0.8  # the middle mixes both
+
+
 def test_J_and_jitter_levels_set_the_variation(atlas):
     def diff(J, jl=None):
         a = run_node("HybridSynth", dict(SMALL, J=J, jitter_levels=jl), {"atlas": atlas}, frame=1)

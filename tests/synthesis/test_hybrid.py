@@ -40,6 +40,52 @@ def test_a_weight_map_steers_each_side_to_its_exemplar(analysis):
     assert abs(flat[:, :12].mean() - flat[:, -12:].mean()) < 0.5  # without the map: no such sides
 
 
+def test_smooth_noise_is_uniform_smooth_and_seeded():
+    u = H.smooth_noise((64, 96), 8, seed=5)
+    assert u.shape == (64, 96) and 0 < u.min() and u.max() < 1
+    np.testing.assert_allclose(np.sort(u.ravel()), (np.arange(u.size) + 0.5) / u.size)  # uniform: ranks
+    step = np.abs(np.diff(u, axis=1)).mean()
+    assert step < 0.1  # smooth over the cell: an independent draw per pixel steps by 1/3 on average
+    assert step > np.abs(np.diff(H.smooth_noise((64, 96), 32, seed=5), axis=1)).mean()  # a larger cell: smoother
+    np.testing.assert_array_equal(H.smooth_noise((64, 96), 8, seed=5), u)
+    assert (H.smooth_noise((64, 96), 8, seed=6) != u).any()
+
+
+def test_dithered_map_prefers_by_the_cumulative_weights():
+    w = H.ramp_map((40, 50), [0, 2], 3)
+    d = H.dithered_map(w, 4, seed=1, others=0.25)
+    u = H.smooth_noise((40, 50), 4, seed=1)
+    pick = np.where(u < w[..., 0], 0, 2)  # written out for two exemplars: the first below its weight
+    np.testing.assert_array_equal(d.argmax(-1), pick)
+    assert set(np.unique(d[..., [0, 2]])) <= {0.0, 0.25, 1.0} and (d[..., 1] == 0).all()  # weight 0 stays 0
+    np.testing.assert_array_equal(d[..., 0] == 0, w[..., 0] == 0)
+
+
+def test_a_dithered_ramp_mixes_each_column_by_its_weight(analysis):
+    shape = (64, 128)
+    want = H.ramp_map(shape, [0, 1], 2)[0, :, 1]
+    share = {}
+    for cell in (0, 4):
+        e = np.concatenate([H.synthesize(analysis, shape, J=0.1, seed=s, weights=np.ones(2), passes=2,
+                                         weight_map=H.ramp_weights(shape, [0, 1], 2, cell=cell, seed=s))[..., 1] // 32
+                            for s in (1, 2)])
+        share[cell] = np.array([e[:, a:a + 16].mean() for a in range(0, 128, 16)])
+    w = np.array([want[a:a + 16].mean() for a in range(0, 128, 16)])
+    assert np.abs(share[4] - w).mean() < 0.1 and np.abs(share[4] - w).max() < 0.2
+    assert np.abs(share[4] - w).mean() < np.abs(share[0] - w).mean()  # the plain map switches more sharply
+    assert (np.diff(share[4]) > -0.1).all()  # rises across the output
+
+
+def test_a_random_layout_is_seeded_and_stays_in_the_boxes(analysis):
+    shape = (48, 80)  # larger than the 32² boxes: the exemplar layout tiles
+    tiled = [H.synthesize(analysis, shape, J=0.0, seed=s, weights=np.ones(2), passes=1) for s in (1, 2)]
+    np.testing.assert_array_equal(tiled[0], tiled[1])  # J = 0: the seed does not act
+    rand = [H.synthesize(analysis, shape, J=0.0, seed=s, weights=np.ones(2), passes=1, layout="random") for s in (1, 2)]
+    assert (rand[0] != rand[1]).mean() > 0.5  # the seed draws the coarsest layout
+    for S in rand:
+        assert (S[..., 0] >= 0).all() and (S[..., 0] < 32).all() and (S[..., 1] >= 0).all() and (S[..., 1] < 64).all()
+
+
 def test_level_weights_take_layout_from_one_exemplar_and_detail_from_another(analysis):
     S = H.synthesize(analysis, (32, 32), J=0.0, seed=1, weights=np.ones(2), passes=1,
                      level_weights=[[1, 0], [0, 1]])
@@ -116,6 +162,50 @@ def test_variants_widen_a_source_with_rearranged_copies_that_keep_colour_and_lab
         same = (wide["origin.x"][:, 48 * k:48 * (k + 1)] == jj) & (wide["origin.y"][:, 48 * k:48 * (k + 1)] == ii)
         assert same.mean() < 0.9  # a variant, not a copy
     assert (wide["origin.x"][:, 48:96] != wide["origin.x"][:, 96:]).any()  # two different variants
+
+
+def test_label_window_finds_the_window_richest_in_a_label():
+    ids = np.ones((60, 80), np.int64)
+    ids[40:52, 10:70] = 3  # a wide band
+    ids[:, 75:] = 2  # a thin column
+    y0, x0, h, w = H.label_window(ids, 3, 600, smallest=8)
+    assert h * w <= 1.2 * 600 and (ids[y0:y0 + h, x0:x0 + w] == 3).mean() > 0.9 and w > h
+    y0, x0, h, w = H.label_window(ids, 2, 240, smallest=5)
+    assert (ids[y0:y0 + h, x0:x0 + w] == 2).mean() == 1.0 and h > w
+    for lab, area in ((3, 600), (2, 240)):  # the best over every position and aspect, written out
+        best = 0.0
+        for aspect in (1 / 8, 1 / 4, 1 / 2, 1, 2, 4, 8):
+            hh = int(min(60, max(8 if lab == 3 else 5, round(np.sqrt(area / aspect)))))
+            ww = int(min(80, max(8 if lab == 3 else 5, round(area / hh))))
+            for y in range(60 - hh + 1):
+                for x in range(80 - ww + 1):
+                    best = max(best, (ids[y:y + hh, x:x + ww] == lab).mean())
+        y0, x0, h, w = H.label_window(ids, lab, area, smallest=8 if lab == 3 else 5)
+        assert (ids[y0:y0 + h, x0:x0 + w] == lab).mean() == best
+
+
+def test_even_variants_give_a_small_label_as_much_room_as_a_large_one(tmp_path):
+    from proxyshade.io.images import write_png
+
+    rng = np.random.default_rng(11)
+    photo = rng.integers(0, 255, (112, 128, 3)).astype(np.uint8)
+    labels = np.zeros((112, 128, 3), np.uint8)
+    labels[:] = (0, 255, 0)
+    labels[84:, :] = (0, 0, 255)  # water: a band, a quarter of the photo
+    write_png(tmp_path / "p.png", photo)
+    write_png(tmp_path / "l.png", labels)
+    (tmp_path / "source.yaml").write_text("image: p.png\nlabels_map: l.png\nlabels:\n"
+                                          "  grass: {id: 1, color: '#00ff00'}\n  water: {id: 2, color: '#0000ff'}\n")
+    shares = {}
+    for mix in ("even", "photo"):
+        wide = run_node("SourceRead", {"table": "source.yaml", "variants": 2, "variant_labels": mix},
+                        graph_dir=tmp_path)
+        assert wide.shape == (112, 384)
+        ox, oy = wide["origin.x"].astype(int), wide["origin.y"].astype(int)
+        np.testing.assert_array_equal(wide["label.id"], wide["label.id"][:, :128][oy, ox])  # labels at the pointers
+        shares[mix] = (wide["label.id"][:, 128:] == 2).mean()
+    # even: half of each variant from a window mostly water (33 rows at least: 28 / 33 water)
+    assert shares["even"] > 0.38 and shares["photo"] < 0.3
 
 
 def test_texture_synth_runs_the_hybrid_core(tmp_path):
