@@ -37,6 +37,7 @@ class Resynthesize(FloodFill, Correction, PoissonSolve, Progressive, Node):
     seed = Param(int, 0, doc="seed of the flood fill (combined with the frame number) and of the similarity sets")
     solve = Param(bool, True, doc="finish with the restricted Poisson solve (Dirichlet outside the flagged pixels); "
                                   "false leaves it to a Poisson node with keep")
+    extend_correction = Param(bool, False, doc="EXPERIMENT")
     sor_thickness = Param(float, 32.0, min=0.0,
                           doc="restricted-Poisson regions at most this thick (2 x area / perimeter, pixels) are "
                               "solved by SOR on their own pixels, not by multigrid in a window around them (the "
