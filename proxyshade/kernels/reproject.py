@@ -35,6 +35,12 @@ from proxyshade.kernels.raster import bin_rows_parallel
 from proxyshade.kernels.temporal import jacobian_det
 
 
+# Records the carry's kernels take (issue 40: no long positional lists). The kernels receive
+# them as plain tuples (``tuple(record)``) and unpack them in field order: the kernel
+# manifest (graph.warmup) writes argument types as evaluable numba reprs, which a named
+# tuple's type is not.
+
+
 class Landing(NamedTuple):
     """Where each pixel of one camera lands in another (``transfer``): column ``u``, row
     ``v``, inverse depth ``q`` there (float64) and ``ok`` (bool), all (H, W)."""
@@ -537,9 +543,8 @@ def gather_prev(u, v, q, ok, lab, prev_w, prev_lab, prev_patch, prev_sx, prev_sy
 
     Returns valid (bool), sx, sy (float32), patch (uint32), residual (float32 ×3),
     distortion (float32), all (H, W). ``gather_prev_planes`` with the residual's planes."""
-    return gather_prev_planes(Landing(u, v, q, ok), lab,
-                              PrevState(prev_w, prev_lab, prev_patch, prev_sx, prev_sy, prev_res[:, :, 0],
-                                        prev_res[:, :, 1], prev_res[:, :, 2], prev_d), tol, scale)
+    return gather_prev_planes((u, v, q, ok), lab, (prev_w, prev_lab, prev_patch, prev_sx, prev_sy, prev_res[:, :, 0],
+                                                   prev_res[:, :, 1], prev_res[:, :, 2], prev_d), tol, scale)
 
 
 @njit(**PJIT)
@@ -549,9 +554,8 @@ def gather_prev_planes(land, lab, prev, tol, scale):
     three (H, W) planes, a plate's ``correction.R/G/B`` as they are, no (H, W, 3) stack;
     ``scalar`` the plane carried as the distortion). Returns valid, sx, sy, patch,
     residual, scalar (``gather_prev``'s)."""
-    u, v, q, ok = land.u, land.v, land.q, land.ok
-    prev_w, prev_lab, prev_patch, prev_sx, prev_sy = prev.w, prev.label, prev.patch, prev.sx, prev.sy
-    pr0, pr1, pr2, prev_d = prev.r0, prev.r1, prev.r2, prev.scalar
+    u, v, q, ok = land
+    prev_w, prev_lab, prev_patch, prev_sx, prev_sy, pr0, pr1, pr2, prev_d = prev
     h, wd = u.shape
     hp, wp = prev_w.shape
     valid = np.empty((h, wd), np.bool_)  # every element written (no zeroing pass first)
@@ -907,11 +911,10 @@ def anchor_seams(land, valid, lab, prev, first, tol, scale, match, out):
     position is that pixel's translation continued; residual and distortion are bilinear
     over the 2×2 pixels of that patch (renormalised), as in ``gather_prev``. Pixels whose
     first-frame patch is gone (resynthesized, re-anchored) are left as they are."""
-    u, v, q = land.u, land.v, land.q
-    prev_w, prev_lab, prev_patch, prev_sx, prev_sy = prev.w, prev.label, prev.patch, prev.sx, prev.sy
-    pr0, pr1, pr2, prev_d = prev.r0, prev.r1, prev.r2, prev.scalar
-    fok, fpatch, fsx, fsy = first.ok, first.patch, first.sx, first.sy
-    sx, sy, patch, res, dist = out.sx, out.sy, out.patch, out.res, out.scalar
+    u, v, q, _ = land
+    prev_w, prev_lab, prev_patch, prev_sx, prev_sy, pr0, pr1, pr2, prev_d = prev
+    fok, fpatch, fsx, fsy = first
+    sx, sy, patch, res, dist = out
     h, wd = u.shape
     hp, wp = prev_w.shape
     for i in prange(h):

@@ -565,7 +565,8 @@ def continue_filled(filled, valid, ext, src_lab, sx, sy, lab, extend_frames):
 
 
 class FlagCodes(NamedTuple):
-    """The flag values ``flag_reasons`` writes (uint32)."""
+    """The flag values ``flag_reasons`` writes (uint32; passed as a plain tuple, see
+    ``reproject.Landing``)."""
     disoccluded: np.uint32
     newly: np.uint32
     distorted: np.uint32
@@ -583,8 +584,8 @@ def flag_reasons(have, absorbed, distorted, src_lab, sx, sy, lab, margin, cat, c
     is ``cat_c`` (``ok``) and the pixel lands (``u``, ``v``) outside the previous image or
     on a pixel of another label. Returns (raw
     flags uint32, stray bool)."""
-    u, v, ok = land.u, land.v, land.ok
-    disoccluded, newly, dist_flag, reanchored = codes.disoccluded, codes.newly, codes.distorted, codes.reanchored
+    u, v, _, ok = land
+    disoccluded, newly, dist_flag, reanchored = codes
     h, w = have.shape
     hp, wp = prev_lab.shape
     raw = np.empty((h, w), np.uint32)

@@ -230,7 +230,7 @@ def carry(cd: Plate, prev: Plate | None, first: Plate | None, source: Plate, p, 
                          np.ascontiguousarray(prev["patch.id"], np.uint32),
                          prev["source.x"].astype(np.float32, copy=False),
                          prev["source.y"].astype(np.float32, copy=False), *planes, prev_ext)
-    valid, sx, sy, patch, res, ext = kr.gather_prev_planes(land, lab, state, tol, scale)
+    valid, sx, sy, patch, res, ext = kr.gather_prev_planes(tuple(land), lab, tuple(state), tol, scale)
     if getattr(p, "anchor", False) and first is not None and first is not prev and "patch.id" in first:
         anchor_first_seams(cd, first, k1, w1, lab, land, valid, state, tol, scale,
                            kr.Carried(sx, sy, patch, res, ext))
@@ -256,7 +256,7 @@ def carry(cd: Plate, prev: Plate | None, first: Plate | None, source: Plate, p, 
     # resynthesized, however few there are (stray); disoccluded; newly occluded
     raw, stray = kt.flag_reasons(np.ascontiguousarray(have, np.bool_), absorbed, distorted, src_lab, sx, sy, lab, 0.5,
                                  np.ascontiguousarray(cat, np.uint32), np.uint32(CATEGORY_C),
-                                 land, state.label, FLAG_CODES)
+                                 tuple(land), state.label, tuple(FLAG_CODES))
     # clean_flags, then unflagged pixels with nothing to carry (dropped as isolated) disoccluded,
     # off their label distorted, and the counts per flag, in one pass
     flag, nflag = kt.clean_flags(raw, int(p.isolated_radius), int(p.min_neighbours), int(p.dilate),
@@ -310,7 +310,7 @@ def anchor_first_seams(cd: Plate, first: Plate, k1: np.ndarray, w1: np.ndarray, 
                                                np.ascontiguousarray(first["patch.id"], np.uint32),
                                                first["source.x"].astype(np.float32, copy=False),
                                                first["source.y"].astype(np.float32, copy=False), tol, scale))
-    kr.anchor_seams(land, valid, lab, prev, fp, tol, scale, 0.01 * max(scale, 1.0), out)
+    kr.anchor_seams(tuple(land), valid, lab, tuple(prev), tuple(fp), tol, scale, 0.01 * max(scale, 1.0), tuple(out))
 
 
 def _carried_meta(state: Plate, cd: Plate) -> dict:
