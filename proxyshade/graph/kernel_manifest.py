@@ -3,34 +3,34 @@
 (kernel, argument types, compile seconds, (kernel, argument types) compiled inside);
 CALLERS: the node type whose compute first called each entry (by index)."""
 ENTRIES = [
-    ('proxyshade.kernels.raster._setup', "(Array(float64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), float64, float64, float64, float64, float64, bool, int64, int64, int64)", 9.69, (
+    ('proxyshade.kernels.raster._setup', "(Array(float64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), float64, float64, float64, float64, float64, bool, int64, int64, int64)", 19.17, (
         ('proxyshade.kernels.raster._clip', "(Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True))"),
         ('proxyshade.kernels.raster._planes', '(float64, float64, float64, float64, float64, bool, int64, int64)'),
         ('proxyshade.kernels.raster._project', "(Array(float64, 1, 'C', False, aligned=True), float64, float64, float64, float64, bool)"),
         ('proxyshade.kernels.raster._setup_chunk', "(Array(float64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), int64, int64, Array(float64, 2, 'C', False, aligned=True), float64, float64, float64, float64, bool, int64, int64, bool, Array(int64, 1, 'C', False, aligned=True), Array(int64, 3, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True))"),
         ('proxyshade.kernels.raster._setup_one', "(Array(float64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), int64, Array(float64, 2, 'C', False, aligned=True), float64, float64, float64, float64, bool, int64, int64, Array(float64, 3, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), bool, int64, Array(int64, 3, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True))"),
     )),
-    ('proxyshade.kernels.raster._bin_count', "(Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), int64, Array(int64, 2, 'C', False, aligned=True))", 0.36, (
+    ('proxyshade.kernels.raster._bin_count', "(Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), int64, Array(int64, 2, 'C', False, aligned=True))", 0.69, (
     )),
-    ('proxyshade.kernels.raster._bin_fill', "(Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), int64, Array(int64, 2, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True))", 0.44, (
+    ('proxyshade.kernels.raster._bin_fill', "(Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), int64, Array(int64, 2, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True))", 0.8, (
     )),
-    ('proxyshade.kernels.raster._raster_bands', "(Array(int64, 3, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), int64, int64, Array(float64, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True))", 1.15, (
+    ('proxyshade.kernels.raster._raster_bands', "(Array(int64, 3, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), int64, int64, Array(float64, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True))", 2.15, (
         ('proxyshade.kernels.raster._owns', '(int64, int64, int64, int64)'),
     )),
-    ('proxyshade.kernels.raster._interpolate', "(Array(float64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), float64, bool, Array(float32, 3, 'C', False, aligned=True))", 0.57, (
+    ('proxyshade.kernels.raster._interpolate', "(Array(float64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), float64, bool, Array(float32, 3, 'C', False, aligned=True))", 1.26, (
     )),
-    ('proxyshade.kernels.voting._vote_blocks', "(Array(int32, 2, 'C', False, aligned=True), int64, int64, Array(int32, 2, 'C', False, aligned=True))", 0.48, (
+    ('proxyshade.kernels.voting._vote_blocks', "(Array(int32, 2, 'C', False, aligned=True), int64, int64, Array(int32, 2, 'C', False, aligned=True))", 1.04, (
     )),
-    ('proxyshade.kernels.voting._vote_stack_level', "(Array(int32, 2, 'C', False, aligned=True), int64, int64, Array(int32, 2, 'C', False, aligned=True))", 0.57, (
+    ('proxyshade.kernels.voting._vote_stack_level', "(Array(int32, 2, 'C', False, aligned=True), int64, int64, Array(int32, 2, 'C', False, aligned=True))", 1.37, (
     )),
-    ('proxyshade.kernels.features._windows', "(Array(int32, 2, 'C', False, aligned=True), int64, Array(int32, 3, 'C', False, aligned=True))", 0.4, (
+    ('proxyshade.kernels.features._windows', "(Array(int32, 2, 'C', False, aligned=True), int64, Array(int32, 3, 'C', False, aligned=True))", 0.53, (
     )),
-    ('proxyshade.kernels.chamfer._masks_from_windows', "(Array(int32, 3, 'C', False, aligned=True), int64, Array(uint32, 3, 'C', False, aligned=True))", 0.55, (
+    ('proxyshade.kernels.chamfer._masks_from_windows', "(Array(int32, 3, 'C', False, aligned=True), int64, Array(uint32, 3, 'C', False, aligned=True))", 0.98, (
     )),
-    ('proxyshade.kernels.random.rand', '(uint64, uint64, int64, int64)', 0.07, (
+    ('proxyshade.kernels.random.rand', '(uint64, uint64, int64, int64)', 0.15, (
         ('proxyshade.kernels.random._mix', '(uint64,)'),
     )),
-    ('proxyshade.kernels.guide.similarity_sets', "(Array(int32, 2, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), int64, int64, int64, int64, int64)", 2.57, (
+    ('proxyshade.kernels.guide.similarity_sets', "(Array(int32, 2, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), int64, int64, int64, int64, int64)", 4.84, (
         ('proxyshade.kernels.chamfer.chamfer_bounded', "(Array(uint32, 1, 'C', False, aligned=True), Array(uint32, 1, 'C', False, aligned=True), int64)"),
         ('proxyshade.kernels.chamfer.chamfer_masks', "(Array(uint32, 1, 'C', False, aligned=True), Array(uint32, 1, 'C', False, aligned=True))"),
         ('proxyshade.kernels.chamfer.dilate', '(int64,)'),
@@ -43,47 +43,47 @@ ENTRIES = [
         ('proxyshade.kernels.random.rand', '(int64, int64, int64, Literal[int](0))'),
         ('proxyshade.kernels.random.uniform', '(int64, int64, int64, Literal[int](0))'),
     )),
-    ('proxyshade.kernels.patch._label_lists', "(Array(int32, 2, 'C', False, aligned=True), int64)", 0.16, (
+    ('proxyshade.kernels.patch._label_lists', "(Array(int32, 2, 'C', False, aligned=True), int64)", 0.63, (
     )),
-    ('proxyshade.kernels.guide._init_state', "(Array(int32, 2, 'C', False, aligned=True), int64, int64, Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), int64)", 0.44, (
+    ('proxyshade.kernels.guide._init_state', "(Array(int32, 2, 'C', False, aligned=True), int64, int64, Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), int64)", 0.79, (
         ('proxyshade.kernels.random.rand', '(int64, uint64, int64, Literal[int](0))'),
         ('proxyshade.kernels.random.uniform', '(int64, uint64, int64, Literal[int](0))'),
     )),
-    ('proxyshade.kernels.guide._subpass', "(Array(int32, 3, 'C', False, aligned=True), Array(int32, 3, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), int64, int64, Array(int32, 2, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(int32, 4, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), int64, float64, int64, int64)", 2.58, (
+    ('proxyshade.kernels.guide._subpass', "(Array(int32, 3, 'C', False, aligned=True), Array(int32, 3, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), int64, int64, Array(int32, 2, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(int32, 4, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), int64, float64, int64, int64)", 4.27, (
         ('proxyshade.kernels.guide._candidate', "(int64, int64, int64, Array(int32, 3, 'C', False, aligned=True), Array(int32, 4, 'C', False, aligned=True), int64, int64, int64, int64, int64, int64)"),
         ('proxyshade.kernels.guide._color_window', "(Array(float64, 3, 'C', False, aligned=True), int32, int32, int64, Array(float64, 1, 'C', False, aligned=True))"),
     )),
-    ('proxyshade.kernels.guide.upsample_state', "(Array(int32, 3, 'C', False, aligned=True), int64, int64, int64, int64, int64)", 0.28, (
+    ('proxyshade.kernels.guide.upsample_state', "(Array(int32, 3, 'C', False, aligned=True), int64, int64, int64, int64, int64)", 0.56, (
     )),
-    ('proxyshade.kernels.jfa._pass', "(Array(int64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), int64, float64, Array(int64, 1, 'C', False, aligned=True))", 0.56, (
+    ('proxyshade.kernels.jfa._pass', "(Array(int64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), int64, float64, Array(int64, 1, 'C', False, aligned=True))", 0.92, (
         ('proxyshade.kernels.jfa._cost', '(int64, int64, int64, int64, int64, int64, float64)'),
     )),
-    ('proxyshade.kernels.edit.paste_depth', "(Array(bool, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), int64, int64, int64, Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True))", 0.41, (
+    ('proxyshade.kernels.edit.paste_depth', "(Array(bool, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), int64, int64, int64, Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True))", 1.01, (
     )),
-    ('proxyshade.kernels.edit.paste_unproject', "(Array(bool, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), int64, int64, Array(float64, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))", 0.75, (
+    ('proxyshade.kernels.edit.paste_unproject', "(Array(bool, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), int64, int64, Array(float64, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))", 0.89, (
     )),
-    ('proxyshade.kernels.edit.paste_follow', "(Array(bool, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), int64, int64, Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))", 0.3, (
+    ('proxyshade.kernels.edit.paste_follow', "(Array(bool, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), int64, int64, Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))", 0.53, (
     )),
-    ('proxyshade.kernels.edit.paste_follow', "(Array(bool, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), int64, int64, Array(uint32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True))", 0.3, (
+    ('proxyshade.kernels.edit.paste_follow', "(Array(bool, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), int64, int64, Array(uint32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True))", 0.5, (
     )),
-    ('proxyshade.kernels.features._area_resample', "(Array(float32, 3, 'C', False, aligned=True), int64, int64, float64, Array(float32, 3, 'C', False, aligned=True))", 0.96, (
+    ('proxyshade.kernels.features._area_resample', "(Array(float32, 3, 'C', False, aligned=True), int64, int64, float64, Array(float32, 3, 'C', False, aligned=True))", 1.52, (
     )),
-    ('proxyshade.kernels.features._mode_resample', "(Array(int32, 2, 'C', False, aligned=True), int64, int64, float64, int64, Array(int32, 2, 'C', False, aligned=True))", 0.63, (
+    ('proxyshade.kernels.features._mode_resample', "(Array(int32, 2, 'C', False, aligned=True), int64, int64, float64, int64, Array(int32, 2, 'C', False, aligned=True))", 1.05, (
     )),
-    ('proxyshade.kernels.distance._contour_mask', "(Array(int32, 2, 'C', False, aligned=True),)", 0.82, (
+    ('proxyshade.kernels.distance._contour_mask', "(Array(int32, 2, 'C', False, aligned=True),)", 1.4, (
     )),
-    ('proxyshade.kernels.distance._edt_sq', "(Array(bool, 2, 'C', False, aligned=True),)", 2.38, (
+    ('proxyshade.kernels.distance._edt_sq', "(Array(bool, 2, 'C', False, aligned=True),)", 3.99, (
         ('proxyshade.kernels.distance._envelope_1d_arg', "(Array(int64, 1, 'C', False, aligned=True), int64, Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True))"),
         ('proxyshade.kernels.distance._nearest_site', "(Array(bool, 2, 'C', False, aligned=True),)"),
     )),
-    ('proxyshade.kernels.distance._sqrt_clamped', "(Array(int64, 2, 'C', False, aligned=True), float64, Array(float32, 2, 'C', False, aligned=True))", 0.24, (
+    ('proxyshade.kernels.distance._sqrt_clamped', "(Array(int64, 2, 'C', False, aligned=True), float64, Array(float32, 2, 'C', False, aligned=True))", 0.42, (
     )),
-    ('proxyshade.kernels.features._heights', "(Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True))", 0.36, (
+    ('proxyshade.kernels.features._heights', "(Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True))", 0.6, (
     )),
-    ('proxyshade.kernels.random._keys', '(int64, int64)', 0.1, (
+    ('proxyshade.kernels.random._keys', '(int64, int64)', 0.57, (
         ('proxyshade.kernels.random.rand', '(int64, int64, Literal[int](0), Literal[int](0))'),
     )),
-    ('proxyshade.kernels.patch._flood_fill', "(Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float64, Array(int64, 1, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(int32, 3, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), int64, float64, float64, float64, int64)", 5.35, (
+    ('proxyshade.kernels.patch._flood_fill', "(Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float64, Array(int64, 1, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(int32, 3, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), int64, float64, float64, float64, int64)", 9.35, (
         ('proxyshade.kernels.features.dist_sq_D', "(Array(float32, 2, 'C', False, aligned=True), Literal[int](1), int64, int64, Array(float32, 1, 'C', False, aligned=True), float64)"),
         ('proxyshade.kernels.features.gather_target', "(Array(float32, 2, 'C', False, aligned=True), int64, int64, Array(float32, 1, 'C', False, aligned=True))"),
         ('proxyshade.kernels.patch._best_by_window', "(Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(bool, 1, 'C', False, aligned=True), int64, int64, Array(float32, 2, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 1, 'C', False, aligned=True), Array(uint32, 1, 'C', False, aligned=True), float32, float64, float64, float64, int64, Array(int64, 1, 'C', False, aligned=True), int64, int64)"),
@@ -97,60 +97,60 @@ ENTRIES = [
         ('proxyshade.kernels.patch._window_groups', "(Array(uint32, 3, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True))"),
         ('proxyshade.kernels.random.rand', '(int64, int64, Literal[int](23719), Literal[int](0))'),
     )),
-    ('proxyshade.kernels.lookup._bilinear', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 0.41, (
+    ('proxyshade.kernels.lookup._bilinear', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 0.72, (
     )),
-    ('proxyshade.kernels.features._box_blur_centred', "(Array(float32, 3, 'C', False, aligned=True), int64, Array(float32, 3, 'C', False, aligned=True))", 0.89, (
+    ('proxyshade.kernels.features._box_blur_centred', "(Array(float32, 3, 'C', False, aligned=True), int64, Array(float32, 3, 'C', False, aligned=True))", 1.56, (
     )),
-    ('proxyshade.kernels.correct._knn_init', "(Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float64, int64, int64, int64, float64, int64, Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int32, 3, 'C', False, aligned=True), Array(int32, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True))", 1.98, (
+    ('proxyshade.kernels.correct._knn_init', "(Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float64, int64, int64, int64, float64, int64, Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int32, 3, 'C', False, aligned=True), Array(int32, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True))", 3.68, (
         ('proxyshade.kernels.correct._ex_dist', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float64, int64, int64, int64, int64, int64, float64, float64)"),
         ('proxyshade.kernels.correct._ex_dist', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float64, int64, uint64, int64, int64, int64, float64, float64)"),
         ('proxyshade.kernels.correct._insert', "(Array(int32, 1, 'C', False, aligned=True), Array(int32, 1, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), int64, int64, int64, float64)"),
         ('proxyshade.kernels.random.rand', '(int64, int64, int64, int64)'),
     )),
-    ('proxyshade.kernels.correct._knn_iter', "(Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float64, int64, int64, int64, float64, int64, int64, Array(int32, 3, 'C', False, aligned=True), Array(int32, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(int32, 3, 'C', False, aligned=True), Array(int32, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True))", 1.61, (
+    ('proxyshade.kernels.correct._knn_iter', "(Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float64, int64, int64, int64, float64, int64, int64, Array(int32, 3, 'C', False, aligned=True), Array(int32, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(int32, 3, 'C', False, aligned=True), Array(int32, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True))", 4.66, (
     )),
-    ('proxyshade.kernels.correct._knn_rescore', "(Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float64, int64, int64, int64, float64, Array(int32, 3, 'C', False, aligned=True), Array(int32, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True))", 1.77, (
+    ('proxyshade.kernels.correct._knn_rescore', "(Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float64, int64, int64, int64, float64, Array(int32, 3, 'C', False, aligned=True), Array(int32, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True))", 3.74, (
         ('proxyshade.kernels.correct._ex_dist', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float64, int64, int64, int64, int32, int32, float64, float64)"),
         ('proxyshade.kernels.correct._ex_dist', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float64, int64, uint64, int64, int32, int32, float64, float64)"),
         ('proxyshade.kernels.correct._insert', "(Array(int32, 1, 'C', False, aligned=True), Array(int32, 1, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), int64, int32, int32, float64)"),
     )),
-    ('proxyshade.kernels.correct._downsample', "(Array(int32, 3, 'C', False, aligned=True), int64, int64, int64, int64, int64, Array(int32, 3, 'C', False, aligned=True))", 0.34, (
+    ('proxyshade.kernels.correct._downsample', "(Array(int32, 3, 'C', False, aligned=True), int64, int64, int64, int64, int64, Array(int32, 3, 'C', False, aligned=True))", 0.59, (
     )),
-    ('proxyshade.kernels.correct._usage_excess', "(Array(int32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), int64, Array(float64, 2, 'C', False, aligned=True))", 0.58, (
+    ('proxyshade.kernels.correct._usage_excess', "(Array(int32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), int64, Array(float64, 2, 'C', False, aligned=True))", 1.1, (
     )),
-    ('proxyshade.kernels.correct._subpass', "(Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float64, Array(int32, 4, 'C', False, aligned=True), Array(int32, 3, 'C', False, aligned=True), Array(int32, 3, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), int64, int64, int64, int64, float64, bool, float64, Array(float64, 2, 'C', False, aligned=True), float64, Array(int64, 2, 'C', False, aligned=True))", 3.27, (
+    ('proxyshade.kernels.correct._subpass', "(Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float64, Array(int32, 4, 'C', False, aligned=True), Array(int32, 3, 'C', False, aligned=True), Array(int32, 3, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), int64, int64, int64, int64, float64, bool, float64, Array(float64, 2, 'C', False, aligned=True), float64, Array(int64, 2, 'C', False, aligned=True))", 5.9, (
         ('proxyshade.kernels.correct._cand_dist', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float32, float64, int64, int64, int64, int64, int64, Array(float32, 1, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float64, bool, float64)"),
         ('proxyshade.kernels.correct.rejected', "(Array(int32, 3, 'C', False, aligned=True), int64, int64, int64, int64, int64, int64)"),
         ('proxyshade.kernels.features.dist_sq_D', "(Array(float32, 2, 'C', False, aligned=True), int64, int64, int64, Array(float32, 1, 'C', False, aligned=True), float64)"),
         ('proxyshade.kernels.features.dist_sq_rgb', "(Array(float32, 3, 'C', False, aligned=True), int64, int64, int64, Array(float32, 2, 'C', False, aligned=True), float64)"),
     )),
-    ('proxyshade.kernels.correct._upsample', "(Array(int32, 3, 'C', False, aligned=True), int64, int64, int64, int64, int64, Array(int32, 3, 'C', False, aligned=True))", 0.32, (
+    ('proxyshade.kernels.correct._upsample', "(Array(int32, 3, 'C', False, aligned=True), int64, int64, int64, int64, int64, Array(int32, 3, 'C', False, aligned=True))", 0.65, (
     )),
-    ('proxyshade.kernels.magnify._label_ok', "(Array(int32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True))", 0.39, (
+    ('proxyshade.kernels.magnify._label_ok', "(Array(int32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True))", 0.72, (
     )),
-    ('proxyshade.kernels.magnify._front_steps', "(Array(int32, 3, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), int64)", 0.77, (
+    ('proxyshade.kernels.magnify._front_steps', "(Array(int32, 3, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), int64)", 1.43, (
     )),
-    ('proxyshade.kernels.patch._offset_components', "(Array(int64, 3, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True))", 0.18, (
+    ('proxyshade.kernels.patch._offset_components', "(Array(int64, 3, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True))", 0.3, (
     )),
-    ('proxyshade.kernels.magnify._magnify', "(Array(int32, 3, 'C', False, aligned=True), int64, int64, int64, Array(int32, 3, 'C', False, aligned=True))", 0.71, (
+    ('proxyshade.kernels.magnify._magnify', "(Array(int32, 3, 'C', False, aligned=True), int64, int64, int64, Array(int32, 3, 'C', False, aligned=True))", 0.69, (
     )),
-    ('proxyshade.kernels.poisson._rhs', "(Array(float32, 3, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 0.57, (
+    ('proxyshade.kernels.poisson._rhs', "(Array(float32, 3, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 1.72, (
     )),
-    ('proxyshade.kernels.stencil.fine_operator', "(Array(bool, 2, 'C', False, aligned=True), float32)", 1.0, (
+    ('proxyshade.kernels.stencil.fine_operator', "(Array(bool, 2, 'C', False, aligned=True), float32)", 1.73, (
     )),
-    ('proxyshade.kernels.multigrid._coarsen', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float32)", 1.28, (
+    ('proxyshade.kernels.multigrid._coarsen', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float32)", 1.68, (
     )),
-    ('proxyshade.kernels.multigrid._residual', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 0.58, (
+    ('proxyshade.kernels.multigrid._residual', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 1.49, (
     )),
-    ('proxyshade.kernels.multigrid._dot3', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True))", 0.54, (
+    ('proxyshade.kernels.multigrid._dot3', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True))", 0.92, (
     )),
-    ('proxyshade.kernels.multigrid._jacobi_start', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), int64)", 0.37, (
+    ('proxyshade.kernels.multigrid._jacobi_start', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), int64)", 0.66, (
     )),
-    ('proxyshade.kernels.multigrid._smooth', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), int64)", 0.84, (
+    ('proxyshade.kernels.multigrid._smooth', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), int64)", 1.47, (
     )),
-    ('proxyshade.kernels.multigrid._residual_restrict', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 0.89, (
+    ('proxyshade.kernels.multigrid._residual_restrict', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 2.07, (
     )),
-    ('proxyshade.kernels.multigrid._vcycle_serial', "(Array(float32, 1, 'C', False, aligned=True), Array(float32, 1, 'C', False, aligned=True), Array(float32, 1, 'C', False, aligned=True), Array(float32, 1, 'C', False, aligned=True), Array(float32, 1, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), int64, int64)", 2.89, (
+    ('proxyshade.kernels.multigrid._vcycle_serial', "(Array(float32, 1, 'C', False, aligned=True), Array(float32, 1, 'C', False, aligned=True), Array(float32, 1, 'C', False, aligned=True), Array(float32, 1, 'C', False, aligned=True), Array(float32, 1, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), int64, int64)", 5.76, (
         ('proxyshade.kernels.multigrid._coarse_solve', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), int64)"),
         ('proxyshade.kernels.multigrid._jacobi_start_serial', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Literal[int](0))"),
         ('proxyshade.kernels.multigrid._prolong_add_serial', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float64)"),
@@ -158,137 +158,137 @@ ENTRIES = [
         ('proxyshade.kernels.multigrid._smooth_serial', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Literal[int](0))"),
         ('proxyshade.kernels.multigrid._smooth_serial', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Literal[int](1))"),
     )),
-    ('proxyshade.kernels.multigrid._prolong_add', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float64)", 0.29, (
+    ('proxyshade.kernels.multigrid._prolong_add', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float64)", 0.5, (
     )),
-    ('proxyshade.kernels.multigrid._matvec_dot', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True))", 1.26, (
+    ('proxyshade.kernels.multigrid._matvec_dot', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True))", 1.6, (
     )),
-    ('proxyshade.kernels.multigrid._cg_update', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True))", 0.63, (
+    ('proxyshade.kernels.multigrid._cg_update', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True))", 1.84, (
     )),
-    ('proxyshade.kernels.multigrid._xpby3', "(Array(float32, 3, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 0.35, (
+    ('proxyshade.kernels.multigrid._xpby3', "(Array(float32, 3, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 0.62, (
     )),
-    ('proxyshade.kernels.cryptomatte._rank', "(Array(uint32, 2, 'C', False, aligned=True), int64, Array(float32, 1, 'C', False, aligned=True), int64, Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 0.89, (
+    ('proxyshade.kernels.cryptomatte._rank', "(Array(uint32, 2, 'C', False, aligned=True), int64, Array(float32, 1, 'C', False, aligned=True), int64, Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 2.19, (
     )),
-    ('proxyshade.kernels.shadow._pcf', "(Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), int64, float64, Array(float64, 2, 'C', False, aligned=True))", 0.66, (
+    ('proxyshade.kernels.shadow._pcf', "(Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), int64, float64, Array(float64, 2, 'C', False, aligned=True))", 1.24, (
         ('proxyshade.kernels.shadow._occluded', "(Array(float64, 2, 'C', False, aligned=True), int64, int64, float64, float64)"),
     )),
-    ('proxyshade.kernels.reproject._inverse_depth', "(Array(float32, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True))", 0.56, (
+    ('proxyshade.kernels.reproject._inverse_depth', "(Array(float32, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True))", 0.35, (
     )),
-    ('proxyshade.kernels.reproject.grid_corners', "(Array(float64, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), float64)", 3.8, (
+    ('proxyshade.kernels.reproject.grid_corners', "(Array(float64, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), float64)", 6.73, (
         ('proxyshade.kernels.reproject._connected', "(Array(float64, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), int64, int64, int64, int64, float64)"),
         ('proxyshade.kernels.reproject._links', "(Array(float64, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), float64)"),
         ('proxyshade.kernels.reproject.same_surface', '(float64, float64, float64)'),
     )),
-    ('proxyshade.kernels.reproject._quad_rows', "(Array(float64, 3, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), float64, int64, int64, float64)", 2.44, (
+    ('proxyshade.kernels.reproject._quad_rows', "(Array(float64, 3, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), float64, int64, int64, float64)", 4.87, (
         ('proxyshade.kernels.reproject._quad', "(Array(float64, 3, 'C', False, aligned=True), int64, int64, Array(float64, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), float64, Array(float64, 2, 'C', False, aligned=True))"),
         ('proxyshade.kernels.reproject._quad', "(Array(float64, 3, 'C', False, aligned=True), uint64, int64, Array(float64, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), float64, Array(float64, 2, 'C', False, aligned=True))"),
         ('proxyshade.kernels.reproject._quad_after', "(Array(float64, 3, 'C', False, aligned=True), int64, int64, Array(float64, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), float64, Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True))"),
         ('proxyshade.kernels.reproject._quad_after', "(Array(float64, 3, 'C', False, aligned=True), uint64, int64, Array(float64, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), float64, Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True))"),
     )),
-    ('proxyshade.kernels.raster._bin_count', "(Array(int32, 1, 'C', False, aligned=True), Array(int32, 1, 'C', False, aligned=True), int64, Array(int64, 2, 'C', False, aligned=True))", 0.75, (
+    ('proxyshade.kernels.raster._bin_count', "(Array(int32, 1, 'C', False, aligned=True), Array(int32, 1, 'C', False, aligned=True), int64, Array(int64, 2, 'C', False, aligned=True))", 0.6, (
     )),
-    ('proxyshade.kernels.raster._bin_fill', "(Array(int32, 1, 'C', False, aligned=True), Array(int32, 1, 'C', False, aligned=True), int64, Array(int64, 2, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True))", 0.41, (
+    ('proxyshade.kernels.raster._bin_fill', "(Array(int32, 1, 'C', False, aligned=True), Array(int32, 1, 'C', False, aligned=True), int64, Array(int64, 2, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True))", 0.6, (
     )),
-    ('proxyshade.kernels.reproject._splat_bands', "(Array(float64, 3, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), float64, int64, int64, int64, Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True))", 1.14, (
+    ('proxyshade.kernels.reproject._splat_bands', "(Array(float64, 3, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), float64, int64, int64, int64, Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True))", 2.76, (
         ('proxyshade.kernels.reproject._edge', '(float64, float64, float64, float64, float64, float64)'),
         ('proxyshade.kernels.reproject._tri_area', "(Array(float64, 2, 'C', False, aligned=True), Literal[int](0), Literal[int](1), Literal[int](3), float64, float64, float64)"),
         ('proxyshade.kernels.reproject._tri_area', "(Array(float64, 2, 'C', False, aligned=True), Literal[int](0), Literal[int](3), Literal[int](2), float64, float64, float64)"),
     )),
-    ('proxyshade.kernels.reproject._stale', "(Array(float64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), float64, int64, int64, Array(bool, 2, 'C', False, aligned=True))", 0.45, (
+    ('proxyshade.kernels.reproject._stale', "(Array(float64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), float64, int64, int64, Array(bool, 2, 'C', False, aligned=True))", 0.84, (
     )),
-    ('proxyshade.kernels.reproject.classify', "(Array(int64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), float64)", 1.51, (
+    ('proxyshade.kernels.reproject.classify', "(Array(int64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), float64)", 2.84, (
     )),
-    ('proxyshade.kernels.layout._luma_encoded', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 0.36, (
+    ('proxyshade.kernels.layout._luma_encoded', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 0.66, (
     )),
-    ('proxyshade.kernels.layout._profile', "(Array(float32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), int64, int64, Array(float64, 3, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True))", 0.12, (
+    ('proxyshade.kernels.layout._profile', "(Array(float32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), int64, int64, Array(float64, 3, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True))", 0.29, (
     )),
-    ('proxyshade.kernels.layout._at_height', "(Array(float64, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 0.29, (
+    ('proxyshade.kernels.layout._at_height', "(Array(float64, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 0.68, (
     )),
-    ('proxyshade.kernels.layout._block_sums', "(Array(float32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), int64, int64, Array(float64, 4, 'C', False, aligned=True))", 0.1, (
+    ('proxyshade.kernels.layout._block_sums', "(Array(float32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), int64, int64, Array(float64, 4, 'C', False, aligned=True))", 0.18, (
     )),
-    ('proxyshade.kernels.layout._box_blocks', "(Array(float64, 4, 'C', False, aligned=True), int64)", 0.28, (
+    ('proxyshade.kernels.layout._box_blocks', "(Array(float64, 4, 'C', False, aligned=True), int64)", 0.48, (
     )),
-    ('proxyshade.kernels.layout._spread', "(Array(float64, 4, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), int64, Array(float32, 3, 'C', False, aligned=True))", 0.84, (
+    ('proxyshade.kernels.layout._spread', "(Array(float64, 4, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), int64, Array(float32, 3, 'C', False, aligned=True))", 0.85, (
     )),
-    ('proxyshade.kernels.layout._move_luma_chroma', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 0.41, (
+    ('proxyshade.kernels.layout._move_luma_chroma', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 0.7, (
     )),
-    ('proxyshade.kernels.layout._cctf_image', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), bool)", 0.47, (
+    ('proxyshade.kernels.layout._cctf_image', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), bool)", 1.67, (
     )),
-    ('proxyshade.kernels.grain._boxes', "(Array(int32, 2, 'C', False, aligned=True), int64)", 0.14, (
+    ('proxyshade.kernels.grain._boxes', "(Array(int32, 2, 'C', False, aligned=True), int64)", 0.28, (
     )),
-    ('proxyshade.kernels.grain._sat', "(Array(float32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), int64, int64, int64, int64, int64, int64, Array(float64, 3, 'C', False, aligned=True))", 0.91, (
+    ('proxyshade.kernels.grain._sat', "(Array(float32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), int64, int64, int64, int64, int64, int64, Array(float64, 3, 'C', False, aligned=True))", 1.6, (
     )),
-    ('proxyshade.kernels.grain._label_pass', "(Array(float32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), int64, int64, int64, Array(float64, 3, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), bool)", 1.49, (
+    ('proxyshade.kernels.grain._label_pass', "(Array(float32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), int64, int64, int64, Array(float64, 3, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), bool)", 2.04, (
     )),
-    ('proxyshade.kernels.grain._block_means', "(Array(float64, 3, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(float64, 4, 'C', False, aligned=True))", 0.41, (
+    ('proxyshade.kernels.grain._block_means', "(Array(float64, 3, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(float64, 4, 'C', False, aligned=True))", 0.75, (
     )),
-    ('proxyshade.kernels.grain._block_bins', "(Array(int32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), int64, int64, int64, int64, int64, int64, Array(int64, 3, 'C', False, aligned=True))", 0.37, (
+    ('proxyshade.kernels.grain._block_bins', "(Array(int32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), int64, int64, int64, int64, int64, int64, Array(int64, 3, 'C', False, aligned=True))", 1.56, (
     )),
-    ('proxyshade.kernels.grain._block_energy', "(Array(float64, 4, 'C', False, aligned=True), Array(int64, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True))", 0.35, (
+    ('proxyshade.kernels.grain._block_energy', "(Array(float64, 4, 'C', False, aligned=True), Array(int64, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True))", 0.63, (
     )),
-    ('proxyshade.kernels.grain._spread_pass', "(Array(float32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), int64, int64, int64, int64, int64, int64, Array(float64, 3, 'C', False, aligned=True), Array(float64, 4, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(float64, 4, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 1.54, (
+    ('proxyshade.kernels.grain._spread_pass', "(Array(float32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), int64, int64, int64, int64, int64, int64, Array(float64, 3, 'C', False, aligned=True), Array(float64, 4, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(float64, 4, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 2.82, (
     )),
-    ('proxyshade.kernels.reproject.transfer', "(Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), float64)", 1.18, (
+    ('proxyshade.kernels.reproject.transfer', "(Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), float64)", 1.67, (
     )),
-    ('proxyshade.kernels.lookup._lanczos_rgb', "(Array(float32, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 0.98, (
+    ('proxyshade.kernels.lookup._lanczos_rgb', "(Array(float32, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 2.91, (
         ('proxyshade.kernels.lookup._tap_start', '(float64, int64, int64, int64)'),
     )),
-    ('proxyshade.kernels.reproject.gather_prev_planes', "(Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float64, float64)", 1.22, (
+    ('proxyshade.kernels.reproject.gather_prev_planes', "(Tuple((Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True))), Array(uint32, 2, 'C', False, aligned=True), Tuple((Array(float64, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))), float64, float64)", 2.3, (
     )),
-    ('proxyshade.kernels.reproject.first_positions', "(Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float64, float64)", 1.3, (
+    ('proxyshade.kernels.reproject.first_positions', "(Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float64, float64)", 2.33, (
     )),
-    ('proxyshade.kernels.reproject.anchor_seams', "(Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), float64, float64, float64, Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))", 1.06, (
+    ('proxyshade.kernels.reproject.anchor_seams', "(Tuple((Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True))), Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Tuple((Array(float64, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))), Tuple((Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True))), float64, float64, float64, Tuple((Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))))", 1.99, (
     )),
-    ('proxyshade.kernels.reproject.fill_from_neighbours_into', "(Array(bool, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), int64, float64, Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))", 1.37, (
+    ('proxyshade.kernels.reproject.fill_from_neighbours_into', "(Array(bool, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), int64, float64, Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))", 2.71, (
     )),
-    ('proxyshade.kernels.temporal.continue_filled', "(Array(bool, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), float64)", 0.5, (
+    ('proxyshade.kernels.temporal.continue_filled', "(Array(bool, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), float64)", 1.18, (
     )),
-    ('proxyshade.kernels.temporal.map_deviation_patches', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), float64)", 1.0, (
+    ('proxyshade.kernels.temporal.map_deviation_patches', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), float64)", 1.89, (
     )),
-    ('proxyshade.kernels.temporal.patch_mean', "(Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), int64)", 0.14, (
+    ('proxyshade.kernels.temporal.patch_mean', "(Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), int64)", 0.21, (
     )),
-    ('proxyshade.kernels.random.uniform_field', "(int64, Array(uint32, 2, 'C', False, aligned=True))", 0.4, (
+    ('proxyshade.kernels.random.uniform_field', "(int64, Array(uint32, 2, 'C', False, aligned=True))", 0.82, (
         ('proxyshade.kernels.random.rand', '(int64, uint32, Literal[int](0), Literal[int](0))'),
         ('proxyshade.kernels.random.uniform', '(int64, uint32, Literal[int](0), Literal[int](0))'),
     )),
-    ('proxyshade.kernels.temporal.in_ids', "(Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(bool, 1, 'C', False, aligned=True))", 0.47, (
+    ('proxyshade.kernels.temporal.in_ids', "(Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(bool, 1, 'C', False, aligned=True))", 0.87, (
     )),
-    ('proxyshade.kernels.temporal.area_perimeter', "(Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), int64)", 0.15, (
+    ('proxyshade.kernels.temporal.area_perimeter', "(Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), int64)", 0.27, (
     )),
-    ('proxyshade.kernels.temporal.fits_label', "(Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True))", 1.02, (
+    ('proxyshade.kernels.temporal.fits_label', "(Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True))", 0.99, (
     )),
-    ('proxyshade.kernels.temporal.flag_reasons', "(Array(bool, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), float64, Array(uint32, 2, 'C', False, aligned=True), uint32, Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), uint32, uint32, uint32, uint32)", 1.75, (
+    ('proxyshade.kernels.temporal.flag_reasons', "(Array(bool, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), float64, Array(uint32, 2, 'C', False, aligned=True), uint32, Tuple((Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True))), Array(uint32, 2, 'C', False, aligned=True), UniTuple(uint32, 4))", 4.02, (
     )),
-    ('proxyshade.kernels.temporal.clean_flags', "(Array(uint32, 2, 'C', False, aligned=True), int64, int64, int64, Array(bool, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), int64, int64, int64)", 2.8, (
+    ('proxyshade.kernels.temporal.clean_flags', "(Array(uint32, 2, 'C', False, aligned=True), int64, int64, int64, Array(bool, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), int64, int64, int64)", 5.16, (
     )),
-    ('proxyshade.kernels.temporal.keep_carried', "(Array(uint32, 2, 'C', False, aligned=True), int64, Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), bool)", 0.85, (
+    ('proxyshade.kernels.temporal.keep_carried', "(Array(uint32, 2, 'C', False, aligned=True), int64, Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), bool)", 1.45, (
     )),
-    ('proxyshade.kernels.correct._block_any', "(Array(bool, 2, 'C', False, aligned=True), int64, Array(bool, 2, 'C', False, aligned=True))", 0.48, (
+    ('proxyshade.kernels.correct._block_any', "(Array(bool, 2, 'C', False, aligned=True), int64, Array(bool, 2, 'C', False, aligned=True))", 0.77, (
     )),
-    ('proxyshade.kernels.magnify._only_target', "(Array(int32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True))", 0.89, (
+    ('proxyshade.kernels.magnify._only_target', "(Array(int32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True))", 1.25, (
     )),
-    ('proxyshade.kernels.temporal.merge_redo', "(Array(bool, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), uint32, Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True))", 0.72, (
+    ('proxyshade.kernels.temporal.merge_redo', "(Array(bool, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), uint32, Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True))", 1.33, (
     )),
-    ('proxyshade.kernels.lookup._lanczos', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 1.24, (
+    ('proxyshade.kernels.lookup._lanczos', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 1.86, (
     )),
-    ('proxyshade.kernels.temporal.components4', "(Array(bool, 2, 'C', False, aligned=True),)", 0.52, (
+    ('proxyshade.kernels.temporal.components4', "(Array(bool, 2, 'C', False, aligned=True),)", 0.63, (
     )),
-    ('proxyshade.kernels.temporal.area_perimeter', "(Array(bool, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), int64)", 0.13, (
+    ('proxyshade.kernels.temporal.area_perimeter', "(Array(bool, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), int64)", 0.15, (
     )),
-    ('proxyshade.kernels.sor._dense_ranks', "(Array(int64, 1, 'C', False, aligned=True),)", 0.12, (
+    ('proxyshade.kernels.sor._dense_ranks', "(Array(int64, 1, 'C', False, aligned=True),)", 0.19, (
     )),
-    ('proxyshade.kernels.sor._group_order', "(Array(int64, 1, 'C', False, aligned=True), int64)", 0.1, (
+    ('proxyshade.kernels.sor._group_order', "(Array(int64, 1, 'C', False, aligned=True), int64)", 0.22, (
     )),
-    ('proxyshade.kernels.sor._list_neighbours', "(Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), int64, int64)", 0.2, (
+    ('proxyshade.kernels.sor._list_neighbours', "(Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), int64, int64)", 0.31, (
     )),
-    ('proxyshade.kernels.sor._seam_edges', "(Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float32)", 0.78, (
+    ('proxyshade.kernels.sor._seam_edges', "(Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float32)", 0.31, (
     )),
-    ('proxyshade.kernels.sor._rhs_at', "(Array(float32, 3, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float32, Array(float32, 2, 'C', False, aligned=True), Array(float32, 1, 'C', False, aligned=True))", 0.58, (
+    ('proxyshade.kernels.sor._rhs_at', "(Array(float32, 3, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float32, Array(float32, 2, 'C', False, aligned=True), Array(float32, 1, 'C', False, aligned=True))", 1.27, (
     )),
-    ('proxyshade.kernels.sor._sor_regions', "(Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(float32, 1, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float64, int64, int64, Array(int64, 1, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True))", 0.9, (
+    ('proxyshade.kernels.sor._sor_regions', "(Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(float32, 1, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float64, int64, int64, Array(int64, 1, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True))", 1.41, (
         ('proxyshade.kernels.sor._run_residual', "(Array(int64, 2, 'C', False, aligned=True), Array(float32, 1, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), int64, int64, Array(float32, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True))"),
         ('proxyshade.kernels.sor._sor_run', "(Array(int64, 2, 'C', False, aligned=True), Array(float32, 1, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), int64, int64, Array(float32, 2, 'C', False, aligned=True))"),
     )),
-    ('proxyshade.kernels.temporal.colour_planes', "(Array(float32, 3, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), bool)", 1.06, (
+    ('proxyshade.kernels.temporal.colour_planes', "(Array(float32, 3, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), bool)", 1.82, (
     )),
 ]
 CALLERS = {
