@@ -25,12 +25,64 @@ Pure functions of arrays; no I/O; deterministic for any thread count.
 """
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 from numba import njit, prange
 
 from proxyshade.kernels._config import JIT, PJIT
 from proxyshade.kernels.raster import bin_rows_parallel
 from proxyshade.kernels.temporal import jacobian_det
+
+
+# Records the carry's kernels take (issue 40: no long positional lists). The kernels receive
+# them as plain tuples (``tuple(record)``) and unpack them in field order: the kernel
+# manifest (graph.warmup) writes argument types as evaluable numba reprs, which a named
+# tuple's type is not.
+
+
+class Landing(NamedTuple):
+    """Where each pixel of one camera lands in another (``transfer``): column ``u``, row
+    ``v``, inverse depth ``q`` there (float64) and ``ok`` (bool), all (H, W)."""
+    u: np.ndarray
+    v: np.ndarray
+    q: np.ndarray
+    ok: np.ndarray
+
+
+class PrevState(NamedTuple):
+    """The previous frame's synthesis state a carry reads, all (H', W'): inverse depth
+    ``w`` (float64), ``label`` and ``patch`` (uint32), ``sx``, ``sy`` (float32), the
+    residual's planes ``r0, r1, r2`` (float32: the Poisson correction or the colours)
+    and ``scalar`` (float32, carried like the residual: the extension count)."""
+    w: np.ndarray
+    label: np.ndarray
+    patch: np.ndarray
+    sx: np.ndarray
+    sy: np.ndarray
+    r0: np.ndarray
+    r1: np.ndarray
+    r2: np.ndarray
+    scalar: np.ndarray
+
+
+class FirstPositions(NamedTuple):
+    """``first_positions``: ``ok`` (bool), the first frame's ``patch`` (uint32) and that
+    patch's translation continued to the exact position, ``sx``, ``sy`` (float64)."""
+    ok: np.ndarray
+    patch: np.ndarray
+    sx: np.ndarray
+    sy: np.ndarray
+
+
+class Carried(NamedTuple):
+    """``gather_prev``'s per-pixel state of the current frame: ``sx``, ``sy`` (float32),
+    ``patch`` (uint32), ``res`` (H, W, 3) and ``scalar`` (float32)."""
+    sx: np.ndarray
+    sy: np.ndarray
+    patch: np.ndarray
+    res: np.ndarray
+    scalar: np.ndarray
 
 
 def intrinsics(cam) -> np.ndarray:
@@ -491,15 +543,19 @@ def gather_prev(u, v, q, ok, lab, prev_w, prev_lab, prev_patch, prev_sx, prev_sy
 
     Returns valid (bool), sx, sy (float32), patch (uint32), residual (float32 ×3),
     distortion (float32), all (H, W). ``gather_prev_planes`` with the residual's planes."""
-    return gather_prev_planes(u, v, q, ok, lab, prev_w, prev_lab, prev_patch, prev_sx, prev_sy, prev_res[:, :, 0],
-                              prev_res[:, :, 1], prev_res[:, :, 2], prev_d, tol, scale)
+    return gather_prev_planes((u, v, q, ok), lab, (prev_w, prev_lab, prev_patch, prev_sx, prev_sy, prev_res[:, :, 0],
+                                                   prev_res[:, :, 1], prev_res[:, :, 2], prev_d), tol, scale)
 
 
 @njit(**PJIT)
-def gather_prev_planes(u, v, q, ok, lab, prev_w, prev_lab, prev_patch, prev_sx, prev_sy, pr0, pr1, pr2, prev_d, tol,
-                       scale):
-    """``gather_prev`` with the previous residual given as three (H, W) planes (a plate's
-    ``correction.R/G/B`` as they are, no (H, W, 3) stack of them)."""
+def gather_prev_planes(land, lab, prev, tol, scale):
+    """``gather_prev`` on records: ``land`` (``Landing``: ``transfer`` into the previous
+    camera), the current labels ``lab`` and ``prev`` (``PrevState``: the residual as
+    three (H, W) planes, a plate's ``correction.R/G/B`` as they are, no (H, W, 3) stack;
+    ``scalar`` the plane carried as the distortion). Returns valid, sx, sy, patch,
+    residual, scalar (``gather_prev``'s)."""
+    u, v, q, ok = land
+    prev_w, prev_lab, prev_patch, prev_sx, prev_sy, pr0, pr1, pr2, prev_d = prev
     h, wd = u.shape
     hp, wp = prev_w.shape
     valid = np.empty((h, wd), np.bool_)  # every element written (no zeroing pass first)
@@ -838,10 +894,11 @@ def first_positions(uf, vf, qf, okf, lab, first_w, first_lab, first_patch, first
 
 
 @njit(**PJIT)
-def anchor_seams(u, v, q, valid, lab, prev_w, prev_lab, prev_patch, prev_sx, prev_sy, pr0, pr1, pr2, prev_d,
-                 fok, fpatch, fsx, fsy, tol, scale, match, sx, sy, patch, res, dist):
+def anchor_seams(land, valid, lab, prev, first, tol, scale, match, out):
     """Seams between first-frame patches kept where the first frame had them, in place on
-    ``gather_prev``'s outputs (``sx, sy, patch, res, dist``).
+    ``gather_prev``'s outputs ``out`` (``Carried``: sx, sy, patch, res, scalar), from
+    ``land`` (``Landing`` into the previous camera), ``valid`` and ``lab`` (the current
+    pixels'), ``prev`` (``PrevState``) and ``first`` (``FirstPositions``).
 
     ``gather_prev`` gives a pixel whose 2×2 previous pixels straddle a seam the patch of
     the nearest one: the seam is rounded to this frame's pixel grid, from the previous
@@ -854,6 +911,10 @@ def anchor_seams(u, v, q, valid, lab, prev_w, prev_lab, prev_patch, prev_sx, pre
     position is that pixel's translation continued; residual and distortion are bilinear
     over the 2×2 pixels of that patch (renormalised), as in ``gather_prev``. Pixels whose
     first-frame patch is gone (resynthesized, re-anchored) are left as they are."""
+    u, v, q, _ = land
+    prev_w, prev_lab, prev_patch, prev_sx, prev_sy, pr0, pr1, pr2, prev_d = prev
+    fok, fpatch, fsx, fsy = first
+    sx, sy, patch, res, dist = out
     h, wd = u.shape
     hp, wp = prev_w.shape
     for i in prange(h):

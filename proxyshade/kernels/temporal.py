@@ -15,6 +15,8 @@ generator, so serial and parallel runs agree bit for bit.
 """
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 from numba import njit, prange
 
@@ -562,10 +564,19 @@ def continue_filled(filled, valid, ext, src_lab, sx, sy, lab, extend_frames):
     return keep, have
 
 
+class FlagCodes(NamedTuple):
+    """The flag values ``flag_reasons`` writes (uint32; passed as a plain tuple, see
+    ``reproject.Landing``)."""
+    disoccluded: np.uint32
+    newly: np.uint32
+    distorted: np.uint32
+    reanchored: np.uint32
+
+
 @njit(**PJIT)
-def flag_reasons(have, absorbed, distorted, src_lab, sx, sy, lab, margin, cat, cat_c, u, v, ok, prev_lab,
-                 disoccluded, newly, dist_flag, reanchored):
-    """A carry's raw flags, in one pass, each pixel by the last that applies: ``reanchored``
+def flag_reasons(have, absorbed, distorted, src_lab, sx, sy, lab, margin, cat, cat_c, land, prev_lab, codes):
+    """A carry's raw flags, in one pass, each pixel by the last that applies (``codes``:
+    ``FlagCodes``; ``land``: ``reproject.Landing`` into the previous camera, its u, v and ok): ``reanchored``
     where ``absorbed``; where ``distorted``, ``reanchored`` if its (re-anchored) source
     position is on its label (``fits_label``) else ``dist_flag``; ``dist_flag`` where a kept
     pixel (``have``, none of those) is off its label (``_stray`` with ``margin``:
@@ -573,6 +584,8 @@ def flag_reasons(have, absorbed, distorted, src_lab, sx, sy, lab, margin, cat, c
     is ``cat_c`` (``ok``) and the pixel lands (``u``, ``v``) outside the previous image or
     on a pixel of another label. Returns (raw
     flags uint32, stray bool)."""
+    u, v, _, ok = land
+    disoccluded, newly, dist_flag, reanchored = codes
     h, w = have.shape
     hp, wp = prev_lab.shape
     raw = np.empty((h, w), np.uint32)

@@ -37,6 +37,12 @@ class Resynthesize(FloodFill, Correction, PoissonSolve, Progressive, Node):
     seed = Param(int, 0, doc="seed of the flood fill (combined with the frame number) and of the similarity sets")
     solve = Param(bool, True, doc="finish with the restricted Poisson solve (Dirichlet outside the flagged pixels); "
                                   "false leaves it to a Poisson node with keep")
+    extend_correction = Param(bool, False,
+                              doc="continue the kept pixels' carried correction (the first frame's layout and "
+                                  "seam corrections) onto the flagged pixels before the solve, as the harmonic "
+                                  "function with their values, so a redone region keeps the tone around it instead "
+                                  "of the plain source's (farm's water); off by default: the continuation crosses "
+                                  "label borders and raises lake's water (docs/temporal.md)")
     sor_thickness = Param(float, 32.0, min=0.0,
                           doc="restricted-Poisson regions at most this thick (2 x area / perimeter, pixels) are "
                               "solved by SOR on their own pixels, not by multigrid in a window around them (the "

@@ -29,7 +29,7 @@ from proxyshade.kernels.lookup import lookup_many
 from proxyshade.kernels import temporal as kt
 from proxyshade.kernels.random import mix_seed
 from proxyshade.synthesis import labels as L
-from proxyshade.synthesis.blend import blend_regions
+from proxyshade.synthesis.blend import blend_regions, poisson_regions
 from proxyshade.synthesis.exemplar import levels_for, setup
 from proxyshade.synthesis.grain import source_colours
 from proxyshade.synthesis.memo import kept
@@ -211,6 +211,8 @@ def _resynthesize(img: Plate, source: Plate, p, frame: int, *, note: Callable[[s
     before = rgb
     correct = False
     if p.solve:
+        if getattr(p, "extend_correction", False) and all(c in img for c in CORRECTION):
+            rgb = rgb + extended_correction(img, flagged, PoissonSolve.of(p), getattr(p, "sor_thickness", None) or None)
         rgb, pinfo = blend_regions(rgb, patch, img["label.id"], flagged, PoissonSolve.of(p),
                                    source_rgb=source_colours(source, img.meta, memo), sx=sx, sy=sy, scale=scale, filter=filt,
                                    thin=getattr(p, "sor_thickness", None) or None)
@@ -232,6 +234,18 @@ def _resynthesize(img: Plate, source: Plate, p, frame: int, *, note: Callable[[s
     out.update({"R": R, "G": G, "B": B, "source.x": sx, "source.y": sy, "patch.id": patch})
     # without the solve here the correction is a later Poisson node's: drop it rather than carry it stale
     return img.with_channels(out, meta=meta, drop=() if p.solve else CORRECTION)
+
+
+def extended_correction(img: Plate, flagged: np.ndarray, solve, thin: float | None) -> np.ndarray:
+    """The kept pixels' carried correction (``CORRECTION``) continued onto the ``flagged``
+    pixels as the harmonic function with those values around them (one restricted solve,
+    no data term), (H, W, 3) float32, 0 on kept pixels. Every edge is a seam of target
+    gradient 0 (each pixel its own patch id), so the solve's guidance is zero everywhere."""
+    corr = np.stack([np.where(flagged, np.float32(0.0), img[c]) for c in CORRECTION], -1).astype(np.float32)
+    ids = np.arange(flagged.size, dtype=np.uint32).reshape(flagged.shape)
+    ext, _ = poisson_regions(corr, ids, None, flagged, tol=solve.tol, max_iter=solve.max_iter, thin=thin)
+    ext[~flagged] = 0.0
+    return ext
 
 
 def _synthesize(img: Plate, source: Plate, p, redo: np.ndarray, f: int, scale: float, seed: int, info: dict, lap,

@@ -28,6 +28,10 @@ from proxyshade.synthesis.memo import kept
 from proxyshade.synthesis.state import CATEGORY, CATEGORY_C, CORRECTION, FLAG, GEOMETRY, STATE  # noqa: F401
 
 
+FLAG_CODES = kt.FlagCodes(np.uint32(FLAG["disoccluded"]), np.uint32(FLAG["newly_occluded"]),
+                          np.uint32(FLAG["distorted"]), np.uint32(FLAG["reanchored"]))
+
+
 def patch_thresholds(patch: np.ndarray, threshold: float, spread: float, seed: int) -> np.ndarray:
     """Each pixel's distortion threshold: its patch's, uniform in [(1 − spread)·threshold,
     threshold], hashed from the patch id and the seed (the same for the patch's whole
@@ -221,13 +225,15 @@ def carry(cd: Plate, prev: Plate | None, first: Plate | None, source: Plate, p, 
             prev_res = prev.rgb()
         planes = [np.ascontiguousarray(prev_res[..., k], np.float32) for k in range(3)]
     prev_ext = prev["extension"].astype(np.float32, copy=False) if "extension" in prev else np.zeros(prev.shape, np.float32)
-    valid, sx, sy, patch, res, ext = kr.gather_prev_planes(
-        u, v, q, ok, lab, kr.inverse_depth(prev["Z"]), np.ascontiguousarray(prev["label.id"], np.uint32),
-        np.ascontiguousarray(prev["patch.id"], np.uint32), prev["source.x"].astype(np.float32, copy=False),
-        prev["source.y"].astype(np.float32, copy=False), *planes, prev_ext, tol, scale)
+    land = kr.Landing(u, v, q, ok)
+    state = kr.PrevState(kr.inverse_depth(prev["Z"]), np.ascontiguousarray(prev["label.id"], np.uint32),
+                         np.ascontiguousarray(prev["patch.id"], np.uint32),
+                         prev["source.x"].astype(np.float32, copy=False),
+                         prev["source.y"].astype(np.float32, copy=False), *planes, prev_ext)
+    valid, sx, sy, patch, res, ext = kr.gather_prev_planes(tuple(land), lab, tuple(state), tol, scale)
     if getattr(p, "anchor", False) and first is not None and first is not prev and "patch.id" in first:
-        anchor_first_seams(cd, first, prev, k1, w1, lab, u, v, q, valid, planes, prev_ext, tol, scale,
-                           sx, sy, patch, res, ext)
+        anchor_first_seams(cd, first, k1, w1, lab, land, valid, state, tol, scale,
+                           kr.Carried(sx, sy, patch, res, ext))
     # disoccluded pixels continue the patch of a kept neighbour of their label when the
     # continued source position still has that label: no new seam, nothing to redo
     have = valid
@@ -249,10 +255,8 @@ def carry(cd: Plate, prev: Plate | None, first: Plate | None, source: Plate, p, 
     # label's border in the source, sky reading the cliff) no longer shows its label's texture:
     # resynthesized, however few there are (stray); disoccluded; newly occluded
     raw, stray = kt.flag_reasons(np.ascontiguousarray(have, np.bool_), absorbed, distorted, src_lab, sx, sy, lab, 0.5,
-                                 np.ascontiguousarray(cat, np.uint32), np.uint32(CATEGORY_C), u, v,
-                                 np.ascontiguousarray(ok, np.bool_), np.ascontiguousarray(prev["label.id"], np.uint32),
-                                 np.uint32(FLAG["disoccluded"]), np.uint32(FLAG["newly_occluded"]),
-                                 np.uint32(FLAG["distorted"]), np.uint32(FLAG["reanchored"]))
+                                 np.ascontiguousarray(cat, np.uint32), np.uint32(CATEGORY_C),
+                                 tuple(land), state.label, tuple(FLAG_CODES))
     # clean_flags, then unflagged pixels with nothing to carry (dropped as isolated) disoccluded,
     # off their label distorted, and the counts per flag, in one pass
     flag, nflag = kt.clean_flags(raw, int(p.isolated_radius), int(p.min_neighbours), int(p.dilate),
@@ -285,12 +289,13 @@ def carry(cd: Plate, prev: Plate | None, first: Plate | None, source: Plate, p, 
     return Plate(ch, meta)
 
 
-def anchor_first_seams(cd, first, prev, k1, w1, lab, u, v, q, valid, planes, prev_ext, tol, scale,
-                       sx, sy, patch, res, ext) -> None:
-    """``kr.anchor_seams`` in place on ``gather_prev``'s outputs: seams between patches of the
-    first frame's synthesis (``first``) stay where the first frame has them instead of being
-    rounded anew from the previous frame's each frame (docs/temporal.md, "Seams anchored to
-    the first frame")."""
+def anchor_first_seams(cd: Plate, first: Plate, k1: np.ndarray, w1: np.ndarray, lab: np.ndarray, land: kr.Landing,
+                       valid: np.ndarray, prev: kr.PrevState, tol: float, scale: float, out: kr.Carried) -> None:
+    """``kr.anchor_seams`` in place on ``gather_prev``'s outputs ``out``: seams between patches
+    of the first frame's synthesis (``first``) stay where the first frame has them instead of
+    being rounded anew from the previous frame's each frame (docs/temporal.md, "Seams
+    anchored to the first frame"). ``k1``, ``w1``, ``lab``: this frame's intrinsics (of the
+    window), inverse depth and labels; ``land``, ``valid``, ``prev``: ``gather_prev``'s."""
     if not isinstance(first.meta.get("camera"), dict):
         return
     camf = camera_of("first", first)
@@ -301,14 +306,11 @@ def anchor_first_seams(cd, first, prev, k1, w1, lab, u, v, q, valid, planes, pre
     wf = kr.inverse_depth(first["Z"]) if "Z" in first else np.zeros(first.shape, np.float64)
     if "Z" not in first:
         qf = np.zeros_like(qf)  # no depth: the label alone decides
-    fok, fpatch, fsx, fsy = kr.first_positions(uf, vf, qf, okf, lab, wf, np.ascontiguousarray(first["label.id"], np.uint32),
+    fp = kr.FirstPositions(*kr.first_positions(uf, vf, qf, okf, lab, wf, np.ascontiguousarray(first["label.id"], np.uint32),
                                                np.ascontiguousarray(first["patch.id"], np.uint32),
                                                first["source.x"].astype(np.float32, copy=False),
-                                               first["source.y"].astype(np.float32, copy=False), tol, scale)
-    kr.anchor_seams(u, v, q, valid, lab, kr.inverse_depth(prev["Z"]), np.ascontiguousarray(prev["label.id"], np.uint32),
-                    np.ascontiguousarray(prev["patch.id"], np.uint32), prev["source.x"].astype(np.float32, copy=False),
-                    prev["source.y"].astype(np.float32, copy=False), *planes, prev_ext, fok, fpatch, fsx, fsy, tol,
-                    scale, 0.01 * max(scale, 1.0), sx, sy, patch, res, ext)
+                                               first["source.y"].astype(np.float32, copy=False), tol, scale))
+    kr.anchor_seams(tuple(land), valid, lab, tuple(prev), tuple(fp), tol, scale, 0.01 * max(scale, 1.0), tuple(out))
 
 
 def _carried_meta(state: Plate, cd: Plate) -> dict:

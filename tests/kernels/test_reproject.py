@@ -460,8 +460,8 @@ def _pan(frames, anchor, step=0.3):
                                                         np.zeros((h, w, 3), np.float32), z, 0.02, 1.0)
         if anchor:
             fok, fp, fx, fy = K.first_positions(j + 0.5 + step * k, v, q, ones, lab, q, lab, fpatch, fsx, fsy, 0.02, 1.0)
-            K.anchor_seams(u, v, q, valid, lab, q, lab, patch, sx, sy, z, z, z, z, fok, fp, fx, fy, 0.02, 1.0, 0.01,
-                           nsx, nsy, npatch, res, d)
+            K.anchor_seams(K.Landing(u, v, q, ones), valid, lab, K.PrevState(q, lab, patch, sx, sy, z, z, z, z),
+                           K.FirstPositions(fok, fp, fx, fy), 0.02, 1.0, 0.01, K.Carried(nsx, nsy, npatch, res, d))
         patch, sx, sy = npatch, nsx, nsy
     return patch, sx, 10 - step * frames
 
@@ -502,7 +502,8 @@ def test_anchor_leaves_pixels_whose_first_patch_is_gone():
     fpatch = np.where(j < 6, 1, 2).astype(np.uint32)
     fsx = np.where(j < 6, j + 100, j + 500).astype(np.float32)  # patch 2 had another translation then
     fok, fp, fx, fy = K.first_positions(u, v, q, ones, lab, q, lab, fpatch, fsx, i.astype(np.float32), 0.02, 1.0)
-    K.anchor_seams(u, v, q, valid, lab, q, lab, prev_patch, prev_sx, i.astype(np.float32), z, z, z, z, fok, fp, fx, fy,
-                   0.02, 1.0, 0.01, sx, sy, patch, res, d)
+    K.anchor_seams(K.Landing(u, v, q, ones), valid, lab, K.PrevState(q, lab, prev_patch, prev_sx, i.astype(np.float32),
+                                                                     z, z, z, z),
+                   K.FirstPositions(fok, fp, fx, fy), 0.02, 1.0, 0.01, K.Carried(sx, sy, patch, res, d))
     np.testing.assert_array_equal(patch, before[0])
     np.testing.assert_array_equal(sx, before[1])

@@ -3,6 +3,9 @@ import numpy as np
 import pytest
 
 from proxyshade.kernels import temporal as T
+from proxyshade.kernels.reproject import Landing
+
+CODES = T.FlagCodes(np.uint32(1), np.uint32(2), np.uint32(3), np.uint32(4))
 
 
 def test_translation_has_unit_determinant():
@@ -234,8 +237,8 @@ def stray(src_lab, sx, sy, lab, mask, margin):
     h, w = mask.shape
     no = np.zeros((h, w), bool)
     z = np.zeros((h, w), np.float64)
-    _, s = T.flag_reasons(mask, no, no, src_lab, sx, sy, lab, margin, np.zeros((h, w), np.uint32), np.uint32(3), z, z,
-                          no, np.zeros((2, 2), np.uint32), np.uint32(1), np.uint32(2), np.uint32(3), np.uint32(4))
+    _, s = T.flag_reasons(mask, no, no, src_lab, sx, sy, lab, margin, np.zeros((h, w), np.uint32), np.uint32(3),
+                          Landing(z, z, z, no), np.zeros((2, 2), np.uint32), CODES)
     return s
 
 
@@ -330,8 +333,8 @@ def test_continue_filled_and_flag_reasons_match_the_numpy_steps():
     u, v = rng.uniform(-2, 14, (2, h, w))
     ok = rng.random((h, w)) < 0.9
     prev_lab = rng.integers(0, 3, (11, 12)).astype(np.uint32)
-    raw, stray = T.flag_reasons(have, absorbed, distorted, src_lab, sx, sy, lab, 0.5, cat, np.uint32(3), u, v, ok,
-                                prev_lab, np.uint32(1), np.uint32(2), np.uint32(3), np.uint32(4))
+    raw, stray = T.flag_reasons(have, absorbed, distorted, src_lab, sx, sy, lab, 0.5, cat, np.uint32(3),
+                                Landing(u, v, np.zeros((h, w)), ok), prev_lab, CODES)
     r = np.zeros((h, w), np.uint32)
     r[absorbed] = 4
     fits = T.fits_label(src_lab, sx, sy, lab, distorted)

@@ -85,6 +85,36 @@ def test_restricted_solve_equals_the_poisson_node_with_keep():
     np.testing.assert_array_equal(solved.rgb()[keep], img.rgb()[keep])
 
 
+def test_resolved_region_keeps_the_correction_around_it():
+    """Re-anchored pixels (flag 4: map kept, Poisson redone) in a frame whose kept pixels
+    carry a correction (colour = source through the map + correction, here a constant
+    offset, as a layout move of the first frame leaves): the region is solved as it would
+    be on the plain source, plus the offset, so it neither steps at its border nor fades
+    to the uncorrected source inside (the solve is linear; a constant is its own harmonic
+    continuation). Without ``extend_correction`` the regions come back
+    0.05 off."""
+    src = source("renoir")
+    base = carried()
+    rgb = lookup(source_colours(src, base.meta), base["source.x"], base["source.y"])
+    flag = np.zeros(base.shape, np.uint32)
+    flag[40:72, 30:70] = FLAG["reanchored"]
+    flag[96:120, 80:120] = FLAG["reanchored"]
+    offset = np.array([0.03, 0.02, 0.05], np.float32)
+    plates = []
+    kept = flag == 0
+    for c in (np.zeros(3, np.float32), offset):  # as Reproject leaves it: flagged pixels the plain source
+        ch = {k: (rgb[..., i] + c[i] * kept).astype(np.float32) for i, k in enumerate("RGB")}
+        ch.update({f"correction.{k}": (c[i] * kept).astype(np.float32) for i, k in enumerate("RGB")})
+        img = base.with_channels(dict(ch, flag=flag))
+        plates.append(resynth(img, extend_correction=True))
+    for zero, off in [plates]:
+        new = (flag != 0) & (zero.rgb() > 0).all(-1)  # the solve floors negative values at 0 (not linear there)
+        np.testing.assert_allclose((off.rgb() - zero.rgb())[new], np.broadcast_to(offset, (new.sum(), 3)), atol=1e-3)
+        # the correction carried to the next frame holds the offset too
+        np.testing.assert_allclose(np.stack([off[f"correction.{k}"] - zero[f"correction.{k}"] for k in "RGB"], -1)[new],
+                                   np.broadcast_to(offset, (new.sum(), 3)), atol=1e-3)
+
+
 def test_deterministic_per_frame_seed():
     img = carried()
     flag = np.zeros(img.shape, np.uint32)
