@@ -345,7 +345,7 @@ def _positions(starts, lists, size):
 @njit(**JIT)
 def _flood_fill(lv, m, cover, order, first_id, thr_scale, thr_offset, seed):
     """Patches grown from the free pixels of ``cover`` taken in ``order``, ids from
-    ``first_id``; returns their count, or −1 − l when label l has no exemplar pixel."""
+    ``first_id``; returns their count."""
     src_lab, tgt_lab, free = lv.src_lab, lv.tgt_lab, cover.free
     n = lv.src_masks.shape[2]
     starts, lists = _label_lists(src_lab, n)
@@ -365,8 +365,6 @@ def _flood_fill(lv, m, cover, order, first_id, thr_scale, thr_offset, seed):
             continue
         l = tgt_lab[i, j]
         nl = starts[l + 1] - starts[l]
-        if nl == 0:
-            return -1 - l  # the exemplar lacks this label
         gather_target(lv.tgt_dist, i, j, tD)
         scan = Scan(posof, rand(seed, p, 0x5CA7, 0) % nl, nl)
         probe = Probe(tD, lv.tgt_masks[i, j], lv.tgt_height[i, j])
@@ -413,7 +411,7 @@ def flood_fill(level: Level, metric: Metric, *, seed: int, threshold_scale: floa
     patch : (Ht, Wt) int64 patch ids (new ones start after the largest existing id).
     npatch : number of patches grown.
 
-    Raises ValueError naming the label when a guide label has no exemplar pixel.
+    Every label of the guide has exemplar pixels (``synthesis.exemplar.setup`` checks it).
     """
     Ht, Wt = level.tgt_lab.shape
     if mask is None:
@@ -431,8 +429,6 @@ def flood_fill(level: Level, metric: Metric, *, seed: int, threshold_scale: floa
     order = permutation(seed, Ht * Wt)
     r = _flood_fill(level, Metric(float(metric.w), float(metric.height_weight)), Cover(free, S, patch), order, first,
                     float(threshold_scale), float(threshold_offset), int(seed))
-    if r < 0:
-        raise ValueError(f"label index {-1 - r} of the guide has no pixel in the exemplar")
     return S, patch, r
 
 
