@@ -75,16 +75,18 @@ class Groups(NamedTuple):
 
 
 @njit(**JIT)
-def _eq1(lv, m, y, x, probe, bound):
-    """eq. 1 (+ the height term) for exemplar (y, x) against a guide pixel's ``probe``;
-    early exit above ``bound``."""
+def _eq1(src_dist, src_masks, src_height, y, x, tD, tmask, th, m, bound):
+    """eq. 1 (+ the height term) for exemplar (y, x) against a guide pixel's 5×5 contour
+    distances ``tD``, window label masks ``tmask`` and relative height ``th`` (a
+    ``Probe``'s fields); early exit above ``bound``. (Arrays, not records: the hottest call
+    of the flood fill, where reading a record's arrays costs their reference counts.)"""
     b2 = bound * bound
-    hs = height_sq(lv.src_height, y, x, probe.height, m.height_weight)
-    dsq = hs if hs > b2 else hs + dist_sq_D(lv.src_dist, 1, y, x, probe.dist, b2 - hs)
+    hs = height_sq(src_height, y, x, th, m.height_weight)
+    dsq = hs if hs > b2 else hs + dist_sq_D(src_dist, 1, y, x, tD, b2 - hs)
     dd = np.sqrt(dsq)
     if dd > bound:
         return dd
-    return dd + m.w * chamfer_masks(lv.src_masks[y, x], probe.masks)
+    return dd + m.w * chamfer_masks(src_masks[y, x], tmask)
 
 
 @njit(**JIT)
@@ -126,8 +128,9 @@ def _best_match(cands, lv, m, probe, bound, c0, scan, same_window):
     5×5 window that exceeds the best. With ``same_window`` only the candidates whose
     label masks equal the target's are taken (the others are hash collisions of
     ``_window_groups``)."""
-    src_masks = lv.src_masks
-    W = lv.src_dist.shape[1]
+    src_dist, src_masks, src_h = lv.src_dist, lv.src_masks, lv.src_height
+    tD, tmask, th = probe
+    W = src_dist.shape[1]
     bd = bound
     bi = c0
     bk = _tie_key(c0, scan) if c0 >= 0 else scan.n
@@ -138,9 +141,9 @@ def _best_match(cands, lv, m, probe, bound, c0, scan, same_window):
             continue
         y = c // W
         x = c % W
-        if same_window and not _same_masks(src_masks[y, x], probe.masks):
+        if same_window and not _same_masks(src_masks[y, x], tmask):
             continue
-        d = _eq1(lv, m, y, x, probe, bd)
+        d = _eq1(src_dist, src_masks, src_h, y, x, tD, tmask, th, m, bd)
         if _better(d, k, bd, bk):
             bd = d
             bi = c
@@ -171,7 +174,7 @@ def _continued_bound(lv, m, cover, i, j, probe, scan):
             continue
         c = y * We + x
         key = _tie_key(c, scan)
-        d = _eq1(lv, m, y, x, probe, np.inf)
+        d = _eq1(lv.src_dist, lv.src_masks, lv.src_height, y, x, probe.dist, probe.masks, probe.height, m, np.inf)
         if _better(d, key, bd, bk):
             bd = d
             bc = c
@@ -183,7 +186,9 @@ def _continued_bound(lv, m, cover, i, j, probe, scan):
 def _grow(lv, m, cover, pid, i0, j0, oy, ox, thr, queue, stamp):
     """Flood fill from target (i0, j0) with exemplar offset (oy, ox), stopping above eq. 1
     ``thr``; returns pixel count. ``queue``, ``stamp``: the caller's scratch buffers."""
-    src_lab, tgt_lab, free, S, patch = lv.src_lab, lv.tgt_lab, cover.free, cover.S, cover.patch
+    src_lab, src_dist, src_masks, src_h = lv.src_lab, lv.src_dist, lv.src_masks, lv.src_height
+    tgt_lab, tgt_dist, tgt_masks, tgt_h = lv.tgt_lab, lv.tgt_dist, lv.tgt_masks, lv.tgt_height
+    free, S, patch = cover
     Ht, Wt = tgt_lab.shape
     He, We = src_lab.shape
     tD = np.empty(NB2, np.float32)
@@ -203,8 +208,8 @@ def _grow(lv, m, cover, pid, i0, j0, oy, ox, thr, queue, stamp):
         if count > 0:  # the seed is accepted by construction
             if y < 0 or y >= He or x < 0 or x >= We or src_lab[y, x] != tgt_lab[i, j]:
                 continue
-            gather_target(lv.tgt_dist, i, j, tD)
-            d = _eq1(lv, m, y, x, Probe(tD, lv.tgt_masks[i, j], lv.tgt_height[i, j]), thr)
+            gather_target(tgt_dist, i, j, tD)
+            d = _eq1(src_dist, src_masks, src_h, y, x, tD, tgt_masks[i, j], tgt_h[i, j], m, thr)
             if d > thr:
                 continue
         free[i, j] = False
