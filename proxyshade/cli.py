@@ -7,14 +7,16 @@ disk, an I/O error); 130 interrupted (Ctrl-C: "interrupted", no partial output).
 from __future__ import annotations
 
 import contextlib
+import inspect
 import os
 import signal
 import sys
 import threading
 import warnings
+from dataclasses import MISSING, dataclass, field, fields
 from pathlib import Path
 from enum import Enum
-from typing import List, Optional
+from typing import Annotated, List, Optional, get_type_hints
 
 import typer
 from rich.console import Console
@@ -175,56 +177,91 @@ class Executor(str, Enum):
     dask = "dask"
 
 
+@dataclass
+class RunOptions:
+    """The parameters of ``proxyshade run``, each declared once (typer reads the ``Annotated``
+    declarations through ``_options_command``); the command's body takes them as one object."""
+
+    graphs: Annotated[List[Path], typer.Argument(metavar="GRAPH", help="YAML graph file(s): several are several shots")]
+    frames: Annotated[Optional[str], typer.Option("--frames", help="frames to compute: 1-48, 30 or 1,5,9-12 (default: "
+                                                  "the graph's range)")] = None
+    set_: Annotated[List[str], typer.Option("--set", help="override a parameter: node.param=value (repeatable)")] = \
+        field(default_factory=list)
+    var: Annotated[List[str], typer.Option("--var", help="set a graph variable: name=value (repeatable), used as "
+                                           "${name}")] = field(default_factory=list)
+    sweep: Annotated[List[str], typer.Option("--sweep", help="run the graph once per value of a variable: name=a,b,c "
+                                             "(repeatable: every combination)")] = field(default_factory=list)
+    cache: Annotated[Optional[Path], typer.Option("--cache", help="plate cache folder (default $PROXYSHADE_CACHE, "
+                                                  "else plates/ in the per-user cache: $XDG_CACHE_HOME/proxyshade or "
+                                                  "~/.cache/proxyshade)")] = None
+    explain: Annotated[bool, typer.Option("--explain", help="print per node whether it was computed or reused, and "
+                                          "why")] = False
+    jobs: Annotated[int, typer.Option("--jobs", min=1, help="nodes run concurrently (local executor)")] = 1
+    force: Annotated[List[str], typer.Option("--force", help="recompute this node (repeatable)")] = \
+        field(default_factory=list)
+    threads: Annotated[int, typer.Option("--threads", min=0, help="numba threads per kernel (0: all cores; on a local "
+                                         "Dask cluster, cores / workers)")] = 0
+    executor: Annotated[Executor, typer.Option("--executor", help="local: this process; dask: Dask workers (a local "
+                                               "cluster, or --scheduler)")] = Executor.local
+    scheduler: Annotated[Optional[str], typer.Option("--scheduler", help="a running Dask scheduler, tcp://host:port "
+                                                     "(implies --executor dask)")] = None
+    workers: Annotated[Optional[int], typer.Option("--workers", min=1, help="worker processes of the local Dask "
+                                                   "cluster (default: one per core)")] = None
+    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="no progress bars")] = False
+    watch: Annotated[bool, typer.Option("--watch", help="after the run, run again whenever a graph file or a file its "
+                                        "nodes read (scene, source table, ...) changes; Ctrl-C stops")] = False
+    poll: Annotated[float, typer.Option("--poll", min=0.01, help="--watch: seconds between checks for changed "
+                                        "files")] = 0.5
+    watch_runs: Annotated[int, typer.Option("--watch-runs", min=0, hidden=True, help="--watch: stop after this many "
+                                            "runs")] = 0
+    profile: Annotated[bool, typer.Option("--profile", help="print where the run's time and memory went: imports, "
+                                          "kernel loading, each node, cache and output writes (docs/engine.md)")] = False
+
+
+def _options_command(options: type):
+    """A typer command whose parameters are the fields of the dataclass ``options`` (typer
+    reads the signature and annotations made from them), calling the decorated body with
+    one ``options`` instance."""
+    def wrap(body):
+        hints = get_type_hints(options, include_extras=True)
+        params = [inspect.Parameter(f.name, inspect.Parameter.KEYWORD_ONLY, annotation=hints[f.name],
+                                    default=f.default if f.default is not MISSING
+                                    else f.default_factory() if f.default_factory is not MISSING
+                                    else inspect.Parameter.empty)
+                  for f in fields(options)]
+
+        def command(**values):
+            return body(options(**values))
+
+        command.__name__, command.__qualname__, command.__doc__ = body.__name__, body.__qualname__, body.__doc__
+        command.__signature__ = inspect.Signature(params)
+        command.__annotations__ = {p.name: p.annotation for p in params}
+        return command
+    return wrap
+
+
 @app.command()
-def run(
-    graphs: List[Path] = typer.Argument(..., metavar="GRAPH", help="YAML graph file(s): several are several shots"),
-    frames: Optional[str] = typer.Option(None, "--frames", help="frames to compute: 1-48, 30 or 1,5,9-12 (default: the graph's range)"),
-    set_: List[str] = typer.Option([], "--set", help="override a parameter: node.param=value (repeatable)"),
-    var: List[str] = typer.Option([], "--var", help="set a graph variable: name=value (repeatable), used as ${name}"),
-    sweep: List[str] = typer.Option([], "--sweep", help="run the graph once per value of a variable: name=a,b,c "
-                                    "(repeatable: every combination)"),
-    cache: Optional[Path] = typer.Option(None, "--cache", help="plate cache folder (default $PROXYSHADE_CACHE, else plates/ in the per-user cache: "
-                                      "$XDG_CACHE_HOME/proxyshade or ~/.cache/proxyshade)"),
-    explain: bool = typer.Option(False, "--explain", help="print per node whether it was computed or reused, and why"),
-    jobs: int = typer.Option(1, "--jobs", min=1, help="nodes run concurrently (local executor)"),
-    force: List[str] = typer.Option([], "--force", help="recompute this node (repeatable)"),
-    threads: int = typer.Option(0, "--threads", min=0, help="numba threads per kernel (0: all cores; on a local "
-                                "Dask cluster, cores / workers)"),
-    executor: Executor = typer.Option(Executor.local, "--executor", help="local: this process; dask: Dask workers "
-                                      "(a local cluster, or --scheduler)"),
-    scheduler: Optional[str] = typer.Option(None, "--scheduler", help="a running Dask scheduler, tcp://host:port "
-                                            "(implies --executor dask)"),
-    workers: Optional[int] = typer.Option(None, "--workers", min=1, help="worker processes of the local Dask cluster "
-                                          "(default: one per core)"),
-    quiet: bool = typer.Option(False, "--quiet", "-q", help="no progress bars"),
-    watch: bool = typer.Option(False, "--watch", help="after the run, run again whenever a graph file or a file "
-                               "its nodes read (scene, source table, ...) changes; Ctrl-C stops"),
-    poll: float = typer.Option(0.5, "--poll", min=0.01, help="--watch: seconds between checks for changed files"),
-    watch_runs: int = typer.Option(0, "--watch-runs", min=0, hidden=True, help="--watch: stop after this many runs"),
-    profile: bool = typer.Option(False, "--profile", help="print where the run's time and memory went: imports, "
-                                 "kernel loading, each node, cache and output writes (docs/engine.md)"),
-):
+@_options_command(RunOptions)
+def run(opts: RunOptions):
     """Run GRAPH(s): compute what the cache lacks, reuse the rest."""
-    if profile:
+    if opts.profile:
         from proxyshade.graph import profile as prof
 
         prof.start()
         try:
-            _run_once(graphs, frames, set_, var, sweep, cache, explain, jobs, force, threads, executor,
-                      scheduler, workers, quiet)
+            _run_once(opts)
         finally:
             p = prof.finish()
         _say(out, p.text())
         return
     runs = 0
     while True:
-        watched = _run_once(graphs, frames, set_, var, sweep, cache, explain, jobs, force, threads, executor,
-                            scheduler, workers, quiet)
+        watched = _run_once(opts)
         runs += 1
-        if not watch or (watch_runs and runs >= watch_runs):
+        if not opts.watch or (opts.watch_runs and runs >= opts.watch_runs):
             return
         _say(err, f"watching {len(watched)} file(s) for changes (Ctrl-C stops)")
-        _wait_for_change(watched, poll)
+        _wait_for_change(watched, opts.poll)
 
 
 @app.command()
@@ -274,9 +311,9 @@ def _wait_for_change(paths, poll: float) -> None:
         time.sleep(poll)
 
 
-def _run_once(graphs, frames, set_, var, sweep, cache, explain, jobs, force, threads, executor, scheduler, workers,
-              quiet) -> set:
+def _run_once(opts: RunOptions) -> set:
     """One run of every shot, reported; returns the files a watch looks at."""
+    graphs, frames, cache, quiet = opts.graphs, opts.frames, opts.cache, opts.quiet
     from proxyshade.graph.executor import make_executor
     from proxyshade.graph.graph import Graph
     from proxyshade.graph.shots import run_graphs
@@ -284,8 +321,8 @@ def _run_once(graphs, frames, set_, var, sweep, cache, explain, jobs, force, thr
 
     shots = []  # (label, graph, frames)
     for path in graphs:
-        for combo in _sweep(sweep):
-            g = Graph.load(path, cache=cache, overrides=list(set_), variables=dict(_vars(var), **combo))
+        for combo in _sweep(opts.sweep):
+            g = Graph.load(path, cache=cache, overrides=list(opts.set_), variables=dict(_vars(opts.var), **combo))
             label = f"{path}" + (f" [{' '.join(f'{k}={v}' for k, v in combo.items())}]" if combo else "")
             shots.append((label, g, parse_frame_list(frames, bounds=g.frames) if frames is not None else None))
     from proxyshade.graph.warmup import manifest_modules
@@ -296,20 +333,20 @@ def _run_once(graphs, frames, set_, var, sweep, cache, explain, jobs, force, thr
         _say(err, f"note: compiling the kernels ahead failed ({type(e).__name__}: {e}); they compile when first called")
     several = len(shots) > 1
     prefixes = {id(g): f"{label.rpartition('/')[2]}: " if several else "" for label, g, _ in shots}
-    distributed = bool(scheduler) or executor is Executor.dask
+    distributed = bool(opts.scheduler) or opts.executor is Executor.dask
     if distributed:
         from proxyshade.graph.dask_executor import DaskExecutor
 
-        ex = DaskExecutor(scheduler, workers)
+        ex = DaskExecutor(opts.scheduler, opts.workers)
     else:
-        ex = make_executor(jobs)
+        ex = make_executor(opts.jobs)
     with _LazyBars(quiet) as bars:
         with ex if distributed else contextlib.nullcontext():
-            reports = run_graphs([(g, fl) for _, g, fl in shots], executor=ex, force=tuple(force),
-                                 hooks=lambda g: _BarHooks(bars, prefixes[id(g)]), threads=threads,
+            reports = run_graphs([(g, fl) for _, g, fl in shots], executor=ex, force=tuple(opts.force),
+                                 hooks=lambda g: _BarHooks(bars, prefixes[id(g)]), threads=opts.threads,
                                  labels=[label for label, _, _ in shots])
     for (label, g, _), report in zip(shots, reports):
-        _report(label, report, explain, several)
+        _report(label, report, opts.explain, several)
     return {Path(p).resolve() for p in graphs} | {f for _, g, fl in shots for f in g.input_files(fl)}
 
 

@@ -152,12 +152,43 @@ def _units(kernel: str, text: str, found: dict) -> list[str]:
     return [kernel.rpartition(".")[0]] + ([node_unit(caller)] if caller else [])
 
 
+def type_text(args) -> str:
+    """Argument types (numba types) as the text ``parse_types`` reads back: ``repr`` of
+    their tuple, a named tuple (a kernel's record, e.g. ``features.Level``) written as
+    ``Named('module.Class', (field types))`` (numba's ``repr`` of it does not read back)."""
+    from numba.core import types
+
+    def text(t) -> str:
+        if isinstance(t, tuple):
+            return "(" + ", ".join(text(x) for x in t) + ("," if len(t) == 1 else "") + ")"
+        if isinstance(t, types.BaseNamedTuple):
+            cls = t.instance_class
+            return f"Named({cls.__module__ + '.' + cls.__qualname__!r}, {text(tuple(t.types))})"
+        if isinstance(t, types.Tuple):
+            return f"Tuple({text(tuple(t.types))})"
+        if isinstance(t, types.UniTuple):
+            return f"UniTuple({text(t.dtype)}, {t.count})"
+        return repr(t)
+
+    return text(tuple(args))
+
+
+def _named(cls: str, fields: tuple):
+    """The numba type of a named tuple of class ``cls`` ('module.Class') with ``fields``."""
+    import importlib
+
+    from numba.core import types
+
+    mod, _, name = cls.rpartition(".")
+    return types.BaseTuple.from_types(list(fields), getattr(importlib.import_module(mod), name))
+
+
 def parse_types(text: str) -> tuple:
-    """Argument types written as ``repr`` of a tuple of numba types, back to the tuple."""
+    """Argument types written by ``type_text``, back to the tuple of numba types."""
     from numba.core import types
 
     ns = {k: getattr(types, k) for k in dir(types) if not k.startswith("_")}
-    ns.update(omitted=types.Omitted)
+    ns.update(omitted=types.Omitted, Named=_named)
     sig = eval(text, {"__builtins__": {}}, ns)  # text written by record_manifest, in the package
     if not isinstance(sig, tuple) or not all(isinstance(t, types.Type) for t in sig):
         raise ValueError(f"not a tuple of numba types: {text}")
@@ -331,7 +362,7 @@ def precompile(modules=None, progress=None, workers=None) -> dict:
 _RECORD = r"""
 import json, sys, time
 from numba.core import event
-from proxyshade.graph import warmup_graphs
+from proxyshade.graph import warmup, warmup_graphs
 
 class Rec(event.Listener):
     # kernels compiled from Python (no compile under way) with their seconds and what they compiled inside
@@ -342,7 +373,7 @@ class Rec(event.Listener):
     def on_end(self, ev):
         t0, inner = self.stack.pop()
         d = ev.data["dispatcher"]
-        me = (f"{d.py_func.__module__}.{d.py_func.__name__}", repr(tuple(ev.data["args"])))
+        me = (f"{d.py_func.__module__}.{d.py_func.__name__}", warmup.type_text(ev.data["args"]))
         if self.stack:
             self.stack[-1][1].extend([me] + inner)
         elif me[0].startswith("proxyshade.kernels."):

@@ -34,15 +34,31 @@ C. Barnes et al. The generalized PatchMatch correspondence algorithm. ECCV 2010 
 from __future__ import annotations
 
 import os
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit, prange
 
 from proxyshade.kernels._config import JIT, PJIT
 from proxyshade.kernels.random import mix_seed, rand
-from proxyshade.kernels.features import NB2, chamfer_masks, dist_sq_D, dist_sq_rgb, gather_target, height_sq
+from proxyshade.kernels.features import (NB2, Level, Metric, chamfer_masks, dist_sq_D, dist_sq_rgb, gather_target,
+                                         height_sq)
 
 WINDOW = 4  # half side of the 9x9 repetition window
+
+# The kernels take a ``features.Level`` whole (its spacing ``h`` and both sides' features)
+# and ``features.Metric`` (the weights of eq. 1).
+
+
+class Rule(NamedTuple):
+    """A correction's choices at one level: ``radius`` the near-copy radius (exemplar
+    pixels), ``use_rgb`` the colour term, ``kappa`` the penalty (× 1 + kappa) on
+    similarity-set candidates, ``uniformity`` the weight of the over-use term."""
+
+    radius: int
+    use_rgb: bool
+    kappa: float
+    uniformity: float
 
 
 # ---------------------------------------------------------------------------
@@ -54,11 +70,12 @@ WINDOW = 4  # half side of the 9x9 repetition window
 
 
 @njit(**JIT)
-def _ex_dist(src_dist, src_rgb, src_masks, src_h, hw, h, y, x, yy, xx, w, bound):
-    """Distance between exemplar windows (y, x) and (yy, xx) (spacing h), eq. 1 + colour
-    + height."""
+def _ex_dist(lv, m, y, x, yy, xx, bound):
+    """Distance between exemplar windows (y, x) and (yy, xx) of level ``lv`` (spacing h),
+    eq. 1 + colour + height."""
+    src_dist, src_rgb, src_masks, src_h, h = lv.src_dist, lv.src_rgb, lv.src_masks, lv.src_height, lv.h
     H, W = src_dist.shape
-    s = height_sq(src_h, y, x, src_h[yy, xx], hw)
+    s = height_sq(src_h, y, x, src_h[yy, xx], m.height_weight)
     b2 = bound * bound
     for di in range(-2, 3):
         a0 = min(max(y + di * h, 0), H - 1)
@@ -76,7 +93,7 @@ def _ex_dist(src_dist, src_rgb, src_masks, src_h, hw, h, y, x, yy, xx, w, bound)
     r = np.sqrt(s)
     if r > bound:
         return r
-    return r + w * chamfer_masks(src_masks[y, x], src_masks[yy, xx])
+    return r + m.w * chamfer_masks(src_masks[y, x], src_masks[yy, xx])
 
 
 @njit(**JIT)
@@ -99,7 +116,12 @@ def _insert(ly, lx, ld, k, cy, cx, d):
 
 
 @njit(**PJIT)
-def _knn_init(src_lab, src_dist, src_rgb, src_masks, src_h, hw, h, k, excl, w, seed, starts, lists, ky, kx, kd):
+def _knn_init(lv, m, k, excl, seed, starts, lists, out):
+    """Random first k-NN lists ``out`` = (rows, columns, distances) (H, W, k) of the
+    exemplar pixels of level ``lv``: 2k draws among the pixel's label (``starts``,
+    ``lists``: ``patch._label_lists``), none within ``excl`` of it."""
+    ky, kx, kd = out
+    src_lab, h = lv.src_lab, lv.h
     H, W = src_lab.shape
     for y in prange(H):
         for x in range(W):
@@ -115,14 +137,18 @@ def _knn_init(src_lab, src_dist, src_rgb, src_masks, src_h, hw, h, k, excl, w, s
                 cx = c % W
                 if max(abs(cy - y), abs(cx - x)) <= excl:
                     continue
-                d = _ex_dist(src_dist, src_rgb, src_masks, src_h, hw, h, y, x, cy, cx, w, kd[y, x, k - 1])
+                d = _ex_dist(lv, m, y, x, cy, cx, kd[y, x, k - 1])
                 _insert(ky[y, x], kx[y, x], kd[y, x], k, cy, cx, d)
 
 
 @njit(**PJIT)
-def _knn_iter(src_lab, src_dist, src_rgb, src_masks, src_h, hw, h, k, excl, w, seed, it, oy, ox, od, ny, nx, nd):
-    """One PatchMatch k-NN iteration (reads o*, writes n*): propagation from the 4
-    neighbours' lists, then random search around each entry with halving radius."""
+def _knn_iter(lv, m, k, excl, seed, it, old, new):
+    """One PatchMatch k-NN iteration (reads the lists ``old``, writes ``new``, each
+    (rows, columns, distances)): propagation from the 4 neighbours' lists, then random
+    search around each entry with halving radius."""
+    oy, ox, od = old
+    ny, nx, nd = new
+    src_lab, h = lv.src_lab, lv.h
     H, W = src_lab.shape
     for y in prange(H):
         for x in range(W):
@@ -148,7 +174,7 @@ def _knn_iter(src_lab, src_dist, src_rgb, src_masks, src_h, hw, h, k, excl, w, s
                         continue
                     if src_lab[cy, cx] != l or max(abs(cy - y), abs(cx - x)) <= excl:
                         continue
-                    d = _ex_dist(src_dist, src_rgb, src_masks, src_h, hw, h, y, x, cy, cx, w, ld[k - 1])
+                    d = _ex_dist(lv, m, y, x, cy, cx, ld[k - 1])
                     _insert(ly, lx, ld, k, cy, cx, d)
             draw = 0
             for t in range(k):
@@ -165,14 +191,14 @@ def _knn_iter(src_lab, src_dist, src_rgb, src_masks, src_h, hw, h, k, excl, w, s
                         continue
                     if src_lab[cy, cx] != l or max(abs(cy - y), abs(cx - x)) <= excl:
                         continue
-                    d = _ex_dist(src_dist, src_rgb, src_masks, src_h, hw, h, y, x, cy, cx, w, ld[k - 1])
+                    d = _ex_dist(lv, m, y, x, cy, cx, ld[k - 1])
                     _insert(ly, lx, ld, k, cy, cx, d)
 
 
-def similarity_sets(level, k: int, *, seed: int, iterations: int, w: float,
-                    init: np.ndarray | None = None, height_weight: float = 0.0) -> np.ndarray:
+def similarity_sets(level, k: int, metric: Metric, *, seed: int, iterations: int,
+                    init: np.ndarray | None = None) -> np.ndarray:
     """(He, We, k, 2) int32: for each exemplar pixel, k similar exemplar pixels of the
-    same label, more than ``2 h`` away (approximate k-NN by PatchMatch).
+    same label, more than ``2 h`` away (approximate k-NN by PatchMatch under ``metric``).
 
     ``init`` (a finer level's lists) seeds the search instead of random draws.
     """
@@ -182,34 +208,29 @@ def similarity_sets(level, k: int, *, seed: int, iterations: int, w: float,
     H, W = lab.shape
     n = level.src_masks.shape[2]
     excl = 2 * level.h
-    hw = float(height_weight)
-    ky = np.empty((H, W, k), np.int32)
-    kx = np.empty((H, W, k), np.int32)
-    kd = np.empty((H, W, k), np.float64)
+    m = Metric(float(metric.w), float(metric.height_weight))
+    lists = (np.empty((H, W, k), np.int32), np.empty((H, W, k), np.int32), np.empty((H, W, k), np.float64))
     if init is None:
-        starts, lists = _label_lists(lab, n)
-        _knn_init(lab, level.src_dist, level.src_rgb, level.src_masks, level.src_height, hw, level.h, k, excl, float(w), seed, starts,
-                  lists, ky, kx, kd)
+        starts, flat = _label_lists(lab, n)
+        _knn_init(level, m, k, excl, seed, starts, flat, lists)
     else:
-        ky[...] = init[..., 0]
-        kx[...] = init[..., 1]
-        kd[...] = np.inf
-        _knn_rescore(lab, level.src_dist, level.src_rgb, level.src_masks, level.src_height, hw, level.h, k, excl, float(w), ky, kx, kd)
-    ny = np.empty_like(ky)
-    nx = np.empty_like(kx)
-    nd = np.empty_like(kd)
+        lists[0][...] = init[..., 0]
+        lists[1][...] = init[..., 1]
+        lists[2][...] = np.inf
+        _knn_rescore(level, m, k, excl, lists)
+    spare = tuple(np.empty_like(a) for a in lists)
     for it in range(iterations):
-        _knn_iter(lab, level.src_dist, level.src_rgb, level.src_masks, level.src_height, hw, level.h, k, excl, float(w), seed, it + 1,
-                  ky, kx, kd, ny, nx, nd)
-        ky, ny = ny, ky
-        kx, nx = nx, kx
-        kd, nd = nd, kd
-    return np.stack([ky, kx], axis=-1)
+        _knn_iter(level, m, k, excl, seed, it + 1, lists, spare)
+        lists, spare = spare, lists
+    return np.stack(lists[:2], axis=-1)
 
 
 @njit(**PJIT)
-def _knn_rescore(src_lab, src_dist, src_rgb, src_masks, src_h, hw, h, k, excl, w, ky, kx, kd):
-    """Re-evaluate given lists at this level (entries breaking the rules become self with inf)."""
+def _knn_rescore(lv, m, k, excl, lists):
+    """Re-evaluate given ``lists`` (rows, columns, distances) at level ``lv`` (entries
+    breaking the rules become self with inf)."""
+    ky, kx, kd = lists
+    src_lab = lv.src_lab
     H, W = src_lab.shape
     for y in prange(H):
         for x in range(W):
@@ -224,7 +245,7 @@ def _knn_rescore(src_lab, src_dist, src_rgb, src_masks, src_h, hw, h, k, excl, w
                 cx = lx[t]
                 if src_lab[cy, cx] != src_lab[y, x] or max(abs(cy - y), abs(cx - x)) <= excl:
                     continue
-                d = _ex_dist(src_dist, src_rgb, src_masks, src_h, hw, h, y, x, cy, cx, w, kd[y, x, k - 1])
+                d = _ex_dist(lv, m, y, x, cy, cx, kd[y, x, k - 1])
                 _insert(ky[y, x], kx[y, x], kd[y, x], k, cy, cx, d)
 
 
@@ -289,26 +310,27 @@ def rejected(S, i, j, cy, cx, h, radius):
 
 
 @njit(**JIT)
-def _cand_dist(src_dist, src_rgb, src_masks, tgt_masks, src_h, th, hw, i, j, cy, cx, h, tD, tRGB, w, use_rgb,
-               best):
-    """Eq. 1 with colour and height for candidate (cy, cx) at target (i, j) (target
-    height ``th``); early exit above best."""
+def _cand_dist(lv, m, use_rgb, i, j, cy, cx, tD, tRGB, best):
+    """Eq. 1 with colour and height for candidate (cy, cx) at target (i, j), whose 5×5
+    contour distances and colours under the current map are ``tD``, ``tRGB``; early exit
+    above best."""
+    h = lv.h
     b2 = best * best
-    s = height_sq(src_h, cy, cx, th, hw)
+    s = height_sq(lv.src_height, cy, cx, lv.tgt_height[i, j], m.height_weight)
     if s <= b2:
-        s += dist_sq_D(src_dist, h, cy, cx, tD, b2 - s)
+        s += dist_sq_D(lv.src_dist, h, cy, cx, tD, b2 - s)
     if use_rgb and s <= b2:
-        s += dist_sq_rgb(src_rgb, h, cy, cx, tRGB, b2 - s)
+        s += dist_sq_rgb(lv.src_rgb, h, cy, cx, tRGB, b2 - s)
     d = np.sqrt(s)
     if d >= best:
         return d
-    return d + w * chamfer_masks(src_masks[cy, cx], tgt_masks[i, j])
+    return d + m.w * chamfer_masks(lv.src_masks[cy, cx], lv.tgt_masks[i, j])
 
 
 @njit(**PJIT)
-def _subpass(src_lab, src_dist, src_rgb, src_masks, src_h, tgt_lab, tgt_dist, tgt_masks, tgt_h, hw, knn, S_old,
-             S_new, active, pi, pj, h, radius, w, use_rgb, kappa, over, uniformity, counts):
-    """Correct pixels with (i % 2, j % 2) == (pi, pj), reading S_old, writing S_new.
+def _subpass(lv, m, rule, knn, over, S_old, S_new, active, parity, counts):
+    """Correct pixels with (i % 2, j % 2) == ``parity`` of level ``lv``, reading S_old,
+    writing S_new; ``knn`` the similarity sets (He, We, k, 2).
 
     Candidates from similarity sets (not a neighbour's coherent continuation) have their
     distance multiplied by 1 + kappa; every candidate's by 1 + uniformity × its exemplar
@@ -316,6 +338,9 @@ def _subpass(src_lab, src_dist, src_rgb, src_masks, src_h, tgt_lab, tgt_dist, tg
 
     counts[i] accumulates (changed, all rejected) per row for reporting.
     """
+    pi, pj = parity
+    src_lab, src_rgb, tgt_lab, tgt_dist, h = lv.src_lab, lv.src_rgb, lv.tgt_lab, lv.tgt_dist, lv.h
+    radius, use_rgb, kappa, uniformity = rule.radius, rule.use_rgb, rule.kappa, rule.uniformity
     Ht, Wt = tgt_lab.shape
     He, We = src_lab.shape
     k = knn.shape[2]
@@ -381,9 +406,8 @@ def _subpass(src_lab, src_dist, src_rgb, src_masks, src_h, tgt_lab, tgt_dist, tg
             for u in range(nc):
                 cy = cyl[u]
                 cx = cxl[u]
-                m = (1.0 if coh[u] else 1.0 + kappa) * (1.0 + uniformity * over[cy, cx])
-                d = m * _cand_dist(src_dist, src_rgb, src_masks, tgt_masks, src_h, tgt_h[i, j], hw, i, j, cy, cx, h,
-                                   tD, tRGB, w, use_rgb, best / m)
+                f = (1.0 if coh[u] else 1.0 + kappa) * (1.0 + uniformity * over[cy, cx])
+                d = f * _cand_dist(lv, m, use_rgb, i, j, cy, cx, tD, tRGB, best / f)
                 # rejection is only tested for a candidate that would win (same result, cheaper)
                 if d < best and not rejected(S_old, i, j, cy, cx, h, radius):
                     best = d
@@ -393,9 +417,8 @@ def _subpass(src_lab, src_dist, src_rgb, src_masks, src_h, tgt_lab, tgt_dist, tg
                 # every candidate was rejected and the current position has the wrong
                 # label: label fidelity wins over repetition
                 for u in range(nc):
-                    m = (1.0 if coh[u] else 1.0 + kappa) * (1.0 + uniformity * over[cyl[u], cxl[u]])
-                    d = m * _cand_dist(src_dist, src_rgb, src_masks, tgt_masks, src_h, tgt_h[i, j], hw, i, j, cyl[u],
-                                       cxl[u], h, tD, tRGB, w, use_rgb, best / m)
+                    f = (1.0 if coh[u] else 1.0 + kappa) * (1.0 + uniformity * over[cyl[u], cxl[u]])
+                    d = f * _cand_dist(lv, m, use_rgb, i, j, cyl[u], cxl[u], tD, tRGB, best / f)
                     if d < best:
                         best = d
                         by = cyl[u]
@@ -414,8 +437,8 @@ def _subpass(src_lab, src_dist, src_rgb, src_masks, src_h, tgt_lab, tgt_dist, tg
 TILE_MIN_PIXELS = int(os.environ.get("PROXYSHADE_TILE_MIN_PIXELS", 1 << 18))
 
 
-def subpass_rows(level, knn, S_old, active, over, r0: int, r1: int, pi: int, pj: int, radius: int, w: float,
-                 use_rgb: bool, kappa: float, uniformity: float, height_weight: float):
+def subpass_rows(level, knn, S_old, active, over, r0: int, r1: int, parity: tuple[int, int], metric: Metric,
+                 rule: Rule):
     """One parity sub-pass on rows r0..r1 of the target only: (the new S of those rows,
     their counts). Every pixel of a sub-pass reads only the state before it (``S_old``)
     and the usage term ``over`` computed from it, so the rows of a band come out exactly
@@ -424,15 +447,12 @@ def subpass_rows(level, knn, S_old, active, over, r0: int, r1: int, pi: int, pj:
     band = np.zeros(active.shape, np.bool_)
     band[r0:r1] = active[r0:r1]
     counts = np.zeros((S_old.shape[0], 2), np.int64)
-    _subpass(level.src_lab, level.src_dist, level.src_rgb, level.src_masks, level.src_height, level.tgt_lab,
-             level.tgt_dist, level.tgt_masks, level.tgt_height, float(height_weight), knn, S_old, S_new, band,
-             pi, pj, level.h, radius, float(w), use_rgb, float(kappa), over, float(uniformity), counts)
+    _subpass(level, metric, rule, knn, over, S_old, S_new, band, parity, counts)
     return S_new[r0:r1], counts[r0:r1]
 
 
-def correct_level(level, S: np.ndarray, knn: np.ndarray, *, passes: int, radius: int, w: float,
-                  use_rgb: bool = True, kappa: float = 0.0, active: np.ndarray | None = None,
-                  height_weight: float = 0.0, uniformity: float = 0.0, tiles=None) -> tuple[np.ndarray, dict]:
+def correct_level(level, S: np.ndarray, knn: np.ndarray, *, passes: int, metric: Metric, rule: Rule,
+                  active: np.ndarray | None = None, tiles=None) -> tuple[np.ndarray, dict]:
     """``passes`` correction passes (4 parity sub-passes each) at one level.
 
     ``tiles``: None (every sub-pass whole, numba's threads over its rows), or a runner
@@ -444,6 +464,8 @@ def correct_level(level, S: np.ndarray, knn: np.ndarray, *, passes: int, radius:
     Ht, Wt = level.tgt_lab.shape
     if active is None:
         active = np.ones((Ht, Wt), np.bool_)
+    metric = Metric(float(metric.w), float(metric.height_weight))
+    rule = Rule(int(rule.radius), bool(rule.use_rgb), float(rule.kappa), float(rule.uniformity))
     S_old = np.ascontiguousarray(S, np.int32).copy()
     S_new = S_old.copy()
     counts = np.zeros((Ht, 2), np.int64)
@@ -454,20 +476,17 @@ def correct_level(level, S: np.ndarray, knn: np.ndarray, *, passes: int, radius:
     nb = min(getattr(tiles, "bands", 1), Ht // 8) if tiles is not None and Ht * Wt >= TILE_MIN_PIXELS else 1
     edges = np.linspace(0, Ht, nb + 1).astype(int)
     for _ in range(passes):
-        for pi, pj in ((0, 0), (1, 1), (0, 1), (1, 0)):
-            if uniformity > 0:
+        for parity in ((0, 0), (1, 1), (0, 1), (1, 0)):
+            if rule.uniformity > 0:
                 _usage_excess(S_old, level.src_lab, expected, 2 * level.h, over)
             if nb > 1:
-                jobs = [(S_old, active, over, int(a), int(b), pi, pj, radius, float(w), use_rgb, float(kappa),
-                         float(uniformity), float(height_weight)) for a, b in zip(edges[:-1], edges[1:])]
+                jobs = [(S_old, active, over, int(a), int(b), parity, metric, rule)
+                        for a, b in zip(edges[:-1], edges[1:])]
                 for (a, b), (rows, cnt) in zip(zip(edges[:-1], edges[1:]), tiles(subpass_rows, (level, knn), jobs)):
                     S_new[a:b] = rows
                     counts[a:b] += cnt
             else:
-                _subpass(level.src_lab, level.src_dist, level.src_rgb, level.src_masks, level.src_height,
-                         level.tgt_lab, level.tgt_dist, level.tgt_masks, level.tgt_height, float(height_weight), knn,
-                         S_old, S_new, active, pi, pj, level.h, radius, float(w), use_rgb, float(kappa), over,
-                         float(uniformity), counts)
+                _subpass(level, metric, rule, knn, over, S_old, S_new, active, parity, counts)
             S_old[...] = S_new  # only this sub-set changed
     c = counts.sum(0)
     return S_old, {"changed": int(c[0]), "all_rejected": int(c[1])}
@@ -540,24 +559,21 @@ def downsample_mask(mask: np.ndarray, h: int, shape: tuple[int, int]) -> np.ndar
     return out
 
 
-def level_similarity_sets(levels: list, k: int, *, seed: int, knn_iterations: int, w: float,
-                          height_weight: float = 0.0) -> list:
+def level_similarity_sets(levels: list, k: int, metric: Metric, *, seed: int, knn_iterations: int) -> list:
     """``similarity_sets`` of every level (coarsest first), as ``synthesize`` uses them."""
     L = len(levels)
     ex_shape = levels[-1].src_lab.shape
     knns = [None] * L
     for l in range(L - 1, -1, -1):  # finest first: coarser lists start from finer ones
         init = knns[l + 1] if l + 1 < L else None
-        knns[l] = similarity_sets(levels[l], k, seed=mix_seed(seed, l), iterations=knn_iterations if init is None else 1,
-                                  w=w, init=init, height_weight=height_weight) if k > 0 else \
+        knns[l] = similarity_sets(levels[l], k, metric, seed=mix_seed(seed, l),
+                                  iterations=knn_iterations if init is None else 1, init=init) if k > 0 else \
             np.zeros(ex_shape + (0, 2), np.int32)
     return knns
 
 
-def synthesize(levels: list, S_init: np.ndarray, *, passes: int, passes_finest: int, k: int, w: float, seed: int,
-               knn_iterations: int, use_rgb: bool, kappa: float, mask: np.ndarray | None = None, timings: dict | None = None,
-               radius_rule: str = "spacing", similarity: list | None = None,
-               height_weight: float = 0.0, uniformity: float = 0.0, min_radius: int = 0,
+def synthesize(levels: list, S_init: np.ndarray, corr, *, seed: int, mask: np.ndarray | None = None,
+               similarity: list | None = None, min_radius: int = 0, timings: dict | None = None,
                tiles=None) -> tuple[np.ndarray, list[dict]]:
     """Coarse-to-fine correction of an initial coordinate map.
 
@@ -566,22 +582,27 @@ def synthesize(levels: list, S_init: np.ndarray, *, passes: int, passes_finest: 
     levels : list of ``features.Level``, coarsest first (the last at the synthesis size).
     S_init : (Ht, Wt, 2) int32 exemplar (row, column) per guide pixel, e.g. from
         ``patch.flood_fill``.
-    passes, passes_finest : correction passes per level and at the finest level.
-    k : size of the similarity sets (k-coherence).
+    corr : the correction's settings, as attributes (the ``synthesis.params.Correction``
+        group): ``passes``, ``passes_finest`` correction passes per level and at the finest
+        level; ``k`` the size of the similarity sets (k-coherence) and ``knn_iterations``
+        their search's; ``w``, ``height_weight`` the weights of eq. 1 (``features.Metric``);
+        ``use_rgb``, ``kappa`` (``Rule``); ``uniformity``: candidates' distances are
+        multiplied by 1 + uniformity × the over-use of their exemplar neighbourhood
+        (``_usage_excess``; 0: none): the synthesis draws on the whole source region
+        instead of converging on its blandest patch; ``radius``: the near-copy radius
+        rule, "spacing" (h exemplar pixels at a level of spacing h) or "level" (2^l at
+        level l, the paper's).
+    seed : seeds the similarity sets' search.
     mask : (Ht, Wt) bool, optional; only these pixels change, the rest keep ``S_init``.
-    height_weight : weight of the relative-height term (0: none).
-    uniformity : candidates' distances are multiplied by 1 + uniformity × the over-use of
-        their exemplar neighbourhood (``_usage_excess``; 0: none): the synthesis draws on
-        the whole source region instead of converging on its blandest patch.
     min_radius : smallest near-copy radius in exemplar pixels at every level (the
-        ``radius_rule``'s where larger; 0: the rule alone). The rule gives one exemplar
+        radius rule's where larger; 0: the rule alone). The rule gives one exemplar
         pixel at the finest level, so a seam may join two copies of nearly the same source
         spot (a shift of 1–3 exemplar pixels); magnified, each exemplar pixel is ``factor``
         output pixels and such seams pile onto the same few source pixels (see
         docs/formats.md, "near copies").
     similarity : optional per-level similarity sets from ``level_similarity_sets`` (they
-        depend on the exemplar side of the levels, k, w, seed and knn_iterations only):
-        passed again, the search is skipped (a later frame of one source).
+        depend on the exemplar side of the levels, k, w, height_weight, seed and
+        knn_iterations only): passed again, the search is skipped (a later frame of one source).
     tiles : optional runner of row bands of the large levels' sub-passes (``correct_level``).
 
     Returns the corrected map and per-level statistics.
@@ -591,14 +612,14 @@ def synthesize(levels: list, S_init: np.ndarray, *, passes: int, passes_finest: 
     L = len(levels)
     ex_shape = levels[-1].src_lab.shape
     S_init = np.ascontiguousarray(S_init, np.int32)
+    metric = Metric(float(corr.w), float(corr.height_weight))
     t0 = time.perf_counter()
     if similarity is None:
-        knns = level_similarity_sets(levels, k, seed=seed, knn_iterations=knn_iterations, w=w,
-                                     height_weight=height_weight)
+        knns = level_similarity_sets(levels, corr.k, metric, seed=seed, knn_iterations=corr.knn_iterations)
     else:
         knns = list(similarity)
-        if len(knns) != L or any(a.shape[:3] != ex_shape + (k,) for a in knns):
-            raise ValueError(f"similarity must hold {L} arrays of shape {ex_shape + (k, 2)}")
+        if len(knns) != L or any(a.shape[:3] != ex_shape + (corr.k,) for a in knns):
+            raise ValueError(f"similarity must hold {L} arrays of shape {ex_shape + (corr.k, 2)}")
     t1 = time.perf_counter()
     stats = []
     S = None
@@ -616,10 +637,11 @@ def synthesize(levels: list, S_init: np.ndarray, *, passes: int, passes_finest: 
             else:
                 S = up
         active = downsample_mask(mask, h, shape) if mask is not None else None
-        radius = max(h if radius_rule == "spacing" else 2 ** l, int(min_radius))
-        n = passes_finest if l == L - 1 else passes
-        S, st = correct_level(lv, S, knns[l], passes=n, radius=radius, w=w, use_rgb=use_rgb, kappa=kappa,
-                              active=active, height_weight=height_weight, uniformity=uniformity, tiles=tiles)
+        radius = max(h if corr.radius == "spacing" else 2 ** l, int(min_radius))
+        n = corr.passes_finest if l == L - 1 else corr.passes
+        S, st = correct_level(lv, S, knns[l], passes=n, metric=metric,
+                              rule=Rule(radius, bool(corr.use_rgb), float(corr.kappa), float(corr.uniformity)),
+                              active=active, tiles=tiles)
         st.update(level=l, h=h, shape=shape, passes=n, radius=radius)
         stats.append(st)
     if mask is not None:

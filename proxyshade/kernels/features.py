@@ -31,7 +31,7 @@ S. Lefebvre, H. Hoppe. Appearance-space texture synthesis. SIGGRAPH 2006.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit, prange
@@ -162,9 +162,17 @@ def dense_labels(ids: np.ndarray, table_ids: np.ndarray) -> tuple[np.ndarray, np
 # levels
 
 
-@dataclass
-class Level:
-    """One synthesis level: exemplar stack level and guide pyramid level.
+class Metric(NamedTuple):
+    """The weights of eq. 1 with the height term: ``w`` the Chamfer distance's,
+    ``height_weight`` the relative heights' (``label_heights``; 0 = the paper's eq. 1)."""
+
+    w: float
+    height_weight: float
+
+
+class Level(NamedTuple):
+    """One synthesis level: exemplar stack level and guide pyramid level (a named tuple:
+    the synthesis kernels take it whole, numba reads its fields).
 
     h : stack spacing (exemplar pixels per level pixel).
     src_lab, src_dist, src_rgb : (He, We) int32, (He, We) float32, (He, We, 3) float32.

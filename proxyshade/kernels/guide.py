@@ -25,6 +25,8 @@ Labels here are dense indices 0..n-1.
 """
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 from numba import njit, prange
 
@@ -36,6 +38,42 @@ from proxyshade.kernels.random import uniform
 
 NB = 5
 R = 2
+
+
+class Exemplar(NamedTuple):
+    """One level of the label exemplar: ``lab`` (He, We) int32 dense labels, ``masks``
+    (He, We, n) uint32 label masks of its 5×5 windows of spacing h (``exemplar_masks``),
+    ``col`` (He, We, 3) label colours (the l2 metric; unread by the Chamfer one), ``sim``
+    (He, We, k, 2) int32 similarity sets (``similarity_sets``)."""
+
+    lab: np.ndarray
+    masks: np.ndarray
+    col: np.ndarray
+    sim: np.ndarray
+
+
+class Guide(NamedTuple):
+    """The proxy guide at one level: ``masks`` (H, W, n) uint32 label masks of its 5×5
+    windows (``grid_masks``), ``col`` (H, W, 75) colour windows (l2; unread by Chamfer),
+    ``target`` (H, W) int32 dense labels, ``locked`` (H, W) bool pixels that only take
+    candidates of the target's label (``locked_border``), ``allowed`` (n, n) bool label
+    adjacencies (``adjacency``)."""
+
+    masks: np.ndarray
+    col: np.ndarray
+    target: np.ndarray
+    locked: np.ndarray
+    allowed: np.ndarray
+
+
+class Rule(NamedTuple):
+    """A correction at one level: exemplar spacing ``h``, the weight ``w_proxy`` of the
+    agreement with the proxy, ``metric`` 0 (Chamfer) or 1 (l2), ``n`` labels."""
+
+    h: int
+    w_proxy: float
+    metric: int
+    n: int
 
 
 @njit(**JIT)
@@ -203,10 +241,12 @@ def upsample_state(S, h, He, We, H, W):
 
 
 @njit(**JIT)
-def _candidate(q, i, j, S_old, sim, h, k, H, W, He, We):
+def _candidate(q, i, j, S_old, sim, h):
     """Candidate ``q`` of pixel (i, j): -1 is the current coordinate, then for each 3×3
-    neighbour (row-major) the k entries of the similarity set of the coordinate that
-    continues the neighbour's patch at (i, j)."""
+    neighbour (row-major) the k entries of the similarity set ``sim`` (He, We, k, 2) of the
+    coordinate that continues the neighbour's patch at (i, j)."""
+    H, W = S_old.shape[0], S_old.shape[1]
+    He, We, k = sim.shape[0], sim.shape[1], sim.shape[2]
     if q < 0:
         return S_old[i, j, 0], S_old[i, j, 1]
     nb = q // k
@@ -219,13 +259,18 @@ def _candidate(q, i, j, S_old, sim, h, k, H, W, He, We):
 
 
 @njit(inline="always", **JIT)
-def _correct_pixel(i, j, S_old, ex_lab, ex_masks, ex_col, sim, tgt_masks, tgt_col, target, locked_mask, allowed, h,
-                   w_proxy, metric, n, k, H, W, He, We, ms, fs, fe, seen):
+def _correct_pixel(i, j, S_old, ex, guide, rule, scratch):
     """The corrected coordinates of pixel (i, j): among its candidates, the first one
     minimizing d(synthesized window, candidate) + w_proxy d(proxy window, candidate).
     Repeated candidates are evaluated once and Chamfer sums stop early once they cannot
-    win (neither changes the result). ``ms``, ``fs``, ``fe``, ``seen``: the caller's
-    scratch buffers."""
+    win (neither changes the result). ``scratch``: the caller's buffers (ms, fs, fe, seen)."""
+    ex_lab, ex_masks, ex_col, sim = ex
+    tgt_masks, tgt_col, target, locked_mask, allowed = guide
+    h, w_proxy, metric, n = rule
+    ms, fs, fe, seen = scratch
+    H, W = S_old.shape[0], S_old.shape[1]
+    He, We = ex_lab.shape
+    k = sim.shape[2]
     # the synthesized neighbourhood: labels (colours) under the current coordinates
     for l in range(n):
         ms[l] = 0
@@ -244,7 +289,7 @@ def _correct_pixel(i, j, S_old, ex_lab, ex_masks, ex_col, sim, tgt_masks, tgt_co
     best = np.inf
     nseen = 0
     for q in range(-1, 9 * k):
-        cy, cx = _candidate(q, i, j, S_old, sim, h, k, H, W, He, We)
+        cy, cx = _candidate(q, i, j, S_old, sim, h)
         key = np.int64(cy) * We + cx
         dup = False
         for u in range(nseen):
@@ -299,13 +344,13 @@ def _correct_pixel(i, j, S_old, ex_lab, ex_masks, ex_col, sim, tgt_masks, tgt_co
 
 
 @njit(**PJIT)
-def _subpass(S_old, S_new, active, par_i, par_j, ex_lab, ex_masks, ex_col, sim, tgt_masks, tgt_col, target,
-             locked_mask, allowed, h, w_proxy, metric, n):
-    """Correct the ``active`` pixels of parity (par_i, par_j) (``_correct_pixel``); the
+def _subpass(S_old, S_new, active, parity, ex, guide, rule):
+    """Correct the ``active`` pixels of ``parity`` (i % 2, j % 2) (``_correct_pixel``); the
     others keep ``S_new``'s coordinates."""
+    par_i, par_j = parity
+    n = rule.n
     H, W = S_old.shape[0], S_old.shape[1]
-    He, We = ex_lab.shape
-    k = sim.shape[2]
+    k = ex.sim.shape[2]
     for i2 in prange((H - par_i + 1) // 2):
         i = par_i + 2 * i2
         ms = np.zeros(n, np.uint32)
@@ -314,18 +359,16 @@ def _subpass(S_old, S_new, active, par_i, par_j, ex_lab, ex_masks, ex_col, sim, 
         seen = np.empty(9 * k + 1, np.int64)
         for j in range(par_j, W, 2):
             if active[i, j]:
-                S_new[i, j, 0], S_new[i, j, 1] = _correct_pixel(
-                    i, j, S_old, ex_lab, ex_masks, ex_col, sim, tgt_masks, tgt_col, target, locked_mask, allowed, h,
-                    w_proxy, metric, n, k, H, W, He, We, ms, fs, fe, seen)
+                S_new[i, j, 0], S_new[i, j, 1] = _correct_pixel(i, j, S_old, ex, guide, rule, (ms, fs, fe, seen))
 
 
-def correct(S, ex_lab, ex_masks, ex_col, sim, tgt_masks, tgt_col, target, locked_mask, allowed, *, h, w_proxy,
-            metric, n, passes, active=None):
+def correct(S, ex: Exemplar, guide: Guide, rule: Rule, *, passes, active=None):
     """``passes`` correction passes of four parity sub-passes each; returns the new state.
     ``active`` (H, W bool, default every pixel): only those pixels are corrected, every other
     one keeps its coordinates and is context for its neighbours (an edit's progressive
     update, §7: "we initialize flagged areas with the new labels and perform correction
     passes")."""
+    rule = Rule(int(rule.h), float(rule.w_proxy), int(rule.metric), int(rule.n))
     S = S.copy()
     active = np.ones(S.shape[:2], np.bool_) if active is None else np.ascontiguousarray(active, np.bool_)
     if not active.any():
@@ -333,8 +376,7 @@ def correct(S, ex_lab, ex_masks, ex_col, sim, tgt_masks, tgt_col, target, locked
     for _ in range(passes):
         for par_i, par_j in ((0, 0), (1, 1), (0, 1), (1, 0)):
             snap = S.copy()
-            _subpass(snap, S, active, par_i, par_j, ex_lab, ex_masks, ex_col, sim, tgt_masks, tgt_col, target,
-                     locked_mask, allowed, h, w_proxy, metric, n)
+            _subpass(snap, S, active, (par_i, par_j), ex, guide, rule)
     return S
 
 

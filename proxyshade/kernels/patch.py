@@ -24,25 +24,69 @@ patch ids (used to resynthesize flagged pixels of a later frame).
 """
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 from numba import njit
 
 from proxyshade.kernels._config import JIT
 from proxyshade.kernels.random import permutation, rand
-from proxyshade.kernels.features import NB2, chamfer_masks, dist_sq_D, gather_target, height_sq
+from proxyshade.kernels.features import NB2, Level, Metric, chamfer_masks, dist_sq_D, gather_target, height_sq
+
+# The kernels take the finest ``features.Level`` (h = 1) whole, and ``features.Metric``.
+
+
+class Probe(NamedTuple):
+    """A guide pixel's side of eq. 1: its 5×5 contour distances ``dist`` (``NB2``), its
+    window's label masks ``masks`` (n,) and its relative height ``height``."""
+
+    dist: np.ndarray
+    masks: np.ndarray
+    height: np.float32
+
+
+class Scan(NamedTuple):
+    """A label's candidates in scan order from ``start`` (ties go to the first met):
+    ``posof`` each exemplar pixel's position in its label's list, ``n`` the list's length."""
+
+    posof: np.ndarray
+    start: int
+    n: int
+
+
+class Cover(NamedTuple):
+    """The map being covered: ``free`` (Ht, Wt) bool pixels still to cover, ``S`` (Ht, Wt, 2)
+    int32 exemplar (row, column), ``patch`` (Ht, Wt) int64 patch ids."""
+
+    free: np.ndarray
+    S: np.ndarray
+    patch: np.ndarray
+
+
+class Groups(NamedTuple):
+    """Each label's candidates ordered by the hash of their window's label masks
+    (``_window_groups``): flat indices, hashes, the end of each position's run of equal
+    hashes, whether the run's masks are all equal."""
+
+    grouped: np.ndarray
+    hashes: np.ndarray
+    end: np.ndarray
+    uniform: np.ndarray
 
 
 @njit(**JIT)
-def _eq1(src_dist, src_masks, src_h, y, x, tD, tmask, th, hw, w, bound):
-    """eq. 1 (+ the height term) for exemplar (y, x) against target features; early
-    exit above ``bound``."""
+def _eq1(src_dist, src_masks, src_height, y, x, tD, tmask, th, m, bound):
+    """eq. 1 (+ the height term) for exemplar (y, x) against a guide pixel's 5×5 contour
+    distances ``tD``, window label masks ``tmask`` and relative height ``th`` (a
+    ``Probe``'s fields); early exit above ``bound``. (Arrays, not records: the hottest call
+    of the flood fill, where reading a record's arrays costs their reference counts.)"""
     b2 = bound * bound
-    hs = height_sq(src_h, y, x, th, hw)
+    hs = height_sq(src_height, y, x, th, m.height_weight)
     dsq = hs if hs > b2 else hs + dist_sq_D(src_dist, 1, y, x, tD, b2 - hs)
     dd = np.sqrt(dsq)
     if dd > bound:
         return dd
-    return dd + w * chamfer_masks(src_masks[y, x], tmask)
+    return dd + m.w * chamfer_masks(src_masks[y, x], tmask)
 
 
 @njit(**JIT)
@@ -70,34 +114,36 @@ def _better(d, k, bd, bk):
 
 
 @njit(inline="always", **JIT)
-def _tie_key(c, posof, start, n):
-    """Where candidate c comes in its label's scan from ``start`` (ties go to the first)."""
-    k = posof[c] - start
-    return k + n if k < 0 else k
+def _tie_key(c, scan):
+    """Where candidate c comes in its label's ``scan`` (ties go to the first)."""
+    k = scan.posof[c] - scan.start
+    return k + scan.n if k < 0 else k
 
 
 @njit(**JIT)
-def _best_match(cands, src_dist, src_masks, src_h, tD, tmask, th, hw, w, bound, c0, posof, start, n, same_window):
+def _best_match(cands, lv, m, probe, bound, c0, scan, same_window):
     """Argmin of eq. 1 over ``cands`` (flat exemplar indices of one label), ties to the
-    first in the label's scan from ``start`` (``_tie_key``), from ``bound``, eq. 1 at
-    candidate ``c0`` (inf and −1 when none is known): candidates stop after the first row
-    of the 5×5 window that exceeds the best. With ``same_window`` only the candidates whose
+    first in the label's ``scan`` (``_tie_key``), from ``bound``, eq. 1 at candidate
+    ``c0`` (inf and −1 when none is known): candidates stop after the first row of the
+    5×5 window that exceeds the best. With ``same_window`` only the candidates whose
     label masks equal the target's are taken (the others are hash collisions of
     ``_window_groups``)."""
+    src_dist, src_masks, src_h = lv.src_dist, lv.src_masks, lv.src_height
+    tD, tmask, th = probe
     W = src_dist.shape[1]
     bd = bound
     bi = c0
-    bk = _tie_key(c0, posof, start, n) if c0 >= 0 else n
+    bk = _tie_key(c0, scan) if c0 >= 0 else scan.n
     for t in range(cands.shape[0]):
         c = cands[t]
-        k = _tie_key(c, posof, start, n)
+        k = _tie_key(c, scan)
         if bd == 0.0 and k > bk:  # only a tie could win, and this one comes later
             continue
         y = c // W
         x = c % W
         if same_window and not _same_masks(src_masks[y, x], tmask):
             continue
-        d = _eq1(src_dist, src_masks, src_h, y, x, tD, tmask, th, hw, w, bd)
+        d = _eq1(src_dist, src_masks, src_h, y, x, tD, tmask, th, m, bd)
         if _better(d, k, bd, bk):
             bd = d
             bi = c
@@ -106,16 +152,17 @@ def _best_match(cands, src_dist, src_masks, src_h, tD, tmask, th, hw, w, bound, 
 
 
 @njit(**JIT)
-def _continued_bound(src_lab, src_dist, src_masks, src_h, tgt_lab, free, S, i, j, tD, tmask, th, hw, w, posof, start,
-                     n):
-    """eq. 1 of the best continuation at target (i, j) of a covered 4-neighbour's
-    translation that lands on an exemplar pixel of (i, j)'s label (the first in the scan
-    order among equals), as (distance, flat index); (inf, −1) when there is none."""
+def _continued_bound(lv, m, cover, i, j, probe, scan):
+    """eq. 1 of the best continuation at target (i, j) (its ``probe``) of a covered
+    4-neighbour's translation that lands on an exemplar pixel of (i, j)'s label (the first
+    in the ``scan`` order among equals), as (distance, flat index); (inf, −1) when there
+    is none."""
+    src_lab, tgt_lab, free, S = lv.src_lab, lv.tgt_lab, cover.free, cover.S
     Ht, Wt = tgt_lab.shape
     He, We = src_lab.shape
     bd = np.inf
     bc = -1
-    bk = n
+    bk = scan.n
     for k in range(4):
         ii = i + (k == 1) - (k == 0)
         jj = j + (k == 3) - (k == 2)
@@ -126,8 +173,8 @@ def _continued_bound(src_lab, src_dist, src_masks, src_h, tgt_lab, free, S, i, j
         if y < 0 or y >= He or x < 0 or x >= We or src_lab[y, x] != tgt_lab[i, j]:
             continue
         c = y * We + x
-        key = _tie_key(c, posof, start, n)
-        d = _eq1(src_dist, src_masks, src_h, y, x, tD, tmask, th, hw, w, np.inf)
+        key = _tie_key(c, scan)
+        d = _eq1(lv.src_dist, lv.src_masks, lv.src_height, y, x, probe.dist, probe.masks, probe.height, m, np.inf)
         if _better(d, key, bd, bk):
             bd = d
             bc = c
@@ -136,9 +183,12 @@ def _continued_bound(src_lab, src_dist, src_masks, src_h, tgt_lab, free, S, i, j
 
 
 @njit(**JIT)
-def _grow(src_lab, src_dist, src_masks, src_h, tgt_lab, tgt_dist, tgt_masks, tgt_h, hw, free, S, patch, pid, i0,
-          j0, oy, ox, thr, w, queue, stamp):
-    """Flood fill from target (i0, j0) with exemplar offset (oy, ox); returns pixel count."""
+def _grow(lv, m, cover, pid, i0, j0, oy, ox, thr, queue, stamp):
+    """Flood fill from target (i0, j0) with exemplar offset (oy, ox), stopping above eq. 1
+    ``thr``; returns pixel count. ``queue``, ``stamp``: the caller's scratch buffers."""
+    src_lab, src_dist, src_masks, src_h = lv.src_lab, lv.src_dist, lv.src_masks, lv.src_height
+    tgt_lab, tgt_dist, tgt_masks, tgt_h = lv.tgt_lab, lv.tgt_dist, lv.tgt_masks, lv.tgt_height
+    free, S, patch = cover
     Ht, Wt = tgt_lab.shape
     He, We = src_lab.shape
     tD = np.empty(NB2, np.float32)
@@ -159,7 +209,7 @@ def _grow(src_lab, src_dist, src_masks, src_h, tgt_lab, tgt_dist, tgt_masks, tgt
             if y < 0 or y >= He or x < 0 or x >= We or src_lab[y, x] != tgt_lab[i, j]:
                 continue
             gather_target(tgt_dist, i, j, tD)
-            d = _eq1(src_dist, src_masks, src_h, y, x, tD, tgt_masks[i, j], tgt_h[i, j], hw, w, thr)
+            d = _eq1(src_dist, src_masks, src_h, y, x, tD, tgt_masks[i, j], tgt_h[i, j], m, thr)
             if d > thr:
                 continue
         free[i, j] = False
@@ -233,38 +283,39 @@ def _window_groups(src_masks, starts, lists):
                     uniform[r] = False
             end[r] = e
             r = e
-    return grouped, hashes, end, uniform
+    return Groups(grouped, hashes, end, uniform)
 
 
 @njit(**JIT)
-def _best_by_window(grouped, end, uniform, a, b, src_dist, src_masks, src_h, tD, tmask, th, hw, w, bound, c0, posof,
-                    start, n):
-    """``_best_match`` over every candidate grouped[a:b], a run of alike windows at a
-    time: the run's Chamfer term is computed once, and a run whose term alone exceeds
+def _best_by_window(groups, a, b, lv, m, probe, bound, c0, scan):
+    """``_best_match`` over every candidate ``groups.grouped[a:b]``, a run of alike windows
+    at a time: the run's Chamfer term is computed once, and a run whose term alone exceeds
     the best is skipped whole (eq. 1 is at least its Chamfer term). The same answer as
     the candidate-by-candidate scan."""
+    grouped, end, uniform = groups.grouped, groups.end, groups.uniform
+    src_dist, src_masks, src_h, tD, th, hw = lv.src_dist, lv.src_masks, lv.src_height, probe.dist, probe.height, \
+        m.height_weight
     W = src_dist.shape[1]
     bd = bound
     bi = c0
-    bk = _tie_key(c0, posof, start, n) if c0 >= 0 else n
+    bk = _tie_key(c0, scan) if c0 >= 0 else scan.n
     r = a
     while r < b:
         e = end[r]
         if not uniform[r]:  # a hash collision: candidate by candidate
-            bi, bd = _best_match(grouped[r:e], src_dist, src_masks, src_h, tD, tmask, th, hw, w, bd, bi, posof,
-                                 start, n, False)
-            bk = _tie_key(bi, posof, start, n) if bi >= 0 else n
+            bi, bd = _best_match(grouped[r:e], lv, m, probe, bd, bi, scan, False)
+            bk = _tie_key(bi, scan) if bi >= 0 else scan.n
             r = e
             continue
         c = grouped[r]
-        wc = w * chamfer_masks(src_masks[c // W, c % W], tmask)
+        wc = m.w * chamfer_masks(src_masks[c // W, c % W], probe.masks)
         if wc <= bd:
             # eq. 1 = sqrt(height² + D sum) + wc <= bd needs the root <= bd − wc: the sums
             # stop past that (with a margin far above rounding, so no tie is lost)
             lim = (bd - wc) * (1.0 + 1e-9) + 1e-9
             for t in range(r, e):
                 c = grouped[t]
-                k = _tie_key(c, posof, start, n)
+                k = _tie_key(c, scan)
                 if bd == 0.0 and k > bk:
                     continue
                 y = c // W
@@ -297,11 +348,13 @@ def _positions(starts, lists, size):
 
 
 @njit(**JIT)
-def _flood_fill(src_lab, src_dist, src_masks, src_h, tgt_lab, tgt_dist, tgt_masks, tgt_h, hw, order, free, S,
-                patch, first_id, w, thr_scale, thr_offset, seed):
-    n = src_masks.shape[2]
+def _flood_fill(lv, m, cover, order, first_id, thr_scale, thr_offset, seed):
+    """Patches grown from the free pixels of ``cover`` taken in ``order``, ids from
+    ``first_id``; returns their count."""
+    src_lab, tgt_lab, free = lv.src_lab, lv.tgt_lab, cover.free
+    n = lv.src_masks.shape[2]
     starts, lists = _label_lists(src_lab, n)
-    grouped, hashes, end, uniform = _window_groups(src_masks, starts, lists)
+    groups = _window_groups(lv.src_masks, starts, lists)
     posof = _positions(starts, lists, lists.shape[0])
     Ht, Wt = tgt_lab.shape
     queue = np.empty(Ht * Wt, np.int64)
@@ -317,55 +370,42 @@ def _flood_fill(src_lab, src_dist, src_masks, src_h, tgt_lab, tgt_dist, tgt_mask
             continue
         l = tgt_lab[i, j]
         nl = starts[l + 1] - starts[l]
-        if nl == 0:
-            return -1 - l  # the exemplar lacks this label
-        gather_target(tgt_dist, i, j, tD)
-        start = rand(seed, p, 0x5CA7, 0) % nl
-        tmask = tgt_masks[i, j]
-        th = tgt_h[i, j]
-        b0, c0 = _continued_bound(src_lab, src_dist, src_masks, src_h, tgt_lab, free, S, i, j, tD, tmask, th, hw, w,
-                                  posof, start, nl)
+        gather_target(lv.tgt_dist, i, j, tD)
+        scan = Scan(posof, rand(seed, p, 0x5CA7, 0) % nl, nl)
+        probe = Probe(tD, lv.tgt_masks[i, j], lv.tgt_height[i, j])
+        b0, c0 = _continued_bound(lv, m, cover, i, j, probe, scan)
         # the candidates with the target's window of labels first (Chamfer term 0; every
         # other's at least 1, integer distances): when one is closer than w, it is the
         # exhaustive answer; otherwise every candidate is searched
-        hs = hashes[starts[l]:starts[l + 1]]
-        tk = _mask_hash(tmask)
+        hs = groups.hashes[starts[l]:starts[l + 1]]
+        tk = _mask_hash(probe.masks)
         g0 = starts[l] + np.searchsorted(hs, tk)
         g1 = starts[l] + np.searchsorted(hs, tk, side="right")
-        c, best = _best_match(grouped[g0:g1], src_dist, src_masks, src_h, tD, tmask, th, hw, w, b0, c0, posof, start,
-                              nl, True)
-        if best >= w:
-            c, best = _best_by_window(grouped, end, uniform, starts[l], starts[l + 1], src_dist, src_masks, src_h, tD,
-                                      tmask, th, hw, w, best, c, posof, start, nl)
+        c, best = _best_match(groups.grouped[g0:g1], lv, m, probe, b0, c0, scan, True)
+        if best >= m.w:
+            c, best = _best_by_window(groups, starts[l], starts[l + 1], lv, m, probe, best, c, scan)
         We = src_lab.shape[1]
         oy = c // We - i
         ox = c % We - j
-        _grow(src_lab, src_dist, src_masks, src_h, tgt_lab, tgt_dist, tgt_masks, tgt_h, hw, free, S, patch, pid, i,
-              j, oy, ox, thr_scale * best + thr_offset, w, queue, stamp)
+        _grow(lv, m, cover, pid, i, j, oy, ox, thr_scale * best + thr_offset, queue, stamp)
         pid += 1
         npatch += 1
     return npatch
 
 
-def flood_fill(src_lab: np.ndarray, src_dist: np.ndarray, src_masks: np.ndarray, tgt_lab: np.ndarray,
-               tgt_dist: np.ndarray, tgt_masks: np.ndarray, *, seed: int, w: float,
-               threshold_scale: float, threshold_offset: float, mask: np.ndarray | None = None,
-               S: np.ndarray | None = None, patch: np.ndarray | None = None,
-               src_height: np.ndarray | None = None, tgt_height: np.ndarray | None = None,
-               height_weight: float = 0.0):
+def flood_fill(level: Level, metric: Metric, *, seed: int, threshold_scale: float, threshold_offset: float,
+               mask: np.ndarray | None = None, S: np.ndarray | None = None, patch: np.ndarray | None = None):
     """Cover the guide with patches of the exemplar.
 
     Parameters
     ----------
-    src_lab, src_dist, src_masks : exemplar dense labels (He, We), contour distances and
-        Chamfer window masks (He, We, n) at the synthesis resolution.
-    tgt_lab, tgt_dist, tgt_masks : the same for the guide (Ht, Wt).
+    level : the finest ``features.Level`` (h = 1): exemplar and guide dense labels,
+        contour distances, Chamfer window masks and relative heights (its colour is not read).
+    metric : ``features.Metric``, the weights of eq. 1 (Chamfer, relative height).
     seed : int
         Order in which uncovered pixels seed patches, and where each search starts.
-    w, threshold_scale, threshold_offset : float
-        Chamfer weight of eq. 1 and the flood-fill stopping rule.
-    src_height, tgt_height, height_weight : ``features.label_heights`` of the two sides
-        and the weight of their difference (none or 0: no height term).
+    threshold_scale, threshold_offset : float
+        The flood-fill stopping rule.
     mask : (Ht, Wt) bool, optional
         Only these pixels are covered; the others keep ``S`` and ``patch``.
     S, patch : existing state (required with ``mask``).
@@ -376,9 +416,9 @@ def flood_fill(src_lab: np.ndarray, src_dist: np.ndarray, src_masks: np.ndarray,
     patch : (Ht, Wt) int64 patch ids (new ones start after the largest existing id).
     npatch : number of patches grown.
 
-    Raises ValueError naming the label when a guide label has no exemplar pixel.
+    Every label of the guide has exemplar pixels (``synthesis.exemplar.setup`` checks it).
     """
-    Ht, Wt = tgt_lab.shape
+    Ht, Wt = level.tgt_lab.shape
     if mask is None:
         free = np.ones((Ht, Wt), np.bool_)
         S = np.zeros((Ht, Wt, 2), np.int32)
@@ -392,16 +432,8 @@ def flood_fill(src_lab: np.ndarray, src_dist: np.ndarray, src_masks: np.ndarray,
         patch = np.ascontiguousarray(patch, dtype=np.int64).copy()
         first = int(patch.max()) + 1 if patch.size else 1
     order = permutation(seed, Ht * Wt)
-    if src_height is None or tgt_height is None:
-        src_height, tgt_height, height_weight = np.zeros(src_lab.shape, np.float32), np.zeros((Ht, Wt), np.float32), 0.0
-    r = _flood_fill(np.ascontiguousarray(src_lab, np.int32), np.ascontiguousarray(src_dist, np.float32),
-                    np.ascontiguousarray(src_masks), np.ascontiguousarray(src_height, np.float32),
-                    np.ascontiguousarray(tgt_lab, np.int32), np.ascontiguousarray(tgt_dist, np.float32),
-                    np.ascontiguousarray(tgt_masks), np.ascontiguousarray(tgt_height, np.float32),
-                    float(height_weight), order, free, S, patch, first, float(w), float(threshold_scale),
-                    float(threshold_offset), int(seed))
-    if r < 0:
-        raise ValueError(f"label index {-1 - r} of the guide has no pixel in the exemplar")
+    r = _flood_fill(level, Metric(float(metric.w), float(metric.height_weight)), Cover(free, S, patch), order, first,
+                    float(threshold_scale), float(threshold_offset), int(seed))
     return S, patch, r
 
 

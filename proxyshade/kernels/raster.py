@@ -17,6 +17,8 @@ x, y map linearly to pixels and depth is −z).
 """
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numba
 import numpy as np
 from numba import njit, prange
@@ -27,9 +29,36 @@ SUB = 256  # sub-pixel steps per pixel (8 bits)
 BAND = 16  # rows per parallel work unit
 
 
+class Camera(NamedTuple):
+    """Intrinsics in pixels (``rasterize``'s ``fx``, ``fy``, ``cx``, ``cy``, ``ortho``) and
+    the image size."""
+
+    fx: float
+    fy: float
+    cx: float
+    cy: float
+    ortho: bool
+    width: int
+    height: int
+
+
+class ScreenTris(NamedTuple):
+    """Screen triangles of ``_setup``: fixed-point vertices ``xy`` (N, 3, 2), depths ``dep``
+    (N, 3), barycentrics ``bar`` (N, 3, 3) w.r.t. the source triangle, its id ``src`` (N,)
+    and the rows ``r0``..``r1`` (N,) it may cover."""
+
+    xy: np.ndarray
+    dep: np.ndarray
+    bar: np.ndarray
+    src: np.ndarray
+    r0: np.ndarray
+    r1: np.ndarray
+
+
 @njit(**JIT)
-def _project(p, fx, fy, cx, cy, ortho):
+def _project(p, cam):
     """camera-space point -> (column, row, depth)"""
+    fx, fy, cx, cy, ortho = cam.fx, cam.fy, cam.cx, cam.cy, cam.ortho
     if ortho:
         return cx + fx * p[0], cy - fy * p[1], -p[2]
     d = -p[2]
@@ -37,9 +66,10 @@ def _project(p, fx, fy, cx, cy, ortho):
 
 
 @njit(**JIT)
-def _planes(fx, fy, cx, cy, near, ortho, width, height):
+def _planes(cam, near):
     """Clip planes (n, d) with n·p + d >= 0 inside: near, then the image widened by a guard
     band of one image size on each side (keeps fixed-point coordinates small)."""
+    fx, fy, cx, cy, ortho, width, height = cam
     gx = float(width)
     gy = float(height)
     pl = np.zeros((5, 4), np.float64)
@@ -67,12 +97,12 @@ def _planes(fx, fy, cx, cy, near, ortho, width, height):
 
 
 @njit(**JIT)
-def _clip(cam, planes, poly, bary, tmp, tbar):
-    """Sutherland-Hodgman clip of triangle ``cam`` (3, 3) by ``planes``; writes the polygon
+def _clip(tri, planes, poly, bary, tmp, tbar):
+    """Sutherland-Hodgman clip of triangle ``tri`` (3, 3, camera space) by ``planes``; writes the polygon
     (up to 8 vertices) and each vertex's barycentrics w.r.t. the triangle; returns its size."""
     n = 3
     for k in range(3):
-        poly[k, :] = cam[k]
+        poly[k, :] = tri[k]
         bary[k, :] = 0.0
         bary[k, k] = 1.0
     for q in range(planes.shape[0]):
@@ -107,7 +137,7 @@ def _clip(cam, planes, poly, bary, tmp, tbar):
 
 
 @njit(**PJIT)
-def _setup(points, tris, fx, fy, cx, cy, near, ortho, width, height, nthreads):
+def _setup(points, tris, cam, near, nthreads):
     """Clip and project every triangle; fan the clipped polygons into screen triangles.
 
     Two passes over the triangles, each in parallel over contiguous chunks (scratch
@@ -116,10 +146,10 @@ def _setup(points, tris, fx, fy, cx, cy, near, ortho, width, height, nthreads):
     them at offsets from the prefix sum, so the output is in (source id, fan) order
     whatever the thread count. Per screen triangle: fixed-point vertices (3, 2), depths
     (3,), barycentrics w.r.t. the source triangle (3, 3), source id and the rows it may
-    cover.
+    cover (``ScreenTris``).
     """
     t = tris.shape[0]
-    planes = _planes(fx, fy, cx, cy, near, ortho, width, height)
+    planes = _planes(cam, near)
     chunk = (t + nthreads - 1) // nthreads
     counts = np.zeros(t + 1, np.int64)
     xy = np.empty((0, 3, 2), np.int64)
@@ -141,34 +171,33 @@ def _setup(points, tris, fx, fy, cx, cy, near, ortho, width, height, nthreads):
             r0 = np.empty(total, np.int64)
             r1 = np.empty(total, np.int64)
         for th in prange(nthreads):
-            _setup_chunk(points, tris, th * chunk, min(t, (th + 1) * chunk), planes, fx, fy, cx, cy, ortho, width,
-                         height, write, counts, xy, dep, bar, src, r0, r1)
-    return xy, dep, bar, src, r0, r1
+            _setup_chunk(points, tris, th * chunk, min(t, (th + 1) * chunk), planes, cam, write, counts,
+                         ScreenTris(xy, dep, bar, src, r0, r1))
+    return ScreenTris(xy, dep, bar, src, r0, r1)
 
 
 @njit(**JIT)
-def _setup_chunk(points, tris, t0, t1, planes, fx, fy, cx, cy, ortho, width, height, write, counts,
-                 xy, dep, bar, src, r0, r1):
+def _setup_chunk(points, tris, t0, t1, planes, cam, write, counts, out):
     """Source triangles ``t0`` to ``t1 - 1``: without ``write`` the screen triangles each
-    yields in ``counts[ti + 1]``, with it those triangles written from slot ``counts[ti]``."""
-    scratch = np.empty((4, 9, 3), np.float64)
-    sx = np.empty(9, np.int64)
-    sy = np.empty(9, np.int64)
-    sd = np.empty(9, np.float64)
+    yields in ``counts[ti + 1]``, with it those triangles written into ``out``
+    (``ScreenTris``) from slot ``counts[ti]``."""
+    buffers = (np.empty((4, 9, 3), np.float64), np.empty(9, np.int64), np.empty(9, np.int64), np.empty(9, np.float64))
     for ti in range(t0, t1):
         if write and counts[ti + 1] == counts[ti]:
             continue
-        k = _setup_one(points, tris, ti, planes, fx, fy, cx, cy, ortho, width, height, scratch, sx, sy, sd,
-                       write, counts[ti] if write else 0, xy, dep, bar, src, r0, r1)
+        k = _setup_one(points, tris, ti, planes, cam, buffers, write, counts[ti] if write else 0, out)
         if not write:
             counts[ti + 1] = k
 
 
 @njit(**JIT)
-def _setup_one(points, tris, ti, planes, fx, fy, cx, cy, ortho, width, height, scratch, sx, sy, sd,
-               write, s, xy, dep, bar, src, r0, r1):
+def _setup_one(points, tris, ti, planes, cam, buffers, write, s, out):
     """Screen triangles of source triangle ``ti`` that may cover a pixel centre: returns
-    how many; with ``write``, stores them from slot ``s`` on."""
+    how many; with ``write``, stores them into ``out`` (``ScreenTris``) from slot ``s`` on.
+    ``buffers``: the caller's scratch (polygons (4, 9, 3), screen x, y, depth (9,))."""
+    scratch, sx, sy, sd = buffers
+    xy, dep, bar, src, r0, r1 = out
+    width, height = cam.width, cam.height
     poly = scratch[0]
     pbar = scratch[1]
     inside = True  # the common case: no plane cuts the triangle, no clipping needed
@@ -187,13 +216,13 @@ def _setup_one(points, tris, ti, planes, fx, fy, cx, cy, ortho, width, height, s
             for m in range(3):
                 pbar[k, m] = 1.0 if k == m else 0.0
     else:
-        cam = np.empty((3, 3), np.float64)
+        corners = np.empty((3, 3), np.float64)
         for k in range(3):
             for m in range(3):
-                cam[k, m] = poly[k, m]
-        n = _clip(cam, planes, poly, pbar, scratch[2], scratch[3])
+                corners[k, m] = poly[k, m]
+        n = _clip(corners, planes, poly, pbar, scratch[2], scratch[3])
     for k in range(n):
-        c, r, d = _project(poly[k], fx, fy, cx, cy, ortho)
+        c, r, d = _project(poly[k], cam)
         sx[k] = np.int64(np.floor(c * SUB + 0.5))
         sy[k] = np.int64(np.floor(r * SUB + 0.5))
         sd[k] = d
@@ -238,7 +267,11 @@ def _owns(ax, ay, bx, by):
 
 
 @njit(**PJIT)
-def _raster_bands(xy, dep, bar, src, r0, r1, width, height, depth, tid, bary, count, band_start, band_list):
+def _raster_bands(st, width, height, band_start, band_list, depth, tid, bary, count):
+    """Each band of ``BAND`` rows scan-converts its listed screen triangles ``st``
+    (``ScreenTris``) into the nearest-triangle ``depth``, ``tid``, ``bary`` and the
+    coverage ``count``."""
+    xy, dep, bar, src, r0, r1 = st
     nb = band_start.shape[0] - 1
     stride = 8  # band order 0, 8, 16, ..., 1, 9, ...: each thread's chunk spans the whole image
     per = (nb + stride - 1) // stride
@@ -313,7 +346,8 @@ def rasterize(points: np.ndarray, tris: np.ndarray, *, width: int, height: int, 
     points : (V, 3) float
         Camera-space vertex positions (x right, y up, the camera looks down −z).
     tris : (T, 3) int
-        Vertex indices of each triangle (either winding; nothing is culled).
+        Vertex indices of each triangle (either winding; nothing is culled), each in
+        0..V − 1 (``io.usd`` checks a scene's).
     width, height : int
         Image size in pixels.
     fx, fy, cx, cy : float
@@ -332,21 +366,17 @@ def rasterize(points: np.ndarray, tris: np.ndarray, *, width: int, height: int, 
     """
     points = np.ascontiguousarray(points, dtype=np.float64)
     tris = np.ascontiguousarray(tris, dtype=np.int64)
-    if points.ndim != 2 or points.shape[1] != 3 or tris.ndim != 2 or tris.shape[1] != 3:
-        raise ValueError(f"points must be (V, 3) and tris (T, 3); got {points.shape} and {tris.shape}")
-    if tris.size and (tris.min() < 0 or tris.max() >= len(points)):
-        raise ValueError("triangle indices out of range")
     depth = np.full((height, width), np.inf, np.float64)
     tid = np.full((height, width), -1, np.int32)
     bary = np.zeros((height, width, 3), np.float32)
     count = np.zeros((height, width), np.int32)
     if tris.shape[0] == 0:
         return depth.astype(np.float32), tid, bary, count
-    xy, dep, bar, src, r0, r1 = _setup(points, tris, float(fx), float(fy), float(cx), float(cy), float(near),
-                                       bool(ortho), int(width), int(height), numba.get_num_threads())
+    cam = Camera(float(fx), float(fy), float(cx), float(cy), bool(ortho), int(width), int(height))
+    st = _setup(points, tris, cam, float(near), numba.get_num_threads())
     nb = (height + BAND - 1) // BAND
-    band_start, band_list = bin_rows_parallel(r0, r1, nb, BAND)
-    _raster_bands(xy, dep, bar, src, r0, r1, width, height, depth, tid, bary, count, band_start, band_list)
+    band_start, band_list = bin_rows_parallel(st.r0, st.r1, nb, BAND)
+    _raster_bands(st, width, height, band_start, band_list, depth, tid, bary, count)
     return depth.astype(np.float32), tid, bary, count
 
 

@@ -11,12 +11,50 @@ over-relaxation of a rectangle).
 """
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numba
 import numpy as np
 from numba import njit, prange
 
 from proxyshade.kernels._config import JIT, PJIT
 from proxyshade.kernels.stencil import apply_at, fine_operator, neighbour_sum
+
+
+
+class Seams(NamedTuple):
+    """Where the seam gradients are read (``poisson.seam_gradients_at``): the ``source``
+    colours (Hs, Ws, 3), the map ``sx``, ``sy`` (H, W) float32 into it, ``step`` source
+    pixels per pixel, the reconstruction ``filter``."""
+
+    source: np.ndarray
+    sx: np.ndarray
+    sy: np.ndarray
+    step: float = 1.0
+    filter: str = "bilinear"
+
+
+class Regions(NamedTuple):
+    """The listed pixels' regions in sweep order (``_sor_plan``): region k holds list
+    entries ``starts[k]``..``starts[k + 1]``, its red pixels before ``mids[k]``; ``bins``
+    the region ids of each thread from ``bin_start``."""
+
+    starts: np.ndarray
+    mids: np.ndarray
+    bins: np.ndarray
+    bin_start: np.ndarray
+
+
+class ListedSystem(NamedTuple):
+    """The correction equation at the listed pixels: each one's neighbours ``nb`` (n, 4)
+    (``_list_neighbours``), diagonal ``dl`` (n,), right-hand side ``bl`` (n, 3) and
+    over-relaxation ``omega`` (n,)."""
+
+    nb: np.ndarray
+    dl: np.ndarray
+    bl: np.ndarray
+    omega: np.ndarray
+
 
 # ---------------------------------------------------------------------------
 # many small free regions (a frame update): red-black SOR on the free pixels only
@@ -153,12 +191,15 @@ def _run_residual(nb, dl, bl, lo, hi, vl, out):
 
 
 @njit(**PJIT)
-def _sor_regions(bins, bin_start, starts, mids, nb, dl, bl, omega, vl, tol, check, max_sweeps, sweeps, rel):
-    """Each region (list entries starts[k]..starts[k + 1], its red pixels before ``mids[k]``)
-    swept on its own until its residual falls to ``tol`` times its initial one. The
-    regions are independent (fixed pixels between them): a thread owns whole regions
-    (``bins``: region ids per thread, ``bin_start``), so the result does not depend on
-    which thread sweeps which region, nor on the thread count."""
+def _sor_regions(regions, system, vl, tol, check, max_sweeps, sweeps, rel):
+    """Each region of ``regions`` (list entries starts[k]..starts[k + 1], its red pixels
+    before ``mids[k]``) of the listed ``system`` swept on its own until its residual falls
+    to ``tol`` times its initial one (``sweeps``, ``rel``: each region's sweeps and final
+    relative residual). The regions are independent (fixed pixels between them): a thread
+    owns whole regions (``bins``: region ids per thread, ``bin_start``), so the result does
+    not depend on which thread sweeps which region, nor on the thread count."""
+    starts, mids, bins, bin_start = regions
+    nb, dl, bl, omega = system
     for t in prange(bin_start.shape[0] - 1):
         r0 = np.zeros(3)
         r = np.zeros(3)
@@ -320,8 +361,9 @@ def solve_sor_regions(fixed: np.ndarray, b: np.ndarray, rows: np.ndarray, cols: 
     h, w = diag.shape
     nb = _list_neighbours(ii, jj, h, w)
     vl = np.zeros((n, 3), np.float32)
-    _sor_regions(bins, bin_start, starts, mids, nb, np.ascontiguousarray(diag[ii, jj]),
-                 np.ascontiguousarray(b[ii, jj]), om, vl, float(tol), int(check), int(max_sweeps), sweeps, rel)
+    system = ListedSystem(nb, np.ascontiguousarray(diag[ii, jj]), np.ascontiguousarray(b[ii, jj]), om)
+    _sor_regions(Regions(starts, mids, bins, bin_start), system, vl, float(tol), int(check), int(max_sweeps), sweeps,
+                 rel)
     v[ii, jj] = vl
     return v, {"iterations": int(sweeps.max()), "sweeps": float((sweeps * size).sum() / n),
                "residual": float(rel.max())}
@@ -428,14 +470,12 @@ def _rhs_at(f, patch, rows, cols, nb, eid, fs, screen, bl, dl):
 
 
 def solve_sor_at(colors: np.ndarray, patch: np.ndarray, rows: np.ndarray, cols: np.ndarray, omega: np.ndarray,
-                 region: np.ndarray, *, source: np.ndarray | None = None, sx: np.ndarray | None = None,
-                 sy: np.ndarray | None = None, step: float = 1.0, filter: str = "bilinear", screen: float = 0.0,
-                 tol: float, max_sweeps: int = 2000, check: int = 8,
-                 threads: int | None = None) -> tuple[np.ndarray, dict]:
+                 region: np.ndarray, *, seams: Seams | None = None, screen: float = 0.0, tol: float,
+                 max_sweeps: int = 2000, check: int = 8, threads: int | None = None) -> tuple[np.ndarray, dict]:
     """``solve_sor_regions`` of the correction equation with every pixel but the listed
     ones (``rows``, ``cols`` in scan order, as ``np.nonzero`` gives them) fixed, its
-    right-hand side (``rhs``) and seam gradients (``seam_gradients_at`` with ``source``,
-    ``sx``, ``sy``, ``step``, ``filter``; zero without ``source``) computed at the listed
+    right-hand side (``rhs``) and seam gradients (``seam_gradients_at`` read as ``seams``
+    says; zero without) computed at the listed
     pixels only: bit for bit the frame-sized path's numbers, at a cost that follows the
     listed pixels (no frame-sized operator, right-hand side or gradient maps; region ids
     >= 0). Returns v ((n, 3) float32, the listed pixels' corrections in their order) and
@@ -452,12 +492,12 @@ def solve_sor_at(colors: np.ndarray, patch: np.ndarray, rows: np.ndarray, cols: 
     ii = np.ascontiguousarray(rows[order])
     jj = np.ascontiguousarray(cols[order])
     nb = _list_neighbours(ii, jj, h, w)
-    if source is not None:
-        eid, xs, ys = _seam_edges(ii, jj, patch, np.ascontiguousarray(sx, np.float32),
-                                  np.ascontiguousarray(sy, np.float32), np.float32(step))
+    if seams is not None:
+        eid, xs, ys = _seam_edges(ii, jj, patch, np.ascontiguousarray(seams.sx, np.float32),
+                                  np.ascontiguousarray(seams.sy, np.float32), np.float32(seams.step))
         from proxyshade.kernels.lookup import lookup_many
 
-        fs = lookup_many(source, xs, ys, filter)
+        fs = lookup_many(seams.source, xs, ys, seams.filter)
     else:
         eid, fs = np.full((n, 4), -1, np.int64), np.zeros((0, 3), np.float32)
     bl = np.empty((n, 3), np.float32)
@@ -466,8 +506,8 @@ def solve_sor_at(colors: np.ndarray, patch: np.ndarray, rows: np.ndarray, cols: 
     sweeps = np.zeros(nreg, np.int64)
     rel = np.zeros(nreg)
     vl = np.zeros((n, 3), np.float32)
-    _sor_regions(bins, bin_start, starts, mids, nb, dl, bl, om, vl, float(tol), int(check), int(max_sweeps), sweeps,
-                 rel)
+    _sor_regions(Regions(starts, mids, bins, bin_start), ListedSystem(nb, dl, bl, om), vl, float(tol), int(check),
+                 int(max_sweeps), sweeps, rel)
     v = np.empty((n, 3), np.float32)
     v[order] = vl
     return v, {"iterations": int(sweeps.max()), "sweeps": float((sweeps * size).sum() / n),

@@ -165,9 +165,10 @@ def blend_regions(rgb: np.ndarray, patch: np.ndarray, labels: np.ndarray, free: 
     region; seam gradients read with ``filter`` (the reconstruction the colours used).
     ``solve.layout`` is not applied here (yet): a later frame's new pixels keep their
     synthesized low frequencies. ``thin``: see ``poisson_regions``."""
-    u, info = poisson_regions(rgb, patch, labels, free, source=source_rgb if solve.seams == "source" else None,
-                              sx=sx, sy=sy, step=scale, label_dirichlet=solve.label_dirichlet, screen=solve.screen,
-                              tol=solve.tol, max_iter=solve.max_iter, filter=filter, thin=thin)
+    seams = ksor.Seams(source_rgb, sx, sy, scale, filter) if solve.seams == "source" and source_rgb is not None \
+        else None
+    u, info = poisson_regions(rgb, patch, labels, free, seams=seams, label_dirichlet=solve.label_dirichlet,
+                              screen=solve.screen, tol=solve.tol, max_iter=solve.max_iter, thin=thin)
     return floor_light(u, info, free)
 
 
@@ -211,10 +212,9 @@ def region_thickness(mask: np.ndarray, comp: np.ndarray, n: int) -> np.ndarray:
 
 
 def poisson_regions(colors: np.ndarray, patch: np.ndarray, labels: np.ndarray | None, free: np.ndarray, *,
-                    source: np.ndarray | None = None, sx: np.ndarray | None = None, sy: np.ndarray | None = None,
-                    step: float = 1.0, label_dirichlet: bool = True, screen: float = 0.0, tol: float,
-                    max_iter: int, slack: int = 4096, filter: str = "bilinear",
-                    small: int = 64, thin: float | None = None) -> tuple[np.ndarray, dict]:
+                    seams: ksor.Seams | None = None, label_dirichlet: bool = True, screen: float = 0.0, tol: float,
+                    max_iter: int, slack: int = 4096, small: int = 64,
+                    thin: float | None = None) -> tuple[np.ndarray, dict]:
     """``kernels.poisson.poisson_transfer`` restricted to the ``free`` pixels (Dirichlet
     ``colors`` everywhere else).
 
@@ -228,8 +228,8 @@ def poisson_regions(colors: np.ndarray, patch: np.ndarray, labels: np.ndarray | 
     others in windows around them (``group_boxes``), each the same linear system as the
     whole frame at the cost of its area, by multigrid-preconditioned CG. Pixels of other
     components inside a window are fixed there (they are never 4-neighbours of the
-    component). With ``source``, ``sx``, ``sy`` the seam gradients are the source's
-    (``poisson.seam_gradients``, read with ``filter``), else zero. With ``thin``, a
+    component). With ``seams`` (``sor.Seams``: source, map, step, filter) the seam gradients
+    are the source's (``poisson.seam_gradients``), else zero. With ``thin``, a
     component at most that thick (``region_thickness``) is solved by SOR too, however
     large its box: an edit's band along a moved shoreline, whose window would be several
     times its pixels (SOR's sweeps follow the thickness; the same system to ``tol``).
@@ -273,9 +273,8 @@ def poisson_regions(colors: np.ndarray, patch: np.ndarray, labels: np.ndarray | 
         omega = ksor.sor_omega(2.5 * width, 2.5 * width)[k]  # per region, then per pixel
         # right-hand side, seam gradients and operator at the listed pixels only (the frame-sized
         # rhs / seam_gradients_at / solve_sor_regions numbers)
-        sxb, syb = (None, None) if source is None else (sx[box], sy[box])
-        v, inf = ksor.solve_sor_at(colors_b, patch_b, rows, cols, omega, k, source=source, sx=sxb, sy=syb,
-                                       step=step, filter=filter, screen=screen, tol=tol)
+        seams_b = None if seams is None else seams._replace(sx=seams.sx[box], sy=seams.sy[box])
+        v, inf = ksor.solve_sor_at(colors_b, patch_b, rows, cols, omega, k, seams=seams_b, screen=screen, tol=tol)
         u[rows + y0, cols + x0] = colors_b[rows, cols] + v
         info.update(sor_pixels=int(len(rows)), sor_sweeps=int(inf["iterations"]), sor_mean_sweeps=inf["sweeps"])
         info["residual"] = max(info["residual"], float(inf["residual"]))
@@ -285,9 +284,9 @@ def poisson_regions(colors: np.ndarray, patch: np.ndarray, labels: np.ndarray | 
         sub = comp[r0:r1, c0:c1]
         mine = np.isin(sub, ids) if len(ids) > 1 else sub == ids[0]
         gx = gy = None
-        if source is not None:  # only the seam edges the solve reads: those touching its free pixels
-            gx, gy = kpoisson.seam_gradients_at(source, sx[r0:r1, c0:c1], sy[r0:r1, c0:c1], patch[r0:r1, c0:c1],
-                                                mine, step, filter=filter)
+        if seams is not None:  # only the seam edges the solve reads: those touching its free pixels
+            gx, gy = kpoisson.seam_gradients_at(seams.source, seams.sx[r0:r1, c0:c1], seams.sy[r0:r1, c0:c1],
+                                                patch[r0:r1, c0:c1], mine, seams.step, filter=seams.filter)
         lab = labels[r0:r1, c0:c1] if labels is not None else None
         out, inf = kpoisson.poisson_transfer(colors[r0:r1, c0:c1], patch[r0:r1, c0:c1], lab, fixed=~mine,
                                              values=colors[r0:r1, c0:c1], label_dirichlet=label_dirichlet,

@@ -199,9 +199,11 @@ def synthesize_guide(proxy: Plate, source: Plate, gp: SimpleNamespace, *, previo
         else:
             S = kg.upsample_state(S, h, ex.shape[0], ex.shape[1], t_l.shape[0], t_l.shape[1])
         locked = kg.locked_border(t_l, lock_pairs) if lock_pairs else np.zeros(t_l.shape, bool)
+        ex_level = kg.Exemplar(e_l, masks, ex_col, sim)
+        guide_level = kg.Guide(tmasks, tgt_col, t_l, locked, allowed)
+        rule = kg.Rule(h, gp.proxy_weight, metric, n)
         if prev0 is None:
-            S = kg.correct(S, e_l, masks, ex_col, sim, tmasks, tgt_col, t_l, locked, allowed, h=h,
-                           w_proxy=gp.proxy_weight, metric=metric, n=n, passes=gp.passes)
+            S = kg.correct(S, ex_level, guide_level, rule, passes=gp.passes)
             continue
         prev_l = np.ascontiguousarray(prev0[::h, ::h])
         act_l = downsample_mask(act0, h, t_l.shape)
@@ -212,8 +214,7 @@ def synthesize_guide(proxy: Plate, source: Plate, gp: SimpleNamespace, *, previo
             same &= np.repeat(np.repeat(kept, 2, 0), 2, 1)[:t_l.shape[0], :t_l.shape[1]]
         keep = ~act_l | same
         S[keep] = prev_l[keep]
-        S = kg.correct(S, e_l, masks, ex_col, sim, tmasks, tgt_col, t_l, locked, allowed, h=h,
-                       w_proxy=gp.proxy_weight, metric=metric, n=n, passes=gp.passes, active=act_l)
+        S = kg.correct(S, ex_level, guide_level, rule, passes=gp.passes, active=act_l)
         kept = (S == prev_l).all(-1)
     syn = ex[S[..., 0], S[..., 1]]  # labels at the synthesis size
     # magnify through the source coordinates: output pixel (i, j) sits (i % f, j % f)

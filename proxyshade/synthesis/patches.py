@@ -15,6 +15,7 @@ import numpy as np
 
 from proxyshade.kernels import correct as kcorrect
 from proxyshade.kernels.distance import nearest_site
+from proxyshade.kernels.features import Metric
 from proxyshade.kernels import magnify as kmag
 from proxyshade.kernels import patch as kpatch
 from proxyshade.kernels import seams as kseams
@@ -27,17 +28,19 @@ def fill_patches(st: SynthesisSetup, fill: SimpleNamespace, *, seed: int, mask: 
     """Cover the synthesis-size guide (or its ``mask`` pixels, keeping ``S``/``patch``
     elsewhere) with patches grown by flood fill at the finest level. ``fill``: the
     ``FloodFill`` parameters. Returns (S exemplar (row, col) int32, patch ids, count)."""
-    fin = st.levels[-1]
-    return kpatch.flood_fill(fin.src_lab, fin.src_dist, fin.src_masks, fin.tgt_lab, fin.tgt_dist, fin.tgt_masks,
-                             seed=seed, w=fill.w, threshold_scale=fill.threshold_scale,
-                             threshold_offset=fill.threshold_offset, mask=mask, S=S, patch=patch,
-                             src_height=fin.src_height, tgt_height=fin.tgt_height, height_weight=fill.height_weight)
+    return kpatch.flood_fill(st.levels[-1], metric(fill), seed=seed, threshold_scale=fill.threshold_scale,
+                             threshold_offset=fill.threshold_offset, mask=mask, S=S, patch=patch)
+
+
+def metric(group: SimpleNamespace) -> Metric:
+    """The weights of eq. 1 (``features.Metric``) of a ``PatchMetric`` group's values."""
+    return Metric(float(group.w), float(group.height_weight))
 
 
 def similarity_sets(st: SynthesisSetup, corr: SimpleNamespace, *, seed: int) -> list:
     """The exemplar's similarity sets per level (k nearest windows), for ``correct_map``."""
-    return kcorrect.level_similarity_sets(st.levels, corr.k, seed=seed, knn_iterations=corr.knn_iterations,
-                                          w=corr.w, height_weight=corr.height_weight)
+    return kcorrect.level_similarity_sets(st.levels, corr.k, metric(corr), seed=seed,
+                                          knn_iterations=corr.knn_iterations)
 
 
 def correct_map(st: SynthesisSetup, S0: np.ndarray, corr: SimpleNamespace, *, seed: int,
@@ -52,12 +55,8 @@ def correct_map(st: SynthesisSetup, S0: np.ndarray, corr: SimpleNamespace, *, se
     ``synthesis.tiles``), which runs large levels' sub-passes on other workers (bit-identical;
     None: here). Returns (S,
     per-level stats, the repair's counts)."""
-    S, stats = kcorrect.synthesize(st.levels, S0, passes=corr.passes, passes_finest=corr.passes_finest, k=corr.k,
-                                   w=corr.w, seed=seed, knn_iterations=corr.knn_iterations, use_rgb=corr.use_rgb,
-                                   kappa=corr.kappa, mask=mask, radius_rule=corr.radius, similarity=similarity,
-                                   height_weight=corr.height_weight, uniformity=corr.uniformity,
-                                   min_radius=near_copy_radius(st, near_copy),
-                                   tiles=tiles)
+    S, stats = kcorrect.synthesize(st.levels, S0, corr, seed=seed, mask=mask, similarity=similarity,
+                                   min_radius=near_copy_radius(st, near_copy), tiles=tiles)
     S, rep = repair_map(st, S)
     return S, stats, rep
 

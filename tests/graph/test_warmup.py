@@ -22,7 +22,7 @@ from proxyshade.graph import warmup
 from proxyshade.graph.graph import Graph
 
 def sigs():
-    return {(f"proxyshade.kernels.{k}", repr(tuple(s))) for k, d in warmup.kernel_dispatchers().items()
+    return {(f"proxyshade.kernels.{k}", warmup.type_text(s)) for k, d in warmup.kernel_dispatchers().items()
             for s in d.signatures}
 
 g = Graph.load(sys.argv[1], cache=sys.argv[2],

@@ -8,11 +8,17 @@ from proxyshade.kernels import correct as kc
 from proxyshade.kernels import features as kf
 
 from tests.kernels import naive_synthesis as naive
+from types import SimpleNamespace
+
 from proxyshade.synthesis.params import Correction
 
-_C = Correction.defaults()
-SYN = dict(passes=_C.passes, passes_finest=_C.passes_finest, k=_C.k, w=_C.w, seed=0,
-           knn_iterations=_C.knn_iterations, use_rgb=_C.use_rgb, kappa=_C.kappa)  # the nodes' defaults
+# the nodes' defaults, without the height and usage terms
+SYN = SimpleNamespace(**{**vars(Correction.defaults()), "height_weight": 0.0, "uniformity": 0.0})
+
+
+def corr(**kw):
+    """``SYN`` with some settings changed."""
+    return SimpleNamespace(**{**vars(SYN), **kw})
 
 
 def blobs(rng, h, w, n, k=5):
@@ -52,9 +58,8 @@ def test_rejected_matches_reference():
 
 def subpass(lv, knn, S, S_new, active, pi, pj, radius, kappa, counts, hw=0.0, over=None, uniformity=0.0):
     over = np.zeros(lv.src_lab.shape) if over is None else over
-    kc._subpass(lv.src_lab, lv.src_dist, lv.src_rgb, lv.src_masks, lv.src_height, lv.tgt_lab, lv.tgt_dist,
-                lv.tgt_masks, lv.tgt_height, hw, knn, S, S_new, active, pi, pj, lv.h, radius, 90.0, True, kappa, over,
-                uniformity, counts)
+    kc._subpass(lv, kf.Metric(90.0, hw), kc.Rule(radius, True, kappa, uniformity), knn, over, S, S_new, active,
+                (pi, pj), counts)
 
 
 @pytest.mark.parametrize("seed,kappa,use_level,hw,uniformity",
@@ -63,7 +68,7 @@ def subpass(lv, knn, S, S_new, active, pi, pj, radius, kappa, counts, hw=0.0, ov
 def test_subpass_matches_reference(seed, kappa, use_level, hw, uniformity):
     rng, levels = small_case(seed)
     lv = levels[use_level]
-    knn = kc.similarity_sets(lv, 2, seed=seed, iterations=2, w=SYN['w'], height_weight=hw)
+    knn = kc.similarity_sets(lv, 2, kf.Metric(SYN.w, hw), seed=seed, iterations=2)
     S = random_state(rng, lv)
     radius = lv.h
     over = rng.random(lv.src_lab.shape) * (rng.random(lv.src_lab.shape) < 0.5)
@@ -88,7 +93,7 @@ def test_no_accepted_candidate_already_in_the_window():
     used elsewhere in its 9x9 window before the sub-pass (unless label fidelity forced it)."""
     rng, levels = small_case(5, ex=(30, 36), tgt=(24, 24))
     lv = levels[-1]
-    knn = kc.similarity_sets(lv, 2, seed=5, iterations=2, w=SYN['w'])
+    knn = kc.similarity_sets(lv, 2, kf.Metric(SYN.w, 0.0), seed=5, iterations=2)
     Ht, Wt = lv.tgt_lab.shape
     # a state full of repeats: two copies of the same exemplar area side by side
     ii, jj = np.mgrid[0:Ht, 0:Wt]
@@ -114,7 +119,7 @@ def test_similarity_sets_are_valid_and_close_to_brute_force():
     rng, levels = small_case(6, ex=(18, 20))
     lv = levels[-1]
     k = 3
-    knn = kc.similarity_sets(lv, k, seed=1, iterations=3, w=SYN['w'])
+    knn = kc.similarity_sets(lv, k, kf.Metric(SYN.w, 0.0), seed=1, iterations=3)
     He, We = lv.src_lab.shape
     ratios = []
     for y in range(He):
@@ -124,10 +129,8 @@ def test_similarity_sets_are_valid_and_close_to_brute_force():
                 for xx in range(We):
                     if lv.src_lab[yy, xx] != lv.src_lab[y, x] or max(abs(yy - y), abs(xx - x)) <= 2 * lv.h:
                         continue
-                    d_all.append(kc._ex_dist(lv.src_dist, lv.src_rgb, lv.src_masks, lv.src_height, 0.0, lv.h, y, x, yy, xx, 90.0,
-                                            np.inf))
-            got = [kc._ex_dist(lv.src_dist, lv.src_rgb, lv.src_masks, lv.src_height, 0.0, lv.h, y, x, cy, cx, 90.0,
-                               np.inf)
+                    d_all.append(kc._ex_dist(lv, kf.Metric(90.0, 0.0), y, x, yy, xx, np.inf))
+            got = [kc._ex_dist(lv, kf.Metric(90.0, 0.0), y, x, cy, cx, np.inf)
                    for cy, cx in knn[y, x] if (cy, cx) != (y, x)]
             for cy, cx in knn[y, x]:
                 if (cy, cx) != (y, x):
@@ -158,10 +161,10 @@ def test_translation_survives_down_and_up():
 def test_synthesis_is_deterministic_across_thread_counts():
     rng, levels = small_case(9, ex=(40, 48), tgt=(32, 32), nlev=3)
     S0 = random_state(rng, levels[-1])
-    a, _ = kc.synthesize(levels, S0, **dict(SYN, k=2, seed=3))
+    a, _ = kc.synthesize(levels, S0, corr(k=2), seed=3)
     numba.set_num_threads(1)
     try:
-        b, _ = kc.synthesize(levels, S0, **dict(SYN, k=2, seed=3))
+        b, _ = kc.synthesize(levels, S0, corr(k=2), seed=3)
     finally:
         numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
     assert np.array_equal(a, b)
@@ -172,12 +175,12 @@ def test_synthesis_is_deterministic_across_thread_counts():
 def test_precomputed_similarity_sets_give_the_same_result():
     rng, levels = small_case(11, ex=(40, 48), tgt=(32, 32), nlev=3)
     S0 = random_state(rng, levels[-1])
-    a, _ = kc.synthesize(levels, S0, **dict(SYN, k=2, seed=5))
-    sims = kc.level_similarity_sets(levels, 2, seed=5, knn_iterations=SYN['knn_iterations'], w=SYN['w'])
-    b, _ = kc.synthesize(levels, S0, **dict(SYN, k=2, seed=123), similarity=sims)  # the seed only seeds the search
+    a, _ = kc.synthesize(levels, S0, corr(k=2), seed=5)
+    sims = kc.level_similarity_sets(levels, 2, kf.Metric(SYN.w, 0.0), seed=5, knn_iterations=SYN.knn_iterations)
+    b, _ = kc.synthesize(levels, S0, corr(k=2), seed=123, similarity=sims)  # the seed only seeds the search
     assert np.array_equal(a, b)
     with pytest.raises(ValueError, match="similarity"):
-        kc.synthesize(levels, S0, **dict(SYN, k=3), similarity=sims)
+        kc.synthesize(levels, S0, corr(k=3), seed=0, similarity=sims)
 
 
 def test_mask_limits_changes():
@@ -185,7 +188,7 @@ def test_mask_limits_changes():
     S0 = random_state(rng, levels[-1])
     mask = np.zeros((32, 32), bool)
     mask[8:20, 4:28] = True
-    S, _ = kc.synthesize(levels, S0, **dict(SYN, k=2), mask=mask)
+    S, _ = kc.synthesize(levels, S0, corr(k=2), seed=0, mask=mask)
     assert np.array_equal(S[~mask], S0[~mask])
     assert (S[mask] != S0[mask]).any()
 
@@ -200,8 +203,8 @@ def test_sub_passes_in_row_bands_are_exactly_the_whole_ones(monkeypatch, bands):
     S0 = random_state(rng, levels[-1])
     mask = np.ones((48, 40), bool)
     mask[30:, :12] = False
-    kw = dict(SYN, k=2, seed=4, uniformity=0.25, height_weight=4.0, mask=mask)
-    a, _ = kc.synthesize(levels, S0, **kw)
+    c = corr(k=2, uniformity=0.25, height_weight=4.0)
+    a, _ = kc.synthesize(levels, S0, c, seed=4, mask=mask)
     calls = []
 
     class Counting(InProcess):
@@ -210,7 +213,7 @@ def test_sub_passes_in_row_bands_are_exactly_the_whole_ones(monkeypatch, bands):
             return super().__call__(fn, shared, jobs)
 
     monkeypatch.setattr(kc, "TILE_MIN_PIXELS", 0)
-    b, _ = kc.synthesize(levels, S0, **kw, tiles=Counting(bands))
+    b, _ = kc.synthesize(levels, S0, c, seed=4, mask=mask, tiles=Counting(bands))
     assert calls and set(calls) == {bands}  # every sub-pass of every level went through the bands
     assert np.array_equal(a, b)
 
@@ -236,9 +239,9 @@ def test_near_copy_radius_is_at_least_min_radius(monkeypatch, rule, min_radius, 
     seen, orig = [], kc.correct_level
 
     def spy(level, S, knn, **kw):
-        seen.append(kw["radius"])
+        seen.append(kw["rule"].radius)
         return orig(level, S, knn, **kw)
 
     monkeypatch.setattr(kc, "correct_level", spy)
-    kc.synthesize(levels, S0, **dict(SYN, k=2), radius_rule=rule, min_radius=min_radius)
+    kc.synthesize(levels, S0, corr(k=2, radius=rule), seed=0, min_radius=min_radius)
     assert seen == want

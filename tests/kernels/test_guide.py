@@ -137,8 +137,8 @@ def test_correction_subpass_matches_reference(metric, h, w):
     tmasks = kg.grid_masks(target, n)
     for pi, pj in ((0, 0), (1, 1), (0, 1), (1, 0)):
         new = S.copy()
-        kg._subpass(S, new, np.ones(target.shape, bool), pi, pj, ex_lab, masks, ex_col, sim, tmasks, tgt_col, target,
-                    locked, allowed, h, w, metric, n)
+        kg._subpass(S, new, np.ones(target.shape, bool), (pi, pj), kg.Exemplar(ex_lab, masks, ex_col, sim),
+                    kg.Guide(tmasks, tgt_col, target, locked, allowed), kg.Rule(h, w, metric, n))
         ref = subpass_ref(S, pi, pj, ex_lab, ex_col, sim, tgt_col, target, locked, allowed, h, w, metric)
         assert np.array_equal(new, ref)
         assert (new != S).any() or pi + pj > 0  # the test exercises changes
@@ -154,20 +154,20 @@ def test_masked_subpass_corrects_the_active_pixels_as_the_reference_and_keeps_th
     masks, tmasks = kg.exemplar_masks(ex_lab, h, n), kg.grid_masks(target, n)
     for pi, pj in ((0, 0), (1, 1), (0, 1), (1, 0)):
         new = S.copy()
-        kg._subpass(S, new, active, pi, pj, ex_lab, masks, ex_col, sim, tmasks, tgt_col, target, locked,
-                    allowed, h, 1.0, metric, n)
+        kg._subpass(S, new, active, (pi, pj), kg.Exemplar(ex_lab, masks, ex_col, sim),
+                    kg.Guide(tmasks, tgt_col, target, locked, allowed), kg.Rule(h, 1.0, metric, n))
         ref = subpass_ref(S, pi, pj, ex_lab, ex_col, sim, tgt_col, target, locked, allowed, h, 1.0, metric)
         assert np.array_equal(new[active], ref[active])
         assert np.array_equal(new[~active], S[~active])
         assert (new[active] != S[active]).any() or pi + pj > 0
-    args = (ex_lab, masks, ex_col, sim, tmasks, tgt_col, target, locked, allowed)
+    args = (kg.Exemplar(ex_lab, masks, ex_col, sim), kg.Guide(tmasks, tgt_col, target, locked, allowed))
     # and the masked passes do not depend on the thread count
     outs = []
     old = numba.get_num_threads()
     try:
         for t in (1, 2):
             numba.set_num_threads(t)
-            outs.append(kg.correct(S, *args, h=h, w_proxy=1.0, metric=metric, n=n, passes=2, active=active))
+            outs.append(kg.correct(S, *args, kg.Rule(h, 1.0, metric, n), passes=2, active=active))
     finally:
         numba.set_num_threads(old)
     assert np.array_equal(outs[0], outs[1]) and np.array_equal(outs[0][~active], S[~active])
@@ -181,14 +181,15 @@ def test_correction_is_thread_count_independent():
     masks = kg.exemplar_masks(ex_lab, 1, n)
     sim = kg.similarity_sets(ex_lab, masks, np.zeros((1, 1, 3)), 1, 3, 24, 1, 0)
     S0 = kg.init_state(target, ex_lab, 2)
-    args = (ex_lab, masks, np.zeros((1, 1, 3)), sim, kg.grid_masks(target, n), np.zeros((1, 1, 75)), target,
-            np.zeros(target.shape, bool), kg.adjacency(ex_lab, target, n=n))
+    args = (kg.Exemplar(ex_lab, masks, np.zeros((1, 1, 3)), sim),
+            kg.Guide(kg.grid_masks(target, n), np.zeros((1, 1, 75)), target, np.zeros(target.shape, bool),
+                     kg.adjacency(ex_lab, target, n=n)))
     outs = []
     old = numba.get_num_threads()
     try:
         for t in (1, 2):
             numba.set_num_threads(t)
-            outs.append(kg.correct(S0, *args, h=1, w_proxy=1.0, metric=0, n=n, passes=2))
+            outs.append(kg.correct(S0, *args, kg.Rule(1, 1.0, 0, n), passes=2))
     finally:
         numba.set_num_threads(old)
     assert np.array_equal(outs[0], outs[1])

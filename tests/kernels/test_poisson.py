@@ -320,14 +320,14 @@ def test_sor_at_is_the_frame_sized_solve_bit_for_bit(step, filt):
             gx = gy = np.zeros((h, w, 3), np.float32)
         b = poisson.rhs(colors, patch, fixed, gx, gy)
         ref, rinfo = sor.solve_sor_regions(fixed, b, rows, cols, omega, region, screen=0.01, tol=1e-6)
-        got, info = sor.solve_sor_at(colors, patch, rows, cols, omega, region, source=source, sx=sx, sy=sy,
-                                         step=step, filter=filt, screen=0.01, tol=1e-6)
+        seams = None if source is None else sor.Seams(source, sx, sy, step, filt)
+        got, info = sor.solve_sor_at(colors, patch, rows, cols, omega, region, seams=seams, screen=0.01, tol=1e-6)
         assert np.array_equal(got.view(np.uint32), ref[rows, cols].view(np.uint32)) and info == rinfo
         assert np.abs(got).max() > 1e-3
         numba.set_num_threads(1)
         try:
-            one, _ = sor.solve_sor_at(colors, patch, rows, cols, omega, region, source=source, sx=sx, sy=sy,
-                                          step=step, filter=filt, screen=0.01, tol=1e-6, threads=1)
+            one, _ = sor.solve_sor_at(colors, patch, rows, cols, omega, region, seams=seams, screen=0.01, tol=1e-6,
+                                      threads=1)
         finally:
             numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
         assert np.array_equal(one, got)

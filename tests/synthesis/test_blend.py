@@ -3,6 +3,7 @@ windows around regions, region thickness."""
 import numpy as np
 import pytest
 
+from proxyshade.kernels import sor as ksor
 from proxyshade.kernels import temporal as T
 from proxyshade.synthesis import blend as B
 
@@ -46,7 +47,7 @@ def test_poisson_regions_equal_the_whole_frame_solve(screen, small, thin):
     gx, gy = P.seam_gradients(src, sx, sy, 0.5)
     ref, _ = P.poisson_transfer(colors, patch, labels, fixed=~free, values=colors, seam_gx=gx, seam_gy=gy,
                                 screen=screen, tol=1e-7, max_iter=500)
-    got, info = B.poisson_regions(colors, patch, labels, free, source=src, sx=sx, sy=sy, step=0.5, screen=screen,
+    got, info = B.poisson_regions(colors, patch, labels, free, seams=ksor.Seams(src, sx, sy, 0.5), screen=screen,
                                   tol=1e-7, max_iter=500, slack=0, small=small, thin=thin)
     if small or thin:
         assert info["windows"] == 0 and info["sor_pixels"] == free.sum() - (free & P.contour_mask(labels)).sum()
