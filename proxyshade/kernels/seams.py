@@ -43,19 +43,27 @@ def _dist2(img, ay, ax, by, bx):
 
 
 @njit(**JIT)
+def _pair_cost(S, img, target, i, j, oy, ox, k):
+    """The seam cost between pixel (i, j) read at offset (oy, ox) and its neighbour ``k``
+    (``_DY``/``_DX``) read at its own offset: 0 off the image, across a label border or
+    when both read at one offset."""
+    H, W = target.shape
+    y, x = i + _DY[k], j + _DX[k]
+    if y < 0 or x < 0 or y >= H or x >= W or target[y, x] != target[i, j]:
+        return 0.0
+    qy, qx = S[y, x, 0] - y, S[y, x, 1] - x
+    if qy == oy and qx == ox:
+        return 0.0
+    return _dist2(img, i + oy, j + ox, i + qy, j + qx) + _dist2(img, y + oy, x + ox, y + qy, x + qx)
+
+
+@njit(**JIT)
 def _energy(S, img, target, i, j, oy, ox):
     """Summed seam cost between pixel (i, j) read at offset (oy, ox) and its same-label
     neighbours read at their own offsets."""
-    H, W = target.shape
     e = 0.0
     for k in range(4):
-        y, x = i + _DY[k], j + _DX[k]
-        if y < 0 or x < 0 or y >= H or x >= W or target[y, x] != target[i, j]:
-            continue
-        qy, qx = S[y, x, 0] - y, S[y, x, 1] - x
-        if qy == oy and qx == ox:
-            continue
-        e += _dist2(img, i + oy, j + ox, i + qy, j + qx) + _dist2(img, y + oy, x + ox, y + qy, x + qx)
+        e += _pair_cost(S, img, target, i, j, oy, ox, k)
     return e
 
 
@@ -129,13 +137,6 @@ def _seam_cost(S, img, target):
     tot = 0.0
     for i in range(H):
         for j in range(W):
-            oy, ox = S[i, j, 0] - i, S[i, j, 1] - j
             for k in range(2, 4):  # right and down: each pair once
-                y, x = i + _DY[k], j + _DX[k]
-                if y >= H or x >= W or target[y, x] != target[i, j]:
-                    continue
-                qy, qx = S[y, x, 0] - y, S[y, x, 1] - x
-                if qy == oy and qx == ox:
-                    continue
-                tot += _dist2(img, i + oy, j + ox, i + qy, j + qx) + _dist2(img, y + oy, x + ox, y + qy, x + qx)
+                tot += _pair_cost(S, img, target, i, j, S[i, j, 0] - i, S[i, j, 1] - j, k)
     return tot
