@@ -611,7 +611,13 @@ class Graph:
             msg = str(e)
             if self.source and msg.startswith(f"{self.source}:"):
                 raise  # raised by an upstream node read inside this compute (a sequence input): named already
-            raise type(e)(self.where(name) + (msg if msg.startswith(name) else f"{name}@{frame}: {msg}")) from None
+            # one form for every bad-input error of a node: "name@frame: ..." (ctx.error's and the
+            # input checks' "name: ..." and a layer's bare message alike)
+            for own in (f"{name}@{frame}: ", f"{name}: "):
+                if msg.startswith(own):
+                    msg = msg[len(own):]
+                    break
+            raise type(e)(self.where(name) + f"{name}@{frame}: {msg}") from None
         except Exception as e:
             summary = ", ".join(f"{k}=None" if v is None else f"{k}={len(v)} frames" if isinstance(v, PlateSequence)
                                 else f"{k}={v.width}x{v.height}[{','.join(v.names()[:6])}]" for k, v in inputs.items())

@@ -492,7 +492,7 @@ def test_bracketed_values_survive_in_messages(tmp_path, registry, capsys):
 def test_node_errors_name_the_graph_file_and_line(tmp_path, registry, capsys):
     nodes = NODES.replace("channels: [label.id]", "channels: [nope]")
     code, _, err = cli(capsys, "run", write_graph(tmp_path, nodes), "-q")
-    assert code == EXIT_BAD_INPUT and len(err) == 1 and err[0].startswith(f"error: {tmp_path / 'g.yaml'}:9: p: "), err
+    assert code == EXIT_BAD_INPUT and len(err) == 1 and err[0].startswith(f"error: {tmp_path / 'g.yaml'}:9: p@1: "), err
 
 
 def test_cache_warning_is_one_line(tmp_path, registry, capsys):

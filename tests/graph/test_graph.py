@@ -341,7 +341,7 @@ def test_sequence_plates_are_checked_for_declared_channels(tmp_path, computes):
     g = Graph(graph_dir=tmp_path, frames=(1, 2), cache=tmp_path / "cache")
     g.add("z", _TNoR)
     g.add("seq", _TSeq, {}, {"image": InputRef("z", all=True)})
-    with pytest.raises(NodeInputError, match=r"^seq: input 'image' has no channel R; _TSeq needs R there, it has Z$"):
+    with pytest.raises(NodeInputError, match=r"^seq@2: input 'image' has no channel R; _TSeq needs R there, it has Z$"):
         g.run()
 
 
