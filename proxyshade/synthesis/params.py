@@ -88,15 +88,11 @@ class Correction(CoarseLevel, PatchMetric):
                    doc="near-copy radius: one level pixel (spacing h) or 2^l exemplar pixels at level l")
 
 
-class PoissonSolve(ParamGroup):
-    """Gradient-domain blending of patch seams (§5 step 3, §7)."""
+class ColourFidelity(ParamGroup):
+    """The colour-fidelity step before the Poisson solve (``synthesis.blend.layout_move``,
+    ``synthesis.grain``): each label's layout and detail moved toward the photo's. Off in the
+    graphs (docs/synthesis.md says why); a graph with a flat synthesized sky may turn it on."""
 
-    seams = Param(str, "source", choices=("source", "zero"),
-                  doc="target gradient across patch seams: the source's through the map, or zero")
-    screen = Param(float, 0.01, min=0.0,
-                   doc="λ of a data term λ(u - f)²: 0 = pure Poisson (the paper; drifts far from label borders "
-                       "and moves a frame's tones off the photo's: graphs/first_frame.yaml takes 1)")
-    label_dirichlet = Param(bool, True, doc="keep pixels on boundaries between label ids (Γ2) unchanged")
     layout = Param(bool, True, doc="first move each label's mean colour, by relative height in the label, onto the "
                                    "source photo's (low frequencies from the photo: a region's hue, a sky's "
                                    "top-to-horizon gradient); false = the synthesized colours' own")
@@ -113,6 +109,17 @@ class PoissonSolve(ParamGroup):
                   doc="most gain of a detail layer when the first frame's detail is matched to the photo's, "
                       "label by label and scale by scale (the source is graded and read again; later frames "
                       "read the same graded source): 1 = off")
+
+
+class PoissonSolve(ColourFidelity):
+    """Gradient-domain blending of patch seams (§5 step 3, §7), after the colour-fidelity step."""
+
+    seams = Param(str, "source", choices=("source", "zero"),
+                  doc="target gradient across patch seams: the source's through the map, or zero")
+    screen = Param(float, 0.01, min=0.0,
+                   doc="λ of a data term λ(u - f)²: 0 = pure Poisson (the paper; drifts far from label borders "
+                       "and moves a frame's tones off the photo's: graphs/first_frame.yaml takes 1)")
+    label_dirichlet = Param(bool, True, doc="keep pixels on boundaries between label ids (Γ2) unchanged")
     tol = Param(float, 1e-5, min=1e-12, max=1.0, doc="relative residual at which the solver stops")
     max_iter = Param(int, 100, min=1, doc="most conjugate-gradient iterations")
 
