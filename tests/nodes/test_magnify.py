@@ -53,8 +53,9 @@ def test_seams_move_to_where_patches_agree():
     def cost(p):
         return seam_cost(np.stack([p["source.y"], p["source.x"]], -1).astype(np.int32), img, tgt)
 
-    # the total seam cost falls by a clear share, and no fewer pixels read their own label
-    assert cost(moved) < 0.9 * cost(stair)
+    # the total seam cost falls to under half the staircase's (0.17 on this chain), and no
+    # fewer pixels read their own label
+    assert cost(moved) < 0.5 * cost(stair)
     assert T.label_fidelity(src, moved) >= T.label_fidelity(src, stair)
     assert 0.02 < (moved["source.x"] != stair["source.x"]).mean() < 0.3
 
