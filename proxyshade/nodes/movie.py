@@ -6,10 +6,11 @@ from pathlib import Path
 from proxyshade.graph.node import Input, Node, Param
 from proxyshade.graph.plate import Plate
 from proxyshade.io.images import resize_u8, write_gif
-from proxyshade.kernels.display import DEFAULT_CHANNELS, VIEWS, channels_problem, to_display
+from proxyshade.kernels.display import channels_problem
+from proxyshade.synthesis.params import DisplayView
 
 
-class Movie(Node):
+class Movie(DisplayView, Node):
     """Write a looping animated GIF of ``channels`` of ``image``, first to last requested frame.
 
     Pictures as Preview makes them, downscaled to ``max_size``. A sequence node: computed once
@@ -20,11 +21,6 @@ class Movie(Node):
     sink = True
     image = Input("the plates to show: connect {node: X, frame: all}", sequence=True)
     path = Param(Path, doc="output animated GIF")
-    channels = Param(list, list(DEFAULT_CHANNELS), doc="one id/depth channel, or three colour channels")
-    exposure = Param(float, 0.0, doc="stops of exposure for colour channels")
-    view = Param(str, "shoulder", choices=VIEWS,
-                 doc="colour view transform (kernels.display.view_transform): 'shoulder' rolls values above 0.9 "
-                     "off smoothly toward white (a plate may exceed 1), 'clip' shows them all as white")
     fps = Param(int, 24, min=1, max=50, doc="frames per second (GIF plays 100 / int(100 / fps))")
     max_size = Param(int, 512, min=16, doc="long edge of the movie's frames; larger plates are downscaled")
 
@@ -38,6 +34,6 @@ class Movie(Node):
             if plate.shape != shape:
                 raise ctx.error(f"frame {frame} is {plate.width}x{plate.height}, frame {ctx.image.frames[0]} is "
                                 f"{shape[1]}x{shape[0]}; a movie needs one size for every frame")
-            frames.append(resize_u8(to_display(plate, ctx.p.channels, ctx.p.exposure, ctx.p.view), ctx.p.max_size))
+            frames.append(resize_u8(DisplayView.show(plate, ctx.p), ctx.p.max_size))
         path = write_gif(ctx.path(ctx.p.path), frames, ctx.p.fps)
         return Plate(meta={"movie": str(path), "frames": [ctx.image.frames[0], ctx.image.frames[-1]]})

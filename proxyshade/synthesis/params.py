@@ -11,6 +11,7 @@ from types import SimpleNamespace
 from typing import Any
 
 from proxyshade.declare import Input, Param
+from proxyshade.kernels.display import DEFAULT_CHANNELS, VIEWS, to_display
 
 
 class ParamGroup:
@@ -203,3 +204,19 @@ class LabelMapSnap(ParamGroup):
                          doc="8-bit RGB distance beyond which a label-map pixel is 'far' from every label colour")
     max_far_fraction = Param(float, 0.02, min=0.0, max=1.0,
                              doc="fail when more label-map pixels than this are far from every label colour")
+
+
+class DisplayView(ParamGroup):
+    """How a plate is shown to people (Preview's PNG, Movie's GIF): ``kernels.display.to_display``'s
+    options."""
+
+    channels = Param(list, list(DEFAULT_CHANNELS), doc="one id/depth channel, or three colour channels")
+    exposure = Param(float, 0.0, doc="stops of exposure for colour channels")
+    view = Param(str, "shoulder", choices=VIEWS,
+                 doc="colour view transform (kernels.display.view_transform): 'shoulder' rolls values above 0.9 "
+                     "off smoothly toward white (a plate may exceed 1), 'clip' shows them all as white")
+
+    @staticmethod
+    def show(plate, p):
+        """``plate`` as display-referred 8-bit RGB with the group's values in ``p``."""
+        return to_display(plate, p.channels, p.exposure, p.view)
