@@ -109,29 +109,19 @@ def _sub_pass(S, img, target, labels, parity):
 
 
 @njit(**JIT)
-def _run_cost(S, img, target, ri, rj, n):
-    """Summed seam cost of the ``n`` pixels (``ri``, ``rj``) read at their own offsets (a
-    pair inside the run counts twice, a pair to the rest of the map once)."""
-    e = 0.0
-    for t in range(n):
-        i, j = ri[t], rj[t]
-        e += _energy(S, img, target, i, j, S[i, j, 0] - i, S[i, j, 1] - j)
-    return e
-
-
-@njit(**JIT)
-def _run_pass(S, img, target, labels, max_run):
-    """Run moves, in scan order: for a pixel ``p`` (offset ``a``) whose neighbour ``q`` in
-    direction ``k`` reads another offset ``b``, the run of pixels through ``p`` across
-    ``k`` (along the seam) that read ``a`` with a ``k``-neighbour reading ``b``, at most
-    ``max_run`` long each way (the whole run, and the part on either side of ``p`` with
-    ``p``), takes ``b`` when that lowers the summed seam cost and every pixel of it then
-    reads a source pixel of its label. A straight seam across many rows shifts by one
-    pixel, which the one-pixel moves cannot do. Returns the number of pixels moved."""
+def _run_pass(S, img, target, labels, rc, rv, lo_end, hi_end):
+    """Run moves, in scan order. A run: the pixels ``r_0 .. r_{n-1}`` along a seam (each
+    the next one's neighbour across direction ``k``) that read one offset ``a`` while
+    their ``k``-neighbours read another, ``b``, from the first (whose predecessor does not
+    continue it) as far as it goes. Its contiguous part ``r_l .. r_h`` whose move to ``b``
+    lowers the summed seam cost most (exactly: ``Σ c_t`` over the part, ``c_t`` the change
+    of ``r_t``'s pairs across the seam, plus the two end pairs along it; a maximum-sum
+    sub-array) takes ``b``, where every pixel of it then reads a source pixel of its label.
+    A straight seam across many rows shifts by one pixel, which one-pixel moves cannot do
+    (each would add two pairs along the seam). ``rc``, ``rv``, ``lo_end``, ``hi_end``:
+    scratch of max(H, W). Returns the number of pixels moved."""
     H, W = target.shape
     Hs, Ws = labels.shape
-    ri = np.empty(2 * max_run + 1, np.int64)
-    rj = np.empty(2 * max_run + 1, np.int64)
     moved = 0
     for i in range(H):
         for j in range(W):
@@ -143,75 +133,79 @@ def _run_pass(S, img, target, labels, max_run):
                 by, bx = S[y, x, 0] - y, S[y, x, 1] - x
                 if ay == by and ax == bx:
                     continue
-                ey, ex = _DX[k], _DY[k]  # along the seam: perpendicular to (dy, dx)
-                ext = np.zeros(2, np.int64)  # pixels beyond p: -e side, +e side
-                for side in range(2):
-                    sgn = 1 if side == 1 else -1
-                    for t in range(1, max_run + 1):
-                        u, v = i + sgn * t * ey, j + sgn * t * ex
-                        uy, vx = u + _DY[k], v + _DX[k]
-                        if u < 0 or v < 0 or u >= H or v >= W or uy < 0 or vx < 0 or uy >= H or vx >= W:
-                            break
-                        if (target[u, v] != target[i, j] or target[uy, vx] != target[i, j]
-                                or S[u, v, 0] - u != ay or S[u, v, 1] - v != ax
-                                or S[uy, vx, 0] - uy != by or S[uy, vx, 1] - vx != bx):
-                            break
-                        ext[side] = t
-                if ext[0] + ext[1] == 0:
-                    continue  # a run of one: the one-pixel moves' case
-                best, lo, hi = 0.0, 0, 0
-                for c in range(3):  # the whole run, then p with the -e part, p with the +e part
-                    l0 = ext[0] if c != 2 else 0
-                    h0 = ext[1] if c != 1 else 0
-                    if c > 0 and (l0 == 0 and h0 == 0 or l0 + h0 == ext[0] + ext[1]):
+                ey, ex = _DX[k] * _DX[k], _DY[k] * _DY[k]  # along the seam: (0, 1) or (1, 0)
+                kb = 3 - k  # the opposite direction (_DY/_DX are symmetric)
+                ke = 2 if ex == 1 else 3  # direction +e
+                u, v = i - ey, j - ex  # does the predecessor continue the run? then p is not its start
+                if u >= 0 and v >= 0 and target[u, v] == target[i, j] and S[u, v, 0] - u == ay \
+                        and S[u, v, 1] - v == ax and target[u + _DY[k], v + _DX[k]] == target[i, j] \
+                        and S[u + _DY[k], v + _DX[k], 0] - u - _DY[k] == by \
+                        and S[u + _DY[k], v + _DX[k], 1] - v - _DX[k] == bx:
+                    continue
+                n = 0
+                while True:
+                    u, v = i + n * ey, j + n * ex
+                    uy, vx = u + _DY[k], v + _DX[k]
+                    if u >= H or v >= W or uy < 0 or vx < 0 or uy >= H or vx >= W:
+                        break
+                    if (target[u, v] != target[i, j] or target[uy, vx] != target[i, j]
+                            or S[u, v, 0] - u != ay or S[u, v, 1] - v != ax
+                            or S[uy, vx, 0] - uy != by or S[uy, vx, 1] - vx != bx):
+                        break
+                    sy, sx = u + by, v + bx
+                    rv[n] = 0 <= sy < Hs and 0 <= sx < Ws and labels[sy, sx] == target[u, v]
+                    rc[n] = (_pair_cost(S, img, target, u, v, by, bx, k) + _pair_cost(S, img, target, u, v, by, bx, kb)
+                             - _pair_cost(S, img, target, u, v, ay, ax, k) - _pair_cost(S, img, target, u, v, ay, ax, kb))
+                    lo_end[n] = (_pair_cost(S, img, target, u, v, by, bx, 3 - ke)
+                                 - _pair_cost(S, img, target, u, v, ay, ax, 3 - ke))
+                    hi_end[n] = (_pair_cost(S, img, target, u, v, by, bx, ke)
+                                 - _pair_cost(S, img, target, u, v, ay, ax, ke))
+                    n += 1
+                # the part [l, h] of least Σ_{l..h} rc + lo_end[l] + hi_end[h] (pairs along the
+                # run inside the part cost 0 before and after), valid pixels only
+                P = 0.0
+                lv = np.inf
+                lb = -1
+                best = 0.0
+                lo = -1
+                hi = -1
+                for t in range(n):
+                    if not rv[t]:
+                        lv = np.inf
+                        P += rc[t]
                         continue
-                    n = 0
-                    ok = True
-                    for t in range(-l0, h0 + 1):
-                        u, v = i + t * ey, j + t * ex
-                        sy, sx = u + by, v + bx
-                        if sy < 0 or sx < 0 or sy >= Hs or sx >= Ws or labels[sy, sx] != target[u, v]:
-                            ok = False
-                            break
-                        ri[n] = u
-                        rj[n] = v
-                        n += 1
-                    if not ok:
-                        continue
-                    before = _run_cost(S, img, target, ri, rj, n)
-                    for t in range(n):
-                        S[ri[t], rj[t], 0] = ri[t] + by
-                        S[ri[t], rj[t], 1] = rj[t] + bx
-                    gain = before - _run_cost(S, img, target, ri, rj, n)
-                    for t in range(n):
-                        S[ri[t], rj[t], 0] = ri[t] + ay
-                        S[ri[t], rj[t], 1] = rj[t] + ax
-                    if gain > best:
-                        best, lo, hi = gain, l0, h0
-                if best > 0.0:
-                    for t in range(-lo, hi + 1):
+                    val = lo_end[t] - P
+                    if val < lv:
+                        lv, lb = val, t
+                    P += rc[t]
+                    d = P + lv + hi_end[t]
+                    if d < best:
+                        best, lo, hi = d, lb, t
+                if lo >= 0:
+                    for t in range(lo, hi + 1):
                         u, v = i + t * ey, j + t * ex
                         S[u, v, 0] = u + by
                         S[u, v, 1] = v + bx
-                    moved += lo + hi + 1
-                    break  # p has a new offset: its other seams wait for the next pass
+                    moved += hi - lo + 1
     return moved
 
 
 def refine_seams(S: np.ndarray, img: np.ndarray, target: np.ndarray, labels: np.ndarray,
-                 passes: int, max_run: int = 0) -> tuple[np.ndarray, int]:
+                 passes: int, runs: bool = False) -> tuple[np.ndarray, int]:
     """``S`` (copied) after ``passes`` passes of seam moves (each two checkerboard halves
-    of one-pixel moves, then, with ``max_run``, a scan of run moves: ``_run_pass``),
+    of one-pixel moves, then, with ``runs``, a scan of run moves: ``_run_pass``),
     stopping early when a pass changes nothing; and the number of pixel moves made."""
     S = np.ascontiguousarray(S, np.int32).copy()
     img = np.ascontiguousarray(img, np.float32)
     target = np.ascontiguousarray(target, np.int32)
     labels = np.ascontiguousarray(labels, np.int32)
+    m = max(target.shape)
+    scratch = (np.empty(m, np.float64), np.empty(m, np.bool_), np.empty(m, np.float64), np.empty(m, np.float64))
     moves = 0
     for _ in range(passes):
         n = _sub_pass(S, img, target, labels, 0) + _sub_pass(S, img, target, labels, 1)
-        if max_run > 0:
-            n += _run_pass(S, img, target, labels, int(max_run))
+        if runs:
+            n += _run_pass(S, img, target, labels, *scratch)
         moves += int(n)
         if n == 0:
             break

@@ -41,9 +41,9 @@ class Magnify(Node):
                         doc="passes moving patch seams, one output pixel at a time, to where the patches on "
                             "either side agree (Kwatra et al. 2003's seam cost; needs repair); 0 = the "
                             "factor-pixel staircase of the synthesis")
-    seam_runs = Param(int, 0, min=0, max=256,
-                      doc="with seam_passes, also move runs of up to this many pixels each way along a "
-                          "seam at once (a straight seam shifts by a pixel); 0 = one-pixel moves only")
+    seam_runs = Param(bool, False,
+                      doc="with seam_passes, also move runs of pixels along a seam at once (the part of a "
+                          "straight seam that gains most shifts by a pixel); false = one-pixel moves only")
 
     def compute(self, ctx) -> Plate:
         from proxyshade.kernels.lookup import lookup

@@ -47,8 +47,10 @@ def ref_total(S, img, target):
     return tot
 
 
-def ref_runs(S, img, target, labels, max_run):
-    """Run moves in scan order, each judged by the whole map's seam cost before and after."""
+def ref_runs(S, img, target, labels):
+    """Run moves in scan order: each run (from its first pixel) tries every contiguous part,
+    judged by the whole map's seam cost before and after; the part that lowers it most
+    (the first such, by last then first pixel) moves."""
     H, W = target.shape
     off = lambda u, v: (S[u, v, 0] - u, S[u, v, 1] - v)  # noqa: E731
     moved = 0
@@ -61,42 +63,39 @@ def ref_runs(S, img, target, labels, max_run):
                 a, b = off(i, j), off(y, x)
                 if a == b:
                     continue
-                ext = []
-                for sgn in (-1, 1):
-                    t = 0
-                    while t < max_run:
-                        u, v = i + sgn * (t + 1) * dx, j + sgn * (t + 1) * dy
-                        if not (0 <= u < H and 0 <= v < W and 0 <= u + dy < H and 0 <= v + dx < W):
-                            break
-                        if (target[u, v] != target[i, j] or target[u + dy, v + dx] != target[i, j]
-                                or off(u, v) != a or off(u + dy, v + dx) != b):
-                            break
-                        t += 1
-                    ext.append(t)
-                if sum(ext) == 0:
+                ey, ex = abs(dx), abs(dy)
+
+                def continues(u, v):
+                    return (0 <= u < H and 0 <= v < W and 0 <= u + dy < H and 0 <= v + dx < W
+                            and target[u, v] == target[i, j] and target[u + dy, v + dx] == target[i, j]
+                            and off(u, v) == a and off(u + dy, v + dx) == b)
+
+                if continues(i - ey, j - ex):
                     continue
-                spans = [(ext[0], ext[1])] + [s for s in ((ext[0], 0), (0, ext[1])) if 0 < sum(s) < sum(ext)]
+                run = []
+                while continues(i + len(run) * ey, j + len(run) * ex):
+                    run.append((i + len(run) * ey, j + len(run) * ex))
                 before = ref_total(S, img, target)
                 best, pick = 0.0, None
-                for lo, hi in spans:
-                    run = [(i + t * dx, j + t * dy) for t in range(-lo, hi + 1)]
-                    if not all(0 <= u + b[0] < labels.shape[0] and 0 <= v + b[1] < labels.shape[1]
-                               and labels[u + b[0], v + b[1]] == target[u, v] for u, v in run):
-                        continue
-                    T = S.copy()
-                    for u, v in run:
-                        T[u, v] = (u + b[0], v + b[1])
-                    gain = before - ref_total(T, img, target)
-                    if gain > best + 1e-9 * max(1.0, before):
-                        best, pick = gain, T
+                for h in range(len(run)):
+                    for lo in range(h + 1):
+                        part = run[lo:h + 1]
+                        if not all(0 <= u + b[0] < labels.shape[0] and 0 <= v + b[1] < labels.shape[1]
+                                   and labels[u + b[0], v + b[1]] == target[u, v] for u, v in part):
+                            continue
+                        T = S.copy()
+                        for u, v in part:
+                            T[u, v] = (u + b[0], v + b[1])
+                        gain = before - ref_total(T, img, target)
+                        if gain > best + 1e-9:
+                            best, pick = gain, T
                 if pick is not None:
                     moved += int((pick != S).any(-1).sum())
                     S[...] = pick
-                    break
     return moved
 
 
-def ref_refine(S, img, target, labels, passes, max_run=0):
+def ref_refine(S, img, target, labels, passes, runs=False):
     S = S.copy()
     H, W = target.shape
     for _ in range(passes):
@@ -126,8 +125,8 @@ def ref_refine(S, img, target, labels, passes, max_run=0):
                         new[i, j] = (i + pick[0], j + pick[1])
                         moved += 1
             S = new
-        if max_run:
-            moved += ref_runs(S, img, target, labels, max_run)
+        if runs:
+            moved += ref_runs(S, img, target, labels)
         if moved == 0:
             break
     return S
@@ -193,8 +192,8 @@ def test_a_seam_moves_to_where_the_patches_agree():
 @pytest.mark.parametrize("seed", range(6))
 def test_run_moves_match_reference_exactly(seed):
     S, img, target, labels = random_case(seed, H=13, W=15, Hs=26, Ws=28)
-    got, moves = ks.refine_seams(S, img, target, labels, 3, max_run=3)
-    want = ref_refine(S, img, target, labels, 3, max_run=3)
+    got, moves = ks.refine_seams(S, img, target, labels, 3, runs=True)
+    want = ref_refine(S, img, target, labels, 3, runs=True)
     assert np.array_equal(got, want)
     assert moves >= int((got != S).any(-1).sum())
 
@@ -220,6 +219,6 @@ def test_a_straight_seam_shifts_where_one_pixel_moves_stick():
     assert c0 == pytest.approx(H * 0.4, rel=1e-4)
     one, moves = ks.refine_seams(S, img, target, labels, 8)
     assert moves == 0 and np.array_equal(one, S)
-    run, moves = ks.refine_seams(S, img, target, labels, 8, max_run=16)
+    run, moves = ks.refine_seams(S, img, target, labels, 8, runs=True)
     assert moves == H and (run[:, 4, 1] == 24).all() and (run[:, 3, 1] == 3).all()
     assert ks.seam_cost(run, img, target) == pytest.approx(10 * 0.1 + 2 * 0.5, rel=1e-4)
