@@ -48,50 +48,51 @@ def ref_total(S, img, target):
 
 
 def ref_runs(S, img, target, labels):
-    """Run moves in scan order: each run (from its first pixel) tries every contiguous part,
-    judged by the whole map's seam cost before and after; the part that lowers it most
-    (the first such, by last then first pixel) moves."""
+    """Run moves: even rows, odd rows (pixels left to right, up then down), even columns,
+    odd columns (top to bottom, left then right); each run (from its first pixel) tries
+    every contiguous part, judged by the whole map's seam cost before and after; the part
+    that lowers it most (the first such, by last then first pixel) moves."""
     H, W = target.shape
     off = lambda u, v: (S[u, v, 0] - u, S[u, v, 1] - v)  # noqa: E731
+    order = [(i, j, d) for par in (0, 1) for i in range(par, H, 2) for j in range(W) for d in (N4[0], N4[3])]
+    order += [(i, j, d) for par in (0, 1) for j in range(par, W, 2) for i in range(H) for d in (N4[1], N4[2])]
     moved = 0
-    for i in range(H):
-        for j in range(W):
-            for dy, dx in N4:
-                y, x = i + dy, j + dx
-                if not (0 <= y < H and 0 <= x < W) or target[y, x] != target[i, j]:
-                    continue
-                a, b = off(i, j), off(y, x)
-                if a == b:
-                    continue
-                ey, ex = abs(dx), abs(dy)
+    for i, j, (dy, dx) in order:
+        y, x = i + dy, j + dx
+        if not (0 <= y < H and 0 <= x < W) or target[y, x] != target[i, j]:
+            continue
+        a, b = off(i, j), off(y, x)
+        if a == b:
+            continue
+        ey, ex = abs(dx), abs(dy)
 
-                def continues(u, v):
-                    return (0 <= u < H and 0 <= v < W and 0 <= u + dy < H and 0 <= v + dx < W
-                            and target[u, v] == target[i, j] and target[u + dy, v + dx] == target[i, j]
-                            and off(u, v) == a and off(u + dy, v + dx) == b)
+        def continues(u, v):
+            return (0 <= u < H and 0 <= v < W and 0 <= u + dy < H and 0 <= v + dx < W
+                    and target[u, v] == target[i, j] and target[u + dy, v + dx] == target[i, j]
+                    and off(u, v) == a and off(u + dy, v + dx) == b)
 
-                if continues(i - ey, j - ex):
+        if continues(i - ey, j - ex):
+            continue
+        run = []
+        while continues(i + len(run) * ey, j + len(run) * ex):
+            run.append((i + len(run) * ey, j + len(run) * ex))
+        before = ref_total(S, img, target)
+        best, pick = 0.0, None
+        for h in range(len(run)):
+            for lo in range(h + 1):
+                part = run[lo:h + 1]
+                if not all(0 <= u + b[0] < labels.shape[0] and 0 <= v + b[1] < labels.shape[1]
+                           and labels[u + b[0], v + b[1]] == target[u, v] for u, v in part):
                     continue
-                run = []
-                while continues(i + len(run) * ey, j + len(run) * ex):
-                    run.append((i + len(run) * ey, j + len(run) * ex))
-                before = ref_total(S, img, target)
-                best, pick = 0.0, None
-                for h in range(len(run)):
-                    for lo in range(h + 1):
-                        part = run[lo:h + 1]
-                        if not all(0 <= u + b[0] < labels.shape[0] and 0 <= v + b[1] < labels.shape[1]
-                                   and labels[u + b[0], v + b[1]] == target[u, v] for u, v in part):
-                            continue
-                        T = S.copy()
-                        for u, v in part:
-                            T[u, v] = (u + b[0], v + b[1])
-                        gain = before - ref_total(T, img, target)
-                        if gain > best + 1e-9:
-                            best, pick = gain, T
-                if pick is not None:
-                    moved += int((pick != S).any(-1).sum())
-                    S[...] = pick
+                T = S.copy()
+                for u, v in part:
+                    T[u, v] = (u + b[0], v + b[1])
+                gain = before - ref_total(T, img, target)
+                if gain > best + 1e-9:
+                    best, pick = gain, T
+        if pick is not None:
+            moved += int((pick != S).any(-1).sum())
+            S[...] = pick
     return moved
 
 
