@@ -205,6 +205,10 @@ def _run_pass(S, img, target, labels, vertical, parity):
             i, j = (t, line) if vertical else (line, t)
             for kk in range(2):
                 k = (1 + kk) if vertical else 3 * kk
+                y, x = i + _DY[k], j + _DX[k]  # most pixels are on no seam: no call
+                if y < 0 or x < 0 or y >= H or x >= W or (S[y, x, 0] - y == S[i, j, 0] - i
+                                                          and S[y, x, 1] - x == S[i, j, 1] - j):
+                    continue
                 moved[line] += _run_at(S, img, target, labels, i, j, k, rc, rv, lo_end, hi_end)
     return moved.sum()
 
