@@ -41,7 +41,7 @@ class Magnify(Node):
                         doc="passes moving patch seams, one output pixel at a time, to where the patches on "
                             "either side agree (Kwatra et al. 2003's seam cost; needs repair); 0 = the "
                             "factor-pixel staircase of the synthesis")
-    seam_runs = Param(bool, False,
+    seam_runs = Param(bool, True,
                       doc="with seam_passes, also move runs of pixels along a seam at once (the part of a "
                           "straight seam that gains most shifts by a pixel); false = one-pixel moves only")
 
