@@ -9,7 +9,9 @@ agree: the seam cost of Kwatra et al. 2003 ("Graphcut Textures", §3: for neighb
 a seam takes, among its own offset and its four neighbours', the one with the least summed
 seam cost to its neighbours, as long as the source pixel it then reads has the pixel's
 label. Checkerboard sub-passes (a pixel's neighbours are all of the other parity), so the
-result does not depend on the number of threads. Pixels of different target labels are not
+result does not depend on the number of threads. A straight seam across many rows is a
+local minimum of those one-pixel moves; run moves (``_run_pass``) shift the best part of
+each run of pixels along a seam at once. Pixels of different target labels are not
 neighbours here (a label border is not a patch seam).
 
 ``S``: (H, W, 2) int32 map (row, column) into a source grid; ``img``: (Hs, Ws, C) float32
