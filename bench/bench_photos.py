@@ -24,6 +24,10 @@ the share of pixels whose luma lies outside the photo label's 0.5-99.5 % luma ra
 more than half an 8-bit step), and
 the share of negative pixels (the linear EXR values; EbSynth's 8-bit output has none),
 proxyshade beside EbSynth with the ratio. A case's figure is the mean over its labels.
+Beside them, proxyshade's share of windows holding a patch seam and the windowed χ² of
+those with one and those without (``seam_windows``), and ``photo``: the photo's own
+windows scored the same way (``copy_floor``), what a faithful copy of the photo scores
+(a method that smooths a label's texture can score below it).
 Bars (issue #32): hist χ² <= EbSynth's and windowed χ² <= 1.2x EbSynth's in every case,
 median windowed χ² <= EbSynth's, outside share <= 1 % per label, no negative pixels, std
 ratio 0.8-1.2 per label.
@@ -202,9 +206,10 @@ def ebsynth(exe: Path, src: Plate, ids: np.ndarray, cache: Path) -> tuple[np.nda
 # ---- figures ----------------------------------------------------------------------------
 
 def measure(out_srgb: np.ndarray, lin: np.ndarray | None, ids: np.ndarray, src: Plate,
-            src_srgb: np.ndarray, *, stride: int = 16) -> dict:
+            src_srgb: np.ndarray, *, stride: int = 16, patch: np.ndarray | None = None) -> dict:
     """Per label name: label_fidelity's figures (output windows every ``stride`` px),
-    ``outside`` and ``negative``."""
+    ``outside`` and ``negative``; with ``patch`` (the plate's ``patch.id``), the windowed
+    χ² apart for the windows that hold a patch seam and those that do not (``seam_windows``)."""
     names = {int(t["id"]): t["name"] for t in src.meta["labels"]}
     ly, lys = Q.luma(out_srgb), Q.luma(src_srgb)
     res = {}
@@ -215,8 +220,46 @@ def measure(out_srgb: np.ndarray, lin: np.ndarray | None, ids: np.ndarray, src: 
         f = Q.label_fidelity(out_srgb, ids, src_srgb, src["label.id"], int(k), window_stride=(stride, 3))
         f["outside"] = Q.outside_share(ly, m, Q.label_range(lys, ms), eps=TIE)
         f["negative"] = float((lin[m] < 0).any(-1).mean()) if lin is not None else 0.0
+        if patch is not None:
+            f.update(seam_windows(ly, m, patch, lys, ms, stride))
         res[names.get(int(k), str(k))] = f
     return res
+
+
+def seam_windows(lum: np.ndarray, mask: np.ndarray, patch: np.ndarray, src_lum: np.ndarray,
+                 src_mask: np.ndarray, stride: int) -> dict:
+    """label_fidelity's windows (11², every ``stride`` px) split by whether their ``mask``
+    pixels hold a patch seam (two 4-adjacent ones of different ``patch``): the share that
+    do (``seam_share``) and the windowed χ² of each group (``win_seam``, ``win_free``;
+    nan when empty)."""
+    edge = np.zeros(mask.shape, bool)
+    for a, b in (((slice(None), slice(1, None)), (slice(None), slice(None, -1))),
+                 ((slice(1, None), slice(None)), (slice(None, -1), slice(None)))):
+        e = (patch[a] != patch[b]) & mask[a] & mask[b]
+        edge[a] |= e
+        edge[b] |= e
+    # the same windows as the luma histograms': a 2-bin histogram of the edge flag
+    seam = Q.window_histograms(edge * 0.75, mask, bins=2, stride=stride)[:, 1] > 0
+    wo = Q.window_histograms(lum, mask, stride=stride)
+    ws = Q.window_histograms(src_lum, src_mask, stride=3)
+    return {"seam_share": float(seam.mean()) if len(seam) else float("nan"),
+            "win_seam": Q.nearest_window_chi2(wo[seam], ws), "win_free": Q.nearest_window_chi2(wo[~seam], ws)}
+
+
+def copy_floor(src_srgb: np.ndarray, src_labels: np.ndarray, labels, *, stride: int = 16) -> dict:
+    """Per label name: the windowed χ² of the photo's own windows (every ``stride`` px,
+    the grid shifted by 1, 2, 4 and 7 px, mean) to the photo's windows (every 3 px): what
+    a faithful copy of the photo scores, the floor of a method that copies it."""
+    lum = Q.luma(src_srgb)
+    out = {}
+    for t in labels:
+        ms = src_labels == int(t["id"])
+        if ms.sum() < 200:
+            continue
+        ws = Q.window_histograms(lum, ms, stride=3)
+        out[t["name"]] = float(np.mean([Q.nearest_window_chi2(Q.window_histograms(lum[o:, o:], ms[o:, o:], stride=stride),
+                                                              ws) for o in (1, 2, 4, 7)]))
+    return out
 
 
 def case_figures(per: dict) -> dict:
@@ -230,10 +273,11 @@ def _ratio(a: float, b: float) -> str:
     return f"{a / b:6.2f}" if b > 0 else "     -"
 
 
-def print_case(case: dict, figs: dict[str, dict], eb: dict | None) -> None:
+def print_case(case: dict, figs: dict[str, dict], eb: dict | None, floor: dict | None = None) -> None:
     print(f"\n## {case['name']} ({'held' if case['held'] else 'tune'}), layout {case['layout_name']}")
     print(f"{'label':<11} {'method':<14} {'share':>6} {'histχ²':>7} {'winχ²':>7} {'grad':>5} {'std':>5} "
-          f"{'outside':>8} {'neg':>6} {'hist/EB':>7} {'win/EB':>6}")
+          f"{'outside':>8} {'neg':>6} {'hist/EB':>7} {'win/EB':>6} {'seam win':>8} {'winχ² seam/free':>15} "
+          f"{'photo':>6}")
     first = next(iter(figs.values()))
     for lab in first:
         rows = list(figs.items()) + ([("EbSynth", eb)] if eb else [])
@@ -245,7 +289,10 @@ def print_case(case: dict, figs: dict[str, dict], eb: dict | None) -> None:
             print(f"{lab:<11} {meth:<14} {m['share']:6.1%} {m['hist_chi2']:7.4f} {m['window_chi2']:7.4f} "
                   f"{m['grad_ratio']:5.2f} {m['std_ratio']:5.2f} {m['outside']:8.2%} {m['negative']:6.2%} "
                   f"{_ratio(m['hist_chi2'], e['hist_chi2']) if e else '     -':>7} "
-                  f"{_ratio(m['window_chi2'], e['window_chi2']) if e else '     -':>6}{flag}")
+                  f"{_ratio(m['window_chi2'], e['window_chi2']) if e else '     -':>6} "
+                  + (f"{m['seam_share']:8.0%} {m['win_seam']:7.4f}/{m['win_free']:7.4f} " if 'seam_share' in m
+                     else f"{'-':>8} {'-':>15} ")
+                  + (f"{floor[lab]:6.4f}" if floor and lab in floor else f"{'-':>6}") + flag)
 
 
 def summary(results: list[tuple[dict, dict, dict | None]]) -> None:
@@ -371,7 +418,8 @@ def main(argv=None) -> None:
             for name, (plate, dt) in runs.items():
                 rgb = plate.rgb()
                 outs[name] = srgb(rgb)
-                figs[name] = measure(outs[name], rgb, plate["label.id"], src, src_srgb, stride=stride)
+                figs[name] = measure(outs[name], rgb, plate["label.id"], src, src_srgb, stride=stride,
+                                     patch=plate["patch.id"])
                 sx, sy = plate["source.x"], plate["source.y"]
                 print(f"{case['name']}: {name} {dt:.1f} s, {ids.shape[1]}x{ids.shape[0]}, repetition (share from the "
                       f"most-used 1 % of source pixels) {Q.repetition(sx, sy, src.shape):.4f}, most copies of a 16² "
@@ -382,7 +430,7 @@ def main(argv=None) -> None:
                 outs["EbSynth"] = out
                 eb = measure(out, None, ids, src, src_srgb, stride=stride)
                 print(f"{case['name']}: EbSynth {dt:.1f} s" + (" (cached)" if dt == 0 else ""), flush=True)
-            print_case(case, figs, eb)
+            print_case(case, figs, eb, copy_floor(src_srgb, src["label.id"], src.meta["labels"], stride=stride))
             sheet(args.out / f"{case['name']}_{args.width}_sheet.png", src_srgb, outs, ids, src)
             results.append((case, figs, eb))
     if results:

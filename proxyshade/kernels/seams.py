@@ -9,7 +9,9 @@ agree: the seam cost of Kwatra et al. 2003 ("Graphcut Textures", §3: for neighb
 a seam takes, among its own offset and its four neighbours', the one with the least summed
 seam cost to its neighbours, as long as the source pixel it then reads has the pixel's
 label. Checkerboard sub-passes (a pixel's neighbours are all of the other parity), so the
-result does not depend on the number of threads. Pixels of different target labels are not
+result does not depend on the number of threads. A straight seam across many rows is a
+local minimum of those one-pixel moves; run moves (``_run_pass``) shift the best part of
+each run of pixels along a seam at once. Pixels of different target labels are not
 neighbours here (a label border is not a patch seam).
 
 ``S``: (H, W, 2) int32 map (row, column) into a source grid; ``img``: (Hs, Ws, C) float32
@@ -108,9 +110,116 @@ def _sub_pass(S, img, target, labels, parity):
     return changed.sum()
 
 
+@njit(**JIT)
+def _run_at(S, img, target, labels, i, j, k, rc, rv, lo_end, hi_end):
+    """The run move of the seam run that starts at (i, j) across direction ``k`` (see
+    ``_run_pass``), if (i, j) starts one; the number of pixels moved."""
+    H, W = target.shape
+    Hs, Ws = labels.shape
+    y, x = i + _DY[k], j + _DX[k]
+    if y < 0 or x < 0 or y >= H or x >= W or target[y, x] != target[i, j]:
+        return 0
+    ay, ax = S[i, j, 0] - i, S[i, j, 1] - j
+    by, bx = S[y, x, 0] - y, S[y, x, 1] - x
+    if ay == by and ax == bx:
+        return 0
+    ey, ex = _DX[k] * _DX[k], _DY[k] * _DY[k]  # along the seam: (0, 1) or (1, 0)
+    kb = 3 - k  # the opposite direction (_DY/_DX are symmetric)
+    ke = 2 if ex == 1 else 3  # direction +e
+    u, v = i - ey, j - ex  # does the predecessor continue the run? then (i, j) does not start it
+    if u >= 0 and v >= 0 and target[u, v] == target[i, j] and S[u, v, 0] - u == ay \
+            and S[u, v, 1] - v == ax and target[u + _DY[k], v + _DX[k]] == target[i, j] \
+            and S[u + _DY[k], v + _DX[k], 0] - u - _DY[k] == by \
+            and S[u + _DY[k], v + _DX[k], 1] - v - _DX[k] == bx:
+        return 0
+    n = 0
+    while True:
+        u, v = i + n * ey, j + n * ex
+        uy, vx = u + _DY[k], v + _DX[k]
+        if u >= H or v >= W or uy < 0 or vx < 0 or uy >= H or vx >= W:
+            break
+        if (target[u, v] != target[i, j] or target[uy, vx] != target[i, j]
+                or S[u, v, 0] - u != ay or S[u, v, 1] - v != ax
+                or S[uy, vx, 0] - uy != by or S[uy, vx, 1] - vx != bx):
+            break
+        sy, sx = u + by, v + bx
+        rv[n] = 0 <= sy < Hs and 0 <= sx < Ws and labels[sy, sx] == target[u, v]
+        rc[n] = (_pair_cost(S, img, target, u, v, by, bx, k) + _pair_cost(S, img, target, u, v, by, bx, kb)
+                 - _pair_cost(S, img, target, u, v, ay, ax, k) - _pair_cost(S, img, target, u, v, ay, ax, kb))
+        lo_end[n] = (_pair_cost(S, img, target, u, v, by, bx, 3 - ke)
+                     - _pair_cost(S, img, target, u, v, ay, ax, 3 - ke))
+        hi_end[n] = _pair_cost(S, img, target, u, v, by, bx, ke) - _pair_cost(S, img, target, u, v, ay, ax, ke)
+        n += 1
+    # the part [l, h] of least Σ_{l..h} rc + lo_end[l] + hi_end[h] (pairs along the run
+    # inside the part cost 0 before and after), of valid pixels only
+    P = 0.0
+    lv = np.inf
+    lb = -1
+    best = 0.0
+    lo = -1
+    hi = -1
+    for t in range(n):
+        if not rv[t]:
+            lv = np.inf
+            P += rc[t]
+            continue
+        val = lo_end[t] - P
+        if val < lv:
+            lv, lb = val, t
+        P += rc[t]
+        d = P + lv + hi_end[t]
+        if d < best:
+            best, lo, hi = d, lb, t
+    if lo < 0:
+        return 0
+    for t in range(lo, hi + 1):
+        u, v = i + t * ey, j + t * ex
+        S[u, v, 0] = u + by
+        S[u, v, 1] = v + bx
+    return hi - lo + 1
+
+
+@njit(**PJIT)
+def _run_pass(S, img, target, labels, vertical, parity):
+    """Run moves on the rows (``vertical`` false: seams between a row and the rows above
+    and below, runs along the row) or columns of ``parity``. A run: the pixels ``r_0 ..
+    r_{n-1}`` along a seam (each the next one's neighbour) that read one offset ``a``
+    while their neighbours across it read another, ``b``, from the first (whose
+    predecessor does not continue it) as far as it goes. Its contiguous part ``r_l ..
+    r_h`` whose move to ``b`` lowers the summed seam cost most (exactly: ``Σ c_t`` over
+    the part, ``c_t`` the change of ``r_t``'s pairs across the seam, plus the two end
+    pairs along it; a maximum-sum sub-array) takes ``b``, where every pixel of it then
+    reads a source pixel of its label. A straight seam across many rows shifts by one
+    pixel, which one-pixel moves cannot do (each adds two pairs along the seam). Lines in
+    order along them, directions in order (up, down; left, right); a line changes only
+    itself and reads its neighbours, of the other parity: any thread count gives one
+    result. Returns the number of pixels moved."""
+    H, W = target.shape
+    nl, L = (W, H) if vertical else (H, W)
+    moved = np.zeros(nl, np.int64)
+    for li in prange((nl - parity + 1) // 2):
+        line = 2 * li + parity
+        rc = np.empty(L, np.float64)
+        rv = np.empty(L, np.bool_)
+        lo_end = np.empty(L, np.float64)
+        hi_end = np.empty(L, np.float64)
+        for t in range(L):
+            i, j = (t, line) if vertical else (line, t)
+            for kk in range(2):
+                k = (1 + kk) if vertical else 3 * kk
+                y, x = i + _DY[k], j + _DX[k]  # most pixels are on no seam: no call
+                if y < 0 or x < 0 or y >= H or x >= W or (S[y, x, 0] - y == S[i, j, 0] - i
+                                                          and S[y, x, 1] - x == S[i, j, 1] - j):
+                    continue
+                moved[line] += _run_at(S, img, target, labels, i, j, k, rc, rv, lo_end, hi_end)
+    return moved.sum()
+
+
 def refine_seams(S: np.ndarray, img: np.ndarray, target: np.ndarray, labels: np.ndarray,
-                 passes: int) -> tuple[np.ndarray, int]:
-    """``S`` (copied) after ``passes`` passes of seam moves (each two checkerboard halves),
+                 passes: int, runs: bool = False) -> tuple[np.ndarray, int]:
+    """``S`` (copied) after ``passes`` passes of seam moves (each two checkerboard halves
+    of one-pixel moves, then, with ``runs``, run moves on even and odd rows, then columns:
+    ``_run_pass``),
     stopping early when a pass changes nothing; and the number of pixel moves made."""
     S = np.ascontiguousarray(S, np.int32).copy()
     img = np.ascontiguousarray(img, np.float32)
@@ -119,6 +228,9 @@ def refine_seams(S: np.ndarray, img: np.ndarray, target: np.ndarray, labels: np.
     moves = 0
     for _ in range(passes):
         n = _sub_pass(S, img, target, labels, 0) + _sub_pass(S, img, target, labels, 1)
+        if runs:
+            for vertical in (False, True):
+                n += _run_pass(S, img, target, labels, vertical, 0) + _run_pass(S, img, target, labels, vertical, 1)
         moves += int(n)
         if n == 0:
             break

@@ -41,6 +41,9 @@ class Magnify(Node):
                         doc="passes moving patch seams, one output pixel at a time, to where the patches on "
                             "either side agree (Kwatra et al. 2003's seam cost; needs repair); 0 = the "
                             "factor-pixel staircase of the synthesis")
+    seam_runs = Param(bool, True,
+                      doc="with seam_passes, also move runs of pixels along a seam at once (the part of a "
+                          "straight seam that gains most shifts by a pixel); false = one-pixel moves only")
 
     def compute(self, ctx) -> Plate:
         from proxyshade.kernels.lookup import lookup
@@ -66,7 +69,8 @@ class Magnify(Node):
             colours = working_colours(source.rgb(), L.source_dense(source, table), scale, len(table), ctx.memo)
         sx, sy, patch, npatch, rep = magnify_map(S.astype(np.int32), f, (Ho, Wo), scale=scale,
                                                  target=g if ctx.p.repair else None, labels=wl, memo=ctx.memo,
-                                                 colours=colours, seam_passes=ctx.p.seam_passes)
+                                                 colours=colours, seam_passes=ctx.p.seam_passes,
+                                                 seam_runs=ctx.p.seam_runs)
         if ctx.p.repair:
             ctx.note(f"{rep['wrong']} pixels landed on another label: {rep['extended']} continued a neighbour's "
                      f"patch, {rep['nearest']} took the nearest right-label source pixel; "

@@ -82,7 +82,7 @@ def repair_map(st: SynthesisSetup, S: np.ndarray) -> tuple[np.ndarray, dict]:
 def magnify_map(S: np.ndarray, factor: int, shape: tuple[int, int], *, scale: float,
                 target: np.ndarray | None = None, labels: np.ndarray | None = None,
                 only: np.ndarray | None = None, memo=None, colours: np.ndarray | None = None,
-                seam_passes: int = 0):
+                seam_passes: int = 0, seam_runs: bool = False):
     """The exemplar map ``S`` magnified by ``factor`` to the output size ``shape`` (each
     patch keeps its translation, the source is read at full detail). With ``target``,
     pixels whose ``labels`` (the source's on the output-scale grid,
@@ -91,7 +91,7 @@ def magnify_map(S: np.ndarray, factor: int, shape: tuple[int, int], *, scale: fl
     (``synthesis.memo``) keeps the nearest sites of each label of ``labels``. With
     ``colours`` (the source on the same grid as ``labels``) and ``seam_passes``, the seams
     between patches then move to where their colours agree (``kernels.seams``; needs
-    ``target``).
+    ``target``), with ``seam_runs`` also as runs along a seam.
 
     Returns (source.x, source.y float32, patch ids uint32 from 1, patch count, the
     repair's counts, with ``seam_moves``)."""
@@ -103,7 +103,8 @@ def magnify_map(S: np.ndarray, factor: int, shape: tuple[int, int], *, scale: fl
         Sw, rep = kmag.repair_labels(Sw, target, labels, sites_of=lambda lab: nearest_sites(labels, lab, memo))
     rep["seam_moves"] = 0
     if seam_passes > 0 and colours is not None and target is not None:
-        Sw, rep["seam_moves"] = kseams.refine_seams(Sw, colours, target, labels, seam_passes)
+        Sw, rep["seam_moves"] = kseams.refine_seams(Sw, colours, target, labels, seam_passes,
+                                                             runs=seam_runs)
     patch, npatch = patch_ids(Sw)
     return grid_to_source(Sw[..., 1], scale), grid_to_source(Sw[..., 0], scale), patch, npatch, rep
 

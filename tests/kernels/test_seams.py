@@ -30,7 +30,73 @@ def ref_energy(S, img, target, i, j, off):
     return e
 
 
-def ref_refine(S, img, target, labels, passes):
+def ref_total(S, img, target):
+    """The seam cost of the whole map, each pair once (the move's gain is its change)."""
+    H, W = target.shape
+    tot = 0.0
+    for i in range(H):
+        for j in range(W):
+            for dy, dx in ((0, 1), (1, 0)):
+                y, x = i + dy, j + dx
+                if y >= H or x >= W or target[y, x] != target[i, j]:
+                    continue
+                a, b = (S[i, j, 0] - i, S[i, j, 1] - j), (S[y, x, 0] - y, S[y, x, 1] - x)
+                if a != b:
+                    tot += ref_cost(img, (i + a[0], j + a[1]), (i + b[0], j + b[1]))
+                    tot += ref_cost(img, (y + a[0], x + a[1]), (y + b[0], x + b[1]))
+    return tot
+
+
+def ref_runs(S, img, target, labels):
+    """Run moves: even rows, odd rows (pixels left to right, up then down), even columns,
+    odd columns (top to bottom, left then right); each run (from its first pixel) tries
+    every contiguous part, judged by the whole map's seam cost before and after; the part
+    that lowers it most (the first such, by last then first pixel) moves."""
+    H, W = target.shape
+    off = lambda u, v: (S[u, v, 0] - u, S[u, v, 1] - v)  # noqa: E731
+    order = [(i, j, d) for par in (0, 1) for i in range(par, H, 2) for j in range(W) for d in (N4[0], N4[3])]
+    order += [(i, j, d) for par in (0, 1) for j in range(par, W, 2) for i in range(H) for d in (N4[1], N4[2])]
+    moved = 0
+    for i, j, (dy, dx) in order:
+        y, x = i + dy, j + dx
+        if not (0 <= y < H and 0 <= x < W) or target[y, x] != target[i, j]:
+            continue
+        a, b = off(i, j), off(y, x)
+        if a == b:
+            continue
+        ey, ex = abs(dx), abs(dy)
+
+        def continues(u, v):
+            return (0 <= u < H and 0 <= v < W and 0 <= u + dy < H and 0 <= v + dx < W
+                    and target[u, v] == target[i, j] and target[u + dy, v + dx] == target[i, j]
+                    and off(u, v) == a and off(u + dy, v + dx) == b)
+
+        if continues(i - ey, j - ex):
+            continue
+        run = []
+        while continues(i + len(run) * ey, j + len(run) * ex):
+            run.append((i + len(run) * ey, j + len(run) * ex))
+        before = ref_total(S, img, target)
+        best, pick = 0.0, None
+        for h in range(len(run)):
+            for lo in range(h + 1):
+                part = run[lo:h + 1]
+                if not all(0 <= u + b[0] < labels.shape[0] and 0 <= v + b[1] < labels.shape[1]
+                           and labels[u + b[0], v + b[1]] == target[u, v] for u, v in part):
+                    continue
+                T = S.copy()
+                for u, v in part:
+                    T[u, v] = (u + b[0], v + b[1])
+                gain = before - ref_total(T, img, target)
+                if gain > best + 1e-9:
+                    best, pick = gain, T
+        if pick is not None:
+            moved += int((pick != S).any(-1).sum())
+            S[...] = pick
+    return moved
+
+
+def ref_refine(S, img, target, labels, passes, runs=False):
     S = S.copy()
     H, W = target.shape
     for _ in range(passes):
@@ -60,6 +126,8 @@ def ref_refine(S, img, target, labels, passes):
                         new[i, j] = (i + pick[0], j + pick[1])
                         moved += 1
             S = new
+        if runs:
+            moved += ref_runs(S, img, target, labels)
         if moved == 0:
             break
     return S
@@ -120,3 +188,38 @@ def test_a_seam_moves_to_where_the_patches_agree():
     assert ks.seam_cost(S, img, target) > 0
     out, moves = ks.refine_seams(S, img, target, labels, 8)
     assert ks.seam_cost(out, img, target) == 0.0 and moves > 0
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_run_moves_match_reference_exactly(seed):
+    S, img, target, labels = random_case(seed, H=13, W=15, Hs=26, Ws=28)
+    got, moves = ks.refine_seams(S, img, target, labels, 3, runs=True)
+    want = ref_refine(S, img, target, labels, 3, runs=True)
+    assert np.array_equal(got, want)
+    assert moves >= int((got != S).any(-1).sum())
+
+
+def test_a_straight_seam_shifts_where_one_pixel_moves_stick():
+    # two patches side by side over 12 rows (offsets 0 and +20 columns); D[r, c], how far
+    # the two offsets' colours differ at pixel (r, c), is set per column: the seam at 4|5
+    # costs D4 + D5 = 0.4 a row, at 3|4 0.1 (0.5 on the end rows). One pixel of column 4
+    # moved alone adds two across-row pairs (0.2 each), more than it saves, so the one-pixel
+    # moves leave the seam (a local minimum); the run move shifts the whole column
+    rng = np.random.default_rng(5)
+    H, W = 12, 10
+    D = np.tile(np.array([1, 1, 1, 0, 0.1, 0.3, 1, 1, 1, 1.0]), (H, 1))
+    D[[0, -1], 3] = 0.4
+    base = rng.random((H, W, 3))
+    img = np.zeros((H, 40, 3), np.float32)
+    img[:, :W] = base
+    img[:, 20:20 + W] = base + np.sqrt(D / 3)[..., None]
+    S = np.stack(np.mgrid[0:H, 0:W], -1).astype(np.int32)
+    S[:, 5:, 1] += 20
+    target, labels = np.zeros((H, W), np.int32), np.zeros((H, 40), np.int32)
+    c0 = ks.seam_cost(S, img, target)
+    assert c0 == pytest.approx(H * 0.4, rel=1e-4)
+    one, moves = ks.refine_seams(S, img, target, labels, 8)
+    assert moves == 0 and np.array_equal(one, S)
+    run, moves = ks.refine_seams(S, img, target, labels, 8, runs=True)
+    assert moves == H and (run[:, 4, 1] == 24).all() and (run[:, 3, 1] == 3).all()
+    assert ks.seam_cost(run, img, target) == pytest.approx(10 * 0.1 + 2 * 0.5, rel=1e-4)
