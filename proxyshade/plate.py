@@ -128,6 +128,7 @@ class Plate:
             return False
         return all(
             self.channels[n].dtype == other.channels[n].dtype
-            and np.array_equal(self.channels[n].view(np.uint8), other.channels[n].view(np.uint8))
+            and self.channels[n].shape == other.channels[n].shape
+            and self.channels[n].tobytes() == other.channels[n].tobytes()  # any strides; NaNs by their bits
             for n in self.channels
         )

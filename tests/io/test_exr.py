@@ -121,3 +121,17 @@ def test_zstd_level_set_and_entries_exact(tmp_path):
     write_plate(tmp_path / "z.exr", p, compression="zstd")
     assert read_header(tmp_path / "z.exr")["attributes"]["compression"] == "zstd"
     assert read_plate(tmp_path / "z.exr").equals(p)
+
+
+def test_plate_equals_compares_bits_of_channels_with_any_strides():
+    """``Plate.equals`` is bit-exact on views (a node's channels may be strided slices of one
+    array) and tells a one-ulp difference."""
+    from proxyshade.plate import Plate
+
+    rgb = np.random.default_rng(3).random((5, 7, 3), dtype=np.float32)
+    a = Plate({"R": rgb[..., 0], "G": rgb[..., 1]})
+    b = Plate({"R": rgb[..., 0].copy(), "G": rgb[..., 1].copy()})
+    assert a.equals(b) and b.equals(a)
+    g = rgb[..., 1].copy()
+    g[2, 3] = np.nextafter(g[2, 3], np.float32(2))
+    assert not a.equals(Plate({"R": rgb[..., 0], "G": g}))
