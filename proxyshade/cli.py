@@ -315,10 +315,11 @@ def _run_once(opts: RunOptions) -> set:
     """One run of every shot, reported; returns the files a watch looks at."""
     graphs, frames, cache, quiet = opts.graphs, opts.frames, opts.cache, opts.quiet
     from proxyshade.graph.executor import make_executor
-    from proxyshade.graph.graph import Graph
+    from proxyshade.graph.graph import Graph, return_freed_memory
     from proxyshade.graph.shots import run_graphs
     from proxyshade.io.graphfile import parse_frame_list
 
+    return_freed_memory()  # this process is the command's: freed arrays leave the resident set
     shots = []  # (label, graph, frames)
     for path in graphs:
         for combo in _sweep(opts.sweep):

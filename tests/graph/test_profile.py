@@ -7,6 +7,7 @@ import shutil
 from pathlib import Path
 
 import networkx as nx
+import pytest
 
 from proxyshade.cli import main
 from proxyshade.graph import warmup
@@ -82,3 +83,35 @@ def test_a_graph_precompiles_the_kernels_its_node_types_called_only(monkeypatch)
     assert units == {"node.SourceRead", "node.ExrWrite"}
     assert [e[0] for e in warmup.pending(units)] == [e1[0]]
     assert sorted(e[0] for e in warmup.pending()) == sorted([e1[0], e2[0]])
+
+
+HEAP = """
+import sys, numpy as np
+from proxyshade.graph.graph import return_freed_memory
+from proxyshade.graph.profile import rss_split
+if sys.argv[1] == "1":
+    assert return_freed_memory()
+big = np.ones(5 << 18); del big  # a 10 MiB block freed: glibc's own threshold rises past 8 MiB
+before = rss_split()[0] - rss_split()[1]
+arrays = []
+for i in range(30):
+    arrays.append(np.ones(1 << 20))  # 8 MiB each, touched
+    arrays.append(np.ones(8000))  # small blocks between them keep the heap from shrinking at its top
+del arrays[::2]
+print(round(rss_split()[0] - rss_split()[1] - before))
+"""
+
+
+@pytest.mark.skipif(__import__("platform").libc_ver()[0] != "glibc", reason="glibc's allocator")
+def test_freed_arrays_leave_the_resident_set_with_the_commands_heap_setting():
+    """``graph.return_freed_memory`` (set by ``proxyshade run``): 30 freed 8 MiB arrays between
+    small live blocks leave the resident set; with glibc's default they stay (240 MiB)."""
+    import subprocess
+    import sys
+
+    def held(setting: str) -> int:
+        out = subprocess.run([sys.executable, "-c", HEAP, setting], capture_output=True, text=True, check=True)
+        return int(out.stdout)
+
+    assert held("0") > 200
+    assert held("1") < 20
