@@ -172,7 +172,7 @@ class Profile:
         imports = sum(nt.imports for nt in path)
         load = sum(nt.kernel_load for nt in path)
         compile_ = sum(nt.kernel_compile for nt in path)
-        out.append(("imports in nodes", imports, "modules a node loads on first use (colour, USD, synthesis)"))
+        out.append(("imports in nodes", imports, "modules a node loads on first use (USD, synthesis, colour-science for grading)"))
         out.append(("kernel loading", load, "numba cache loads of the kernels called"))
         if compile_ or self.outside.kernel_compile:
             out.append(("numba compiling", compile_, "code numba compiles at run time (not in its cache)"))

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import functools
 import os
+import threading
 import warnings
 from importlib import metadata
 from pathlib import Path
@@ -24,6 +25,7 @@ import lazy_loader
 np = lazy_loader.load("numpy")  # on first use: a fully cached run never loads numpy
 
 _TABLES_FORMAT = 1
+_TABLES_LOCK = threading.Lock()  # one thread reads or makes them (writers run on two threads)
 
 
 @functools.cache
@@ -72,8 +74,15 @@ def _tables_path() -> Path:
     return user_cache_dir() / "colour" / f"srgb{_TABLES_FORMAT}-colour-{v('colour-science')}-numpy-{v('numpy')}.bin"
 
 
-@functools.cache
 def srgb_tables() -> tuple:
+    """``compute_tables()``, once per process (``_srgb_tables``), on one thread at a time."""
+    with _TABLES_LOCK:
+        return _srgb_tables()
+
+
+
+@functools.cache
+def _srgb_tables() -> tuple:
     """``compute_tables()``, read from the per-user cache folder (``colour/``, named by the
     colour-science and numpy versions) or computed and written there (temporary name and
     rename; a cache that cannot be written only costs the computation next time)."""

@@ -12,9 +12,9 @@ from proxyshade.io import colourlib
 def tables_home(tmp_path, monkeypatch):
     """A per-user cache folder of the test's own, and no tables in this process yet."""
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
-    colourlib.srgb_tables.cache_clear()
+    colourlib._srgb_tables.cache_clear()
     yield tmp_path
-    colourlib.srgb_tables.cache_clear()
+    colourlib._srgb_tables.cache_clear()
 
 
 def direct_decode(rgb8):
@@ -57,11 +57,11 @@ def test_tables_are_kept_per_version_and_rebuilt_when_damaged(tables_home):
     first = colourlib.srgb_tables()
     files = list((tables_home / "proxyshade" / "colour").iterdir())
     assert len(files) == 1 and "colour-" in files[0].name and "numpy-" in files[0].name
-    colourlib.srgb_tables.cache_clear()
+    colourlib._srgb_tables.cache_clear()
     again = colourlib.srgb_tables()  # read back
     assert all((a == b).all() for a, b in zip(first, again))
     files[0].write_bytes(files[0].read_bytes()[:-8] + np.float64(-1).tobytes())  # thresholds out of order
-    colourlib.srgb_tables.cache_clear()
+    colourlib._srgb_tables.cache_clear()
     rebuilt = colourlib.srgb_tables()
     assert all((a == b).all() for a, b in zip(first, rebuilt))
     assert files[0].read_bytes()[-8:] == first[1][-1:].tobytes()
