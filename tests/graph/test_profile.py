@@ -36,8 +36,8 @@ def test_profile_splits_the_wall_time_and_names_the_peak(tmp_path, capsys):
     assert "src@1" in rows and float(rows["src@1"]) > 0
     parts = sum(float(v) for k, v in rows.items() if k not in ("total",))
     assert abs(parts - float(rows["total"])) <= 0.01 + 0.01 * float(rows["total"]), text
-    m = re.search(r"peak (\d+) MiB while (\S+(?:, \S+)*); plates held then: (.*)", text)  # writers run side by side
-    assert m and int(m[1]) > 50 and "@1" in m[2]
+    m = re.search(r"peak (\d+) MiB while (.+?); plates held then: (.*)", text)  # nodes side by side, or after one
+    assert m and int(m[1]) > 50 and "@1" in m[2], text
     # what the peak holds: mapped libraries, the heap at the first node, plates, the rest; adding up to it
     parts = re.search(r"the peak holds: libraries \(mapped files\) (\d+), heap before the first node (\d+), "
                       r"plates held (\d+), working memory and later loads (-?\d+) MiB", text)
@@ -106,11 +106,16 @@ print(round(rss_split()[0] - rss_split()[1] - before))
 def test_freed_arrays_leave_the_resident_set_with_the_commands_heap_setting():
     """``graph.return_freed_memory`` (set by ``proxyshade run``): 30 freed 8 MiB arrays between
     small live blocks leave the resident set; with glibc's default they stay (240 MiB)."""
+    import os
     import subprocess
     import sys
 
+    # glibc's defaults: no MALLOC_*_ settings (Dask's LocalCluster leaves MALLOC_TRIM_THRESHOLD_ in
+    # os.environ, which fixes the thresholds too)
+    env = {k: v for k, v in os.environ.items() if not k.startswith("MALLOC_") and k != "GLIBC_TUNABLES"}
+
     def held(setting: str) -> int:
-        out = subprocess.run([sys.executable, "-c", HEAP, setting], capture_output=True, text=True, check=True)
+        out = subprocess.run([sys.executable, "-c", HEAP, setting], capture_output=True, text=True, check=True, env=env)
         return int(out.stdout)
 
     assert held("0") > 200
