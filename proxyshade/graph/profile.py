@@ -12,7 +12,7 @@ every few milliseconds: the node running at the peak (or the cache entry being w
 node that ended last), the peak during each node, the
 plates held in memory at the peak (node and MiB), and what the peak holds (``peak_parts``:
 mapped library files, the heap when the first node started, plates, the rest). With the
-writers on a thread of their own (``executor.SerialExecutor``) the output writes row is the
+writers on threads of their own (``executor.SerialExecutor``) the output writes row is the
 run's wait for them.
 
 Nothing here changes a result: timers wrap numba's cache loading, its compile events and
