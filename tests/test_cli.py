@@ -67,6 +67,25 @@ def test_console_script_exit_code(graph):
     assert r.returncode == 2 and "no node 'nope'" in r.stderr and "Traceback" not in r.stderr
 
 
+def test_console_script_ends_with_everything_written_and_flushed(graph, tmp_path):
+    """The console script skips the interpreter's teardown (cli._exit_now): the report still
+    reaches a pipe whole, the atexit work is done (the code facts saved), every output and
+    cache entry is in place, and a re-run reuses everything."""
+    exe = Path(sys.executable).parent / "proxyshade"
+    env = dict(__import__("os").environ, XDG_CACHE_HOME=str(tmp_path / "xdg"))
+    cache = tmp_path / "plates"
+    r = subprocess.run([str(exe), "run", str(graph), "-q", "--cache", str(cache)], capture_output=True, text=True,
+                       env=env)
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.rstrip().splitlines()[-1].startswith("4 computed, 0 reused")
+    assert list((tmp_path / "xdg" / "proxyshade").glob("code-facts-*.json"))
+    assert (graph.parent.parent / "out" / "import_source" / "renoir.exr").is_file()
+    assert not [p for p in cache.rglob("*") if ".tmp" in p.name]
+    r = subprocess.run([str(exe), "run", str(graph), "-q", "--cache", str(cache)], capture_output=True, text=True,
+                       env=env)
+    assert r.returncode == 0 and "0 computed, 4 reused" in r.stdout
+
+
 def test_vars_from_the_command_line(graph, capsys, monkeypatch):
     shutil.copytree(ROOT / "samples" / "monet", graph.parent.parent / "samples" / "monet")
     # a bundled name (samples/monet beside the graph's folder) and an output folder of the user's

@@ -226,6 +226,8 @@ class Cache:
         exr, js = self._paths(key)
         tmp = None
         t = time.perf_counter()
+        if _profile.ACTIVE is not None:
+            _profile.ACTIVE.cache_write_start(record.get("node"), record.get("frame"))
         try:
             if self.read_only:
                 self.unstored += 1

@@ -208,6 +208,10 @@ class Node:
     version: ClassVar[int] = 1
     time_dependent: ClassVar[bool] = False  # output depends on the frame number
     sink: ClassVar[bool] = False  # writes files outside the cache (ExrWrite, Preview)
+    # False: computing the plate again costs less than writing and reading its cache entry (a
+    # re-packing such as Cryptomatte): kept in memory for the run, never stored; computed only
+    # when an instance to compute reads it (a progressive node is stored all the same)
+    stored: ClassVar[bool] = True
     sequence: ClassVar[bool] = False  # has a sequence input: one instance per run (set from the Inputs)
     inputs_spec: ClassVar[dict[str, Input]]
     params_spec: ClassVar[dict[str, Param]]

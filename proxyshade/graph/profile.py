@@ -8,10 +8,11 @@ compute with what it spent importing modules, loading numba kernels from their c
 and compiling numba code (typed containers, a kernel not in the cache), the cache's
 EXR writes (on the writer thread: how long it was busy, and how long the run waited
 for it at the end) and the output writers. A sampler thread reads the resident set size
-every few milliseconds: the node running at the peak, the peak during each node, the
+every few milliseconds: the node running at the peak (or the cache entry being written, or the
+node that ended last), the peak during each node, the
 plates held in memory at the peak (node and MiB), and what the peak holds (``peak_parts``:
 mapped library files, the heap when the first node started, plates, the rest). With the
-writers on a thread of their own (``executor.SerialExecutor``) the output writes row is the
+writers on threads of their own (``executor.SerialExecutor``) the output writes row is the
 run's wait for them.
 
 Nothing here changes a result: timers wrap numba's cache loading, its compile events and
@@ -94,6 +95,8 @@ class Profile:
         self._local = threading.local()
         self._lock = threading.Lock()
         self._running: dict[int, NodeTimes] = {}  # thread id -> the node it computes
+        self._writing: dict[int, str] = {}  # thread id -> 'node@frame' whose cache entry it encodes
+        self._last = ""  # the node that ended last: the peak between nodes is named after it
         self._stop = threading.Event()
 
     # -- attribution ---------------------------------------------------------
@@ -130,11 +133,17 @@ class Profile:
 
     def node_end(self, node: str, frame: int, seconds: float) -> None:
         nt = self._running.pop(threading.get_ident(), None)
+        self._last = f"{node}@{frame}"
         if nt is not None:
             nt.seconds += seconds
             nt.rss_peak = max(nt.rss_peak, rss_mb())
 
+    def cache_write_start(self, node: str, frame) -> None:
+        """The cache's writer thread starts encoding ``node@frame``'s entry."""
+        self._writing[threading.get_ident()] = f"{node}@{frame}"
+
     def cache_write(self, node: str, frame, seconds: float) -> None:
+        self._writing.pop(threading.get_ident(), None)
         nt = self.nodes.get((node, frame))
         with self._lock:
             (nt or self.outside).cache_write += seconds
@@ -147,7 +156,9 @@ class Profile:
                 nt.rss_peak = max(nt.rss_peak, r)
             if r > self.peak_mb:
                 self.peak_mb, self.peak_file = r, f
-                self.peak_node = ", ".join(f"{nt.node}@{nt.frame}" for nt in list(self._running.values())) or "(none)"
+                busy = [f"{nt.node}@{nt.frame}" for nt in list(self._running.values())]
+                busy += [f"{w}(cache-write)" for w in list(self._writing.values())]  # after the last node: the flush
+                self.peak_node = ", ".join(busy) or (f"(after {self._last})" if self._last else "(before the nodes)")
                 if self.memory_of is not None:
                     try:
                         self.peak_held = self.memory_of()
@@ -172,7 +183,7 @@ class Profile:
         imports = sum(nt.imports for nt in path)
         load = sum(nt.kernel_load for nt in path)
         compile_ = sum(nt.kernel_compile for nt in path)
-        out.append(("imports in nodes", imports, "modules a node loads on first use (colour, USD, synthesis)"))
+        out.append(("imports in nodes", imports, "modules a node loads on first use (USD, synthesis, colour-science for grading)"))
         out.append(("kernel loading", load, "numba cache loads of the kernels called"))
         if compile_ or self.outside.kernel_compile:
             out.append(("numba compiling", compile_, "code numba compiles at run time (not in its cache)"))

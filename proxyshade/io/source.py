@@ -17,7 +17,7 @@ import lazy_loader
 from proxyshade.errors import UserError
 from proxyshade.plate import Plate
 from proxyshade.io import yamlfile
-from proxyshade.io.colourlib import colour_science
+from proxyshade.io.colourlib import decode_srgb8
 from proxyshade.io.images import is_linear, read_float, read_u8
 
 np = lazy_loader.load("numpy")  # on first use: a fully cached run never loads numpy
@@ -111,8 +111,9 @@ def series_photo(t: dict, table_path: Path, photo: str | None) -> str:
 
 
 def srgb_to_linear(rgb8: np.ndarray) -> np.ndarray:
-    """(H, W, 3) uint8 sRGB -> float32 linear, with colour-science's sRGB decoding."""
-    return np.asarray(colour_science().cctf_decoding(rgb8.astype(np.float64) / 255.0, function="sRGB"), dtype=np.float32)
+    """(H, W, 3) uint8 sRGB -> float32 linear, with colour-science's sRGB decoding (tabulated:
+    ``colourlib.decode_srgb8``)."""
+    return decode_srgb8(rgb8)
 
 
 def _share(k: int, n: int) -> str:
@@ -144,11 +145,11 @@ def read_photo(path: str | Path) -> np.ndarray:
 
 
 def snap_labels(rgb8: np.ndarray, table: list[dict], *, far_distance: float = 100.0):
-    """Snap each pixel of a label map to the nearest table colour_science().
+    """Snap each pixel of a label map to the nearest table colour.
 
     Returns ``(ids (H, W) uint32, snapped count, far count)``: snapped pixels were not
     exactly a table colour; far ones were more than ``far_distance`` (8-bit RGB units)
-    from every table colour_science().
+    from every table colour.
     """
     pal = np.array([parse_colour(t["color"], "table") for t in table], dtype=np.int32)
     ids = np.array([t["id"] for t in table], dtype=np.uint32)

@@ -12,7 +12,7 @@ import colorsys
 
 import lazy_loader
 
-from proxyshade.io.colourlib import colour_science
+from proxyshade.io.colourlib import encode_srgb8
 
 np = lazy_loader.load("numpy")  # on first use: a fully cached run never loads numpy
 
@@ -91,6 +91,5 @@ def to_display(plate, channels: list[str], exposure: float = 0.0, view: str = "s
         if rgb.shape[-1] == 1:
             rgb = np.repeat(rgb, 3, axis=-1)
         rgb = np.nan_to_num(rgb * 2.0 ** exposure, nan=0.0, posinf=1e6, neginf=0.0)
-        enc = colour_science().cctf_encoding(view_transform(rgb[..., :3], view), function="sRGB")
-        out[r0:r0 + ROWS] = (np.clip(enc, 0, 1) * 255 + 0.5).astype(np.uint8)
+        out[r0:r0 + ROWS] = encode_srgb8(view_transform(rgb[..., :3], view))
     return out

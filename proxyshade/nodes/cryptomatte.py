@@ -77,6 +77,7 @@ class Cryptomatte(Node):
     per pixel, so antialiased edges carry two ranks.
     """
 
+    stored = False  # 24 channels re-packed from ids in 0.03-0.05 s at 1024 wide: less than writing them to the cache
     version = 1
     image = Input("plate with label.id (+ meta labels) and/or object.id (+ meta objects)",
                   dtype={"label.id": "uint32", "object.id": "uint32"}, fix="connect the composite plate")

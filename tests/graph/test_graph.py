@@ -397,3 +397,40 @@ def test_threads_sets_numba_threads_in_every_node(tmp_path, jobs):
     _TThreads.seen.clear()
     g.run([1, 2], jobs=jobs, threads=0, force=("t",))
     assert _TThreads.seen == [numba.config.NUMBA_NUM_THREADS] * 2
+
+
+class _TCheap(_TAdd, register=False):
+    stored = False  # Node.stored: kept in memory for the run only
+
+
+def cheap_chain(tmp_path, gain=2.0):
+    g = Graph(graph_dir=tmp_path, frames=(1, 1), cache=tmp_path / "cache")
+    g.add("a", _TConst, {"value": 1.0})
+    g.add("cheap", _TCheap, {"gain": 3.0}, {"a": "a"})
+    g.add("out", _TAdd, {"gain": gain}, {"a": "cheap"})
+    return g
+
+
+def test_a_node_type_not_stored_is_computed_only_when_a_computing_node_reads_it(tmp_path, computes):
+    """``Node.stored = False``: no cache entry; a re-run whose readers are cached computes
+    nothing; a reader computed again computes it again from its stored input; an unpickled
+    graph (a Dask worker's, read by other processes) stores it all the same."""
+    import pickle
+
+    g = cheap_chain(tmp_path)
+    assert g.run().computed == {"a", "cheap", "out"}
+    entries = {p.stem for p in (tmp_path / "cache").rglob("*.exr")}
+    plan = g.plan([1])
+    assert plan.keys[("cheap", 1)] not in entries and plan.keys[("out", 1)] in entries
+    computes.clear()
+    r = cheap_chain(tmp_path).run()
+    assert r.computed == set() and sum(computes.values()) == 0
+    assert "not needed: nothing to compute reads it" in r.rows("cheap")[0].reason
+    r = cheap_chain(tmp_path, gain=5.0).run()
+    assert r.computed == {"cheap", "out"} and computes == {"cheap": 1, "out": 1}
+    np.testing.assert_array_equal(cheap_chain(tmp_path, gain=5.0).value("out")["R"], np.full((8, 8), 15.0, np.float32))
+    np.testing.assert_array_equal(cheap_chain(tmp_path).value("cheap")["R"], np.full((8, 8), 3.0, np.float32))
+    w = pickle.loads(pickle.dumps(cheap_chain(tmp_path, gain=7.0)))
+    assert w.store_all and not cheap_chain(tmp_path).store_all
+    w.run()
+    assert w.plan([1]).keys[("cheap", 1)] in {p.stem for p in (tmp_path / "cache").rglob("*.exr")}
