@@ -213,7 +213,15 @@ def _resynthesize(img: Plate, source: Plate, p, frame: int, *, note: Callable[[s
     if p.solve:
         if getattr(p, "extend_correction", False) and all(c in img for c in CORRECTION):
             rgb = rgb + extended_correction(img, flagged, PoissonSolve.of(p), getattr(p, "sor_thickness", None) or None)
-        rgb, pinfo = blend_regions(rgb, patch, img["label.id"], flagged, PoissonSolve.of(p),
+        free = flagged
+        m = int(getattr(p, "solve_margin", 0) or 0)
+        if m > 0 and all(c in img for c in CORRECTION):
+            free = kt.dilate(np.ascontiguousarray(flagged), m)
+            # kept pixels re-solved: their 'before' is the source through their map (colour - correction)
+            ring = free & ~flagged
+            before = before.copy()
+            before[ring] -= np.stack([img[c][ring] for c in CORRECTION], -1)
+        rgb, pinfo = blend_regions(rgb, patch, img["label.id"], free, PoissonSolve.of(p),
                                    source_rgb=source_colours(source, img.meta, memo), sx=sx, sy=sy, scale=scale, filter=filt,
                                    thin=getattr(p, "sor_thickness", None) or None)
         # flagged pixels were the source through the map: the correction adds the solve's change
@@ -221,7 +229,7 @@ def _resynthesize(img: Plate, source: Plate, p, frame: int, *, note: Callable[[s
         note(f"Poisson on {pinfo['windows']} windows ({pinfo['window_pixels']} px), at most "
              f"{pinfo['iterations']} iterations, residual {pinfo['residual']:.1e}")
     old = [np.ascontiguousarray(img[c], np.float32) if correct else np.zeros((0, 0), np.float32) for c in CORRECTION]
-    R, G, B, *corr = kt.colour_planes(np.ascontiguousarray(rgb, np.float32), np.ascontiguousarray(flagged),
+    R, G, B, *corr = kt.colour_planes(np.ascontiguousarray(rgb, np.float32), np.ascontiguousarray(free if p.solve else flagged),
                                       np.ascontiguousarray(before, np.float32), *old, correct)
     if correct:
         out.update(zip(CORRECTION, corr))
