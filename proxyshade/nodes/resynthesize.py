@@ -44,6 +44,7 @@ class Resynthesize(FloodFill, Correction, PoissonSolve, Progressive, Node):
                                   "of the plain source's (farm's water); off by default: the continuation crosses "
                                   "label borders and raises lake's water (docs/temporal.md)")
     solve_margin = Param(int, 0, min=0, max=64, doc="EXPERIMENT: kept pixels within this many pixels of a flagged one are re-solved too")
+    reblend = Param(bool, False, doc="EXPERIMENT")
     sor_thickness = Param(float, 32.0, min=0.0,
                           doc="restricted-Poisson regions at most this thick (2 x area / perimeter, pixels) are "
                               "solved by SOR on their own pixels, not by multigrid in a window around them (the "

@@ -37,6 +37,7 @@ from proxyshade.synthesis.params import Correction, FloodFill, PoissonSolve
 from proxyshade.synthesis.patches import correct_map, fill_patches, magnify_map, repair_map, similarity_sets
 from proxyshade.synthesis.temporal import CORRECTION, FLAG
 
+KEPT = 0xFFFFFFFF  # the patch id the restricted solve gives every kept pixel
 SYNTHESIZED = ("R", "G", "B", "source.x", "source.y", "patch.id")  # what the resynthesis writes
 def exemplar_similarity(source: Plate, st, corr: SimpleNamespace, *, seed: int, memo=None) -> list:
     """``patches.similarity_sets`` of the exemplar, kept in ``memo``: they depend on the
@@ -221,7 +222,10 @@ def _resynthesize(img: Plate, source: Plate, p, frame: int, *, note: Callable[[s
             ring = free & ~flagged
             before = before.copy()
             before[ring] -= np.stack([img[c][ring] for c in CORRECTION], -1)
-        rgb, pinfo = blend_regions(rgb, patch, img["label.id"], free, PoissonSolve.of(p),
+        # kept pixels as one patch: between two of them the solve keeps their own difference (a ring
+        # pixel's seams are not blended again); an edge touching a redone pixel takes the source's
+        ids = patch if getattr(p, "reblend", False) else np.where(flagged, patch, np.uint32(KEPT)).astype(np.uint32, copy=False)
+        rgb, pinfo = blend_regions(rgb, ids, img["label.id"], free, PoissonSolve.of(p),
                                    source_rgb=source_colours(source, img.meta, memo), sx=sx, sy=sy, scale=scale, filter=filt,
                                    thin=getattr(p, "sor_thickness", None) or None)
         # flagged pixels were the source through the map: the correction adds the solve's change
