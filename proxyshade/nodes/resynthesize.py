@@ -43,8 +43,11 @@ class Resynthesize(FloodFill, Correction, PoissonSolve, Progressive, Node):
                                   "function with their values, so a redone region keeps the tone around it instead "
                                   "of the plain source's (farm's water); off by default: the continuation crosses "
                                   "label borders and raises lake's water (docs/temporal.md)")
-    solve_margin = Param(int, 0, min=0, max=64, doc="EXPERIMENT: kept pixels within this many pixels of a flagged one are re-solved too")
-    reblend = Param(bool, False, doc="EXPERIMENT")
+    solve_margin = Param(int, 0, min=0, max=64,
+                         doc="kept pixels within this many pixels of a flagged one are solved too, their own "
+                             "differences kept (only a smooth change): a thin flagged band between two kept regions "
+                             "spreads their mismatch over the ring instead of into its few seams, which the next "
+                             "frames carry (the gradient creep, docs/temporal.md); 0: the flagged pixels only")
     sor_thickness = Param(float, 32.0, min=0.0,
                           doc="restricted-Poisson regions at most this thick (2 x area / perimeter, pixels) are "
                               "solved by SOR on their own pixels, not by multigrid in a window around them (the "

@@ -256,7 +256,7 @@ def carry(cd: Plate, prev: Plate | None, first: Plate | None, source: Plate, p, 
     # label's border in the source, sky reading the cliff) no longer shows its label's texture:
     # resynthesized, however few there are (stray); disoccluded; newly occluded
     if getattr(p, "solve_continued", False) and filled is not None:
-        absorbed = absorbed | filled  # EXPERIMENT: continued pixels re-solved (flag 4)
+        absorbed = absorbed | filled  # continued pixels: map kept, Poisson redone (flag 4)
     raw, stray = kt.flag_reasons(np.ascontiguousarray(have, np.bool_), absorbed, distorted, src_lab, sx, sy, lab, 0.5,
                                  np.ascontiguousarray(cat, np.uint32), np.uint32(CATEGORY_C),
                                  tuple(land), state.label, tuple(FLAG_CODES))
