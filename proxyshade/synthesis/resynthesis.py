@@ -37,7 +37,7 @@ from proxyshade.synthesis.params import Correction, FloodFill, PoissonSolve
 from proxyshade.synthesis.patches import correct_map, fill_patches, magnify_map, repair_map, similarity_sets
 from proxyshade.synthesis.temporal import CORRECTION, FLAG
 
-KEPT = 0xFFFFFFFF  # the patch id the restricted solve gives every kept pixel
+KEPT = 0xFFFFFFFF  # the patch id the restricted solve gives every kept pixel with kept_as_one
 SYNTHESIZED = ("R", "G", "B", "source.x", "source.y", "patch.id")  # what the resynthesis writes
 def exemplar_similarity(source: Plate, st, corr: SimpleNamespace, *, seed: int, memo=None) -> list:
     """``patches.similarity_sets`` of the exemplar, kept in ``memo``: they depend on the
@@ -216,10 +216,11 @@ def _resynthesize(img: Plate, source: Plate, p, frame: int, *, note: Callable[[s
         if getattr(p, "extend_correction", False) and all(c in img for c in CORRECTION):
             rgb = rgb + extended_correction(img, flagged, PoissonSolve.of(p), getattr(p, "sor_thickness", None) or None)
         free, before = solve_ring(img, flagged, before, int(getattr(p, "solve_margin", 0) or 0))
-        # kept pixels as one patch: between two of them the solve keeps their own difference (a ring
-        # pixel's seams are not blended again, a flag-4 region does not keep the correction's step
-        # at its border); an edge touching a flagged pixel takes the source's gradient
-        ids = np.where(flagged, patch, np.uint32(KEPT)).astype(np.uint32, copy=False)
+        # kept_as_one: between two kept pixels the solve keeps their own difference (a ring pixel's
+        # seams are not blended again, a flag-4 region does not keep the correction's step at its
+        # border); an edge touching a flagged pixel takes the source's gradient
+        ids = np.where(flagged, patch, np.uint32(KEPT)).astype(np.uint32, copy=False) \
+            if getattr(p, "kept_as_one", False) else patch
         rgb, pinfo = blend_regions(rgb, ids, img["label.id"], free, PoissonSolve.of(p),
                                    source_rgb=source_colours(source, img.meta, memo), sx=sx, sy=sy, scale=scale, filter=filt,
                                    thin=getattr(p, "sor_thickness", None) or None)
