@@ -34,6 +34,9 @@ luma (sRGB-encoded, ``kernels.quality``):
   range     share of the label's pixels whose own luma lies outside that range
             (``quality.outside_share``, bench_photos' ``outside``)
 
+and with ``--edges`` the label's |d luma| per pixel split into patch interiors and seams,
+untouched and touching this frame's flags (``edge_classes``).
+
 The nodes take graphs/camera_move.yaml's parameters (init, correct, magnify, first,
 reproject, final), then ``--set node.param=value`` (repeatable), e.g. the first-frame
 graphs' settings: ``--set init.factor=2 --set first.layout=false --set first.grain=1.0
@@ -191,6 +194,32 @@ class LabelFigures:
         return out
 
 
+def edge_classes(plate, flag, lum: np.ndarray | None = None) -> dict:
+    """Per label: the sum of |Δ luma| (display) over its 4-neighbour pairs per label pixel,
+    split into pairs inside a patch / across a seam (``patch.id`` differs) and untouched /
+    touching a pixel flagged this frame (``flag``): where a label's gradient lives, so a
+    creep can be told apart into interiors and seams (docs/temporal.md, "Gradient creep")."""
+    lum = Q.luma(srgb(plate.rgb())) if lum is None else lum
+    lab, pa, fl = plate["label.id"], plate["patch.id"], np.asarray(flag) != 0
+    out = {}
+    for k in np.unique(lab):
+        n = int((lab == k).sum())
+        if n < 400:
+            continue
+        sums = dict.fromkeys(("in", "in_f", "seam", "seam_f"), 0.0)
+        for sl1, sl0 in (((slice(None), slice(1, None)), (slice(None), slice(None, -1))),
+                         ((slice(1, None), slice(None)), (slice(None, -1), slice(None)))):
+            same = (lab[sl1] == k) & (lab[sl0] == k)
+            seam = pa[sl1] != pa[sl0]
+            touch = fl[sl1] | fl[sl0]
+            d = np.abs(lum[sl1] - lum[sl0])
+            for name, m in (("in", ~seam & ~touch), ("in_f", ~seam & touch), ("seam", seam & ~touch),
+                            ("seam_f", seam & touch)):
+                sums[name] += float(d[same & m].sum())
+        out[int(k)] = {name: v / n for name, v in sums.items()}
+    return out
+
+
 def write_frame(path: Path, plate) -> None:
     from proxyshade.io.images import write_png
     from proxyshade.kernels.display import to_display
@@ -200,7 +229,7 @@ def write_frame(path: Path, plate) -> None:
 
 
 def shot(scene: str, size: int, frames: int, every: int = 1, sigma: float = 1.0, params: dict | None = None,
-         frames_out: Path | None = None) -> list[dict]:
+         frames_out: Path | None = None, edges: bool = False) -> list[dict]:
     params = params or graph_params()
     src = T.source(T.SCENES[scene])
     p0 = T.proxy(scene, 1, size)
@@ -211,7 +240,7 @@ def shot(scene: str, size: int, frames: int, every: int = 1, sigma: float = 1.0,
     s0 = Q.seam_share(f0["source.x"], f0["source.y"], f0["label.id"], scale=scale)
     det0 = Q.detail(f0.rgb(), f0["label.id"])
     rows = [{"frame": 1, "seams": 1.0, "detail": 1.0, "share": 0.0, "update": None, "warp": None,
-             "labels": figures(f0)}]
+             "labels": figures(f0), "edges": edge_classes(f0, np.zeros(f0.shape, np.uint32)) if edges else None}]
     keep = {1, 24, frames}
     if frames_out:
         write_frame(frames_out / f"{scene}_{size}.0001.png", f0)
@@ -227,7 +256,8 @@ def shot(scene: str, size: int, frames: int, every: int = 1, sigma: float = 1.0,
         upd = time.perf_counter() - t
         row = {"frame": fr, "update": upd, "share": float((rp["flag"] > 0).mean()),
                "seams": Q.seam_share(fin["source.x"], fin["source.y"], fin["label.id"], scale=scale) / s0,
-               "detail": Q.detail(fin.rgb(), fin["label.id"]) / det0, "warp": None, "labels": figures(fin)}
+               "detail": Q.detail(fin.rgb(), fin["label.id"]) / det0, "warp": None, "labels": figures(fin),
+               "edges": edge_classes(fin, rp["flag"]) if edges else None}
         if frames_out and fr in keep:
             write_frame(frames_out / f"{scene}_{size}.{fr:04d}.png", fin)
         # pairs (fr - 1, fr) ending at frames 2, 2 + every, ...: independent syntheses of both
@@ -280,6 +310,9 @@ def main(argv=None) -> None:
     ap.add_argument("--set", action="append", default=[], metavar="NODE.PARAM=VALUE",
                     help="override a parameter of graphs/camera_move.yaml's nodes (" + ", ".join(NODES) + ")")
     ap.add_argument("--frames-out", type=Path, default=None, help="write frames 1, 24 and the last as PNG here")
+    ap.add_argument("--edges", action="store_true",
+                    help="per label at the shown frames: |d luma| per label pixel inside patches / across seams, "
+                         "untouched / touching this frame's flags (edge_classes)")
     args = ap.parse_args(sys.argv[2:] if argv is None and len(sys.argv) > 1 and sys.argv[1] == "shot" else argv)
     summary = []
     params = graph_params(args.set)
@@ -287,7 +320,7 @@ def main(argv=None) -> None:
     labels_summary = []
     for size in args.sizes:
         for scene in args.scenes:
-            rows = shot(scene, size, args.frames, args.warp_every, args.warp_sigma, params, args.frames_out)
+            rows = shot(scene, size, args.frames, args.warp_every, args.warp_sigma, params, args.frames_out, args.edges)
             floor = attached_floor(scene, size, T.first_frame(scene, size, frame=1, detail=True), args.warp_sigma) \
                 if args.warp_every else {"lanczos4": float("nan"), "lowpass": float("nan")}
             T.proxy.cache_clear()  # the per-frame proxies and guides of the independent runs
@@ -304,6 +337,14 @@ def main(argv=None) -> None:
                     print(f"{r['frame']:>5} {r['seams']:6.2f} {r['detail']:7.3f} {100 * r['share']:6.2f}% {upd} {wp} {wl} {wb}")
             shown = {r["frame"] for r in rows} if args.per_frame else {1, 12, 24, 48, args.frames}
             labels_summary += [dict(x, scene=scene, size=size) for x in label_table(rows, shown)]
+            if args.edges:
+                names = {int(t["id"]): t["name"] for t in T.source(T.SCENES[scene]).meta["labels"]}
+                print(f"{'frame':>5} {'label':<12} {'in':>7} {'in flag':>7} {'seam':>7} {'seam flag':>9}  (|d luma| per label pixel)")
+                for r in rows:
+                    if r["frame"] in shown:
+                        for k, e in r["edges"].items():
+                            print(f"{r['frame']:>5} {names.get(k, str(k)):<12} {e['in']:7.4f} {e['in_f']:7.4f} "
+                                  f"{e['seam']:7.4f} {e['seam_f']:9.4f}")
             later = rows[1:]
             ws = [r["warp"] for r in later if r["warp"]]
             ratio = {f: (float(np.mean([w[f][0] for w in ws])) / max(float(np.mean([w[f][1] for w in ws])), 1e-12)

@@ -33,6 +33,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+import yaml
 
 from harness import peak_rss_mb, table
 
@@ -54,15 +55,17 @@ class _Ctx:
         pass
 
 
-def update_frames(scene: str, size: int, frames: int) -> tuple[dict, list[float]]:
-    """Per-stage seconds of frames 2..frames+1 of a scene's move (after a warm-up frame)."""
+def update_frames(scene: str, size: int, frames: int, sets: dict | None = None) -> tuple[dict, list[float]]:
+    """Per-stage seconds of frames 2..frames+1 of a scene's move (after a warm-up frame);
+    ``sets``: {'reproject': {...}, 'final': {...}} parameters of Reproject and Resynthesize."""
+    sets = sets or {}
     from proxyshade.synthesis.resynthesis import resynthesize
 
     src = T.source(T.SCENES[scene])
     p0 = T.proxy(scene, 1, size)
     g0, d0 = T.detailed(scene, 1, size)
     prev = T.first_frame(scene, size, detail=True)
-    params = node_type("Resynthesize").validate_params({"seed": 1})
+    params = node_type("Resynthesize").validate_params(dict({"seed": 1}, **sets.get("final", {})))
 
     class P:
         pass
@@ -79,7 +82,7 @@ def update_frames(scene: str, size: int, frames: int) -> tuple[dict, list[float]
         tm["proxy"] = time.perf_counter() - t
         t = time.perf_counter()
         cd = run_node("ConsistentDepth", {}, {"proxy": pN, "guide": g0, "depth": d0, "ref_proxy": p0}, frame=fr)
-        rp = run_node("Reproject", {}, {"depth": cd, "prev": prev, "source": src}, frame=fr)
+        rp = run_node("Reproject", sets.get("reproject", {}), {"depth": cd, "prev": prev, "source": src}, frame=fr)
         tm["R&D"] = time.perf_counter() - t
         prev = resynthesize(rp, src, P, fr, timings=tm)
         if fr == 2:
@@ -112,6 +115,9 @@ def main(argv=None) -> None:
                     help="time stages by the process's CPU time on one thread: the work, steady on cores shared "
                          "with other jobs (wall time there depends on their load)")
     ap.add_argument("--no-metrics", action="store_true", help="timings only (no 48-frame share / warp-error runs)")
+    ap.add_argument("--set", action="append", default=[], metavar="NODE.PARAM=VALUE",
+                    help="a parameter of the timed frames' reproject or final (Resynthesize) node, e.g. "
+                         "final.solve_margin=8 (repeatable)")
     args = ap.parse_args(sys.argv[2:] if argv is None and len(sys.argv) > 1 and sys.argv[1] == "temporal" else argv)
     import numba
 
@@ -122,9 +128,16 @@ def main(argv=None) -> None:
         numba.set_num_threads(args.threads)
     print(f"numba threads {numba.get_num_threads()}, clock {'CPU time' if args.cpu else 'wall'}, "
           f"OMP_WAIT_POLICY={os.environ.get('OMP_WAIT_POLICY')}")
+    sets: dict = {}
+    for item in args.set:
+        key, _, val = item.partition("=")
+        node, _, param = key.strip().partition(".")
+        if node not in ("reproject", "final") or not param:
+            raise SystemExit(f"--set {item}: expected reproject.param=value or final.param=value")
+        sets.setdefault(node, {})[param] = yaml.safe_load(val)
     summary = []
     for scene in args.scenes:
-        med, shares = update_frames(scene, args.size, args.frames)
+        med, shares = update_frames(scene, args.size, args.frames, sets)
         rows = [(f"{scene}: {s}", med[s], None) for s in STAGES]
         rows.append((f"{scene}: update frame", med["update frame"], 0.5))
         table(f"Temporal update frame, {scene}, {args.size}² output ({args.frames} frames)", rows)

@@ -151,37 +151,32 @@ def map_deviation(sx, sy, valid, links, scale):
 
 
 @njit(**PJIT)
-def dilate(flags, radius):
-    """Square dilation by ``radius`` pixels (separable: rows, then columns)."""
-    h, w = flags.shape
-    tmp = np.zeros((h, w), np.bool_)
+def _dilate_rows(src, dst, radius):
+    """``dst[i, j]`` true where ``src`` has a true value within ``radius`` columns on row i
+    (the rows in parallel: a transposed view gives the columns)."""
+    h, w = src.shape
     for i in prange(h):
-        last = -radius - 1  # last flagged column seen
+        last = -radius - 1  # last set column seen
         for j in range(w):
-            if flags[i, j]:
+            if src[i, j]:
                 last = j
             if j - last <= radius:
-                tmp[i, j] = True
+                dst[i, j] = True
         nxt = w + radius + 1
         for j in range(w - 1, -1, -1):
-            if flags[i, j]:
+            if src[i, j]:
                 nxt = j
             if nxt - j <= radius:
-                tmp[i, j] = True
-    out = np.zeros((h, w), np.bool_)
-    for j in prange(w):
-        last = -radius - 1
-        for i in range(h):
-            if tmp[i, j]:
-                last = i
-            if i - last <= radius:
-                out[i, j] = True
-        nxt = h + radius + 1
-        for i in range(h - 1, -1, -1):
-            if tmp[i, j]:
-                nxt = i
-            if nxt - i <= radius:
-                out[i, j] = True
+                dst[i, j] = True
+
+
+def dilate(flags, radius):
+    """Square dilation by ``radius`` pixels (separable: rows, then columns)."""
+    flags = np.ascontiguousarray(flags, np.bool_)
+    tmp = np.zeros(flags.shape, np.bool_)
+    _dilate_rows(flags, tmp, int(radius))
+    out = np.zeros(flags.shape, np.bool_)
+    _dilate_rows(tmp.T, out.T, int(radius))
     return out
 
 

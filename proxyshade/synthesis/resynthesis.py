@@ -37,6 +37,7 @@ from proxyshade.synthesis.params import Correction, FloodFill, PoissonSolve
 from proxyshade.synthesis.patches import correct_map, fill_patches, magnify_map, repair_map, similarity_sets
 from proxyshade.synthesis.temporal import CORRECTION, FLAG
 
+KEPT = 0xFFFFFFFF  # the patch id the restricted solve gives every kept pixel with kept_as_one
 SYNTHESIZED = ("R", "G", "B", "source.x", "source.y", "patch.id")  # what the resynthesis writes
 def exemplar_similarity(source: Plate, st, corr: SimpleNamespace, *, seed: int, memo=None) -> list:
     """``patches.similarity_sets`` of the exemplar, kept in ``memo``: they depend on the
@@ -209,11 +210,18 @@ def _resynthesize(img: Plate, source: Plate, p, frame: int, *, note: Callable[[s
     lap("magnify")
     out = {}
     before = rgb
+    free = flagged  # the pixels whose colour the solve may change
     correct = False
     if p.solve:
         if getattr(p, "extend_correction", False) and all(c in img for c in CORRECTION):
             rgb = rgb + extended_correction(img, flagged, PoissonSolve.of(p), getattr(p, "sor_thickness", None) or None)
-        rgb, pinfo = blend_regions(rgb, patch, img["label.id"], flagged, PoissonSolve.of(p),
+        free, before = solve_ring(img, flagged, before, int(getattr(p, "solve_margin", 0) or 0))
+        # kept_as_one: between two kept pixels the solve keeps their own difference (a ring pixel's
+        # seams are not blended again, a flag-4 region does not keep the correction's step at its
+        # border); an edge touching a flagged pixel takes the source's gradient
+        ids = np.where(flagged, patch, np.uint32(KEPT)).astype(np.uint32, copy=False) \
+            if getattr(p, "kept_as_one", False) else patch
+        rgb, pinfo = blend_regions(rgb, ids, img["label.id"], free, PoissonSolve.of(p),
                                    source_rgb=source_colours(source, img.meta, memo), sx=sx, sy=sy, scale=scale, filter=filt,
                                    thin=getattr(p, "sor_thickness", None) or None)
         # flagged pixels were the source through the map: the correction adds the solve's change
@@ -221,7 +229,7 @@ def _resynthesize(img: Plate, source: Plate, p, frame: int, *, note: Callable[[s
         note(f"Poisson on {pinfo['windows']} windows ({pinfo['window_pixels']} px), at most "
              f"{pinfo['iterations']} iterations, residual {pinfo['residual']:.1e}")
     old = [np.ascontiguousarray(img[c], np.float32) if correct else np.zeros((0, 0), np.float32) for c in CORRECTION]
-    R, G, B, *corr = kt.colour_planes(np.ascontiguousarray(rgb, np.float32), np.ascontiguousarray(flagged),
+    R, G, B, *corr = kt.colour_planes(np.ascontiguousarray(rgb, np.float32), np.ascontiguousarray(free),
                                       np.ascontiguousarray(before, np.float32), *old, correct)
     if correct:
         out.update(zip(CORRECTION, corr))
@@ -234,6 +242,21 @@ def _resynthesize(img: Plate, source: Plate, p, frame: int, *, note: Callable[[s
     out.update({"R": R, "G": G, "B": B, "source.x": sx, "source.y": sy, "patch.id": patch})
     # without the solve here the correction is a later Poisson node's: drop it rather than carry it stale
     return img.with_channels(out, meta=meta, drop=() if p.solve else CORRECTION)
+
+
+def solve_ring(img: Plate, flagged: np.ndarray, before: np.ndarray, margin: int) -> tuple[np.ndarray, np.ndarray]:
+    """The pixels the restricted solve frees: the ``flagged`` ones and, with ``margin`` > 0 and
+    a carried correction, the kept pixels within ``margin`` pixels of them (a square
+    dilation). Returns (free, before): ``before`` (the colours the correction is measured
+    from, (H, W, 3)) with those kept pixels' source through their map (colour − correction),
+    so their correction after the solve is again colour − source."""
+    if margin <= 0 or not all(c in img for c in CORRECTION):
+        return flagged, before
+    free = kt.dilate(flagged, margin)
+    ring = free & ~flagged
+    before = np.array(before, np.float32)
+    before[ring] -= np.stack([img[c][ring] for c in CORRECTION], -1)
+    return free, before
 
 
 def extended_correction(img: Plate, flagged: np.ndarray, solve, thin: float | None) -> np.ndarray:

@@ -237,6 +237,7 @@ def carry(cd: Plate, prev: Plate | None, first: Plate | None, source: Plate, p, 
     # disoccluded pixels continue the patch of a kept neighbour of their label when the
     # continued source position still has that label: no new seam, nothing to redo
     have = valid
+    filled = None
     src_lab = np.ascontiguousarray(source["label.id"], np.uint32)
     if p.fill_radius > 0 and not valid.all():
         # in place: it writes only the unkept pixels and reads only kept ones (gather_prev's fresh arrays)
@@ -254,6 +255,8 @@ def carry(cd: Plate, prev: Plate | None, first: Plate | None, source: Plate, p, 
     # position has left its label ("stray": a patch growing on screen carries its map past its
     # label's border in the source, sky reading the cliff) no longer shows its label's texture:
     # resynthesized, however few there are (stray); disoccluded; newly occluded
+    if getattr(p, "solve_continued", False) and filled is not None:
+        absorbed = absorbed | filled  # continued pixels: map kept, Poisson redone (flag 4)
     raw, stray = kt.flag_reasons(np.ascontiguousarray(have, np.bool_), absorbed, distorted, src_lab, sx, sy, lab, 0.5,
                                  np.ascontiguousarray(cat, np.uint32), np.uint32(CATEGORY_C),
                                  tuple(land), state.label, tuple(FLAG_CODES))

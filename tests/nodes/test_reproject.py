@@ -49,6 +49,32 @@ def test_translation_over_a_plane_copies_pixels_and_has_no_distortion(colour):
         prev = prev.with_channels({"flag": np.zeros((64, 64), np.uint32)})
 
 
+def test_continued_pixels_join_the_solve_with_solve_continued():
+    """A pan disoccludes a column on the right; with ``fill_radius`` it continues its
+    neighbour's patch (kept, flag 0). ``solve_continued`` flags exactly those pixels 4 (map
+    kept, Poisson redone): the same map, the plain source through it, no carried
+    correction; every other pixel as without it."""
+    cams = [camera(pos=(0.5 * k, 0, 0), frame=k + 1) for k in range(2)]
+    r0, r1 = (render(c, sphere=None) for c in cams)
+    prev = with_distortion(state_plate(r0), np.zeros((64, 64)))
+    prev = prev.with_channels({f"correction.{c}": np.full((64, 64), 0.05, np.float32) for c in "RGB"})
+    params = dict(EXACT, fill_radius=6)
+    a = step(r1, r0, prev, **params)
+    b = step(r1, r0, prev, solve_continued=True, **params)
+    cont = (a["extension"] > 0) & (a["flag"] == 0)
+    assert cont[:, -1].all()
+    four = cont & (b["flag"] == FLAG["reanchored"])
+    assert four.sum() >= cont.sum() - 2  # the column's two ends: too few flags around them (isolated, dropped)
+    np.testing.assert_array_equal(b["flag"][~four], a["flag"][~four])
+    for c in ("source.x", "source.y", "patch.id"):
+        np.testing.assert_array_equal(b[c], a[c])
+    np.testing.assert_array_equal(b["correction.R"][four], 0.0)
+    np.testing.assert_allclose(a["correction.R"][cont], 0.05)
+    plain = lookup(toy_source().rgb(), b["source.x"], b["source.y"], filter="lanczos4")
+    np.testing.assert_allclose(b.rgb()[four], plain[four], atol=1e-6)
+    np.testing.assert_allclose(a.rgb()[four], plain[four] + 0.05, atol=1e-6)
+
+
 def deviation(plate: Plate, mask: np.ndarray) -> np.ndarray:
     return kt.map_deviation(plate["source.x"], plate["source.y"], mask,
                             kr.patch_links(mask, plate["patch.id"], plate["label.id"]), 1.0)
