@@ -89,7 +89,7 @@ LOCAL_CONFIG = {
 IMAGE_MODULE = "proxyshade.graph.worker_image"
 IMAGE_ENV = ("PROXYSHADE_", "NUMBA_", "OMP_", "MKL_", "OPENBLAS_", "MALLOC_", "PXR_", "OPENIMAGEIO_", "OPENEXR_",
              "DASK_", "PYTHONHASHSEED", "XDG_CACHE_HOME", "HOME", "PATH", "LD_")
-_IMAGE: dict = {}  # "env": the variables the forkserver started with, once this process started it
+_IMAGE: dict = {}  # the forkserver this process started: "env" it started with, "users" (open clusters)
 
 
 def _first_line(e: BaseException) -> str:
@@ -244,6 +244,9 @@ class DaskExecutor:
                                                   host="127.0.0.1", scheduler_port=0,
                                                   dashboard_address="127.0.0.1:0", silence_logs=logging.CRITICAL)
             self.client = d.Client(self.cluster)
+            with _GUARD:
+                if self._forked and _IMAGE["env"] is None:
+                    _IMAGE["env"] = _image_env()
         except BaseException:
             self.close()
             raise
@@ -378,46 +381,44 @@ def _image_env() -> dict[str, str]:
 def _start_method() -> str:
     """How a LocalCluster starts its worker processes: forked from Python's forkserver, which
     has imported what every worker needs (``load_worker_image``: Dask, numpy, colour-science,
-    the node modules, the kernels from numba's cache) once for all of them, instead of each
-    worker spawned afresh and importing and loading all that itself (about 1.7 CPU s per
-    worker, more than the run's compute on a short shot). The forkserver is started by this
-    process's first LocalCluster and keeps the environment it started with: a later cluster
-    whose environment differs in what proxyshade and its libraries read (``IMAGE_ENV``: a
-    threshold changed between two runs) spawns its workers instead. Restarted workers (a
-    nanny replacing a dead one) are spawned: Dask's default."""
+    the node modules, the serial kernels from numba's cache) once for all of them, instead of
+    each worker spawned afresh, importing and loading all that itself. The forkserver keeps
+    the environment it started with: a cluster started when no other is open and the
+    environment differs in what proxyshade and its libraries read (``IMAGE_ENV``: a threshold
+    changed between two runs) starts a new forkserver; one started beside an open cluster
+    with another environment spawns its workers. Restarted workers (a nanny replacing a dead
+    one) are spawned, Dask's default. The forkserver ends with this process."""
     import multiprocessing
+    import multiprocessing.forkserver as fs
 
     if "forkserver" not in multiprocessing.get_all_start_methods():
         return "spawn"
     env = _image_env()
     with _GUARD:
-        if _IMAGE.get("users"):
-            if _IMAGE["env"] != env:
-                return "spawn"
+        if _IMAGE.get("env") == env:
             _IMAGE["users"] += 1
             return "forkserver"
+        if _IMAGE.get("users"):
+            return "spawn"
+        if _IMAGE:  # a forkserver of another environment, no cluster of it open: a new one
+            stop = getattr(fs._forkserver, "_stop", None)  # CPython's own (its tests use it)
+            if stop is None:
+                return "spawn"
+            stop()
         import dask
         from distributed.utils import get_mp_context
 
         with dask.config.set({"distributed.worker.multiprocessing-method": "forkserver"}):
             ctx = get_mp_context()  # distributed sets the forkserver's preload list on its first call
         ctx.set_forkserver_preload(["distributed", IMAGE_MODULE])
-        _IMAGE.update(env=env, users=1)
+        _IMAGE.update(env=None, users=1)  # the environment once it started (the nannies add theirs first)
         return "forkserver"
 
 
 def _release_image() -> None:
-    """A LocalCluster forked from the forkserver closed: the last one stops it (its CPU is then
-    counted among this process's children, with the workers it forked and reaped), so the
-    next cluster's forkserver starts with the environment of then."""
-    import multiprocessing.forkserver as fs
-
+    """A LocalCluster forked from the forkserver closed."""
     with _GUARD:
         _IMAGE["users"] -= 1
-        if _IMAGE["users"] == 0:
-            stop = getattr(fs._forkserver, "_stop", None)  # CPython's own (its tests use it); absent: it stays up
-            if stop is not None:
-                stop()
 
 
 def load_worker_image() -> None:
