@@ -606,11 +606,30 @@ class Preload(_PluginBase):
     def setup(self, worker) -> None:
         from proxyshade.graph.graph import load_array_libraries
 
+        adaptive_malloc()
         load_array_libraries()
         if self.usd:
             from proxyshade.io.usd import load_plugins
 
             load_plugins()
+
+
+def adaptive_malloc() -> bool:
+    """Where ``MALLOC_TRIM_THRESHOLD_`` is set (Dask's nanny sets it for its workers, 64 KiB):
+    glibc's mmap and trim thresholds raised to 32 and 64 MiB, the ceiling its own adaptive
+    thresholds reach in a process without it, so an array is not mapped, zeroed and unmapped
+    afresh each time (``LOCAL_CONFIG``). True when changed; glibc only."""
+    import ctypes
+
+    if "MALLOC_TRIM_THRESHOLD_" not in os.environ:
+        return False
+    try:
+        mallopt = ctypes.CDLL("libc.so.6").mallopt
+    except (OSError, AttributeError):
+        return False
+    mallopt.argtypes, mallopt.restype = [ctypes.c_int, ctypes.c_int], ctypes.c_int
+    m_trim_threshold, m_mmap_threshold = -1, -3  # malloc.h
+    return bool(mallopt(m_mmap_threshold, 32 << 20)) and bool(mallopt(m_trim_threshold, 64 << 20))
 
 
 def _recomputed(run) -> None:
