@@ -343,7 +343,9 @@ class DaskExecutor:
         self.records = []
         t0 = time.time()
         try:
-            for fut in d.as_completed(list(futures.values())):
+            # this client's loop: as_completed's default is the process's default client's, another
+            # executor's where several run at once (the farm bench's clients: some waited for ever)
+            for fut in d.as_completed(list(futures.values()), loop=client.loop):
                 res = fut.result()  # re-raises the task's error
                 self.records.append(dict(res, key=fut.key))
                 for job, inst in owners[fut.key]:
