@@ -437,8 +437,8 @@ def _image_env() -> dict[str, str]:
 
 def _start_method() -> str:
     """How a LocalCluster starts its worker processes: forked from Python's forkserver, which
-    has imported what every worker needs (``load_worker_image``: Dask, numpy, colour-science,
-    the node modules, the serial kernels from numba's cache) once for all of them, instead of
+    has imported what every worker needs (``load_worker_image``: Dask, numpy, the node
+    modules, the serial kernels from numba's cache) once for all of them, instead of
     each worker spawned afresh, importing and loading all that itself. The forkserver keeps
     the environment it started with: a cluster started when no other is open and the
     environment differs in what proxyshade and its libraries read (``IMAGE_ENV``: a threshold
@@ -480,8 +480,8 @@ def _release_image() -> None:
 
 def load_worker_image() -> None:
     """Run by the forkserver of a LocalCluster's workers before it forks them (``IMAGE_MODULE``),
-    on its only thread: Dask, numpy, the OpenEXR and USD modules, colour-science, every node
-    module and the serial kernels of every node type precompiled into numba's cache (never
+    on its only thread: Dask, numpy, the OpenEXR and USD modules, every node module and the
+    serial kernels of every node type precompiled into numba's cache (never
     compiles). Nothing that starts a thread: a forked child has only the thread that forked
     it, so a library's thread pool started here would be dead in every worker (GNU OpenMP
     ends a forked child whose parent started it: loading a parallel kernel starts numba's
@@ -496,10 +496,8 @@ def load_worker_image() -> None:
         import OpenEXR  # noqa: F401 - the module; its thread pool is set up in the worker (_openexr)
 
         from proxyshade.graph.node import load_all
-        from proxyshade.io.colourlib import colour_science
 
-        load_all()
-        colour_science()
+        load_all()  # colour-science is not among them: a run converts 8-bit sRGB without it (io.colourlib)
         with contextlib.suppress(ImportError):
             import pxr.Usd  # noqa: F401
             import pxr.UsdGeom  # noqa: F401

@@ -174,16 +174,16 @@ def test_a_killed_worker_is_replaced_and_the_run_completes(tmp_path, registry):
 
 
 def test_workers_start_with_the_libraries_loaded_and_allocate_like_a_local_run(dask_ex):
-    """A LocalCluster's workers are forked from a process that loaded Dask, colour-science,
-    the node modules and the serial kernels once (a worker starts in a few hundredths of a
+    """A LocalCluster's workers are forked from a process that loaded Dask, the node modules
+    and the serial kernels once (a worker starts in a few hundredths of a
     CPU second instead of importing all that), and without Dask's MALLOC_TRIM_THRESHOLD_
     (which made glibc map and zero every array afresh: 9x a local run's page faults)."""
     def state():
-        return {"colour": "colour" in sys.modules, "nodes": "proxyshade.nodes.resynthesize" in sys.modules,
+        return {"nodes": "proxyshade.nodes.resynthesize" in sys.modules, "kernels": "proxyshade.kernels.correct" in sys.modules,
                 "trim": os.environ.get("MALLOC_TRIM_THRESHOLD_"), "parent": os.getppid()}
 
     got = list(dask_ex.client.run(state).values())
-    assert len(got) == 2 and all(g["colour"] and g["nodes"] and g["trim"] is None for g in got)
+    assert len(got) == 2 and all(g["nodes"] and g["kernels"] and g["trim"] is None for g in got)
     assert got[0]["parent"] == got[1]["parent"] != os.getpid()  # one forkserver, not this process
 
 
