@@ -6,8 +6,10 @@
              synthesis a quarter of it), each time from a fresh plate cache (numba's kernel cache
              warm), local executor (``--jobs 1``) and ``--executor dask --workers 2``,
              interleaved. Wall time, CPU of the command (the client: scheduler and nannies live
-             in it) and of the processes it reaped (the workers); medians, the ratios, and
-             whether the two runs' outputs are byte-identical. Bars: >= 1.7x wall, CPU <= 1.1x.
+             in it) and of the processes it reaped (the forkserver and the workers it forked);
+             how busy the workers were while the tasks ran (the run's note: each worker's tasks'
+             time over that span); medians, the ratios, and whether the two runs' outputs are
+             byte-identical. Bars: >= 1.7x wall, CPU <= 1.1x.
   overhead   a chain of 100 tiny instances (each reads the previous frame's, nothing else to
              run): per task, the time between a task's end and the next one's start on the
              workers (the scheduler's round trip), median. Bar: <= 5 ms. The wall time per task
@@ -28,6 +30,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import re
 import shutil
 import statistics
 import sys
@@ -60,11 +63,15 @@ def shot(scene: str, source: str, seed: int, size: int, cache: Path, out: Path) 
                       variables={"scene": scene, "source": source, "out": str(out / f"seed{seed}")})
 
 
-# the command's own CPU and that of the processes it started and reaped (Dask's workers), written
-# when it returns: the client's share and the workers' apart
+# the command's own CPU and that of the processes it started and reaped, written when it returns:
+# the client's share and the workers' apart. A LocalCluster's workers are forked by Python's
+# forkserver (a child of the command), which reaps them: it is stopped and reaped first, so its
+# CPU (the libraries it loads for all workers) and theirs are counted
 WRAP = """import json, resource, sys
+import multiprocessing.forkserver as fs
 from proxyshade.cli import main
 rc = main(sys.argv[2:])
+fs._forkserver._stop()
 s, c = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
 open(sys.argv[1], "w").write(json.dumps({"client": s.ru_utime + s.ru_stime, "children": c.ru_utime + c.ru_stime}))
 sys.exit(rc)
@@ -96,7 +103,9 @@ def run_command(size: int, frames: int, folder: Path, dask: bool) -> dict:
     if r.returncode != 0:
         raise SystemExit(f"proxyshade run failed ({r.returncode}): {r.stderr[-2000:]}")
     c = json.loads(cpu.read_text())
-    return {"wall": wall, "client": c["client"], "workers": c["children"], "cpu": c["client"] + c["children"]}
+    busy = re.search(r"workers busy (\d+)% of ([\d.]+) s", r.stdout)  # the Dask run's note (dask_executor.busy)
+    return {"wall": wall, "client": c["client"], "workers": c["children"], "cpu": c["client"] + c["children"],
+            "busy": int(busy[1]) if busy else None, "phase": float(busy[2]) if busy else None}
 
 
 def outputs(folder: Path) -> dict[str, bytes]:
@@ -119,8 +128,9 @@ def bench_shots(size: int, repeat: int, frames: int) -> None:
                 r = run_command(size, frames, folder, mode == "dask")
                 r["load"] = os.getloadavg()[0]
                 rows[mode].append(r)
+                busy = f"  workers busy {r['busy']}% of the {r['phase']:.1f} s computing" if r["busy"] is not None else ""
                 print(f"   round {i + 1} {mode:<5} wall {r['wall']:6.1f} s  CPU {r['cpu']:6.1f} s (client "
-                      f"{r['client']:5.1f}, workers {r['workers']:5.1f})  load {r['load']:.1f}", flush=True)
+                      f"{r['client']:5.1f}, workers {r['workers']:5.1f}){busy}  load {r['load']:.1f}", flush=True)
             if i == 0:
                 same = outputs(Path(d) / "local0" / "out") == outputs(Path(d) / "dask0" / "out")
             for mode in ("local", "dask"):
