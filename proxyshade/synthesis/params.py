@@ -84,6 +84,13 @@ class Correction(CoarseLevel, PatchMetric):
                        doc="candidates' distances x (1 + uniformity x over-use of their source neighbourhood "
                            "relative to an even use of the label's source region): keeps the correction from "
                            "converging on the source's blandest patch; 0 = the paper")
+    tone_balance = Param(float, 0.0, min=0.0, max=1.0,
+                         doc="adds tone_balance x (r - 1) to that factor (at least 0.05), r = how often the "
+                             "target uses the candidate's luma bin (16) within its label over how often the photo's "
+                             "label holds it (off in the finest level's last 2 passes): favours the tones the "
+                             "correction drops (a label's std falls 0.1-0.3 in Correct without it). 0.25-0.5 lowers "
+                             "bench_photos' hist chi2 and lifts low std ratios but raises its window chi2 "
+                             "(docs/synthesis.md, tried and not kept); 0 = off")
     use_rgb = Param(bool, True, doc="add the colour neighbourhood to the metric (the paper does)")
     radius = Param(str, "spacing", choices=("spacing", "level"),
                    doc="near-copy radius: one level pixel (spacing h) or 2^l exemplar pixels at level l")

@@ -158,13 +158,14 @@ def test_translation_survives_down_and_up():
         assert np.array_equal(up, S)
 
 
-def test_synthesis_is_deterministic_across_thread_counts():
+@pytest.mark.parametrize("tone_balance", [0.0, 1.0])
+def test_synthesis_is_deterministic_across_thread_counts(tone_balance):
     rng, levels = small_case(9, ex=(40, 48), tgt=(32, 32), nlev=3)
     S0 = random_state(rng, levels[-1])
-    a, _ = kc.synthesize(levels, S0, corr(k=2), seed=3)
+    a, _ = kc.synthesize(levels, S0, corr(k=2, tone_balance=tone_balance), seed=3)
     numba.set_num_threads(1)
     try:
-        b, _ = kc.synthesize(levels, S0, corr(k=2), seed=3)
+        b, _ = kc.synthesize(levels, S0, corr(k=2, tone_balance=tone_balance), seed=3)
     finally:
         numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
     assert np.array_equal(a, b)
@@ -196,14 +197,14 @@ def test_mask_limits_changes():
 @pytest.mark.parametrize("bands", [2, 3])
 def test_sub_passes_in_row_bands_are_exactly_the_whole_ones(monkeypatch, bands):
     """Each sub-pass's rows computed apart (as Dask workers do, ``synthesis.tiles``), with
-    the usage term and a mask: the same map as the whole synthesis, bit for bit."""
+    the usage and tone-balance terms and a mask: the same map as the whole synthesis, bit for bit."""
     from proxyshade.synthesis.tiles import InProcess
 
     rng, levels = small_case(12, ex=(40, 48), tgt=(48, 40), nlev=3)
     S0 = random_state(rng, levels[-1])
     mask = np.ones((48, 40), bool)
     mask[30:, :12] = False
-    c = corr(k=2, uniformity=0.25, height_weight=4.0)
+    c = corr(k=2, uniformity=0.25, height_weight=4.0, tone_balance=0.5)
     a, _ = kc.synthesize(levels, S0, c, seed=4, mask=mask)
     calls = []
 
@@ -245,3 +246,62 @@ def test_near_copy_radius_is_at_least_min_radius(monkeypatch, rule, min_radius, 
     monkeypatch.setattr(kc, "correct_level", spy)
     kc.synthesize(levels, S0, corr(k=2, radius=rule), seed=0, min_radius=min_radius)
     assert seen == want
+
+
+def tone_balance_reference(S, src_lab, src_rgb, nlab, nbins):
+    """``_tone_balance`` written out: per label, the target's and the photo's luma-bin shares."""
+    luma = (0.2126 * src_rgb[..., 0] + 0.7152 * src_rgb[..., 1] + 0.0722 * src_rgb[..., 2]) / 255.0
+    bins = np.clip((luma * nbins).astype(int), 0, nbins - 1)
+    used_lab = src_lab[S[..., 0], S[..., 1]]
+    used_bin = bins[S[..., 0], S[..., 1]]
+    out = np.zeros(src_lab.shape)
+    for y in range(src_lab.shape[0]):
+        for x in range(src_lab.shape[1]):
+            l, k = src_lab[y, x], bins[y, x]
+            n_t = (used_lab == l).sum()
+            if n_t == 0:
+                continue
+            share_t = ((used_lab == l) & (used_bin == k)).sum() / n_t
+            share_s = ((src_lab == l) & (bins == k)).sum() / (src_lab == l).sum()
+            out[y, x] = max(share_t / share_s - 1.0, -1.0)
+    return out
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_tone_balance_matches_reference(seed):
+    rng = np.random.default_rng(seed)
+    He, We, n = 13, 17, 3
+    src_lab = rng.integers(0, n - (seed == 2), (He, We)).astype(np.int32)  # seed 2: a label absent from the target
+    src_rgb = (rng.random((He, We, 3)) * 255 * rng.choice([0.3, 1.0], (He, We, 1))).astype(np.float32)
+    S = np.stack([rng.integers(0, He, (9, 11)), rng.integers(0, We, (9, 11))], -1).astype(np.int32)
+    S[:4] = S[0, 0]  # a clump: one tone over-used
+    out = np.full((He, We), np.nan)
+    kc._tone_balance(S, src_lab, src_rgb, n, kc.TONE_BINS, out)
+    np.testing.assert_allclose(out, tone_balance_reference(S, src_lab, src_rgb, n, kc.TONE_BINS), rtol=1e-12, atol=1e-12)
+
+
+def test_tone_balance_favours_the_tones_the_target_lacks():
+    """A label whose exemplar is half bright and flat, half dark and textured, and a map
+    that uses mostly the bright half: with the tone-balance term the correction takes more
+    of the dark half (the photo's tones) than the usage term alone."""
+    rng = np.random.default_rng(5)
+    He, We = 24, 32
+    ex_lab = np.zeros((He, We), np.int32)
+    ex_lab[:, :2] = 1  # a second label, so the label window has contours
+    ex_rgb = np.full((He, We, 3), 0.8, np.float32)
+    ex_rgb[:, We // 2:] = (0.05 + 0.1 * rng.random((He, We - We // 2, 1))).astype(np.float32)
+    tgt = np.zeros((20, 20), np.int32)
+    tgt[:, :2] = 1
+    levels = kf.build_levels(ex_rgb, ex_lab, tgt, 2, 1, max_distance=5.0)
+    lv = levels[-1]
+    # random positions, four in five in the bright half (the label's columns 2..15 of 2..31)
+    S = np.stack([rng.integers(0, He, (20, 20)),
+                  np.where(rng.random((20, 20)) < 0.8, rng.integers(2, We // 2, (20, 20)),
+                           rng.integers(We // 2, We, (20, 20)))], -1).astype(np.int32)
+    S[tgt == 1] = np.stack([rng.integers(0, He, (tgt == 1).sum()), rng.integers(0, 2, (tgt == 1).sum())], -1)
+    dark = lambda S: (S[..., 1] >= We // 2)[tgt == 0].mean()  # noqa: E731
+    knn = kc.similarity_sets(lv, 2, kf.Metric(90.0, 0.0), seed=0, iterations=2)
+    rule = kc.Rule(1, True, 0.0, 0.25)
+    a, _ = kc.correct_level(lv, S, knn, passes=3, metric=kf.Metric(90.0, 0.0), rule=rule)
+    b, _ = kc.correct_level(lv, S, knn, passes=3, metric=kf.Metric(90.0, 0.0), rule=rule, tone_balance=1.0)
+    assert dark(b) > dark(a) + 0.05, (dark(S), dark(a), dark(b))
