@@ -41,7 +41,7 @@ from numba import njit, prange
 
 from proxyshade.kernels._config import JIT, PJIT
 from proxyshade.kernels.random import mix_seed, rand
-from proxyshade.kernels.features import (NB2, Level, Metric, chamfer_masks, dist_sq_D, dist_sq_rgb, gather_target,
+from proxyshade.kernels.features import (NB2, Level, Metric, chamfer_masks, dist_sq_contour, dist_sq_rgb, gather_target,
                                          height_sq)
 
 WINDOW = 4  # half side of the 9x9 repetition window
@@ -346,17 +346,17 @@ def rejected(S, i, j, cy, cx, h, radius):
 
 
 @njit(**JIT)
-def _cand_dist(lv, m, use_rgb, i, j, cy, cx, tD, tRGB, best):
+def _cand_dist(lv, m, use_rgb, i, j, cy, cx, target_dist, target_rgb, best):
     """Eq. 1 with colour and height for candidate (cy, cx) at target (i, j), whose 5×5
-    contour distances and colours under the current map are ``tD``, ``tRGB``; early exit
+    contour distances and colours under the current map are ``target_dist``, ``target_rgb``; early exit
     above best."""
     h = lv.h
     b2 = best * best
     s = height_sq(lv.src_height, cy, cx, lv.tgt_height[i, j], m.height_weight)
     if s <= b2:
-        s += dist_sq_D(lv.src_dist, h, cy, cx, tD, b2 - s)
+        s += dist_sq_contour(lv.src_dist, h, cy, cx, target_dist, b2 - s)
     if use_rgb and s <= b2:
-        s += dist_sq_rgb(lv.src_rgb, h, cy, cx, tRGB, b2 - s)
+        s += dist_sq_rgb(lv.src_rgb, h, cy, cx, target_rgb, b2 - s)
     d = np.sqrt(s)
     if d >= best:
         return d
@@ -383,8 +383,8 @@ def _subpass(lv, m, rule, knn, over, S_old, S_new, active, parity, counts):
     ncand = 9 * (k + 1)
     for r in prange((Ht - pi + 1) // 2):
         i = pi + 2 * r
-        tD = np.empty(NB2, np.float32)
-        tRGB = np.empty((NB2, 3), np.float32)
+        target_dist = np.empty(NB2, np.float32)
+        target_rgb = np.empty((NB2, 3), np.float32)
         cyl = np.empty(ncand, np.int64)
         cxl = np.empty(ncand, np.int64)
         coh = np.empty(ncand, np.bool_)
@@ -392,7 +392,7 @@ def _subpass(lv, m, rule, knn, over, S_old, S_new, active, parity, counts):
             if not active[i, j]:
                 continue
             lab = tgt_lab[i, j]
-            gather_target(tgt_dist, i, j, tD)
+            gather_target(tgt_dist, i, j, target_dist)
             if use_rgb:
                 t = 0
                 for di in range(-2, 3):
@@ -402,7 +402,7 @@ def _subpass(lv, m, rule, knn, over, S_old, S_new, active, parity, counts):
                         sy = S_old[ii, jj, 0]
                         sx = S_old[ii, jj, 1]
                         for c in range(3):
-                            tRGB[t, c] = src_rgb[sy, sx, c]
+                            target_rgb[t, c] = src_rgb[sy, sx, c]
                         t += 1
             # candidate list (deduplicated, deterministic order)
             nc = 0
@@ -443,7 +443,7 @@ def _subpass(lv, m, rule, knn, over, S_old, S_new, active, parity, counts):
                 cy = cyl[u]
                 cx = cxl[u]
                 f = (1.0 if coh[u] else 1.0 + kappa) * (1.0 + uniformity * over[cy, cx])
-                d = f * _cand_dist(lv, m, use_rgb, i, j, cy, cx, tD, tRGB, best / f)
+                d = f * _cand_dist(lv, m, use_rgb, i, j, cy, cx, target_dist, target_rgb, best / f)
                 # rejection is only tested for a candidate that would win (same result, cheaper)
                 if d < best and not rejected(S_old, i, j, cy, cx, h, radius):
                     best = d
@@ -454,7 +454,7 @@ def _subpass(lv, m, rule, knn, over, S_old, S_new, active, parity, counts):
                 # label: label fidelity wins over repetition
                 for u in range(nc):
                     f = (1.0 if coh[u] else 1.0 + kappa) * (1.0 + uniformity * over[cyl[u], cxl[u]])
-                    d = f * _cand_dist(lv, m, use_rgb, i, j, cyl[u], cxl[u], tD, tRGB, best / f)
+                    d = f * _cand_dist(lv, m, use_rgb, i, j, cyl[u], cxl[u], target_dist, target_rgb, best / f)
                     if d < best:
                         best = d
                         by = cyl[u]

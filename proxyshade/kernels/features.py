@@ -328,9 +328,9 @@ def gather_target(tgt_dist, i, j, outD):
 
 
 @njit(**JIT)
-def dist_sq_D(src_dist, h, y, x, tD, bound):
+def dist_sq_contour(src_dist, h, y, x, target_dist, bound):
     """Sum of squared differences of contour distances between exemplar window at
-    (y, x) (spacing h, clamped) and ``tD``; stops early once above ``bound``."""
+    (y, x) (spacing h, clamped) and ``target_dist``; stops early once above ``bound``."""
     H, W = src_dist.shape
     s = 0.0
     k = 0
@@ -338,7 +338,7 @@ def dist_sq_D(src_dist, h, y, x, tD, bound):
         yy = min(max(y + di * h, 0), H - 1)
         for dj in range(-2, 3):
             xx = min(max(x + dj * h, 0), W - 1)
-            d = src_dist[yy, xx] - tD[k]
+            d = src_dist[yy, xx] - target_dist[k]
             s += d * d
             k += 1
         if s > bound:
@@ -347,15 +347,15 @@ def dist_sq_D(src_dist, h, y, x, tD, bound):
 
 
 @njit(inline="always", **JIT)
-def height_sq(src_height, y, x, th, weight):
-    """(weight × (height of exemplar (y, x) − th))²: the height term of the metrics."""
-    d = weight * (np.float64(src_height[y, x]) - th)
+def height_sq(src_height, y, x, target_height, weight):
+    """(weight × (height of exemplar (y, x) − target_height))²: the height term of the metrics."""
+    d = weight * (np.float64(src_height[y, x]) - target_height)
     return d * d
 
 
 @njit(**JIT)
-def dist_sq_rgb(src_rgb, h, y, x, tRGB, bound):
-    """Sum of squared feature-colour differences (exemplar window vs ``tRGB`` (25, 3))."""
+def dist_sq_rgb(src_rgb, h, y, x, target_rgb, bound):
+    """Sum of squared feature-colour differences (exemplar window vs ``target_rgb`` (25, 3))."""
     H, W, _ = src_rgb.shape
     s = 0.0
     k = 0
@@ -364,7 +364,7 @@ def dist_sq_rgb(src_rgb, h, y, x, tRGB, bound):
         for dj in range(-2, 3):
             xx = min(max(x + dj * h, 0), W - 1)
             for c in range(3):
-                d = src_rgb[yy, xx, c] - tRGB[k, c]
+                d = src_rgb[yy, xx, c] - target_rgb[k, c]
                 s += d * d
             k += 1
         if s > bound:

@@ -31,7 +31,7 @@ from numba import njit
 
 from proxyshade.kernels._config import JIT
 from proxyshade.kernels.random import permutation, rand
-from proxyshade.kernels.features import NB2, Level, Metric, chamfer_masks, dist_sq_D, gather_target, height_sq
+from proxyshade.kernels.features import NB2, Level, Metric, chamfer_masks, dist_sq_contour, gather_target, height_sq
 
 # The kernels take the finest ``features.Level`` (h = 1) whole, and ``features.Metric``.
 
@@ -75,14 +75,14 @@ class Groups(NamedTuple):
 
 
 @njit(**JIT)
-def _eq1(src_dist, src_masks, src_height, y, x, tD, tmask, th, m, bound):
+def _eq1(src_dist, src_masks, src_height, y, x, target_dist, tmask, target_height, m, bound):
     """eq. 1 (+ the height term) for exemplar (y, x) against a guide pixel's 5×5 contour
-    distances ``tD``, window label masks ``tmask`` and relative height ``th`` (a
+    distances ``target_dist``, window label masks ``tmask`` and relative height ``target_height`` (a
     ``Probe``'s fields); early exit above ``bound``. (Arrays, not records: the hottest call
     of the flood fill, where reading a record's arrays costs their reference counts.)"""
     b2 = bound * bound
-    hs = height_sq(src_height, y, x, th, m.height_weight)
-    dsq = hs if hs > b2 else hs + dist_sq_D(src_dist, 1, y, x, tD, b2 - hs)
+    hs = height_sq(src_height, y, x, target_height, m.height_weight)
+    dsq = hs if hs > b2 else hs + dist_sq_contour(src_dist, 1, y, x, target_dist, b2 - hs)
     dd = np.sqrt(dsq)
     if dd > bound:
         return dd
@@ -129,7 +129,7 @@ def _best_match(cands, lv, m, probe, bound, c0, scan, same_window):
     label masks equal the target's are taken (the others are hash collisions of
     ``_window_groups``)."""
     src_dist, src_masks, src_h = lv.src_dist, lv.src_masks, lv.src_height
-    tD, tmask, th = probe
+    target_dist, tmask, target_height = probe
     W = src_dist.shape[1]
     bd = bound
     bi = c0
@@ -143,7 +143,7 @@ def _best_match(cands, lv, m, probe, bound, c0, scan, same_window):
         x = c % W
         if same_window and not _same_masks(src_masks[y, x], tmask):
             continue
-        d = _eq1(src_dist, src_masks, src_h, y, x, tD, tmask, th, m, bd)
+        d = _eq1(src_dist, src_masks, src_h, y, x, target_dist, tmask, target_height, m, bd)
         if _better(d, k, bd, bk):
             bd = d
             bi = c
@@ -191,7 +191,7 @@ def _grow(lv, m, cover, pid, i0, j0, oy, ox, thr, queue, stamp):
     free, S, patch = cover
     Ht, Wt = tgt_lab.shape
     He, We = src_lab.shape
-    tD = np.empty(NB2, np.float32)
+    target_dist = np.empty(NB2, np.float32)
     head = 0
     tail = 0
     queue[tail] = i0 * Wt + j0
@@ -208,8 +208,8 @@ def _grow(lv, m, cover, pid, i0, j0, oy, ox, thr, queue, stamp):
         if count > 0:  # the seed is accepted by construction
             if y < 0 or y >= He or x < 0 or x >= We or src_lab[y, x] != tgt_lab[i, j]:
                 continue
-            gather_target(tgt_dist, i, j, tD)
-            d = _eq1(src_dist, src_masks, src_h, y, x, tD, tgt_masks[i, j], tgt_h[i, j], m, thr)
+            gather_target(tgt_dist, i, j, target_dist)
+            d = _eq1(src_dist, src_masks, src_h, y, x, target_dist, tgt_masks[i, j], tgt_h[i, j], m, thr)
             if d > thr:
                 continue
         free[i, j] = False
@@ -293,8 +293,8 @@ def _best_by_window(groups, a, b, lv, m, probe, bound, c0, scan):
     the best is skipped whole (eq. 1 is at least its Chamfer term). The same answer as
     the candidate-by-candidate scan."""
     grouped, end, uniform = groups.grouped, groups.end, groups.uniform
-    src_dist, src_masks, src_h, tD, th, hw = lv.src_dist, lv.src_masks, lv.src_height, probe.dist, probe.height, \
-        m.height_weight
+    src_dist, src_masks, src_h = lv.src_dist, lv.src_masks, lv.src_height
+    target_dist, target_height, height_weight = probe.dist, probe.height, m.height_weight
     W = src_dist.shape[1]
     bd = bound
     bi = c0
@@ -321,9 +321,9 @@ def _best_by_window(groups, a, b, lv, m, probe, bound, c0, scan):
                 y = c // W
                 x = c % W
                 l2 = lim * lim
-                dsq = height_sq(src_h, y, x, th, hw)
+                dsq = height_sq(src_h, y, x, target_height, height_weight)
                 if dsq <= l2:
-                    dsq += dist_sq_D(src_dist, 1, y, x, tD, l2 - dsq)
+                    dsq += dist_sq_contour(src_dist, 1, y, x, target_dist, l2 - dsq)
                 dd = np.sqrt(dsq)
                 if dd > lim:
                     continue
@@ -359,7 +359,7 @@ def _flood_fill(lv, m, cover, order, first_id, thr_scale, thr_offset, seed):
     Ht, Wt = tgt_lab.shape
     queue = np.empty(Ht * Wt, np.int64)
     stamp = np.zeros((Ht, Wt), np.int64)
-    tD = np.empty(NB2, np.float32)
+    target_dist = np.empty(NB2, np.float32)
     pid = first_id
     npatch = 0
     for t in range(order.shape[0]):
@@ -370,9 +370,9 @@ def _flood_fill(lv, m, cover, order, first_id, thr_scale, thr_offset, seed):
             continue
         l = tgt_lab[i, j]
         nl = starts[l + 1] - starts[l]
-        gather_target(lv.tgt_dist, i, j, tD)
+        gather_target(lv.tgt_dist, i, j, target_dist)
         scan = Scan(posof, rand(seed, p, 0x5CA7, 0) % nl, nl)
-        probe = Probe(tD, lv.tgt_masks[i, j], lv.tgt_height[i, j])
+        probe = Probe(target_dist, lv.tgt_masks[i, j], lv.tgt_height[i, j])
         b0, c0 = _continued_bound(lv, m, cover, i, j, probe, scan)
         # the candidates with the target's window of labels first (Chamfer term 0; every
         # other's at least 1, integer distances): when one is closer than w, it is the

@@ -134,7 +134,7 @@ def correct_pixel(lv, knn, S, i, j, radius, w, kappa, hw=0.0, over=None, uniform
                         break
                 else:
                     cands.append((cy, cx, t == 0))
-    tD = dist_window(lv.tgt_dist, i, j)
+    target_dist = dist_window(lv.tgt_dist, i, j)
     tRGB = np.array([[lv.src_rgb[tuple(S[min(max(i + di, 0), Ht - 1), min(max(j + dj, 0), Wt - 1)])]
                       for dj in range(-2, 3)] for di in range(-2, 3)], np.float32)
     tW = window(lv.tgt_lab, i, j)
@@ -143,7 +143,7 @@ def correct_pixel(lv, knn, S, i, j, radius, w, kappa, hw=0.0, over=None, uniform
         a = dist_window(lv.src_dist, cy, cx, h)
         sd = (hw * (float(lv.src_height[cy, cx]) - float(lv.tgt_height[i, j]))) ** 2
         for t in range(25):
-            d = np.float32(a.flat[t] - tD.flat[t])
+            d = np.float32(a.flat[t] - target_dist.flat[t])
             sd += float(np.float32(d * d))
         sr = 0.0
         for t, (di, dj) in enumerate(np.ndindex(5, 5)):

@@ -97,12 +97,12 @@ def test_window_runs_with_a_hash_collision_are_searched_one_by_one():
     groups = kpatch._window_groups(lv.src_masks, starts, lists)
     collided = groups._replace(uniform=np.zeros_like(groups.uniform))
     posof = kpatch._positions(starts, lists, lists.shape[0])
-    tD = np.empty(25, np.float32)
+    target_dist = np.empty(25, np.float32)
     for i, j in [(0, 0), (4, 5), (8, 9), (3, 7)]:
         l = tgt[i, j]
         nl = starts[l + 1] - starts[l]
-        kf.gather_target(td, i, j, tD)
-        probe = kpatch.Probe(tD, lv.tgt_masks[i, j], lv.tgt_height[i, j])
+        kf.gather_target(td, i, j, target_dist)
+        probe = kpatch.Probe(target_dist, lv.tgt_masks[i, j], lv.tgt_height[i, j])
         scan = kpatch.Scan(posof, 3 % nl, nl)
         want = kpatch._best_match(lists[starts[l]:starts[l + 1]], lv, m, probe, np.inf, -1, scan, False)
         assert kpatch._best_by_window(groups, starts[l], starts[l + 1], lv, m, probe, np.inf, -1, scan) == want
