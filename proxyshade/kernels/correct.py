@@ -641,10 +641,9 @@ def synthesize(levels: list, S_init: np.ndarray, corr, *, seed: int, mask: np.nd
         ``use_rgb``, ``kappa`` (``Rule``); ``uniformity``: candidates' distances are
         multiplied by 1 + uniformity × the over-use of their exemplar neighbourhood
         (``_usage_excess``; 0: none): the synthesis draws on the whole source region
-        instead of converging on its blandest patch; ``tone_balance`` (optional, 0 when
-        absent): the tone-balance term of ``correct_level``; ``radius``: the near-copy radius
-        rule, "spacing" (h exemplar pixels at a level of spacing h) or "level" (2^l at
-        level l, the paper's).
+        instead of converging on its blandest patch; ``tone_balance``: the tone-balance
+        term of ``correct_level``; ``radius``: the near-copy radius rule, "spacing" (h
+        exemplar pixels at a level of spacing h) or "level" (2^l at level l, the paper's).
     seed : seeds the similarity sets' search.
     mask : (Ht, Wt) bool, optional; only these pixels change, the rest keep ``S_init``.
     min_radius : smallest near-copy radius in exemplar pixels at every level (the
@@ -694,7 +693,7 @@ def synthesize(levels: list, S_init: np.ndarray, corr, *, seed: int, mask: np.nd
         n = corr.passes_finest if l == L - 1 else corr.passes
         S, st = correct_level(lv, S, knns[l], passes=n, metric=metric,
                               rule=Rule(radius, bool(corr.use_rgb), float(corr.kappa), float(corr.uniformity)),
-                              active=active, tiles=tiles, tone_balance=float(getattr(corr, "tone_balance", 0.0)))
+                              active=active, tiles=tiles, tone_balance=float(corr.tone_balance))
         st.update(level=l, h=h, shape=shape, passes=n, radius=radius)
         stats.append(st)
     if mask is not None:

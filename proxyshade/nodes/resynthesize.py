@@ -15,10 +15,10 @@ from __future__ import annotations
 
 from proxyshade.graph.node import Input, Node, Param, Progressive
 from proxyshade.graph.plate import Plate
-from proxyshade.synthesis.params import Correction, FloodFill, PoissonSolve, source_input
+from proxyshade.synthesis.params import Correction, FloodFill, PoissonSolve, RestrictedSolve, source_input
 
 
-class Resynthesize(FloodFill, Correction, PoissonSolve, Progressive, Node):
+class Resynthesize(FloodFill, Correction, PoissonSolve, RestrictedSolve, Progressive, Node):
     """Flagged pixels resynthesized with the first-frame steps; the rest kept.
 
     Output at the input's size: the input's channels with ``R,G,B`` (the source through
@@ -37,26 +37,6 @@ class Resynthesize(FloodFill, Correction, PoissonSolve, Progressive, Node):
     seed = Param(int, 0, doc="seed of the flood fill (combined with the frame number) and of the similarity sets")
     solve = Param(bool, True, doc="finish with the restricted Poisson solve (Dirichlet outside the flagged pixels); "
                                   "false leaves it to a Poisson node with keep")
-    extend_correction = Param(bool, False,
-                              doc="continue the kept pixels' carried correction (the first frame's layout and "
-                                  "seam corrections) onto the flagged pixels before the solve, as the harmonic "
-                                  "function with their values, so a redone region keeps the tone around it instead "
-                                  "of the plain source's (farm's water); off by default: the continuation crosses "
-                                  "label borders and raises lake's water (docs/temporal.md)")
-    kept_as_one = Param(bool, False,
-                        doc="the restricted solve sees every kept pixel as one patch: between two kept pixels their "
-                            "own difference, an edge touching a flagged pixel the source's gradient (inside a patch "
-                            "too: a re-anchored region keeps no step of the carried correction at its border); "
-                            "false: the patch ids as they are (kept pixels' seams in the solve blended again)")
-    solve_margin = Param(int, 0, min=0, max=64,
-                         doc="kept pixels within this many pixels of a flagged one are solved too, their own "
-                             "differences kept (only a smooth change): a thin flagged band between two kept regions "
-                             "spreads their mismatch over the ring instead of into its few seams, which the next "
-                             "frames carry (the gradient creep, docs/temporal.md); 0: the flagged pixels only")
-    sor_thickness = Param(float, 32.0, min=0.0,
-                          doc="restricted-Poisson regions at most this thick (2 x area / perimeter, pixels) are "
-                              "solved by SOR on their own pixels, not by multigrid in a window around them (the "
-                              "same system, to the solver's tol); 0: only regions in small boxes")
 
     def compute(self, ctx) -> Plate:
         from proxyshade.synthesis.resynthesis import resynthesize, resynthesize_update

@@ -11,6 +11,7 @@ import numpy as np
 
 from proxyshade.plate import Plate
 from proxyshade.synthesis.exemplar import provenance
+from proxyshade.synthesis.params import RestrictedSolve
 from proxyshade.synthesis.resynthesis import (SYNTHESIZED, frame_window, paste_window, resynthesize,
                                               resynthesize_window)
 from proxyshade.synthesis.temporal import CORRECTION, FLAG
@@ -46,7 +47,8 @@ def edit_synthesis(guide: Plate, source: Plate, p, *, previous: Plate | None, re
         img = previous
     flag = np.where(region, np.uint32(FLAG["disoccluded"]), np.uint32(0)).astype(np.uint32)
     img = img.with_channels(dict(geometry, **{"label.id": guide["label.id"].astype(np.uint32), "flag": flag}))
-    q = dict(vars(p), solve=True, sor_thickness=None if previous is None else THIN)
+    q = {**vars(RestrictedSolve.defaults()), **vars(p), "solve": True,
+         "sor_thickness": None if previous is None else THIN}
     out = resynthesize(img, source, SimpleNamespace(**q), 0, note=note, timings=timings,
                        window=None if previous is None else WINDOW, memo=memo, tiles=tiles)
     info = dict(out.meta.get("resynthesis", {}))
@@ -75,7 +77,7 @@ def _update(guide: Plate, source: Plate, p, previous: Plate, region: np.ndarray,
     crop = {c: np.ascontiguousarray(previous[c][win]) for c in SYNTHESIZED + CORRECTION if c in previous}
     crop["label.id"] = np.ascontiguousarray(guide["label.id"][win], np.uint32)
     crop["flag"] = np.where(sel, np.uint32(FLAG["disoccluded"]), np.uint32(0)).astype(np.uint32)
-    q = SimpleNamespace(**dict(vars(p), solve=True, sor_thickness=THIN))
+    q = SimpleNamespace(**{**vars(RestrictedSolve.defaults()), **vars(p), "solve": True, "sor_thickness": THIN})
     sub = resynthesize_window(Plate(crop, dict(previous.meta)), source, q, 0, frame_shape=(H, W),
                               patch_base=int(previous["patch.id"].max()) + 1, note=note, timings=timings, memo=memo,
                               tiles=tiles)

@@ -132,6 +132,32 @@ class PoissonSolve(ColourFidelity):
     max_iter = Param(int, 100, min=1, doc="most conjugate-gradient iterations")
 
 
+class RestrictedSolve(ParamGroup):
+    """How a resynthesis' restricted Poisson solve (``synthesis.resynthesis``) treats the
+    pixels around the redone ones (Resynthesize; the editing step takes the defaults)."""
+
+    extend_correction = Param(bool, False,
+                              doc="continue the kept pixels' carried correction (the first frame's layout and "
+                                  "seam corrections) onto the flagged pixels before the solve, as the harmonic "
+                                  "function with their values, so a redone region keeps the tone around it instead "
+                                  "of the plain source's (farm's water); off by default: the continuation crosses "
+                                  "label borders and raises lake's water (docs/temporal.md)")
+    kept_as_one = Param(bool, False,
+                        doc="the restricted solve sees every kept pixel as one patch: between two kept pixels their "
+                            "own difference, an edge touching a flagged pixel the source's gradient (inside a patch "
+                            "too: a re-anchored region keeps no step of the carried correction at its border); "
+                            "false: the patch ids as they are (kept pixels' seams in the solve blended again)")
+    solve_margin = Param(int, 0, min=0, max=64,
+                         doc="kept pixels within this many pixels of a flagged one are solved too, their own "
+                             "differences kept (only a smooth change): a thin flagged band between two kept regions "
+                             "spreads their mismatch over the ring instead of into its few seams, which the next "
+                             "frames carry (the gradient creep, docs/temporal.md); 0: the flagged pixels only")
+    sor_thickness = Param(float, 32.0, min=0.0,
+                          doc="restricted-Poisson regions at most this thick (2 x area / perimeter, pixels) are "
+                              "solved by SOR on their own pixels, not by multigrid in a window around them (the "
+                              "same system, to the solver's tol); 0: only regions in small boxes")
+
+
 class Guidance(ParamGroup):
     """Guidance synthesis (§4): the detailed label guide."""
 

@@ -213,17 +213,17 @@ def _resynthesize(img: Plate, source: Plate, p, frame: int, *, note: Callable[[s
     free = flagged  # the pixels whose colour the solve may change
     correct = False
     if p.solve:
-        if getattr(p, "extend_correction", False) and all(c in img for c in CORRECTION):
-            rgb = rgb + extended_correction(img, flagged, PoissonSolve.of(p), getattr(p, "sor_thickness", None) or None)
-        free, before = solve_ring(img, flagged, before, int(getattr(p, "solve_margin", 0) or 0))
+        if p.extend_correction and all(c in img for c in CORRECTION):
+            rgb = rgb + extended_correction(img, flagged, PoissonSolve.of(p), p.sor_thickness or None)
+        free, before = solve_ring(img, flagged, before, int(p.solve_margin))
         # kept_as_one: between two kept pixels the solve keeps their own difference (a ring pixel's
         # seams are not blended again, a flag-4 region does not keep the correction's step at its
         # border); an edge touching a flagged pixel takes the source's gradient
         ids = np.where(flagged, patch, np.uint32(KEPT)).astype(np.uint32, copy=False) \
-            if getattr(p, "kept_as_one", False) else patch
+            if p.kept_as_one else patch
         rgb, pinfo = blend_regions(rgb, ids, img["label.id"], free, PoissonSolve.of(p),
                                    source_rgb=source_colours(source, img.meta, memo), sx=sx, sy=sy, scale=scale, filter=filt,
-                                   thin=getattr(p, "sor_thickness", None) or None)
+                                   thin=p.sor_thickness or None)
         # flagged pixels were the source through the map: the correction adds the solve's change
         correct = all(c in img for c in CORRECTION)
         note(f"Poisson on {pinfo['windows']} windows ({pinfo['window_pixels']} px), at most "
