@@ -22,6 +22,7 @@ kept in memory only, with a note. Temporaries of killed runs are removed by
 """
 from __future__ import annotations
 
+import atexit
 import contextlib
 import fcntl
 import hashlib
@@ -31,6 +32,7 @@ import re
 import threading
 import time
 import warnings
+import weakref
 from concurrent.futures import Future, ThreadPoolExecutor, wait
 from pathlib import Path
 
@@ -105,6 +107,19 @@ def _yield_cpu() -> None:
         pass
 
 
+_WRITERS: "weakref.WeakSet[ThreadPoolExecutor]" = weakref.WeakSet()  # every live cache's writer
+
+
+@atexit.register
+def _finish_writes() -> None:
+    """At exit, each cache's writer finishes the entry it is writing (renamed into place, or
+    its temporary removed) and drops the queued ones. The interpreter's own shutdown does
+    this for thread pools; the console script's fast exit (``cli._exit_now``) runs only the
+    ``atexit`` functions, so a Ctrl-C during a write would otherwise leave a temporary."""
+    for writer in list(_WRITERS):
+        writer.shutdown(wait=True, cancel_futures=True)
+
+
 class Cache:
     """Disk store of plates by key. ``memory`` keeps plates of the current run."""
 
@@ -116,6 +131,8 @@ class Cache:
         # ``flush`` waits for them (the engine calls it at the end of every run)
         self._writer = ThreadPoolExecutor(max_workers=1, thread_name_prefix="proxyshade-cache",
                                           initializer=_yield_cpu) if background else None
+        if self._writer is not None:
+            _WRITERS.add(self._writer)
         self._pending: list[Future] = []
         self._writing: dict[str, Future] = {}  # key -> its background write, until done
         self._pinned: set[str] = set()
