@@ -344,30 +344,34 @@ def _move(omega, hw, cy, cx, inc):
 
 
 @njit(**PJIT)
+def _tent_rows(a, hw, out):
+    """out[y, x] = Σ_b a[y, b] · max(0, 2hw + 1 − |b − x|): along each row, how many pixels
+    the patch centred at x shares with each patch centred at b, weighted by a (one axis of
+    the separable overlap)."""
+    H, W = a.shape
+    p = 2 * hw + 1
+    for y in prange(H):
+        for x in range(W):
+            s = 0
+            for b in range(max(x - 2 * hw, 0), min(x + 2 * hw + 1, W)):
+                s += a[y, b] * max(0, p - abs(b - x))
+            out[y, x] = s
+
+
+@njit(**PJIT)
 def _occurrences(ny, nx, hw, omega):
     """omega[c]: over the source patch at c, the sum of how many target patches (the
     source patch of each target pixel) hold each of its pixels, i.e. Σ_b count[b]·(pixels
     patch c shares with patch b); the overlap is separable (a 1-D tent per axis)."""
     H, W = omega.shape
     h, w = ny.shape
-    p = 2 * hw + 1
     count = np.zeros((H, W), np.int32)
     for i in range(h):
         for j in range(w):
             count[ny[i, j], nx[i, j]] += 1
     rows = np.empty((H, W), np.int32)
-    for y in prange(H):
-        for x in range(W):
-            s = 0
-            for b in range(max(x - 2 * hw, 0), min(x + 2 * hw + 1, W)):
-                s += count[y, b] * max(0, p - abs(b - x))
-            rows[y, x] = s
-    for y in prange(H):
-        for x in range(W):
-            s = 0
-            for b in range(max(y - 2 * hw, 0), min(y + 2 * hw + 1, H)):
-                s += rows[b, x] * max(0, p - abs(b - y))
-            omega[y, x] = s
+    _tent_rows(count, hw, rows)
+    _tent_rows(rows.T, hw, omega.T)  # the columns' pass: rows of the transposed views
 
 
 def occurrences(ny, nx, hw, shape) -> np.ndarray:
