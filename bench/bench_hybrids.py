@@ -37,8 +37,8 @@ from harness import write_jpeg  # noqa: E402
 
 SEEDS = (1, 2, 3, 4)
 SETS = ("foliage", "gravel", "brick")
-DEFAULTS = dict(J=0.1, passes=2, coherence=0.3)  # HybridSynth's
-BEFORE = dict(J=0.1, passes=2, coherence=1.0)  # main's HybridSynth (no coherence factor)
+DEFAULTS = dict(jitter_threshold=0.1, passes=2, coherence=0.3)  # HybridSynth's
+BEFORE = dict(jitter_threshold=0.1, passes=2, coherence=1.0)  # main's HybridSynth (no coherence factor)
 
 
 def renoir_creek():
@@ -143,7 +143,7 @@ def run(name, load, shape, kw, seeds=SEEDS):
     atlas, bw, levels = load()
     rgb = atlas_rgb(atlas)
     t0 = time.perf_counter()
-    an = H.analyse(rgb, bw, levels=levels, L=8, q=2, iterations=4, seed=0)
+    an = H.analyse(rgb, bw, levels=levels, descriptor_levels=8, q=2, iterations=4, seed=0)
     ta = time.perf_counter() - t0
     kw = dict(kw)
     ramp, cell = kw.pop("ramp", None), kw.pop("ramp_cell", 0)

@@ -186,7 +186,7 @@ def _ok(ball, cy, cx, i, j):
 
 
 @njit(inline="always", **JIT)
-def _pdist(src, tgt, nf, hw, i, j, cy, cx, bound):
+def _pdist(src, tgt, nf, half_width, i, j, cy, cx, bound):
     """Sum of squared differences between the target patch at (i, j) and the source patch
     at (cy, cx), which lies whole inside the source; target pixels outside are skipped.
     src (H, W·nf), tgt (h, w·nf) float32 rows of nf features per pixel. Summed in float32,
@@ -194,12 +194,12 @@ def _pdist(src, tgt, nf, hw, i, j, cy, cx, bound):
     ``bound``."""
     h = tgt.shape[0]
     w = tgt.shape[1] // nf
-    j0 = max(j - hw, 0)
-    n = (min(j + hw + 1, w) - j0) * nf
+    j0 = max(j - half_width, 0)
+    n = (min(j + half_width + 1, w) - j0) * nf
     so = (cx - j + j0) * nf
     to = j0 * nf
     d = np.float32(0.0)
-    for dy in range(-hw, hw + 1):
+    for dy in range(-half_width, half_width + 1):
         ti = i + dy
         if ti < 0 or ti >= h:
             continue
@@ -247,16 +247,16 @@ def _rows(a):
     return a.reshape(a.shape[0], -1), a.shape[2]
 
 
-def patch_distance(src, tgt, hw, i, j, cy, cx):
+def patch_distance(src, tgt, half_width, i, j, cy, cx):
     """Sum of squared feature differences between the target patch at (i, j) and the
     source patch at (cy, cx) (whole inside the source; target pixels outside the image
     skipped), as PatchMatch computes it (float32)."""
     H, W = src.shape[:2]
-    if not (hw <= cy < H - hw and hw <= cx < W - hw):
+    if not (half_width <= cy < H - half_width and half_width <= cx < W - half_width):
         raise ValueError(f"source patch at ({cy}, {cx}) is not whole inside the {H}x{W} source")
     s, nf = _rows(src)
     t, _ = _rows(tgt)
-    return float(_pdist(s, t, nf, int(hw), int(i), int(j), int(cy), int(cx), np.inf))
+    return float(_pdist(s, t, nf, int(half_width), int(i), int(j), int(cy), int(cx), np.inf))
 
 
 @njit(**PJIT)
@@ -334,32 +334,32 @@ def _overlap(dy, dx, p):
 
 
 @njit(inline="always", **JIT)
-def _move(omega, hw, cy, cx, inc):
+def _move(omega, half_width, cy, cx, inc):
     """Add ``inc`` times one patch at (cy, cx) to the occurrence sums ``omega``."""
     H, W = omega.shape
-    p = 2 * hw + 1
-    for y in range(max(cy - 2 * hw, 0), min(cy + 2 * hw + 1, H)):
-        for x in range(max(cx - 2 * hw, 0), min(cx + 2 * hw + 1, W)):
+    p = 2 * half_width + 1
+    for y in range(max(cy - 2 * half_width, 0), min(cy + 2 * half_width + 1, H)):
+        for x in range(max(cx - 2 * half_width, 0), min(cx + 2 * half_width + 1, W)):
             omega[y, x] += inc * _overlap(y - cy, x - cx, p)
 
 
 @njit(**PJIT)
-def _tent_rows(a, hw, out):
-    """out[y, x] = Σ_b a[y, b] · max(0, 2hw + 1 − |b − x|): along each row, how many pixels
+def _tent_rows(a, half_width, out):
+    """out[y, x] = Σ_b a[y, b] · max(0, 2 half_width + 1 − |b − x|): along each row, how many pixels
     the patch centred at x shares with each patch centred at b, weighted by a (one axis of
     the separable overlap)."""
     H, W = a.shape
-    p = 2 * hw + 1
+    p = 2 * half_width + 1
     for y in prange(H):
         for x in range(W):
             s = 0
-            for b in range(max(x - 2 * hw, 0), min(x + 2 * hw + 1, W)):
+            for b in range(max(x - 2 * half_width, 0), min(x + 2 * half_width + 1, W)):
                 s += a[y, b] * max(0, p - abs(b - x))
             out[y, x] = s
 
 
 @njit(**PJIT)
-def _occurrences(ny, nx, hw, omega):
+def _occurrences(ny, nx, half_width, omega):
     """omega[c]: over the source patch at c, the sum of how many target patches (the
     source patch of each target pixel) hold each of its pixels, i.e. Σ_b count[b]·(pixels
     patch c shares with patch b); the overlap is separable (a 1-D tent per axis)."""
@@ -370,23 +370,23 @@ def _occurrences(ny, nx, hw, omega):
         for j in range(w):
             count[ny[i, j], nx[i, j]] += 1
     rows = np.empty((H, W), np.int32)
-    _tent_rows(count, hw, rows)
-    _tent_rows(rows.T, hw, omega.T)  # the columns' pass: rows of the transposed views
+    _tent_rows(count, half_width, rows)
+    _tent_rows(rows.T, half_width, omega.T)  # the columns' pass: rows of the transposed views
 
 
-def occurrences(ny, nx, hw, shape) -> np.ndarray:
+def occurrences(ny, nx, half_width, shape) -> np.ndarray:
     """(H, W) int32 of ``shape``: for each source patch centre, how many of the target's
     patches (the source patch at (ny, nx) of each target pixel, whole inside the source)
     hold each pixel of that source patch, summed over the patch."""
     omega = np.empty(shape, np.int32)
-    _occurrences(np.ascontiguousarray(ny, np.int32), np.ascontiguousarray(nx, np.int32), int(hw), omega)
+    _occurrences(np.ascontiguousarray(ny, np.int32), np.ascontiguousarray(nx, np.int32), int(half_width), omega)
     return omega
 
 
 class Search(NamedTuple):
     """How one PatchMatch iteration searches (``_pm_sweep``)."""
 
-    hw: int  # patch half-width
+    half_width: int  # patch half-width
     seed: int
     it: int  # the iteration: its parity sets the scan direction
     lam: float  # occurrence penalty per covering patch pixel
@@ -406,17 +406,17 @@ def _pm_sweep(src, tgt, nf, ball, members, search, ny, nx, nd):
     others'. A band reads its own entries as they change and the others' as they were
     when the iteration began. Every number drawn is named by (pixel, iteration,
     candidate): the result does not depend on the thread count."""
-    hw, seed, it, lam = search.hw, search.seed, search.it, search.lam
+    half_width, seed, it, lam = search.half_width, search.seed, search.it, search.lam
     H = src.shape[0]
     W = src.shape[1] // nf
     h, w = ny.shape
     nm = members.shape[0]
     q = 1 if it % 2 == 0 else -1
-    p2 = (2 * hw + 1) ** 2
+    p2 = (2 * half_width + 1) ** 2
     bh = (h + BANDS - 1) // BANDS  # rows per band
     step = (bh + PHASES - 1) // PHASES  # rows per step
     om = np.empty((BANDS, H, W), np.int32)
-    _occurrences(ny, nx, hw, om[0])
+    _occurrences(ny, nx, half_width, om[0])
     for b in range(1, BANDS):
         om[b] = om[0]
     py = ny.copy()  # the entries at the iteration's start, read across band borders
@@ -430,8 +430,8 @@ def _pm_sweep(src, tgt, nf, ball, members, search, ny, nx, nd):
             for o in range(BANDS):  # the other bands' moves of the step before
                 if o != b:
                     for e in range(nmoves[1 - now, o]):
-                        _move(own, hw, moves[1 - now, o, e, 0], moves[1 - now, o, e, 1], -1)
-                        _move(own, hw, moves[1 - now, o, e, 2], moves[1 - now, o, e, 3], 1)
+                        _move(own, half_width, moves[1 - now, o, e, 0], moves[1 - now, o, e, 1], -1)
+                        _move(own, half_width, moves[1 - now, o, e, 2], moves[1 - now, o, e, 3], 1)
             lo = b * bh
             hi = min(h, lo + bh)
             n = max(hi - lo, 0) * w
@@ -460,8 +460,8 @@ def _pm_sweep(src, tgt, nf, ball, members, search, ny, nx, nd):
                         R = max(H, W) >> (c - 2)
                         if R < 1:
                             continue
-                        y0, y1 = max(ny[i, j] - R, hw), min(ny[i, j] + R, H - 1 - hw)
-                        x0, x1 = max(nx[i, j] - R, hw), min(nx[i, j] + R, W - 1 - hw)
+                        y0, y1 = max(ny[i, j] - R, half_width), min(ny[i, j] + R, H - 1 - half_width)
+                        x0, x1 = max(nx[i, j] - R, half_width), min(nx[i, j] + R, W - 1 - half_width)
                         if y1 < y0 or x1 < x0:
                             continue
                         r = rand(seed, kk, it * 64 + c, 1)  # 53 bits: the low 26 for y, the high 27 for x
@@ -472,17 +472,18 @@ def _pm_sweep(src, tgt, nf, ball, members, search, ny, nx, nd):
                         cy = m // W
                         cx = m % W
                     by, bx = ny[i, j], nx[i, j]
-                    if (cy == by and cx == bx) or cy < hw or cy >= H - hw or cx < hw or cx >= W - hw:
+                    inside = half_width <= cy < H - half_width and half_width <= cx < W - half_width
+                    if (cy == by and cx == bx) or not inside:
                         continue
                     if not _ok(ball, cy, cx, i, j):
                         continue
                     pen = lam * (own[cy, cx] + p2)
                     if pen >= cur:
                         continue
-                    d = _pdist(src, tgt, nf, hw, i, j, cy, cx, cur - pen)
+                    d = _pdist(src, tgt, nf, half_width, i, j, cy, cx, cur - pen)
                     if d + pen < cur:
-                        _move(own, hw, by, bx, -1)
-                        _move(own, hw, cy, cx, 1)
+                        _move(own, half_width, by, bx, -1)
+                        _move(own, half_width, cy, cx, 1)
                         ny[i, j] = cy
                         nx[i, j] = cx
                         nd[i, j] = d
@@ -497,14 +498,14 @@ def _pm_sweep(src, tgt, nf, ball, members, search, ny, nx, nd):
 
 
 @njit(**PJIT)
-def _pm_score(src, tgt, nf, hw, ny, nx, nd):
+def _pm_score(src, tgt, nf, half_width, ny, nx, nd):
     h, w = ny.shape
     for i in prange(h):
         for j in range(w):
-            nd[i, j] = _pdist(src, tgt, nf, hw, i, j, ny[i, j], nx[i, j], np.inf)
+            nd[i, j] = _pdist(src, tgt, nf, half_width, i, j, ny[i, j], nx[i, j], np.inf)
 
 
-def patchmatch(src, tgt, ball: Ball, ny, nx, *, hw, iterations, seed, members=None, uniformity=0.0):
+def patchmatch(src, tgt, ball: Ball, ny, nx, *, half_width, iterations, seed, members=None, uniformity=0.0):
     """Generalized PatchMatch in one cluster: for each target pixel the source patch centre
     (ny, nx) minimising the feature distance (``patch_distance``) plus a uniformity
     penalty, among the source pixels the ``Ball`` allows (usable, in the cluster, inside
@@ -528,23 +529,23 @@ def patchmatch(src, tgt, ball: Ball, ny, nx, *, hw, iterations, seed, members=No
     if members is None:
         members = np.flatnonzero(ball.usable & (ball.src_cluster == ball.cluster)).astype(np.int64)
     H, W = src.shape[:2]
-    if H <= 2 * hw or W <= 2 * hw:
-        raise ValueError(f"source {H}x{W} is smaller than a patch ({2 * hw + 1})")
-    ny = np.clip(ny, hw, H - 1 - hw).astype(np.int32)  # whole patches inside the source
-    nx = np.clip(nx, hw, W - 1 - hw).astype(np.int32)
+    if H <= 2 * half_width or W <= 2 * half_width:
+        raise ValueError(f"source {H}x{W} is smaller than a patch ({2 * half_width + 1})")
+    ny = np.clip(ny, half_width, H - 1 - half_width).astype(np.int32)  # whole patches inside the source
+    nx = np.clip(nx, half_width, W - 1 - half_width).astype(np.int32)
     nd = np.empty(ny.shape, np.float32)
     h, w = ny.shape
-    p2 = (2 * hw + 1) ** 2
+    p2 = (2 * half_width + 1) ** 2
     lam = float(uniformity) / (h * w * p2 / (H * W)) if uniformity else 0.0  # per patch over an even use
-    _pm_score(s, t, nf, int(hw), ny, nx, nd)
+    _pm_score(s, t, nf, int(half_width), ny, nx, nd)
     members = np.asarray(members, np.int64)
     for it in range(int(iterations)):
-        _pm_sweep(s, t, nf, ball, members, Search(int(hw), int(seed), it, lam), ny, nx, nd)
+        _pm_sweep(s, t, nf, ball, members, Search(int(half_width), int(seed), it, lam), ny, nx, nd)
     return ny, nx, nd
 
 
 @njit(**PJIT)
-def _vote(src, ny, nx, hw, out):
+def _vote(src, ny, nx, half_width, out):
     H, W, F = src.shape
     h, w = ny.shape
     for i in prange(h):
@@ -552,11 +553,11 @@ def _vote(src, ny, nx, hw, out):
         for j in range(w):
             acc[:] = 0.0
             n = 0
-            for dy in range(-hw, hw + 1):
+            for dy in range(-half_width, half_width + 1):
                 qi = i - dy
                 if qi < 0 or qi >= h:
                     continue
-                for dx in range(-hw, hw + 1):
+                for dx in range(-half_width, half_width + 1):
                     qj = j - dx
                     if qj < 0 or qj >= w:
                         continue
@@ -569,13 +570,13 @@ def _vote(src, ny, nx, hw, out):
                 out[i, j, f] = acc[f] / n
 
 
-def vote(src: np.ndarray, ny: np.ndarray, nx: np.ndarray, hw: int) -> np.ndarray:
-    """Voting: each target pixel is the mean of what the (2·hw+1)² patches covering it
+def vote(src: np.ndarray, ny: np.ndarray, nx: np.ndarray, half_width: int) -> np.ndarray:
+    """Voting: each target pixel is the mean of what the (2·half_width+1)² patches covering it
     say (the patch of target pixel q at offset o reads source ``nnf(q) + o``, clamped).
     src (H, W, F); returns (h, w, F) float32."""
     src = np.ascontiguousarray(src, np.float32)
     out = np.empty(ny.shape + (src.shape[2],), np.float32)
-    _vote(src, np.ascontiguousarray(ny, np.int32), np.ascontiguousarray(nx, np.int32), int(hw), out)
+    _vote(src, np.ascontiguousarray(ny, np.int32), np.ascontiguousarray(nx, np.int32), int(half_width), out)
     return out
 
 

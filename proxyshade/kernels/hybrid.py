@@ -19,7 +19,8 @@ The exemplars sit side by side in an *atlas*: equal boxes of ``bw`` columns in a
   multiscale descriptor, pairwise at least ``sep`` apart (L∞) and ``sep`` from the pixel
   itself, by PatchMatch (Barnes et al. 2009): random init, propagation, random search;
   also a nearest-patch search from another image (the bench's C measure);
-* ``subpass``: one parity sub-set of a jitter (``J`` > 0) or correction (``J`` = 0) pass.
+* ``subpass``: one parity sub-set of a jitter (``jitter_threshold``, the paper's J, > 0) or
+  correction (0) pass.
   For pixel p, the synthesized neighbourhood Ñ_S(p) is the PCA projection of the stack
   colours at the 5 × 5 neighbours' pointers (past the grid's border: the nearest pointer
   continued by h per pixel, clamped into its box); the candidates are, for each 3 × 3
@@ -206,11 +207,13 @@ def project(X: np.ndarray, mean: np.ndarray, basis: np.ndarray) -> np.ndarray:
     return out
 
 
-def multiscale(projections: list, s: int, L: int, *, coarser: bool = False, scales=None) -> np.ndarray:
+def multiscale(projections: list, s: int, descriptor_levels: int, *, coarser: bool = False, scales=None) -> np.ndarray:
     """The candidate-analysis descriptor of level ``s``: the projections of levels s,
-    s − 1, ..., s − L + 1 (finer; ``coarser``: s, s + 1, ..., s + L − 1), those that exist,
-    each times ``scales[t]`` when given, concatenated (float32, contiguous)."""
-    order = range(s, min(s + L, len(projections))) if coarser else range(s, max(s - L, -1), -1)
+    s − 1, ..., s − L + 1 (L = ``descriptor_levels``; finer; ``coarser``: s, s + 1, ...,
+    s + L − 1), those that exist, each times ``scales[t]`` when given, concatenated
+    (float32, contiguous)."""
+    n = descriptor_levels
+    order = range(s, min(s + n, len(projections))) if coarser else range(s, max(s - n, -1), -1)
     parts = [projections[t] if scales is None else projections[t] * np.float32(scales[t]) for t in order]
     return np.ascontiguousarray(np.concatenate(parts, axis=-1), np.float32)
 
@@ -454,7 +457,7 @@ def _neigh_desc(stack, mean, basis, S, i, j, h, bw, x, out):
 
 
 @njit(**PJIT)
-def _subpass(level, inv_w, S_old, S_new, pi, pj, h, bw, J, seed, salt, coherence):
+def _subpass(level, inv_w, S_old, S_new, pi, pj, h, bw, jitter_threshold, seed, salt, coherence):
     """One parity sub-set (rows pi, pi + 2, ..; columns pj, pj + 2, ..) of a pass, reading
     ``S_old`` and writing ``S_new``. ``level``: the level's (stack, mean, basis, P, cand)."""
     stack, mean, basis, P, cand = level
@@ -518,7 +521,7 @@ def _subpass(level, inv_w, S_old, S_new, pi, pj, h, bw, J, seed, salt, coherence
                 S_new[i, j, 1] = S_old[i, j, 1]
                 continue
             pick = -1
-            if J <= 0.0:
+            if jitter_threshold <= 0.0:
                 for u in range(nc):
                     if dl[u] == dmin:
                         pick = u
@@ -527,11 +530,11 @@ def _subpass(level, inv_w, S_old, S_new, pi, pj, h, bw, J, seed, salt, coherence
                 span = dmax - dmin
                 nq = 0
                 for u in range(nc):
-                    if span <= 0.0 or (dl[u] - dmin) <= J * span:
+                    if span <= 0.0 or (dl[u] - dmin) <= jitter_threshold * span:
                         nq += 1
                 k = rand(seed, i * Wt + j, salt, 0) % nq
                 for u in range(nc):
-                    if span <= 0.0 or (dl[u] - dmin) <= J * span:
+                    if span <= 0.0 or (dl[u] - dmin) <= jitter_threshold * span:
                         if k == 0:
                             pick = u
                             break
@@ -543,10 +546,10 @@ def _subpass(level, inv_w, S_old, S_new, pi, pj, h, bw, J, seed, salt, coherence
 PARITIES = ((0, 0), (1, 1), (0, 1), (1, 0))
 
 
-def run_pass(level: tuple, inv_w, S, *, h: int, bw: int, J: float, seed: int, salt: int,
+def run_pass(level: tuple, inv_w, S, *, h: int, bw: int, jitter_threshold: float, seed: int, salt: int,
              coherence: float = 1.0) -> np.ndarray:
-    """One pass of 4 parity sub-passes (each reads the state the previous left); J = 0:
-    correction, J > 0: structure-preserving jitter. ``level``: the analysis of the level,
+    """One pass of 4 parity sub-passes (each reads the state the previous left);
+    ``jitter_threshold`` (the paper's J) 0: correction, > 0: structure-preserving jitter. ``level``: the analysis of the level,
     (stack, mean, basis, P, cand) (``synthesis.hybrid.Analysis.level``). ``inv_w``: 1 / weight per exemplar (nb,)
     or per state pixel and exemplar (Ht, Wt, nb); inf: never a candidate. Returns the new
     state. ``coherence`` (<= 1) multiplies the cost of the coherent candidates (a
@@ -559,8 +562,8 @@ def run_pass(level: tuple, inv_w, S, *, h: int, bw: int, J: float, seed: int, sa
     inv_w = np.ascontiguousarray(inv_w)
     S_new = S_old.copy()
     for k, (pi, pj) in enumerate(PARITIES):
-        _subpass(level, inv_w, S_old, S_new, pi, pj, int(h), int(bw), float(J), int(seed), int(salt) * 4 + k,
-                 float(coherence))
+        _subpass(level, inv_w, S_old, S_new, pi, pj, int(h), int(bw), float(jitter_threshold), int(seed),
+                 int(salt) * 4 + k, float(coherence))
         S_old[...] = S_new
     return S_old
 

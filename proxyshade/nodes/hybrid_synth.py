@@ -73,11 +73,11 @@ class HybridSynth(Node):
             shape = (p.size[1], p.size[0])
         else:
             shape = (bh, bw)
-        an = H.analysis_of(atlas, bw, levels=p.levels, L=p.descriptor_levels, q=p.candidates,
+        an = H.analysis_of(atlas, bw, levels=p.levels, descriptor_levels=p.descriptor_levels, q=p.candidates,
                            iterations=p.iterations, memo=ctx.memo)
         wmap = (H.ramp_weights(shape, ramp, nb, axis=1 if p.ramp_axis == "x" else 0, cell=p.ramp_cell, seed=ctx.frame)
                 if ramp else None)
-        S = H.synthesize(an, shape, J=p.J, seed=ctx.frame, weights=w, passes=p.passes,
+        S = H.synthesize(an, shape, jitter_threshold=p.J, seed=ctx.frame, weights=w, passes=p.passes,
                          jitter_levels=p.jitter_levels, level_weights=lw, weight_map=wmap, symmetric=p.symmetric,
                          coherence=p.coherence)
         out = H.hybrid_plate(atlas, S, {"J": p.J, "seed": ctx.frame, "weights": [float(v) for v in w],

@@ -88,14 +88,14 @@ def check_annotations(src_ann, usable, tgt_ann, names, *, min_pixels=1000, where
                                  f"target map or annotate a source that covers it")
 
 
-def within_one_exemplar(ids: np.ndarray, hw: int) -> np.ndarray:
-    """(H, W) bool: pixels whose (2·hw+1)² patch lies in one exemplar of an atlas
+def within_one_exemplar(ids: np.ndarray, half_width: int) -> np.ndarray:
+    """(H, W) bool: pixels whose (2·half_width+1)² patch lies in one exemplar of an atlas
     (``exemplar.id`` all equal and non-zero), so no copied patch straddles two exemplars."""
     H, W = ids.shape
-    pad = np.pad(ids, hw, mode="edge")
+    pad = np.pad(ids, half_width, mode="edge")
     ok = ids > 0
-    for dy in range(2 * hw + 1):
-        for dx in range(2 * hw + 1):
+    for dy in range(2 * half_width + 1):
+        for dx in range(2 * half_width + 1):
             ok &= pad[dy:dy + H, dx:dx + W] == ids
     return ok
 
@@ -326,10 +326,11 @@ def synthesize(src_rgb, src_alpha, src_ann, usable, tgt_ann, p: AnnotatedParams,
     names = names or [str(k) for k in range(src_ann.shape[2])]
     H, W, d = src_ann.shape
     h, w = tgt_ann.shape[:2]
-    hw = p.patch // 2
+    half_width = p.patch // 2
     check_annotations(src_ann, usable, tgt_ann, names, min_pixels=p.min_pixels)
     usable = usable.copy()  # patch centres: whole patches inside the source
-    usable[:hw], usable[H - hw:], usable[:, :hw], usable[:, W - hw:] = False, False, False, False
+    m = half_width
+    usable[:m], usable[H - m:], usable[:, :m], usable[:, W - m:] = False, False, False, False
     eps = np.full(d, p.eps)
     cl, C, Wt, missing = analyse(src_ann, usable, tgt_ann, p)
     aw = p.ann_weight if p.mode == "analogies" else p.ann_distance
@@ -368,7 +369,7 @@ def synthesize(src_rgb, src_alpha, src_ann, usable, tgt_ann, p: AnnotatedParams,
         votes, present = [], []
         for i in range(C):
             sel = s_use & (s_cl == i)
-            sel[:hw], sel[Hl - hw:], sel[:, :hw], sel[:, Wl - hw:] = False, False, False, False
+            sel[:m], sel[Hl - m:], sel[:, :m], sel[:, Wl - m:] = False, False, False, False
             if not sel.any():
                 votes.append(np.zeros((hl, wl, out_src.shape[2]), np.float32))
                 present.append(False)
@@ -391,14 +392,14 @@ def synthesize(src_rgb, src_alpha, src_ann, usable, tgt_ann, p: AnnotatedParams,
                 if e == 0 and start is not None:
                     tgt = start
                 else:
-                    tgt = ka.vote(feat, ny, nx, hw)
+                    tgt = ka.vote(feat, ny, nx, half_width)
                     if aw:
                         tgt[..., -d:] = aw * t_ann
-                ny, nx, _ = ka.patchmatch(feat, tgt, ball, ny, nx, hw=hw, iterations=iters, seed=seed * 16 + e,
-                                          members=order,
+                ny, nx, _ = ka.patchmatch(feat, tgt, ball, ny, nx, half_width=half_width, iterations=iters,
+                                          seed=seed * 16 + e, members=order,
                                           uniformity=p.uniformity * p.patch * p.patch)
             nnfs[i] = (ny, nx)
-            votes.append(ka.vote(out_src, ny, nx, min(hw, 1) if lev == 0 else hw))
+            votes.append(ka.vote(out_src, ny, nx, min(half_width, 1) if lev == 0 else half_width))
             present.append(True)
         if C == 1:  # one cluster: its vote is the result; its next scale starts from its own map
             merged = (votes[0][..., :3], votes[0][..., 3])
@@ -409,7 +410,7 @@ def synthesize(src_rgb, src_alpha, src_ann, usable, tgt_ann, p: AnnotatedParams,
         melds += 1
     for i in range(C):
         if nnfs[i] is None:
-            nnfs[i] = (np.full((h, w), hw, np.int32), np.full((h, w), hw, np.int32))
+            nnfs[i] = (np.full((h, w), half_width, np.int32), np.full((h, w), half_width, np.int32))
     rgb, alpha = merged
     heavy = np.argmax(Wt, axis=2)
     sy = np.choose(heavy, [n[0] for n in nnfs]).astype(np.float32)

@@ -218,13 +218,14 @@ def standardised(rgb: np.ndarray, bw: int) -> np.ndarray:
 class Analysis:
     """What the synthesis needs of an atlas, per level s (h = 2^s, s = 0 finest): the
     standardised stack level, its PCA (mean, basis), the projected 6-D descriptors and the
-    candidate sets (from the descriptor of ``L`` successive levels, each scaled to unit
-    RMS: the finer ones by default, the coarser ones with ``coarser=True``)."""
+    candidate sets (from the descriptor of ``descriptor_levels`` (the paper's L) successive
+    levels, each scaled to unit RMS: the finer ones by default, the coarser ones with
+    ``coarser=True``)."""
 
     bw: int
     bh: int
     nb: int
-    L: int
+    descriptor_levels: int
     q: int
     sep: int
     stacks: list
@@ -240,7 +241,7 @@ class Analysis:
         return self.stacks[s], self.means[s], self.bases[s], self.P[s], self.cands[s]
 
 
-def analyse(rgb: np.ndarray, bw: int, *, levels: int, L: int, q: int, iterations: int, seed: int,
+def analyse(rgb: np.ndarray, bw: int, *, levels: int, descriptor_levels: int, q: int, iterations: int, seed: int,
             separation: float = 0.05, coarser: bool = False, stack: str = "gaussian") -> Analysis:
     """The analysis of an (H, nb bw, 3) linear atlas (``levels`` stack levels).
 
@@ -249,8 +250,8 @@ def analyse(rgb: np.ndarray, bw: int, *, levels: int, L: int, q: int, iterations
     (``stack_level``; earlier rounds' stack, kept for comparison).
 
     The candidates' multiscale descriptor of level s concatenates the projections of
-    levels s, s − 1, .., s − L + 1 (the paper's "L successive finer levels", those that
-    exist), each scaled to unit RMS (``kernels.hybrid.level_scales``): a candidate matches
+    levels s, s − 1, .., s − L + 1 (L = ``descriptor_levels``, the paper's "L successive
+    finer levels", those that exist), each scaled to unit RMS (``kernels.hybrid.level_scales``): a candidate matches
     the pixel at its own level and in the detail it will become, each level weighing
     alike (unscaled, the finest level's larger variance drowns the others). At the finest
     level it is the single-scale descriptor. ``coarser=True``: levels s .. s + L − 1
@@ -281,14 +282,14 @@ def analyse(rgb: np.ndarray, bw: int, *, levels: int, L: int, q: int, iterations
         means.append(mean)
         bases.append(basis)
         P.append(kh.project(N, mean, basis))
-    scales = kh.level_scales(P) if L > 1 else None
+    scales = kh.level_scales(P) if descriptor_levels > 1 else None
     cands = []
     for s in range(levels):  # finest first; each level's search starts from the finer level's lists
-        D = kh.multiscale(P, s, L, coarser=coarser, scales=scales)
+        D = kh.multiscale(P, s, descriptor_levels, coarser=coarser, scales=scales)
         c, _ = kh.candidates(D, D, bw, q, sep, own_box=True, iterations=iterations if s == 0 else 1,
                              seed=mix_seed(seed, s), init=cands[-1] if cands else None)
         cands.append(np.ascontiguousarray(c))
-    return Analysis(bw, bh, nb, L, q, sep, stacks, means, bases, P, cands, time.perf_counter() - t0)
+    return Analysis(bw, bh, nb, descriptor_levels, q, sep, stacks, means, bases, P, cands, time.perf_counter() - t0)
 
 
 def ramp_map(shape: tuple[int, int], order, nb: int, axis: int = 1) -> np.ndarray:
@@ -389,15 +390,15 @@ def mirror_state(S: np.ndarray, bw: int) -> np.ndarray:
     return S
 
 
-def synthesize(an: Analysis, shape: tuple[int, int], *, J: float, seed: int, weights: np.ndarray, passes: int,
-               jitter: str = "structure", r: float = 0.0, jitter_levels: int | None = None, level_weights=None,
-               weight_map: np.ndarray | None = None, symmetric: bool = False, coherence: float = 1.0,
-               layout: str = "exemplar") -> np.ndarray:
+def synthesize(an: Analysis, shape: tuple[int, int], *, jitter_threshold: float, seed: int, weights: np.ndarray,
+               passes: int, jitter: str = "structure", r: float = 0.0, jitter_levels: int | None = None,
+               level_weights=None, weight_map: np.ndarray | None = None, symmetric: bool = False,
+               coherence: float = 1.0, layout: str = "exemplar") -> np.ndarray:
     """A hybrid's state: (Ht, Wt, 2) int32 atlas (row, column), coarse to fine: identity
     pointers at the coarsest level into exemplars drawn by the weights; per level upsample
     (``correct.upsample_state`` on box-local coordinates), jitter (``structure``: one pass
-    of the structure-preserving jitter with threshold J; ``spatial``: the baseline's
-    ⌊h r ξ + ½⌋), then ``passes`` correction passes. The coarsest exemplars are one fixed
+    of the structure-preserving jitter with threshold ``jitter_threshold``, the paper's J;
+    ``spatial``: the baseline's ⌊h r ξ + ½⌋), then ``passes`` correction passes. The coarsest exemplars are one fixed
     draw (by the weights): with the exemplar layout the seed acts through the jitter only,
     and J = 0 (or r = 0) gives one result whatever the seed. ``jitter_levels``: jitter only
     the finest that many levels (None: all); the coarser keep the exemplars' layout exactly.
@@ -452,11 +453,12 @@ def synthesize(an: Analysis, shape: tuple[int, int], *, J: float, seed: int, wei
         if jitter_levels is not None and s >= jitter_levels:
             pass  # only the finest ``jitter_levels`` levels are jittered
         elif jitter == "structure":
-            S = kh.run_pass(level, inv_w, S, h=h, bw=an.bw, J=J, seed=lseed, salt=0)
+            S = kh.run_pass(level, inv_w, S, h=h, bw=an.bw, jitter_threshold=jitter_threshold, seed=lseed, salt=0)
         elif r > 0:
             S = kh.spatial_jitter(S, h=h, r=r, bw=an.bw, atlas_height=an.bh, seed=lseed)
         for k in range(passes):
-            S = kh.run_pass(level, inv_w, S, h=h, bw=an.bw, J=0.0, seed=lseed, salt=k + 1, coherence=coherence)
+            S = kh.run_pass(level, inv_w, S, h=h, bw=an.bw, jitter_threshold=0.0, seed=lseed, salt=k + 1,
+                            coherence=coherence)
         if symmetric:
             S = mirror_state(S, an.bw)
     return S
@@ -475,20 +477,22 @@ def hybrid_plate(atlas: Plate, S: np.ndarray, extra: dict) -> Plate:
     return Plate(ch, meta)
 
 
-def analysis_of(atlas: Plate, bw: int, *, levels: int, L: int, q: int, iterations: int, memo=None) -> Analysis:
+def analysis_of(atlas: Plate, bw: int, *, levels: int, descriptor_levels: int, q: int, iterations: int,
+                memo=None) -> Analysis:
     """``analyse`` of an atlas plate, kept in ``memo`` (every frame of a run passes the
     same atlas: the analysis runs once)."""
     arrays = (atlas["R"], atlas["G"], atlas["B"])
 
     def run():
         rgb = np.stack(arrays, -1).astype(np.float32)
-        return analyse(rgb, bw, levels=levels, L=L, q=q, iterations=iterations, seed=0)
+        return analyse(rgb, bw, levels=levels, descriptor_levels=descriptor_levels, q=q, iterations=iterations, seed=0)
 
-    return kept(memo, "hybrid.analysis_of", (arrays, bw, levels, L, q, iterations), run)
+    return kept(memo, "hybrid.analysis_of", (arrays, bw, levels, descriptor_levels, q, iterations), run)
 
 
-def plain_texture(rgb: np.ndarray, size: tuple[int, int], *, seed: int, J: float = 0.1, levels: int | None = None,
-                  passes: int = 3, L: int = 8, q: int = 2, iterations: int = 4, coherence: float = 0.2) -> dict:
+def plain_texture(rgb: np.ndarray, size: tuple[int, int], *, seed: int, jitter_threshold: float = 0.1,
+                  levels: int | None = None, passes: int = 3, descriptor_levels: int = 8, q: int = 2,
+                  iterations: int = 4, coherence: float = 0.2) -> dict:
     """A texture of ``size`` = (h, w) from one exemplar image ((H, W, 3) linear): the
     hybrid synthesis with a single exemplar (``TextureSynth`` method ``hybrid``). Levels
     default to the most whose coarsest 5 × 5 neighbourhood fits the exemplar. Returns
@@ -498,8 +502,9 @@ def plain_texture(rgb: np.ndarray, size: tuple[int, int], *, seed: int, J: float
     if levels is None:
         levels = max(l for l in range(1, 13) if coarsest_span(l) <= min(bh, bw)) if min(bh, bw) >= 5 else 1
     check_levels(levels, bh, bw)
-    an = analyse(rgb, bw, levels=levels, L=L, q=q, iterations=iterations, seed=0)
-    S = synthesize(an, size, J=J, seed=seed, weights=np.ones(1), passes=passes, coherence=coherence)
+    an = analyse(rgb, bw, levels=levels, descriptor_levels=descriptor_levels, q=q, iterations=iterations, seed=0)
+    S = synthesize(an, size, jitter_threshold=jitter_threshold, seed=seed, weights=np.ones(1), passes=passes,
+                   coherence=coherence)
     return {"rgb": rgb[S[..., 0], S[..., 1]], "sx": S[..., 1].astype(np.float32), "sy": S[..., 0].astype(np.float32)}
 
 
@@ -527,8 +532,8 @@ def label_window(ids: np.ndarray, label: int, area: float, smallest: int = 33, a
     return best[1:]
 
 
-def variant_states(rgb: np.ndarray, ids: np.ndarray, n: int, *, even: bool, seed: int, J: float, coherence: float,
-                   passes: int, L: int, q: int, iterations: int) -> list:
+def variant_states(rgb: np.ndarray, ids: np.ndarray, n: int, *, even: bool, seed: int, jitter_threshold: float,
+                   coherence: float, passes: int, descriptor_levels: int, q: int, iterations: int) -> list:
     """``n`` hybrid variants of a photo ((Hs, Ws, 3) linear, label ids (Hs, Ws)) as
     photo (row, column) pointer maps (Hs, Ws, 2), seeds ``seed`` .. ``seed + n − 1``.
     ``even``: each variant is one vertical strip per label present, of equal widths, each a
@@ -543,10 +548,10 @@ def variant_states(rgb: np.ndarray, ids: np.ndarray, n: int, *, even: bool, seed
     def texture(y0, x0, h, w, width, k):
         if (y0, x0, h, w) not in analyses:
             levels = max(l for l in range(1, 9) if coarsest_span(l) <= min(h, w)) if min(h, w) >= 5 else 1
-            analyses[y0, x0, h, w] = analyse(np.ascontiguousarray(rgb[y0:y0 + h, x0:x0 + w]), w, levels=levels, L=L,
-                                             q=q, iterations=iterations, seed=0)
-        S = synthesize(analyses[y0, x0, h, w], (Hs, width), J=J, seed=seed + k, weights=np.ones(1), passes=passes,
-                       coherence=coherence, layout="random" if even else "exemplar")
+            analyses[y0, x0, h, w] = analyse(np.ascontiguousarray(rgb[y0:y0 + h, x0:x0 + w]), w, levels=levels,
+                                             descriptor_levels=descriptor_levels, q=q, iterations=iterations, seed=0)
+        S = synthesize(analyses[y0, x0, h, w], (Hs, width), jitter_threshold=jitter_threshold, seed=seed + k,
+                       weights=np.ones(1), passes=passes, coherence=coherence, layout="random" if even else "exemplar")
         return S + np.array([y0, x0], np.int32)
 
     if not even:
@@ -561,8 +566,9 @@ def variant_states(rgb: np.ndarray, ids: np.ndarray, n: int, *, even: bool, seed
     return [np.concatenate([texture(*windows[t][k], b - a, k) for t, (a, b) in enumerate(strips)], 1) for k in range(n)]
 
 
-def with_variants(source: Plate, n: int, *, even: bool = True, seed: int = 1, J: float = 0.3, coherence: float = 0.5,
-                  passes: int = 2, L: int = 8, q: int = 2, iterations: int = 4, memo=None) -> Plate:
+def with_variants(source: Plate, n: int, *, even: bool = True, seed: int = 1, jitter_threshold: float = 0.3,
+                  coherence: float = 0.5, passes: int = 2, descriptor_levels: int = 8, q: int = 2, iterations: int = 4,
+                  memo=None) -> Plate:
     """An annotated source widened by ``n`` hybrid variants of itself (``variant_states``):
     the photo and its label map, then the variants, each of the photo's size, side by side;
     colour and labels looked up at the same pointers. A synthesis from the widened source
@@ -570,7 +576,7 @@ def with_variants(source: Plate, n: int, *, even: bool = True, seed: int = 1, J:
     ``even`` a label small in the photo gets as many variant pixels as a large one.
     Channels ``R, G, B, label.id`` and ``origin.x/y`` (float32, the photo pixel each pixel
     copies: the identity on the photo); meta ``source.variants`` = n, ``source.size`` the
-    widened size. The states are kept in ``memo``. J = 0.3 and coherence 0.5 move about
+    widened size. The states are kept in ``memo``. ``jitter_threshold`` (J) 0.3 and coherence 0.5 move about
     95 % of the pointers of a whole-photo variant of renoir (at J = 0.1, coherence 0.3,
     about 82 % stay put: near-copies, which would lower a repetition count on the widened
     source without showing the photo less)."""
@@ -579,11 +585,12 @@ def with_variants(source: Plate, n: int, *, even: bool = True, seed: int = 1, J:
     ids = np.ascontiguousarray(source["label.id"], np.int64)
 
     def run():
-        return variant_states(rgb, ids, n, even=even, seed=seed, J=J, coherence=coherence, passes=passes, L=L,
-                              q=q, iterations=iterations)
+        return variant_states(rgb, ids, n, even=even, seed=seed, jitter_threshold=jitter_threshold,
+                              coherence=coherence, passes=passes, descriptor_levels=descriptor_levels, q=q,
+                              iterations=iterations)
 
-    states = kept(memo, "hybrid.with_variants", (rgb, ids, n, even, seed, J, coherence, passes, L, q, iterations),
-                  run)
+    parts = (rgb, ids, n, even, seed, jitter_threshold, coherence, passes, descriptor_levels, q, iterations)
+    states = kept(memo, "hybrid.with_variants", parts, run)
     ii, jj = np.mgrid[0:Hs, 0:Ws]
     ys = [ii] + [S[..., 0] for S in states]
     xs = [jj] + [S[..., 1] for S in states]

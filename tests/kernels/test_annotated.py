@@ -105,7 +105,7 @@ def test_constrained_patchmatch_stays_in_cluster_and_ball_and_nears_exhaustive(c
     s = ka.ball_scale(bins, counts, eps, tgt_ann.reshape(-1, 2), 60).reshape(n, n)
     iy, ix = ka.nearest_init(tgt_ann, bins, start, counts, order, n, eps, seed=4)
     ball = ka.Ball.of(ann, cluster, cluster_id, usable, eps, tgt_ann, s)
-    ny, nx, nd = ka.patchmatch(src, tgt, ball, iy, ix, hw=2, iterations=12, seed=5)
+    ny, nx, nd = ka.patchmatch(src, tgt, ball, iy, ix, half_width=2, iterations=12, seed=5)
     # 100% of the entries in the cluster and in the pixel's ball
     assert np.all(cluster[ny, nx] == cluster_id)
     d = np.sqrt((((ann[ny, nx] - tgt_ann) / eps) ** 2).sum(-1))
@@ -139,7 +139,7 @@ def test_patchmatch_same_result_with_one_and_two_threads():
         numba.set_num_threads(t)
         iy, ix = ka.nearest_init(tgt_ann, bins, start, counts, order, 32, eps, seed=1)
         ball = ka.Ball.of(ann, cluster, 0, usable, eps, tgt_ann, s)
-        out.append(ka.patchmatch(src, tgt, ball, iy, ix, hw=2, iterations=3, seed=2))
+        out.append(ka.patchmatch(src, tgt, ball, iy, ix, half_width=2, iterations=3, seed=2))
     numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
     for a, b in zip(*out):
         np.testing.assert_array_equal(a, b)

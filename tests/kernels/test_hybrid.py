@@ -117,14 +117,14 @@ def test_analysis_stacks_are_the_gaussian_stack_by_default_and_the_box_stack_on_
     rng = np.random.default_rng(3)
     rgb = rng.random((32, 64, 3)).astype(np.float32)
     base = sh.standardised(rgb, 32)
-    an = sh.analyse(rgb, 32, levels=3, L=8, q=1, iterations=1, seed=0)
+    an = sh.analyse(rgb, 32, levels=3, descriptor_levels=8, q=1, iterations=1, seed=0)
     for got, want in zip(an.stacks, kh.gaussian_stack(base, 32, 3)):
         np.testing.assert_array_equal(got, want)
-    box = sh.analyse(rgb, 32, levels=3, L=8, q=1, iterations=1, seed=0, stack="box")
+    box = sh.analyse(rgb, 32, levels=3, descriptor_levels=8, q=1, iterations=1, seed=0, stack="box")
     for s, got in enumerate(box.stacks):
         np.testing.assert_array_equal(got, kh.stack_level(base, 32, 2 ** s))
     with pytest.raises(ValueError, match="stack"):
-        sh.analyse(rgb, 32, levels=3, L=8, q=1, iterations=1, seed=0, stack="pyramid")
+        sh.analyse(rgb, 32, levels=3, descriptor_levels=8, q=1, iterations=1, seed=0, stack="pyramid")
 
 
 def test_analysis_candidates_come_from_the_finer_levels_each_scaled():
@@ -134,7 +134,7 @@ def test_analysis_candidates_come_from_the_finer_levels_each_scaled():
 
     rng = np.random.default_rng(4)
     rgb = rng.random((32, 64, 3)).astype(np.float32)
-    an = sh.analyse(rgb, 32, levels=3, L=8, q=2, iterations=2, seed=1)
+    an = sh.analyse(rgb, 32, levels=3, descriptor_levels=8, q=2, iterations=2, seed=1)
     sc = kh.level_scales(an.P)
     for s in (1, 2):
         D = kh.multiscale(an.P, s, 8, scales=sc)
@@ -142,7 +142,7 @@ def test_analysis_candidates_come_from_the_finer_levels_each_scaled():
         want, _ = kh.candidates(D, D, 32, 2, an.sep, own_box=True, iterations=1, seed=mix_seed(1, s),
                                 init=an.cands[s - 1])
         np.testing.assert_array_equal(an.cands[s], want)
-    coarser = sh.analyse(rgb, 32, levels=3, L=8, q=2, iterations=2, seed=1, coarser=True)
+    coarser = sh.analyse(rgb, 32, levels=3, descriptor_levels=8, q=2, iterations=2, seed=1, coarser=True)
     assert (coarser.cands[1] != an.cands[1]).any()
 
 
@@ -196,7 +196,7 @@ def texture_descriptors(s):
     a = read_u8(tex / "brick.png")[:64:2, :64:2]
     b = read_u8(tex / "gravel.png")[100:164:2, 100:164:2]
     rgb = (np.concatenate([a, b], 1).astype(np.float32) / 255) ** 2.2
-    an = sh.analyse(rgb, 32, levels=3, L=8, q=1, iterations=1, seed=0)
+    an = sh.analyse(rgb, 32, levels=3, descriptor_levels=8, q=1, iterations=1, seed=0)
     return kh.multiscale(an.P, s, 8)
 
 
@@ -236,7 +236,7 @@ def test_nearest_patch_search_from_another_image_is_near_exhaustive():
 def small_level(seed, Ht=10, Wt=12, bh=16, bw=16, nb=2, q=2):
     rng = np.random.default_rng(seed)
     rgb = rng.random((bh, nb * bw, 3)).astype(np.float32)
-    an = sh.analyse(rgb, bw, levels=2, L=2, q=q, iterations=2, seed=seed)
+    an = sh.analyse(rgb, bw, levels=2, descriptor_levels=2, q=q, iterations=2, seed=seed)
     S = np.stack([rng.integers(0, bh, (Ht, Wt)), rng.integers(0, nb * bw, (Ht, Wt))], -1).astype(np.int32)
     return rng, an, S
 
@@ -299,26 +299,26 @@ def test_subpass_matches_the_written_out_reference(J, weights, coherence):
             want = reference_subpass(an, s, per_pixel, S, pi, pj, h, J, 77, 3, coherence)
             np.testing.assert_allclose(S_new, want)  # float64 sums in the same order: exact
     if J > 0:
-        S1 = kh.run_pass(an.level(0), inv_w, S, h=1, bw=an.bw, J=J, seed=1, salt=0)
-        S2 = kh.run_pass(an.level(0), inv_w, S, h=1, bw=an.bw, J=J, seed=2, salt=0)
+        S1 = kh.run_pass(an.level(0), inv_w, S, h=1, bw=an.bw, jitter_threshold=J, seed=1, salt=0)
+        S2 = kh.run_pass(an.level(0), inv_w, S, h=1, bw=an.bw, jitter_threshold=J, seed=2, salt=0)
         assert (S1 != S2).any()  # the seed matters when J > 0
 
 
 def test_an_exemplars_own_map_is_a_fixed_point_of_the_correction():
     rng = np.random.default_rng(10)
     rgb = rng.random((32, 64, 3)).astype(np.float32)
-    an = sh.analyse(rgb, 32, levels=3, L=8, q=2, iterations=2, seed=1)
+    an = sh.analyse(rgb, 32, levels=3, descriptor_levels=8, q=2, iterations=2, seed=1)
     for s, h in ((0, 1), (2, 4)):
         ii, jj = np.mgrid[0:32 // h, 0:32 // h]
         S = np.stack([ii * h + h // 2, jj * h + h // 2 + 32], -1).astype(np.int32)  # exemplar 2's own map
-        np.testing.assert_array_equal(kh.run_pass(an.level(s), np.ones(2), S, h=h, bw=32, J=0.0, seed=0, salt=1), S)
+        np.testing.assert_array_equal(kh.run_pass(an.level(s), np.ones(2), S, h=h, bw=32, jitter_threshold=0.0, seed=0, salt=1), S)
 
 
 def test_jitter_with_J_0_is_exactly_the_correction_pass():
     _, an, S = small_level(9)
-    corr = kh.run_pass(an.level(1), np.ones(2), S, h=2, bw=an.bw, J=0.0, seed=0, salt=1)
+    corr = kh.run_pass(an.level(1), np.ones(2), S, h=2, bw=an.bw, jitter_threshold=0.0, seed=0, salt=1)
     for seed, salt in ((1, 0), (123, 5)):
-        np.testing.assert_array_equal(kh.run_pass(an.level(1), np.ones(2), S, h=2, bw=an.bw, J=0.0, seed=seed, salt=salt),
+        np.testing.assert_array_equal(kh.run_pass(an.level(1), np.ones(2), S, h=2, bw=an.bw, jitter_threshold=0.0, seed=seed, salt=salt),
                                       corr)
     assert (corr != S).any()
 
@@ -342,8 +342,8 @@ def test_hybrid_is_bit_identical_with_1_and_2_threads():
     for t in (1, 2):
         numba.set_num_threads(t)
         try:
-            an = sh.analyse(rgb, 32, levels=3, L=8, q=2, iterations=2, seed=1)
-            runs.append((an, sh.synthesize(an, (24, 32), J=0.4, seed=3, weights=np.array([1.0, 2.0]), passes=2)))
+            an = sh.analyse(rgb, 32, levels=3, descriptor_levels=8, q=2, iterations=2, seed=1)
+            runs.append((an, sh.synthesize(an, (24, 32), jitter_threshold=0.4, seed=3, weights=np.array([1.0, 2.0]), passes=2)))
         finally:
             numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
     (a1, S1), (a2, S2) = runs

@@ -18,7 +18,7 @@ def analysis():
     rng = np.random.default_rng(3)
     a = np.cumsum(rng.random((32, 32, 3)), 1).astype(np.float32) / 32  # two different exemplars
     b = rng.random((32, 32, 3)).astype(np.float32)
-    return H.analyse(np.concatenate([a, b], 1), 32, levels=3, L=2, q=2, iterations=2, seed=0)
+    return H.analyse(np.concatenate([a, b], 1), 32, levels=3, descriptor_levels=2, q=2, iterations=2, seed=0)
 
 
 def test_ramp_map_goes_from_the_first_to_the_last_exemplar():
@@ -32,11 +32,11 @@ def test_ramp_map_goes_from_the_first_to_the_last_exemplar():
 
 def test_a_weight_map_steers_each_side_to_its_exemplar(analysis):
     shape = (32, 64)
-    S = H.synthesize(analysis, shape, J=0.1, seed=1, weights=np.ones(2), passes=2,
+    S = H.synthesize(analysis, shape, jitter_threshold=0.1, seed=1, weights=np.ones(2), passes=2,
                      weight_map=H.ramp_map(shape, [0, 1], 2))
     e = S[..., 1] // 32
     assert e[:, :12].mean() < 0.1 and e[:, -12:].mean() > 0.9 and 0.3 < e.mean() < 0.7
-    flat = H.synthesize(analysis, shape, J=0.1, seed=1, weights=np.ones(2), passes=2)[..., 1] // 32
+    flat = H.synthesize(analysis, shape, jitter_threshold=0.1, seed=1, weights=np.ones(2), passes=2)[..., 1] // 32
     assert abs(flat[:, :12].mean() - flat[:, -12:].mean()) < 0.5  # without the map: no such sides
 
 
@@ -66,7 +66,7 @@ def test_a_dithered_ramp_mixes_each_column_by_its_weight(analysis):
     want = H.ramp_map(shape, [0, 1], 2)[0, :, 1]
     share = {}
     for cell in (0, 4):
-        e = np.concatenate([H.synthesize(analysis, shape, J=0.1, seed=s, weights=np.ones(2), passes=2,
+        e = np.concatenate([H.synthesize(analysis, shape, jitter_threshold=0.1, seed=s, weights=np.ones(2), passes=2,
                                          weight_map=H.ramp_weights(shape, [0, 1], 2, cell=cell, seed=s))[..., 1] // 32
                             for s in (1, 2)])
         share[cell] = np.array([e[:, a:a + 16].mean() for a in range(0, 128, 16)])
@@ -78,19 +78,19 @@ def test_a_dithered_ramp_mixes_each_column_by_its_weight(analysis):
 
 def test_a_random_layout_is_seeded_and_stays_in_the_boxes(analysis):
     shape = (48, 80)  # larger than the 32² boxes: the exemplar layout tiles
-    tiled = [H.synthesize(analysis, shape, J=0.0, seed=s, weights=np.ones(2), passes=1) for s in (1, 2)]
+    tiled = [H.synthesize(analysis, shape, jitter_threshold=0.0, seed=s, weights=np.ones(2), passes=1) for s in (1, 2)]
     np.testing.assert_array_equal(tiled[0], tiled[1])  # J = 0: the seed does not act
-    rand = [H.synthesize(analysis, shape, J=0.0, seed=s, weights=np.ones(2), passes=1, layout="random") for s in (1, 2)]
+    rand = [H.synthesize(analysis, shape, jitter_threshold=0.0, seed=s, weights=np.ones(2), passes=1, layout="random") for s in (1, 2)]
     assert (rand[0] != rand[1]).mean() > 0.5  # the seed draws the coarsest layout
     for S in rand:
         assert (S[..., 0] >= 0).all() and (S[..., 0] < 32).all() and (S[..., 1] >= 0).all() and (S[..., 1] < 64).all()
 
 
 def test_level_weights_take_layout_from_one_exemplar_and_detail_from_another(analysis):
-    S = H.synthesize(analysis, (32, 32), J=0.0, seed=1, weights=np.ones(2), passes=1,
+    S = H.synthesize(analysis, (32, 32), jitter_threshold=0.0, seed=1, weights=np.ones(2), passes=1,
                      level_weights=[[1, 0], [0, 1]])
     assert (S[..., 1] // 32 == 1).all()  # the finer levels: exemplar 2 only
-    S1 = H.synthesize(analysis, (32, 32), J=0.0, seed=1, weights=np.ones(2), passes=1, level_weights=[[1, 0]])
+    S1 = H.synthesize(analysis, (32, 32), jitter_threshold=0.0, seed=1, weights=np.ones(2), passes=1, level_weights=[[1, 0]])
     assert (S1[..., 1] // 32 == 0).all()  # the last row repeats
     with pytest.raises(NodeInputError, match="row 2 is all zero"):
         H.check_level_weights([[1, 1], [0, 0]], 2)
@@ -99,7 +99,7 @@ def test_level_weights_take_layout_from_one_exemplar_and_detail_from_another(ana
 
 
 def test_symmetric_state_mirrors_the_left_half_inside_each_box(analysis):
-    S = H.synthesize(analysis, (32, 31), J=0.3, seed=2, weights=np.ones(2), passes=1, symmetric=True)
+    S = H.synthesize(analysis, (32, 31), jitter_threshold=0.3, seed=2, weights=np.ones(2), passes=1, symmetric=True)
     left, right = S[:, :15], S[:, 16:][:, ::-1]
     np.testing.assert_array_equal(right[..., 0], left[..., 0])
     np.testing.assert_array_equal(right[..., 1] // 32, left[..., 1] // 32)
