@@ -144,7 +144,7 @@ def read_photo(path: str | Path) -> np.ndarray:
     return np.ascontiguousarray(rgb, dtype=np.float32)
 
 
-def snap_labels(rgb8: np.ndarray, table: list[dict], *, far_distance: float = 100.0):
+def snap_labels(rgb8: np.ndarray, table: list[dict], *, far_distance: float):
     """Snap each pixel of a label map to the nearest table colour.
 
     Returns ``(ids (H, W) uint32, snapped count, far count)``: snapped pixels were not

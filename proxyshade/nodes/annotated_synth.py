@@ -6,7 +6,7 @@ import lazy_loader
 
 from proxyshade.graph.node import Input, Node, Param
 from proxyshade.graph.plate import Plate
-from proxyshade.synthesis.annotated import PatchOptimisation
+from proxyshade.synthesis.annotated import AnnotatedMatching
 
 np = lazy_loader.load("numpy")  # on first use: a fully cached run never loads numpy
 
@@ -15,7 +15,7 @@ def _ann_names(plate) -> list[str]:
     return sorted(n[4:] for n in plate.names() if n.startswith("ann."))
 
 
-class AnnotatedSynth(PatchOptimisation, Node):
+class AnnotatedSynth(AnnotatedMatching, Node):
     """Annotated-exemplar synthesis, one annotated source plate (``R,G,B``, ``ann.*``,
     optional ``A`` and ``mask``, e.g. from ``AnnotatedSourceRead``) and a target plate with
     the same ``ann.*`` channels (e.g. from ``AnnotationRender``).
@@ -40,13 +40,6 @@ class AnnotatedSynth(PatchOptimisation, Node):
     background = Input("optional frame (R,G,B) the result is composited over by the target mask", optional=True,
                        channels=("R", "G", "B"), finite=("R", "G", "B"),
                        fix="connect the first frame's final node (a Poisson or Magnify plate)")
-    eps = Param(float, 0.1, min=0.01, max=1.0, doc="ε-ball radius per annotation (0.05: closer match, 0.2: less repetition)")
-    bandwidth = Param(float, 0.5, min=0.01, max=2.0, doc="mean-shift bandwidth of the clusters (the paper's 0.5)")
-    ann_distance = Param(float, 0.0, min=0.0, max=100.0,
-                         doc="weight of the annotations in the patch distance (copies stay near their annotation "
-                             "inside an ε-ball); 0 = the paper: annotations only through the ε-balls")
-    mode = Param(str, "full", choices=("full", "binary", "single", "analogies"),
-                 doc="full method, or a baseline: binary weights, a single cluster, image analogies")
     seed = Param(int, 0, min=0, doc="seed of the PatchMatch initialisation and searches")
 
     def compute(self, ctx) -> Plate:

@@ -43,24 +43,41 @@ class PatchOptimisation(ParamGroup):
                            "2015); 0: none (large flat copies, washed-out texture)")
 
 
+class AnnotatedMatching(PatchOptimisation):
+    """The clusters and ε-balls of the annotated method (docs/annotated.md, Methods 1-3), and
+    the ablations (``mode``)."""
+
+    eps = Param(float, 0.1, min=0.01, max=1.0,
+                doc="ε-ball radius per annotation (0.05: closer match, 0.2: less repetition)")
+    bandwidth = Param(float, 0.5, min=0.01, max=2.0, doc="mean-shift bandwidth of the clusters (the paper's 0.5)")
+    ann_distance = Param(float, 0.0, min=0.0, max=100.0,
+                         doc="weight of the annotations in the patch distance (copies stay near their annotation "
+                             "inside an ε-ball); 0 = the paper: annotations only through the ε-balls")
+    mode = Param(str, "full", choices=MODES,
+                 doc="full method, or a baseline: binary weights, a single cluster, image analogies")
+
+
+_M = AnnotatedMatching  # the defaults below are its Params' (one declaration)
+
+
 @dataclass
 class AnnotatedParams:
-    eps: float = 0.1
-    patch: int = 5
-    levels: int = 0  # 0: auto_levels
-    em: int = 4
-    iterations: int = 3
-    bandwidth: float = 0.5
+    eps: float = _M.eps.default
+    patch: int = _M.patch.default
+    levels: int = _M.levels.default  # 0: auto_levels
+    em: int = _M.em.default
+    iterations: int = _M.iterations.default
+    bandwidth: float = _M.bandwidth.default
     alpha_weight: float = 10.0
     gradient_screen: float = 0.2
     # weight of the occurrence penalty (Kaspar et al. 2015), per patch pixel, in squared feature units
-    uniformity: float = 0.001
+    uniformity: float = _M.uniformity.default
     ann_weight: float = 1.0  # analogies baseline only
     # the annotations in the patch distance of the full method (and the binary and single
     # ablations), weight against the CIELAB/alpha/gradient features: copies stay near
     # their annotation inside an ε-ball; 0 = the paper (annotations only through the balls)
-    ann_distance: float = 0.0
-    mode: str = "full"
+    ann_distance: float = _M.ann_distance.default
+    mode: str = _M.mode.default
     min_pixels: int = 1000
     seed: int = 0
 
