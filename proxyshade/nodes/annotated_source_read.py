@@ -1,4 +1,7 @@
-"""AnnotatedSourceRead: a source photo with per-pixel annotation maps (Diamanti et al. 2015)."""
+"""AnnotatedSourceRead: a source photo with per-pixel annotation maps (Diamanti et al. 2015).
+
+Reference: O. Diamanti, C. Barnes, S. Paris, E. Shechtman, O. Sorkine-Hornung, "Synthesis of
+Complex Image Appearance from Limited Exemplars", ACM TOG 34(2), 2015."""
 from __future__ import annotations
 
 from pathlib import Path

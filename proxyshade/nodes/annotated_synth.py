@@ -1,5 +1,8 @@
 """AnnotatedSynth: fill a target with an annotated source's material following per-pixel
-annotation maps, interpolating combinations the source never shows (Diamanti et al. 2015)."""
+annotation maps, interpolating combinations the source never shows (Diamanti et al. 2015).
+
+Reference: O. Diamanti, C. Barnes, S. Paris, E. Shechtman, O. Sorkine-Hornung, "Synthesis of
+Complex Image Appearance from Limited Exemplars", ACM TOG 34(2), 2015."""
 from __future__ import annotations
 
 import lazy_loader

@@ -1,4 +1,7 @@
-"""AnnotationRender: per-pixel annotation maps of a proxy render (light, distance, slope)."""
+"""AnnotationRender: per-pixel annotation maps of a proxy render (light, distance, slope).
+
+Reference: O. Diamanti, C. Barnes, S. Paris, E. Shechtman, O. Sorkine-Hornung, "Synthesis of
+Complex Image Appearance from Limited Exemplars", ACM TOG 34(2), 2015."""
 from __future__ import annotations
 
 import lazy_loader

@@ -1,4 +1,7 @@
-"""BtfSheet: a BTF stack laid out as one picture (a contact sheet), for Preview."""
+"""BtfSheet: a BTF stack laid out as one picture (a contact sheet), for Preview.
+
+Reference: A. Neubeck, A. Zalesny, L. Van Gool, "Viewpoint Consistent Texture Synthesis",
+3DPVT 2004."""
 from __future__ import annotations
 
 from proxyshade.graph.node import Input, Node, Param

@@ -1,6 +1,9 @@
 """CG render: the scene's CG prims through the frame's camera, Lambert-shaded by the
 scene's distant light, for compositing with the synthesized frame.
 
+Reference: N. Bonneel, M. van de Panne, S. Lefebvre, G. Drettakis, "Proxy-Guided Texture
+Synthesis for Rendering Natural Scenes", INRIA RR-7298, 2010.
+
 Bonneel et al. 2010, §7: "3D CG elements can be integrated with the synthesized elements
 using the extended depth and the same camera as the proxy image at any given frame."
 The prims are rasterized with the proxy rasterizer (``proxyshade.kernels.raster``).

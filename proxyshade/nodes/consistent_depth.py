@@ -1,5 +1,8 @@
 """ConsistentDepth: the frame-0 detailed guide and extended depth carried to frame N.
 
+Reference: N. Bonneel, M. van de Panne, S. Lefebvre, G. Drettakis, "Proxy-Guided Texture
+Synthesis for Rendering Natural Scenes", INRIA RR-7298, 2010.
+
 Bonneel et al. 2010, §6.1: "We first create a mesh, which consists of a grid with each
 pixel of the initial frame as a separate small quad. We cut the edges of the grid at
 label boundaries or when a large depth gradient is detected ... We project this grid into

@@ -1,5 +1,8 @@
 """Correct: k-coherent pixel correction of the patch map, coarse to fine.
 
+Reference: N. Bonneel, M. van de Panne, S. Lefebvre, G. Drettakis, "Proxy-Guided Texture
+Synthesis for Rendering Natural Scenes", INRIA RR-7298, 2010.
+
 Bonneel et al. 2010, §5 step 2 (after Lefebvre and Hoppe 2005): the PatchInit map is
 taken down to the coarsest level (``coarse_size``, 32 by default) and refined up to the
 synthesis size with correction passes (5 per level, 3 at the finest), the metric of

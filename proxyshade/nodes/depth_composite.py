@@ -1,5 +1,8 @@
 """CG over the synthesized scene by per-pixel depth.
 
+Reference: N. Bonneel, M. van de Panne, S. Lefebvre, G. Drettakis, "Proxy-Guided Texture
+Synthesis for Rendering Natural Scenes", INRIA RR-7298, 2010.
+
 Bonneel et al. 2010, §7: "3D CG elements can be integrated with the synthesized elements
 using the extended depth and the same camera as the proxy image". The synthesized plate's
 Z follows the detailed, synthesized silhouettes, so a CG object behind a synthesized rock

@@ -1,5 +1,8 @@
 """DepthExtend: the proxy depth carried out to the detailed guide's new borders.
 
+Reference: N. Bonneel, M. van de Panne, S. Lefebvre, G. Drettakis, "Proxy-Guided Texture
+Synthesis for Rendering Natural Scenes", INRIA RR-7298, 2010.
+
 Bonneel et al. 2010, §4.3 and §7: where the detailed guide keeps the proxy's label the
 proxy depth stays; elsewhere a pixel takes the depth of the closest pixel having the same
 label both in the proxy and in the detailed guide, found by jump flooding

@@ -1,6 +1,9 @@
 """EditSynth: the first frame's colour synthesis, updated only where an edit changed the
 detailed guide (Bonneel et al. 2010, §7, progressive update).
 
+Reference: N. Bonneel, M. van de Panne, S. Lefebvre, G. Drettakis, "Proxy-Guided Texture
+Synthesis for Rendering Natural Scenes", INRIA RR-7298, 2010.
+
 Its first run synthesizes the whole frame (flood fill, correction, magnification, Poisson:
 the first frame's steps, run as the restricted steps of ``synthesis.resynthesis`` with
 every pixel in the region); a later run after an edit of the proxy (the engine hands it

@@ -1,5 +1,8 @@
 """Fog over the whole composite: exponential fog by depth with an exponential height falloff.
 
+Reference: N. Bonneel, M. van de Panne, S. Lefebvre, G. Drettakis, "Proxy-Guided Texture
+Synthesis for Rendering Natural Scenes", INRIA RR-7298, 2010.
+
 Bonneel et al. 2010, §7: the layered representation with extended depth allows
 "compositing effects such as fog". The model and its closed form are in
 ``proxyshade.kernels.fog``.

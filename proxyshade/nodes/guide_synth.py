@@ -1,5 +1,8 @@
 """GuideSynth: a detailed label guide synthesized from the proxy guide and the source's labels.
 
+Reference: N. Bonneel, M. van de Panne, S. Lefebvre, G. Drettakis, "Proxy-Guided Texture
+Synthesis for Rendering Natural Scenes", INRIA RR-7298, 2010.
+
 Bonneel et al. 2010, §4: the rendered proxy guide has smooth, unnatural borders; k-coherent
 label synthesis (``proxyshade.kernels.guide``) with the Chamfer metric and a voting stack
 transfers the source label map's border structure onto it. "To synthesize a 256×256

@@ -1,5 +1,8 @@
 """A colour grade restricted to one texture label (a different sky colour, warmer grass).
 
+Reference: N. Bonneel, M. van de Panne, S. Lefebvre, G. Drettakis, "Proxy-Guided Texture
+Synthesis for Rendering Natural Scenes", INRIA RR-7298, 2010.
+
 Bonneel et al. 2010, §7: the layered representation "allows for image manipulation (e.g.,
 changing the sky color)". The grade works in linear light on the plate's scene-linear
 Rec.709/sRGB primaries, with colour-science for the colourimetry:

@@ -1,5 +1,8 @@
 """Magnify: upsample the synthesized patches to the output size (no correction).
 
+Reference: N. Bonneel, M. van de Panne, S. Lefebvre, G. Drettakis, "Proxy-Guided Texture
+Synthesis for Rendering Natural Scenes", INRIA RR-7298, 2010.
+
 Bonneel et al. 2010, §5 step 3: "a synthesis magnification to the resolution of the
 input image ... by upsampling patches without correction passes". Each synthesis pixel
 becomes ``factor``×``factor`` output pixels reading the source at full detail along its

@@ -1,5 +1,8 @@
 """PatchInit: cover the detailed guide with source patches by flood fill.
 
+Reference: N. Bonneel, M. van de Panne, S. Lefebvre, G. Drettakis, "Proxy-Guided Texture
+Synthesis for Rendering Natural Scenes", INRIA RR-7298, 2010.
+
 Bonneel et al. 2010, §5 step 1: at the synthesis resolution (the guide divided by
 ``factor``, typically 1024 → 256), random uncovered guide pixels seed patches whose best
 source match under eq. 1 (contour-distance neighbourhoods + w · Chamfer) is grown by a

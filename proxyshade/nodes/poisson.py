@@ -1,5 +1,8 @@
 """Poisson: gradient-domain transfer of the magnified synthesis.
 
+Reference: N. Bonneel, M. van de Panne, S. Lefebvre, G. Drettakis, "Proxy-Guided Texture
+Synthesis for Rendering Natural Scenes", INRIA RR-7298, 2010.
+
 Bonneel et al. 2010, §5 step 3 and §7: solve Δu = Δ(f∘s) in Ω, ∇u = 0 across patch
 boundaries (Γ1), u = f∘s on boundaries between label ids (Γ2), with a multigrid solver
 (layer ``proxyshade.synthesis.blend``, kernels ``proxyshade.kernels.poisson``). Seams between patches are blended away while label

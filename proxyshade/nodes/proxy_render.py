@@ -1,5 +1,8 @@
 """ProxyRender: the proxy guide and proxy depth of a USD scene through its camera.
 
+Reference: N. Bonneel, M. van de Panne, S. Lefebvre, G. Drettakis, "Proxy-Guided Texture
+Synthesis for Rendering Natural Scenes", INRIA RR-7298, 2010.
+
 "An image of texture category labels is obtained by rendering the 3D proxy geometry into
 a proxy guide, with no lighting computation and with the appropriate texture label
 associated with each component of the proxy ... A proxy depth map is created at the same

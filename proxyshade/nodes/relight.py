@@ -1,5 +1,8 @@
 """Relight: a synthesized frame re-applied to another photo of the same view.
 
+Reference: N. Bonneel, M. van de Panne, S. Lefebvre, G. Drettakis, "Proxy-Guided Texture
+Synthesis for Rendering Natural Scenes", INRIA RR-7298, 2010.
+
 Bonneel et al. 2010, §8 (time-lapse): the frame's map (``source.x/y``, ``patch.id``)
 reads the other photo through the same lookup, and the Poisson solve blends the seams
 over the whole frame with that photo's gradients; no new matching, so a series of photos

@@ -1,6 +1,9 @@
 """Reproject: carry the previous frame's synthesis into this frame and flag what must be
 resynthesized (Bonneel et al. 2010, §6.2).
 
+Reference: N. Bonneel, M. van de Panne, S. Lefebvre, G. Drettakis, "Proxy-Guided Texture
+Synthesis for Rendering Natural Scenes", INRIA RR-7298, 2010.
+
 "We project the 3D coordinates of a given pixel in the current frame (N) to the camera
 position of the previous frame (N − 1); we copy this color ... pixels which became
 disoccluded ... are flagged for resynthesis. ... We compute the determinant of the

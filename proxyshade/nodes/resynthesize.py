@@ -1,5 +1,8 @@
 """Resynthesize: texture synthesis restricted to the pixels Reproject flagged (paper §6.3).
 
+Reference: N. Bonneel, M. van de Panne, S. Lefebvre, G. Drettakis, "Proxy-Guided Texture
+Synthesis for Rendering Natural Scenes", INRIA RR-7298, 2010.
+
 The first frame's steps (flood fill, correction, magnification, Poisson) run again on the
 flagged pixels only, with the unflagged ones as fixed context and Dirichlet values; see
 ``proxyshade.synthesis.resynthesis`` for how. Unflagged pixels keep Reproject's colours

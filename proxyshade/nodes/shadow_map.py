@@ -1,5 +1,8 @@
 """Shadows of CG prims on the synthesized scene by modulative shadow mapping.
 
+Reference: N. Bonneel, M. van de Panne, S. Lefebvre, G. Drettakis, "Proxy-Guided Texture
+Synthesis for Rendering Natural Scenes", INRIA RR-7298, 2010.
+
 Bonneel et al. 2010, §7: CG elements "can then cast shadows into the scene by simple
 modulative shadow mapping using the extended depth map". The occluders' depth is
 rendered from the scene's UsdLux.DistantLight through an orthographic projection with the

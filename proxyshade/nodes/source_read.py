@@ -1,4 +1,7 @@
-"""SourceRead: an annotated source photo (photo + label map + label table) as a plate."""
+"""SourceRead: an annotated source photo (photo + label map + label table) as a plate.
+
+Reference: N. Bonneel, M. van de Panne, S. Lefebvre, G. Drettakis, "Proxy-Guided Texture
+Synthesis for Rendering Natural Scenes", INRIA RR-7298, 2010."""
 from __future__ import annotations
 
 from pathlib import Path

@@ -1,6 +1,10 @@
 """TextureSynth: plain exemplar texture synthesis, an image in, a larger texture out: the
 yardstick each synthesis core that can make a plain texture is held to
-(``bench/bench_texture.py``, ``graphs/texture.yaml``)."""
+(``bench/bench_texture.py``, ``graphs/texture.yaml``).
+
+References: O. Diamanti, C. Barnes, S. Paris, E. Shechtman, O. Sorkine-Hornung, "Synthesis
+of Complex Image Appearance from Limited Exemplars", ACM TOG 34(2), 2015. E. Risser, C. Han,
+R. Dahyot, E. Grinspun, "Synthesizing Structured Image Hybrids", SIGGRAPH 2010."""
 from __future__ import annotations
 
 from pathlib import Path

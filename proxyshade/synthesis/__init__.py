@@ -5,7 +5,10 @@ parameters, call this layer) and the numba kernels (``proxyshade.kernels``: hot 
 Methods: N. Bonneel, M. van de Panne, S. Lefebvre, G. Drettakis, "Proxy-Guided Texture
 Synthesis for Rendering Natural Scenes", INRIA RR-7298, 2010 (§ numbers below are its);
 E. Risser, C. Han, R. Dahyot, E. Grinspun, "Synthesizing Structured Image Hybrids",
-SIGGRAPH 2010; Diamanti et al. 2015 (annotated exemplars); Neubeck et al. (BTF synthesis).
+SIGGRAPH 2010; O. Diamanti, C. Barnes, S. Paris, E. Shechtman, O. Sorkine-Hornung,
+"Synthesis of Complex Image Appearance from Limited Exemplars", ACM TOG 34(2), 2015
+(annotated exemplars); A. Neubeck, A. Zalesny, L. Van Gool, "Viewpoint Consistent Texture
+Synthesis", 3DPVT 2004 (BTF synthesis).
 
 Modules, one operation family each:
 

@@ -3,6 +3,9 @@ annotation points (mean shift), ε-ball scales and eq. 2 weights per cluster, co
 constrained PatchMatch + voting in each cluster, the clusters melded at every scale (CIELAB
 merge and a screened Poisson reconstruction of L*).
 
+Reference: O. Diamanti, C. Barnes, S. Paris, E. Shechtman, O. Sorkine-Hornung, "Synthesis of
+Complex Image Appearance from Limited Exemplars", ACM TOG 34(2), 2015.
+
 Choices the paper leaves open (docs/annotated.md): annotations are quantised to 1/32 for
 the ε-balls and the PatchMatch constraint (the balls are then exact on the quantised
 points); mean shift runs on points binned so that at most ~1024 distinct points remain;

@@ -1,6 +1,9 @@
 """Poisson blending of patch seams (Bonneel et al. 2010, §5 step 3, §6.3, §7): the whole
 frame, or only the newly synthesized regions with Dirichlet values around them.
 
+Reference: N. Bonneel, M. van de Panne, S. Lefebvre, G. Drettakis, "Proxy-Guided Texture
+Synthesis for Rendering Natural Scenes", INRIA RR-7298, 2010.
+
 Solve Δu = Δ(f∘s) in Ω, ∇u = 0 across patch boundaries (Γ1: with ``seams: source`` the
 source's own gradient read through the map on both sides of the seam instead), u = f∘s on
 boundaries between label ids (Γ2). The restricted solve (``poisson_regions``) splits

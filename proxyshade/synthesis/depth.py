@@ -1,6 +1,9 @@
 """Depth extension (Bonneel et al. 2010, §4.3, §7): the proxy depth carried out to the
 detailed guide's new borders by jump flooding (``kernels.jfa``), over the whole frame or,
-after an edit of the proxy, over a region (the rest kept from the previous result)."""
+after an edit of the proxy, over a region (the rest kept from the previous result).
+
+Reference: N. Bonneel, M. van de Panne, S. Lefebvre, G. Drettakis, "Proxy-Guided Texture
+Synthesis for Rendering Natural Scenes", INRIA RR-7298, 2010."""
 from __future__ import annotations
 
 import numpy as np

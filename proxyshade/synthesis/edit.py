@@ -1,6 +1,9 @@
 """Progressive update after an edit of the proxy (Bonneel et al. 2010, §7): "the guide,
 depth and colour are recomputed only in the region the edit changed".
 
+Reference: N. Bonneel, M. van de Panne, S. Lefebvre, G. Drettakis, "Proxy-Guided Texture
+Synthesis for Rendering Natural Scenes", INRIA RR-7298, 2010.
+
 A progressive node (``graph.node.Progressive``) gets its last result and the inputs it was
 computed from (``ctx.previous``); ``changed_region`` diffs those inputs against this run's
 and dilates the difference; the node then recomputes that region only and keeps every

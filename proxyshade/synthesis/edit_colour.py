@@ -1,7 +1,10 @@
 """The colour synthesis of a progressive edit (Bonneel et al. 2010, §7): the first frame's
 steps on the whole frame, then, after an edit, on the changed region only
 (``resynthesis.resynthesize``, as for the flagged pixels of a camera move). Kept apart
-from ``synthesis.edit`` so the guide and depth nodes do not depend on the patch steps."""
+from ``synthesis.edit`` so the guide and depth nodes do not depend on the patch steps.
+
+Reference: N. Bonneel, M. van de Panne, S. Lefebvre, G. Drettakis, "Proxy-Guided Texture
+Synthesis for Rendering Natural Scenes", INRIA RR-7298, 2010."""
 from __future__ import annotations
 
 from types import SimpleNamespace

@@ -2,6 +2,9 @@
 proxy guide and the source's label map, by k-coherent label synthesis with the Chamfer
 metric and a voting stack, coarse to fine, magnified through the source coordinates.
 
+Reference: N. Bonneel, M. van de Panne, S. Lefebvre, G. Drettakis, "Proxy-Guided Texture
+Synthesis for Rendering Natural Scenes", INRIA RR-7298, 2010.
+
 "To synthesize a 256×256 guide, we start the synthesis at the 64×64 level ... We use 5×5
 neighborhoods and k = 5 coherent matches ... We do not use the jittering step."
 Kernels: ``proxyshade.kernels.guide``, ``proxyshade.kernels.voting``.

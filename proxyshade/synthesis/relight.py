@@ -1,6 +1,9 @@
 """Relighting a synthesized frame from another photo of the same view (Bonneel et al.
 2010, §8: "the same synthesis can be re-applied to a time-lapse series").
 
+Reference: N. Bonneel, M. van de Panne, S. Lefebvre, G. Drettakis, "Proxy-Guided Texture
+Synthesis for Rendering Natural Scenes", INRIA RR-7298, 2010.
+
 The synthesis state of a frame is its coordinate map into the source (``source.x/y``)
 and its patches (``patch.id``). Every colour is read through the map
 (``kernels.lookup``), so the map made on one photo reads any other photo of the same

@@ -4,6 +4,9 @@ coordinate map carried into this one, with its flags (§6.2, Reproject): distort
 carried map, re-anchoring of distorted patches, continuation of fragments and
 disocclusions, cleaning of the flags.
 
+Reference: N. Bonneel, M. van de Panne, S. Lefebvre, G. Drettakis, "Proxy-Guided Texture
+Synthesis for Rendering Natural Scenes", INRIA RR-7298, 2010.
+
 Flags (uint32 ``flag``): 0 kept, 1 disoccluded, 2 newly occluded, 3 distorted
 (resynthesized), 4 re-anchored (the new map kept; only the Poisson solve is redone).
 ``CORRECTION`` is the carried Poisson correction: the colour minus the source through
