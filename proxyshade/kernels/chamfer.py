@@ -98,16 +98,21 @@ def one_way_label(a, b):
 
 
 @njit(**JIT)
+def _label_term(ma, mb, l):
+    """Label ``l``'s part of the symmetric Chamfer distance (0 where its masks agree)."""
+    a = np.int64(ma[l])
+    b = np.int64(mb[l])
+    if a == b:
+        return 0
+    return one_way_label(a, b) + one_way_label(b, a)
+
+
+@njit(**JIT)
 def chamfer_masks(ma, mb):
     """Symmetric Chamfer distance of two 5×5 windows given as (n,) uint32 label masks."""
-    n = ma.shape[0]
     s = 0
-    for l in range(n):
-        a = np.int64(ma[l])
-        b = np.int64(mb[l])
-        if a == b:
-            continue
-        s += one_way_label(a, b) + one_way_label(b, a)
+    for l in range(ma.shape[0]):
+        s += _label_term(ma, mb, l)
     return s
 
 
@@ -115,14 +120,9 @@ def chamfer_masks(ma, mb):
 def chamfer_bounded(ma, mb, bound):
     """``chamfer_masks``, stopping as soon as the sum exceeds ``bound``: the exact
     distance when it is <= bound, otherwise some value > bound (a partial sum)."""
-    n = ma.shape[0]
     s = 0
-    for l in range(n):
-        a = np.int64(ma[l])
-        b = np.int64(mb[l])
-        if a == b:
-            continue
-        s += one_way_label(a, b) + one_way_label(b, a)
+    for l in range(ma.shape[0]):
+        s += _label_term(ma, mb, l)
         if s > bound:
             return s
     return s
