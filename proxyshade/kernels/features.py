@@ -111,29 +111,31 @@ def _mode_resample(lab, oh, ow, f, n, out):
             out[i, j] = best
 
 
+@njit(**JIT)
+def _box_mean_1d(a, i, j, k, h, di, dj):
+    """Mean of the h values of channel k along (di, dj) = (0, 1) (a row) or (1, 0) (a column),
+    offsets -h/2 .. h - h/2 - 1 from (i, j), clamped at the borders."""
+    H, W = a.shape[0], a.shape[1]
+    s = 0.0
+    for d in range(-(h // 2), h - h // 2):
+        s += a[min(max(i + d * di, 0), H - 1), min(max(j + d * dj, 0), W - 1), k]
+    return s / h
+
+
 @njit(**PJIT)
 def _box_blur_centred(img, h, out):
     """Mean over the h x h block anchored so that its centre is at the pixel (h even:
-    offsets -h/2 .. h/2 - 1), clamped at the borders; separable."""
+    offsets -h/2 .. h/2 - 1), clamped at the borders; separable: rows, then columns."""
     H, W, C = img.shape
-    lo = h // 2
     tmp = np.empty_like(img)
     for i in prange(H):
         for j in range(W):
             for k in range(C):
-                s = 0.0
-                for d in range(-lo, h - lo):
-                    jj = min(max(j + d, 0), W - 1)
-                    s += img[i, jj, k]
-                tmp[i, j, k] = s / h
+                tmp[i, j, k] = _box_mean_1d(img, i, j, k, h, 0, 1)
     for i in prange(H):
         for j in range(W):
             for k in range(C):
-                s = 0.0
-                for d in range(-lo, h - lo):
-                    ii = min(max(i + d, 0), H - 1)
-                    s += tmp[ii, j, k]
-                out[i, j, k] = s / h
+                out[i, j, k] = _box_mean_1d(tmp, i, j, k, h, 1, 0)
 
 
 def srgb_features(rgb_linear: np.ndarray) -> np.ndarray:
