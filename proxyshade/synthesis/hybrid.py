@@ -247,16 +247,16 @@ def analyse(rgb: np.ndarray, bw: int, *, levels: int, descriptor_levels: int, q:
 
     ``stack``: ``"gaussian"`` (the default), the per-exemplar Gaussian stack
     (``kernels.hybrid.gaussian_stack``); ``"box"``, level h the h × h box mean
-    (``stack_level``; earlier rounds' stack, kept for comparison).
+    (``stack_level``, kept for comparison).
 
     The candidates' multiscale descriptor of level s concatenates the projections of
     levels s, s − 1, .., s − L + 1 (L = ``descriptor_levels``, the paper's "L successive
-    finer levels", those that exist), each scaled to unit RMS (``kernels.hybrid.level_scales``): a candidate matches
-    the pixel at its own level and in the detail it will become, each level weighing
-    alike (unscaled, the finest level's larger variance drowns the others). At the finest
-    level it is the single-scale descriptor. ``coarser=True``: levels s .. s + L − 1
-    instead (an earlier round's reading; with the Gaussian stack its brick hybrids break
-    columns, docs/hybrids.md)."""
+    finer levels", those that exist), each scaled to unit RMS (``kernels.hybrid.level_scales``):
+    a candidate matches the pixel at its own level and in the detail it will become, each
+    level weighing alike (unscaled, the finest level's larger variance drowns the others).
+    At the finest level it is the single-scale descriptor. ``coarser=True``: levels s .. s +
+    L − 1 instead (another reading of the paper; with the Gaussian stack its brick hybrids
+    break columns, docs/hybrids.md)."""
     import time
 
     from proxyshade.kernels import hybrid as kh
