@@ -46,7 +46,6 @@ class AnnotatedSynth(AnnotatedMatching, Node):
     seed = Param(int, 0, min=0, doc="seed of the PatchMatch initialisation and searches")
 
     def compute(self, ctx) -> Plate:
-        from proxyshade.errors import NodeInputError
         from proxyshade.synthesis.annotated import AnnotatedParams, synthesize
 
         src, tgt = ctx.inputs["source"], ctx.inputs["target"]
@@ -80,11 +79,8 @@ class AnnotatedSynth(AnnotatedMatching, Node):
         if tmask is not None:  # only the mask's bounding box is synthesized
             rows, cols = np.flatnonzero(tmask.any(axis=1)), np.flatnonzero(tmask.any(axis=0))
             box = (slice(rows[0], rows[-1] + 1), slice(cols[0], cols[-1] + 1))
-        try:
-            r = synthesize(src.rgb(), alpha, src.layer(["ann." + n for n in names], np.float64), usable,
-                           np.ascontiguousarray(tgt_ann[box]), p, names=names)
-        except NodeInputError as e:
-            raise ctx.error(str(e)) from None
+        r = synthesize(src.rgb(), alpha, src.layer(["ann." + n for n in names], np.float64), usable,
+                       np.ascontiguousarray(tgt_ann[box]), p, names=names)
         if tmask is not None:
             for k in ("rgb", "alpha", "sx", "sy", "cluster", "missing"):
                 full = np.zeros(tmask.shape + r[k].shape[2:], r[k].dtype)
