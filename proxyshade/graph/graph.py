@@ -66,6 +66,34 @@ def load_array_libraries() -> None:
         from proxyshade.io.exr import compressions
 
         compressions()
+        _numba_array_math_without_blas()
+
+
+def _numba_array_math_without_blas() -> None:
+    """Load numba's array-math module (its CPU target loads it with the first kernel) with
+    BLAS reported missing. On import it looks for a BLAS for ``np.dot``/``np.vdot`` of
+    vectors in jitted code by importing scipy.linalg (with numpy.f2py and OpenBLAS: 0.15-0.3 s
+    on the run's path and 15 MiB resident at 1024 wide), where no kernel calls either: each
+    kernel's machine code is the same (and loads from the same cache entry). A kernel that
+    called ``np.dot`` on vectors would get numba's loop; ``np.linalg`` and matrix products
+    still find scipy when compiled. Once per process, before any kernel loads."""
+    import sys
+
+    if "numba.np.arraymath" in sys.modules:
+        return
+    from numba.np import linalg
+
+    check = linalg.ensure_blas
+
+    def no_blas():
+        raise ImportError("proxyshade: BLAS not looked for when numba's array math loads")
+
+    linalg.ensure_blas = no_blas
+    try:
+        import numba.np.arraymath as arraymath
+    finally:
+        linalg.ensure_blas = check
+    arraymath.ensure_blas = check  # the name it imported, called only by that check
 
 
 def load_native_libraries(graph: "Graph", todo) -> None:
