@@ -66,6 +66,34 @@ def load_array_libraries() -> None:
         from proxyshade.io.exr import compressions
 
         compressions()
+        _numba_array_math_without_blas()
+
+
+def _numba_array_math_without_blas() -> None:
+    """Load numba's array-math module (its CPU target loads it with the first kernel) with
+    BLAS reported missing. On import it looks for a BLAS for ``np.dot``/``np.vdot`` of
+    vectors in jitted code by importing scipy.linalg (with numpy.f2py and OpenBLAS: 0.15-0.3 s
+    on the run's path and 15 MiB resident at 1024 wide), where no kernel calls either: each
+    kernel's machine code is the same (and loads from the same cache entry). A kernel that
+    called ``np.dot`` on vectors would get numba's loop; ``np.linalg`` and matrix products
+    still find scipy when compiled. Once per process, before any kernel loads."""
+    import sys
+
+    if "numba.np.arraymath" in sys.modules:
+        return
+    from numba.np import linalg
+
+    check = linalg.ensure_blas
+
+    def no_blas():
+        raise ImportError("proxyshade: BLAS not looked for when numba's array math loads")
+
+    linalg.ensure_blas = no_blas
+    try:
+        import numba.np.arraymath as arraymath
+    finally:
+        linalg.ensure_blas = check
+    arraymath.ensure_blas = check  # the name it imported, called only by that check
 
 
 def load_native_libraries(graph: "Graph", todo) -> None:
@@ -530,9 +558,14 @@ class Graph:
         if prof is not None:
             prof.watch(self, plan)
             prof.node_start(nr.node, nr.frame, self.nodes[nr.node].sink)
+        def release(key: str) -> None:  # the instance released an input (ctx.release): the last reader?
+            with guard:
+                if consumers.get(key, 0) == 1 and key not in plan.keep:
+                    self.cache.forget(key)
+
         t = time.perf_counter()
         try:
-            self._compute(plan, inst, nr)
+            self._compute(plan, inst, nr, release)
         finally:
             nr.seconds = time.perf_counter() - t
             if prof is not None:
@@ -614,14 +647,18 @@ class Graph:
             self.cache.forget(key)
         return plate
 
-    def _compute(self, plan: "Plan", inst, nr: NodeRun) -> Plate:
+    def _compute(self, plan: "Plan", inst, nr: NodeRun, release: Callable[[str], None] | None = None) -> Plate:
         load_array_libraries()
         with self._lock(nr.key):
             if nr.key in self.cache.memory:
                 return self.cache.memory[nr.key]
-            return self._compute_locked(plan, inst, nr)
+            return self._compute_locked(plan, inst, nr, release)
 
-    def _compute_locked(self, plan: "Plan", inst, nr: NodeRun) -> Plate:
+    def _compute_locked(self, plan: "Plan", inst, nr: NodeRun, release: Callable[[str], None] | None = None) -> Plate:
+        """Compute an instance from its inputs and store (or keep) its plate. ``release(key)``:
+        called when the node releases the input of that key (``Context.release``); the
+        caller drops it from memory where this instance is its last reader (a recompute of
+        a missing input passes none: nothing dropped early)."""
         name, frame = inst
         node = self.nodes[name]
         inputs: dict[str, Plate | PlateSequence | None] = {}
@@ -641,6 +678,14 @@ class Graph:
             if isinstance(inputs.get(inp), Plate) and src in plan.keys:
                 memo.bind(inputs[inp], plan.keys[src])
         ctx.tiles = self.tile_runner() if self.tile_runner is not None else None
+        if release is not None:
+            held = plan.input_keys(inst)  # the keys the run counts this instance's reads of (held_keys)
+
+            def on_release(inp: str) -> None:
+                if isinstance(held.get(inp), str):
+                    release(held[inp])
+
+            ctx.on_release = on_release
         if inst in plan.previous:
             ctx.previous = self._load_previous(*plan.previous[inst])
             memo.bind(ctx.previous.plate, plan.previous[inst][0])

@@ -71,6 +71,8 @@ class NodeTimes:
     rss_before: float = 0.0
     rss_peak: float = 0.0
     sink: bool = False
+    anon_before: float = 0.0  # anonymous MiB when it started
+    held_before: float = 0.0  # MiB of plates in the run's memory when it started
 
 
 @dataclass
@@ -88,6 +90,7 @@ class Profile:
     peak_node: str = ""
     peak_held: list = field(default_factory=list)  # (node, MiB) of plates in memory at the peak
     peak_file: float = 0.0  # MiB of the peak resident set that are mapped files (libraries)
+    peak_started: "NodeTimes | None" = None  # the node computing at the peak that started first
     start_anon: float = 0.0  # anonymous MiB when the first node started (libraries, modules loaded)
     memory_of: object = None  # () -> [(node, MiB)]: plates in memory now (set by the engine)
 
@@ -127,8 +130,13 @@ class Profile:
 
     def node_start(self, node: str, frame: int, sink: bool) -> None:
         nt = self.nodes.setdefault((node, frame), NodeTimes(node, frame, sink=sink))
-        nt.rss_before = rss_mb()
+        r, f = rss_split()
+        nt.rss_before, nt.anon_before = r, r - f
         nt.rss_peak = max(nt.rss_peak, nt.rss_before)
+        try:
+            nt.held_before = sum(mb for _, mb in self.memory_of()) if self.memory_of is not None else 0.0
+        except RuntimeError:  # the dict changed size while read
+            nt.held_before = 0.0
         self._running[threading.get_ident()] = nt
 
     def node_end(self, node: str, frame: int, seconds: float) -> None:
@@ -156,7 +164,9 @@ class Profile:
                 nt.rss_peak = max(nt.rss_peak, r)
             if r > self.peak_mb:
                 self.peak_mb, self.peak_file = r, f
-                busy = [f"{nt.node}@{nt.frame}" for nt in list(self._running.values())]
+                running = list(self._running.values())
+                self.peak_started = min(running, key=lambda nt: nt.anon_before, default=None)
+                busy = [f"{nt.node}@{nt.frame}" for nt in running]
                 busy += [f"{w}(cache-write)" for w in list(self._writing.values())]  # after the last node: the flush
                 self.peak_node = ", ".join(busy) or (f"(after {self._last})" if self._last else "(before the nodes)")
                 if self.memory_of is not None:
@@ -224,19 +234,50 @@ class Profile:
     def peak_parts(self) -> list[tuple[str, float]]:
         """What the peak resident set held, MiB: the mapped files (shared libraries), the
         anonymous memory already there when the first node started (modules and libraries
-        loaded), the plates in the run's memory, and the rest (the nodes' working arrays,
-        modules and kernels loaded since, the allocator's free lists)."""
+        loaded), the plates in the run's memory, what stayed loaded between the first node
+        and the start of the node computing at the peak (kernels, modules, the memo, the
+        allocator's free lists: its anonymous memory then less the plates held then), and
+        the rest: that node's working arrays (with the writers' beside it)."""
         plates = sum(mb for _, mb in self.peak_held)
-        rest = self.peak_mb - self.peak_file - self.start_anon - plates
+        nt = self.peak_started
+        since = max(0.0, nt.anon_before - self.start_anon - nt.held_before) if nt is not None else 0.0
+        rest = self.peak_mb - self.peak_file - self.start_anon - plates - since
         return [("libraries (mapped files)", self.peak_file), ("heap before the first node", self.start_anon),
-                ("plates held", plates), ("working memory and later loads", rest)]
+                ("plates held", plates), ("loaded since (kernels, modules)", since),
+                (f"working memory of {nt.node}@{nt.frame}" if nt is not None else "working memory", rest)]
+
+    @staticmethod
+    def libraries(top: int = 6) -> list[tuple[str, float]]:
+        """The mapped files resident now, MiB, by package (the folder under site-packages,
+        else the file's name), largest first: ``top`` of them and the rest as 'other'."""
+        sizes: dict[str, float] = {}
+        name = None
+        try:
+            with open("/proc/self/smaps") as f:
+                for line in f:
+                    if line[0] in "0123456789abcdef" and "-" in line.split(" ", 1)[0]:
+                        parts = line.split(None, 5)
+                        path = parts[5].strip() if len(parts) > 5 else ""
+                        if not path.startswith("/"):
+                            name = None
+                            continue
+                        pkg = path.partition("site-packages/")[2].split("/", 1)[0] if "site-packages/" in path else ""
+                        name = pkg.split(".libs")[0] or os.path.basename(path).split(".so")[0]
+                    elif name is not None and line.startswith("Rss:"):
+                        sizes[name] = sizes.get(name, 0.0) + int(line.split()[1]) / 1024.0
+        except OSError:
+            return []
+        ranked = sorted(sizes.items(), key=lambda kv: -kv[1])
+        return ranked[:top] + ([("other", sum(mb for _, mb in ranked[top:]))] if len(ranked) > top else [])
 
     def peak_text(self) -> str:
         held = sorted(self.peak_held, key=lambda x: -x[1])
         parts = ", ".join(f"{name} {mb:.0f}" for name, mb in self.peak_parts())
+        libs = ", ".join(f"{n} {mb:.0f}" for n, mb in self.libraries())
         return (f"  peak {self.peak_mb:.0f} MiB while {self.peak_node}; plates held then: "
                 + (", ".join(f"{n} {mb:.0f}" for n, mb in held) or "none")
-                + f" (= {sum(mb for _, mb in held):.0f} MiB)\n  the peak holds: {parts} MiB")
+                + f" (= {sum(mb for _, mb in held):.0f} MiB)\n  the peak holds: {parts} MiB"
+                + (f"\n  mapped files at the end, by package: {libs} MiB" if libs else ""))
 
     def stop(self) -> None:
         self._stop.set()

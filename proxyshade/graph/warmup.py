@@ -385,10 +385,10 @@ event.register("numba:compile", rec)
 # the node type computing when a kernel compiles: precompile compiles a graph's node types' kernels only
 from proxyshade.graph.graph import Graph
 _compute, _types = Graph._compute_locked, []
-def _tracked(self, plan, inst, nr):
+def _tracked(self, plan, inst, nr, *rest):
     _types.append(type(self.nodes[inst[0]]).__name__)
     try:
-        return _compute(self, plan, inst, nr)
+        return _compute(self, plan, inst, nr, *rest)
     finally:
         _types.pop()
 Graph._compute_locked = _tracked

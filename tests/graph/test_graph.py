@@ -8,7 +8,7 @@ import pytest
 
 from proxyshade.errors import CycleError
 from proxyshade.graph.graph import Graph, InputRef
-from proxyshade.graph.node import Node
+from proxyshade.graph.node import Input, Node, Param
 from proxyshade.graph.plate import Plate
 from proxyshade.io.exr import read_plate
 
@@ -434,3 +434,44 @@ def test_a_node_type_not_stored_is_computed_only_when_a_computing_node_reads_it(
     assert w.store_all and not cheap_chain(tmp_path).store_all
     w.run()
     assert w.plan([1]).keys[("cheap", 1)] in {p.stem for p in (tmp_path / "cache").rglob("*.exr")}
+
+
+
+class _TRelease(Node, register=False):
+    """Reads R of ``a``, releases it (``ctx.release``), then records what ``ctx.a`` reads
+    and which plates the run still holds in memory."""
+
+    a = Input(channels=("R",))
+    gain = Param(float, 1.0)
+    seen: list = []
+    graph = None
+
+    def compute(self, ctx):
+        r = ctx.a["R"] * ctx.p.gain
+        ctx.release("a")
+        _TRelease.seen.append((self.name, ctx.a, set(_TRelease.graph.cache.memory)))
+        return Plate({"R": r.astype(np.float32)})
+
+
+@pytest.mark.parametrize("jobs", [1, 2])
+def test_a_released_input_leaves_memory_after_its_last_reader_releases_it(tmp_path, jobs):
+    """``Context.release``: the input reads None from then on; its plate leaves the run's
+    memory at once where the releasing instance is its last reader, and stays while another
+    instance still has to read it (one at a time: 'first' runs before 'z_last'); the
+    results are those of the same nodes without a release."""
+    from proxyshade.graph.cache import Cache
+
+    g = Graph(graph_dir=tmp_path, frames=(1, 1), cache=Cache(tmp_path / "cache", background=False))
+    g.add("a", _TConst, {"value": 2.0})
+    g.add("first", _TRelease, {"gain": 3.0}, {"a": "a"})
+    g.add("z_last", _TRelease, {"gain": 5.0}, {"a": "a"})
+    _TRelease.graph, _TRelease.seen = g, []
+    key_a = g.plan([1]).keys[("a", 1)]
+    g.run(jobs=jobs)
+    assert sorted(s[0] for s in _TRelease.seen) == ["first", "z_last"]
+    assert all(s[1] is None for s in _TRelease.seen)
+    if jobs == 1:
+        assert [(s[0], key_a in s[2]) for s in _TRelease.seen] == [("first", True), ("z_last", False)]
+    assert key_a not in g.cache.memory
+    np.testing.assert_array_equal(g.value("z_last")["R"], np.full((8, 8), 10.0, np.float32))
+    np.testing.assert_array_equal(g.value("first")["R"], np.full((8, 8), 6.0, np.float32))

@@ -135,3 +135,25 @@ def test_plate_equals_compares_bits_of_channels_with_any_strides():
     g = rgb[..., 1].copy()
     g[2, 3] = np.nextafter(g[2, 3], np.float32(2))
     assert not a.equals(Plate({"R": rgb[..., 0], "G": g}))
+
+
+def test_read_holds_one_copy_of_the_pixels(tmp_path):
+    """Reading a plate back (a cache hit) takes the bindings' arrays as they are: numpy
+    allocates one copy of the pixels, not two (a 4K plate of 0.5 GiB read at 1 GiB), and the
+    channels are the plate's own, writable, and exact."""
+    import tracemalloc
+
+    rng = np.random.default_rng(3)
+    plate = Plate({"R": rng.random((256, 320), np.float32), "id": rng.integers(0, 9, (256, 320)).astype(np.uint32)})
+    path = tmp_path / "p.exr"
+    write_plate(path, plate)
+    tracemalloc.start()
+    try:
+        back = read_plate(path)
+        _, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    assert peak < 1.5 * plate.nbytes(), f"{peak} bytes allocated by numpy while reading {plate.nbytes()} bytes of pixels"
+    for n, a in plate.channels.items():
+        assert back[n].dtype == a.dtype and np.array_equal(back[n], a)
+        assert back[n].flags.writeable and back[n].flags.owndata
