@@ -191,7 +191,12 @@ def labels_from_map(path: Path, table: list[dict], *, far_distance: float, max_f
     return ids, {"snapped": snapped, "far": far, "pixels": n}
 
 
-def load_source(table_path: str | Path, *, far_distance: float = 100.0, max_far_fraction: float = 0.02,
+# how a label map snaps to the table's colours: the one default of the readers' LabelMapSnap group
+FAR_DISTANCE = 100.0  # 8-bit RGB distance beyond which a pixel is far from every label colour
+MAX_FAR_FRACTION = 0.02  # most share of far pixels before the read fails
+
+
+def load_source(table_path: str | Path, *, far_distance: float = FAR_DISTANCE, max_far_fraction: float = MAX_FAR_FRACTION,
                 where: str = "source", photo: str | None = None) -> Plate:
     """An annotated source as a plate: linear ``R,G,B`` (float32) and ``label.id`` (uint32).
     ``photo`` names one of the table's ``images`` (another photo of the same view) to read

@@ -11,6 +11,7 @@ from types import SimpleNamespace
 from typing import Any
 
 from proxyshade.declare import Input, Param
+from proxyshade.io.source import FAR_DISTANCE, MAX_FAR_FRACTION
 from proxyshade.kernels.display import DEFAULT_CHANNELS, VIEWS, to_display
 
 
@@ -233,9 +234,9 @@ def source_input(doc: str = "annotated source (SourceRead): R,G,B, label.id and 
 class LabelMapSnap(ParamGroup):
     """How a source reader snaps its label map to the table's colours (§3's annotated exemplar)."""
 
-    far_distance = Param(float, 100.0, min=0.0,
+    far_distance = Param(float, FAR_DISTANCE, min=0.0,
                          doc="8-bit RGB distance beyond which a label-map pixel is 'far' from every label colour")
-    max_far_fraction = Param(float, 0.02, min=0.0, max=1.0,
+    max_far_fraction = Param(float, MAX_FAR_FRACTION, min=0.0, max=1.0,
                              doc="fail when more label-map pixels than this are far from every label colour")
 
 
