@@ -364,14 +364,13 @@ def _cand_dist(lv, m, use_rgb, i, j, cy, cx, target_dist, target_rgb, best):
 
 
 @njit(**PJIT)
-def _subpass(lv, m, rule, knn, over, over_coh, S_old, S_new, active, parity, counts):
+def _subpass(lv, m, rule, knn, over, S_old, S_new, active, parity, counts):
     """Correct pixels with (i % 2, j % 2) == ``parity`` of level ``lv``, reading S_old,
     writing S_new; ``knn`` the similarity sets (He, We, k, 2).
 
     Candidates from similarity sets (not a neighbour's coherent continuation) have their
     distance multiplied by 1 + kappa; every candidate's by 1 + uniformity × its exemplar
-    neighbourhood's over-use ``over`` (``usage_excess``), or ``over_coh`` for a coherent
-    candidate (the same array but where the tone-balance term favours coherent candidates only).
+    neighbourhood's over-use ``over`` (``usage_excess``).
 
     counts[i] accumulates (changed, all rejected) per row for reporting.
     """
@@ -443,7 +442,7 @@ def _subpass(lv, m, rule, knn, over, over_coh, S_old, S_new, active, parity, cou
             for u in range(nc):
                 cy = cyl[u]
                 cx = cxl[u]
-                f = (1.0 if coh[u] else 1.0 + kappa) * (1.0 + uniformity * (over_coh[cy, cx] if coh[u] else over[cy, cx]))
+                f = (1.0 if coh[u] else 1.0 + kappa) * (1.0 + uniformity * over[cy, cx])
                 d = f * _cand_dist(lv, m, use_rgb, i, j, cy, cx, target_dist, target_rgb, best / f)
                 # rejection is only tested for a candidate that would win (same result, cheaper)
                 if d < best and not rejected(S_old, i, j, cy, cx, h, radius):
@@ -454,8 +453,7 @@ def _subpass(lv, m, rule, knn, over, over_coh, S_old, S_new, active, parity, cou
                 # every candidate was rejected and the current position has the wrong
                 # label: label fidelity wins over repetition
                 for u in range(nc):
-                    o = over_coh[cyl[u], cxl[u]] if coh[u] else over[cyl[u], cxl[u]]
-                    f = (1.0 if coh[u] else 1.0 + kappa) * (1.0 + uniformity * o)
+                    f = (1.0 if coh[u] else 1.0 + kappa) * (1.0 + uniformity * over[cyl[u], cxl[u]])
                     d = f * _cand_dist(lv, m, use_rgb, i, j, cyl[u], cxl[u], target_dist, target_rgb, best / f)
                     if d < best:
                         best = d
@@ -475,7 +473,7 @@ def _subpass(lv, m, rule, knn, over, over_coh, S_old, S_new, active, parity, cou
 TILE_MIN_PIXELS = int(os.environ.get("PROXYSHADE_TILE_MIN_PIXELS", 1 << 18))
 
 
-def subpass_rows(level, knn, S_old, active, over, over_coh, r0: int, r1: int, parity: tuple[int, int], metric: Metric,
+def subpass_rows(level, knn, S_old, active, over, r0: int, r1: int, parity: tuple[int, int], metric: Metric,
                  rule: Rule):
     """One parity sub-pass on rows r0..r1 of the target only: (the new S of those rows,
     their counts). Every pixel of a sub-pass reads only the state before it (``S_old``)
@@ -485,13 +483,13 @@ def subpass_rows(level, knn, S_old, active, over, over_coh, r0: int, r1: int, pa
     band = np.zeros(active.shape, np.bool_)
     band[r0:r1] = active[r0:r1]
     counts = np.zeros((S_old.shape[0], 2), np.int64)
-    _subpass(level, metric, rule, knn, over, over_coh, S_old, S_new, band, parity, counts)
+    _subpass(level, metric, rule, knn, over, S_old, S_new, band, parity, counts)
     return S_new[r0:r1], counts[r0:r1]
 
 
 def correct_level(level, S: np.ndarray, knn: np.ndarray, *, passes: int, metric: Metric, rule: Rule,
                   active: np.ndarray | None = None, tiles=None, tone_balance: float = 0.0,
-                  tone_spacing: int = 1, tone_coherent: bool = False) -> tuple[np.ndarray, dict]:
+                  tone_spacing: int = 1) -> tuple[np.ndarray, dict]:
     """``passes`` correction passes (4 parity sub-passes each) at one level.
 
     ``tone_balance`` (T): each candidate's distance is multiplied by 1 + U × over-use
@@ -499,9 +497,7 @@ def correct_level(level, S: np.ndarray, knn: np.ndarray, *, passes: int, metric:
     (``_tone_balance``: negative for tones the target uses less than the photo's label
     does), at least ``TONE_FLOOR``, except in the last ``TONE_FREE_PASSES`` passes of the
     finest level (h = 1); 0: the usage term alone (exactly as without it). At a level whose
-    spacing h is under ``tone_spacing`` the term is off (the usage term alone), or with
-    ``tone_coherent`` it applies to coherent candidates only (a neighbour's patch continued:
-    seams move toward the rarer tone, no candidate jumps to it).
+    spacing h is under ``tone_spacing`` the term is off (the usage term alone).
 
     ``tiles``: None (every sub-pass whole, numba's threads over its rows), or a runner
     ``tiles(fn, shared, jobs) -> [fn(*shared, *job) for job in jobs]`` that may run the
@@ -521,10 +517,7 @@ def correct_level(level, S: np.ndarray, knn: np.ndarray, *, passes: int, metric:
     expected = (np.bincount(level.tgt_lab.ravel(), minlength=n)
                 / np.maximum(np.bincount(level.src_lab.ravel(), minlength=n), 1)).astype(np.float64)
     over = np.zeros(level.src_lab.shape, np.float64)
-    coherent_only = level.h < tone_spacing
-    tone_here = tone_balance > 0 and (not coherent_only or tone_coherent)
-    tone = np.zeros(level.src_lab.shape, np.float64) if tone_here else None
-    over_coh = np.zeros(level.src_lab.shape, np.float64) if tone_here and coherent_only else over
+    tone = np.zeros(level.src_lab.shape, np.float64) if tone_balance > 0 and level.h >= tone_spacing else None
     kernel_rule = rule
     nb = min(getattr(tiles, "bands", 1), Ht // 8) if tiles is not None and Ht * Wt >= TILE_MIN_PIXELS else 1
     edges = np.linspace(0, Ht, nb + 1).astype(int)
@@ -534,23 +527,20 @@ def correct_level(level, S: np.ndarray, knn: np.ndarray, *, passes: int, metric:
                 _usage_excess(S_old, level.src_lab, expected, 2 * level.h, over)
             if tone is not None and level.h == 1 and p >= passes - TONE_FREE_PASSES:
                 kernel_rule = rule  # the finest level's last passes: seams settle on colour alone
-                if over_coh is not over:
-                    over_coh[...] = over
             elif tone is not None:
-                kernel_rule = rule._replace(uniformity=1.0)  # the factor is in ``over`` (``over_coh``)
+                kernel_rule = rule._replace(uniformity=1.0)  # the factor is in ``over``
                 _tone_balance(S_old, level.src_lab, level.src_rgb, n, TONE_BINS, tone)
                 over *= rule.uniformity
-                tone *= tone_balance
-                tone += over
-                np.maximum(tone, TONE_FLOOR - 1.0, out=over_coh if coherent_only else over)
+                over += tone_balance * tone
+                np.maximum(over, TONE_FLOOR - 1.0, out=over)
             if nb > 1:
-                jobs = [(S_old, active, over, over_coh, int(a), int(b), parity, metric, kernel_rule)
+                jobs = [(S_old, active, over, int(a), int(b), parity, metric, kernel_rule)
                         for a, b in zip(edges[:-1], edges[1:])]
                 for (a, b), (rows, cnt) in zip(zip(edges[:-1], edges[1:]), tiles(subpass_rows, (level, knn), jobs)):
                     S_new[a:b] = rows
                     counts[a:b] += cnt
             else:
-                _subpass(level, metric, kernel_rule, knn, over, over_coh, S_old, S_new, active, parity, counts)
+                _subpass(level, metric, kernel_rule, knn, over, S_old, S_new, active, parity, counts)
             S_old[...] = S_new  # only this sub-set changed
     c = counts.sum(0)
     return S_old, {"changed": int(c[0]), "all_rejected": int(c[1])}
@@ -706,7 +696,7 @@ def synthesize(levels: list, S_init: np.ndarray, corr, *, seed: int, mask: np.nd
         S, st = correct_level(lv, S, knns[l], passes=n, metric=metric,
                               rule=Rule(radius, bool(corr.use_rgb), float(corr.kappa), float(corr.uniformity)),
                               active=active, tiles=tiles, tone_balance=float(corr.tone_balance),
-                              tone_spacing=int(corr.tone_spacing), tone_coherent=bool(corr.tone_coherent))
+                              tone_spacing=int(corr.tone_spacing))
         st.update(level=l, h=h, shape=shape, passes=n, radius=radius)
         stats.append(st)
     if mask is not None:

@@ -106,10 +106,9 @@ def rejected(S, i, j, cy, cx, h, radius, half=4):
     return False
 
 
-def correct_pixel(lv, knn, S, i, j, radius, w, kappa, hw=0.0, over=None, uniformity=0.0, over_coh=None):
+def correct_pixel(lv, knn, S, i, j, radius, w, kappa, hw=0.0, over=None, uniformity=0.0):
     """One pixel of a correction sub-pass, written out (height term weight ``hw``;
-    distances x (1 + uniformity x over[candidate]), ``over_coh`` instead of ``over`` for a
-    coherent candidate when given)."""
+    distances x (1 + uniformity x over[candidate]))."""
     h = lv.h
     He, We = lv.src_lab.shape
     Ht, Wt = lv.tgt_lab.shape
@@ -156,8 +155,7 @@ def correct_pixel(lv, knn, S, i, j, radius, w, kappa, hw=0.0, over=None, uniform
         return np.sqrt(sd + sr) + w * chamfer(window(lv.src_lab, cy, cx, h), tW)
 
     def mult(cy, cx, coh):
-        o = over_coh if coh and over_coh is not None else over
-        return (1.0 if coh else 1.0 + kappa) * (1.0 + uniformity * (0.0 if o is None else o[cy, cx]))
+        return (1.0 if coh else 1.0 + kappa) * (1.0 + uniformity * (0.0 if over is None else over[cy, cx]))
 
     best, by = np.inf, tuple(S[i, j])
     for cy, cx, coh in cands:

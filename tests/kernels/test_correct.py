@@ -56,36 +56,31 @@ def test_rejected_matches_reference():
         assert kc.rejected(S, i, j, cy, cx, h, r) == naive.rejected(S, i, j, cy, cx, h, r)
 
 
-def subpass(lv, knn, S, S_new, active, pi, pj, radius, kappa, counts, hw=0.0, over=None, uniformity=0.0,
-            over_coh=None):
+def subpass(lv, knn, S, S_new, active, pi, pj, radius, kappa, counts, hw=0.0, over=None, uniformity=0.0):
     over = np.zeros(lv.src_lab.shape) if over is None else over
-    kc._subpass(lv, kf.Metric(90.0, hw), kc.Rule(radius, True, kappa, uniformity), knn, over,
-                over if over_coh is None else over_coh, S, S_new, active, (pi, pj), counts)
+    kc._subpass(lv, kf.Metric(90.0, hw), kc.Rule(radius, True, kappa, uniformity), knn, over, S, S_new, active,
+                (pi, pj), counts)
 
 
-@pytest.mark.parametrize("seed,kappa,use_level,hw,uniformity,split",
-                         [(0, 0.0, -1, 0.0, 0.0, False), (1, 0.5, -1, 0.0, 0.0, False), (2, 0.0, 0, 0.0, 0.0, False),
-                          (3, 0.0, -1, 16.0, 1.0, False), (4, 0.5, 0, 40.0, 3.0, False),
-                          (5, 0.0, -1, 16.0, 1.0, True), (6, 0.5, 0, 0.0, 1.0, True)])
-def test_subpass_matches_reference(seed, kappa, use_level, hw, uniformity, split):
-    """``split``: coherent candidates weighed by their own factor array (``tone_coherent``; as there,
-    uniformity 1 and factors of at least 0.1)."""
+@pytest.mark.parametrize("seed,kappa,use_level,hw,uniformity",
+                         [(0, 0.0, -1, 0.0, 0.0), (1, 0.5, -1, 0.0, 0.0), (2, 0.0, 0, 0.0, 0.0),
+                          (3, 0.0, -1, 16.0, 1.0), (4, 0.5, 0, 40.0, 3.0)])
+def test_subpass_matches_reference(seed, kappa, use_level, hw, uniformity):
     rng, levels = small_case(seed)
     lv = levels[use_level]
     knn = kc.similarity_sets(lv, 2, kf.Metric(SYN.w, hw), seed=seed, iterations=2)
     S = random_state(rng, lv)
     radius = lv.h
     over = rng.random(lv.src_lab.shape) * (rng.random(lv.src_lab.shape) < 0.5)
-    over_coh = rng.random(lv.src_lab.shape) * 2 - 0.9 if split else None
     for pi, pj in ((0, 0), (1, 0)):
         S_new = S.copy()
         active = np.ones(lv.tgt_lab.shape, bool)
         counts = np.zeros((S.shape[0], 2), np.int64)
-        subpass(lv, knn, S, S_new, active, pi, pj, radius, kappa, counts, hw, over, uniformity, over_coh)
+        subpass(lv, knn, S, S_new, active, pi, pj, radius, kappa, counts, hw, over, uniformity)
         for i in range(pi, S.shape[0], 2):
             for j in range(pj, S.shape[1], 2):
                 assert tuple(S_new[i, j]) == naive.correct_pixel(lv, knn, S, i, j, radius, 90.0, kappa, hw, over,
-                                                                 uniformity, over_coh), (i, j)
+                                                                 uniformity), (i, j)
         # pixels outside the sub-set are untouched
         other = np.ones(S.shape[:2], bool)
         other[pi::2, pj::2] = False
@@ -332,46 +327,3 @@ def test_tone_balance_acts_only_at_levels_of_tone_spacing_or_more(monkeypatch, s
     if not want:
         b, _ = kc.synthesize(levels, S0, corr(k=2, uniformity=0.25), seed=2)
         assert np.array_equal(a, b)
-
-
-def test_tone_coherent_weighs_only_coherent_candidates_below_tone_spacing(monkeypatch):
-    """At a level under ``tone_spacing`` with ``tone_coherent``, each sub-pass weighs
-    similarity-set candidates by the usage term alone and coherent ones by usage + tone
-    balance (floored), from the state before it; the finest level's last passes by usage alone."""
-    rng, levels = small_case(15, ex=(40, 48), tgt=(32, 32), nlev=2)
-    lv = levels[-1]
-    S = random_state(rng, lv)
-    knn = kc.similarity_sets(lv, 2, kf.Metric(90.0, 0.0), seed=0, iterations=2)
-    n = lv.src_masks.shape[2]
-    expected = (np.bincount(lv.tgt_lab.ravel(), minlength=n)
-                / np.maximum(np.bincount(lv.src_lab.ravel(), minlength=n), 1)).astype(np.float64)
-    U, T, passes = 0.25, 0.5, 3
-    seen, orig = [], kc._subpass
-
-    def spy(level, m, rule, knn, over, over_coh, S_old, *a):
-        seen.append((rule.uniformity, over.copy(), over_coh.copy(), S_old.copy()))
-        return orig(level, m, rule, knn, over, over_coh, S_old, *a)
-
-    monkeypatch.setattr(kc, "_subpass", spy)
-    a, _ = kc.correct_level(lv, S, knn, passes=passes, metric=kf.Metric(90.0, 0.0), rule=kc.Rule(1, True, 0.0, U),
-                            tone_balance=T, tone_spacing=2, tone_coherent=True)
-    assert len(seen) == 4 * passes
-    for t, (u, over, over_coh, S_old) in enumerate(seen):
-        usage = np.zeros(lv.src_lab.shape)
-        kc._usage_excess(S_old, lv.src_lab, expected, 2, usage)
-        if t < 4 * (passes - kc.TONE_FREE_PASSES):
-            tone = tone_balance_reference(S_old, lv.src_lab, lv.src_rgb, n, kc.TONE_BINS)
-            assert u == 1.0
-            np.testing.assert_allclose(over, U * usage, rtol=1e-12, atol=1e-12)
-            np.testing.assert_allclose(over_coh, np.maximum(U * usage + T * tone, kc.TONE_FLOOR - 1), rtol=1e-12,
-                                       atol=1e-12)
-        else:
-            assert u == U
-            np.testing.assert_array_equal(over, usage)
-            np.testing.assert_array_equal(over_coh, usage)
-    # without tone_coherent the level under tone_spacing is the usage term's alone
-    b, _ = kc.correct_level(lv, S, knn, passes=passes, metric=kf.Metric(90.0, 0.0), rule=kc.Rule(1, True, 0.0, U),
-                            tone_balance=T, tone_spacing=2)
-    assert all(np.array_equal(o, c) for _, o, c, _ in seen[4 * passes:])
-    c, _ = kc.correct_level(lv, S, knn, passes=passes, metric=kf.Metric(90.0, 0.0), rule=kc.Rule(1, True, 0.0, U))
-    assert np.array_equal(b, c)
