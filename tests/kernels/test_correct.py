@@ -158,14 +158,15 @@ def test_translation_survives_down_and_up():
         assert np.array_equal(up, S)
 
 
-@pytest.mark.parametrize("tone_balance", [0.0, 1.0])
-def test_synthesis_is_deterministic_across_thread_counts(tone_balance):
+@pytest.mark.parametrize("tone_balance,tone_spacing", [(0.0, 1), (1.0, 1), (0.25, 2)])
+def test_synthesis_is_deterministic_across_thread_counts(tone_balance, tone_spacing):
     rng, levels = small_case(9, ex=(40, 48), tgt=(32, 32), nlev=3)
     S0 = random_state(rng, levels[-1])
-    a, _ = kc.synthesize(levels, S0, corr(k=2, tone_balance=tone_balance), seed=3)
+    c = corr(k=2, tone_balance=tone_balance, tone_spacing=tone_spacing)
+    a, _ = kc.synthesize(levels, S0, c, seed=3)
     numba.set_num_threads(1)
     try:
-        b, _ = kc.synthesize(levels, S0, corr(k=2, tone_balance=tone_balance), seed=3)
+        b, _ = kc.synthesize(levels, S0, c, seed=3)
     finally:
         numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
     assert np.array_equal(a, b)
