@@ -488,14 +488,16 @@ def subpass_rows(level, knn, S_old, active, over, r0: int, r1: int, parity: tupl
 
 
 def correct_level(level, S: np.ndarray, knn: np.ndarray, *, passes: int, metric: Metric, rule: Rule,
-                  active: np.ndarray | None = None, tiles=None, tone_balance: float = 0.0) -> tuple[np.ndarray, dict]:
+                  active: np.ndarray | None = None, tiles=None, tone_balance: float = 0.0,
+                  tone_spacing: int = 1) -> tuple[np.ndarray, dict]:
     """``passes`` correction passes (4 parity sub-passes each) at one level.
 
     ``tone_balance`` (T): each candidate's distance is multiplied by 1 + U × over-use
     (``_usage_excess``, U = ``rule.uniformity``) + T × its tone's imbalance in its label
     (``_tone_balance``: negative for tones the target uses less than the photo's label
     does), at least ``TONE_FLOOR``, except in the last ``TONE_FREE_PASSES`` passes of the
-    finest level (h = 1); 0: the usage term alone (exactly as without it).
+    finest level (h = 1); 0: the usage term alone (exactly as without it). At a level whose
+    spacing h is under ``tone_spacing`` the term is off (the usage term alone).
 
     ``tiles``: None (every sub-pass whole, numba's threads over its rows), or a runner
     ``tiles(fn, shared, jobs) -> [fn(*shared, *job) for job in jobs]`` that may run the
@@ -515,7 +517,7 @@ def correct_level(level, S: np.ndarray, knn: np.ndarray, *, passes: int, metric:
     expected = (np.bincount(level.tgt_lab.ravel(), minlength=n)
                 / np.maximum(np.bincount(level.src_lab.ravel(), minlength=n), 1)).astype(np.float64)
     over = np.zeros(level.src_lab.shape, np.float64)
-    tone = np.zeros(level.src_lab.shape, np.float64) if tone_balance > 0 else None
+    tone = np.zeros(level.src_lab.shape, np.float64) if tone_balance > 0 and level.h >= tone_spacing else None
     kernel_rule = rule
     nb = min(getattr(tiles, "bands", 1), Ht // 8) if tiles is not None and Ht * Wt >= TILE_MIN_PIXELS else 1
     edges = np.linspace(0, Ht, nb + 1).astype(int)
@@ -693,7 +695,8 @@ def synthesize(levels: list, S_init: np.ndarray, corr, *, seed: int, mask: np.nd
         n = corr.passes_finest if l == L - 1 else corr.passes
         S, st = correct_level(lv, S, knns[l], passes=n, metric=metric,
                               rule=Rule(radius, bool(corr.use_rgb), float(corr.kappa), float(corr.uniformity)),
-                              active=active, tiles=tiles, tone_balance=float(corr.tone_balance))
+                              active=active, tiles=tiles, tone_balance=float(corr.tone_balance),
+                              tone_spacing=int(corr.tone_spacing))
         st.update(level=l, h=h, shape=shape, passes=n, radius=radius)
         stats.append(st)
     if mask is not None:

@@ -89,9 +89,13 @@ class Correction(CoarseLevel, PatchMetric):
                          doc="adds tone_balance x (r - 1) to that factor (at least 0.05), r = how often the "
                              "target uses the candidate's luma bin (16) within its label over how often the photo's "
                              "label holds it (off in the finest level's last 2 passes): favours the tones the "
-                             "correction drops (a label's std falls 0.1-0.3 in Correct without it). 0.25-0.5 lowers "
-                             "bench_photos' hist chi2 and lifts low std ratios but raises its window chi2 "
-                             "(docs/synthesis.md, tried and not kept); 0 = off")
+                             "correction drops (a label's std falls 0.1-0.3 in Correct without it). At every level "
+                             "(tone_spacing 1) the restored tones come back as islands with seams (bench_photos' "
+                             "window chi2 up); graphs/first_frame.yaml takes 0.25 at tone_spacing 2; 0 = off")
+    tone_spacing = Param(int, 1, min=1,
+                         doc="tone_balance acts only at levels whose spacing (exemplar pixels per level pixel) is at "
+                             "least this: 1 = every level, 2 = not at the synthesis size (the finest levels then "
+                             "build coherent patches around the tones it restored)")
     use_rgb = Param(bool, True, doc="add the colour neighbourhood to the metric (the paper does)")
     radius = Param(str, "spacing", choices=("spacing", "level"),
                    doc="near-copy radius: one level pixel (spacing h) or 2^l exemplar pixels at level l")

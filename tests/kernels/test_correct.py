@@ -158,14 +158,15 @@ def test_translation_survives_down_and_up():
         assert np.array_equal(up, S)
 
 
-@pytest.mark.parametrize("tone_balance", [0.0, 1.0])
-def test_synthesis_is_deterministic_across_thread_counts(tone_balance):
+@pytest.mark.parametrize("tone_balance,tone_spacing", [(0.0, 1), (1.0, 1), (0.25, 2)])
+def test_synthesis_is_deterministic_across_thread_counts(tone_balance, tone_spacing):
     rng, levels = small_case(9, ex=(40, 48), tgt=(32, 32), nlev=3)
     S0 = random_state(rng, levels[-1])
-    a, _ = kc.synthesize(levels, S0, corr(k=2, tone_balance=tone_balance), seed=3)
+    c = corr(k=2, tone_balance=tone_balance, tone_spacing=tone_spacing)
+    a, _ = kc.synthesize(levels, S0, c, seed=3)
     numba.set_num_threads(1)
     try:
-        b, _ = kc.synthesize(levels, S0, corr(k=2, tone_balance=tone_balance), seed=3)
+        b, _ = kc.synthesize(levels, S0, c, seed=3)
     finally:
         numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
     assert np.array_equal(a, b)
@@ -305,3 +306,25 @@ def test_tone_balance_favours_the_tones_the_target_lacks():
     a, _ = kc.correct_level(lv, S, knn, passes=3, metric=kf.Metric(90.0, 0.0), rule=rule)
     b, _ = kc.correct_level(lv, S, knn, passes=3, metric=kf.Metric(90.0, 0.0), rule=rule, tone_balance=1.0)
     assert dark(b) > dark(a) + 0.05, (dark(S), dark(a), dark(b))
+
+
+@pytest.mark.parametrize("spacing,want", [(1, [4, 2, 1]), (2, [4, 2]), (4, [4]), (8, [])])
+def test_tone_balance_acts_only_at_levels_of_tone_spacing_or_more(monkeypatch, spacing, want):
+    """``tone_spacing``: the tone-balance term is computed at the levels whose spacing h is
+    at least it; with none such the map is exactly the usage term's alone."""
+    rng, levels = small_case(14, ex=(40, 48), tgt=(32, 32), nlev=3)
+    S0 = random_state(rng, levels[-1])
+    seen, orig = [], kc._tone_balance
+    h_of = {lv.tgt_lab.shape: lv.h for lv in levels}  # the exemplar side is a stack: one size
+
+    def spy(S, *a):
+        seen.append(h_of[S.shape[:2]])
+        return orig(S, *a)
+
+    monkeypatch.setattr(kc, "_tone_balance", spy)
+    c = corr(k=2, uniformity=0.25, tone_balance=0.5, tone_spacing=spacing)
+    a, _ = kc.synthesize(levels, S0, c, seed=2)
+    assert sorted(set(seen), reverse=True) == want
+    if not want:
+        b, _ = kc.synthesize(levels, S0, corr(k=2, uniformity=0.25), seed=2)
+        assert np.array_equal(a, b)
