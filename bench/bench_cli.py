@@ -56,8 +56,10 @@ def child(argv: list[str], env: dict | None = None) -> dict:
     return {"wall": wall, "cpu": ru.ru_utime + ru.ru_stime, "rss": ru.ru_maxrss / 1024.0, "out": out.decode()}
 
 
-def proxyshade_argv(fmt: str | None, cache: Path, out: Path, extra=()) -> list[str]:
-    argv = [sys.executable, "-c", RUN, "run", str(GRAPH), "--frames", "1", "--cache", str(cache),
+def proxyshade_argv(fmt: str | None, cache: Path, out: Path, extra=(), graph: Path = GRAPH) -> list[str]:
+    """The command; ``graph``: the graph file (a baseline checkout runs its own: its defaults
+    and parameters are its own)."""
+    argv = [sys.executable, "-c", RUN, "run", str(graph), "--frames", "1", "--cache", str(cache),
             "--var", f"out={out}", "-q", *extra]
     if fmt:
         argv += ["--var", f"format={fmt}"]
@@ -111,8 +113,9 @@ def main(argv=None) -> None:
             env = base_env = dict(os.environ, PYTHONPATH=str(args.baseline.resolve()),
                        NUMBA_CACHE_DIR=str(args.baseline_kernels
                                            or Path(tempfile.gettempdir(), f"bench_cli_numba_{os.getuid()}")))
-            child(proxyshade_argv(args.format, work / "warm_base", work / "o"), env)  # its kernels compiled, untimed
-            cmds["baseline"] = lambda c, o: child(proxyshade_argv(args.format, c, o), env)
+            base_graph = args.baseline.resolve() / "graphs" / GRAPH.name
+            child(proxyshade_argv(args.format, work / "warm_base", work / "o", graph=base_graph), env)  # compiled, untimed
+            cmds["baseline"] = lambda c, o: child(proxyshade_argv(args.format, c, o, graph=base_graph), env)
         if args.ebsynth and (args.ebsynth_4k or not args.format):
             cmds["ebsynth"] = lambda c, o: child([str(args.ebsynth), "-style", str(photo), "-guide", str(g_src),
                                                   str(g_tgt), "-patchsize", "3", "-uniformity", "1000",
