@@ -216,6 +216,11 @@ class Carry(SameSurface):
                             doc="patches thinner than this (2 x area / perimeter, pixels) are fragments too")
     cut_threshold = Param(float, 0.5, min=0.0, max=1.0,
                           doc="share of flagged pixels above which the frame is a camera cut (full synthesis)")
+    creep_gate = Param(float, 0.0, min=0.0,
+                       doc="> 0: the creep remedies (Reproject's solve_continued, Resynthesize's kept_as_one and "
+                           "solve_margin) act only on labels whose mean gradient (display luma) in the previous "
+                           "frame exceeds the first frame's by this ratio (meta temporal.gradient / rising), so a "
+                           "label whose texture has not crept is not flattened by repeated solves; 0: everywhere")
     anchor = Param(bool, True,
                    doc="a pixel on a seam between first-frame patches takes the patch the first frame has at its "
                        "position (the seam rounded once, from the first frame), not the nearest previous pixel's "
