@@ -155,6 +155,20 @@ def test_solve_margin_spreads_a_thin_regions_mismatch_over_its_kept_ring():
     np.testing.assert_array_equal(wide["source.x"][ring], img["source.x"][ring])
     back = np.stack([wide[f"correction.{c}"] for c in "RGB"], -1) + rgb
     np.testing.assert_allclose(back[ring], wide.rgb()[ring], atol=1e-5)
+    # Reproject's creep gate (meta temporal.rising): the ring only on the labels listed
+    def gated(rising):
+        meta = {"temporal": dict(img.meta.get("temporal", {}), rising=rising)}
+        return resynth(img.with_channels(meta=meta), kept_as_one=True, solve_margin=8)
+
+    every = [int(k) for k in np.unique(lab)]
+    same = lambda a, b: all(np.array_equal(a[c], b[c]) for c in b.names())  # noqa: E731 (meta differs)
+    assert same(gated(every), wide)
+    band = int(np.bincount(lab[rows, 63:65][on].ravel()).argmax())  # the band's main label
+    others = gated([k for k in every if k != band])
+    mine = kept & (lab == band)
+    np.testing.assert_array_equal(others.rgb()[mine], img.rgb()[mine])  # its kept pixels not freed
+    assert not np.array_equal(others.rgb()[kept], img.rgb()[kept])  # the other labels' rings were
+    assert same(gated([]), resynth(img))  # nothing creeping: neither remedy
 
 
 def test_deterministic_per_frame_seed():
