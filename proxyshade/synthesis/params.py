@@ -147,6 +147,11 @@ class RestrictedSolve(ParamGroup):
                             "own difference, an edge touching a flagged pixel the source's gradient (inside a patch "
                             "too: a re-anchored region keeps no step of the carried correction at its border); "
                             "false: the patch ids as they are (kept pixels' seams in the solve blended again)")
+    flagged_apart = Param(bool, False,
+                          doc="(without kept_as_one) an edge between a flagged and a kept pixel takes the source's "
+                              "gradient through both maps even inside one patch (a re-anchored region keeps no step "
+                              "of the carried correction at its border), while the kept pixels keep their patch ids "
+                              "(seams in solve_margin's ring blended again)")
     solve_margin = Param(int, 0, min=0, max=64,
                          doc="kept pixels within this many pixels of a flagged one are solved too, their own "
                              "differences kept (only a smooth change): a thin flagged band between two kept regions "

@@ -38,6 +38,7 @@ from proxyshade.synthesis.patches import correct_map, fill_patches, magnify_map,
 from proxyshade.synthesis.temporal import CORRECTION, FLAG
 
 KEPT = 0xFFFFFFFF  # the patch id the restricted solve gives every kept pixel with kept_as_one
+APART = 0x80000000  # or-ed into flagged pixels' patch ids with flagged_apart (ids stay below it)
 SYNTHESIZED = ("R", "G", "B", "source.x", "source.y", "patch.id")  # what the resynthesis writes
 def exemplar_similarity(source: Plate, st, corr: SimpleNamespace, *, seed: int, memo=None) -> list:
     """``patches.similarity_sets`` of the exemplar, kept in ``memo``: they depend on the
@@ -224,6 +225,11 @@ def _resynthesize(img: Plate, source: Plate, p, frame: int, *, note: Callable[[s
         if p.kept_as_one:
             own = flagged if creeping is None else flagged | ~creeping
             ids = np.where(own, patch, np.uint32(KEPT)).astype(np.uint32, copy=False)
+        elif p.flagged_apart:
+            # flagged pixels in a patch of their own: the source's gradient to every kept neighbour,
+            # the kept pixels' seams (the ring's) blended again
+            apart = flagged if creeping is None else flagged & creeping
+            ids = np.where(apart, patch | np.uint32(APART), patch).astype(np.uint32, copy=False)
         rgb, pinfo = blend_regions(rgb, ids, img["label.id"], free, PoissonSolve.of(p),
                                    source_rgb=source_colours(source, img.meta, memo), sx=sx, sy=sy, scale=scale, filter=filt,
                                    thin=p.sor_thickness or None)
