@@ -137,6 +137,7 @@ def attached_floor(scene: str, size: int, f0, sigma: float, shifts=((0.3, 0.05),
     return {k: e[0] / max(e[1], 1e-12) for k, e in err.items()}
 
 
+_clock = time.perf_counter  # the update frames' clock (--cpu: process CPU time)
 NODES = {"init": "PatchInit", "correct": "Correct", "magnify": "Magnify", "first": "Poisson",
          "reproject": "Reproject", "final": "Resynthesize"}
 
@@ -246,14 +247,14 @@ def shot(scene: str, size: int, frames: int, every: int = 1, sigma: float = 1.0,
         write_frame(frames_out / f"{scene}_{size}.0001.png", f0)
     prev, indep_prev, indep_frame = f0, f0, 1
     for fr in range(2, frames + 1):
-        t = time.perf_counter()
+        t = _clock()
         pN = run_node("ProxyRender", {"scene": str(ROOT / "samples" / "scenes" / f"{scene}.usda"),
                                       "resolution": [size, size]}, {"source": src}, frame=fr)
         cd = run_node("ConsistentDepth", {}, {"proxy": pN, "guide": g0, "depth": d0, "ref_proxy": p0}, frame=fr)
         rp = run_node("Reproject", params["reproject"], {"depth": cd, "prev": prev, "first": f0, "source": src},
                       frame=fr)
         fin = run_node("Resynthesize", params["final"], {"image": rp, "source": src}, frame=fr)
-        upd = time.perf_counter() - t
+        upd = _clock() - t
         row = {"frame": fr, "update": upd, "share": float((rp["flag"] > 0).mean()),
                "seams": Q.seam_share(fin["source.x"], fin["source.y"], fin["label.id"], scale=scale) / s0,
                "detail": Q.detail(fin.rgb(), fin["label.id"]) / det0, "warp": None, "labels": figures(fin),
@@ -313,7 +314,16 @@ def main(argv=None) -> None:
     ap.add_argument("--edges", action="store_true",
                     help="per label at the shown frames: |d luma| per label pixel inside patches / across seams, "
                          "untouched / touching this frame's flags (edge_classes)")
+    ap.add_argument("--cpu", action="store_true",
+                    help="time update frames by the process's CPU time on one numba thread (steady on shared cores; "
+                         "'update s' is then CPU seconds; the total over the shot is printed)")
     args = ap.parse_args(sys.argv[2:] if argv is None and len(sys.argv) > 1 and sys.argv[1] == "shot" else argv)
+    if args.cpu:
+        import numba
+
+        numba.set_num_threads(1)
+        global _clock
+        _clock = time.process_time
     summary = []
     params = graph_params(args.set)
     print("parameters: " + "; ".join(f"{k} {v}" for k, v in params.items() if v))
@@ -352,7 +362,8 @@ def main(argv=None) -> None:
             s = {"scene": scene, "size": size, "seams_max": max(r["seams"] for r in rows),
                  "detail_min": min(r["detail"] for r in rows), "share_median": statistics.median(r["share"] for r in later),
                  "share_max": max(r["share"] for r in later),
-                 "update_median": statistics.median(r["update"] for r in later[1:]), "warp": ratio, "floor": floor}
+                 "update_median": statistics.median(r["update"] for r in later[1:]), "warp": ratio, "floor": floor,
+                 "update_total": sum(r["update"] for r in later)}
             summary.append(s)
     print("\n('attached', 'att. L4': the ratios, low-passed and not, of a texture exactly attached to the image, "
           "patch interiors: the measure's floor)")
@@ -372,6 +383,8 @@ def main(argv=None) -> None:
                             and x["clump_max"] - x["clump_first"] <= 0.002) else ""
         print(f"{x['scene']:<7} {x['size']:>5} {x['label']:<12} {x['grad_min']:8.3f} {x['grad_max']:8.3f} "
               f"{x['block_last']:10.3f} {100 * x['clump_first']:7.2f}% {100 * x['clump_max']:8.2f}%{flag}")
+    print("update frames, total s (" + ("CPU, one thread" if args.cpu else "wall") + "): "
+          + ", ".join(f"{s['scene']} {s['size']} {s['update_total']:.1f}" for s in summary))
     print(f"peak RSS {peak_rss_mb():.0f} MiB")
 
 

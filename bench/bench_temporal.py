@@ -64,7 +64,7 @@ def update_frames(scene: str, size: int, frames: int, sets: dict | None = None) 
     src = T.source(T.SCENES[scene])
     p0 = T.proxy(scene, 1, size)
     g0, d0 = T.detailed(scene, 1, size)
-    prev = T.first_frame(scene, size, detail=True)
+    prev = first = T.first_frame(scene, size, detail=True)
     params = node_type("Resynthesize").validate_params(dict({"seed": 1}, **sets.get("final", {})))
 
     class P:
@@ -82,7 +82,8 @@ def update_frames(scene: str, size: int, frames: int, sets: dict | None = None) 
         tm["proxy"] = time.perf_counter() - t
         t = time.perf_counter()
         cd = run_node("ConsistentDepth", {}, {"proxy": pN, "guide": g0, "depth": d0, "ref_proxy": p0}, frame=fr)
-        rp = run_node("Reproject", sets.get("reproject", {}), {"depth": cd, "prev": prev, "source": src}, frame=fr)
+        rp = run_node("Reproject", sets.get("reproject", {}), {"depth": cd, "prev": prev, "first": first, "source": src},
+                      frame=fr)  # first: the graph's (seams anchored to it; creep_gate measures against it)
         tm["R&D"] = time.perf_counter() - t
         prev = resynthesize(rp, src, P, fr, timings=tm)
         if fr == 2:

@@ -44,6 +44,12 @@ from, 2 before 1). When more than ``cut_threshold`` of the frame is flagged the 
 treated as a camera cut: everything is flagged for a full synthesis (noted in the run
 report).
 
+Gradient creep (``creep_gate`` > 0): each label's mean display-luma gradient in ``prev`` over
+the first frame's (``temporal.gradient_ratios``) goes into ``meta["temporal"]["gradient"]``;
+the labels above the gate (``rising``) alone take ``solve_continued`` here and Resynthesize's
+``kept_as_one`` / ``flagged_apart`` / ``solve_margin``, so a label whose texture has not crept
+is not flattened by repeated solves (docs/temporal.md).
+
 Progressive (``progressive: true``, after an edit of the first frame, Bonneel et al. 2010,
 §7): only the pixels the edit reaches in this frame (ConsistentDepth changed, or the
 previous final frame's changed pixels reprojected here, grown by the carry's margins) are

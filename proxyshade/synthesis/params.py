@@ -152,6 +152,11 @@ class RestrictedSolve(ParamGroup):
                             "own difference, an edge touching a flagged pixel the source's gradient (inside a patch "
                             "too: a re-anchored region keeps no step of the carried correction at its border); "
                             "false: the patch ids as they are (kept pixels' seams in the solve blended again)")
+    flagged_apart = Param(bool, False,
+                          doc="(without kept_as_one) an edge between a flagged and a kept pixel takes the source's "
+                              "gradient through both maps even inside one patch (a re-anchored region keeps no step "
+                              "of the carried correction at its border), while the kept pixels keep their patch ids "
+                              "(seams in solve_margin's ring blended again)")
     solve_margin = Param(int, 0, min=0, max=64,
                          doc="kept pixels within this many pixels of a flagged one are solved too, their own "
                              "differences kept (only a smooth change): a thin flagged band between two kept regions "
@@ -221,6 +226,11 @@ class Carry(SameSurface):
                             doc="patches thinner than this (2 x area / perimeter, pixels) are fragments too")
     cut_threshold = Param(float, 0.5, min=0.0, max=1.0,
                           doc="share of flagged pixels above which the frame is a camera cut (full synthesis)")
+    creep_gate = Param(float, 0.0, min=0.0,
+                       doc="> 0: the creep remedies (Reproject's solve_continued, Resynthesize's kept_as_one and "
+                           "solve_margin) act only on labels whose mean gradient (display luma) in the previous "
+                           "frame exceeds the first frame's by this ratio (meta temporal.gradient / rising), so a "
+                           "label whose texture has not crept is not flattened by repeated solves; 0: everywhere")
     anchor = Param(bool, True,
                    doc="a pixel on a seam between first-frame patches takes the patch the first frame has at its "
                        "position (the seam rounded once, from the first frame), not the nearest previous pixel's "

@@ -38,6 +38,7 @@ from proxyshade.synthesis.patches import correct_map, fill_patches, magnify_map,
 from proxyshade.synthesis.temporal import CORRECTION, FLAG
 
 KEPT = 0xFFFFFFFF  # the patch id the restricted solve gives every kept pixel with kept_as_one
+APART = 0x80000000  # or-ed into flagged pixels' patch ids with flagged_apart (ids stay below it)
 SYNTHESIZED = ("R", "G", "B", "source.x", "source.y", "patch.id")  # what the resynthesis writes
 def exemplar_similarity(source: Plate, st, corr: SimpleNamespace, *, seed: int, memo=None) -> list:
     """``patches.similarity_sets`` of the exemplar, kept in ``memo``: they depend on the
@@ -215,12 +216,20 @@ def _resynthesize(img: Plate, source: Plate, p, frame: int, *, note: Callable[[s
     if p.solve:
         if p.extend_correction and all(c in img for c in CORRECTION):
             rgb = rgb + extended_correction(img, flagged, PoissonSolve.of(p), p.sor_thickness or None)
-        free, before = solve_ring(img, flagged, before, int(p.solve_margin))
+        creeping = creeping_labels(img)
+        free, before = solve_ring(img, flagged, before, int(p.solve_margin), creeping)
         # kept_as_one: between two kept pixels the solve keeps their own difference (a ring pixel's
         # seams are not blended again, a flag-4 region does not keep the correction's step at its
         # border); an edge touching a flagged pixel takes the source's gradient
-        ids = np.where(flagged, patch, np.uint32(KEPT)).astype(np.uint32, copy=False) \
-            if p.kept_as_one else patch
+        ids = patch
+        if p.kept_as_one:
+            own = flagged if creeping is None else flagged | ~creeping
+            ids = np.where(own, patch, np.uint32(KEPT)).astype(np.uint32, copy=False)
+        elif p.flagged_apart:
+            # flagged pixels in a patch of their own: the source's gradient to every kept neighbour,
+            # the kept pixels' seams (the ring's) blended again
+            apart = flagged if creeping is None else flagged & creeping
+            ids = np.where(apart, patch | np.uint32(APART), patch).astype(np.uint32, copy=False)
         rgb, pinfo = blend_regions(rgb, ids, img["label.id"], free, PoissonSolve.of(p),
                                    source_rgb=source_colours(source, img.meta, memo), sx=sx, sy=sy, scale=scale, filter=filt,
                                    thin=p.sor_thickness or None)
@@ -244,16 +253,31 @@ def _resynthesize(img: Plate, source: Plate, p, frame: int, *, note: Callable[[s
     return img.with_channels(out, meta=meta, drop=() if p.solve else CORRECTION)
 
 
-def solve_ring(img: Plate, flagged: np.ndarray, before: np.ndarray, margin: int) -> tuple[np.ndarray, np.ndarray]:
+def creeping_labels(img: Plate) -> np.ndarray | None:
+    """(H, W) bool: the pixels of the labels Reproject found creeping (``meta["temporal"]
+    ["rising"]``, its ``creep_gate``), which alone take ``kept_as_one`` and ``solve_margin``;
+    None without that list (everywhere)."""
+    rising = img.meta.get("temporal", {}).get("rising") if isinstance(img.meta.get("temporal"), dict) else None
+    if rising is None:
+        return None
+    return np.isin(img["label.id"], np.asarray(rising, np.uint32))
+
+
+def solve_ring(img: Plate, flagged: np.ndarray, before: np.ndarray, margin: int,
+               where: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """The pixels the restricted solve frees: the ``flagged`` ones and, with ``margin`` > 0 and
     a carried correction, the kept pixels within ``margin`` pixels of them (a square
-    dilation). Returns (free, before): ``before`` (the colours the correction is measured
-    from, (H, W, 3)) with those kept pixels' source through their map (colour − correction),
-    so their correction after the solve is again colour − source."""
-    if margin <= 0 or not all(c in img for c in CORRECTION):
+    dilation; only those in ``where`` when given). Returns (free, before): ``before`` (the
+    colours the correction is measured from, (H, W, 3)) with those kept pixels' source
+    through their map (colour − correction), so their correction after the solve is again
+    colour − source."""
+    if margin <= 0 or not all(c in img for c in CORRECTION) or (where is not None and not where.any()):
         return flagged, before
     free = kt.dilate(flagged, margin)
     ring = free & ~flagged
+    if where is not None:
+        ring &= where
+        free = flagged | ring
     before = np.array(before, np.float32)
     before[ring] -= np.stack([img[c][ring] for c in CORRECTION], -1)
     return free, before

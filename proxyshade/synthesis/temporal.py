@@ -258,7 +258,11 @@ def carry(cd: Plate, prev: Plate | None, first: Plate | None, source: Plate, p, 
     # position has left its label ("stray": a patch growing on screen carries its map past its
     # label's border in the source, sky reading the cliff) no longer shows its label's texture:
     # resynthesized, however few there are (stray); disoccluded; newly occluded
+    ratios = gradient_ratios(prev, first, memo) if p.creep_gate > 0 and first is not None else None
+    rising = None if ratios is None else sorted(k for k, r in ratios.items() if r > p.creep_gate)
     if getattr(p, "solve_continued", False) and filled is not None:
+        if rising is not None:  # only where the label's gradient rose
+            filled = filled & np.isin(lab, np.asarray(rising, np.uint32))
         absorbed = absorbed | filled  # continued pixels: map kept, Poisson redone (flag 4)
     raw, stray = kt.flag_reasons(np.ascontiguousarray(have, np.bool_), absorbed, distorted, src_lab, sx, sy, lab, 0.5,
                                  np.ascontiguousarray(cat, np.uint32), np.uint32(CATEGORY_C),
@@ -292,7 +296,29 @@ def carry(cd: Plate, prev: Plate | None, first: Plate | None, source: Plate, p, 
     meta = _carried_meta(prev, cd)
     meta["temporal"] = dict(counts, flagged=float(flag.size - nflag[0]) / flag.size, cut=bool(cut), frame=int(frame),
                             filter=p.filter)
+    if ratios is not None:
+        meta["temporal"].update(gradient={str(k): round(r, 6) for k, r in ratios.items()}, rising=rising)
     return Plate(ch, meta)
+
+
+def gradient_ratios(prev: Plate, first: Plate, memo=None) -> dict[int, float]:
+    """Per label id: the mean display-luma gradient magnitude of ``prev`` (the previous final
+    frame) over the first frame's (``kt.label_gradients``, bench_shot's grad): above 1 the
+    label's texture has crept (seams made and carried, docs/temporal.md); labels with fewer
+    than 64 interior pixels in either frame are left out. The first frame's sums are kept
+    in ``memo``."""
+    def sums(pl):
+        lab = np.ascontiguousarray(pl["label.id"], np.uint32)
+        return kt.label_gradients(np.ascontiguousarray(pl.rgb(), np.float32), lab, int(lab.max()) + 1)
+
+    s1, c1 = kept(memo, "temporal.first_gradients", (first["R"], first["G"], first["B"], first["label.id"]),
+                  lambda: sums(first), size=1)
+    sn, cn = sums(prev)
+    out = {}
+    for k in range(min(len(s1), len(sn))):
+        if c1[k] >= 64 and cn[k] >= 64 and s1[k] > 0:
+            out[k] = float((sn[k] / cn[k]) / (s1[k] / c1[k]))
+    return out
 
 
 def anchor_first_seams(cd: Plate, first: Plate, k1: np.ndarray, w1: np.ndarray, lab: np.ndarray, land: kr.Landing,

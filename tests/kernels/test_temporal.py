@@ -362,3 +362,30 @@ def test_reanchor_matches_the_bincount_means():
     ry[ii, jj] = m[3][pid] + (ii - m[0][pid]) * 0.5
     T.reanchor(distorted, ids, sx, sy, 0.5, 6)
     assert np.array_equal(sx, rx) and np.array_equal(sy, ry)
+
+
+def test_label_gradients_match_the_per_label_reference():
+    """Every label's gradient sum and count are quality.gradient_magnitude's on the display
+    luma of colour-science's sRGB encoding (linear values below 0 and above 1 included)."""
+    from proxyshade.io.colourlib import colour_science
+    from proxyshade.kernels import quality as Q
+
+    rng = np.random.default_rng(5)
+    rgb = (rng.random((23, 31, 3)) * 1.3 - 0.1).astype(np.float32)
+    rgb[:4] *= 0.002  # the linear segment of the encoding
+    lab = rng.integers(0, 3, (23, 31)).astype(np.uint32)
+    lab[5:15, 8:25] = 1  # a block with interior pixels
+    s, c = T.label_gradients(rgb, lab, 4)
+    enc = np.clip(colour_science().cctf_encoding(np.clip(rgb.astype(np.float64), 0, None), function="sRGB"), 0, 1)
+    lum = Q.luma(enc)
+    for L in range(4):
+        m = lab == L
+        ok = m[:-1, :-1] & m[:-1, 1:] & m[1:, :-1]
+        assert c[L] == ok.sum()
+        ref = Q.gradient_magnitude(lum, m)
+        assert (s[L] / c[L] if c[L] else 0.0) == pytest.approx(ref, rel=1e-5, abs=1e-12)
+    assert c[3] == 0 and s[3] == 0.0
+    v = np.linspace(-0.1, 1.2, 20001)  # the encoding itself (the power segment from a table): within 1e-6
+    enc = np.clip(colour_science().cctf_encoding(np.clip(v, 0, None), function="sRGB"), 0, 1)
+    got = np.array([T._display(x, T._ENCODE) for x in v])
+    assert np.abs(got - enc).max() < 1e-6

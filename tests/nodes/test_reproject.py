@@ -75,6 +75,50 @@ def test_continued_pixels_join_the_solve_with_solve_continued():
     np.testing.assert_allclose(a.rgb()[four], plain[four] + 0.05, atol=1e-6)
 
 
+def test_creep_gate_continues_into_the_solve_only_where_the_gradient_rose():
+    """With ``creep_gate`` Reproject measures each label's mean display-luma gradient in
+    ``prev`` over the first frame's (meta ``temporal.gradient``, bench_shot's grad) and lists
+    the labels above the gate (``rising``); ``solve_continued`` flags continued pixels 4 only
+    there. A first frame of half the previous frame's contrast: the wall's ratio is about 2,
+    rising, flags as ungated; of twice its contrast: about 0.5, flags as without
+    ``solve_continued``."""
+    from proxyshade.io.colourlib import colour_science
+    from proxyshade.kernels import quality as Q
+
+    cams = [camera(pos=(0.5 * k, 0, 0), frame=k + 1) for k in range(2)]
+    r0, r1 = (render(c, sphere=None) for c in cams)
+    prev = with_distortion(state_plate(r0), np.zeros((64, 64)))
+    prev = prev.with_channels({f"correction.{c}": np.full((64, 64), 0.05, np.float32) for c in "RGB"})
+    params = dict(EXACT, fill_radius=6)
+    cd = run_node("ConsistentDepth", {}, {"proxy": r1, "guide": r0, "ref_proxy": r0}, frame=2)
+
+    def run(first, **kw):
+        return run_node("Reproject", dict(params, **kw), {"depth": cd, "prev": prev, "first": first,
+                                                          "source": toy_source()}, frame=2)
+
+    def luma_grad(pl):
+        enc = np.clip(colour_science().cctf_encoding(np.clip(pl.rgb().astype(np.float64), 0, None),
+                                                     function="sRGB"), 0, 1)
+        return Q.gradient_magnitude(Q.luma(enc), pl["label.id"] == 1)
+
+    mean = prev.rgb().mean((0, 1))
+    flat = prev.with_channels({c: (mean[k] + 0.5 * (prev[c] - mean[k])).astype(np.float32)
+                               for k, c in enumerate("RGB")})
+    steep = prev.with_channels({c: (mean[k] + 2.0 * (prev[c] - mean[k])).astype(np.float32)
+                                for k, c in enumerate("RGB")})
+    off, ungated = run(flat), run(flat, solve_continued=True)
+    assert "gradient" not in off.meta["temporal"]  # no gate: nothing measured
+    rose = run(flat, solve_continued=True, creep_gate=1.05)
+    fell = run(steep, solve_continued=True, creep_gate=1.05)
+    for out, first in ((rose, flat), (fell, steep)):
+        assert out.meta["temporal"]["gradient"]["1"] == pytest.approx(luma_grad(prev) / luma_grad(first), rel=1e-5)
+    assert rose.meta["temporal"]["gradient"]["1"] > 1.5 and rose.meta["temporal"]["rising"] == [1]
+    assert fell.meta["temporal"]["gradient"]["1"] < 0.7 and fell.meta["temporal"]["rising"] == []
+    assert (ungated["flag"] == FLAG["reanchored"]).sum() > (off["flag"] == FLAG["reanchored"]).sum() + 40
+    np.testing.assert_array_equal(rose["flag"], ungated["flag"])
+    np.testing.assert_array_equal(fell["flag"], off["flag"])
+
+
 def deviation(plate: Plate, mask: np.ndarray) -> np.ndarray:
     return kt.map_deviation(plate["source.x"], plate["source.y"], mask,
                             kr.patch_links(mask, plate["patch.id"], plate["label.id"]), 1.0)

@@ -155,6 +155,20 @@ def test_solve_margin_spreads_a_thin_regions_mismatch_over_its_kept_ring():
     np.testing.assert_array_equal(wide["source.x"][ring], img["source.x"][ring])
     back = np.stack([wide[f"correction.{c}"] for c in "RGB"], -1) + rgb
     np.testing.assert_allclose(back[ring], wide.rgb()[ring], atol=1e-5)
+    # Reproject's creep gate (meta temporal.rising): the ring only on the labels listed
+    def gated(rising):
+        meta = {"temporal": dict(img.meta.get("temporal", {}), rising=rising)}
+        return resynth(img.with_channels(meta=meta), kept_as_one=True, solve_margin=8)
+
+    every = [int(k) for k in np.unique(lab)]
+    same = lambda a, b: all(np.array_equal(a[c], b[c]) for c in b.names())  # noqa: E731 (meta differs)
+    assert same(gated(every), wide)
+    band = int(np.bincount(lab[rows, 63:65][on].ravel()).argmax())  # the band's main label
+    others = gated([k for k in every if k != band])
+    mine = kept & (lab == band)
+    np.testing.assert_array_equal(others.rgb()[mine], img.rgb()[mine])  # its kept pixels not freed
+    assert not np.array_equal(others.rgb()[kept], img.rgb()[kept])  # the other labels' rings were
+    assert same(gated([]), resynth(img))  # nothing creeping: neither remedy
 
 
 def test_deterministic_per_frame_seed():
@@ -213,3 +227,47 @@ def test_camera_move_graph_reuses_earlier_frames(tmp_path):
     with OpenEXR.File(str(tmp_path / "out" / "lake_renoir" / "frame.0004.exr")) as f:
         names = set(f.channels())
     assert {"flag", "distortion", "category"} <= names
+
+
+def test_flagged_apart_solves_like_kept_as_one_but_blends_the_rings_seams_again():
+    """A re-anchored region (flag 4: map kept, plain source) inside kept pixels that carry
+    a correction of +0.1. ``flagged_apart`` and ``kept_as_one`` both give the region's
+    border the source's gradient (no 0.1 step kept there): without a ring the same solve,
+    bit for bit. With ``solve_margin`` the kept pixels' differences stay as they are under
+    ``kept_as_one``, while ``flagged_apart`` keeps their patch ids: the ring's seams are
+    blended again, their jumps fall."""
+    src = source("renoir")
+    base = carried()
+    rgb = lookup(source_colours(src, base.meta), base["source.x"], base["source.y"])
+    flag = np.zeros(base.shape, np.uint32)
+    flag[40:80, 40:80] = FLAG["reanchored"]
+    kept = flag == 0
+    rng = np.random.default_rng(2)
+    corr = np.where(kept[..., None], 0.1, 0.0).astype(np.float32)
+    patch = base["patch.id"]
+    jump = rng.uniform(-0.05, 0.05, (int(patch.max()) + 1, 3)).astype(np.float32)[patch]  # seams' jumps per patch
+    corr = corr + jump * kept[..., None]
+    ch = {c: (rgb[..., i] + corr[..., i]).astype(np.float32) for i, c in enumerate("RGB")}
+    ch.update({f"correction.{c}": corr[..., i].copy() for i, c in enumerate("RGB")})
+    img = base.with_channels(dict(ch, flag=flag))
+    one, apart = resynth(img, kept_as_one=True), resynth(img, flagged_apart=True)
+    for c in ("R", "G", "B"):
+        np.testing.assert_array_equal(apart[c], one[c])
+    inner = np.zeros(base.shape, bool)
+    inner[41:79, 41:79] = True
+    assert abs(float((one.rgb() - rgb)[inner].mean())) < 0.05  # near the plain source: no 0.1 carried in
+    plain = resynth(img)  # the patch ids as they are: the correction's step kept at the border
+    step = lambda o: float(((o.rgb() - rgb)[40:80, 40] - (o.rgb() - rgb)[40:80, 39]).mean())  # noqa: E731
+    assert step(plain) < -0.04 and abs(step(one)) < 0.02  # off the plain source across the border: 0.1 / none
+
+    one, apart = resynth(img, kept_as_one=True, solve_margin=6), resynth(img, flagged_apart=True, solve_margin=6)
+    ring = np.zeros(base.shape, bool)
+    ring[34:86, 34:86] = True
+    ring &= kept
+    lab = base["label.id"]
+    lum = lambda pl: pl.rgb().mean(-1)  # noqa: E731
+    seams = ring[:, 1:] & ring[:, :-1] & (patch[:, 1:] != patch[:, :-1]) & (lab[:, 1:] == lab[:, :-1])
+    assert seams.sum() > 10
+    d = {k: np.abs(np.diff(lum(o), axis=1))[seams].mean() for k, o in (("in", img), ("one", one), ("apart", apart))}
+    assert abs(d["one"] - d["in"]) < 0.1 * d["in"]  # kept_as_one: the seams' jumps as they came
+    assert d["apart"] < 0.8 * d["one"]
