@@ -96,16 +96,26 @@ def main(argv=None) -> None:
     ap.add_argument("--baseline-kernels", type=Path, help="the baseline's NUMBA_CACHE_DIR (default: a folder of "
                     "its own in the temporary directory)")
     ap.add_argument("--no-profile", action="store_true")
+    ap.add_argument("--guide-pngs", type=Path, help=argparse.SUPPRESS)  # the child that makes them
     args = ap.parse_args(argv)
+    if args.guide_pngs:
+        print(guide_pngs(args.format, args.guide_pngs)[0])
+        return
 
     work = Path(tempfile.mkdtemp(prefix="bench_cli_"))
     try:
         print(f"# bench_cli: proxyshade run {GRAPH.name} --frames 1 ({args.format or '1024 wide'}), fresh plate "
               f"cache, warm kernel cache; {args.rounds} interleaved rounds; load {os.getloadavg()[0]:.1f} "
               f"({os.cpu_count()} cores)")
-        # the kernels compiled and the guide made, untimed
-        photo, g_src, g_tgt = guide_pngs(args.format, work)
+        # the kernels compiled and the guide made, untimed, in a child: a child forked from a
+        # process holding the graph's plates and kernels would report that process's resident
+        # set as its own peak (Linux carries the high-water mark over fork and exec)
+        made = subprocess.run([sys.executable, __file__, "--guide-pngs", str(work),
+                               *(["--format", args.format] if args.format else [])],
+                              check=True, capture_output=True, text=True)
+        photo, g_src, g_tgt = Path(made.stdout.strip().splitlines()[-1]), work / "src_labels.png", work / "tgt_labels.png"
         cmds = {"proxyshade": lambda c, o: child(proxyshade_argv(args.format, c, o))}
+        child(proxyshade_argv(args.format, work / "warm", work / "o"))  # every kernel it calls compiled, untimed
         base_env = None
         if args.baseline:
             # its own kernel cache: numba's index is stamped with the source file's mtime, so
