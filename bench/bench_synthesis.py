@@ -34,7 +34,7 @@ from proxyshade.synthesis.params import PoissonSolve  # noqa: E402
 SOLVE = dict(tol=PoissonSolve.tol.default, max_iter=PoissonSolve.max_iter.default)
 from proxyshade.kernels.lookup import lookup  # noqa: E402
 from proxyshade.synthesis import labels as L  # noqa: E402
-from proxyshade.synthesis.exemplar import setup  # noqa: E402
+from proxyshade.synthesis.exemplar import synthesis_setup  # noqa: E402
 from proxyshade.synthesis.params import Correction, FloodFill  # noqa: E402
 from proxyshade.synthesis.patches import correct_map, fill_patches, magnify_map, similarity_sets  # noqa: E402
 
@@ -60,16 +60,16 @@ def stages(sample: str, repeat: int) -> tuple[list, dict]:
     state: dict = {}
 
     def features():
-        st = setup(src, tgt, table_ids, factor=FACTOR, scale=1.0, coarse_size=corr.coarse_size,
-                   max_distance=corr.max_distance, with_rgb=corr.use_rgb)
-        state["sims"] = similarity_sets(st, corr, seed=0)
-        state["st"] = st
+        setup = synthesis_setup(src, tgt, table_ids, factor=FACTOR, scale=1.0, coarse_size=corr.coarse_size,
+                                max_distance=corr.max_distance, with_rgb=corr.use_rgb)
+        state["sims"] = similarity_sets(setup, corr, seed=0)
+        state["setup"] = setup
 
     def flood():
-        state["S0"], _, state["npatch"] = fill_patches(state["st"], fill, seed=0)
+        state["coords0"], _, state["npatch"] = fill_patches(state["setup"], fill, seed=0)
 
     def corrections():
-        state["S"], _, _ = correct_map(state["st"], state["S0"], corr, seed=0, similarity=state["sims"])
+        state["S"], _, _ = correct_map(state["setup"], state["coords0"], corr, seed=0, similarity=state["sims"])
 
     def magnify():
         wl = L.working_labels(L.source_dense(src, table_ids), 1.0, n)
@@ -96,7 +96,7 @@ def stages(sample: str, repeat: int) -> tuple[list, dict]:
     src_l = lookup(src["label.id"], state["sx"], state["sy"])
     info = {"fidelity": float((src_l == guide["label.id"]).mean()), "patches": int(state["patch"].max()),
             "flood patches": int(state["npatch"]), "poisson": state["pinfo"],
-            "exemplar": state["st"].ex_lab.shape}
+            "exemplar": state["setup"].ex_lab.shape}
     return rows, info
 
 

@@ -394,7 +394,7 @@ def _flood_fill(lv, m, cover, order, first_id, thr_scale, thr_offset, seed):
 
 
 def flood_fill(level: Level, metric: Metric, *, seed: int, threshold_scale: float, threshold_offset: float,
-               mask: np.ndarray | None = None, S: np.ndarray | None = None, patch: np.ndarray | None = None):
+               mask: np.ndarray | None = None, coords: np.ndarray | None = None, patch: np.ndarray | None = None):
     """Cover the guide with patches of the exemplar.
 
     Parameters
@@ -407,34 +407,34 @@ def flood_fill(level: Level, metric: Metric, *, seed: int, threshold_scale: floa
     threshold_scale, threshold_offset : float
         The flood-fill stopping rule.
     mask : (Ht, Wt) bool, optional
-        Only these pixels are covered; the others keep ``S`` and ``patch``.
-    S, patch : existing state (required with ``mask``).
+        Only these pixels are covered; the others keep ``coords`` and ``patch``.
+    coords, patch : existing state (required with ``mask``).
 
     Returns
     -------
-    S : (Ht, Wt, 2) int32 exemplar (row, column) of each guide pixel.
+    coords : (Ht, Wt, 2) int32 exemplar (row, column) (the paper's S) of each guide pixel.
     patch : (Ht, Wt) int64 patch ids (new ones start after the largest existing id).
     npatch : number of patches grown.
 
-    Every label of the guide has exemplar pixels (``synthesis.exemplar.setup`` checks it).
+    Every label of the guide has exemplar pixels (``synthesis.exemplar.synthesis_setup`` checks it).
     """
     Ht, Wt = level.tgt_lab.shape
     if mask is None:
         free = np.ones((Ht, Wt), np.bool_)
-        S = np.zeros((Ht, Wt, 2), np.int32)
+        coords = np.zeros((Ht, Wt, 2), np.int32)
         patch = np.zeros((Ht, Wt), np.int64)
         first = 1
     else:
-        if S is None or patch is None:
-            raise ValueError("flood_fill with a mask needs the existing S and patch")
+        if coords is None or patch is None:
+            raise ValueError("flood_fill with a mask needs the existing coords and patch")
         free = np.ascontiguousarray(mask, dtype=np.bool_).copy()
-        S = np.ascontiguousarray(S, dtype=np.int32).copy()
+        coords = np.ascontiguousarray(coords, dtype=np.int32).copy()
         patch = np.ascontiguousarray(patch, dtype=np.int64).copy()
         first = int(patch.max()) + 1 if patch.size else 1
     order = permutation(seed, Ht * Wt)
-    r = _flood_fill(level, Metric(float(metric.w), float(metric.height_weight)), Cover(free, S, patch), order, first,
+    r = _flood_fill(level, Metric(float(metric.w), float(metric.height_weight)), Cover(free, coords, patch), order, first,
                     float(threshold_scale), float(threshold_offset), int(seed))
-    return S, patch, r
+    return coords, patch, r
 
 
 @njit(**JIT)

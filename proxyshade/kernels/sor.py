@@ -108,7 +108,7 @@ def _residual_norm(ii, jj, diag, we, ws, b, v, out):
 
 
 def solve_sor(fixed: np.ndarray, b: np.ndarray, rows: np.ndarray, cols: np.ndarray, omega: np.ndarray, *,
-              screen: float = 0.0, tol: float = 1e-5, max_sweeps: int = 2000, check: int = 8) -> tuple[np.ndarray, dict]:
+              screen: float = 0.0, tol: float, max_sweeps: int = 2000, check: int = 8) -> tuple[np.ndarray, dict]:
     """Solve A v = b (``solve_system``'s operator) on the listed free pixels by red-black SOR.
 
     For many small free regions, each bounded by fixed pixels, in a large frame: the work
@@ -328,7 +328,7 @@ def _sor_plan(rows: np.ndarray, cols: np.ndarray, omega: np.ndarray, region: np.
 
 
 def solve_sor_regions(fixed: np.ndarray, b: np.ndarray, rows: np.ndarray, cols: np.ndarray, omega: np.ndarray,
-                      region: np.ndarray, *, screen: float = 0.0, tol: float = 1e-5, max_sweeps: int = 2000,
+                      region: np.ndarray, *, screen: float = 0.0, tol: float, max_sweeps: int = 2000,
                       check: int = 8, threads: int | None = None) -> tuple[np.ndarray, dict]:
     """``solve_sor`` with each region converged on its own.
 

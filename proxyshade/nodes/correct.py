@@ -38,7 +38,7 @@ class Correct(Correction, Node):
 
     def compute(self, ctx) -> Plate:
         from proxyshade.synthesis import labels as L
-        from proxyshade.synthesis.exemplar import SYNTH_CHANNELS, setup
+        from proxyshade.synthesis.exemplar import SYNTH_CHANNELS, synthesis_setup
         from proxyshade.synthesis.patches import correct_map, patch_ids
 
         p, init, source = ctx.p, ctx.init, ctx.source
@@ -47,15 +47,15 @@ class Correct(Correction, Node):
             raise ctx.error("input 'init' has no synthesis metadata (factor, scale); connect PatchInit's output")
         table = L.source_table(source)
         tgt = L.dense_guide(init["label.id"], table, "init")
-        st = setup(source, tgt, table, factor=int(syn["factor"]), scale=float(syn["scale"]),
-                   coarse_size=p.coarse_size, max_distance=p.max_distance, interior=p.interior, with_rgb=p.use_rgb)
-        S, stats, rep = correct_map(st, st.from_source(init["source.x"], init["source.y"]), Correction.of(p),
+        setup = synthesis_setup(source, tgt, table, factor=int(syn["factor"]), scale=float(syn["scale"]),
+                                coarse_size=p.coarse_size, max_distance=p.max_distance, interior=p.interior, with_rgb=p.use_rgb)
+        coords, stats, rep = correct_map(setup, setup.from_source(init["source.x"], init["source.y"]), Correction.of(p),
                                     seed=p.seed, near_copy=p.near_copy, tiles=ctx.tiles)
-        patch, npatch = patch_ids(S)
+        patch, npatch = patch_ids(coords)
         changed = sum(s["changed"] for s in stats)
         ctx.note(f"{len(stats)} levels, {changed} pixel updates, {npatch} patches; "
                  f"{rep['wrong']} label mismatches repaired")
         extra = {k: v for k, v in syn.items() if k not in ("factor", "scale", "exemplar_factor", "exemplar")}
         extra.update(patches=npatch, corrected=True)
-        out = st.plate(S, patch, source, extra)
+        out = setup.plate(coords, patch, source, extra)
         return out.with_channels({c: init[c] for c in init.names() if c not in SYNTH_CHANNELS})

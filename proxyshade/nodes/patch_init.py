@@ -36,16 +36,16 @@ class PatchInit(FloodFill, SynthesisGrid, CoarseLevel, Node):
 
     def compute(self, ctx) -> Plate:
         from proxyshade.synthesis import labels as L
-        from proxyshade.synthesis.exemplar import setup
+        from proxyshade.synthesis.exemplar import synthesis_setup
         from proxyshade.synthesis.patches import fill_patches
 
         p, guide, source = ctx.p, ctx.guide, ctx.source
         table = L.source_table(source)
         tgt = L.guide_at_synthesis(L.dense_guide(guide["label.id"], table), p.factor, len(table))
-        st = setup(source, tgt, table, factor=p.factor, scale=p.scale, coarse_size=p.coarse_size,
-                   max_distance=p.max_distance, interior=p.interior, with_rgb=False, finest_only=True)
-        S, patch, npatch = fill_patches(st, FloodFill.of(p), seed=p.seed)
+        setup = synthesis_setup(source, tgt, table, factor=p.factor, scale=p.scale, coarse_size=p.coarse_size,
+                                max_distance=p.max_distance, interior=p.interior, with_rgb=False, finest_only=True)
+        coords, patch, npatch = fill_patches(setup, FloodFill.of(p), seed=p.seed)
         ctx.note(f"{npatch} patches over {tgt.shape[1]}x{tgt.shape[0]} synthesis pixels "
-                 f"(exemplar {st.ex_lab.shape[1]}x{st.ex_lab.shape[0]})")
-        return st.plate(S, patch, source, {"output": list(guide.shape), "patches": int(npatch),
+                 f"(exemplar {setup.ex_lab.shape[1]}x{setup.ex_lab.shape[0]})")
+        return setup.plate(coords, patch, source, {"output": list(guide.shape), "patches": int(npatch),
                                            "max_distance": p.max_distance, "coarse_size": p.coarse_size})

@@ -64,9 +64,9 @@ class SynthesisSetup:
     tgt_lab: np.ndarray        # (Ht, Wt) dense guide labels at the synthesis size
     levels: list               # features.Level, coarsest first
 
-    def to_source(self, S: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def to_source(self, coords: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Exemplar (row, column) -> source.x, source.y (float32, source pixels)."""
-        return grid_to_source(S[..., 1], self.ex_factor), grid_to_source(S[..., 0], self.ex_factor)
+        return grid_to_source(coords[..., 1], self.ex_factor), grid_to_source(coords[..., 0], self.ex_factor)
 
     def from_source(self, sx: np.ndarray, sy: np.ndarray) -> np.ndarray:
         """source.x, source.y -> exemplar (row, column) int32, clamped into the exemplar."""
@@ -75,10 +75,10 @@ class SynthesisSetup:
         r = np.clip(source_to_grid(sy, self.ex_factor), 0, He - 1)
         return np.stack([r, c], axis=-1).astype(np.int32)
 
-    def plate(self, S: np.ndarray, patch: np.ndarray, source: Plate, extra_meta: dict) -> Plate:
+    def plate(self, coords: np.ndarray, patch: np.ndarray, source: Plate, extra_meta: dict) -> Plate:
         """The synthesis-size plate: R,G,B looked up in the exemplar, ids, coordinates."""
-        rgb = lookup(self.ex_rgb, S[..., 1].astype(np.float32), S[..., 0].astype(np.float32))
-        sx, sy = self.to_source(S)
+        rgb = lookup(self.ex_rgb, coords[..., 1].astype(np.float32), coords[..., 0].astype(np.float32))
+        sx, sy = self.to_source(coords)
         ch = {"R": rgb[..., 0].copy(), "G": rgb[..., 1].copy(), "B": rgb[..., 2].copy(),
               "label.id": self.table[self.tgt_lab].astype(np.uint32), "source.x": sx, "source.y": sy,
               "patch.id": patch.astype(np.uint32)}
@@ -88,7 +88,7 @@ class SynthesisSetup:
         return Plate(ch, meta)
 
 
-def setup(source: Plate, tgt_lab_synth: np.ndarray, table: np.ndarray, *, factor: int, scale: float,
+def synthesis_setup(source: Plate, tgt_lab_synth: np.ndarray, table: np.ndarray, *, factor: int, scale: float,
           coarse_size: int, max_distance: float | None, with_rgb: bool, finest_only: bool = False,
           interior: float = 0.0) -> SynthesisSetup:
     """Exemplar and levels for a guide already at the synthesis size (dense labels)."""

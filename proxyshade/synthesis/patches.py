@@ -2,7 +2,9 @@
 patches, k-coherent correction coarse to fine, magnification to the output size and the
 label repair after it. Each step works on the whole map or, with a ``mask``, only on the
 masked pixels (the others are fixed context): the first frame and the local
-resynthesis of later frames (§6.3) run the same functions.
+resynthesis of later frames (§6.3) run the same functions. The map ``coords`` is the
+paper's S: (H, W, 2) int32, the exemplar (row, column) each synthesis pixel reads;
+``setup`` is the ``exemplar.SynthesisSetup`` the steps share.
 
 Kernels: ``proxyshade.kernels.patch`` (flood fill, components), ``kernels.correct``,
 ``kernels.magnify``.
@@ -23,13 +25,13 @@ from proxyshade.synthesis.exemplar import SynthesisSetup, grid_to_source
 from proxyshade.synthesis.memo import kept
 
 
-def fill_patches(st: SynthesisSetup, fill: SimpleNamespace, *, seed: int, mask: np.ndarray | None = None,
-                 S: np.ndarray | None = None, patch: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, int]:
-    """Cover the synthesis-size guide (or its ``mask`` pixels, keeping ``S``/``patch``
+def fill_patches(setup: SynthesisSetup, fill: SimpleNamespace, *, seed: int, mask: np.ndarray | None = None,
+                 coords: np.ndarray | None = None, patch: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, int]:
+    """Cover the synthesis-size guide (or its ``mask`` pixels, keeping ``coords``/``patch``
     elsewhere) with patches grown by flood fill at the finest level. ``fill``: the
-    ``FloodFill`` parameters. Returns (S exemplar (row, col) int32, patch ids, count)."""
-    return kpatch.flood_fill(st.levels[-1], metric(fill), seed=seed, threshold_scale=fill.threshold_scale,
-                             threshold_offset=fill.threshold_offset, mask=mask, S=S, patch=patch)
+    ``FloodFill`` parameters. Returns (coords exemplar (row, col) int32, patch ids, count)."""
+    return kpatch.flood_fill(setup.levels[-1], metric(fill), seed=seed, threshold_scale=fill.threshold_scale,
+                             threshold_offset=fill.threshold_offset, mask=mask, coords=coords, patch=patch)
 
 
 def metric(group: SimpleNamespace) -> Metric:
@@ -37,31 +39,31 @@ def metric(group: SimpleNamespace) -> Metric:
     return Metric(float(group.w), float(group.height_weight))
 
 
-def similarity_sets(st: SynthesisSetup, corr: SimpleNamespace, *, seed: int) -> list:
+def similarity_sets(setup: SynthesisSetup, corr: SimpleNamespace, *, seed: int) -> list:
     """The exemplar's similarity sets per level (k nearest windows), for ``correct_map``."""
-    return kcorrect.level_similarity_sets(st.levels, corr.k, metric(corr), seed=seed,
+    return kcorrect.level_similarity_sets(setup.levels, corr.k, metric(corr), seed=seed,
                                           knn_iterations=corr.knn_iterations)
 
 
-def correct_map(st: SynthesisSetup, S0: np.ndarray, corr: SimpleNamespace, *, seed: int,
+def correct_map(setup: SynthesisSetup, coords0: np.ndarray, corr: SimpleNamespace, *, seed: int,
                 mask: np.ndarray | None = None, similarity: list | None = None,
                 near_copy: int = 0, tiles=None) -> tuple[np.ndarray, list, dict]:
-    """k-coherent correction of the map ``S0`` (or of its ``mask`` pixels) from the
+    """k-coherent correction of the map ``coords0`` (or of its ``mask`` pixels) from the
     coarsest level up to the synthesis size, then ``repair_map``. ``corr``: the
     ``Correction`` parameters; ``near_copy``: the smallest near-copy radius in exemplar
     pixels (Correct's parameter, capped by ``near_copy_radius``; 0, the rule's radius
     alone, for the resyntheses of Resynthesize and EditSynth, whose windows would cap it
     differently from the whole frame). ``tiles``: the executor's row-band runner (``ctx.tiles``,
     ``synthesis.tiles``), which runs large levels' sub-passes on other workers (bit-identical;
-    None: here). Returns (S,
+    None: here). Returns (coords,
     per-level stats, the repair's counts)."""
-    S, stats = kcorrect.synthesize(st.levels, S0, corr, seed=seed, mask=mask, similarity=similarity,
-                                   min_radius=near_copy_radius(st, near_copy), tiles=tiles)
-    S, rep = repair_map(st, S)
-    return S, stats, rep
+    coords, stats = kcorrect.synthesize(setup.levels, coords0, corr, seed=seed, mask=mask, similarity=similarity,
+                                        min_radius=near_copy_radius(setup, near_copy), tiles=tiles)
+    coords, rep = repair_map(setup, coords)
+    return coords, stats, rep
 
 
-def near_copy_radius(st: SynthesisSetup, near_copy: int) -> int:
+def near_copy_radius(setup: SynthesisSetup, near_copy: int) -> int:
     """The smallest near-copy radius of the correction, in exemplar pixels: ``near_copy``,
     at most a sixteenth of the exemplar's shorter side (a small exemplar, e.g. a 24-pixel
     one with 8-pixel label bands, cannot spare a wide exclusion around every neighbour)
@@ -69,21 +71,21 @@ def near_copy_radius(st: SynthesisSetup, near_copy: int) -> int:
     rounded down): near copies are the repetition of a magnified frame, where each source
     spot appears many times; a synthesis at about the photo's own size (each pixel used
     about once) keeps the rule's radius, which matches its small labels better."""
-    uses = int(st.tgt_lab.size // max(st.ex_lab.size, 1))
-    return int(max(0, min(int(near_copy), min(st.ex_lab.shape) // 16, uses)))
+    uses = int(setup.tgt_lab.size // max(setup.ex_lab.size, 1))
+    return int(max(0, min(int(near_copy), min(setup.ex_lab.shape) // 16, uses)))
 
 
-def repair_map(st: SynthesisSetup, S: np.ndarray) -> tuple[np.ndarray, dict]:
+def repair_map(setup: SynthesisSetup, coords: np.ndarray) -> tuple[np.ndarray, dict]:
     """Pixels of the synthesis-size map that landed on an exemplar pixel of another label
     than the guide's moved onto theirs (``kernels.magnify.repair_labels``)."""
-    return kmag.repair_labels(S, st.tgt_lab, st.ex_lab)
+    return kmag.repair_labels(coords, setup.tgt_lab, setup.ex_lab)
 
 
-def magnify_map(S: np.ndarray, factor: int, shape: tuple[int, int], *, scale: float,
+def magnify_map(coords: np.ndarray, factor: int, shape: tuple[int, int], *, scale: float,
                 target: np.ndarray | None = None, labels: np.ndarray | None = None,
                 only: np.ndarray | None = None, memo=None, colours: np.ndarray | None = None,
                 seam_passes: int = 0, seam_runs: bool = False):
-    """The exemplar map ``S`` magnified by ``factor`` to the output size ``shape`` (each
+    """The exemplar map ``coords`` magnified by ``factor`` to the output size ``shape`` (each
     patch keeps its translation, the source is read at full detail). With ``target``,
     pixels whose ``labels`` (the source's on the output-scale grid,
     ``labels.working_labels``) differ from ``target`` are moved onto theirs; with
@@ -95,18 +97,18 @@ def magnify_map(S: np.ndarray, factor: int, shape: tuple[int, int], *, scale: fl
 
     Returns (source.x, source.y float32, patch ids uint32 from 1, patch count, the
     repair's counts, with ``seam_moves``)."""
-    Sw = kmag.magnify(S, factor, shape)
+    coords_out = kmag.magnify(coords, factor, shape)
     rep = {"wrong": 0, "extended": 0, "nearest": 0}
     if target is not None:
         if only is not None:
-            target = kmag.only_target(Sw, labels, only, target)
-        Sw, rep = kmag.repair_labels(Sw, target, labels, sites_of=lambda lab: nearest_sites(labels, lab, memo))
+            target = kmag.only_target(coords_out, labels, only, target)
+        coords_out, rep = kmag.repair_labels(coords_out, target, labels, sites_of=lambda lab: nearest_sites(labels, lab, memo))
     rep["seam_moves"] = 0
     if seam_passes > 0 and colours is not None and target is not None:
-        Sw, rep["seam_moves"] = kseams.refine_seams(Sw, colours, target, labels, seam_passes,
+        coords_out, rep["seam_moves"] = kseams.refine_seams(coords_out, colours, target, labels, seam_passes,
                                                              runs=seam_runs)
-    patch, npatch = patch_ids(Sw)
-    return grid_to_source(Sw[..., 1], scale), grid_to_source(Sw[..., 0], scale), patch, npatch, rep
+    patch, npatch = patch_ids(coords_out)
+    return grid_to_source(coords_out[..., 1], scale), grid_to_source(coords_out[..., 0], scale), patch, npatch, rep
 
 
 def working_colours(source_rgb: np.ndarray, labels_dense: np.ndarray, scale: float, n: int, memo=None) -> np.ndarray:
@@ -137,7 +139,7 @@ def nearest_sites(labels: np.ndarray, lab: int, memo=None) -> np.ndarray | None:
     return kept(memo, "patches.nearest_sites", (labels, int(lab)), compute, size=32)
 
 
-def patch_ids(S: np.ndarray) -> tuple[np.ndarray, int]:
+def patch_ids(coords: np.ndarray) -> tuple[np.ndarray, int]:
     """Patches of a map: 4-connected regions of one translation (uint32 ids from 1), and
     their count."""
-    return kpatch.offset_components(S)
+    return kpatch.offset_components(coords)

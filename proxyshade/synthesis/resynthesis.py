@@ -30,7 +30,7 @@ from proxyshade.kernels import temporal as kt
 from proxyshade.kernels.random import mix_seed
 from proxyshade.synthesis import labels as L
 from proxyshade.synthesis.blend import blend_regions, poisson_regions
-from proxyshade.synthesis.exemplar import levels_for, setup
+from proxyshade.synthesis.exemplar import levels_for, synthesis_setup
 from proxyshade.synthesis.grain import source_colours
 from proxyshade.synthesis.memo import kept
 from proxyshade.synthesis.params import Correction, FloodFill, PoissonSolve
@@ -40,14 +40,14 @@ from proxyshade.synthesis.temporal import CORRECTION, FLAG
 KEPT = 0xFFFFFFFF  # the patch id the restricted solve gives every kept pixel with kept_as_one
 APART = 0x80000000  # or-ed into flagged pixels' patch ids with flagged_apart (ids stay below it)
 SYNTHESIZED = ("R", "G", "B", "source.x", "source.y", "patch.id")  # what the resynthesis writes
-def exemplar_similarity(source: Plate, st, corr: SimpleNamespace, *, seed: int, memo=None) -> list:
+def exemplar_similarity(source: Plate, setup, corr: SimpleNamespace, *, seed: int, memo=None) -> list:
     """``patches.similarity_sets`` of the exemplar, kept in ``memo``: they depend on the
     source, the exemplar's geometry (factor, scale, levels), its features' parameters and
     the search's, not on the frame or the window, so within one run they are searched once
     per source (and an interactive loop that reads the same source back finds them)."""
-    parts = (source, st.table, st.factor, st.scale, len(st.levels), corr.max_distance, corr.interior, corr.use_rgb,
+    parts = (source, setup.table, setup.factor, setup.scale, len(setup.levels), corr.max_distance, corr.interior, corr.use_rgb,
              corr.k, corr.knn_iterations, corr.w, corr.height_weight, seed)
-    return kept(memo, "resynthesis.similarity_sets", parts, lambda: similarity_sets(st, corr, seed=seed))
+    return kept(memo, "resynthesis.similarity_sets", parts, lambda: similarity_sets(setup, corr, seed=seed))
 
 
 def source_table(source: Plate, memo=None) -> np.ndarray:
@@ -307,29 +307,29 @@ def _synthesize(img: Plate, source: Plate, p, redo: np.ndarray, f: int, scale: f
     H, W = img.shape
     g = L.dense_guide(img["label.id"], table, "image")
     tgt = L.guide_at_synthesis(g, f, n)
-    st = setup(source, tgt, table, factor=f, scale=scale, coarse_size=p.coarse_size, max_distance=p.max_distance,
-               interior=p.interior, with_rgb=p.use_rgb)
+    setup = synthesis_setup(source, tgt, table, factor=f, scale=scale, coarse_size=p.coarse_size, max_distance=p.max_distance,
+                            interior=p.interior, with_rgb=p.use_rgb)
     shape = tgt.shape
     lap("features")
     active = downsample_mask(redo, f, shape)
     fresh = downsample_mask((flag == FLAG["disoccluded"]) | (flag == FLAG["newly_occluded"]), f, shape)
-    S = st.from_source(block_sample(img["source.x"], f, shape), block_sample(img["source.y"], f, shape))
+    coords = setup.from_source(block_sample(img["source.x"], f, shape), block_sample(img["source.y"], f, shape))
     patch_s = block_sample(img["patch.id"], f, shape).astype(np.int64, copy=False)
     npatch = 0
     if fresh.any():
-        S, patch_s, npatch = fill_patches(st, FloodFill.of(p), seed=seed, mask=fresh, S=S, patch=patch_s)
+        coords, patch_s, npatch = fill_patches(setup, FloodFill.of(p), seed=seed, mask=fresh, coords=coords, patch=patch_s)
     lap("flood fill")
     corr = Correction.of(p)
     if p.passes > 0 or p.passes_finest > 0:
-        S, _, _ = correct_map(st, S, corr, seed=p.seed, mask=active, tiles=tiles,
-                              similarity=exemplar_similarity(source, st, corr, seed=p.seed, memo=memo))
+        coords, _, _ = correct_map(setup, coords, corr, seed=p.seed, mask=active, tiles=tiles,
+                                   similarity=exemplar_similarity(source, setup, corr, seed=p.seed, memo=memo))
     else:
-        S, _ = repair_map(st, S)
+        coords, _ = repair_map(setup, coords)
     lap("corrections")
     # magnify to the output size and repair labels against the detailed labels; only redo
     # pixels take the new map: the others are told the label they land on (nothing to repair)
     wl = L.source_working_labels(source, table, scale, memo)
-    sx_new, sy_new, new_patch, _, rep = magnify_map(S, f, (H, W), scale=scale, target=g, labels=wl, only=redo,
+    sx_new, sy_new, new_patch, _, rep = magnify_map(coords, f, (H, W), scale=scale, target=g, labels=wl, only=redo,
                                                     memo=memo)
     base = np.uint32(int(img["patch.id"].max()) + 1 if patch_base is None else patch_base)
     sx, sy, patch = kt.merge_redo(np.ascontiguousarray(redo, np.bool_), sx_new, sy_new,
@@ -341,7 +341,7 @@ def _synthesize(img: Plate, source: Plate, p, redo: np.ndarray, f: int, scale: f
     rgb[ii, jj] = lookup_many(source_colours(source, img.meta, memo), sx[ii, jj], sy[ii, jj], filt)
     info.update(synthesis_pixels=int(active.sum()), flood_filled=int(fresh.sum()), patches=int(npatch),
                 repaired=int(rep["wrong"]))
-    return sx, sy, patch, st.ex_factor
+    return sx, sy, patch, setup.ex_factor
 
 
 def resynthesize_update(old: Plate, old_image: Plate | None, img: Plate, source: Plate, old_source: Plate | None, p,

@@ -36,7 +36,7 @@ def run_kernel(src, tgt, n, seed, mask=None, S=None, patch=None, w=90.0, ts=1.25
     sd = np.minimum(contour_distance(src), 4.0).astype(np.float32)
     td = np.minimum(contour_distance(tgt), 4.0).astype(np.float32)
     return sd, td, kpatch.flood_fill(level(src, sd, tgt, td, n), kf.Metric(w, hw), seed=seed, threshold_scale=ts,
-                                     threshold_offset=to, mask=mask, S=S, patch=patch)
+                                     threshold_offset=to, mask=mask, coords=S, patch=patch)
 
 
 def test_chamfer_masks_match_paper_definition():

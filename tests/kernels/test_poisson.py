@@ -276,11 +276,11 @@ def test_sor_regions_do_not_depend_on_threads_or_balance():
     rng = np.random.default_rng(22)
     _, _, fixed, b, rows, cols, region = _sor_case(rng)
     omega = sor.sor_omega(np.full(len(rows), 12.0), np.full(len(rows), 12.0))
-    a, _ = sor.solve_sor_regions(fixed, b, rows, cols, omega, region, screen=0.01, threads=2)
-    c, _ = sor.solve_sor_regions(fixed, b, rows, cols, omega, region, screen=0.01, threads=5)
+    a, _ = sor.solve_sor_regions(fixed, b, rows, cols, omega, region, screen=0.01, tol=1e-5, threads=2)
+    c, _ = sor.solve_sor_regions(fixed, b, rows, cols, omega, region, screen=0.01, tol=1e-5, threads=5)
     numba.set_num_threads(1)
     try:
-        d, _ = sor.solve_sor_regions(fixed, b, rows, cols, omega, region, screen=0.01, threads=1)
+        d, _ = sor.solve_sor_regions(fixed, b, rows, cols, omega, region, screen=0.01, tol=1e-5, threads=1)
     finally:
         numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
     assert np.array_equal(a, c) and np.array_equal(a, d)
