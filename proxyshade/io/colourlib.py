@@ -113,6 +113,17 @@ def _srgb_tables() -> tuple:
     return decode, thresholds
 
 
+@functools.cache
+def srgb_encoding_table(steps: int) -> "np.ndarray":
+    """colour-science's sRGB encoding of t² at ``steps`` + 1 even t in [0, 1] (float64,
+    read-only): a kernel interpolates it at √v, where the encoding is smooth
+    (``kernels.temporal._display``)."""
+    t = np.linspace(0.0, 1.0, steps + 1)
+    table = np.asarray(colour_science().cctf_encoding(t * t, function="sRGB"), np.float64)
+    table.flags.writeable = False
+    return table
+
+
 def decode_srgb8(rgb8) -> "np.ndarray":
     """uint8 sRGB codes -> float32 linear: colour-science's ``cctf_decoding`` of code / 255."""
     return srgb_tables()[0][rgb8]

@@ -646,17 +646,15 @@ def reanchor(distorted, ids, sx, sy, scale, n):
                 sy[i, j] = my[p] + (i - mi[p]) * scale
 
 
-ENCODE_STEPS = 4096  # _ENCODE's intervals: linear interpolation in t = √v within 1e-6 of the encoding
-_t = np.linspace(0.0, 1.0, ENCODE_STEPS + 1)
-_ENCODE = np.where(_t * _t <= 0.0031308, 12.92 * _t * _t, 1.055 * _t ** (2.0 / 2.4) - 0.055)  # sRGB of t²
-del _t
+ENCODE_STEPS = 4096  # intervals of the encoding's table: linear interpolation in t = √v within 1e-6 of it
 
 
 @njit(inline="always", **JIT)
 def _display(v, table):
-    """sRGB encoding of a linear value, clipped to [0, 1] (colour-science's ``cctf_encoding``):
-    the linear segment exactly, the power segment interpolated in ``table`` (``_ENCODE``) at
-    √v, where it is smooth (no pow per pixel)."""
+    """sRGB encoding of a linear value, clipped to [0, 1]: the linear segment exactly, the
+    power segment interpolated in ``table`` (the encoding of t², t at ``ENCODE_STEPS`` + 1
+    even steps in [0, 1]: ``io.colourlib.srgb_encoding_table``) at √v, where it is smooth
+    (no pow per pixel)."""
     if v <= 0.0031308:
         return 12.92 * v if v > 0.0 else 0.0
     if v >= 1.0:
@@ -696,10 +694,11 @@ def _label_gradients(rgb, lab, n, table):
     return s, c
 
 
-def label_gradients(rgb, lab, n):
+def label_gradients(rgb, lab, n, table):
     """Per label id < ``n``: (sum, count) of the display luma's gradient magnitude
     √(dx² + dy²) (forward differences; luma: Rec. 709 weights on sRGB-encoded values) over
     the pixels whose right and lower neighbours have their label: ``quality.gradient_magnitude``
     of each label at once (bench_shot's grad, kept in the carried state against the creep).
-    Summed per row, then the rows in order: the same numbers with any thread count."""
-    return _label_gradients(rgb, lab, n, _ENCODE)
+    Summed per row, then the rows in order: the same numbers with any thread count.
+    ``table``: colour-science's sRGB encoding tabulated (``_display``)."""
+    return _label_gradients(rgb, lab, n, table)

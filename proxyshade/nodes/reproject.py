@@ -61,7 +61,7 @@ Layer: ``proxyshade.synthesis.temporal``; kernels ``proxyshade.kernels.reproject
 """
 from __future__ import annotations
 
-from proxyshade.graph.node import Input, Node, Param, Progressive
+from proxyshade.graph.node import Input, Node, Progressive
 from proxyshade.graph.plate import Plate
 from proxyshade.synthesis.params import Carry, source_input
 from proxyshade.synthesis.state import STATE
@@ -91,10 +91,7 @@ class Reproject(Carry, Progressive, Node):
     first = Input("the full first-frame synthesis (Poisson at frame: first), used at the first frame",
                   optional=True, channels=STATE, fix="connect the first frame's final Poisson (frame: first)")
     source = source_input("annotated source (SourceRead): colours are looked up through the carried map")
-    solve_continued = Param(bool, False,
-                            doc="pixels continuing a neighbour's patch into a disocclusion are flagged 4 (map kept, "
-                                "Poisson redone): the seams they make where they meet another patch are blended "
-                                "(Resynthesize) instead of carried as they fell (docs/temporal.md)")
+
     def compute(self, ctx) -> Plate:
         from proxyshade.synthesis.temporal import carry, carry_update
 

@@ -226,8 +226,12 @@ class Carry(SameSurface):
                             doc="patches thinner than this (2 x area / perimeter, pixels) are fragments too")
     cut_threshold = Param(float, 0.5, min=0.0, max=1.0,
                           doc="share of flagged pixels above which the frame is a camera cut (full synthesis)")
+    solve_continued = Param(bool, False,
+                            doc="pixels continuing a neighbour's patch into a disocclusion are flagged 4 (map kept, "
+                                "Poisson redone): the seams they make where they meet another patch are blended "
+                                "(Resynthesize) instead of carried as they fell (docs/temporal.md)")
     creep_gate = Param(float, 0.0, min=0.0,
-                       doc="> 0: the creep remedies (Reproject's solve_continued, Resynthesize's kept_as_one and "
+                       doc="> 0: the creep remedies (solve_continued, Resynthesize's kept_as_one, flagged_apart and "
                            "solve_margin) act only on labels whose mean gradient (display luma) in the previous "
                            "frame exceeds the first frame's by this ratio (meta temporal.gradient / rising), so a "
                            "label whose texture has not crept is not flattened by repeated solves; 0: everywhere")

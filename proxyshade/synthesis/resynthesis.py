@@ -255,7 +255,8 @@ def _resynthesize(img: Plate, source: Plate, p, frame: int, *, note: Callable[[s
 
 def creeping_labels(img: Plate) -> np.ndarray | None:
     """(H, W) bool: the pixels of the labels Reproject found creeping (``meta["temporal"]
-    ["rising"]``, its ``creep_gate``), which alone take ``kept_as_one`` and ``solve_margin``;
+    ["rising"]``, its ``creep_gate``), which alone take ``kept_as_one``, ``flagged_apart`` and
+    ``solve_margin``;
     None without that list (everywhere)."""
     rising = img.meta.get("temporal", {}).get("rising") if isinstance(img.meta.get("temporal"), dict) else None
     if rising is None:

@@ -21,6 +21,7 @@ import numpy as np
 from proxyshade.errors import NodeInputError
 from proxyshade.plate import Plate
 from proxyshade.io.camera import CameraInfo
+from proxyshade.io.colourlib import srgb_encoding_table
 from proxyshade.kernels import reproject as kr
 from proxyshade.kernels import temporal as kt
 from proxyshade.kernels.lookup import lookup
@@ -260,7 +261,7 @@ def carry(cd: Plate, prev: Plate | None, first: Plate | None, source: Plate, p, 
     # resynthesized, however few there are (stray); disoccluded; newly occluded
     ratios = gradient_ratios(prev, first, memo) if p.creep_gate > 0 and first is not None else None
     rising = None if ratios is None else sorted(k for k, r in ratios.items() if r > p.creep_gate)
-    if getattr(p, "solve_continued", False) and filled is not None:
+    if p.solve_continued and filled is not None:
         if rising is not None:  # only where the label's gradient rose
             filled = filled & np.isin(lab, np.asarray(rising, np.uint32))
         absorbed = absorbed | filled  # continued pixels: map kept, Poisson redone (flag 4)
@@ -309,7 +310,8 @@ def gradient_ratios(prev: Plate, first: Plate, memo=None) -> dict[int, float]:
     in ``memo``."""
     def sums(pl):
         lab = np.ascontiguousarray(pl["label.id"], np.uint32)
-        return kt.label_gradients(np.ascontiguousarray(pl.rgb(), np.float32), lab, int(lab.max()) + 1)
+        return kt.label_gradients(np.ascontiguousarray(pl.rgb(), np.float32), lab, int(lab.max()) + 1,
+                                  srgb_encoding_table(kt.ENCODE_STEPS))
 
     s1, c1 = kept(memo, "temporal.first_gradients", (first["R"], first["G"], first["B"], first["label.id"]),
                   lambda: sums(first), size=1)
