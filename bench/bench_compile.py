@@ -16,7 +16,11 @@ many compiles it ran itself (numba's compile events, numba's own helpers include
 the kernels whose compiles took longest there; then a forced re-run of the frame in that
 process (the kernels' run time: the same whether compiled there or loaded).
 ``--mode lazy|manifest|both`` (default both), ``--repeat N`` (default 1: a lazy run
-compiles for over a minute on 2 cores)."""
+compiles for over a minute on 2 cores). ``--mode entries``: each manifest entry the first
+frame's precompile compiles, one after another in one fresh process with a cold numba
+cache (the work of one precompile worker that took them all): CPU seconds per entry
+(kernels it calls included, where not compiled by an earlier entry), whether the kernel
+is parallel, and their sum: the figures to cut and to balance the workers by."""
 from __future__ import annotations
 
 import json
@@ -90,6 +94,43 @@ print(json.dumps({"wall": wall, "run": time.perf_counter() - t1, "sigs": sigs, "
 """
 
 
+# run in the child: the first frame's manifest entries compiled one after another, CPU seconds each
+CHILD_ENTRIES = r"""
+import json, sys, time
+from proxyshade.graph.graph import Graph
+from proxyshade.graph import warmup
+g = Graph.load(sys.argv[1], cache=sys.argv[2], variables={"scene": "lake", "source": "renoir", "out": sys.argv[3]})
+todo = warmup.pending(warmup.manifest_modules(g))
+todo.sort(key=lambda e: [k for k, *_ in warmup.manifest()].index(e[0]))  # manifest (run) order
+rows = []
+for kernel, text, _ in todo:
+    disp = warmup._dispatcher(kernel)
+    c0 = time.process_time()
+    disp.compile(warmup.parse_types(text))
+    rows.append((kernel.rpartition("kernels.")[2], bool(disp.targetoptions.get("parallel")), time.process_time() - c0))
+print(json.dumps(rows))
+"""
+
+
+def compile_entries() -> list:
+    with tempfile.TemporaryDirectory() as tmp:
+        env = dict(os.environ, NUMBA_CACHE_DIR=f"{tmp}/numba", PYTHONPATH=str(ROOT))
+        res = subprocess.run([sys.executable, "-c", CHILD_ENTRIES, str(ROOT / "graphs" / "first_frame.yaml"),
+                              f"{tmp}/cache", f"{tmp}/out"], env=env, capture_output=True, text=True, check=True)
+    return json.loads(res.stdout.strip().splitlines()[-1])
+
+
+def main_entries() -> None:
+    load = os.getloadavg()[0]
+    rows = compile_entries()
+    print(f"first frame's manifest entries compiled one after another, cold numba cache (load {load:.1f} before, "
+          f"{os.getloadavg()[0]:.1f} after): CPU seconds, slowest first")
+    for name, par, s in sorted(rows, key=lambda r: -r[2]):
+        print(f"  {name:<36} {'parallel' if par else 'serial  '} {s:6.2f}")
+    par = sum(s for _, p, s in rows if p)
+    print(f"{len(rows)} entries, {sum(s for *_, s in rows):.1f} CPU s ({sum(p for _, p, _ in rows)} parallel: {par:.1f} s)")
+
+
 def cold_first_frame(mode: str) -> dict:
     with tempfile.TemporaryDirectory() as tmp:
         env = dict(os.environ, NUMBA_CACHE_DIR=f"{tmp}/numba", PYTHONPATH=str(ROOT))
@@ -140,5 +181,7 @@ def main(repeat: int = 1, modes=("lazy", "manifest")):
 
 if __name__ == "__main__":
     mode = sys.argv[sys.argv.index("--mode") + 1] if "--mode" in sys.argv else "both"
+    if mode == "entries":
+        sys.exit(main_entries())
     main(int(sys.argv[sys.argv.index("--repeat") + 1]) if "--repeat" in sys.argv else 1,
          ("lazy", "manifest") if mode == "both" else (mode,))
