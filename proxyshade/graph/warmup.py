@@ -75,19 +75,82 @@ def callers() -> dict[tuple[str, str], str]:
     return {(entries[i][0], entries[i][1]): t for i, t in found.items() if i < len(entries)}
 
 
-def node_unit(node_type: str) -> str:
-    """The precompile unit (and mark) of a node type's manifest entries."""
-    return f"node.{node_type}"
+def variants() -> dict[tuple[str, str], str]:
+    """(kernel, argument types) -> the variant (``node_variant``) of the node whose compute
+    first called it when the manifest was recorded; {} for a manifest without them."""
+    try:
+        from proxyshade.graph import kernel_manifest
+    except ImportError:
+        return {}
+    entries, found = list(kernel_manifest.ENTRIES), getattr(kernel_manifest, "VARIANTS", {})
+    return {(entries[i][0], entries[i][1]): v for i, v in found.items() if i < len(entries)}
+
+
+def node_unit(node_type: str, variant: str | None = None) -> str:
+    """The precompile unit (and mark) of a node type's manifest entries; with ``variant``,
+    of those a node of that variant needs (``variant_units``)."""
+    return f"node.{node_type}" + (f"@{variant}" if variant else "")
+
+
+def node_variant(graph, name: str) -> str:
+    """What decides which kernels a node calls beyond its type: a digest of its parameters
+    (those naming files aside: a scene's path, a source table) and of which of its inputs
+    are connected. Poisson with ``layout: false, grain: 1`` never calls the layout and
+    grain kernels that Poisson with the defaults does."""
+    import hashlib
+    import json
+
+    node = graph.nodes[name]
+    spec = getattr(type(node), "params_spec", {})
+    params = {k: v for k, v in getattr(node, "params", {}).items() if k not in spec or spec[k].type is not Path}
+    conn = getattr(graph, "connections", {}).get(name, {})
+    inputs = sorted(k for k, ref in conn.items() if ref is not None)
+    return hashlib.sha256(json.dumps([params, inputs], sort_keys=True, default=str).encode()).hexdigest()[:12]
+
+
+def variant_units() -> dict[tuple[str, str], list[str]]:
+    """(kernel, argument types) -> the variant units holding it. The manifest is recorded
+    from the warm-up graphs in order, each entry with the node type and variant that first
+    called it: a node of a recorded variant needs at most its type's entries up to the
+    last one its variant called (the earlier instances' included: they may have compiled
+    what it calls too), ``node.<type>@<variant>``. A variant holding every entry of its
+    type is not one (the type's unit serves it)."""
+    found, var = callers(), variants()
+    order = [(k, t) for k, t, *_ in manifest() if (k, t) in found]
+    by_type: dict[str, list] = {}
+    for e in order:
+        by_type.setdefault(found[e], []).append(e)
+    out: dict[tuple[str, str], list[str]] = {}
+    for t, entries in by_type.items():
+        last = {var[e]: i for i, e in enumerate(entries) if e in var}
+        for v, i in last.items():
+            if i < len(entries) - 1:
+                for e in entries[:i + 1]:
+                    out.setdefault(e, []).append(node_unit(t, v))
+    return out
+
+
+def _unit_of(graph, name: str, held: set) -> str:
+    """A node's precompile unit: its variant's where ``held`` (the variant units) has it,
+    else its type's."""
+    t = type(graph.nodes[name]).__name__
+    if any(u.startswith(node_unit(t) + "@") for u in held):
+        mine = node_unit(t, node_variant(graph, name))
+        if mine in held:
+            return mine
+    return node_unit(t)
 
 
 def manifest_modules(graph) -> set[str]:
-    """What a graph's run precompiles: its enabled node types (``node_unit``: the manifest
-    entries their computes called when it was recorded, nothing else: a kernel module the
-    graph imports but never calls is not compiled), and the kernel modules its nodes import
+    """What a graph's run precompiles: its enabled nodes' units (``node_unit``: the
+    manifest entries their node types called when it was recorded, nothing else: a kernel
+    module the graph imports but never calls is not compiled; a node of a variant recorded
+    calling fewer, ``variant_units``, those), and the kernel modules its nodes import
     (``import_closure``, read from sources) where the manifest names no caller."""
     from proxyshade.graph.keys import import_closure
 
-    units = {node_unit(type(n).__name__) for name, n in graph.nodes.items() if graph.enabled.get(name, True)}
+    held = {u for units in variant_units().values() for u in units}
+    units = {_unit_of(graph, name, held) for name in graph.nodes if graph.enabled.get(name, True)}
     if not callers():
         for mod in {type(n).__module__ for n in graph.nodes.values()}:
             units.update(m for m in import_closure(mod) if m.startswith("proxyshade.kernels."))
@@ -110,18 +173,23 @@ class Prefetch:
         from proxyshade.kernels import _cache
 
         self.thread, self._stop = None, threading.Event()
-        found = callers()
-        types = []
+        found, held = callers(), variant_units()
+        every = {u for units in held.values() for u in units}
+        units = []  # the nodes' units, in the order the nodes run
         for name, _ in sorted(todo, key=str):
-            t = type(graph.nodes[name]).__name__
-            if t not in types:
-                types.append(t)
-        if not found or not types or not _cache.kernels_cached([node_unit(t) for t in types]):
+            u = _unit_of(graph, name, every)
+            if u not in units:
+                units.append(u)
+        if not found or not units or not _cache.kernels_cached(units):
             return
-        rank = {t: i for i, t in enumerate(types)}
-        entries = sorted(((rank[t], k, text) for (k, text), t in found.items() if t in rank))
+        rank = {u: i for i, u in enumerate(units)}
+        entries = []
+        for kernel, text, *_ in manifest():
+            mine = [rank[u] for u in _units(kernel, text, found, held) if u in rank]
+            if mine:
+                entries.append((min(mine), kernel, text))
         self.jobs = []
-        for _, kernel, text in entries:
+        for _, kernel, text in sorted(entries):
             try:
                 self.jobs.append((_dispatcher(kernel), parse_types(text)))
             except Exception:  # noqa: BLE001 - a stale entry: left to the call
@@ -146,10 +214,12 @@ class Prefetch:
             self.thread.join()
 
 
-def _units(kernel: str, text: str, found: dict) -> list[str]:
-    """The precompile units an entry belongs to: its module, and its caller's node type."""
+def _units(kernel: str, text: str, found: dict, held: dict | None = None) -> list[str]:
+    """The precompile units an entry belongs to: its module, its caller's node type and the
+    variants of it that need it (``held``: ``variant_units()``, computed when not given)."""
     caller = found.get((kernel, text))
-    return [kernel.rpartition(".")[0]] + ([node_unit(caller)] if caller else [])
+    held = variant_units() if held is None else held
+    return [kernel.rpartition(".")[0]] + ([node_unit(caller)] if caller else []) + held.get((kernel, text), [])
 
 
 def type_text(args) -> str:
@@ -256,9 +326,9 @@ def pending(modules=None) -> list[tuple[str, str, float]]:
     numba) only when there are some; an entry naming a kernel that is gone is skipped."""
     from proxyshade.kernels import _cache
 
-    todo, found = [], callers()
+    todo, found, held = [], callers(), variant_units()
     for kernel, text, seconds, _ in manifest():
-        mine = _units(kernel, text, found)
+        mine = _units(kernel, text, found, held)
         if modules is not None:
             mine = [u for u in mine if u in modules]
         if not mine or _cache.kernels_cached(mine):
@@ -280,6 +350,7 @@ def mark_precompiled(modules=None) -> None:
 
     if modules is None:
         modules = set(_cache.modules()) | {node_unit(t) for t in callers().values()}
+        modules |= {u for units in variant_units().values() for u in units}
     _cache.mark_precompiled(modules)
 
 
@@ -386,7 +457,7 @@ event.register("numba:compile", rec)
 from proxyshade.graph.graph import Graph
 _compute, _types = Graph._compute_locked, []
 def _tracked(self, plan, inst, nr, *rest):
-    _types.append(type(self.nodes[inst[0]]).__name__)
+    _types.append((type(self.nodes[inst[0]]).__name__, warmup.node_variant(self, inst[0])))
     try:
         return _compute(self, plan, inst, nr, *rest)
     finally:
@@ -397,7 +468,7 @@ def on_end(self, ev):
     n = len(self.roots)
     _on_end(self, ev)
     if len(self.roots) > n:
-        self.roots[-1] = (*self.roots[-1], _types[-1] if _types else None)
+        self.roots[-1] = (*self.roots[-1], *(_types[-1] if _types else (None, None)))
 Rec.on_end = on_end
 warmup_graphs.warm_up(cache=sys.argv[1], first=False)
 print(json.dumps(rec.roots))
@@ -437,7 +508,8 @@ def write_manifest(path: Path = MANIFEST, raw: Path | None = None) -> int:
              "``python -m proxyshade.graph.warmup --write-manifest`` (numba "
              f"{numba.__version__}), do not edit.",
              "(kernel, argument types, compile seconds, (kernel, argument types) compiled inside);",
-             "CALLERS: the node type whose compute first called each entry (by index).\"\"\"",
+             "CALLERS: the node type whose compute first called each entry (by index); VARIANTS: that",
+             "node's ``warmup.node_variant``.\"\"\"",
              "ENTRIES = ["]
     for kernel, text, seconds, inner, *_ in roots:
         lines.append(f"    ({kernel!r}, {text!r}, {seconds!r}, (")
@@ -446,6 +518,9 @@ def write_manifest(path: Path = MANIFEST, raw: Path | None = None) -> int:
     lines.append("]")
     lines.append("CALLERS = {")
     lines.extend(f"    {i}: {r[4]!r}," for i, r in enumerate(roots) if len(r) > 4 and r[4])
+    lines.append("}")
+    lines.append("VARIANTS = {")
+    lines.extend(f"    {i}: {r[5]!r}," for i, r in enumerate(roots) if len(r) > 5 and r[5])
     lines.append("}")
     path.write_text("\n".join(lines) + "\n")
     return len(roots)

@@ -124,85 +124,94 @@ def similarity_sets(lab, masks, col, h, k, sample, seed, metric):
     random ones (ties: the earlier draw); draws within 2h of the pixel are skipped."""
     He, We = lab.shape
     out = np.empty((He, We, k, 2), np.int32)
-    m = 4 * k
     for y in prange(He):
-        cand = np.empty((sample, 2), np.int32)
-        top = np.empty(m, np.int64)  # draws kept, by increasing distance then draw index
-        topd = np.empty(m, np.float64)
-        fa = np.empty(75, np.float64)
-        fb = np.empty(75, np.float64)
-        used = np.empty(m, np.bool_)
-        for x in range(We):
-            if metric == 1:
-                _color_window(col, y, x, h, fa)
-            nt = 0
-            for s in range(sample):
-                cy = int(uniform(seed, y * We + x, 2 * s, 0) * He)
-                cx = int(uniform(seed, y * We + x, 2 * s + 1, 0) * We)
-                cand[s, 0] = cy
-                cand[s, 1] = cx
-                if abs(cy - y) <= 2 * h and abs(cx - x) <= 2 * h:
-                    continue  # trivially similar neighbours are not alternatives
-                if metric == 1:
-                    _color_window(col, cy, cx, h, fb)
-                    d = _window_dist(1, masks[y, x], masks[cy, cx], fa, fb)
-                    if nt == m and d >= topd[m - 1]:
-                        continue
-                else:
-                    bound = np.int64(1) << 40
-                    if nt == m:
-                        bound = np.int64(topd[m - 1]) - 1  # a tie with the last kept loses (later draw)
-                        if bound < 0:
-                            continue
-                    e = chamfer_bounded(masks[y, x], masks[cy, cx], bound)
-                    if e > bound:
-                        continue
-                    d = float(e)
-                # insert after every kept draw of distance <= d
-                t = nt if nt < m else m - 1
-                while t > 0 and topd[t - 1] > d:
-                    if t < m:
-                        top[t] = top[t - 1]
-                        topd[t] = topd[t - 1]
-                    t -= 1
-                top[t] = s
-                topd[t] = d
-                if nt < m:
-                    nt += 1
-            out[y, x, 0, 0] = y
-            out[y, x, 0, 1] = x
-            chosen = 1
-            used[:] = False
-            while chosen < k:
-                best = -1
-                bestd = -1.0
-                for t in range(nt):
-                    if used[t]:
-                        continue
-                    cy, cx = cand[top[t], 0], cand[top[t], 1]
-                    dmin = np.inf
-                    for c in range(chosen):
-                        dd = float((cy - out[y, x, c, 0]) ** 2 + (cx - out[y, x, c, 1]) ** 2)
-                        dmin = min(dmin, dd)
-                    if dmin > bestd:
-                        bestd = dmin
-                        best = t
-                if best < 0:
-                    out[y, x, chosen, 0] = y
-                    out[y, x, chosen, 1] = x
-                else:
-                    used[best] = True
-                    out[y, x, chosen, 0] = cand[top[best], 0]
-                    out[y, x, chosen, 1] = cand[top[best], 1]
-                chosen += 1
+        _similarity_row(np.int64(y), masks, col, h, k, sample, seed, metric, out)  # one type: a parallel loop types its index twice
     return out
 
 
-@njit(**PJIT)
+@njit(**JIT)
+def _similarity_row(y, masks, col, h, k, sample, seed, metric, out):
+    """Row ``y`` of ``similarity_sets`` (its loop body: a serial kernel compiles faster
+    than the same code inside a parallel loop)."""
+    He, We = out.shape[0], out.shape[1]
+    m = 4 * k
+    cand = np.empty((sample, 2), np.int32)
+    top = np.empty(m, np.int64)  # draws kept, by increasing distance then draw index
+    topd = np.empty(m, np.float64)
+    fa = np.empty(75, np.float64)
+    fb = np.empty(75, np.float64)
+    used = np.empty(m, np.bool_)
+    for x in range(We):
+        if metric == 1:
+            _color_window(col, y, x, h, fa)
+        nt = 0
+        for s in range(sample):
+            cy = int(uniform(seed, y * We + x, 2 * s, 0) * He)
+            cx = int(uniform(seed, y * We + x, 2 * s + 1, 0) * We)
+            cand[s, 0] = cy
+            cand[s, 1] = cx
+            if abs(cy - y) <= 2 * h and abs(cx - x) <= 2 * h:
+                continue  # trivially similar neighbours are not alternatives
+            if metric == 1:
+                _color_window(col, cy, cx, h, fb)
+                d = _window_dist(1, masks[y, x], masks[cy, cx], fa, fb)
+                if nt == m and d >= topd[m - 1]:
+                    continue
+            else:
+                bound = np.int64(1) << 40
+                if nt == m:
+                    bound = np.int64(topd[m - 1]) - 1  # a tie with the last kept loses (later draw)
+                    if bound < 0:
+                        continue
+                e = chamfer_bounded(masks[y, x], masks[cy, cx], bound)
+                if e > bound:
+                    continue
+                d = float(e)
+            # insert after every kept draw of distance <= d
+            t = nt if nt < m else m - 1
+            while t > 0 and topd[t - 1] > d:
+                if t < m:
+                    top[t] = top[t - 1]
+                    topd[t] = topd[t - 1]
+                t -= 1
+            top[t] = s
+            topd[t] = d
+            if nt < m:
+                nt += 1
+        out[y, x, 0, 0] = y
+        out[y, x, 0, 1] = x
+        chosen = 1
+        used[:] = False
+        while chosen < k:
+            best = -1
+            bestd = -1.0
+            for t in range(nt):
+                if used[t]:
+                    continue
+                cy, cx = cand[top[t], 0], cand[top[t], 1]
+                dmin = np.inf
+                for c in range(chosen):
+                    dd = float((cy - out[y, x, c, 0]) ** 2 + (cx - out[y, x, c, 1]) ** 2)
+                    dmin = min(dmin, dd)
+                if dmin > bestd:
+                    bestd = dmin
+                    best = t
+            if best < 0:
+                out[y, x, chosen, 0] = y
+                out[y, x, chosen, 1] = x
+            else:
+                used[best] = True
+                out[y, x, chosen, 0] = cand[top[best], 0]
+                out[y, x, chosen, 1] = cand[top[best], 1]
+            chosen += 1
+
+
+# serial: 0.03 ms at the guide size; a parallel loop compiled 0.5 s longer (bench_compile --mode entries)
+@njit(**JIT)
 def _init_state(target, He, We, starts, lists, seed):
     H, W = target.shape
     S = np.empty((H, W, 2), np.int32)
-    for i in prange(H):
+    for i in range(H):
         for j in range(W):
             l = target[i, j]
             u = uniform(seed, i, j, 0)
@@ -227,11 +236,12 @@ def init_state(target, ex_lab, seed):
     return _init_state(target, ex_lab.shape[0], ex_lab.shape[1], starts, lists, seed)
 
 
-@njit(**PJIT)
+# serial: 0.07 ms a call at the guide size; a parallel loop compiled 0.3 s longer
+@njit(**JIT)
 def upsample_state(S, h, He, We, H, W):
     """Children of a coarser level's coordinates: S + h·d for d in {0, 1}², clamped."""
     out = np.empty((H, W, 2), np.int32)
-    for i in prange(H):
+    for i in range(H):
         for j in range(W):
             pi = min(i // 2, S.shape[0] - 1)
             pj = min(j // 2, S.shape[1] - 1)
@@ -348,18 +358,24 @@ def _subpass(S_old, S_new, active, parity, ex, guide, rule):
     """Correct the ``active`` pixels of ``parity`` (i % 2, j % 2) (``_correct_pixel``); the
     others keep ``S_new``'s coordinates."""
     par_i, par_j = parity
-    n = rule.n
-    H, W = S_old.shape[0], S_old.shape[1]
-    k = ex.sim.shape[2]
+    H = S_old.shape[0]
     for i2 in prange((H - par_i + 1) // 2):
-        i = par_i + 2 * i2
-        ms = np.zeros(n, np.uint32)
-        fs = np.empty(75, np.float64)
-        fe = np.empty(75, np.float64)
-        seen = np.empty(9 * k + 1, np.int64)
-        for j in range(par_j, W, 2):
-            if active[i, j]:
-                S_new[i, j, 0], S_new[i, j, 1] = _correct_pixel(i, j, S_old, ex, guide, rule, (ms, fs, fe, seen))
+        _subpass_row(np.int64(par_i + 2 * i2), par_j, S_old, S_new, active, ex, guide, rule)
+
+
+@njit(**JIT)
+def _subpass_row(i, par_j, S_old, S_new, active, ex, guide, rule):
+    """Row ``i`` of ``_subpass`` (its loop body: a serial kernel compiles faster than the
+    same code inside a parallel loop, where the loop index takes two types)."""
+    W = S_old.shape[1]
+    k = ex.sim.shape[2]
+    ms = np.zeros(rule.n, np.uint32)
+    fs = np.empty(75, np.float64)
+    fe = np.empty(75, np.float64)
+    seen = np.empty(9 * k + 1, np.int64)
+    for j in range(par_j, W, 2):
+        if active[i, j]:
+            S_new[i, j, 0], S_new[i, j, 1] = _correct_pixel(i, j, S_old, ex, guide, rule, (ms, fs, fe, seen))
 
 
 def correct(S, ex: Exemplar, guide: Guide, rule: Rule, *, passes, active=None):

@@ -24,16 +24,17 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from proxyshade.kernels._config import PJIT
+from proxyshade.kernels._config import JIT, PJIT
 
 
-@njit(**PJIT)
+# serial: 0.1 ms a call (label pyramids); a parallel loop compiled 0.5 s longer
+@njit(**JIT)
 def _vote_stack_level(lab, k, n, out):
     """Most frequent label in the k × k window (offsets -k//2 .. k - k//2 - 1, clipped)
     of every pixel; a sliding column histogram along each row."""
     H, W = lab.shape
     lo = k // 2
-    for i in prange(H):
+    for i in range(H):
         y0 = max(i - lo, 0)
         y1 = min(i - lo + k, H)
         cnt = np.zeros(n, np.int64)
