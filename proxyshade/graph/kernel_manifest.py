@@ -1,36 +1,32 @@
 """Kernel signatures the demo graphs reach, for ``warmup.precompile``: written by
 ``python -m proxyshade.graph.warmup --write-manifest`` (numba 0.68.1), do not edit.
 (kernel, argument types, compile seconds, (kernel, argument types) compiled inside);
-CALLERS: the node type whose compute first called each entry (by index)."""
+CALLERS: the node type whose compute first called each entry (by index); VARIANTS: that
+node's ``warmup.node_variant``."""
 ENTRIES = [
-    ('proxyshade.kernels.raster._setup', "(Array(float64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Named('proxyshade.kernels.raster.Camera', (float64, float64, float64, float64, bool, int64, int64)), float64, int64)", 11.83, (
-        ('proxyshade.kernels.raster._clip', "(Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True))"),
-        ('proxyshade.kernels.raster._planes', "(Named('proxyshade.kernels.raster.Camera', (float64, float64, float64, float64, bool, int64, int64)), float64)"),
-        ('proxyshade.kernels.raster._project', "(Array(float64, 1, 'C', False, aligned=True), Named('proxyshade.kernels.raster.Camera', (float64, float64, float64, float64, bool, int64, int64)))"),
-        ('proxyshade.kernels.raster._setup_chunk', "(Array(float64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), int64, int64, Array(float64, 2, 'C', False, aligned=True), Named('proxyshade.kernels.raster.Camera', (float64, float64, float64, float64, bool, int64, int64)), bool, Array(int64, 1, 'C', False, aligned=True), Named('proxyshade.kernels.raster.ScreenTris', (Array(int64, 3, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True))))"),
-        ('proxyshade.kernels.raster._setup_one', "(Array(float64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), int64, Array(float64, 2, 'C', False, aligned=True), Named('proxyshade.kernels.raster.Camera', (float64, float64, float64, float64, bool, int64, int64)), Tuple((Array(float64, 3, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True))), bool, int64, Named('proxyshade.kernels.raster.ScreenTris', (Array(int64, 3, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True))))"),
+    ('proxyshade.kernels.raster._setup_pass', "(Array(float64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Named('proxyshade.kernels.raster.Camera', (float64, float64, float64, float64, bool, int64, int64)), bool, Array(int64, 1, 'C', False, aligned=True), Array(int64, 3, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True))", 1.62, (
+        ('proxyshade.kernels.raster._clip', "(Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True))"),
+        ('proxyshade.kernels.raster._polygon', "(Array(float64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), int64, Array(float64, 2, 'C', False, aligned=True), Named('proxyshade.kernels.raster.Camera', (float64, float64, float64, float64, bool, int64, int64)), Array(float64, 3, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True))"),
     )),
-    ('proxyshade.kernels.raster._bin_count', "(Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), int64, Array(int64, 2, 'C', False, aligned=True))", 0.74, (
+    ('proxyshade.kernels.raster.bin_rows', "(Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), int64, int64)", 0.47, (
     )),
-    ('proxyshade.kernels.raster._bin_fill', "(Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), int64, Array(int64, 2, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True))", 0.53, (
-    )),
-    ('proxyshade.kernels.raster._raster_bands', "(Named('proxyshade.kernels.raster.ScreenTris', (Array(int64, 3, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True))), int64, int64, Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True))", 1.34, (
+    ('proxyshade.kernels.raster._raster_bands', "(Array(int64, 3, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), int64, int64, Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True))", 1.4, (
         ('proxyshade.kernels.raster._owns', '(int64, int64, int64, int64)'),
     )),
-    ('proxyshade.kernels.raster._interpolate', "(Array(float64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), float64, bool, Array(float32, 3, 'C', False, aligned=True))", 0.53, (
+    ('proxyshade.kernels.raster._interpolate', "(Array(float64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), float64, bool, Array(float32, 3, 'C', False, aligned=True))", 0.6, (
     )),
-    ('proxyshade.kernels.voting._vote_blocks', "(Array(int32, 2, 'C', False, aligned=True), int64, int64, Array(int32, 2, 'C', False, aligned=True))", 0.74, (
+    ('proxyshade.kernels.voting._vote_blocks', "(Array(int32, 2, 'C', False, aligned=True), int64, int64, Array(int32, 2, 'C', False, aligned=True))", 0.93, (
     )),
-    ('proxyshade.kernels.voting._vote_stack_level', "(Array(int32, 2, 'C', False, aligned=True), int64, int64, Array(int32, 2, 'C', False, aligned=True))", 0.68, (
+    ('proxyshade.kernels.voting._vote_stack_level', "(Array(int32, 2, 'C', False, aligned=True), int64, int64, Array(int32, 2, 'C', False, aligned=True))", 0.23, (
     )),
-    ('proxyshade.kernels.features._windows', "(Array(int32, 2, 'C', False, aligned=True), int64, Array(int32, 3, 'C', False, aligned=True))", 0.34, (
+    ('proxyshade.kernels.features._windows', "(Array(int32, 2, 'C', False, aligned=True), int64, Array(int32, 3, 'C', False, aligned=True))", 0.36, (
     )),
-    ('proxyshade.kernels.chamfer._masks_from_windows', "(Array(int32, 3, 'C', False, aligned=True), int64, Array(uint32, 3, 'C', False, aligned=True))", 0.78, (
+    ('proxyshade.kernels.chamfer._masks_from_windows', "(Array(int32, 3, 'C', False, aligned=True), int64, Array(uint32, 3, 'C', False, aligned=True))", 0.69, (
     )),
-    ('proxyshade.kernels.random.rand', '(uint64, uint64, int64, int64)', 0.09, (
+    ('proxyshade.kernels.random.rand', '(uint64, uint64, int64, int64)', 0.1, (
         ('proxyshade.kernels.random._mix', '(uint64,)'),
     )),
-    ('proxyshade.kernels.guide.similarity_sets', "(Array(int32, 2, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), int64, int64, int64, int64, int64)", 3.24, (
+    ('proxyshade.kernels.guide.similarity_sets', "(Array(int32, 2, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), int64, int64, int64, int64, int64)", 3.0, (
         ('proxyshade.kernels.chamfer._label_term', "(Array(uint32, 1, 'C', False, aligned=True), Array(uint32, 1, 'C', False, aligned=True), int64)"),
         ('proxyshade.kernels.chamfer.chamfer_bounded', "(Array(uint32, 1, 'C', False, aligned=True), Array(uint32, 1, 'C', False, aligned=True), int64)"),
         ('proxyshade.kernels.chamfer.chamfer_masks', "(Array(uint32, 1, 'C', False, aligned=True), Array(uint32, 1, 'C', False, aligned=True))"),
@@ -39,52 +35,52 @@ ENTRIES = [
         ('proxyshade.kernels.chamfer.popcount25', '(int64,)'),
         ('proxyshade.kernels.guide._clamp', '(int64, Literal[int](0), int64)'),
         ('proxyshade.kernels.guide._color_window', "(Array(float64, 3, 'C', False, aligned=True), int64, int64, int64, Array(float64, 1, 'C', False, aligned=True))"),
-        ('proxyshade.kernels.guide._color_window', "(Array(float64, 3, 'C', False, aligned=True), uint64, int64, int64, Array(float64, 1, 'C', False, aligned=True))"),
+        ('proxyshade.kernels.guide._similarity_row', "(int64, Array(uint32, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), int64, int64, int64, int64, int64, Array(int32, 4, 'C', False, aligned=True))"),
         ('proxyshade.kernels.guide._window_dist', "(Literal[int](1), Array(uint32, 1, 'C', False, aligned=True), Array(uint32, 1, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True))"),
         ('proxyshade.kernels.random.rand', '(int64, int64, int64, Literal[int](0))'),
         ('proxyshade.kernels.random.uniform', '(int64, int64, int64, Literal[int](0))'),
     )),
-    ('proxyshade.kernels.patch._label_lists', "(Array(int32, 2, 'C', False, aligned=True), int64)", 0.36, (
+    ('proxyshade.kernels.patch._label_lists', "(Array(int32, 2, 'C', False, aligned=True), int64)", 0.17, (
     )),
-    ('proxyshade.kernels.guide._init_state', "(Array(int32, 2, 'C', False, aligned=True), int64, int64, Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), int64)", 0.57, (
-        ('proxyshade.kernels.random.rand', '(int64, uint64, int64, Literal[int](0))'),
-        ('proxyshade.kernels.random.uniform', '(int64, uint64, int64, Literal[int](0))'),
+    ('proxyshade.kernels.guide._init_state', "(Array(int32, 2, 'C', False, aligned=True), int64, int64, Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), int64)", 0.19, (
     )),
-    ('proxyshade.kernels.guide._subpass', "(Array(int32, 3, 'C', False, aligned=True), Array(int32, 3, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), UniTuple(int64, 2), Named('proxyshade.kernels.guide.Exemplar', (Array(int32, 2, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(int32, 4, 'C', False, aligned=True))), Named('proxyshade.kernels.guide.Guide', (Array(uint32, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True))), Named('proxyshade.kernels.guide.Rule', (int64, float64, int64, int64)))", 3.28, (
+    ('proxyshade.kernels.guide._subpass', "(Array(int32, 3, 'C', False, aligned=True), Array(int32, 3, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), UniTuple(int64, 2), Named('proxyshade.kernels.guide.Exemplar', (Array(int32, 2, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(int32, 4, 'C', False, aligned=True))), Named('proxyshade.kernels.guide.Guide', (Array(uint32, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True))), Named('proxyshade.kernels.guide.Rule', (int64, float64, int64, int64)))", 3.19, (
         ('proxyshade.kernels.guide._candidate', "(int64, int64, int64, Array(int32, 3, 'C', False, aligned=True), Array(int32, 4, 'C', False, aligned=True), int64)"),
         ('proxyshade.kernels.guide._color_window', "(Array(float64, 3, 'C', False, aligned=True), int32, int32, int64, Array(float64, 1, 'C', False, aligned=True))"),
+        ('proxyshade.kernels.guide._subpass_row', "(int64, int64, Array(int32, 3, 'C', False, aligned=True), Array(int32, 3, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Named('proxyshade.kernels.guide.Exemplar', (Array(int32, 2, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(int32, 4, 'C', False, aligned=True))), Named('proxyshade.kernels.guide.Guide', (Array(uint32, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True))), Named('proxyshade.kernels.guide.Rule', (int64, float64, int64, int64)))"),
     )),
-    ('proxyshade.kernels.guide.upsample_state', "(Array(int32, 3, 'C', False, aligned=True), int64, int64, int64, int64, int64)", 0.35, (
+    ('proxyshade.kernels.guide.upsample_state', "(Array(int32, 3, 'C', False, aligned=True), int64, int64, int64, int64, int64)", 0.15, (
     )),
-    ('proxyshade.kernels.jfa._pass', "(Array(int64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), int64, float64, Array(int64, 1, 'C', False, aligned=True))", 0.62, (
+    ('proxyshade.kernels.jfa._pass', "(Array(int64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), int64, float64, Array(int64, 1, 'C', False, aligned=True))", 0.77, (
         ('proxyshade.kernels.jfa._cost', '(int64, int64, int64, int64, int64, int64, float64)'),
     )),
-    ('proxyshade.kernels.edit.paste_depth', "(Array(bool, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), int64, int64, int64, Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True))", 0.74, (
+    ('proxyshade.kernels.edit.paste_depth', "(Array(bool, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), int64, int64, int64, Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True))", 0.48, (
     )),
-    ('proxyshade.kernels.edit.paste_unproject', "(Array(bool, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), int64, int64, Array(float64, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))", 0.64, (
+    ('proxyshade.kernels.edit.paste_unproject', "(Array(bool, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), int64, int64, Array(float64, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))", 0.89, (
     )),
     ('proxyshade.kernels.edit.paste_follow', "(Array(bool, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), int64, int64, Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))", 0.38, (
     )),
-    ('proxyshade.kernels.edit.paste_follow', "(Array(bool, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), int64, int64, Array(uint32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True))", 0.38, (
+    ('proxyshade.kernels.edit.paste_follow', "(Array(bool, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), int64, int64, Array(uint32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True))", 0.6, (
     )),
-    ('proxyshade.kernels.features._area_resample', "(Array(float32, 3, 'C', False, aligned=True), int64, int64, float64, Array(float32, 3, 'C', False, aligned=True))", 1.16, (
+    ('proxyshade.kernels.features._area_resample', "(Array(float32, 3, 'C', False, aligned=True), int64, int64, float64, Array(float32, 3, 'C', False, aligned=True))", 1.07, (
     )),
-    ('proxyshade.kernels.features._mode_resample', "(Array(int32, 2, 'C', False, aligned=True), int64, int64, float64, int64, Array(int32, 2, 'C', False, aligned=True))", 0.77, (
+    ('proxyshade.kernels.features._mode_resample', "(Array(int32, 2, 'C', False, aligned=True), int64, int64, float64, int64, Array(int32, 2, 'C', False, aligned=True))", 0.4, (
     )),
-    ('proxyshade.kernels.distance._contour_mask', "(Array(int32, 2, 'C', False, aligned=True),)", 1.21, (
+    ('proxyshade.kernels.distance._contour_mask', "(Array(int32, 2, 'C', False, aligned=True),)", 1.68, (
     )),
-    ('proxyshade.kernels.distance._edt_sq', "(Array(bool, 2, 'C', False, aligned=True),)", 2.39, (
+    ('proxyshade.kernels.distance._nearest_site', "(Array(bool, 2, 'C', False, aligned=True),)", 2.44, (
         ('proxyshade.kernels.distance._envelope_1d_arg', "(Array(int64, 1, 'C', False, aligned=True), int64, Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True))"),
-        ('proxyshade.kernels.distance._nearest_site', "(Array(bool, 2, 'C', False, aligned=True),)"),
     )),
-    ('proxyshade.kernels.distance._sqrt_clamped', "(Array(int64, 2, 'C', False, aligned=True), float64, Array(float32, 2, 'C', False, aligned=True))", 0.51, (
+    ('proxyshade.kernels.distance._dist_sq', "(Array(int32, 3, 'C', False, aligned=True),)", 0.63, (
     )),
-    ('proxyshade.kernels.features._heights', "(Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True))", 0.42, (
+    ('proxyshade.kernels.distance._sqrt_clamped', "(Array(int64, 2, 'C', False, aligned=True), float64, Array(float32, 2, 'C', False, aligned=True))", 0.14, (
     )),
-    ('proxyshade.kernels.random._keys', '(int64, int64)', 0.13, (
+    ('proxyshade.kernels.features._heights', "(Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True))", 0.72, (
+    )),
+    ('proxyshade.kernels.random._keys', '(int64, int64)', 0.22, (
         ('proxyshade.kernels.random.rand', '(int64, int64, Literal[int](0), Literal[int](0))'),
     )),
-    ('proxyshade.kernels.patch._flood_fill', "(Named('proxyshade.kernels.features.Level', (int64, Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))), Named('proxyshade.kernels.features.Metric', (float64, float64)), Named('proxyshade.kernels.patch.Cover', (Array(bool, 2, 'C', False, aligned=True), Array(int32, 3, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True))), Array(int64, 1, 'C', False, aligned=True), int64, float64, float64, int64)", 6.97, (
+    ('proxyshade.kernels.patch._flood_fill', "(Named('proxyshade.kernels.features.Level', (int64, Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))), Named('proxyshade.kernels.features.Metric', (float64, float64)), Named('proxyshade.kernels.patch.Cover', (Array(bool, 2, 'C', False, aligned=True), Array(int32, 3, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True))), Array(int64, 1, 'C', False, aligned=True), int64, float64, float64, int64)", 10.65, (
         ('proxyshade.kernels.features.dist_sq_contour', "(Array(float32, 2, 'C', False, aligned=True), Literal[int](1), int64, int64, Array(float32, 1, 'C', False, aligned=True), float64)"),
         ('proxyshade.kernels.features.gather_target', "(Array(float32, 2, 'C', False, aligned=True), int64, int64, Array(float32, 1, 'C', False, aligned=True))"),
         ('proxyshade.kernels.patch._best_by_window', "(Named('proxyshade.kernels.patch.Groups', (Array(int64, 1, 'C', False, aligned=True), Array(uint64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(bool, 1, 'C', False, aligned=True))), int64, int64, Named('proxyshade.kernels.features.Level', (int64, Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))), Named('proxyshade.kernels.features.Metric', (float64, float64)), Named('proxyshade.kernels.patch.Probe', (Array(float32, 1, 'C', False, aligned=True), Array(uint32, 1, 'C', False, aligned=True), float32)), float64, int64, Named('proxyshade.kernels.patch.Scan', (Array(int64, 1, 'C', False, aligned=True), int64, int64)))"),
@@ -98,76 +94,74 @@ ENTRIES = [
         ('proxyshade.kernels.patch._window_groups', "(Array(uint32, 3, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True))"),
         ('proxyshade.kernels.random.rand', '(int64, int64, Literal[int](23719), Literal[int](0))'),
     )),
-    ('proxyshade.kernels.lookup._bilinear', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 0.5, (
+    ('proxyshade.kernels.lookup._bilinear', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 1.23, (
     )),
-    ('proxyshade.kernels.features._box_blur_centred', "(Array(float32, 3, 'C', False, aligned=True), int64, Array(float32, 3, 'C', False, aligned=True))", 1.44, (
+    ('proxyshade.kernels.features._box_blur_centred', "(Array(float32, 3, 'C', False, aligned=True), int64, Array(float32, 3, 'C', False, aligned=True))", 0.59, (
         ('proxyshade.kernels.features._box_mean_1d', "(Array(float32, 3, 'C', False, aligned=True), int64, int64, int64, int64, Literal[int](0), Literal[int](1))"),
         ('proxyshade.kernels.features._box_mean_1d', "(Array(float32, 3, 'C', False, aligned=True), int64, int64, int64, int64, Literal[int](1), Literal[int](0))"),
-        ('proxyshade.kernels.features._box_mean_1d', "(Array(float32, 3, 'C', False, aligned=True), uint64, int64, int64, int64, Literal[int](0), Literal[int](1))"),
-        ('proxyshade.kernels.features._box_mean_1d', "(Array(float32, 3, 'C', False, aligned=True), uint64, int64, int64, int64, Literal[int](1), Literal[int](0))"),
     )),
-    ('proxyshade.kernels.correct._knn_init', "(Named('proxyshade.kernels.features.Level', (int64, Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))), Named('proxyshade.kernels.features.Metric', (float64, float64)), int64, int64, int64, Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Tuple((Array(int32, 3, 'C', False, aligned=True), Array(int32, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True))))", 2.78, (
+    ('proxyshade.kernels.correct._knn_init', "(Named('proxyshade.kernels.features.Level', (int64, Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))), Named('proxyshade.kernels.features.Metric', (float64, float64)), int64, int64, int64, Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Tuple((Array(int32, 3, 'C', False, aligned=True), Array(int32, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True))))", 4.12, (
         ('proxyshade.kernels.correct._ex_dist', "(Named('proxyshade.kernels.features.Level', (int64, Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))), Named('proxyshade.kernels.features.Metric', (float64, float64)), int64, int64, int64, int64, float64)"),
         ('proxyshade.kernels.correct._ex_dist', "(Named('proxyshade.kernels.features.Level', (int64, Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))), Named('proxyshade.kernels.features.Metric', (float64, float64)), uint64, int64, int64, int64, float64)"),
         ('proxyshade.kernels.correct._insert', "(Array(int32, 1, 'C', False, aligned=True), Array(int32, 1, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), int64, int64, int64, float64)"),
         ('proxyshade.kernels.random.rand', '(int64, int64, int64, int64)'),
     )),
-    ('proxyshade.kernels.correct._knn_iter', "(Named('proxyshade.kernels.features.Level', (int64, Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))), Named('proxyshade.kernels.features.Metric', (float64, float64)), int64, int64, int64, int64, Tuple((Array(int32, 3, 'C', False, aligned=True), Array(int32, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True))), Tuple((Array(int32, 3, 'C', False, aligned=True), Array(int32, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True))))", 2.0, (
+    ('proxyshade.kernels.correct._knn_iter', "(Named('proxyshade.kernels.features.Level', (int64, Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))), Named('proxyshade.kernels.features.Metric', (float64, float64)), int64, int64, int64, int64, Tuple((Array(int32, 3, 'C', False, aligned=True), Array(int32, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True))), Tuple((Array(int32, 3, 'C', False, aligned=True), Array(int32, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True))))", 3.9, (
     )),
-    ('proxyshade.kernels.correct._knn_rescore', "(Named('proxyshade.kernels.features.Level', (int64, Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))), Named('proxyshade.kernels.features.Metric', (float64, float64)), int64, int64, Tuple((Array(int32, 3, 'C', False, aligned=True), Array(int32, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True))))", 2.26, (
+    ('proxyshade.kernels.correct._knn_rescore', "(Named('proxyshade.kernels.features.Level', (int64, Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))), Named('proxyshade.kernels.features.Metric', (float64, float64)), int64, int64, Tuple((Array(int32, 3, 'C', False, aligned=True), Array(int32, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True))))", 3.6, (
         ('proxyshade.kernels.correct._ex_dist', "(Named('proxyshade.kernels.features.Level', (int64, Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))), Named('proxyshade.kernels.features.Metric', (float64, float64)), int64, int64, int32, int32, float64)"),
         ('proxyshade.kernels.correct._ex_dist', "(Named('proxyshade.kernels.features.Level', (int64, Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))), Named('proxyshade.kernels.features.Metric', (float64, float64)), uint64, int64, int32, int32, float64)"),
         ('proxyshade.kernels.correct._insert', "(Array(int32, 1, 'C', False, aligned=True), Array(int32, 1, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), int64, int32, int32, float64)"),
     )),
-    ('proxyshade.kernels.correct._downsample', "(Array(int32, 3, 'C', False, aligned=True), int64, int64, int64, int64, int64, Array(int32, 3, 'C', False, aligned=True))", 0.76, (
+    ('proxyshade.kernels.correct._downsample', "(Array(int32, 3, 'C', False, aligned=True), int64, int64, int64, int64, int64, Array(int32, 3, 'C', False, aligned=True))", 0.64, (
     )),
-    ('proxyshade.kernels.correct._usage_excess', "(Array(int32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), int64, Array(float64, 2, 'C', False, aligned=True))", 0.38, (
+    ('proxyshade.kernels.correct._usage_excess', "(Array(int32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), int64, Array(float64, 2, 'C', False, aligned=True))", 1.16, (
     )),
-    ('proxyshade.kernels.correct._tone_balance', "(Array(int32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), int64, int64, Array(float64, 2, 'C', False, aligned=True))", 0.95, (
+    ('proxyshade.kernels.correct._tone_balance', "(Array(int32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), int64, int64, Array(float64, 2, 'C', False, aligned=True))", 3.04, (
     )),
-    ('proxyshade.kernels.correct._subpass', "(Named('proxyshade.kernels.features.Level', (int64, Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))), Named('proxyshade.kernels.features.Metric', (float64, float64)), Named('proxyshade.kernels.correct.Rule', (int64, bool, float64, float64)), Array(int32, 4, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(int32, 3, 'C', False, aligned=True), Array(int32, 3, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), UniTuple(int64, 2), Array(int64, 2, 'C', False, aligned=True))", 4.37, (
+    ('proxyshade.kernels.correct._subpass', "(Named('proxyshade.kernels.features.Level', (int64, Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))), Named('proxyshade.kernels.features.Metric', (float64, float64)), Named('proxyshade.kernels.correct.Rule', (int64, bool, float64, float64)), Array(int32, 4, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(int32, 3, 'C', False, aligned=True), Array(int32, 3, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), UniTuple(int64, 2), Array(int64, 2, 'C', False, aligned=True))", 7.02, (
         ('proxyshade.kernels.correct._cand_dist', "(Named('proxyshade.kernels.features.Level', (int64, Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))), Named('proxyshade.kernels.features.Metric', (float64, float64)), bool, int64, int64, int64, int64, Array(float32, 1, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float64)"),
         ('proxyshade.kernels.correct.rejected', "(Array(int32, 3, 'C', False, aligned=True), int64, int64, int64, int64, int64, int64)"),
         ('proxyshade.kernels.features.dist_sq_contour', "(Array(float32, 2, 'C', False, aligned=True), int64, int64, int64, Array(float32, 1, 'C', False, aligned=True), float64)"),
         ('proxyshade.kernels.features.dist_sq_rgb', "(Array(float32, 3, 'C', False, aligned=True), int64, int64, int64, Array(float32, 2, 'C', False, aligned=True), float64)"),
     )),
-    ('proxyshade.kernels.correct._upsample', "(Array(int32, 3, 'C', False, aligned=True), int64, int64, int64, int64, int64, Array(int32, 3, 'C', False, aligned=True))", 0.41, (
+    ('proxyshade.kernels.correct._upsample', "(Array(int32, 3, 'C', False, aligned=True), int64, int64, int64, int64, int64, Array(int32, 3, 'C', False, aligned=True))", 0.65, (
     )),
-    ('proxyshade.kernels.magnify._label_ok', "(Array(int32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True))", 0.48, (
+    ('proxyshade.kernels.magnify._label_ok', "(Array(int32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True))", 0.78, (
     )),
-    ('proxyshade.kernels.magnify._front_steps', "(Array(int32, 3, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), int64)", 0.96, (
+    ('proxyshade.kernels.magnify._front_steps', "(Array(int32, 3, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), int64)", 2.33, (
     )),
-    ('proxyshade.kernels.patch._offset_components', "(Array(int64, 3, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True))", 0.22, (
+    ('proxyshade.kernels.patch._offset_components', "(Array(int64, 3, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True))", 0.38, (
     )),
-    ('proxyshade.kernels.magnify._magnify', "(Array(int32, 3, 'C', False, aligned=True), int64, int64, int64, Array(int32, 3, 'C', False, aligned=True))", 0.89, (
+    ('proxyshade.kernels.magnify._magnify', "(Array(int32, 3, 'C', False, aligned=True), int64, int64, int64, Array(int32, 3, 'C', False, aligned=True))", 0.81, (
     )),
-    ('proxyshade.kernels.seams._sub_pass', "(Array(int32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', True, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), int64)", 2.47, (
+    ('proxyshade.kernels.seams._sub_pass', "(Array(int32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', True, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), int64)", 4.52, (
         ('proxyshade.kernels.seams._dist2', "(Array(float32, 3, 'C', True, aligned=True), int64, int64, int64, int64)"),
         ('proxyshade.kernels.seams._energy', "(Array(int32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', True, aligned=True), Array(int32, 2, 'C', False, aligned=True), int64, int64, int64, int64)"),
         ('proxyshade.kernels.seams._energy', "(Array(int32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', True, aligned=True), Array(int32, 2, 'C', False, aligned=True), uint64, int64, int64, int64)"),
         ('proxyshade.kernels.seams._pair_cost', "(Array(int32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', True, aligned=True), Array(int32, 2, 'C', False, aligned=True), int64, int64, int64, int64, int64)"),
         ('proxyshade.kernels.seams._pair_cost', "(Array(int32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', True, aligned=True), Array(int32, 2, 'C', False, aligned=True), uint64, int64, int64, int64, int64)"),
     )),
-    ('proxyshade.kernels.seams._run_pass', "(Array(int32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', True, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), bool, int64)", 2.5, (
+    ('proxyshade.kernels.seams._run_pass', "(Array(int32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', True, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), bool, int64)", 3.48, (
         ('proxyshade.kernels.seams._run_at', "(Array(int32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', True, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), int64, int64, int64, Array(float64, 1, 'C', False, aligned=True), Array(bool, 1, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True))"),
     )),
-    ('proxyshade.kernels.poisson._rhs', "(Array(float32, 3, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 0.69, (
+    ('proxyshade.kernels.poisson._rhs', "(Array(float32, 3, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 1.82, (
     )),
-    ('proxyshade.kernels.stencil.fine_operator', "(Array(bool, 2, 'C', False, aligned=True), float32)", 1.21, (
+    ('proxyshade.kernels.stencil.fine_operator', "(Array(bool, 2, 'C', False, aligned=True), float32)", 1.94, (
     )),
-    ('proxyshade.kernels.multigrid._coarsen', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float32)", 1.66, (
+    ('proxyshade.kernels.multigrid._coarsen', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float32)", 2.56, (
     )),
-    ('proxyshade.kernels.multigrid._residual', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 0.72, (
+    ('proxyshade.kernels.multigrid._residual', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 1.17, (
     )),
-    ('proxyshade.kernels.multigrid._dot3', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True))", 0.69, (
+    ('proxyshade.kernels.multigrid._dot3', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True))", 1.26, (
     )),
-    ('proxyshade.kernels.multigrid._jacobi_start', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), int64)", 0.9, (
+    ('proxyshade.kernels.multigrid._jacobi_start', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), int64)", 0.78, (
     )),
-    ('proxyshade.kernels.multigrid._smooth', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), int64)", 0.71, (
+    ('proxyshade.kernels.multigrid._smooth', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), int64)", 1.78, (
     )),
-    ('proxyshade.kernels.multigrid._residual_restrict', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 1.11, (
+    ('proxyshade.kernels.multigrid._residual_restrict', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 1.75, (
     )),
-    ('proxyshade.kernels.multigrid._vcycle_serial', "(Array(float32, 1, 'C', False, aligned=True), Array(float32, 1, 'C', False, aligned=True), Array(float32, 1, 'C', False, aligned=True), Array(float32, 1, 'C', False, aligned=True), Array(float32, 1, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), int64, int64)", 3.95, (
+    ('proxyshade.kernels.multigrid._vcycle_serial', "(Array(float32, 1, 'C', False, aligned=True), Array(float32, 1, 'C', False, aligned=True), Array(float32, 1, 'C', False, aligned=True), Array(float32, 1, 'C', False, aligned=True), Array(float32, 1, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), int64, int64)", 6.16, (
         ('proxyshade.kernels.multigrid._coarse_solve', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), int64)"),
         ('proxyshade.kernels.multigrid._jacobi_start_serial', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Literal[int](0))"),
         ('proxyshade.kernels.multigrid._prolong_add_serial', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float64)"),
@@ -175,139 +169,139 @@ ENTRIES = [
         ('proxyshade.kernels.multigrid._smooth_serial', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Literal[int](0))"),
         ('proxyshade.kernels.multigrid._smooth_serial', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Literal[int](1))"),
     )),
-    ('proxyshade.kernels.multigrid._prolong_add', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float64)", 0.36, (
+    ('proxyshade.kernels.multigrid._prolong_add', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float64)", 1.33, (
     )),
-    ('proxyshade.kernels.multigrid._matvec_dot', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True))", 1.67, (
+    ('proxyshade.kernels.multigrid._matvec_dot', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True))", 1.9, (
     )),
-    ('proxyshade.kernels.multigrid._cg_update', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True))", 0.81, (
+    ('proxyshade.kernels.multigrid._cg_update', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True))", 1.34, (
     )),
-    ('proxyshade.kernels.multigrid._xpby3', "(Array(float32, 3, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 0.44, (
+    ('proxyshade.kernels.multigrid._xpby3', "(Array(float32, 3, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 0.72, (
     )),
-    ('proxyshade.kernels.shadow._pcf', "(Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), int64, float64, Array(float64, 2, 'C', False, aligned=True))", 0.83, (
+    ('proxyshade.kernels.shadow._pcf', "(Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), int64, float64, Array(float64, 2, 'C', False, aligned=True))", 1.34, (
         ('proxyshade.kernels.shadow._occluded', "(Array(float64, 2, 'C', False, aligned=True), int64, int64, float64, float64)"),
     )),
-    ('proxyshade.kernels.reproject._inverse_depth', "(Array(float32, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True))", 0.31, (
+    ('proxyshade.kernels.reproject._inverse_depth', "(Array(float32, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True))", 0.28, (
     )),
-    ('proxyshade.kernels.reproject.grid_corners', "(Array(float64, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), float64)", 4.79, (
+    ('proxyshade.kernels.reproject.grid_corners', "(Array(float64, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), float64)", 4.43, (
         ('proxyshade.kernels.reproject._connected', "(Array(float64, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), int64, int64, int64, int64, float64)"),
         ('proxyshade.kernels.reproject._links', "(Array(float64, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), float64)"),
         ('proxyshade.kernels.reproject.same_surface', '(float64, float64, float64)'),
     )),
-    ('proxyshade.kernels.reproject._quad_rows', "(Array(float64, 3, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), float64, int64, int64, float64)", 3.54, (
+    ('proxyshade.kernels.reproject._quad_rows', "(Array(float64, 3, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), float64, int64, int64, float64)", 3.59, (
         ('proxyshade.kernels.reproject._quad', "(Array(float64, 3, 'C', False, aligned=True), int64, int64, Array(float64, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), float64, Array(float64, 2, 'C', False, aligned=True))"),
         ('proxyshade.kernels.reproject._quad', "(Array(float64, 3, 'C', False, aligned=True), uint64, int64, Array(float64, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), float64, Array(float64, 2, 'C', False, aligned=True))"),
         ('proxyshade.kernels.reproject._quad_after', "(Array(float64, 3, 'C', False, aligned=True), int64, int64, Array(float64, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), float64, Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True))"),
         ('proxyshade.kernels.reproject._quad_after', "(Array(float64, 3, 'C', False, aligned=True), uint64, int64, Array(float64, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), float64, Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True))"),
     )),
-    ('proxyshade.kernels.raster._bin_count', "(Array(int32, 1, 'C', False, aligned=True), Array(int32, 1, 'C', False, aligned=True), int64, Array(int64, 2, 'C', False, aligned=True))", 0.47, (
+    ('proxyshade.kernels.raster._bin_count', "(Array(int32, 1, 'C', False, aligned=True), Array(int32, 1, 'C', False, aligned=True), int64, Array(int64, 2, 'C', False, aligned=True))", 0.46, (
     )),
-    ('proxyshade.kernels.raster._bin_fill', "(Array(int32, 1, 'C', False, aligned=True), Array(int32, 1, 'C', False, aligned=True), int64, Array(int64, 2, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True))", 0.52, (
+    ('proxyshade.kernels.raster._bin_fill', "(Array(int32, 1, 'C', False, aligned=True), Array(int32, 1, 'C', False, aligned=True), int64, Array(int64, 2, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True))", 0.5, (
     )),
-    ('proxyshade.kernels.reproject._splat_bands', "(Array(float64, 3, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), float64, int64, int64, int64, Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True))", 1.44, (
+    ('proxyshade.kernels.reproject._splat_bands', "(Array(float64, 3, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), float64, int64, int64, int64, Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True))", 2.03, (
         ('proxyshade.kernels.reproject._edge', '(float64, float64, float64, float64, float64, float64)'),
         ('proxyshade.kernels.reproject._tri_area', "(Array(float64, 2, 'C', False, aligned=True), Literal[int](0), Literal[int](1), Literal[int](3), float64, float64, float64)"),
         ('proxyshade.kernels.reproject._tri_area', "(Array(float64, 2, 'C', False, aligned=True), Literal[int](0), Literal[int](3), Literal[int](2), float64, float64, float64)"),
     )),
-    ('proxyshade.kernels.reproject._stale', "(Array(float64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), float64, int64, int64, Array(bool, 2, 'C', False, aligned=True))", 1.17, (
+    ('proxyshade.kernels.reproject._stale', "(Array(float64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), float64, int64, int64, Array(bool, 2, 'C', False, aligned=True))", 0.62, (
     )),
-    ('proxyshade.kernels.reproject.classify', "(Array(int64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), float64)", 1.36, (
+    ('proxyshade.kernels.reproject.classify', "(Array(int64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), float64)", 1.93, (
     )),
-    ('proxyshade.kernels.layout._luma_encoded', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 0.47, (
+    ('proxyshade.kernels.layout._luma_encoded', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 0.49, (
     )),
     ('proxyshade.kernels.layout._profile', "(Array(float32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), int64, int64, Array(float64, 3, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True))", 0.14, (
     )),
     ('proxyshade.kernels.layout._at_height', "(Array(float64, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 0.38, (
     )),
-    ('proxyshade.kernels.layout._block_sums', "(Array(float32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), int64, int64, Array(float64, 4, 'C', False, aligned=True))", 0.12, (
+    ('proxyshade.kernels.layout._block_sums', "(Array(float32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), int64, int64, Array(float64, 4, 'C', False, aligned=True))", 0.13, (
     )),
-    ('proxyshade.kernels.layout._box_blocks', "(Array(float64, 4, 'C', False, aligned=True), int64)", 0.93, (
+    ('proxyshade.kernels.layout._box_blocks', "(Array(float64, 4, 'C', False, aligned=True), int64)", 0.34, (
     )),
-    ('proxyshade.kernels.layout._spread', "(Array(float64, 4, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), int64, Array(float32, 3, 'C', False, aligned=True))", 0.57, (
+    ('proxyshade.kernels.layout._spread', "(Array(float64, 4, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), int64, Array(float32, 3, 'C', False, aligned=True))", 0.66, (
     )),
-    ('proxyshade.kernels.layout._move_luma_chroma', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 0.51, (
+    ('proxyshade.kernels.layout._move_luma_chroma', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 0.52, (
     )),
-    ('proxyshade.kernels.layout._cctf_image', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), bool)", 0.59, (
+    ('proxyshade.kernels.layout._cctf_image', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), bool)", 1.25, (
     )),
-    ('proxyshade.kernels.grain._boxes', "(Array(int32, 2, 'C', False, aligned=True), int64)", 0.15, (
+    ('proxyshade.kernels.grain._boxes', "(Array(int32, 2, 'C', False, aligned=True), int64)", 0.17, (
     )),
-    ('proxyshade.kernels.grain._sat', "(Array(float32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), int64, int64, int64, int64, int64, int64, Array(float64, 3, 'C', False, aligned=True))", 1.12, (
+    ('proxyshade.kernels.grain._sat', "(Array(float32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), int64, int64, int64, int64, int64, int64, Array(float64, 3, 'C', False, aligned=True))", 1.18, (
     )),
-    ('proxyshade.kernels.grain._label_pass', "(Array(float32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), int64, int64, int64, Array(float64, 3, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), bool)", 1.97, (
+    ('proxyshade.kernels.grain._label_pass', "(Array(float32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), int64, int64, int64, Array(float64, 3, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), bool)", 1.33, (
     )),
-    ('proxyshade.kernels.grain._block_means', "(Array(float64, 3, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(float64, 4, 'C', False, aligned=True))", 0.53, (
+    ('proxyshade.kernels.grain._block_means', "(Array(float64, 3, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(float64, 4, 'C', False, aligned=True))", 1.22, (
     )),
-    ('proxyshade.kernels.grain._block_bins', "(Array(int32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), int64, int64, int64, int64, int64, int64, Array(int64, 3, 'C', False, aligned=True))", 0.49, (
+    ('proxyshade.kernels.grain._block_bins', "(Array(int32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), int64, int64, int64, int64, int64, int64, Array(int64, 3, 'C', False, aligned=True))", 0.48, (
     )),
-    ('proxyshade.kernels.grain._block_energy', "(Array(float64, 4, 'C', False, aligned=True), Array(int64, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True))", 0.45, (
+    ('proxyshade.kernels.grain._block_energy', "(Array(float64, 4, 'C', False, aligned=True), Array(int64, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True))", 0.46, (
     )),
-    ('proxyshade.kernels.grain._spread_pass', "(Array(float32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), int64, int64, int64, int64, int64, int64, Array(float64, 3, 'C', False, aligned=True), Array(float64, 4, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(float64, 4, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 1.92, (
+    ('proxyshade.kernels.grain._spread_pass', "(Array(float32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), int64, int64, int64, int64, int64, int64, Array(float64, 3, 'C', False, aligned=True), Array(float64, 4, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(float64, 4, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 1.99, (
     )),
-    ('proxyshade.kernels.reproject.transfer', "(Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), float64)", 1.65, (
+    ('proxyshade.kernels.reproject.transfer', "(Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), float64)", 1.14, (
     )),
-    ('proxyshade.kernels.lookup._lanczos_rgb', "(Array(float32, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 1.24, (
+    ('proxyshade.kernels.lookup._lanczos_rgb', "(Array(float32, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 1.96, (
         ('proxyshade.kernels.lookup._tap_start', '(float64, int64, int64, int64)'),
     )),
-    ('proxyshade.kernels.reproject.gather_prev_planes', "(Tuple((Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True))), Array(uint32, 2, 'C', False, aligned=True), Tuple((Array(float64, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))), float64, float64)", 2.21, (
+    ('proxyshade.kernels.reproject.gather_prev_planes', "(Tuple((Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True))), Array(uint32, 2, 'C', False, aligned=True), Tuple((Array(float64, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))), float64, float64)", 1.94, (
     )),
-    ('proxyshade.kernels.reproject.first_positions', "(Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float64, float64)", 1.1, (
+    ('proxyshade.kernels.reproject.first_positions', "(Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float64, float64)", 2.88, (
     )),
-    ('proxyshade.kernels.reproject.anchor_seams', "(Tuple((Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True))), Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Tuple((Array(float64, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))), Tuple((Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True))), float64, float64, float64, Tuple((Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))))", 1.34, (
+    ('proxyshade.kernels.reproject.anchor_seams', "(Tuple((Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True))), Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Tuple((Array(float64, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))), Tuple((Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True))), float64, float64, float64, Tuple((Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))))", 2.79, (
     )),
-    ('proxyshade.kernels.reproject.fill_from_neighbours_into', "(Array(bool, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), int64, float64, Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))", 1.76, (
+    ('proxyshade.kernels.reproject.fill_from_neighbours_into', "(Array(bool, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), int64, float64, Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))", 4.37, (
     )),
-    ('proxyshade.kernels.temporal.continue_filled', "(Array(bool, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), float64)", 0.61, (
+    ('proxyshade.kernels.temporal.continue_filled', "(Array(bool, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), float64)", 1.54, (
     )),
-    ('proxyshade.kernels.temporal.map_deviation_patches', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), float64)", 1.25, (
+    ('proxyshade.kernels.temporal.map_deviation_patches', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), float64)", 2.89, (
     )),
-    ('proxyshade.kernels.temporal.patch_mean', "(Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), int64)", 0.19, (
+    ('proxyshade.kernels.temporal.patch_mean', "(Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), int64)", 0.38, (
     )),
-    ('proxyshade.kernels.random.uniform_field', "(int64, Array(uint32, 2, 'C', False, aligned=True))", 0.52, (
+    ('proxyshade.kernels.random.uniform_field', "(int64, Array(uint32, 2, 'C', False, aligned=True))", 1.0, (
         ('proxyshade.kernels.random.rand', '(int64, uint32, Literal[int](0), Literal[int](0))'),
         ('proxyshade.kernels.random.uniform', '(int64, uint32, Literal[int](0), Literal[int](0))'),
     )),
-    ('proxyshade.kernels.temporal.in_ids', "(Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(bool, 1, 'C', False, aligned=True))", 0.6, (
+    ('proxyshade.kernels.temporal.in_ids', "(Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(bool, 1, 'C', False, aligned=True))", 1.08, (
     )),
-    ('proxyshade.kernels.temporal.area_perimeter', "(Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), int64)", 0.17, (
+    ('proxyshade.kernels.temporal.area_perimeter', "(Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), int64)", 0.29, (
     )),
-    ('proxyshade.kernels.temporal.fits_label', "(Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True))", 0.74, (
+    ('proxyshade.kernels.temporal.fits_label', "(Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True))", 1.2, (
     )),
-    ('proxyshade.kernels.temporal._label_gradients', "(Array(float32, 3, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), int64, Array(float64, 1, 'C', False, aligned=True))", 2.49, (
+    ('proxyshade.kernels.temporal._label_gradients', "(Array(float32, 3, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), int64, Array(float64, 1, 'C', True, aligned=True))", 4.04, (
     )),
-    ('proxyshade.kernels.temporal.flag_reasons', "(Array(bool, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), float64, Array(uint32, 2, 'C', False, aligned=True), uint32, Tuple((Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True))), Array(uint32, 2, 'C', False, aligned=True), UniTuple(uint32, 4))", 2.59, (
+    ('proxyshade.kernels.temporal.flag_reasons', "(Array(bool, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), float64, Array(uint32, 2, 'C', False, aligned=True), uint32, Tuple((Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True))), Array(uint32, 2, 'C', False, aligned=True), UniTuple(uint32, 4))", 4.19, (
     )),
-    ('proxyshade.kernels.temporal.clean_flags', "(Array(uint32, 2, 'C', False, aligned=True), int64, int64, int64, Array(bool, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), int64, int64, int64)", 2.74, (
+    ('proxyshade.kernels.temporal.clean_flags', "(Array(uint32, 2, 'C', False, aligned=True), int64, int64, int64, Array(bool, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), int64, int64, int64)", 4.49, (
     )),
-    ('proxyshade.kernels.temporal.keep_carried', "(Array(uint32, 2, 'C', False, aligned=True), int64, Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), bool)", 0.94, (
+    ('proxyshade.kernels.temporal.keep_carried', "(Array(uint32, 2, 'C', False, aligned=True), int64, Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), bool)", 2.58, (
     )),
-    ('proxyshade.kernels.correct._block_any', "(Array(bool, 2, 'C', False, aligned=True), int64, Array(bool, 2, 'C', False, aligned=True))", 1.23, (
+    ('proxyshade.kernels.correct._block_any', "(Array(bool, 2, 'C', False, aligned=True), int64, Array(bool, 2, 'C', False, aligned=True))", 1.27, (
     )),
-    ('proxyshade.kernels.magnify._only_target', "(Array(int32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True))", 0.44, (
+    ('proxyshade.kernels.magnify._only_target', "(Array(int32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True))", 1.01, (
     )),
-    ('proxyshade.kernels.temporal.merge_redo', "(Array(bool, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), uint32, Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True))", 0.79, (
+    ('proxyshade.kernels.temporal.merge_redo', "(Array(bool, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), uint32, Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True))", 1.42, (
     )),
-    ('proxyshade.kernels.lookup._lanczos', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 1.36, (
+    ('proxyshade.kernels.lookup._lanczos', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 2.71, (
     )),
-    ('proxyshade.kernels.temporal.components4', "(Array(bool, 2, 'C', False, aligned=True),)", 0.58, (
+    ('proxyshade.kernels.temporal.components4', "(Array(bool, 2, 'C', False, aligned=True),)", 4.57, (
     )),
-    ('proxyshade.kernels.temporal.area_perimeter', "(Array(bool, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), int64)", 0.15, (
+    ('proxyshade.kernels.temporal.area_perimeter', "(Array(bool, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), int64)", 0.24, (
     )),
-    ('proxyshade.kernels.sor._dense_ranks', "(Array(int64, 1, 'C', False, aligned=True),)", 0.13, (
+    ('proxyshade.kernels.sor._dense_ranks', "(Array(int64, 1, 'C', False, aligned=True),)", 0.32, (
     )),
-    ('proxyshade.kernels.sor._group_order', "(Array(int64, 1, 'C', False, aligned=True), int64)", 0.12, (
+    ('proxyshade.kernels.sor._group_order', "(Array(int64, 1, 'C', False, aligned=True), int64)", 0.22, (
     )),
-    ('proxyshade.kernels.sor._list_neighbours', "(Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), int64, int64)", 0.24, (
+    ('proxyshade.kernels.sor._list_neighbours', "(Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), int64, int64)", 0.37, (
     )),
-    ('proxyshade.kernels.sor._seam_edges', "(Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float32)", 0.31, (
+    ('proxyshade.kernels.sor._seam_edges', "(Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float32)", 0.54, (
     )),
-    ('proxyshade.kernels.sor._rhs_at', "(Array(float32, 3, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float32, Array(float32, 2, 'C', False, aligned=True), Array(float32, 1, 'C', False, aligned=True))", 1.37, (
+    ('proxyshade.kernels.sor._rhs_at', "(Array(float32, 3, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float32, Array(float32, 2, 'C', False, aligned=True), Array(float32, 1, 'C', False, aligned=True))", 1.22, (
     )),
-    ('proxyshade.kernels.sor._sor_regions', "(Named('proxyshade.kernels.sor.Regions', (Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True))), Named('proxyshade.kernels.sor.ListedSystem', (Array(int64, 2, 'C', False, aligned=True), Array(float32, 1, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True))), Array(float32, 2, 'C', False, aligned=True), float64, int64, int64, Array(int64, 1, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True))", 1.09, (
+    ('proxyshade.kernels.sor._sor_regions', "(Named('proxyshade.kernels.sor.Regions', (Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True))), Named('proxyshade.kernels.sor.ListedSystem', (Array(int64, 2, 'C', False, aligned=True), Array(float32, 1, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True))), Array(float32, 2, 'C', False, aligned=True), float64, int64, int64, Array(int64, 1, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True))", 3.19, (
         ('proxyshade.kernels.sor._run_residual', "(Array(int64, 2, 'C', False, aligned=True), Array(float32, 1, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), int64, int64, Array(float32, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True))"),
         ('proxyshade.kernels.sor._sor_run', "(Array(int64, 2, 'C', False, aligned=True), Array(float32, 1, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), int64, int64, Array(float32, 2, 'C', False, aligned=True))"),
     )),
-    ('proxyshade.kernels.temporal.colour_planes', "(Array(float32, 3, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), bool)", 1.25, (
+    ('proxyshade.kernels.temporal.colour_planes', "(Array(float32, 3, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), bool)", 2.03, (
     )),
-    ('proxyshade.kernels.cryptomatte._rank', "(Array(uint32, 2, 'C', False, aligned=True), int64, Array(float32, 1, 'C', False, aligned=True), int64, Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 3.59, (
+    ('proxyshade.kernels.cryptomatte._rank', "(Array(uint32, 2, 'C', False, aligned=True), int64, Array(float32, 1, 'C', False, aligned=True), int64, Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 1.12, (
     )),
 ]
 CALLERS = {
@@ -315,7 +309,7 @@ CALLERS = {
     1: 'ProxyRender',
     2: 'ProxyRender',
     3: 'ProxyRender',
-    4: 'ProxyRender',
+    4: 'GuideSynth',
     5: 'GuideSynth',
     6: 'GuideSynth',
     7: 'GuideSynth',
@@ -325,12 +319,12 @@ CALLERS = {
     11: 'GuideSynth',
     12: 'GuideSynth',
     13: 'GuideSynth',
-    14: 'GuideSynth',
+    14: 'DepthExtend',
     15: 'DepthExtend',
     16: 'DepthExtend',
     17: 'DepthExtend',
     18: 'DepthExtend',
-    19: 'DepthExtend',
+    19: 'PatchInit',
     20: 'PatchInit',
     21: 'PatchInit',
     22: 'PatchInit',
@@ -423,4 +417,117 @@ CALLERS = {
     109: 'Resynthesize',
     110: 'Resynthesize',
     111: 'Cryptomatte',
+}
+VARIANTS = {
+    0: 'f117c8810bdb',
+    1: 'f117c8810bdb',
+    2: 'f117c8810bdb',
+    3: 'f117c8810bdb',
+    4: 'e9286a0fc774',
+    5: 'e9286a0fc774',
+    6: 'e9286a0fc774',
+    7: 'e9286a0fc774',
+    8: 'e9286a0fc774',
+    9: 'e9286a0fc774',
+    10: 'e9286a0fc774',
+    11: 'e9286a0fc774',
+    12: 'e9286a0fc774',
+    13: 'e9286a0fc774',
+    14: '4d55102248fa',
+    15: '4d55102248fa',
+    16: '4d55102248fa',
+    17: '4d55102248fa',
+    18: '4d55102248fa',
+    19: '610c6cd7c65f',
+    20: '610c6cd7c65f',
+    21: '610c6cd7c65f',
+    22: '610c6cd7c65f',
+    23: '610c6cd7c65f',
+    24: '610c6cd7c65f',
+    25: '610c6cd7c65f',
+    26: '610c6cd7c65f',
+    27: '610c6cd7c65f',
+    28: '610c6cd7c65f',
+    29: '70336d1dd23e',
+    30: '70336d1dd23e',
+    31: '70336d1dd23e',
+    32: '70336d1dd23e',
+    33: '70336d1dd23e',
+    34: '70336d1dd23e',
+    35: '70336d1dd23e',
+    36: '70336d1dd23e',
+    37: '70336d1dd23e',
+    38: '70336d1dd23e',
+    39: '70336d1dd23e',
+    40: '70336d1dd23e',
+    41: '948a8e3caf16',
+    42: '948a8e3caf16',
+    43: '948a8e3caf16',
+    44: 'ca2ac93537db',
+    45: 'ca2ac93537db',
+    46: 'ca2ac93537db',
+    47: 'ca2ac93537db',
+    48: 'ca2ac93537db',
+    49: 'ca2ac93537db',
+    50: 'ca2ac93537db',
+    51: 'ca2ac93537db',
+    52: 'ca2ac93537db',
+    53: 'ca2ac93537db',
+    54: 'ca2ac93537db',
+    55: 'ca2ac93537db',
+    56: 'ca2ac93537db',
+    57: '5024ea2ae74b',
+    58: '2d6d3b9210c8',
+    59: '2d6d3b9210c8',
+    60: '2d6d3b9210c8',
+    61: '2d6d3b9210c8',
+    62: '2d6d3b9210c8',
+    63: '2d6d3b9210c8',
+    64: '2d6d3b9210c8',
+    65: '2d6d3b9210c8',
+    66: '260063618204',
+    67: '260063618204',
+    68: '260063618204',
+    69: '260063618204',
+    70: '260063618204',
+    71: '260063618204',
+    72: '260063618204',
+    73: '260063618204',
+    74: '260063618204',
+    75: '260063618204',
+    76: '260063618204',
+    77: '260063618204',
+    78: '260063618204',
+    79: '260063618204',
+    80: '260063618204',
+    81: '777ecc00178e',
+    82: '777ecc00178e',
+    83: '777ecc00178e',
+    84: '777ecc00178e',
+    85: '777ecc00178e',
+    86: '777ecc00178e',
+    87: '777ecc00178e',
+    88: '777ecc00178e',
+    89: '777ecc00178e',
+    90: '777ecc00178e',
+    91: '777ecc00178e',
+    92: '777ecc00178e',
+    93: '777ecc00178e',
+    94: '777ecc00178e',
+    95: '777ecc00178e',
+    96: '777ecc00178e',
+    97: '777ecc00178e',
+    98: 'e9ac6f45bb12',
+    99: 'e9ac6f45bb12',
+    100: 'e9ac6f45bb12',
+    101: 'e9ac6f45bb12',
+    102: 'e9ac6f45bb12',
+    103: 'e9ac6f45bb12',
+    104: 'e9ac6f45bb12',
+    105: 'e9ac6f45bb12',
+    106: 'e9ac6f45bb12',
+    107: 'e9ac6f45bb12',
+    108: 'e9ac6f45bb12',
+    109: 'e9ac6f45bb12',
+    110: 'e9ac6f45bb12',
 }
