@@ -1,7 +1,12 @@
 """numba flags for every kernel, in one place.
 
 Kernels are pure functions on arrays: ``@njit(**JIT)`` for serial code,
-``@njit(**PJIT)`` with ``prange`` where each thread writes only what it owns.
+``@njit(**PJIT)`` with ``prange`` where each thread writes only what it owns. A parallel
+kernel compiles slower than a serial one (about 0.4 s more for a short loop, and its loop
+body's callees compile twice, for an int64 and a uint64 index): a loop whose work is a few
+milliseconds a frame is serial, and a long loop body is a serial kernel the parallel loop
+calls with ``np.int64(index)`` (``guide._subpass_row``, ``bench/bench_compile.py --mode
+entries`` measures each).
 ``nogil`` lets the graph executor run independent nodes on threads.
 
 Threads wait passively between parallel loops (``OMP_WAIT_POLICY=PASSIVE`` unless the
@@ -24,8 +29,11 @@ from proxyshade.kernels import _cache
 
 os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")  # read when the OpenMP runtime starts
 
-JIT = dict(cache=True, nogil=True, fastmath=False)
-PJIT = dict(cache=True, nogil=True, fastmath=False, parallel=True)
+# error_model="numpy": a float division by zero gives inf or nan as numpy does instead of
+# raising, so no check and exception path is compiled at each division (8% less compile
+# time over the first frame's kernels; no kernel divides by zero on purpose)
+JIT = dict(cache=True, nogil=True, fastmath=False, error_model="numpy")
+PJIT = dict(cache=True, nogil=True, fastmath=False, error_model="numpy", parallel=True)
 
 
 

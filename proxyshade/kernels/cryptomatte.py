@@ -20,7 +20,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from proxyshade.kernels._config import PJIT
+from proxyshade.kernels._config import JIT, PJIT
 
 _M32 = 0xFFFFFFFF
 _C1 = 0xCC9E2D51
@@ -111,41 +111,49 @@ def manifest(names) -> dict[str, str]:
 @njit(**PJIT)
 def _rank(ids, factor, lut, levels, out_id, out_cov):  # pragma: no cover - compiled
     """Ranked ids and coverages into the zeroed (levels, h, w) ``out_id``, ``out_cov``."""
-    h, w = out_id.shape[1], out_id.shape[2]  # rank-major: (levels, h, w)
+    h = out_id.shape[1]  # rank-major: (levels, h, w)
+    for y in prange(h):
+        _rank_row(np.int64(y), ids, factor, lut, levels, out_id, out_cov)
+
+
+@njit(**JIT)
+def _rank_row(y, ids, factor, lut, levels, out_id, out_cov):  # pragma: no cover - compiled
+    """Row ``y`` of ``_rank`` (its loop body: a serial kernel compiles faster than the same
+    code inside a parallel loop)."""
+    w = out_id.shape[2]
     nsamp = factor * factor
     inv = 1.0 / nsamp
-    for y in prange(h):
-        uniq = np.empty(nsamp, dtype=np.uint32)
-        count = np.empty(nsamp, dtype=np.int64)
-        for x in range(w):
-            nu = 0
-            for sy in range(factor):
-                for sx in range(factor):
-                    v = ids[y * factor + sy, x * factor + sx]
-                    if v == 0:
-                        continue
-                    found = False
-                    for u in range(nu):
-                        if uniq[u] == v:
-                            count[u] += 1
-                            found = True
-                            break
-                    if not found:
-                        uniq[nu] = v
-                        count[nu] = 1
-                        nu += 1
-            # selection by coverage (descending), ties by smaller id: deterministic
-            for r in range(levels):
-                best = -1
+    uniq = np.empty(nsamp, dtype=np.uint32)
+    count = np.empty(nsamp, dtype=np.int64)
+    for x in range(w):
+        nu = 0
+        for sy in range(factor):
+            for sx in range(factor):
+                v = ids[y * factor + sy, x * factor + sx]
+                if v == 0:
+                    continue
+                found = False
                 for u in range(nu):
-                    if count[u] > 0 and (best < 0 or count[u] > count[best]
-                                         or (count[u] == count[best] and uniq[u] < uniq[best])):
-                        best = u
-                if best < 0:  # the remaining ranks stay empty (the outputs come zeroed): with one
-                    break         # sample per pixel their pages are never touched
-                out_id[r, y, x] = lut[uniq[best]]
-                out_cov[r, y, x] = np.float32(count[best] * inv)
-                count[best] = 0
+                    if uniq[u] == v:
+                        count[u] += 1
+                        found = True
+                        break
+                if not found:
+                    uniq[nu] = v
+                    count[nu] = 1
+                    nu += 1
+        # selection by coverage (descending), ties by smaller id: deterministic
+        for r in range(levels):
+            best = -1
+            for u in range(nu):
+                if count[u] > 0 and (best < 0 or count[u] > count[best]
+                                     or (count[u] == count[best] and uniq[u] < uniq[best])):
+                    best = u
+            if best < 0:  # the remaining ranks stay empty (the outputs come zeroed): with one
+                break         # sample per pixel their pages are never touched
+            out_id[r, y, x] = lut[uniq[best]]
+            out_cov[r, y, x] = np.float32(count[best] * inv)
+            count[best] = 0
 
 
 def rank_coverage(ids: np.ndarray, lut: np.ndarray, *, levels: int = 6, factor: int = 1):

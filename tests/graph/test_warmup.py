@@ -166,3 +166,56 @@ def test_precompile_marks_its_modules_and_later_skips_them(tmp_path, monkeypatch
     assert r["compiled"] == 1 and r["failed"] == []
     assert _cache.kernels_cached(sorted(mods)) and warmup.pending(mods) == []
     assert (_cache.folder() / "precompiled" / "proxyshade.kernels.random").is_file()
+
+
+class _Node:
+    def __init__(self, **params):
+        self.params = params
+
+
+class Poisson(_Node):
+    pass
+
+
+class _G:
+    def __init__(self, **nodes):
+        self.nodes, self.enabled, self.connections = nodes, {n: True for n in nodes}, {n: {} for n in nodes}
+
+
+def test_a_node_of_a_recorded_variant_precompiles_what_that_variant_called(monkeypatch):
+    """Entries are recorded with the node type and variant (parameters, connected inputs)
+    that first called them: a node of a recorded variant precompiles its type's entries up
+    to the last its variant called (Poisson without layout: not the layout kernels that
+    Poisson with layout called later); a node of another variant, every entry of its type."""
+    e1 = ("proxyshade.kernels.random._keys", "(int64, int64)", 0.5, ())
+    e2 = ("proxyshade.kernels.random._mix", "(uint64,)", 0.5, ())
+    plain, layout = _G(final=Poisson(layout=False)), _G(final=Poisson(layout=True))
+    v_plain, v_layout = warmup.node_variant(plain, "final"), warmup.node_variant(layout, "final")
+    assert v_plain != v_layout and v_plain == warmup.node_variant(_G(final=Poisson(layout=False)), "final")
+    monkeypatch.setattr(warmup, "manifest", lambda: [e1, e2])
+    monkeypatch.setattr(warmup, "callers", lambda: {e1[:2]: "Poisson", e2[:2]: "Poisson"})
+    monkeypatch.setattr(warmup, "variants", lambda: {e1[:2]: v_plain, e2[:2]: v_layout})
+    monkeypatch.setattr(_cache, "kernels_cached", lambda names=(): False)
+    assert warmup.manifest_modules(plain) == {f"node.Poisson@{v_plain}"}
+    assert [e[0] for e in warmup.pending(warmup.manifest_modules(plain))] == [e1[0]]
+    for g in (layout, _G(final=Poisson(layout=True, grain=3.0))):  # the last variant recorded, an unknown one
+        assert warmup.manifest_modules(g) == {"node.Poisson"}
+        assert sorted(e[0] for e in warmup.pending(warmup.manifest_modules(g))) == sorted([e1[0], e2[0]])
+
+
+def test_the_first_frame_compiles_no_layout_or_grain_kernel(tmp_path, monkeypatch):
+    """The bundled first frame's Poisson (layout: false, grain: 1; the farm's as the lake's:
+    Poisson's parameters do not name the scene) is a variant recorded
+    before the camera move's (layout and grain on): its precompile leaves out the layout
+    and grain kernels the camera move's compiles (the real manifest)."""
+    from proxyshade.graph.graph import Graph
+
+    monkeypatch.setattr(_cache, "kernels_cached", lambda names=(): False)
+
+    def pending(name, variables):
+        g = Graph.load(ROOT / "graphs" / name, cache=tmp_path / "cache", variables=variables)
+        return {e[0].rpartition(".")[0].rpartition(".")[2] for e in warmup.pending(warmup.manifest_modules(g))}
+
+    first = pending("first_frame.yaml", {"scene": "farm", "source": "creek", "out": str(tmp_path / "out")})
+    assert {"poisson", "multigrid", "raster", "guide"} <= first and not first & {"layout", "grain"}
+    assert {"layout", "grain"} <= pending("camera_move.yaml", {})
