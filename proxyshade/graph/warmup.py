@@ -175,8 +175,14 @@ class Prefetch:
         self.thread, self._stop = None, threading.Event()
         found, held = callers(), variant_units()
         every = {u for units in held.values() for u in units}
+        try:  # the order the nodes run: the instances' DAG topologically (ties by name)
+            import networkx as nx
+
+            order = list(nx.lexicographical_topological_sort(todo, key=str))
+        except Exception:  # noqa: BLE001 - not a DAG: by name
+            order = sorted(todo, key=str)
         units = []  # the nodes' units, in the order the nodes run
-        for name, _ in sorted(todo, key=str):
+        for name, _ in order:
             u = _unit_of(graph, name, every)
             if u not in units:
                 units.append(u)
