@@ -125,7 +125,8 @@ def similarity_sets(lab, masks, col, h, k, sample, seed, metric):
     He, We = lab.shape
     out = np.empty((He, We, k, 2), np.int32)
     for y in prange(He):
-        _similarity_row(np.int64(y), masks, col, h, k, sample, seed, metric, out)  # one type: a parallel loop types its index twice
+        # the index as int64: a parallel loop types it twice (int64, uint64), its callees compile twice
+        _similarity_row(np.int64(y), masks, col, h, k, sample, seed, metric, out)
     return out
 
 

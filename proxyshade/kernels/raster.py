@@ -166,9 +166,10 @@ def _polygon(points, tris, ti, planes, cam, scratch, sx, sy, sd):
 
 @njit(**JIT)
 def _setup_pass(points, tris, planes, cam, write, counts, xy, dep, bar, src, r0, r1):
-    """The source triangles fanned into the screen triangles that may cover a pixel centre: without ``write`` how many each yields in ``counts[ti + 1]``; with
-    it those triangles written from slot ``counts[ti]`` on into ``xy``, ``dep``, ``bar``,
-    ``src``, ``r0``, ``r1`` (``ScreenTris``' fields)."""
+    """The source triangles fanned into the screen triangles that may cover a pixel
+    centre: without ``write`` how many each yields in ``counts[ti + 1]``; with it those
+    triangles written from slot ``counts[ti]`` on into ``xy``, ``dep``, ``bar``, ``src``,
+    ``r0``, ``r1`` (``ScreenTris``' fields)."""
     scratch = np.empty((4, 9, 3), np.float64)
     sx = np.empty(9, np.int64)
     sy = np.empty(9, np.int64)
@@ -224,13 +225,13 @@ def _setup(points, tris, cam, near):
     counts = np.zeros(t + 1, np.int64)
     none = ScreenTris(np.empty((0, 3, 2), np.int64), np.empty((0, 3), np.float64), np.empty((0, 3, 3), np.float64),
                       np.empty(0, np.int64), np.empty(0, np.int64), np.empty(0, np.int64))
-    _setup_pass(points, tris, planes, cam, False, counts, *none)
+    _setup_pass(points=points, tris=tris, planes=planes, cam=cam, write=False, counts=counts, **none._asdict())
     np.cumsum(counts, out=counts)
     total = int(counts[t])
     out = ScreenTris(np.empty((total, 3, 2), np.int64), np.empty((total, 3), np.float64),
                      np.empty((total, 3, 3), np.float64), np.empty(total, np.int64), np.empty(total, np.int64),
                      np.empty(total, np.int64))
-    _setup_pass(points, tris, planes, cam, True, counts, *out)
+    _setup_pass(points=points, tris=tris, planes=planes, cam=cam, write=True, counts=counts, **out._asdict())
     return out
 
 
@@ -352,7 +353,8 @@ def rasterize(points: np.ndarray, tris: np.ndarray, *, width: int, height: int, 
     st = _setup(points, tris, cam, float(near))
     nb = (height + BAND - 1) // BAND
     band_start, band_list = bin_rows(st.r0, st.r1, nb, BAND)  # serial: 0.3 ms for the lake
-    _raster_bands(*st, width, height, band_start, band_list, depth, tid, bary, count)
+    _raster_bands(**st._asdict(), width=width, height=height, band_start=band_start, band_list=band_list, depth=depth,
+                  tid=tid, bary=bary, count=count)
     return depth.astype(np.float32), tid, bary, count
 
 
