@@ -9,7 +9,7 @@ virtual environment's libraries); with ``--ebsynth PATH``, EbSynth texture by nu
 bench/bench_photos.py runs it) with the source's label map and the frame's detailed guide
 (the ``guide`` node's label.id at the output size, in the label map's colours). Every
 child's wall time, CPU seconds (user + system) and peak resident memory come from
-``os.wait4``. Prints the medians over ``--rounds`` (default 5), the ratios, the load
+``os.wait4``. Prints the medians over ``--rounds`` (default 5; the peak RSS's largest round too), the ratios, the load
 average before and after, then this checkout's ``--profile`` of one more run: where the
 time went and the resident memory before and during each node, the node holding the peak,
 the plates in memory then and what the peak holds (mapped library files, the heap when the
