@@ -9,7 +9,7 @@ virtual environment's libraries); with ``--ebsynth PATH``, EbSynth texture by nu
 bench/bench_photos.py runs it) with the source's label map and the frame's detailed guide
 (the ``guide`` node's label.id at the output size, in the label map's colours). Every
 child's wall time, CPU seconds (user + system) and peak resident memory come from
-``os.wait4``. Prints the medians over ``--rounds`` (default 5), the ratios, the load
+``os.wait4``. Prints the medians over ``--rounds`` (default 5; the peak RSS's largest round too), the ratios, the load
 average before and after, then this checkout's ``--profile`` of one more run: where the
 time went and the resident memory before and during each node, the node holding the peak,
 the plates in memory then and what the peak holds (mapped library files, the heap when the
@@ -136,10 +136,13 @@ def main(argv=None) -> None:
                 cache, out = work / f"c_{name}_{r}", work / f"o_{name}_{r}"
                 rows[name].append(fn(cache, out))
                 shutil.rmtree(cache, ignore_errors=True)
-        print(f"{'command':<12} {'wall med':>9} {'min':>7} {'max':>7} {'CPU s':>7} {'peak RSS':>9}")
+        # the peak's median and its largest round: a bar on memory holds in every round (a cache
+        # write that lags behind the nodes in some rounds only holds its plate longer)
+        print(f"{'command':<12} {'wall med':>9} {'min':>7} {'max':>7} {'CPU s':>7} {'peak RSS':>9} {'max':>9}")
         for name, rs in rows.items():
             print(f"{name:<12} {med(rs, 'wall'):9.2f} {min(r['wall'] for r in rs):7.2f} "
-                  f"{max(r['wall'] for r in rs):7.2f} {med(rs, 'cpu'):7.2f} {med(rs, 'rss'):7.0f} MiB")
+                  f"{max(r['wall'] for r in rs):7.2f} {med(rs, 'cpu'):7.2f} {med(rs, 'rss'):5.0f} MiB "
+                  f"{max(r['rss'] for r in rs):5.0f} MiB")
         p = rows["proxyshade"]
         for name in rows:
             if name != "proxyshade":

@@ -558,10 +558,12 @@ class Graph:
         if prof is not None:
             prof.watch(self, plan)
             prof.node_start(nr.node, nr.frame, self.nodes[nr.node].sink)
-        def release(key: str) -> None:  # the instance released an input (ctx.release): the last reader?
+        def release(key: str):  # the instance released an input (ctx.release): the last reader?
             with guard:
                 if consumers.get(key, 0) == 1 and key not in plan.keep:
                     self.cache.forget(key)
+                    return self.cache.writing(key)  # its cache write, while it still holds the plate
+            return None
 
         t = time.perf_counter()
         try:
@@ -681,9 +683,8 @@ class Graph:
         if release is not None:
             held = plan.input_keys(inst)  # the keys the run counts this instance's reads of (held_keys)
 
-            def on_release(inp: str) -> None:
-                if isinstance(held.get(inp), str):
-                    release(held[inp])
+            def on_release(inp: str):
+                return release(held[inp]) if isinstance(held.get(inp), str) else None
 
             ctx.on_release = on_release
         if inst in plan.previous:

@@ -21,6 +21,7 @@ imported: ``proxyshade.nodes.node_type`` imports the module of a type a graph na
 """
 from __future__ import annotations
 
+import time
 import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -118,17 +119,31 @@ class Context:
         self.previous: Previous | None = None
         self.memo = None
         self.tiles = None
-        self.on_release: Callable[[str], None] | None = None  # the engine's: an input released
+        # the engine's: an input released; returns the plate's cache write when it still holds the plate
+        self.on_release: Callable[[str], Any] | None = None
 
-    def release(self, name: str) -> None:
+    def release(self, name: str, *, wait_written: bool = False) -> None:
         """The node reads input ``name`` no more in this compute (what it keeps of it, it
         holds in its own arrays): ``ctx.<name>`` is None from now on and, where this
         instance is the plate's last reader in the run, the engine drops the plate from
         memory now instead of once ``compute`` returns (a 4K plate of half a GiB less through
-        the rest of the compute). Changes no result."""
+        the rest of the compute). A plate whose cache entry is still being written stays
+        in memory until the write is done; ``wait_written`` waits for that write here, so
+        that what the node allocates next does not come on top of it (a node about to need
+        several frames of memory: the Poisson solve). Changes no result."""
         self.inputs[name] = None
-        if self.on_release is not None:
-            self.on_release(name)
+        if self.on_release is None:
+            return
+        pending = self.on_release(name)
+        if wait_written and pending is not None:
+            from concurrent.futures import wait
+
+            from proxyshade.graph import profile
+
+            t = time.perf_counter()
+            wait([pending])  # a failed write is raised by the run's flush, as any other
+            if profile.ACTIVE is not None:
+                profile.ACTIVE.release_wait += time.perf_counter() - t
 
     def __getattr__(self, item):
         inputs = self.__dict__.get("inputs", {})

@@ -83,6 +83,7 @@ class Profile:
     flush_wait: float = 0.0  # the run waiting for the cache writer at its end
     writes_beside: bool = False  # the writers ran on a thread of their own (executor.SerialExecutor)
     write_wait: float = 0.0  # ... and the run waited for them this long
+    release_wait: float = 0.0  # nodes waiting for a released input's cache write (Context.release)
     precompile_s: float = 0.0  # the first run's kernel precompile (warmup.precompile), imports in it included
     nodes: dict = field(default_factory=dict)  # (node, frame) -> NodeTimes
     outside: NodeTimes = field(default_factory=lambda: NodeTimes("(outside nodes)", 0))
@@ -209,7 +210,9 @@ class Profile:
         else:
             out.append(("output writes", sum(comp(nt) for nt in sinks), names))
         busy = sum(nt.cache_write for nt in self.nodes.values()) + self.outside.cache_write
-        out.append(("cache writes (waited)", self.flush_wait, f"the writer thread was busy {busy:.2f} s, beside the nodes"))
+        out.append(("cache writes (waited)", self.flush_wait, f"the writer thread was busy {busy:.2f} s, beside the nodes"
+                    + (f"; nodes waited {self.release_wait:.2f} s (in their compute) for a released input's write"
+                       if self.release_wait else "")))
         accounted = sum(s for name, s, _ in out if not name.startswith("  ") and name != "cache writes (waited)")
         accounted += sum(s for name, s, _ in out if name.startswith("  ")) + self.flush_wait
         out.append(("rest", max(0.0, wall - accounted), "scheduling, report, cache bookkeeping"))

@@ -27,7 +27,8 @@ from proxyshade.kernels.stencil import apply_at, fine_operator, neighbour_sum
 def _coarsen(diag, we, ws, mass, alpha):
     """Coarse operator for 2x2 piecewise-constant aggregation: the Galerkin product
     P^T A P, its Laplacian part (edge weights, and the diagonal less the screening mass)
-    divided by ``alpha``, its mass part (the screening term) kept exact."""
+    divided by ``alpha``, its mass part (the screening term) kept exact. The fine weights
+    are read as float32 (the finest level's are uint8, ``stencil.fine_operator``)."""
     h, w = diag.shape
     hc = (h + 1) // 2
     wc = (w + 1) // 2
@@ -54,25 +55,25 @@ def _coarsen(diag, we, ws, mass, alpha):
                     m += mass[i, j]
             # internal edges count twice (both off-diagonal entries)
             if i0 < h and j0 + 1 < w:
-                d -= 2.0 * we[i0, j0]
+                d -= 2.0 * np.float32(we[i0, j0])
             if i0 + 1 < h and j0 + 1 < w:
-                d -= 2.0 * we[i0 + 1, j0]
+                d -= 2.0 * np.float32(we[i0 + 1, j0])
             if i0 + 1 < h:
-                d -= 2.0 * ws[i0, j0]
+                d -= 2.0 * np.float32(ws[i0, j0])
                 if j0 + 1 < w:
-                    d -= 2.0 * ws[i0, j0 + 1]
+                    d -= 2.0 * np.float32(ws[i0, j0 + 1])
             dc[I, J] = d * inv + m
             mc[I, J] = m
             # east: fine edges from column j0+1 to j0+2
             if j0 + 2 < w:
-                e = we[i0, j0 + 1]
+                e = np.float32(we[i0, j0 + 1])
                 if i0 + 1 < h:
-                    e += we[i0 + 1, j0 + 1]
+                    e += np.float32(we[i0 + 1, j0 + 1])
                 ec[I, J] = e * inv
             if i0 + 2 < h:
-                s = ws[i0 + 1, j0]
+                s = np.float32(ws[i0 + 1, j0])
                 if j0 + 1 < w:
-                    s += ws[i0 + 1, j0 + 1]
+                    s += np.float32(ws[i0 + 1, j0 + 1])
                 sc[I, J] = s * inv
     return dc, ec, sc, mc
 

@@ -226,6 +226,9 @@ def poisson_transfer(colors: np.ndarray, patch: np.ndarray, labels: np.ndarray |
             if values.shape != (h, w, 3):
                 raise ValueError(f"values must be {(h, w, 3)}, got {values.shape}")
             vfix[fixed] = values[fixed] - colors[fixed]
+    # the pixels that take ``values`` exactly at the end (not f + (values - f)): fixed ones off
+    # the label contours
+    keep = fixed if fixed is not None and values is not None else None
     if labels is not None and label_dirichlet:
         labels = np.ascontiguousarray(labels)
         if labels.shape != (h, w):
@@ -233,6 +236,9 @@ def poisson_transfer(colors: np.ndarray, patch: np.ndarray, labels: np.ndarray |
         edge = contour_mask(labels)
         fx |= edge
         vfix[edge] = 0.0
+        if keep is not None:
+            keep = keep & ~edge
+        del edge  # not held through the solve
     # components of free pixels with no fixed neighbour: pin their first pixel, recentre
     # (screened: every component is determined, no labelling needed: a serial pass over the frame)
     comp = np.empty(h * w, np.int64) if screen <= 0 else None
@@ -271,8 +277,7 @@ def poisson_transfer(colors: np.ndarray, patch: np.ndarray, labels: np.ndarray |
         _recentre(v, comp, len(firsts), floating)
     info.update(fixed=int(fx.sum()), floating=int(floating.sum()))
     u = np.add(colors, v, out=v)  # u = colors + v, in v's buffer
-    if fixed is not None and values is not None:  # exact values, not f + (values - f)
-        keep = fixed if labels is None or not label_dirichlet else fixed & ~edge
+    if keep is not None:  # exact values, not f + (values - f)
         u[keep] = values[keep]
     return u, info
 

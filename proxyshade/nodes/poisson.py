@@ -73,15 +73,17 @@ class Poisson(PoissonSolve, Node):
                 if c not in img:
                     raise ctx.error(f"image has no {c} for seams: source; connect Magnify's output or set seams: zero")
         # the channels the solve reads and those that pass through, taken from the plate; then
-        # the plate is released (its R, G, B, replaced by the solution, leave memory during the
-        # solve where nothing else reads them: 106 MiB at 4K)
+        # the plate is released (its R, G, B, replaced by the solution, leave memory before the
+        # solve where nothing else reads them: 101 MiB at 4K; a cache write of the plate still
+        # running holds them until it is done: the solve waits for it, else its peak would
+        # come on top of them)
         rgb, order, kept, meta_in = img.rgb(), list(img.channels), {}, img.meta
         for n in order:
             if n not in ("R", "G", "B"):
                 kept[n] = img[n]
         scale = float(meta_in.get("synthesis", {}).get("scale", 1.0))
         del img
-        ctx.release("image")
+        ctx.release("image", wait_written=True)
         # everything at hand is passed; blend_frame takes what layout, seams and grain need (grain:
         # the source's labels and the map on a whole frame, quietly off without them or with keep)
         u, info = blend_frame(rgb, kept["patch.id"], labels, PoissonSolve.of(p),

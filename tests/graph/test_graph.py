@@ -475,3 +475,55 @@ def test_a_released_input_leaves_memory_after_its_last_reader_releases_it(tmp_pa
     assert key_a not in g.cache.memory
     np.testing.assert_array_equal(g.value("z_last")["R"], np.full((8, 8), 10.0, np.float32))
     np.testing.assert_array_equal(g.value("first")["R"], np.full((8, 8), 6.0, np.float32))
+
+
+class _TReleaseWait(Node, register=False):
+    """Releases ``a`` with ``wait_written`` as its param says, then records whether the
+    plate's cache write is still running and whether the run still holds it."""
+
+    a = Input(channels=("R",))
+    wait = Param(bool, False)
+    seen: list = []
+    graph = None
+    key = None
+
+    def compute(self, ctx):
+        r = ctx.a["R"] + 1.0
+        ctx.release("a", wait_written=ctx.p.wait)
+        cache = _TReleaseWait.graph.cache
+        _TReleaseWait.seen.append((cache.writing(_TReleaseWait.key) is not None, _TReleaseWait.key in cache.memory))
+        return Plate({"R": r.astype(np.float32)})
+
+
+@pytest.mark.parametrize("wait", [False, True])
+def test_release_waits_for_the_plates_cache_write_when_asked(tmp_path, monkeypatch, wait):
+    """A released plate whose cache write still runs stays in memory until the write is
+    done; ``ctx.release(..., wait_written=True)`` returns only then, with the plate out of
+    the run's memory (a node about to allocate much does not hold it on top)."""
+    import threading
+
+    from proxyshade.graph.cache import Cache
+
+    gate = threading.Event()
+    write = Cache._write
+
+    def slow_write(self, key, *a, **k):
+        if key == _TReleaseWait.key:
+            gate.wait(10)
+        return write(self, key, *a, **k)
+
+    monkeypatch.setattr(Cache, "_write", slow_write)
+    g = Graph(graph_dir=tmp_path, frames=(1, 1), cache=tmp_path / "cache")
+    g.add("a", _TConst, {"value": 2.0})
+    g.add("b", _TReleaseWait, {"wait": wait}, {"a": "a"})
+    _TReleaseWait.graph, _TReleaseWait.seen, _TReleaseWait.key = g, [], g.plan([1]).keys[("a", 1)]
+    timer = threading.Timer(0.3, gate.set)  # the write finishes a moment after the release
+    timer.start()
+    try:
+        g.run()
+    finally:
+        gate.set()
+        timer.cancel()
+    assert _TReleaseWait.seen == ([(False, False)] if wait else [(True, True)])
+    assert _TReleaseWait.key not in g.cache.memory and g.cache.intact(_TReleaseWait.key)
+    np.testing.assert_array_equal(g.value("b")["R"], np.full((8, 8), 3.0, np.float32))
