@@ -162,6 +162,11 @@ class RestrictedSolve(ParamGroup):
                              "differences kept (only a smooth change): a thin flagged band between two kept regions "
                              "spreads their mismatch over the ring instead of into its few seams, which the next "
                              "frames carry (the gradient creep, docs/temporal.md); 0: the flagged pixels only")
+    gate_result = Param(bool, False,
+                        doc="with Reproject's creep_gate: after the solve, the labels whose gradient over the first "
+                            "frame's now passes the gate (and that the previous frame did not) are solved again "
+                            "with the remedies above: the gate on this frame's result, not only on the previous "
+                            "frame's (farm's water at frame 2, docs/temporal.md)")
     sor_thickness = Param(float, 32.0, min=0.0,
                           doc="restricted-Poisson regions at most this thick (2 x area / perimeter, pixels) are "
                               "solved by SOR on their own pixels, not by multigrid in a window around them (the "
