@@ -268,7 +268,8 @@ def synth_others(inp_b, sup, T, k0, dk, seeds, qy, qx, visits):
         k = np.full((H, W), k0, np.int64)
         out = gather(inp_b[v], qy[v], qx[v])
         view_sup = Support(sup.out[v], sup.inp, sup.qy[v], sup.qx[v], sup.c, True)
-        changed[v] = synth_level(inp_b[v], out, qy[v], qx[v], k, T, dk, seeds[v], 0, view_sup, visits[v])
+        changed[v] = synth_level(inp=inp_b[v], out=out, qy=qy[v], qx=qx[v], k=k, T=T, dk=dk, seed=seeds[v], level=0,
+                                 sup=view_sup, visits=visits[v])
     return changed
 
 

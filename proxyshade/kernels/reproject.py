@@ -681,8 +681,9 @@ def fill_from_neighbours(need, have, lab, sx, sy, patch, res, dist, radius, scal
     patch translation (source coordinates moved by the offset × ``scale``). Reads only
     ``have`` pixels, so the result does not depend on the order. Returns new arrays and
     the mask of pixels filled."""
-    return fill_from_neighbours_into(need, have, lab, sx, sy, patch, res, dist, radius, scale, sx.copy(), sy.copy(),
-                                     patch.copy(), res.copy(), dist.copy())
+    return fill_from_neighbours_into(need, have, lab, sx, sy, patch, res, dist, radius, scale,
+                                     osx=sx.copy(), osy=sy.copy(), opatch=patch.copy(), ores=res.copy(),
+                                     odist=dist.copy())
 
 
 @njit(**PJIT)

@@ -102,9 +102,10 @@ class ConsistentDepth(SameSurface, Node):
         zero = np.zeros(proxy.shape, np.float32)
         base = [np.ascontiguousarray(proxy[c], np.float32) if c in proxy else zero for c in ("P.X", "P.Y", "P.Z")]
         cat, label, Z, X, Y, Zw, gone = kr.classify(
-            src, wg, wp1, stale, np.ascontiguousarray(occluded0, np.bool_), lab0,
-            np.ascontiguousarray(proxy["label.id"], np.uint32), np.ascontiguousarray(proxy["Z"], np.float32), *base,
-            np.ascontiguousarray(cam1.camera_to_world, np.float64), k1, float(tol))
+            src=src, wg=wg, wp1=wp1, stale=stale, occluded0=np.ascontiguousarray(occluded0, np.bool_), lab0=lab0,
+            plab=np.ascontiguousarray(proxy["label.id"], np.uint32), pZ=np.ascontiguousarray(proxy["Z"], np.float32),
+            pX=base[0], pY=base[1], pZw=base[2], C=np.ascontiguousarray(cam1.camera_to_world, np.float64), k=k1,
+            tol=float(tol))
         if gone.any() and self._moved(kr, stale, wg, src, wp1, on_proxy0, keep):
             ctx.note(f"{int(gone.sum())} pixels of stale grid (on the proxy at the first frame, in front of it "
                      "now: a moving object) left to the proxy")

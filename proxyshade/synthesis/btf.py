@@ -322,8 +322,8 @@ def synthesize_view(image: np.ndarray, size, *, radius: int, T: int, levels: int
         qy, qx = np.ascontiguousarray(qy, np.int64), np.ascontiguousarray(qx, np.int64)
         k = np.full((Hl, Wl), k0, np.int64)
         vis = np.zeros((Hl, Wl), np.int64)
-        synth_level(image, gather(image, qy, qx), qy, qx, k, int(T), disk(radius, 1, s, wrap), mix_seed(seed, 2), lv,
-                    alone, vis)
+        synth_level(inp=image, out=gather(image, qy, qx), qy=qy, qx=qx, k=k, T=int(T), dk=disk(radius, 1, s, wrap),
+                    seed=mix_seed(seed, 2), level=lv, sup=alone, visits=vis)
         visits.append(vis)
     return qy, qx, visits
 

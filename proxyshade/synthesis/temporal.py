@@ -245,8 +245,9 @@ def carry(cd: Plate, prev: Plate | None, first: Plate | None, source: Plate, p, 
     src_lab = np.ascontiguousarray(source["label.id"], np.uint32)
     if p.fill_radius > 0 and not valid.all():
         # in place: it writes only the unkept pixels and reads only kept ones (gather_prev's fresh arrays)
-        sx, sy, patch, res, ext, filled = kr.fill_from_neighbours_into(~valid, valid, lab, sx, sy, patch, res, ext,
-                                                                        p.fill_radius, scale, sx, sy, patch, res, ext)
+        sx, sy, patch, res, ext, filled = kr.fill_from_neighbours_into(
+            need=~valid, have=valid, lab=lab, sx=sx, sy=sy, patch=patch, res=res, dist=ext,
+            radius=p.fill_radius, scale=scale, osx=sx, osy=sy, opatch=patch, ores=res, odist=ext)
         # a patch continued frame after frame would extrude its borders into streaks:
         # past extend_frames the continued band is flood-filled afresh instead (ext counted up in place)
         filled, have = kt.continue_filled(filled, valid, ext, src_lab, sx, sy, lab, float(p.extend_frames))
@@ -265,9 +266,10 @@ def carry(cd: Plate, prev: Plate | None, first: Plate | None, source: Plate, p, 
         if rising is not None:  # only where the label's gradient rose
             filled = filled & np.isin(lab, np.asarray(rising, np.uint32))
         absorbed = absorbed | filled  # continued pixels: map kept, Poisson redone (flag 4)
-    raw, stray = kt.flag_reasons(np.ascontiguousarray(have, np.bool_), absorbed, distorted, src_lab, sx, sy, lab, 0.5,
-                                 np.ascontiguousarray(cat, np.uint32), np.uint32(CATEGORY_C),
-                                 tuple(land), state.label, tuple(FLAG_CODES))
+    raw, stray = kt.flag_reasons(have=np.ascontiguousarray(have, np.bool_), absorbed=absorbed, distorted=distorted,
+                                 src_lab=src_lab, sx=sx, sy=sy, lab=lab, margin=0.5,
+                                 cat=np.ascontiguousarray(cat, np.uint32), cat_c=np.uint32(CATEGORY_C),
+                                 land=tuple(land), prev_lab=state.label, codes=tuple(FLAG_CODES))
     # clean_flags, then unflagged pixels with nothing to carry (dropped as isolated) disoccluded,
     # off their label distorted, and the counts per flag, in one pass
     flag, nflag = kt.clean_flags(raw, int(p.isolated_radius), int(p.min_neighbours), int(p.dilate),
@@ -365,10 +367,11 @@ def anchor_first_seams(cd: Plate, first: Plate, k1: np.ndarray, w1: np.ndarray, 
     wf = kr.inverse_depth(first["Z"]) if "Z" in first else np.zeros(first.shape, np.float64)
     if "Z" not in first:
         qf = np.zeros_like(qf)  # no depth: the label alone decides
-    fp = kr.FirstPositions(*kr.first_positions(uf, vf, qf, okf, lab, wf, np.ascontiguousarray(first["label.id"], np.uint32),
-                                               np.ascontiguousarray(first["patch.id"], np.uint32),
-                                               first["source.x"].astype(np.float32, copy=False),
-                                               first["source.y"].astype(np.float32, copy=False), tol, scale))
+    fp = kr.FirstPositions(*kr.first_positions(
+        uf, vf, qf, okf, lab=lab, first_w=wf, first_lab=np.ascontiguousarray(first["label.id"], np.uint32),
+        first_patch=np.ascontiguousarray(first["patch.id"], np.uint32),
+        first_sx=first["source.x"].astype(np.float32, copy=False),
+        first_sy=first["source.y"].astype(np.float32, copy=False), tol=tol, scale=scale))
     kr.anchor_seams(tuple(land), valid, lab, tuple(prev), tuple(fp), tol, scale, 0.01 * max(scale, 1.0), tuple(out))
 
 

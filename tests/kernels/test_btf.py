@@ -78,8 +78,8 @@ def test_pair_distance_matches_the_other_view_form(rng):
         p = (int(rng.integers(0, 8)), int(rng.integers(0, 8)))
         c = (int(rng.integers(0, 6)), int(rng.integers(0, 7)))
         want = naive_distance(ob, k, 4, ib, p, c, 2, 1, pair=(oa, ia), cw=0.25)
-        got = K.pair_distance(ob, k, 4, ib, K.Support(oa, ia, dq, dq, 0.25, True), p[0], p[1], c[0], c[1], K.disk(2),
-                              np.inf)
+        got = K.pair_distance(out_b=ob, k=k, T=4, inp_b=ib, sup=K.Support(oa, ia, dq, dq, 0.25, True), py=p[0],
+                              px=p[1], cy=c[0], cx=c[1], dk=K.disk(2), bound=np.inf)
         assert got == pytest.approx(want, rel=1e-12, abs=1e-12)
 
 
@@ -137,7 +137,8 @@ def _level(inp, qy, qx, k, T, r, si, seed, level, pair=None, cw=0.0, wrap=False)
     vis = np.zeros(qy.shape, np.int64)
     out = K.gather(inp, qy, qx)
     sup = K.no_support() if pair is None else K.Support(*pair, cw, True)
-    K.synth_level(inp, out, qy, qx, k, T, K.disk(r, 1, si, wrap), seed, level, sup, vis)
+    K.synth_level(inp=inp, out=out, qy=qy, qx=qx, k=k, T=T, dk=K.disk(r, 1, si, wrap), seed=seed, level=level, sup=sup,
+                  visits=vis)
     assert np.array_equal(out, inp[qy, qx])  # the output is always the input at the sources
     return qy, qx, vis
 

@@ -300,7 +300,8 @@ def test_gather_prev_matches_reference():
     psx, psy = (rng.random((h, w)).astype(np.float32) * 50 for _ in range(2))
     pres = rng.random((h, w, 3)).astype(np.float32)
     pd = rng.random((h, w)).astype(np.float32)
-    got = K.gather_prev(u, v, q, ok, lab, pw, plab, ppatch, psx, psy, pres, pd, 0.02, 0.5)
+    got = K.gather_prev(u, v, q, ok, lab=lab, prev_w=pw, prev_lab=plab, prev_patch=ppatch, prev_sx=psx, prev_sy=psy,
+                        prev_res=pres, prev_d=pd, tol=0.02, scale=0.5)
     ref = gather_reference(u, v, q, ok, lab, pw, plab, ppatch, psx, psy, pres, pd, 0.02, 0.5)
     valid, sx, sy, patch, res, d = got
     assert valid.any() and not valid.all()
@@ -323,8 +324,9 @@ def test_gather_integer_shift_copies_exactly():
     psx = (j * 1.0).astype(np.float32)
     psy = (i * 1.0).astype(np.float32)
     pres = rng.random((h, w, 3)).astype(np.float32)
-    valid, sx, sy, patch, res, d = K.gather_prev(u, v, q, ones, lab, q, lab, lab, psx, psy, pres,
-                                                 np.zeros((h, w), np.float32), 0.02, 1.0)
+    valid, sx, sy, patch, res, d = K.gather_prev(u, v, q, ones, lab=lab, prev_w=q, prev_lab=lab, prev_patch=lab,
+                                                 prev_sx=psx, prev_sy=psy, prev_res=pres,
+                                                 prev_d=np.zeros((h, w), np.float32), tol=0.02, scale=1.0)
     np.testing.assert_array_equal(valid, j < w - 3)
     np.testing.assert_array_equal(sx[:, :w - 3], psx[:, 3:])
     np.testing.assert_array_equal(res[:, :w - 3], pres[:, 3:])
@@ -415,7 +417,8 @@ def test_classify_matches_numpy_reference():
     k = K.intrinsics(c)
     C = np.ascontiguousarray(c.camera_to_world, np.float64)
     tol = 0.1
-    cat, lab, Z, X, Y, W, gone = K.classify(src, wg, wp1, stale, occ0, lab0, plab, pZ, *pP, C, k, tol)
+    cat, lab, Z, X, Y, W, gone = K.classify(src=src, wg=wg, wp1=wp1, stale=stale, occluded0=occ0, lab0=lab0,
+                                            plab=plab, pZ=pZ, pX=pP[0], pY=pP[1], pZw=pP[2], C=C, k=k, tol=tol)
 
     drawn = src >= 0
     s = np.where(drawn, src, 0)
@@ -456,10 +459,13 @@ def _pan(frames, anchor, step=0.3):
     z = np.zeros((h, w), np.float32)
     for k in range(1, frames + 1):
         u, v = j + 0.5 + step, i + 0.5  # into the previous frame
-        valid, nsx, nsy, npatch, res, d = K.gather_prev(u, v, q, ones, lab, q, lab, patch, sx, sy,
-                                                        np.zeros((h, w, 3), np.float32), z, 0.02, 1.0)
+        valid, nsx, nsy, npatch, res, d = K.gather_prev(u, v, q, ones, lab=lab, prev_w=q, prev_lab=lab,
+                                                        prev_patch=patch, prev_sx=sx, prev_sy=sy,
+                                                        prev_res=np.zeros((h, w, 3), np.float32), prev_d=z,
+                                                        tol=0.02, scale=1.0)
         if anchor:
-            fok, fp, fx, fy = K.first_positions(j + 0.5 + step * k, v, q, ones, lab, q, lab, fpatch, fsx, fsy, 0.02, 1.0)
+            fok, fp, fx, fy = K.first_positions(j + 0.5 + step * k, v, q, ones, lab=lab, first_w=q, first_lab=lab,
+                                                first_patch=fpatch, first_sx=fsx, first_sy=fsy, tol=0.02, scale=1.0)
             K.anchor_seams(K.Landing(u, v, q, ones), valid, lab, K.PrevState(q, lab, patch, sx, sy, z, z, z, z),
                            K.FirstPositions(fok, fp, fx, fy), 0.02, 1.0, 0.01, K.Carried(nsx, nsy, npatch, res, d))
         patch, sx, sy = npatch, nsx, nsy
@@ -496,12 +502,15 @@ def test_anchor_leaves_pixels_whose_first_patch_is_gone():
     prev_patch = np.where(j < 7, 1, 2).astype(np.uint32)
     prev_sx = np.where(j < 7, j + 100, j + 300).astype(np.float32)
     u, v = j + 0.5 + 0.3, i + 0.5
-    valid, sx, sy, patch, res, d = K.gather_prev(u, v, q, ones, lab, q, lab, prev_patch, prev_sx, i.astype(np.float32),
-                                                 np.zeros((h, w, 3), np.float32), z, 0.02, 1.0)
+    valid, sx, sy, patch, res, d = K.gather_prev(u, v, q, ones, lab=lab, prev_w=q, prev_lab=lab,
+                                                 prev_patch=prev_patch, prev_sx=prev_sx, prev_sy=i.astype(np.float32),
+                                                 prev_res=np.zeros((h, w, 3), np.float32), prev_d=z, tol=0.02,
+                                                 scale=1.0)
     before = (patch.copy(), sx.copy())
     fpatch = np.where(j < 6, 1, 2).astype(np.uint32)
     fsx = np.where(j < 6, j + 100, j + 500).astype(np.float32)  # patch 2 had another translation then
-    fok, fp, fx, fy = K.first_positions(u, v, q, ones, lab, q, lab, fpatch, fsx, i.astype(np.float32), 0.02, 1.0)
+    fok, fp, fx, fy = K.first_positions(u, v, q, ones, lab=lab, first_w=q, first_lab=lab, first_patch=fpatch,
+                                        first_sx=fsx, first_sy=i.astype(np.float32), tol=0.02, scale=1.0)
     K.anchor_seams(K.Landing(u, v, q, ones), valid, lab, K.PrevState(q, lab, prev_patch, prev_sx, i.astype(np.float32),
                                                                      z, z, z, z),
                    K.FirstPositions(fok, fp, fx, fy), 0.02, 1.0, 0.01, K.Carried(sx, sy, patch, res, d))

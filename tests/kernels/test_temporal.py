@@ -237,8 +237,9 @@ def stray(src_lab, sx, sy, lab, mask, margin):
     h, w = mask.shape
     no = np.zeros((h, w), bool)
     z = np.zeros((h, w), np.float64)
-    _, s = T.flag_reasons(mask, no, no, src_lab, sx, sy, lab, margin, np.zeros((h, w), np.uint32), np.uint32(3),
-                          Landing(z, z, z, no), np.zeros((2, 2), np.uint32), CODES)
+    _, s = T.flag_reasons(have=mask, absorbed=no, distorted=no, src_lab=src_lab, sx=sx, sy=sy, lab=lab, margin=margin,
+                          cat=np.zeros((h, w), np.uint32), cat_c=np.uint32(3), land=Landing(z, z, z, no),
+                          prev_lab=np.zeros((2, 2), np.uint32), codes=CODES)
     return s
 
 
@@ -333,8 +334,9 @@ def test_continue_filled_and_flag_reasons_match_the_numpy_steps():
     u, v = rng.uniform(-2, 14, (2, h, w))
     ok = rng.random((h, w)) < 0.9
     prev_lab = rng.integers(0, 3, (11, 12)).astype(np.uint32)
-    raw, stray = T.flag_reasons(have, absorbed, distorted, src_lab, sx, sy, lab, 0.5, cat, np.uint32(3),
-                                Landing(u, v, np.zeros((h, w)), ok), prev_lab, CODES)
+    raw, stray = T.flag_reasons(have=have, absorbed=absorbed, distorted=distorted, src_lab=src_lab, sx=sx, sy=sy,
+                                lab=lab, margin=0.5, cat=cat, cat_c=np.uint32(3),
+                                land=Landing(u, v, np.zeros((h, w)), ok), prev_lab=prev_lab, codes=CODES)
     r = np.zeros((h, w), np.uint32)
     r[absorbed] = 4
     fits = T.fits_label(src_lab, sx, sy, lab, distorted)

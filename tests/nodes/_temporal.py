@@ -179,9 +179,10 @@ def coherence_metrics(scene: str, frames, size: int = 128, reproject: dict | Non
         u, v, q, ok = kr.transfer(w1, kr.relative_matrix(c1, c0), kr.intrinsics(c1), kr.intrinsics(c0), c0.near)
         prev = a["final"]
         z = np.zeros(prev.shape, np.float32)
-        valid = kr.gather_prev(u, v, q, ok, np.ascontiguousarray(cd["label.id"]), kr.inverse_depth(prev["Z"]),
-                               np.ascontiguousarray(prev["label.id"]), np.ascontiguousarray(prev["patch.id"]), z, z,
-                               np.zeros(prev.shape + (3,), np.float32), z, 0.02, 1.0)[0]
+        valid = kr.gather_prev(u, v, q, ok, lab=np.ascontiguousarray(cd["label.id"]),
+                               prev_w=kr.inverse_depth(prev["Z"]), prev_lab=np.ascontiguousarray(prev["label.id"]),
+                               prev_patch=np.ascontiguousarray(prev["patch.id"]), prev_sx=z, prev_sy=z,
+                               prev_res=np.zeros(prev.shape + (3,), np.float32), prev_d=z, tol=0.02, scale=1.0)[0]
         mask = valid & (flag == 0)
         shares.append(float((flag > 0).mean()))
         for f in filters:
