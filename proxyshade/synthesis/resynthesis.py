@@ -206,8 +206,9 @@ def _resynthesize(img: Plate, source: Plate, p, frame: int, *, note: Callable[[s
     ex_factor = syn.get("exemplar_factor")
     filt = img.meta.get("temporal", {}).get("filter", "bilinear")  # Reproject's, so kept and new pixels match
     if redo.any():
-        sx, sy, patch, ex_factor = _synthesize(img, source, p, redo, f, scale, mix_seed(p.seed, frame), info, lap,
-                                               filt, rgb, patch_base, memo, tiles)
+        sx, sy, patch, ex_factor = _synthesize(img, source, p, redo, f=f, scale=scale, seed=mix_seed(p.seed, frame),
+                                               info=info, lap=lap, filt=filt, rgb=rgb, patch_base=patch_base,
+                                               memo=memo, tiles=tiles)
     lap("magnify")
     out = {}
     before = rgb
@@ -315,7 +316,7 @@ def extended_correction(img: Plate, flagged: np.ndarray, solve, thin: float | No
     return ext
 
 
-def _synthesize(img: Plate, source: Plate, p, redo: np.ndarray, f: int, scale: float, seed: int, info: dict, lap,
+def _synthesize(img: Plate, source: Plate, p, redo: np.ndarray, *, f: int, scale: float, seed: int, info: dict, lap,
                 filt: str, rgb: np.ndarray, patch_base: int | None = None, memo=None, tiles=None):
     """The first frame's steps on the pixels in ``redo``; the rest keep the carried map.
     The ``redo`` pixels of ``rgb`` (the carried colours, (H, W, 3)) take the source

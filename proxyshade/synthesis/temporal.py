@@ -236,8 +236,8 @@ def carry(cd: Plate, prev: Plate | None, first: Plate | None, source: Plate, p, 
                          prev["source.y"].astype(np.float32, copy=False), *planes, prev_ext)
     valid, sx, sy, patch, res, ext = kr.gather_prev_planes(tuple(land), lab, tuple(state), tol, scale)
     if getattr(p, "anchor", False) and first is not None and first is not prev and "patch.id" in first:
-        anchor_first_seams(cd, first, k1, w1, lab, land, valid, state, tol, scale,
-                           kr.Carried(sx, sy, patch, res, ext))
+        anchor_first_seams(cd, first, k1=k1, w1=w1, lab=lab, land=land, valid=valid, prev=state, tol=tol,
+                           scale=scale, out=kr.Carried(sx, sy, patch, res, ext))
     # disoccluded pixels continue the patch of a kept neighbour of their label when the
     # continued source position still has that label: no new seam, nothing to redo
     have = valid
@@ -350,8 +350,9 @@ def rising_after(rgb: np.ndarray, label: np.ndarray, temporal: dict) -> list[int
     return sorted(k for k, r in label_ratios(rgb, label, first).items() if r > gate and k not in done)
 
 
-def anchor_first_seams(cd: Plate, first: Plate, k1: np.ndarray, w1: np.ndarray, lab: np.ndarray, land: kr.Landing,
-                       valid: np.ndarray, prev: kr.PrevState, tol: float, scale: float, out: kr.Carried) -> None:
+def anchor_first_seams(cd: Plate, first: Plate, *, k1: np.ndarray, w1: np.ndarray, lab: np.ndarray,
+                       land: kr.Landing, valid: np.ndarray, prev: kr.PrevState, tol: float, scale: float,
+                       out: kr.Carried) -> None:
     """``kr.anchor_seams`` in place on ``gather_prev``'s outputs ``out``: seams between patches
     of the first frame's synthesis (``first``) stay where the first frame has them instead of
     being rounded anew from the previous frame's each frame (docs/temporal.md, "Seams
