@@ -259,14 +259,14 @@ def _seam_cost(S, img, target):
 
 
 @njit(**JIT)
-def _shift_cost(S, img, target, labels, patch, order, a, b, pid, oy, ox, bound):
+def _shift_cost(S, img, target, labels, patch, order, a, b, pid, oy, ox, bound, check):
     """Summed seam cost of patch ``pid`` (its pixels ``order[a:b]``, flat indices) read at
     offset (oy, ox) against its same-label neighbours outside it, read at their own
-    offsets; inf when a pixel would read a source pixel off the grid or of another label
-    than its target's, or as soon as the sum passes ``bound``."""
+    offsets; with ``check``, inf when a pixel would read a source pixel off the grid or of
+    another label than its target's; returned as soon as the sum passes ``bound``."""
     H, W = target.shape
     Hs, Ws = labels.shape
-    for t in range(a, b):
+    for t in range(a if check else b, b):
         f = order[t]
         i, j = f // W, f % W
         sy, sx = i + oy, j + ox
@@ -294,7 +294,8 @@ def _shift_pass(S, img, target, labels, patch, order, starts, radius):
     """Each patch in turn (ids in order; ``order[starts[p]:starts[p + 1]]`` the flat
     indices of patch p + 1's pixels) takes, among its offset moved by up to ``radius``
     pixels each way, the one of least summed seam cost to its neighbours (``_shift_cost``;
-    its own when none is lower); sequential, so any thread count gives one result.
+    its own when none is lower; a moved patch reads its labels everywhere, where it is
+    need not); sequential, so any thread count gives one result.
     Returns the number of patches moved."""
     H, W = target.shape
     moved = 0
@@ -305,7 +306,7 @@ def _shift_pass(S, img, target, labels, patch, order, starts, radius):
         pid = p + 1
         f = order[a]
         oy, ox = S[f // W, f % W, 0] - f // W, S[f // W, f % W, 1] - f % W
-        best = _shift_cost(S, img, target, labels, patch, order, a, b, pid, oy, ox, np.inf)
+        best = _shift_cost(S, img, target, labels, patch, order, a, b, pid, oy, ox, np.inf, False)
         if best == 0.0:
             continue
         by, bx = oy, ox
@@ -313,7 +314,7 @@ def _shift_pass(S, img, target, labels, patch, order, starts, radius):
             for dx in range(-radius, radius + 1):
                 if dy == 0 and dx == 0:
                     continue
-                e = _shift_cost(S, img, target, labels, patch, order, a, b, pid, oy + dy, ox + dx, best)
+                e = _shift_cost(S, img, target, labels, patch, order, a, b, pid, oy + dy, ox + dx, best, True)
                 if e < best:
                     best, by, bx = e, oy + dy, ox + dx
         if by != oy or bx != ox:
