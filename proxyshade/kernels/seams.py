@@ -289,16 +289,21 @@ def _shift_cost(S, img, target, labels, patch, order, a, b, pid, oy, ox, bound, 
     return e
 
 
+ADOPT_MAX = 8  # most neighbouring patches' offsets a patch tries (``_shift_pass``)
+
+
 @njit(**JIT)
-def _shift_pass(S, img, target, labels, patch, order, starts, radius):
+def _shift_pass(S, img, target, labels, patch, order, starts, radius, adopt):
     """Each patch in turn (ids in order; ``order[starts[p]:starts[p + 1]]`` the flat
     indices of patch p + 1's pixels) takes, among its offset moved by up to ``radius``
     pixels each way, the one of least summed seam cost to its neighbours (``_shift_cost``;
     its own when none is lower; a moved patch reads its labels everywhere, where it is
-    need not); sequential, so any thread count gives one result.
+    need not), and with ``adopt`` also among the offsets of the patches around it (the
+    first ``ADOPT_MAX`` met, farther than ``radius``: joining a neighbour removes their seam); sequential, so any thread count gives one result.
     Returns the number of patches moved."""
     H, W = target.shape
     moved = 0
+    cand = np.empty((ADOPT_MAX, 2), np.int64)
     for p in range(len(starts) - 1):
         a, b = starts[p], starts[p + 1]
         if b == a:
@@ -317,6 +322,32 @@ def _shift_pass(S, img, target, labels, patch, order, starts, radius):
                 e = _shift_cost(S, img, target, labels, patch, order, a, b, pid, oy + dy, ox + dx, best, True)
                 if e < best:
                     best, by, bx = e, oy + dy, ox + dx
+        if adopt:  # then each neighbouring patch's offset (first met, pixels in raster order)
+            seen = 0
+            for t in range(a, b):
+                f = order[t]
+                i, j = f // W, f % W
+                for k in range(4):
+                    y, x = i + _DY[k], j + _DX[k]
+                    if y < 0 or x < 0 or y >= H or x >= W or target[y, x] != target[i, j] or patch[y, x] == pid:
+                        continue
+                    qy, qx = S[y, x, 0] - y, S[y, x, 1] - x
+                    if max(abs(qy - oy), abs(qx - ox)) <= radius:
+                        continue  # among the shifts already
+                    dup = False
+                    for u in range(seen):
+                        if cand[u, 0] == qy and cand[u, 1] == qx:
+                            dup = True
+                            break
+                    if dup or seen == cand.shape[0]:
+                        continue
+                    cand[seen, 0] = qy
+                    cand[seen, 1] = qx
+                    seen += 1
+            for u in range(seen):
+                e = _shift_cost(S, img, target, labels, patch, order, a, b, pid, cand[u, 0], cand[u, 1], best, True)
+                if e < best:
+                    best, by, bx = e, cand[u, 0], cand[u, 1]
         if by != oy or bx != ox:
             for t in range(a, b):
                 f = order[t]
@@ -327,14 +358,15 @@ def _shift_pass(S, img, target, labels, patch, order, starts, radius):
 
 
 def shift_patches(S: np.ndarray, img: np.ndarray, target: np.ndarray, labels: np.ndarray, patch: np.ndarray,
-                  radius: int, passes: int) -> tuple[np.ndarray, int]:
+                  radius: int, passes: int, adopt: bool = False) -> tuple[np.ndarray, int]:
     """``S`` (copied) after ``passes`` passes in which every patch (``patch``: ids from 1,
     4-connected regions of one offset, ``patch.offset_components``) may move whole by up to
     ``radius`` pixels each way to where its seams cost least (Kwatra et al. 2003's cost, as
     ``refine_seams``), as long as each of its pixels then reads a source pixel of its
     target label: a patch magnified from the synthesis is placed to a whole exemplar pixel
     (``factor`` output pixels); this aligns it with its neighbours at the output's
-    resolution. Each pass lowers the total ``seam_cost``. Patch ids are kept (a patch
+    resolution. With ``adopt``, a patch may also take a neighbouring patch's offset
+    (``_shift_pass``). Each pass lowers the total ``seam_cost``. Patch ids are kept (a patch
     keeps its pixels); stops early when a pass moves nothing. Returns the map and the
     number of patch moves."""
     S = np.ascontiguousarray(S, np.int32).copy()
@@ -346,7 +378,7 @@ def shift_patches(S: np.ndarray, img: np.ndarray, target: np.ndarray, labels: np
     starts = np.searchsorted(patch.ravel()[order], np.arange(1, int(patch.max(initial=0)) + 2)).astype(np.int64)
     moves = 0
     for _ in range(passes):
-        n = _shift_pass(S, img, target, labels, patch, order, starts, int(radius))
+        n = _shift_pass(S, img, target, labels, patch, order, starts, int(radius), bool(adopt))
         moves += int(n)
         if n == 0:
             break

@@ -51,6 +51,9 @@ class Magnify(Node):
                         doc="with seam_passes, each whole patch may then move by up to this many output pixels "
                             "each way to where its seams cost least (a magnified patch is placed to a whole "
                             "synthesis pixel, factor output pixels), and the seams move again; 0 = off")
+    patch_adopt = Param(bool, False,
+                        doc="with patch_shift, a patch may also take the offset of a patch beside it (their seam "
+                            "goes) where that costs least")
 
     def compute(self, ctx) -> Plate:
         from proxyshade.kernels.lookup import lookup
@@ -116,7 +119,7 @@ def shift_patches(sx, sy, patch, scale, colours, target, labels, p):
     from proxyshade.synthesis.patches import patch_ids
 
     S = np.stack([source_to_grid(sy, scale), source_to_grid(sx, scale)], -1).astype(np.int32)
-    S, moved = kseams.shift_patches(S, colours, target, labels, patch, p.patch_shift, SHIFT_PASSES)
+    S, moved = kseams.shift_patches(S, colours, target, labels, patch, p.patch_shift, SHIFT_PASSES, p.patch_adopt)
     S, _ = kseams.refine_seams(S, colours, target, labels, p.seam_passes, runs=p.seam_runs)
     patch, npatch = patch_ids(S)
     return grid_to_source(S[..., 1], scale), grid_to_source(S[..., 0], scale), patch, npatch, moved

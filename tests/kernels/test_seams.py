@@ -225,11 +225,13 @@ def test_a_straight_seam_shifts_where_one_pixel_moves_stick():
     assert ks.seam_cost(run, img, target) == pytest.approx(10 * 0.1 + 2 * 0.5, rel=1e-4)
 
 
-def ref_shift(S, img, target, labels, patch, radius, passes):
+def ref_shift(S, img, target, labels, patch, radius, passes, adopt=False):
     """Whole-patch shifts: patches in id order, each takes the offset within ``radius`` of
     its own (rows then columns, ascending) whose seams to the pixels outside it cost
     least, strictly less than its own, where every pixel of it reads its label (its own
-    offset need not)."""
+    offset need not); with ``adopt`` then the offsets of the patches beside it farther
+    than ``radius`` (the first 8 met: its pixels in raster order, neighbours up, left,
+    right, down)."""
     S = S.copy()
     H, W = target.shape
     Hs, Ws = labels.shape
@@ -264,6 +266,19 @@ def ref_shift(S, img, target, labels, patch, radius, passes):
                 for dx in range(-radius, radius + 1):
                     if (dy, dx) != (0, 0) and (e := cost((own[0] + dy, own[1] + dx))) < best:
                         best, pick = e, (own[0] + dy, own[1] + dx)
+            if adopt:
+                cands = []
+                for i, j in pix:
+                    for dy, dx in N4:
+                        y, x = i + dy, j + dx
+                        if not (0 <= y < H and 0 <= x < W) or target[y, x] != target[i, j] or patch[y, x] == pid:
+                            continue
+                        q = (S[y, x, 0] - y, S[y, x, 1] - x)
+                        if max(abs(q[0] - own[0]), abs(q[1] - own[1])) > radius and q not in cands and len(cands) < 8:
+                            cands.append(q)
+                for q in cands:
+                    if (e := cost(q)) < best:
+                        best, pick = e, q
             if pick != own:
                 for i, j in pix:
                     S[i, j] = (i + pick[0], j + pick[1])
@@ -274,14 +289,14 @@ def ref_shift(S, img, target, labels, patch, radius, passes):
     return S, moves
 
 
-@pytest.mark.parametrize("seed", range(6))
-def test_patch_shifts_match_reference_exactly(seed):
+@pytest.mark.parametrize("seed,adopt", [(s, a) for s in range(6) for a in (False, True)])
+def test_patch_shifts_match_reference_exactly(seed, adopt):
     from proxyshade.kernels.patch import offset_components
     S, img, target, labels = random_case(seed, H=13, W=15, Hs=26, Ws=28)
     img = (img + np.roll(img, 1, 0) + np.roll(img, 1, 1)) / 3  # neighbours alike: a shift can pay off
     patch, _ = offset_components(S)
-    got, moves = ks.shift_patches(S, img, target, labels, patch, 2, 3)
-    want, want_moves = ref_shift(S, img, target, labels, patch, 2, 3)
+    got, moves = ks.shift_patches(S, img, target, labels, patch, 1 + seed % 2, 3, adopt)
+    want, want_moves = ref_shift(S, img, target, labels, patch, 1 + seed % 2, 3, adopt)
     assert np.array_equal(got, want) and moves == want_moves
 
 
