@@ -298,8 +298,9 @@ def _shift_pass(S, img, target, labels, patch, order, starts, radius, adopt):
     indices of patch p + 1's pixels) takes, among its offset moved by up to ``radius``
     pixels each way, the one of least summed seam cost to its neighbours (``_shift_cost``;
     its own when none is lower; a moved patch reads its labels everywhere, where it is
-    need not), and with ``adopt`` also among the offsets of the patches around it (the
-    first ``ADOPT_MAX`` met, farther than ``radius``: joining a neighbour removes their seam); sequential, so any thread count gives one result.
+    need not), and a patch of at most ``adopt`` pixels also among the offsets of the
+    patches around it (the first ``ADOPT_MAX`` met, farther than ``radius``: joining a
+    neighbour removes their seam); sequential, so any thread count gives one result.
     Returns the number of patches moved."""
     H, W = target.shape
     moved = 0
@@ -322,7 +323,7 @@ def _shift_pass(S, img, target, labels, patch, order, starts, radius, adopt):
                 e = _shift_cost(S, img, target, labels, patch, order, a, b, pid, oy + dy, ox + dx, best, True)
                 if e < best:
                     best, by, bx = e, oy + dy, ox + dx
-        if adopt:  # then each neighbouring patch's offset (first met, pixels in raster order)
+        if b - a <= adopt:  # then each neighbouring patch's offset (first met, pixels in raster order)
             seen = 0
             for t in range(a, b):
                 f = order[t]
@@ -358,15 +359,15 @@ def _shift_pass(S, img, target, labels, patch, order, starts, radius, adopt):
 
 
 def shift_patches(S: np.ndarray, img: np.ndarray, target: np.ndarray, labels: np.ndarray, patch: np.ndarray,
-                  radius: int, passes: int, adopt: bool = False) -> tuple[np.ndarray, int]:
+                  radius: int, passes: int, adopt: int = 0) -> tuple[np.ndarray, int]:
     """``S`` (copied) after ``passes`` passes in which every patch (``patch``: ids from 1,
     4-connected regions of one offset, ``patch.offset_components``) may move whole by up to
     ``radius`` pixels each way to where its seams cost least (Kwatra et al. 2003's cost, as
     ``refine_seams``), as long as each of its pixels then reads a source pixel of its
     target label: a patch magnified from the synthesis is placed to a whole exemplar pixel
     (``factor`` output pixels); this aligns it with its neighbours at the output's
-    resolution. With ``adopt``, a patch may also take a neighbouring patch's offset
-    (``_shift_pass``). Each pass lowers the total ``seam_cost``. Patch ids are kept (a patch
+    resolution. A patch of at most ``adopt`` pixels may also take a neighbouring patch's
+    offset (``_shift_pass``). Each pass lowers the total ``seam_cost``. Patch ids are kept (a patch
     keeps its pixels); stops early when a pass moves nothing. Returns the map and the
     number of patch moves."""
     S = np.ascontiguousarray(S, np.int32).copy()
@@ -378,7 +379,7 @@ def shift_patches(S: np.ndarray, img: np.ndarray, target: np.ndarray, labels: np
     starts = np.searchsorted(patch.ravel()[order], np.arange(1, int(patch.max(initial=0)) + 2)).astype(np.int64)
     moves = 0
     for _ in range(passes):
-        n = _shift_pass(S, img, target, labels, patch, order, starts, int(radius), bool(adopt))
+        n = _shift_pass(S, img, target, labels, patch, order, starts, int(radius), int(adopt))
         moves += int(n)
         if n == 0:
             break

@@ -51,9 +51,9 @@ class Magnify(Node):
                         doc="with seam_passes, each whole patch may then move by up to this many output pixels "
                             "each way to where its seams cost least (a magnified patch is placed to a whole "
                             "synthesis pixel, factor output pixels), and the seams move again; 0 = off")
-    patch_adopt = Param(bool, False,
-                        doc="with patch_shift, a patch may also take the offset of a patch beside it (their seam "
-                            "goes) where that costs least")
+    patch_adopt = Param(int, 0, min=0,
+                        doc="with patch_shift, a patch of at most this many pixels may also take the offset of a "
+                            "patch beside it (their seam goes) where that costs least; 0 = none")
 
     def compute(self, ctx) -> Plate:
         from proxyshade.kernels.lookup import lookup

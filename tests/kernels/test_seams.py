@@ -225,11 +225,11 @@ def test_a_straight_seam_shifts_where_one_pixel_moves_stick():
     assert ks.seam_cost(run, img, target) == pytest.approx(10 * 0.1 + 2 * 0.5, rel=1e-4)
 
 
-def ref_shift(S, img, target, labels, patch, radius, passes, adopt=False):
+def ref_shift(S, img, target, labels, patch, radius, passes, adopt=0):
     """Whole-patch shifts: patches in id order, each takes the offset within ``radius`` of
     its own (rows then columns, ascending) whose seams to the pixels outside it cost
     least, strictly less than its own, where every pixel of it reads its label (its own
-    offset need not); with ``adopt`` then the offsets of the patches beside it farther
+    offset need not); a patch of at most ``adopt`` pixels then the offsets of the patches beside it farther
     than ``radius`` (the first 8 met: its pixels in raster order, neighbours up, left,
     right, down)."""
     S = S.copy()
@@ -266,7 +266,7 @@ def ref_shift(S, img, target, labels, patch, radius, passes, adopt=False):
                 for dx in range(-radius, radius + 1):
                     if (dy, dx) != (0, 0) and (e := cost((own[0] + dy, own[1] + dx))) < best:
                         best, pick = e, (own[0] + dy, own[1] + dx)
-            if adopt:
+            if len(pix) <= adopt:
                 cands = []
                 for i, j in pix:
                     for dy, dx in N4:
@@ -289,7 +289,7 @@ def ref_shift(S, img, target, labels, patch, radius, passes, adopt=False):
     return S, moves
 
 
-@pytest.mark.parametrize("seed,adopt", [(s, a) for s in range(6) for a in (False, True)])
+@pytest.mark.parametrize("seed,adopt", [(s, a) for s in range(6) for a in (0, 6, 10**6)])
 def test_patch_shifts_match_reference_exactly(seed, adopt):
     from proxyshade.kernels.patch import offset_components
     S, img, target, labels = random_case(seed, H=13, W=15, Hs=26, Ws=28)
