@@ -3,34 +3,34 @@
 (kernel, argument types, compile seconds, (kernel, argument types) compiled inside);
 CALLERS: the node type whose compute first called each entry (by index)."""
 ENTRIES = [
-    ('proxyshade.kernels.raster._setup', "(Array(float64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Named('proxyshade.kernels.raster.Camera', (float64, float64, float64, float64, bool, int64, int64)), float64, int64)", 11.83, (
+    ('proxyshade.kernels.raster._setup', "(Array(float64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Named('proxyshade.kernels.raster.Camera', (float64, float64, float64, float64, bool, int64, int64)), float64, int64)", 19.35, (
         ('proxyshade.kernels.raster._clip', "(Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True))"),
         ('proxyshade.kernels.raster._planes', "(Named('proxyshade.kernels.raster.Camera', (float64, float64, float64, float64, bool, int64, int64)), float64)"),
         ('proxyshade.kernels.raster._project', "(Array(float64, 1, 'C', False, aligned=True), Named('proxyshade.kernels.raster.Camera', (float64, float64, float64, float64, bool, int64, int64)))"),
         ('proxyshade.kernels.raster._setup_chunk', "(Array(float64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), int64, int64, Array(float64, 2, 'C', False, aligned=True), Named('proxyshade.kernels.raster.Camera', (float64, float64, float64, float64, bool, int64, int64)), bool, Array(int64, 1, 'C', False, aligned=True), Named('proxyshade.kernels.raster.ScreenTris', (Array(int64, 3, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True))))"),
         ('proxyshade.kernels.raster._setup_one', "(Array(float64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), int64, Array(float64, 2, 'C', False, aligned=True), Named('proxyshade.kernels.raster.Camera', (float64, float64, float64, float64, bool, int64, int64)), Tuple((Array(float64, 3, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True))), bool, int64, Named('proxyshade.kernels.raster.ScreenTris', (Array(int64, 3, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True))))"),
     )),
-    ('proxyshade.kernels.raster._bin_count', "(Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), int64, Array(int64, 2, 'C', False, aligned=True))", 0.74, (
+    ('proxyshade.kernels.raster._bin_count', "(Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), int64, Array(int64, 2, 'C', False, aligned=True))", 0.71, (
     )),
-    ('proxyshade.kernels.raster._bin_fill', "(Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), int64, Array(int64, 2, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True))", 0.53, (
+    ('proxyshade.kernels.raster._bin_fill', "(Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), int64, Array(int64, 2, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True))", 1.51, (
     )),
-    ('proxyshade.kernels.raster._raster_bands', "(Named('proxyshade.kernels.raster.ScreenTris', (Array(int64, 3, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True))), int64, int64, Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True))", 1.34, (
+    ('proxyshade.kernels.raster._raster_bands', "(Named('proxyshade.kernels.raster.ScreenTris', (Array(int64, 3, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True))), int64, int64, Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True))", 1.36, (
         ('proxyshade.kernels.raster._owns', '(int64, int64, int64, int64)'),
     )),
-    ('proxyshade.kernels.raster._interpolate', "(Array(float64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), float64, bool, Array(float32, 3, 'C', False, aligned=True))", 0.53, (
+    ('proxyshade.kernels.raster._interpolate', "(Array(float64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), float64, bool, Array(float32, 3, 'C', False, aligned=True))", 0.5, (
     )),
-    ('proxyshade.kernels.voting._vote_blocks', "(Array(int32, 2, 'C', False, aligned=True), int64, int64, Array(int32, 2, 'C', False, aligned=True))", 0.74, (
+    ('proxyshade.kernels.voting._vote_blocks', "(Array(int32, 2, 'C', False, aligned=True), int64, int64, Array(int32, 2, 'C', False, aligned=True))", 0.55, (
     )),
-    ('proxyshade.kernels.voting._vote_stack_level', "(Array(int32, 2, 'C', False, aligned=True), int64, int64, Array(int32, 2, 'C', False, aligned=True))", 0.68, (
+    ('proxyshade.kernels.voting._vote_stack_level', "(Array(int32, 2, 'C', False, aligned=True), int64, int64, Array(int32, 2, 'C', False, aligned=True))", 0.89, (
     )),
-    ('proxyshade.kernels.features._windows', "(Array(int32, 2, 'C', False, aligned=True), int64, Array(int32, 3, 'C', False, aligned=True))", 0.34, (
+    ('proxyshade.kernels.features._windows', "(Array(int32, 2, 'C', False, aligned=True), int64, Array(int32, 3, 'C', False, aligned=True))", 0.4, (
     )),
-    ('proxyshade.kernels.chamfer._masks_from_windows', "(Array(int32, 3, 'C', False, aligned=True), int64, Array(uint32, 3, 'C', False, aligned=True))", 0.78, (
+    ('proxyshade.kernels.chamfer._masks_from_windows', "(Array(int32, 3, 'C', False, aligned=True), int64, Array(uint32, 3, 'C', False, aligned=True))", 0.98, (
     )),
-    ('proxyshade.kernels.random.rand', '(uint64, uint64, int64, int64)', 0.09, (
+    ('proxyshade.kernels.random.rand', '(uint64, uint64, int64, int64)', 0.14, (
         ('proxyshade.kernels.random._mix', '(uint64,)'),
     )),
-    ('proxyshade.kernels.guide.similarity_sets', "(Array(int32, 2, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), int64, int64, int64, int64, int64)", 3.24, (
+    ('proxyshade.kernels.guide.similarity_sets', "(Array(int32, 2, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), int64, int64, int64, int64, int64)", 5.4, (
         ('proxyshade.kernels.chamfer._label_term', "(Array(uint32, 1, 'C', False, aligned=True), Array(uint32, 1, 'C', False, aligned=True), int64)"),
         ('proxyshade.kernels.chamfer.chamfer_bounded', "(Array(uint32, 1, 'C', False, aligned=True), Array(uint32, 1, 'C', False, aligned=True), int64)"),
         ('proxyshade.kernels.chamfer.chamfer_masks', "(Array(uint32, 1, 'C', False, aligned=True), Array(uint32, 1, 'C', False, aligned=True))"),
@@ -44,47 +44,47 @@ ENTRIES = [
         ('proxyshade.kernels.random.rand', '(int64, int64, int64, Literal[int](0))'),
         ('proxyshade.kernels.random.uniform', '(int64, int64, int64, Literal[int](0))'),
     )),
-    ('proxyshade.kernels.patch._label_lists', "(Array(int32, 2, 'C', False, aligned=True), int64)", 0.36, (
+    ('proxyshade.kernels.patch._label_lists', "(Array(int32, 2, 'C', False, aligned=True), int64)", 0.31, (
     )),
-    ('proxyshade.kernels.guide._init_state', "(Array(int32, 2, 'C', False, aligned=True), int64, int64, Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), int64)", 0.57, (
+    ('proxyshade.kernels.guide._init_state', "(Array(int32, 2, 'C', False, aligned=True), int64, int64, Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), int64)", 0.83, (
         ('proxyshade.kernels.random.rand', '(int64, uint64, int64, Literal[int](0))'),
         ('proxyshade.kernels.random.uniform', '(int64, uint64, int64, Literal[int](0))'),
     )),
-    ('proxyshade.kernels.guide._subpass', "(Array(int32, 3, 'C', False, aligned=True), Array(int32, 3, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), UniTuple(int64, 2), Named('proxyshade.kernels.guide.Exemplar', (Array(int32, 2, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(int32, 4, 'C', False, aligned=True))), Named('proxyshade.kernels.guide.Guide', (Array(uint32, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True))), Named('proxyshade.kernels.guide.Rule', (int64, float64, int64, int64)))", 3.28, (
+    ('proxyshade.kernels.guide._subpass', "(Array(int32, 3, 'C', False, aligned=True), Array(int32, 3, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), UniTuple(int64, 2), Named('proxyshade.kernels.guide.Exemplar', (Array(int32, 2, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(int32, 4, 'C', False, aligned=True))), Named('proxyshade.kernels.guide.Guide', (Array(uint32, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True))), Named('proxyshade.kernels.guide.Rule', (int64, float64, int64, int64)))", 3.45, (
         ('proxyshade.kernels.guide._candidate', "(int64, int64, int64, Array(int32, 3, 'C', False, aligned=True), Array(int32, 4, 'C', False, aligned=True), int64)"),
         ('proxyshade.kernels.guide._color_window', "(Array(float64, 3, 'C', False, aligned=True), int32, int32, int64, Array(float64, 1, 'C', False, aligned=True))"),
     )),
-    ('proxyshade.kernels.guide.upsample_state', "(Array(int32, 3, 'C', False, aligned=True), int64, int64, int64, int64, int64)", 0.35, (
+    ('proxyshade.kernels.guide.upsample_state', "(Array(int32, 3, 'C', False, aligned=True), int64, int64, int64, int64, int64)", 0.34, (
     )),
-    ('proxyshade.kernels.jfa._pass', "(Array(int64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), int64, float64, Array(int64, 1, 'C', False, aligned=True))", 0.62, (
+    ('proxyshade.kernels.jfa._pass', "(Array(int64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), int64, float64, Array(int64, 1, 'C', False, aligned=True))", 0.68, (
         ('proxyshade.kernels.jfa._cost', '(int64, int64, int64, int64, int64, int64, float64)'),
     )),
-    ('proxyshade.kernels.edit.paste_depth', "(Array(bool, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), int64, int64, int64, Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True))", 0.74, (
+    ('proxyshade.kernels.edit.paste_depth', "(Array(bool, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), int64, int64, int64, Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True))", 0.66, (
     )),
-    ('proxyshade.kernels.edit.paste_unproject', "(Array(bool, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), int64, int64, Array(float64, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))", 0.64, (
+    ('proxyshade.kernels.edit.paste_unproject', "(Array(bool, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), int64, int64, Array(float64, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))", 0.71, (
     )),
-    ('proxyshade.kernels.edit.paste_follow', "(Array(bool, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), int64, int64, Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))", 0.38, (
+    ('proxyshade.kernels.edit.paste_follow', "(Array(bool, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), int64, int64, Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))", 0.52, (
     )),
-    ('proxyshade.kernels.edit.paste_follow', "(Array(bool, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), int64, int64, Array(uint32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True))", 0.38, (
+    ('proxyshade.kernels.edit.paste_follow', "(Array(bool, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), int64, int64, Array(uint32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True))", 0.73, (
     )),
-    ('proxyshade.kernels.features._area_resample', "(Array(float32, 3, 'C', False, aligned=True), int64, int64, float64, Array(float32, 3, 'C', False, aligned=True))", 1.16, (
+    ('proxyshade.kernels.features._area_resample', "(Array(float32, 3, 'C', False, aligned=True), int64, int64, float64, Array(float32, 3, 'C', False, aligned=True))", 1.36, (
     )),
-    ('proxyshade.kernels.features._mode_resample', "(Array(int32, 2, 'C', False, aligned=True), int64, int64, float64, int64, Array(int32, 2, 'C', False, aligned=True))", 0.77, (
+    ('proxyshade.kernels.features._mode_resample', "(Array(int32, 2, 'C', False, aligned=True), int64, int64, float64, int64, Array(int32, 2, 'C', False, aligned=True))", 1.08, (
     )),
-    ('proxyshade.kernels.distance._contour_mask', "(Array(int32, 2, 'C', False, aligned=True),)", 1.21, (
+    ('proxyshade.kernels.distance._contour_mask', "(Array(int32, 2, 'C', False, aligned=True),)", 1.94, (
     )),
-    ('proxyshade.kernels.distance._edt_sq', "(Array(bool, 2, 'C', False, aligned=True),)", 2.39, (
+    ('proxyshade.kernels.distance._edt_sq', "(Array(bool, 2, 'C', False, aligned=True),)", 4.14, (
         ('proxyshade.kernels.distance._envelope_1d_arg', "(Array(int64, 1, 'C', False, aligned=True), int64, Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True))"),
         ('proxyshade.kernels.distance._nearest_site', "(Array(bool, 2, 'C', False, aligned=True),)"),
     )),
-    ('proxyshade.kernels.distance._sqrt_clamped', "(Array(int64, 2, 'C', False, aligned=True), float64, Array(float32, 2, 'C', False, aligned=True))", 0.51, (
+    ('proxyshade.kernels.distance._sqrt_clamped', "(Array(int64, 2, 'C', False, aligned=True), float64, Array(float32, 2, 'C', False, aligned=True))", 0.44, (
     )),
-    ('proxyshade.kernels.features._heights', "(Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True))", 0.42, (
+    ('proxyshade.kernels.features._heights', "(Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True))", 0.61, (
     )),
-    ('proxyshade.kernels.random._keys', '(int64, int64)', 0.13, (
+    ('proxyshade.kernels.random._keys', '(int64, int64)', 0.32, (
         ('proxyshade.kernels.random.rand', '(int64, int64, Literal[int](0), Literal[int](0))'),
     )),
-    ('proxyshade.kernels.patch._flood_fill', "(Named('proxyshade.kernels.features.Level', (int64, Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))), Named('proxyshade.kernels.features.Metric', (float64, float64)), Named('proxyshade.kernels.patch.Cover', (Array(bool, 2, 'C', False, aligned=True), Array(int32, 3, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True))), Array(int64, 1, 'C', False, aligned=True), int64, float64, float64, int64)", 6.97, (
+    ('proxyshade.kernels.patch._flood_fill', "(Named('proxyshade.kernels.features.Level', (int64, Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))), Named('proxyshade.kernels.features.Metric', (float64, float64)), Named('proxyshade.kernels.patch.Cover', (Array(bool, 2, 'C', False, aligned=True), Array(int32, 3, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True))), Array(int64, 1, 'C', False, aligned=True), int64, float64, float64, int64)", 9.9, (
         ('proxyshade.kernels.features.dist_sq_contour', "(Array(float32, 2, 'C', False, aligned=True), Literal[int](1), int64, int64, Array(float32, 1, 'C', False, aligned=True), float64)"),
         ('proxyshade.kernels.features.gather_target', "(Array(float32, 2, 'C', False, aligned=True), int64, int64, Array(float32, 1, 'C', False, aligned=True))"),
         ('proxyshade.kernels.patch._best_by_window', "(Named('proxyshade.kernels.patch.Groups', (Array(int64, 1, 'C', False, aligned=True), Array(uint64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(bool, 1, 'C', False, aligned=True))), int64, int64, Named('proxyshade.kernels.features.Level', (int64, Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))), Named('proxyshade.kernels.features.Metric', (float64, float64)), Named('proxyshade.kernels.patch.Probe', (Array(float32, 1, 'C', False, aligned=True), Array(uint32, 1, 'C', False, aligned=True), float32)), float64, int64, Named('proxyshade.kernels.patch.Scan', (Array(int64, 1, 'C', False, aligned=True), int64, int64)))"),
@@ -98,76 +98,80 @@ ENTRIES = [
         ('proxyshade.kernels.patch._window_groups', "(Array(uint32, 3, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True))"),
         ('proxyshade.kernels.random.rand', '(int64, int64, Literal[int](23719), Literal[int](0))'),
     )),
-    ('proxyshade.kernels.lookup._bilinear', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 0.5, (
+    ('proxyshade.kernels.lookup._bilinear', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 0.71, (
     )),
-    ('proxyshade.kernels.features._box_blur_centred', "(Array(float32, 3, 'C', False, aligned=True), int64, Array(float32, 3, 'C', False, aligned=True))", 1.44, (
+    ('proxyshade.kernels.features._box_blur_centred', "(Array(float32, 3, 'C', False, aligned=True), int64, Array(float32, 3, 'C', False, aligned=True))", 2.41, (
         ('proxyshade.kernels.features._box_mean_1d', "(Array(float32, 3, 'C', False, aligned=True), int64, int64, int64, int64, Literal[int](0), Literal[int](1))"),
         ('proxyshade.kernels.features._box_mean_1d', "(Array(float32, 3, 'C', False, aligned=True), int64, int64, int64, int64, Literal[int](1), Literal[int](0))"),
         ('proxyshade.kernels.features._box_mean_1d', "(Array(float32, 3, 'C', False, aligned=True), uint64, int64, int64, int64, Literal[int](0), Literal[int](1))"),
         ('proxyshade.kernels.features._box_mean_1d', "(Array(float32, 3, 'C', False, aligned=True), uint64, int64, int64, int64, Literal[int](1), Literal[int](0))"),
     )),
-    ('proxyshade.kernels.correct._knn_init', "(Named('proxyshade.kernels.features.Level', (int64, Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))), Named('proxyshade.kernels.features.Metric', (float64, float64)), int64, int64, int64, Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Tuple((Array(int32, 3, 'C', False, aligned=True), Array(int32, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True))))", 2.78, (
+    ('proxyshade.kernels.correct._knn_init', "(Named('proxyshade.kernels.features.Level', (int64, Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))), Named('proxyshade.kernels.features.Metric', (float64, float64)), int64, int64, int64, Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Tuple((Array(int32, 3, 'C', False, aligned=True), Array(int32, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True))))", 3.9, (
         ('proxyshade.kernels.correct._ex_dist', "(Named('proxyshade.kernels.features.Level', (int64, Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))), Named('proxyshade.kernels.features.Metric', (float64, float64)), int64, int64, int64, int64, float64)"),
         ('proxyshade.kernels.correct._ex_dist', "(Named('proxyshade.kernels.features.Level', (int64, Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))), Named('proxyshade.kernels.features.Metric', (float64, float64)), uint64, int64, int64, int64, float64)"),
         ('proxyshade.kernels.correct._insert', "(Array(int32, 1, 'C', False, aligned=True), Array(int32, 1, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), int64, int64, int64, float64)"),
         ('proxyshade.kernels.random.rand', '(int64, int64, int64, int64)'),
     )),
-    ('proxyshade.kernels.correct._knn_iter', "(Named('proxyshade.kernels.features.Level', (int64, Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))), Named('proxyshade.kernels.features.Metric', (float64, float64)), int64, int64, int64, int64, Tuple((Array(int32, 3, 'C', False, aligned=True), Array(int32, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True))), Tuple((Array(int32, 3, 'C', False, aligned=True), Array(int32, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True))))", 2.0, (
+    ('proxyshade.kernels.correct._knn_iter', "(Named('proxyshade.kernels.features.Level', (int64, Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))), Named('proxyshade.kernels.features.Metric', (float64, float64)), int64, int64, int64, int64, Tuple((Array(int32, 3, 'C', False, aligned=True), Array(int32, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True))), Tuple((Array(int32, 3, 'C', False, aligned=True), Array(int32, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True))))", 3.63, (
     )),
-    ('proxyshade.kernels.correct._knn_rescore', "(Named('proxyshade.kernels.features.Level', (int64, Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))), Named('proxyshade.kernels.features.Metric', (float64, float64)), int64, int64, Tuple((Array(int32, 3, 'C', False, aligned=True), Array(int32, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True))))", 2.26, (
+    ('proxyshade.kernels.correct._knn_rescore', "(Named('proxyshade.kernels.features.Level', (int64, Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))), Named('proxyshade.kernels.features.Metric', (float64, float64)), int64, int64, Tuple((Array(int32, 3, 'C', False, aligned=True), Array(int32, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True))))", 3.27, (
         ('proxyshade.kernels.correct._ex_dist', "(Named('proxyshade.kernels.features.Level', (int64, Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))), Named('proxyshade.kernels.features.Metric', (float64, float64)), int64, int64, int32, int32, float64)"),
         ('proxyshade.kernels.correct._ex_dist', "(Named('proxyshade.kernels.features.Level', (int64, Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))), Named('proxyshade.kernels.features.Metric', (float64, float64)), uint64, int64, int32, int32, float64)"),
         ('proxyshade.kernels.correct._insert', "(Array(int32, 1, 'C', False, aligned=True), Array(int32, 1, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), int64, int32, int32, float64)"),
     )),
-    ('proxyshade.kernels.correct._downsample', "(Array(int32, 3, 'C', False, aligned=True), int64, int64, int64, int64, int64, Array(int32, 3, 'C', False, aligned=True))", 0.76, (
+    ('proxyshade.kernels.correct._downsample', "(Array(int32, 3, 'C', False, aligned=True), int64, int64, int64, int64, int64, Array(int32, 3, 'C', False, aligned=True))", 0.55, (
     )),
-    ('proxyshade.kernels.correct._usage_excess', "(Array(int32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), int64, Array(float64, 2, 'C', False, aligned=True))", 0.38, (
+    ('proxyshade.kernels.correct._usage_excess', "(Array(int32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), int64, Array(float64, 2, 'C', False, aligned=True))", 1.03, (
     )),
-    ('proxyshade.kernels.correct._tone_balance', "(Array(int32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), int64, int64, Array(float64, 2, 'C', False, aligned=True))", 0.95, (
+    ('proxyshade.kernels.correct._tone_balance', "(Array(int32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), int64, int64, Array(float64, 2, 'C', False, aligned=True))", 1.42, (
     )),
-    ('proxyshade.kernels.correct._subpass', "(Named('proxyshade.kernels.features.Level', (int64, Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))), Named('proxyshade.kernels.features.Metric', (float64, float64)), Named('proxyshade.kernels.correct.Rule', (int64, bool, float64, float64)), Array(int32, 4, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(int32, 3, 'C', False, aligned=True), Array(int32, 3, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), UniTuple(int64, 2), Array(int64, 2, 'C', False, aligned=True))", 4.37, (
+    ('proxyshade.kernels.correct._subpass', "(Named('proxyshade.kernels.features.Level', (int64, Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))), Named('proxyshade.kernels.features.Metric', (float64, float64)), Named('proxyshade.kernels.correct.Rule', (int64, bool, float64, float64)), Array(int32, 4, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(int32, 3, 'C', False, aligned=True), Array(int32, 3, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), UniTuple(int64, 2), Array(int64, 2, 'C', False, aligned=True))", 5.98, (
         ('proxyshade.kernels.correct._cand_dist', "(Named('proxyshade.kernels.features.Level', (int64, Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))), Named('proxyshade.kernels.features.Metric', (float64, float64)), bool, int64, int64, int64, int64, Array(float32, 1, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float64)"),
         ('proxyshade.kernels.correct.rejected', "(Array(int32, 3, 'C', False, aligned=True), int64, int64, int64, int64, int64, int64)"),
         ('proxyshade.kernels.features.dist_sq_contour', "(Array(float32, 2, 'C', False, aligned=True), int64, int64, int64, Array(float32, 1, 'C', False, aligned=True), float64)"),
         ('proxyshade.kernels.features.dist_sq_rgb', "(Array(float32, 3, 'C', False, aligned=True), int64, int64, int64, Array(float32, 2, 'C', False, aligned=True), float64)"),
     )),
-    ('proxyshade.kernels.correct._upsample', "(Array(int32, 3, 'C', False, aligned=True), int64, int64, int64, int64, int64, Array(int32, 3, 'C', False, aligned=True))", 0.41, (
+    ('proxyshade.kernels.correct._upsample', "(Array(int32, 3, 'C', False, aligned=True), int64, int64, int64, int64, int64, Array(int32, 3, 'C', False, aligned=True))", 1.09, (
     )),
-    ('proxyshade.kernels.magnify._label_ok', "(Array(int32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True))", 0.48, (
+    ('proxyshade.kernels.magnify._label_ok', "(Array(int32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True))", 0.81, (
     )),
-    ('proxyshade.kernels.magnify._front_steps', "(Array(int32, 3, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), int64)", 0.96, (
+    ('proxyshade.kernels.magnify._front_steps', "(Array(int32, 3, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), int64)", 1.35, (
     )),
-    ('proxyshade.kernels.patch._offset_components', "(Array(int64, 3, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True))", 0.22, (
+    ('proxyshade.kernels.patch._offset_components', "(Array(int64, 3, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True))", 0.29, (
     )),
-    ('proxyshade.kernels.magnify._magnify', "(Array(int32, 3, 'C', False, aligned=True), int64, int64, int64, Array(int32, 3, 'C', False, aligned=True))", 0.89, (
+    ('proxyshade.kernels.magnify._magnify', "(Array(int32, 3, 'C', False, aligned=True), int64, int64, int64, Array(int32, 3, 'C', False, aligned=True))", 0.65, (
     )),
-    ('proxyshade.kernels.seams._sub_pass', "(Array(int32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', True, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), int64)", 2.47, (
+    ('proxyshade.kernels.seams._sub_pass', "(Array(int32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', True, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), int64)", 3.88, (
         ('proxyshade.kernels.seams._dist2', "(Array(float32, 3, 'C', True, aligned=True), int64, int64, int64, int64)"),
         ('proxyshade.kernels.seams._energy', "(Array(int32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', True, aligned=True), Array(int32, 2, 'C', False, aligned=True), int64, int64, int64, int64)"),
         ('proxyshade.kernels.seams._energy', "(Array(int32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', True, aligned=True), Array(int32, 2, 'C', False, aligned=True), uint64, int64, int64, int64)"),
         ('proxyshade.kernels.seams._pair_cost', "(Array(int32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', True, aligned=True), Array(int32, 2, 'C', False, aligned=True), int64, int64, int64, int64, int64)"),
         ('proxyshade.kernels.seams._pair_cost', "(Array(int32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', True, aligned=True), Array(int32, 2, 'C', False, aligned=True), uint64, int64, int64, int64, int64)"),
     )),
-    ('proxyshade.kernels.seams._run_pass', "(Array(int32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', True, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), bool, int64)", 2.5, (
+    ('proxyshade.kernels.seams._run_pass', "(Array(int32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', True, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), bool, int64)", 3.66, (
         ('proxyshade.kernels.seams._run_at', "(Array(int32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', True, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), int64, int64, int64, Array(float64, 1, 'C', False, aligned=True), Array(bool, 1, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True))"),
     )),
-    ('proxyshade.kernels.poisson._rhs', "(Array(float32, 3, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 0.69, (
+    ('proxyshade.kernels.seams._shift_pass', "(Array(int32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', True, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), int64, int64)", 1.69, (
+        ('proxyshade.kernels.seams._shift_cost', "(Array(int32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', True, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), int64, int64, int64, int64, int64, float64, Literal[bool](False))"),
+        ('proxyshade.kernels.seams._shift_cost', "(Array(int32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', True, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), int64, int64, int64, int64, int64, float64, Literal[bool](True))"),
     )),
-    ('proxyshade.kernels.stencil.fine_operator', "(Array(bool, 2, 'C', False, aligned=True), float32)", 1.21, (
+    ('proxyshade.kernels.poisson._rhs', "(Array(float32, 3, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 1.77, (
     )),
-    ('proxyshade.kernels.multigrid._coarsen', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float32)", 1.66, (
+    ('proxyshade.kernels.stencil.fine_operator', "(Array(bool, 2, 'C', False, aligned=True), float32)", 1.86, (
     )),
-    ('proxyshade.kernels.multigrid._residual', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 0.72, (
+    ('proxyshade.kernels.multigrid._coarsen', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float32)", 1.92, (
     )),
-    ('proxyshade.kernels.multigrid._dot3', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True))", 0.69, (
+    ('proxyshade.kernels.multigrid._residual', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 1.5, (
     )),
-    ('proxyshade.kernels.multigrid._jacobi_start', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), int64)", 0.9, (
+    ('proxyshade.kernels.multigrid._dot3', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True))", 0.93, (
     )),
-    ('proxyshade.kernels.multigrid._smooth', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), int64)", 0.71, (
+    ('proxyshade.kernels.multigrid._jacobi_start', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), int64)", 0.75, (
     )),
-    ('proxyshade.kernels.multigrid._residual_restrict', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 1.11, (
+    ('proxyshade.kernels.multigrid._smooth', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), int64)", 1.35, (
     )),
-    ('proxyshade.kernels.multigrid._vcycle_serial', "(Array(float32, 1, 'C', False, aligned=True), Array(float32, 1, 'C', False, aligned=True), Array(float32, 1, 'C', False, aligned=True), Array(float32, 1, 'C', False, aligned=True), Array(float32, 1, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), int64, int64)", 3.95, (
+    ('proxyshade.kernels.multigrid._residual_restrict', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 1.9, (
+    )),
+    ('proxyshade.kernels.multigrid._vcycle_serial', "(Array(float32, 1, 'C', False, aligned=True), Array(float32, 1, 'C', False, aligned=True), Array(float32, 1, 'C', False, aligned=True), Array(float32, 1, 'C', False, aligned=True), Array(float32, 1, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), int64, int64)", 4.59, (
         ('proxyshade.kernels.multigrid._coarse_solve', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), int64)"),
         ('proxyshade.kernels.multigrid._jacobi_start_serial', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Literal[int](0))"),
         ('proxyshade.kernels.multigrid._prolong_add_serial', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float64)"),
@@ -175,139 +179,137 @@ ENTRIES = [
         ('proxyshade.kernels.multigrid._smooth_serial', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Literal[int](0))"),
         ('proxyshade.kernels.multigrid._smooth_serial', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Literal[int](1))"),
     )),
-    ('proxyshade.kernels.multigrid._prolong_add', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float64)", 0.36, (
+    ('proxyshade.kernels.multigrid._prolong_add', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float64)", 0.46, (
     )),
-    ('proxyshade.kernels.multigrid._matvec_dot', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True))", 1.67, (
+    ('proxyshade.kernels.multigrid._matvec_dot', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True))", 1.84, (
     )),
-    ('proxyshade.kernels.multigrid._cg_update', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True))", 0.81, (
+    ('proxyshade.kernels.multigrid._cg_update', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True))", 1.34, (
     )),
-    ('proxyshade.kernels.multigrid._xpby3', "(Array(float32, 3, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 0.44, (
+    ('proxyshade.kernels.multigrid._xpby3', "(Array(float32, 3, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 0.64, (
     )),
-    ('proxyshade.kernels.shadow._pcf', "(Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), int64, float64, Array(float64, 2, 'C', False, aligned=True))", 0.83, (
+    ('proxyshade.kernels.shadow._pcf', "(Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), int64, float64, Array(float64, 2, 'C', False, aligned=True))", 1.88, (
         ('proxyshade.kernels.shadow._occluded', "(Array(float64, 2, 'C', False, aligned=True), int64, int64, float64, float64)"),
     )),
-    ('proxyshade.kernels.reproject._inverse_depth', "(Array(float32, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True))", 0.31, (
+    ('proxyshade.kernels.reproject._inverse_depth', "(Array(float32, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True))", 0.57, (
     )),
-    ('proxyshade.kernels.reproject.grid_corners', "(Array(float64, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), float64)", 4.79, (
+    ('proxyshade.kernels.reproject.grid_corners', "(Array(float64, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), float64)", 5.03, (
         ('proxyshade.kernels.reproject._connected', "(Array(float64, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), int64, int64, int64, int64, float64)"),
         ('proxyshade.kernels.reproject._links', "(Array(float64, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), float64)"),
         ('proxyshade.kernels.reproject.same_surface', '(float64, float64, float64)'),
     )),
-    ('proxyshade.kernels.reproject._quad_rows', "(Array(float64, 3, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), float64, int64, int64, float64)", 3.54, (
+    ('proxyshade.kernels.reproject._quad_rows', "(Array(float64, 3, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), float64, int64, int64, float64)", 5.3, (
         ('proxyshade.kernels.reproject._quad', "(Array(float64, 3, 'C', False, aligned=True), int64, int64, Array(float64, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), float64, Array(float64, 2, 'C', False, aligned=True))"),
         ('proxyshade.kernels.reproject._quad', "(Array(float64, 3, 'C', False, aligned=True), uint64, int64, Array(float64, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), float64, Array(float64, 2, 'C', False, aligned=True))"),
         ('proxyshade.kernels.reproject._quad_after', "(Array(float64, 3, 'C', False, aligned=True), int64, int64, Array(float64, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), float64, Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True))"),
         ('proxyshade.kernels.reproject._quad_after', "(Array(float64, 3, 'C', False, aligned=True), uint64, int64, Array(float64, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), float64, Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True))"),
     )),
-    ('proxyshade.kernels.raster._bin_count', "(Array(int32, 1, 'C', False, aligned=True), Array(int32, 1, 'C', False, aligned=True), int64, Array(int64, 2, 'C', False, aligned=True))", 0.47, (
+    ('proxyshade.kernels.raster._bin_count', "(Array(int32, 1, 'C', False, aligned=True), Array(int32, 1, 'C', False, aligned=True), int64, Array(int64, 2, 'C', False, aligned=True))", 0.75, (
     )),
-    ('proxyshade.kernels.raster._bin_fill', "(Array(int32, 1, 'C', False, aligned=True), Array(int32, 1, 'C', False, aligned=True), int64, Array(int64, 2, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True))", 0.52, (
+    ('proxyshade.kernels.raster._bin_fill', "(Array(int32, 1, 'C', False, aligned=True), Array(int32, 1, 'C', False, aligned=True), int64, Array(int64, 2, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True))", 0.78, (
     )),
-    ('proxyshade.kernels.reproject._splat_bands', "(Array(float64, 3, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), float64, int64, int64, int64, Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True))", 1.44, (
+    ('proxyshade.kernels.reproject._splat_bands', "(Array(float64, 3, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), float64, int64, int64, int64, Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True))", 3.08, (
         ('proxyshade.kernels.reproject._edge', '(float64, float64, float64, float64, float64, float64)'),
         ('proxyshade.kernels.reproject._tri_area', "(Array(float64, 2, 'C', False, aligned=True), Literal[int](0), Literal[int](1), Literal[int](3), float64, float64, float64)"),
         ('proxyshade.kernels.reproject._tri_area', "(Array(float64, 2, 'C', False, aligned=True), Literal[int](0), Literal[int](3), Literal[int](2), float64, float64, float64)"),
     )),
-    ('proxyshade.kernels.reproject._stale', "(Array(float64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), float64, int64, int64, Array(bool, 2, 'C', False, aligned=True))", 1.17, (
+    ('proxyshade.kernels.reproject._stale', "(Array(float64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), float64, int64, int64, Array(bool, 2, 'C', False, aligned=True))", 0.97, (
     )),
-    ('proxyshade.kernels.reproject.classify', "(Array(int64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), float64)", 1.36, (
+    ('proxyshade.kernels.reproject.classify', "(Array(int64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), float64)", 2.1, (
     )),
-    ('proxyshade.kernels.layout._luma_encoded', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 0.47, (
+    ('proxyshade.kernels.layout._luma_encoded', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 0.88, (
     )),
-    ('proxyshade.kernels.layout._profile', "(Array(float32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), int64, int64, Array(float64, 3, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True))", 0.14, (
+    ('proxyshade.kernels.layout._profile', "(Array(float32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), int64, int64, Array(float64, 3, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True))", 1.19, (
     )),
-    ('proxyshade.kernels.layout._at_height', "(Array(float64, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 0.38, (
+    ('proxyshade.kernels.layout._at_height', "(Array(float64, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 0.6, (
     )),
-    ('proxyshade.kernels.layout._block_sums', "(Array(float32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), int64, int64, Array(float64, 4, 'C', False, aligned=True))", 0.12, (
+    ('proxyshade.kernels.layout._block_sums', "(Array(float32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), int64, int64, Array(float64, 4, 'C', False, aligned=True))", 0.24, (
     )),
-    ('proxyshade.kernels.layout._box_blocks', "(Array(float64, 4, 'C', False, aligned=True), int64)", 0.93, (
+    ('proxyshade.kernels.layout._box_blocks', "(Array(float64, 4, 'C', False, aligned=True), int64)", 0.54, (
     )),
-    ('proxyshade.kernels.layout._spread', "(Array(float64, 4, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), int64, Array(float32, 3, 'C', False, aligned=True))", 0.57, (
+    ('proxyshade.kernels.layout._spread', "(Array(float64, 4, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), int64, Array(float32, 3, 'C', False, aligned=True))", 1.04, (
     )),
-    ('proxyshade.kernels.layout._move_luma_chroma', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 0.51, (
+    ('proxyshade.kernels.layout._move_luma_chroma', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 0.83, (
     )),
-    ('proxyshade.kernels.layout._cctf_image', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), bool)", 0.59, (
+    ('proxyshade.kernels.layout._cctf_image', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), bool)", 0.89, (
     )),
-    ('proxyshade.kernels.grain._boxes', "(Array(int32, 2, 'C', False, aligned=True), int64)", 0.15, (
+    ('proxyshade.kernels.grain._boxes', "(Array(int32, 2, 'C', False, aligned=True), int64)", 0.29, (
     )),
-    ('proxyshade.kernels.grain._sat', "(Array(float32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), int64, int64, int64, int64, int64, int64, Array(float64, 3, 'C', False, aligned=True))", 1.12, (
+    ('proxyshade.kernels.grain._sat', "(Array(float32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), int64, int64, int64, int64, int64, int64, Array(float64, 3, 'C', False, aligned=True))", 2.93, (
     )),
-    ('proxyshade.kernels.grain._label_pass', "(Array(float32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), int64, int64, int64, Array(float64, 3, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), bool)", 1.97, (
+    ('proxyshade.kernels.grain._label_pass', "(Array(float32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), int64, int64, int64, Array(float64, 3, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), bool)", 2.17, (
     )),
-    ('proxyshade.kernels.grain._block_means', "(Array(float64, 3, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(float64, 4, 'C', False, aligned=True))", 0.53, (
+    ('proxyshade.kernels.grain._block_means', "(Array(float64, 3, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(float64, 4, 'C', False, aligned=True))", 0.77, (
     )),
-    ('proxyshade.kernels.grain._block_bins', "(Array(int32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), int64, int64, int64, int64, int64, int64, Array(int64, 3, 'C', False, aligned=True))", 0.49, (
+    ('proxyshade.kernels.grain._block_bins', "(Array(int32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), int64, int64, int64, int64, int64, int64, Array(int64, 3, 'C', False, aligned=True))", 0.68, (
     )),
-    ('proxyshade.kernels.grain._block_energy', "(Array(float64, 4, 'C', False, aligned=True), Array(int64, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True))", 0.45, (
+    ('proxyshade.kernels.grain._block_energy', "(Array(float64, 4, 'C', False, aligned=True), Array(int64, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True))", 0.63, (
     )),
-    ('proxyshade.kernels.grain._spread_pass', "(Array(float32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), int64, int64, int64, int64, int64, int64, Array(float64, 3, 'C', False, aligned=True), Array(float64, 4, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(float64, 4, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 1.92, (
+    ('proxyshade.kernels.grain._spread_pass', "(Array(float32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), int64, int64, int64, int64, int64, int64, Array(float64, 3, 'C', False, aligned=True), Array(float64, 4, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(float64, 4, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 3.65, (
     )),
-    ('proxyshade.kernels.reproject.transfer', "(Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), float64)", 1.65, (
+    ('proxyshade.kernels.reproject.transfer', "(Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), float64)", 1.58, (
     )),
-    ('proxyshade.kernels.lookup._lanczos_rgb', "(Array(float32, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 1.24, (
+    ('proxyshade.kernels.lookup._lanczos_rgb', "(Array(float32, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 2.07, (
         ('proxyshade.kernels.lookup._tap_start', '(float64, int64, int64, int64)'),
     )),
-    ('proxyshade.kernels.reproject.gather_prev_planes', "(Tuple((Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True))), Array(uint32, 2, 'C', False, aligned=True), Tuple((Array(float64, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))), float64, float64)", 2.21, (
+    ('proxyshade.kernels.reproject.gather_prev_planes', "(Tuple((Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True))), Array(uint32, 2, 'C', False, aligned=True), Tuple((Array(float64, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))), float64, float64)", 3.83, (
     )),
-    ('proxyshade.kernels.reproject.first_positions', "(Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float64, float64)", 1.1, (
+    ('proxyshade.kernels.reproject.first_positions', "(Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float64, float64)", 1.7, (
     )),
-    ('proxyshade.kernels.reproject.anchor_seams', "(Tuple((Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True))), Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Tuple((Array(float64, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))), Tuple((Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True))), float64, float64, float64, Tuple((Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))))", 1.34, (
+    ('proxyshade.kernels.reproject.anchor_seams', "(Tuple((Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True))), Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Tuple((Array(float64, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))), Tuple((Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True))), float64, float64, float64, Tuple((Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))))", 3.39, (
     )),
-    ('proxyshade.kernels.reproject.fill_from_neighbours_into', "(Array(bool, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), int64, float64, Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))", 1.76, (
+    ('proxyshade.kernels.reproject.fill_from_neighbours_into', "(Array(bool, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), int64, float64, Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))", 1.68, (
     )),
-    ('proxyshade.kernels.temporal.continue_filled', "(Array(bool, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), float64)", 0.61, (
+    ('proxyshade.kernels.temporal.continue_filled', "(Array(bool, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), float64)", 0.91, (
     )),
-    ('proxyshade.kernels.temporal.map_deviation_patches', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), float64)", 1.25, (
+    ('proxyshade.kernels.temporal.map_deviation_patches', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), float64)", 2.05, (
     )),
-    ('proxyshade.kernels.temporal.patch_mean', "(Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), int64)", 0.19, (
+    ('proxyshade.kernels.temporal.patch_mean', "(Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), int64)", 0.35, (
     )),
-    ('proxyshade.kernels.random.uniform_field', "(int64, Array(uint32, 2, 'C', False, aligned=True))", 0.52, (
+    ('proxyshade.kernels.random.uniform_field', "(int64, Array(uint32, 2, 'C', False, aligned=True))", 0.71, (
         ('proxyshade.kernels.random.rand', '(int64, uint32, Literal[int](0), Literal[int](0))'),
         ('proxyshade.kernels.random.uniform', '(int64, uint32, Literal[int](0), Literal[int](0))'),
     )),
-    ('proxyshade.kernels.temporal.in_ids', "(Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(bool, 1, 'C', False, aligned=True))", 0.6, (
+    ('proxyshade.kernels.temporal.in_ids', "(Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(bool, 1, 'C', False, aligned=True))", 2.0, (
     )),
-    ('proxyshade.kernels.temporal.area_perimeter', "(Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), int64)", 0.17, (
+    ('proxyshade.kernels.temporal.area_perimeter', "(Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), int64)", 0.27, (
     )),
-    ('proxyshade.kernels.temporal.fits_label', "(Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True))", 0.74, (
+    ('proxyshade.kernels.temporal.fits_label', "(Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True))", 1.15, (
     )),
-    ('proxyshade.kernels.temporal._label_gradients', "(Array(float32, 3, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), int64, Array(float64, 1, 'C', False, aligned=True))", 2.49, (
+    ('proxyshade.kernels.temporal._label_gradients', "(Array(float32, 3, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), int64, Array(float64, 1, 'C', True, aligned=True))", 2.84, (
     )),
-    ('proxyshade.kernels.temporal.flag_reasons', "(Array(bool, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), float64, Array(uint32, 2, 'C', False, aligned=True), uint32, Tuple((Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True))), Array(uint32, 2, 'C', False, aligned=True), UniTuple(uint32, 4))", 2.59, (
+    ('proxyshade.kernels.temporal.flag_reasons', "(Array(bool, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), float64, Array(uint32, 2, 'C', False, aligned=True), uint32, Tuple((Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True))), Array(uint32, 2, 'C', False, aligned=True), UniTuple(uint32, 4))", 4.47, (
     )),
-    ('proxyshade.kernels.temporal.clean_flags', "(Array(uint32, 2, 'C', False, aligned=True), int64, int64, int64, Array(bool, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), int64, int64, int64)", 2.74, (
+    ('proxyshade.kernels.temporal.clean_flags', "(Array(uint32, 2, 'C', False, aligned=True), int64, int64, int64, Array(bool, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), int64, int64, int64)", 5.39, (
     )),
-    ('proxyshade.kernels.temporal.keep_carried', "(Array(uint32, 2, 'C', False, aligned=True), int64, Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), bool)", 0.94, (
+    ('proxyshade.kernels.temporal.keep_carried', "(Array(uint32, 2, 'C', False, aligned=True), int64, Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), bool)", 1.72, (
     )),
-    ('proxyshade.kernels.correct._block_any', "(Array(bool, 2, 'C', False, aligned=True), int64, Array(bool, 2, 'C', False, aligned=True))", 1.23, (
+    ('proxyshade.kernels.correct._block_any', "(Array(bool, 2, 'C', False, aligned=True), int64, Array(bool, 2, 'C', False, aligned=True))", 1.0, (
     )),
-    ('proxyshade.kernels.magnify._only_target', "(Array(int32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True))", 0.44, (
+    ('proxyshade.kernels.magnify._only_target', "(Array(int32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True))", 0.83, (
     )),
-    ('proxyshade.kernels.temporal.merge_redo', "(Array(bool, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), uint32, Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True))", 0.79, (
+    ('proxyshade.kernels.temporal.merge_redo', "(Array(bool, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), uint32, Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True))", 1.36, (
     )),
-    ('proxyshade.kernels.lookup._lanczos', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 1.36, (
+    ('proxyshade.kernels.lookup._lanczos', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 2.19, (
     )),
-    ('proxyshade.kernels.temporal.components4', "(Array(bool, 2, 'C', False, aligned=True),)", 0.58, (
+    ('proxyshade.kernels.temporal.components4', "(Array(bool, 2, 'C', False, aligned=True),)", 2.26, (
     )),
-    ('proxyshade.kernels.temporal.area_perimeter', "(Array(bool, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), int64)", 0.15, (
+    ('proxyshade.kernels.temporal.area_perimeter', "(Array(bool, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), int64)", 0.24, (
     )),
-    ('proxyshade.kernels.sor._dense_ranks', "(Array(int64, 1, 'C', False, aligned=True),)", 0.13, (
+    ('proxyshade.kernels.sor._dense_ranks', "(Array(int64, 1, 'C', False, aligned=True),)", 0.25, (
     )),
-    ('proxyshade.kernels.sor._group_order', "(Array(int64, 1, 'C', False, aligned=True), int64)", 0.12, (
+    ('proxyshade.kernels.sor._group_order', "(Array(int64, 1, 'C', False, aligned=True), int64)", 0.2, (
     )),
-    ('proxyshade.kernels.sor._list_neighbours', "(Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), int64, int64)", 0.24, (
+    ('proxyshade.kernels.sor._list_neighbours', "(Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), int64, int64)", 0.38, (
     )),
-    ('proxyshade.kernels.sor._seam_edges', "(Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float32)", 0.31, (
+    ('proxyshade.kernels.sor._seam_edges', "(Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float32)", 0.53, (
     )),
-    ('proxyshade.kernels.sor._rhs_at', "(Array(float32, 3, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float32, Array(float32, 2, 'C', False, aligned=True), Array(float32, 1, 'C', False, aligned=True))", 1.37, (
+    ('proxyshade.kernels.sor._rhs_at', "(Array(float32, 3, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float32, Array(float32, 2, 'C', False, aligned=True), Array(float32, 1, 'C', False, aligned=True))", 1.11, (
     )),
-    ('proxyshade.kernels.sor._sor_regions', "(Named('proxyshade.kernels.sor.Regions', (Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True))), Named('proxyshade.kernels.sor.ListedSystem', (Array(int64, 2, 'C', False, aligned=True), Array(float32, 1, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True))), Array(float32, 2, 'C', False, aligned=True), float64, int64, int64, Array(int64, 1, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True))", 1.09, (
+    ('proxyshade.kernels.sor._sor_regions', "(Named('proxyshade.kernels.sor.Regions', (Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True))), Named('proxyshade.kernels.sor.ListedSystem', (Array(int64, 2, 'C', False, aligned=True), Array(float32, 1, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True))), Array(float32, 2, 'C', False, aligned=True), float64, int64, int64, Array(int64, 1, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True))", 1.73, (
         ('proxyshade.kernels.sor._run_residual', "(Array(int64, 2, 'C', False, aligned=True), Array(float32, 1, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), int64, int64, Array(float32, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True))"),
         ('proxyshade.kernels.sor._sor_run', "(Array(int64, 2, 'C', False, aligned=True), Array(float32, 1, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), int64, int64, Array(float32, 2, 'C', False, aligned=True))"),
     )),
-    ('proxyshade.kernels.temporal.colour_planes', "(Array(float32, 3, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), bool)", 1.25, (
-    )),
-    ('proxyshade.kernels.cryptomatte._rank', "(Array(uint32, 2, 'C', False, aligned=True), int64, Array(float32, 1, 'C', False, aligned=True), int64, Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 3.59, (
+    ('proxyshade.kernels.temporal.colour_planes', "(Array(float32, 3, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), bool)", 3.01, (
     )),
 ]
 CALLERS = {
@@ -355,7 +357,7 @@ CALLERS = {
     41: 'Magnify',
     42: 'Magnify',
     43: 'Magnify',
-    44: 'Poisson',
+    44: 'Magnify',
     45: 'Poisson',
     46: 'Poisson',
     47: 'Poisson',
@@ -368,8 +370,8 @@ CALLERS = {
     54: 'Poisson',
     55: 'Poisson',
     56: 'Poisson',
-    57: 'ShadowMap',
-    58: 'ConsistentDepth',
+    57: 'Poisson',
+    58: 'ShadowMap',
     59: 'ConsistentDepth',
     60: 'ConsistentDepth',
     61: 'ConsistentDepth',
@@ -377,7 +379,7 @@ CALLERS = {
     63: 'ConsistentDepth',
     64: 'ConsistentDepth',
     65: 'ConsistentDepth',
-    66: 'Poisson',
+    66: 'ConsistentDepth',
     67: 'Poisson',
     68: 'Poisson',
     69: 'Poisson',
@@ -392,7 +394,7 @@ CALLERS = {
     78: 'Poisson',
     79: 'Poisson',
     80: 'Poisson',
-    81: 'Reproject',
+    81: 'Poisson',
     82: 'Reproject',
     83: 'Reproject',
     84: 'Reproject',
@@ -409,7 +411,7 @@ CALLERS = {
     95: 'Reproject',
     96: 'Reproject',
     97: 'Reproject',
-    98: 'Resynthesize',
+    98: 'Reproject',
     99: 'Resynthesize',
     100: 'Resynthesize',
     101: 'Resynthesize',
@@ -422,5 +424,5 @@ CALLERS = {
     108: 'Resynthesize',
     109: 'Resynthesize',
     110: 'Resynthesize',
-    111: 'Cryptomatte',
+    111: 'Resynthesize',
 }
