@@ -311,6 +311,8 @@ ENTRIES = [
     )),
     ('proxyshade.kernels.temporal.colour_planes', "(Array(float32, 3, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), bool)", 3.01, (
     )),
+    ('proxyshade.kernels.cryptomatte._rank', "(Array(uint32, 2, 'C', False, aligned=True), int64, Array(float32, 1, 'C', False, aligned=True), int64, Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 3.59, (
+    )),
 ]
 CALLERS = {
     0: 'ProxyRender',
@@ -425,4 +427,5 @@ CALLERS = {
     109: 'Resynthesize',
     110: 'Resynthesize',
     111: 'Resynthesize',
+    112: 'Cryptomatte',
 }
