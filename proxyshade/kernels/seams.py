@@ -259,22 +259,17 @@ def _seam_cost(S, img, target):
 
 
 @njit(**JIT)
-def _shift_cost(S, img, target, labels, patch, order, a, b, pid, oy, ox, bound, check):
-    """Summed seam cost of patch ``pid`` (its pixels ``order[a:b]``, flat indices) read at
-    offset (oy, ox) against its same-label neighbours outside it, read at their own
-    offsets; with ``check``, inf when a pixel would read a source pixel off the grid or of
-    another label than its target's; returned as soon as the sum passes ``bound``."""
+def _shift_cost(S, img, target, labels, patch, order, a, b, edge, ea, eb, pid, oy, ox, bound, check):
+    """Summed seam cost of patch ``pid`` (its pixels ``order[a:b]``, those with a neighbour
+    outside it ``edge[ea:eb]``, flat indices) read at offset (oy, ox) against its same-label
+    neighbours outside it, read at their own offsets; returned as soon as it passes
+    ``bound``; under it, with ``check``, inf when a pixel would read a source pixel off the
+    grid or of another label than its target's."""
     H, W = target.shape
     Hs, Ws = labels.shape
-    for t in range(a if check else b, b):
-        f = order[t]
-        i, j = f // W, f % W
-        sy, sx = i + oy, j + ox
-        if sy < 0 or sx < 0 or sy >= Hs or sx >= Ws or labels[sy, sx] != target[i, j]:
-            return np.inf
     e = 0.0
-    for t in range(a, b):
-        f = order[t]
+    for t in range(ea, eb):
+        f = edge[t]
         i, j = f // W, f % W
         for k in range(4):
             y, x = i + _DY[k], j + _DX[k]
@@ -286,6 +281,12 @@ def _shift_cost(S, img, target, labels, patch, order, a, b, pid, oy, ox, bound, 
             e += _dist2(img, i + oy, j + ox, i + qy, j + qx) + _dist2(img, y + oy, x + ox, y + qy, x + qx)
         if e > bound:
             return e
+    for t in range(a if check else b, b):
+        f = order[t]
+        i, j = f // W, f % W
+        sy, sx = i + oy, j + ox
+        if sy < 0 or sx < 0 or sy >= Hs or sx >= Ws or labels[sy, sx] != target[i, j]:
+            return np.inf
     return e
 
 
@@ -293,7 +294,7 @@ ADOPT_MAX = 8  # most neighbouring patches' offsets a patch tries (``_shift_pass
 
 
 @njit(**JIT)
-def _shift_pass(S, img, target, labels, patch, order, starts, radius, adopt):
+def _shift_pass(S, img, target, labels, patch, order, starts, edge, estarts, radius, adopt):
     """Each patch in turn (ids in order; ``order[starts[p]:starts[p + 1]]`` the flat
     indices of patch p + 1's pixels) takes, among its offset moved by up to ``radius``
     pixels each way, the one of least summed seam cost to its neighbours (``_shift_cost``;
@@ -307,12 +308,13 @@ def _shift_pass(S, img, target, labels, patch, order, starts, radius, adopt):
     cand = np.empty((ADOPT_MAX, 2), np.int64)
     for p in range(len(starts) - 1):
         a, b = starts[p], starts[p + 1]
+        ea, eb = estarts[p], estarts[p + 1]
         if b == a:
             continue
         pid = p + 1
         f = order[a]
         oy, ox = S[f // W, f % W, 0] - f // W, S[f // W, f % W, 1] - f % W
-        best = _shift_cost(S, img, target, labels, patch, order, a, b, pid, oy, ox, np.inf, False)
+        best = _shift_cost(S, img, target, labels, patch, order, a, b, edge, ea, eb, pid, oy, ox, np.inf, False)
         if best == 0.0:
             continue
         by, bx = oy, ox
@@ -320,13 +322,13 @@ def _shift_pass(S, img, target, labels, patch, order, starts, radius, adopt):
             for dx in range(-radius, radius + 1):
                 if dy == 0 and dx == 0:
                     continue
-                e = _shift_cost(S, img, target, labels, patch, order, a, b, pid, oy + dy, ox + dx, best, True)
+                e = _shift_cost(S, img, target, labels, patch, order, a, b, edge, ea, eb, pid, oy + dy, ox + dx, best, True)
                 if e < best:
                     best, by, bx = e, oy + dy, ox + dx
         if b - a <= adopt:  # then each neighbouring patch's offset (first met, pixels in raster order)
             seen = 0
-            for t in range(a, b):
-                f = order[t]
+            for t in range(ea, eb):
+                f = edge[t]
                 i, j = f // W, f % W
                 for k in range(4):
                     y, x = i + _DY[k], j + _DX[k]
@@ -346,7 +348,7 @@ def _shift_pass(S, img, target, labels, patch, order, starts, radius, adopt):
                     cand[seen, 1] = qx
                     seen += 1
             for u in range(seen):
-                e = _shift_cost(S, img, target, labels, patch, order, a, b, pid, cand[u, 0], cand[u, 1], best, True)
+                e = _shift_cost(S, img, target, labels, patch, order, a, b, edge, ea, eb, pid, cand[u, 0], cand[u, 1], best, True)
                 if e < best:
                     best, by, bx = e, cand[u, 0], cand[u, 1]
         if by != oy or bx != ox:
@@ -376,10 +378,20 @@ def shift_patches(S: np.ndarray, img: np.ndarray, target: np.ndarray, labels: np
     labels = np.ascontiguousarray(labels, np.int32)
     patch = np.ascontiguousarray(patch, np.int64)
     order = np.argsort(patch.ravel(), kind="stable").astype(np.int64)
-    starts = np.searchsorted(patch.ravel()[order], np.arange(1, int(patch.max(initial=0)) + 2)).astype(np.int64)
+    ids = np.arange(1, int(patch.max(initial=0)) + 2)
+    starts = np.searchsorted(patch.ravel()[order], ids).astype(np.int64)
+    # the pixels with a same-label 4-neighbour in another patch: the only ones a shift's cost reads
+    rim = np.zeros(patch.shape, bool)
+    for sa, sb in (((slice(None), slice(1, None)), (slice(None), slice(None, -1))),
+                   ((slice(1, None), slice(None)), (slice(None, -1), slice(None)))):
+        d = (patch[sa] != patch[sb]) & (target[sa] == target[sb])
+        rim[sa] |= d
+        rim[sb] |= d
+    edge = order[rim.ravel()[order]]
+    estarts = np.searchsorted(patch.ravel()[edge], ids).astype(np.int64)
     moves = 0
     for _ in range(passes):
-        n = _shift_pass(S, img, target, labels, patch, order, starts, int(radius), int(adopt))
+        n = _shift_pass(S, img, target, labels, patch, order, starts, edge, estarts, int(radius), int(adopt))
         moves += int(n)
         if n == 0:
             break
