@@ -89,7 +89,7 @@ class Magnify(Node):
             sx, sy, patch, npatch, rep["patch_shifts"] = shift_patches(sx, sy, patch, scale, colours, g, wl, ctx.p)
         rgb = lookup(source.rgb(), sx, sy)
         ch = {"R": rgb[..., 0].copy(), "G": rgb[..., 1].copy(), "B": rgb[..., 2].copy(),
-              "label.id": guide["label.id"].astype(np.uint32), "source.x": sx, "source.y": sy,
+              "label.id": guide["label.id"].astype(np.uint32, copy=False), "source.x": sx, "source.y": sy,
               "patch.id": patch}
         if ctx.depth is not None:
             if ctx.depth.shape != (Ho, Wo):
@@ -97,7 +97,7 @@ class Magnify(Node):
                                 "connect DepthExtend's output for this guide")
             for c in DEPTH_CHANNELS:
                 if c in ctx.depth:
-                    ch[c] = ctx.depth[c] if c == "object.id" else ctx.depth[c].astype(np.float32)
+                    ch[c] = ctx.depth[c] if c == "object.id" else ctx.depth[c].astype(np.float32, copy=False)
         meta = provenance(source)
         meta["synthesis"] = dict(syn, patches=npatch, magnified=True, repaired=int(rep["wrong"]))
         for k in ("camera", "up_axis", "objects"):
