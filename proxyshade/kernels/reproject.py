@@ -846,10 +846,10 @@ def warp_previous(prev_image: np.ndarray, u: np.ndarray, v: np.ndarray, filter: 
     img = np.ascontiguousarray(prev_image, np.float32)
     x = np.ascontiguousarray(u - 0.5, np.float64)
     y = np.ascontiguousarray(v - 0.5, np.float64)
-    if filter in ("bilinear", "lanczos3", "lanczos4"):
+    if filter in ("bilinear", "lanczos3", "lanczos4", "flat4"):
         return lookup(img, x.astype(np.float32), y.astype(np.float32), filter=filter)
     if filter != "cubic":
-        raise ValueError(f"filter {filter!r}: use 'bilinear', 'lanczos3', 'lanczos4' or 'cubic'")
+        raise ValueError(f"filter {filter!r}: use 'bilinear', 'lanczos3', 'lanczos4', 'flat4' or 'cubic'")
     out = np.empty(x.shape + (img.shape[2],), np.float32)
     _cubic(img, x, y, out)
     return out

@@ -252,3 +252,147 @@ def _seam_cost(S, img, target):
             for k in range(2, 4):  # right and down: each pair once
                 tot += _pair_cost(S, img, target, i, j, S[i, j, 0] - i, S[i, j, 1] - j, k)
     return tot
+
+
+# ---------------------------------------------------------------------------
+# whole patches shifted by a few output pixels
+
+
+@njit(**JIT)
+def _shift_cost(S, img, target, labels, patch, order, a, b, edge, ea, eb, pid, oy, ox, bound, check):
+    """Summed seam cost of patch ``pid`` (its pixels ``order[a:b]``, those with a neighbour
+    outside it ``edge[ea:eb]``, flat indices) read at offset (oy, ox) against its same-label
+    neighbours outside it, read at their own offsets; returned as soon as it passes
+    ``bound``; under it, with ``check``, inf when a pixel would read a source pixel off the
+    grid or of another label than its target's."""
+    H, W = target.shape
+    Hs, Ws = labels.shape
+    e = 0.0
+    for t in range(ea, eb):
+        f = edge[t]
+        i, j = f // W, f % W
+        for k in range(4):
+            y, x = i + _DY[k], j + _DX[k]
+            if y < 0 or x < 0 or y >= H or x >= W or target[y, x] != target[i, j] or patch[y, x] == pid:
+                continue
+            qy, qx = S[y, x, 0] - y, S[y, x, 1] - x
+            if qy == oy and qx == ox:
+                continue
+            e += _dist2(img, i + oy, j + ox, i + qy, j + qx) + _dist2(img, y + oy, x + ox, y + qy, x + qx)
+        if e > bound:
+            return e
+    for t in range(a if check else b, b):
+        f = order[t]
+        i, j = f // W, f % W
+        sy, sx = i + oy, j + ox
+        if sy < 0 or sx < 0 or sy >= Hs or sx >= Ws or labels[sy, sx] != target[i, j]:
+            return np.inf
+    return e
+
+
+ADOPT_MAX = 8  # most neighbouring patches' offsets a patch tries (``_shift_pass``)
+
+
+@njit(**JIT)
+def _shift_pass(S, img, target, labels, patch, order, starts, edge, estarts, radius, adopt):
+    """Each patch in turn (ids in order; ``order[starts[p]:starts[p + 1]]`` the flat
+    indices of patch p + 1's pixels) takes, among its offset moved by up to ``radius``
+    pixels each way, the one of least summed seam cost to its neighbours (``_shift_cost``;
+    its own when none is lower; a moved patch reads its labels everywhere, where it is
+    need not), and a patch of at most ``adopt`` pixels also among the offsets of the
+    patches around it (the first ``ADOPT_MAX`` met, farther than ``radius``: joining a
+    neighbour removes their seam); sequential, so any thread count gives one result.
+    Returns the number of patches moved."""
+    H, W = target.shape
+    moved = 0
+    cand = np.empty((ADOPT_MAX, 2), np.int64)
+    for p in range(len(starts) - 1):
+        a, b = starts[p], starts[p + 1]
+        ea, eb = estarts[p], estarts[p + 1]
+        if b == a:
+            continue
+        pid = p + 1
+        f = order[a]
+        oy, ox = S[f // W, f % W, 0] - f // W, S[f // W, f % W, 1] - f % W
+        best = _shift_cost(S, img, target, labels, patch, order, a, b, edge, ea, eb, pid, oy, ox, np.inf, False)
+        if best == 0.0:
+            continue
+        by, bx = oy, ox
+        for dy in range(-radius, radius + 1):
+            for dx in range(-radius, radius + 1):
+                if dy == 0 and dx == 0:
+                    continue
+                e = _shift_cost(S, img, target, labels, patch, order, a, b, edge, ea, eb, pid, oy + dy, ox + dx, best, True)
+                if e < best:
+                    best, by, bx = e, oy + dy, ox + dx
+        if b - a <= adopt:  # then each neighbouring patch's offset (first met, pixels in raster order)
+            seen = 0
+            for t in range(ea, eb):
+                f = edge[t]
+                i, j = f // W, f % W
+                for k in range(4):
+                    y, x = i + _DY[k], j + _DX[k]
+                    if y < 0 or x < 0 or y >= H or x >= W or target[y, x] != target[i, j] or patch[y, x] == pid:
+                        continue
+                    qy, qx = S[y, x, 0] - y, S[y, x, 1] - x
+                    if max(abs(qy - oy), abs(qx - ox)) <= radius:
+                        continue  # among the shifts already
+                    dup = False
+                    for u in range(seen):
+                        if cand[u, 0] == qy and cand[u, 1] == qx:
+                            dup = True
+                            break
+                    if dup or seen == cand.shape[0]:
+                        continue
+                    cand[seen, 0] = qy
+                    cand[seen, 1] = qx
+                    seen += 1
+            for u in range(seen):
+                e = _shift_cost(S, img, target, labels, patch, order, a, b, edge, ea, eb, pid, cand[u, 0], cand[u, 1], best, True)
+                if e < best:
+                    best, by, bx = e, cand[u, 0], cand[u, 1]
+        if by != oy or bx != ox:
+            for t in range(a, b):
+                f = order[t]
+                S[f // W, f % W, 0] = f // W + by
+                S[f // W, f % W, 1] = f % W + bx
+            moved += 1
+    return moved
+
+
+def shift_patches(S: np.ndarray, img: np.ndarray, target: np.ndarray, labels: np.ndarray, patch: np.ndarray,
+                  radius: int, passes: int, adopt: int = 0) -> tuple[np.ndarray, int]:
+    """``S`` (copied) after ``passes`` passes in which every patch (``patch``: ids from 1,
+    4-connected regions of one offset, ``patch.offset_components``) may move whole by up to
+    ``radius`` pixels each way to where its seams cost least (Kwatra et al. 2003's cost, as
+    ``refine_seams``), as long as each of its pixels then reads a source pixel of its
+    target label: a patch magnified from the synthesis is placed to a whole exemplar pixel
+    (``factor`` output pixels); this aligns it with its neighbours at the output's
+    resolution. A patch of at most ``adopt`` pixels may also take a neighbouring patch's
+    offset (``_shift_pass``). Each pass lowers the total ``seam_cost``. Patch ids are kept (a patch
+    keeps its pixels); stops early when a pass moves nothing. Returns the map and the
+    number of patch moves."""
+    S = np.ascontiguousarray(S, np.int32).copy()
+    img = np.ascontiguousarray(img, np.float32)
+    target = np.ascontiguousarray(target, np.int32)
+    labels = np.ascontiguousarray(labels, np.int32)
+    patch = np.ascontiguousarray(patch, np.int64)
+    order = np.argsort(patch.ravel(), kind="stable").astype(np.int64)
+    ids = np.arange(1, int(patch.max(initial=0)) + 2)
+    starts = np.searchsorted(patch.ravel()[order], ids).astype(np.int64)
+    # the pixels with a same-label 4-neighbour in another patch: the only ones a shift's cost reads
+    rim = np.zeros(patch.shape, bool)
+    for sa, sb in (((slice(None), slice(1, None)), (slice(None), slice(None, -1))),
+                   ((slice(1, None), slice(None)), (slice(None, -1), slice(None)))):
+        d = (patch[sa] != patch[sb]) & (target[sa] == target[sb])
+        rim[sa] |= d
+        rim[sb] |= d
+    edge = order[rim.ravel()[order]]
+    estarts = np.searchsorted(patch.ravel()[edge], ids).astype(np.int64)
+    moves = 0
+    for _ in range(passes):
+        n = _shift_pass(S, img, target, labels, patch, order, starts, edge, estarts, int(radius), int(adopt))
+        moves += int(n)
+        if n == 0:
+            break
+    return S, moves

@@ -47,6 +47,13 @@ class Magnify(Node):
     seam_runs = Param(bool, True,
                       doc="with seam_passes, also move runs of pixels along a seam at once (the part of a "
                           "straight seam that gains most shifts by a pixel); false = one-pixel moves only")
+    patch_shift = Param(int, 0, min=0, max=8,
+                        doc="with seam_passes, each whole patch may then move by up to this many output pixels "
+                            "each way to where its seams cost least (a magnified patch is placed to a whole "
+                            "synthesis pixel, factor output pixels), and the seams move again; 0 = off")
+    patch_adopt = Param(int, 0, min=0,
+                        doc="with patch_shift, a patch of at most this many pixels may also take the offset of a "
+                            "patch beside it (their seam goes) where that costs least; 0 = none")
 
     def compute(self, ctx) -> Plate:
         from proxyshade.kernels.lookup import lookup
@@ -78,9 +85,11 @@ class Magnify(Node):
             ctx.note(f"{rep['wrong']} pixels landed on another label: {rep['extended']} continued a neighbour's "
                      f"patch, {rep['nearest']} took the nearest right-label source pixel; "
                      f"{rep['seam_moves']} seam moves")
+        if ctx.p.patch_shift and colours is not None:
+            sx, sy, patch, npatch, rep["patch_shifts"] = shift_patches(sx, sy, patch, scale, colours, g, wl, ctx.p)
         rgb = lookup(source.rgb(), sx, sy)
         ch = {"R": rgb[..., 0].copy(), "G": rgb[..., 1].copy(), "B": rgb[..., 2].copy(),
-              "label.id": guide["label.id"].astype(np.uint32), "source.x": sx, "source.y": sy,
+              "label.id": guide["label.id"].astype(np.uint32, copy=False), "source.x": sx, "source.y": sy,
               "patch.id": patch}
         if ctx.depth is not None:
             if ctx.depth.shape != (Ho, Wo):
@@ -88,7 +97,7 @@ class Magnify(Node):
                                 "connect DepthExtend's output for this guide")
             for c in DEPTH_CHANNELS:
                 if c in ctx.depth:
-                    ch[c] = ctx.depth[c] if c == "object.id" else ctx.depth[c].astype(np.float32)
+                    ch[c] = ctx.depth[c] if c == "object.id" else ctx.depth[c].astype(np.float32, copy=False)
         meta = provenance(source)
         meta["synthesis"] = dict(syn, patches=npatch, magnified=True, repaired=int(rep["wrong"]))
         for k in ("camera", "up_axis", "objects"):
@@ -97,3 +106,20 @@ class Magnify(Node):
                     meta[k] = pl.meta[k]
                     break
         return Plate(ch, meta)
+
+
+SHIFT_PASSES = 2  # passes of whole-patch shifts (a third moves under 1 % of the patches)
+
+
+def shift_patches(sx, sy, patch, scale, colours, target, labels, p):
+    """Magnify's map after whole-patch shifts (``kernels.seams.shift_patches``) and seam
+    moves again: (source.x, source.y, patch ids, patch count, patches moved)."""
+    from proxyshade.kernels import seams as kseams
+    from proxyshade.synthesis.exemplar import grid_to_source, source_to_grid
+    from proxyshade.synthesis.patches import patch_ids
+
+    S = np.stack([source_to_grid(sy, scale), source_to_grid(sx, scale)], -1).astype(np.int32)
+    S, moved = kseams.shift_patches(S, colours, target, labels, patch, p.patch_shift, SHIFT_PASSES, p.patch_adopt)
+    S, _ = kseams.refine_seams(S, colours, target, labels, p.seam_passes, runs=p.seam_runs)
+    patch, npatch = patch_ids(S)
+    return grid_to_source(S[..., 1], scale), grid_to_source(S[..., 0], scale), patch, npatch, moved

@@ -24,7 +24,9 @@ bilinearly (the paper's literal reading).
 
 Departures from the paper, each for what a viewer saw over a whole shot (docs/temporal.md):
 the source is read with Lanczos-4 at the carried fractional positions (``filter``;
-bilinear lost a quarter of the detail on the first carried frame); disoccluded pixels
+bilinear lost a quarter of the detail on the first carried frame; ``flat4``, flat to
+0.9 × Nyquist and clamped to the 4×4 pixels around, keeps more of a painted texture's
+finest detail than Lanczos-4); disoccluded pixels
 first continue a neighbouring kept patch (``fill_radius``, at most ``extend_frames``
 frames running, counted in ``extension``); distortion is measured on the carried map
 itself, D = ‖J − I‖ of ∂(source.x, source.y)/∂(col, row) / scale within a patch

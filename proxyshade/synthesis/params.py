@@ -162,6 +162,11 @@ class RestrictedSolve(ParamGroup):
                              "differences kept (only a smooth change): a thin flagged band between two kept regions "
                              "spreads their mismatch over the ring instead of into its few seams, which the next "
                              "frames carry (the gradient creep, docs/temporal.md); 0: the flagged pixels only")
+    gate_result = Param(bool, False,
+                        doc="with Reproject's creep_gate: after the solve, the labels whose gradient over the first "
+                            "frame's now passes the gate (and that the previous frame did not) are solved again "
+                            "with the remedies above: the gate on this frame's result, not only on the previous "
+                            "frame's (farm's water at frame 2, docs/temporal.md)")
     sor_thickness = Param(float, 32.0, min=0.0,
                           doc="restricted-Poisson regions at most this thick (2 x area / perimeter, pixels) are "
                               "solved by SOR on their own pixels, not by multigrid in a window around them (the "
@@ -205,9 +210,9 @@ class Carry(SameSurface):
                    doc="each patch's threshold is uniform in [(1 - spread) x threshold, threshold] (hashed from its "
                        "id and the seed): patches that distort together are redone at different frames, not as "
                        "one wave")
-    filter = Param(str, "lanczos4", choices=("lanczos4", "lanczos3", "bilinear"),
+    filter = Param(str, "lanczos4", choices=("lanczos4", "flat4", "lanczos3", "bilinear"),
                    doc="reconstruction of the source at the carried (fractional) positions; bilinear blurs the "
-                       "finest detail")
+                       "finest detail, flat4 (8x8 taps flat to 0.9 x Nyquist) keeps more of it than Lanczos-4")
     seed = Param(int, 0, doc="seed of the per-patch thresholds")
     isolated_radius = Param(int, 2, min=0, max=8, doc="window radius of the isolated-flag test (2: 5x5)")
     min_neighbours = Param(int, 3, min=0, doc="flags with fewer other flags in the window are dropped")

@@ -35,7 +35,7 @@ from proxyshade.synthesis.grain import source_colours
 from proxyshade.synthesis.memo import kept
 from proxyshade.synthesis.params import Correction, FloodFill, PoissonSolve
 from proxyshade.synthesis.patches import correct_map, fill_patches, magnify_map, repair_map, similarity_sets
-from proxyshade.synthesis.temporal import CORRECTION, FLAG
+from proxyshade.synthesis.temporal import CORRECTION, FLAG, rising_after
 
 KEPT = 0xFFFFFFFF  # the patch id the restricted solve gives every kept pixel with kept_as_one
 APART = 0x80000000  # or-ed into flagged pixels' patch ids with flagged_apart (ids stay below it)
@@ -206,8 +206,9 @@ def _resynthesize(img: Plate, source: Plate, p, frame: int, *, note: Callable[[s
     ex_factor = syn.get("exemplar_factor")
     filt = img.meta.get("temporal", {}).get("filter", "bilinear")  # Reproject's, so kept and new pixels match
     if redo.any():
-        sx, sy, patch, ex_factor = _synthesize(img, source, p, redo, f, scale, mix_seed(p.seed, frame), info, lap,
-                                               filt, rgb, patch_base, memo, tiles)
+        sx, sy, patch, ex_factor = _synthesize(img, source, p, redo, f=f, scale=scale, seed=mix_seed(p.seed, frame),
+                                               info=info, lap=lap, filt=filt, rgb=rgb, patch_base=patch_base,
+                                               memo=memo, tiles=tiles)
     lap("magnify")
     out = {}
     before = rgb
@@ -217,22 +218,16 @@ def _resynthesize(img: Plate, source: Plate, p, frame: int, *, note: Callable[[s
         if p.extend_correction and all(c in img for c in CORRECTION):
             rgb = rgb + extended_correction(img, flagged, PoissonSolve.of(p), p.sor_thickness or None)
         creeping = creeping_labels(img)
-        free, before = solve_ring(img, flagged, before, int(p.solve_margin), creeping)
-        # kept_as_one: between two kept pixels the solve keeps their own difference (a ring pixel's
-        # seams are not blended again, a flag-4 region does not keep the correction's step at its
-        # border); an edge touching a flagged pixel takes the source's gradient
-        ids = patch
-        if p.kept_as_one:
-            own = flagged if creeping is None else flagged | ~creeping
-            ids = np.where(own, patch, np.uint32(KEPT)).astype(np.uint32, copy=False)
-        elif p.flagged_apart:
-            # flagged pixels in a patch of their own: the source's gradient to every kept neighbour,
-            # the kept pixels' seams (the ring's) blended again
-            apart = flagged if creeping is None else flagged & creeping
-            ids = np.where(apart, patch | np.uint32(APART), patch).astype(np.uint32, copy=False)
-        rgb, pinfo = blend_regions(rgb, ids, img["label.id"], free, PoissonSolve.of(p),
-                                   source_rgb=source_colours(source, img.meta, memo), sx=sx, sy=sy, scale=scale, filter=filt,
-                                   thin=p.sor_thickness or None)
+        unsolved, unfreed = rgb, before
+        rgb, free, before, pinfo = restricted_solve(img, source, p, unsolved, unfreed, flagged, creeping, sx, sy, patch,
+                                                    scale, filt, memo)
+        later = rising_after(rgb, img["label.id"], img.meta.get("temporal") or {}) if p.gate_result else []
+        if later and creeping is not None:
+            # labels the result shows creeping: solved again with the remedies (the gate on this frame)
+            creeping = creeping | np.isin(img["label.id"], np.asarray(later, np.uint32))
+            rgb, free, before, pinfo = restricted_solve(img, source, p, unsolved, unfreed, flagged, creeping, sx, sy,
+                                                        patch, scale, filt, memo)
+            info["gated_after"] = later
         # flagged pixels were the source through the map: the correction adds the solve's change
         correct = all(c in img for c in CORRECTION)
         note(f"Poisson on {pinfo['windows']} windows ({pinfo['window_pixels']} px), at most "
@@ -251,6 +246,31 @@ def _resynthesize(img: Plate, source: Plate, p, frame: int, *, note: Callable[[s
     out.update({"R": R, "G": G, "B": B, "source.x": sx, "source.y": sy, "patch.id": patch})
     # without the solve here the correction is a later Poisson node's: drop it rather than carry it stale
     return img.with_channels(out, meta=meta, drop=() if p.solve else CORRECTION)
+
+
+def restricted_solve(img: Plate, source: Plate, p, rgb: np.ndarray, before: np.ndarray, flagged: np.ndarray,
+                     creeping: np.ndarray | None, sx: np.ndarray, sy: np.ndarray, patch: np.ndarray, scale: float,
+                     filt: str, memo=None):
+    """The restricted Poisson solve of ``rgb`` on the ``flagged`` pixels, with the
+    ``RestrictedSolve`` remedies on the ``creeping`` pixels (None: everywhere). Returns
+    (colours, the pixels it freed, ``before`` with the ring's source colours, the solve's info)."""
+    free, before = solve_ring(img, flagged, before, int(p.solve_margin), creeping)
+    # kept_as_one: between two kept pixels the solve keeps their own difference (a ring pixel's
+    # seams are not blended again, a flag-4 region does not keep the correction's step at its
+    # border); an edge touching a flagged pixel takes the source's gradient
+    ids = patch
+    if p.kept_as_one:
+        own = flagged if creeping is None else flagged | ~creeping
+        ids = np.where(own, patch, np.uint32(KEPT)).astype(np.uint32, copy=False)
+    elif p.flagged_apart:
+        # flagged pixels in a patch of their own: the source's gradient to every kept neighbour,
+        # the kept pixels' seams (the ring's) blended again
+        apart = flagged if creeping is None else flagged & creeping
+        ids = np.where(apart, patch | np.uint32(APART), patch).astype(np.uint32, copy=False)
+    out, pinfo = blend_regions(rgb, ids, img["label.id"], free, PoissonSolve.of(p),
+                               source_rgb=source_colours(source, img.meta, memo), sx=sx, sy=sy, scale=scale,
+                               filter=filt, thin=p.sor_thickness or None)
+    return out, free, before, pinfo
 
 
 def creeping_labels(img: Plate) -> np.ndarray | None:
@@ -296,7 +316,7 @@ def extended_correction(img: Plate, flagged: np.ndarray, solve, thin: float | No
     return ext
 
 
-def _synthesize(img: Plate, source: Plate, p, redo: np.ndarray, f: int, scale: float, seed: int, info: dict, lap,
+def _synthesize(img: Plate, source: Plate, p, redo: np.ndarray, *, f: int, scale: float, seed: int, info: dict, lap,
                 filt: str, rgb: np.ndarray, patch_base: int | None = None, memo=None, tiles=None):
     """The first frame's steps on the pixels in ``redo``; the rest keep the carried map.
     The ``redo`` pixels of ``rgb`` (the carried colours, (H, W, 3)) take the source

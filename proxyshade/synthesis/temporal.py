@@ -236,8 +236,8 @@ def carry(cd: Plate, prev: Plate | None, first: Plate | None, source: Plate, p, 
                          prev["source.y"].astype(np.float32, copy=False), *planes, prev_ext)
     valid, sx, sy, patch, res, ext = kr.gather_prev_planes(tuple(land), lab, tuple(state), tol, scale)
     if getattr(p, "anchor", False) and first is not None and first is not prev and "patch.id" in first:
-        anchor_first_seams(cd, first, k1, w1, lab, land, valid, state, tol, scale,
-                           kr.Carried(sx, sy, patch, res, ext))
+        anchor_first_seams(cd, first, k1=k1, w1=w1, lab=lab, land=land, valid=valid, prev=state, tol=tol,
+                           scale=scale, out=kr.Carried(sx, sy, patch, res, ext))
     # disoccluded pixels continue the patch of a kept neighbour of their label when the
     # continued source position still has that label: no new seam, nothing to redo
     have = valid
@@ -300,8 +300,25 @@ def carry(cd: Plate, prev: Plate | None, first: Plate | None, source: Plate, p, 
     meta["temporal"] = dict(counts, flagged=float(flag.size - nflag[0]) / flag.size, cut=bool(cut), frame=int(frame),
                             filter=p.filter)
     if ratios is not None:
-        meta["temporal"].update(gradient={str(k): round(r, 6) for k, r in ratios.items()}, rising=rising)
+        meta["temporal"].update(gradient={str(k): round(r, 6) for k, r in ratios.items()}, rising=rising,
+                                gate=float(p.creep_gate), first_gradient={str(k): g for k, g in
+                                                                          first_gradients(first, memo).items()})
     return Plate(ch, meta)
+
+
+def gradient_sums(rgb: np.ndarray, label: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``kt.label_gradients`` of a frame's linear colours: per label id, (sum, count)."""
+    lab = np.ascontiguousarray(label, np.uint32)
+    return kt.label_gradients(np.ascontiguousarray(rgb, np.float32), lab, int(lab.max()) + 1,
+                              srgb_encoding_table(kt.ENCODE_STEPS))
+
+
+def first_gradients(first: Plate, memo=None) -> dict[int, float]:
+    """Per label id with at least 64 interior pixels: the first frame's mean display-luma
+    gradient (``gradient_ratios``' denominator; kept in ``memo``)."""
+    s1, c1 = kept(memo, "temporal.first_gradients", (first["R"], first["G"], first["B"], first["label.id"]),
+                  lambda: gradient_sums(first.rgb(), first["label.id"]), size=1)
+    return {k: float(s1[k] / c1[k]) for k in range(len(s1)) if c1[k] >= 64 and s1[k] > 0}
 
 
 def gradient_ratios(prev: Plate, first: Plate, memo=None) -> dict[int, float]:
@@ -310,23 +327,32 @@ def gradient_ratios(prev: Plate, first: Plate, memo=None) -> dict[int, float]:
     label's texture has crept (seams made and carried, docs/temporal.md); labels with fewer
     than 64 interior pixels in either frame are left out. The first frame's sums are kept
     in ``memo``."""
-    def sums(pl):
-        lab = np.ascontiguousarray(pl["label.id"], np.uint32)
-        return kt.label_gradients(np.ascontiguousarray(pl.rgb(), np.float32), lab, int(lab.max()) + 1,
-                                  srgb_encoding_table(kt.ENCODE_STEPS))
-
-    s1, c1 = kept(memo, "temporal.first_gradients", (first["R"], first["G"], first["B"], first["label.id"]),
-                  lambda: sums(first), size=1)
-    sn, cn = sums(prev)
-    out = {}
-    for k in range(min(len(s1), len(sn))):
-        if c1[k] >= 64 and cn[k] >= 64 and s1[k] > 0:
-            out[k] = float((sn[k] / cn[k]) / (s1[k] / c1[k]))
-    return out
+    return label_ratios(prev.rgb(), prev["label.id"], first_gradients(first, memo))
 
 
-def anchor_first_seams(cd: Plate, first: Plate, k1: np.ndarray, w1: np.ndarray, lab: np.ndarray, land: kr.Landing,
-                       valid: np.ndarray, prev: kr.PrevState, tol: float, scale: float, out: kr.Carried) -> None:
+def label_ratios(rgb: np.ndarray, label: np.ndarray, first: dict[int, float]) -> dict[int, float]:
+    """Per label id of ``first`` (``first_gradients``) with at least 64 interior pixels here:
+    the frame's mean display-luma gradient over the first frame's."""
+    sn, cn = gradient_sums(rgb, label)
+    return {k: float((sn[k] / cn[k]) / g) for k, g in first.items() if k < len(sn) and cn[k] >= 64}
+
+
+def rising_after(rgb: np.ndarray, label: np.ndarray, temporal: dict) -> list[int]:
+    """The labels that ``rgb`` (a frame's result) shows above Reproject's ``creep_gate`` over
+    the first frame's gradient (``meta["temporal"]``: ``gate``, ``first_gradient``) and that
+    Reproject did not find rising from the previous frame: the gate on this frame's result,
+    a frame earlier than the previous frame's (Resynthesize's ``gate_result``)."""
+    gate = float(temporal.get("gate") or 0.0)
+    first = {int(k): float(v) for k, v in (temporal.get("first_gradient") or {}).items()}
+    if gate <= 0 or not first:
+        return []
+    done = set(temporal.get("rising") or ())
+    return sorted(k for k, r in label_ratios(rgb, label, first).items() if r > gate and k not in done)
+
+
+def anchor_first_seams(cd: Plate, first: Plate, *, k1: np.ndarray, w1: np.ndarray, lab: np.ndarray,
+                       land: kr.Landing, valid: np.ndarray, prev: kr.PrevState, tol: float, scale: float,
+                       out: kr.Carried) -> None:
     """``kr.anchor_seams`` in place on ``gather_prev``'s outputs ``out``: seams between patches
     of the first frame's synthesis (``first``) stay where the first frame has them instead of
     being rounded anew from the previous frame's each frame (docs/temporal.md, "Seams

@@ -108,12 +108,12 @@ def test_lanczos_keeps_detail_that_bilinear_blurs():
     assert half < 0.8 * g0 and sharp > half * 1.15
 
 
-@pytest.mark.parametrize("filt", ["lanczos3", "lanczos4"])
+@pytest.mark.parametrize("filt", ["lanczos3", "lanczos4", "flat4"])
 def test_many_colour_reads_take_the_padded_kernel_bit_identically(filt):
     """A read of at least as many positions as the image has pixels goes through the
     padded float64 copy (``_lanczos_rgb``): the same bits as the per-tap kernel, inside,
     at the borders and at integer positions."""
-    from proxyshade.kernels.lookup import _LANCZOS, _lanczos
+    from proxyshade.kernels.lookup import _LANCZOS, CLAMPED, _clamp_taps, _lanczos
 
     rng = np.random.default_rng(10)
     img = rng.random((23, 31, 3)).astype(np.float32)
@@ -124,8 +124,12 @@ def test_many_colour_reads_take_the_padded_kernel_bit_identically(filt):
     assert sx.size >= img.shape[0] * img.shape[1]
     want = np.empty(sx.shape + (3,), np.float32)
     _lanczos(img, sx, sy, _LANCZOS[filt], want)
+    if filt in CLAMPED:
+        _clamp_taps(img, sx, sy, np.zeros((0, 0), np.bool_), want)
     got = lookup(img, sx, sy, filter=filt)
     assert np.array_equal(got.view(np.uint32), want.view(np.uint32))
+    if filt == "flat4":
+        return  # its weights against their reference: test_flat4_matches_the_least_squares_delay...
     for i in range(0, 40, 9):
         for j in range(0, 30, 7):
             a = 3 if filt == "lanczos3" else 4
@@ -133,7 +137,64 @@ def test_many_colour_reads_take_the_padded_kernel_bit_identically(filt):
                                        atol=2e-3)
 
 
-@pytest.mark.parametrize("filter", ["bilinear", "lanczos4"])
+def _flat_weights(t, a=4, band=0.9, n=20000):
+    """Slow least-squares fractional delay by t: the weights (summing to 1) minimising the
+    squared error of the response against e^{iωt} sampled at n points of [0, band·π]
+    (midpoint rule), from the constrained normal equations (KKT system)."""
+    k = np.arange(-a + 1, a + 1)
+    om = (np.arange(n) + 0.5) / n * band * np.pi
+    E = np.exp(1j * np.outer(om, k))
+    A = (E.conj().T @ E).real
+    b = (E.conj().T @ np.exp(1j * om * t)).real
+    K = np.block([[A, np.ones((2 * a, 1))], [np.ones((1, 2 * a)), np.zeros((1, 1))]])
+    return np.linalg.solve(K, np.append(b, 1.0))[:2 * a]
+
+
+def test_flat4_matches_the_least_squares_delay_and_is_exact_at_pixels():
+    """``flat4``: per axis the least-squares fractional delay over 0.9 × Nyquist, 8 taps
+    separable and clamped like Lanczos-4, then clamped to the range of the 4×4 pixels
+    around the position; exactly the pixel at integer positions."""
+    rng = np.random.default_rng(11)
+    img = rng.random((13, 17, 3)).astype(np.float32)
+    sx = (rng.random((6, 7)) * 20 - 2).astype(np.float32)
+    sy = (rng.random((6, 7)) * 16 - 2).astype(np.float32)
+    got = lookup(img, sx, sy, filter="flat4")
+    h, w, _ = img.shape
+    for i in range(6):
+        for j in range(7):
+            x, y = min(max(float(sx[i, j]), 0.0), w - 1.0), min(max(float(sy[i, j]), 0.0), h - 1.0)
+            x0, y0 = int(np.floor(x)), int(np.floor(y))
+            wx, wy = _flat_weights(x - x0), _flat_weights(y - y0)
+            px = lambda r, t: img[min(max(y0 + r, 0), h - 1), min(max(x0 + t, 0), w - 1)]
+            want = sum(wy[r] * wx[t] * px(r - 3, t - 3) for r in range(8) for t in range(8))
+            near = np.array([px(r, t) for r in range(-1, 3) for t in range(-1, 3)])
+            want = np.clip(want, near.min(0), near.max(0))
+            np.testing.assert_allclose(got[i, j], want, atol=2e-3)  # the weights are tabled at 1/4096 pixel
+    ii, jj = np.mgrid[0:13, 0:17].astype(np.float32)
+    np.testing.assert_array_equal(lookup(img, jj, ii, filter="flat4"), img)
+
+
+def test_flat4_keeps_more_gradient_than_lanczos4_and_does_not_ring():
+    """Pixel-level noise read half a pixel off (the phase that loses most) keeps more of its
+    gradient through ``flat4`` than through Lanczos-4 (a texture read at fractional
+    positions: docs/temporal.md); a step edge read anywhere stays within its two levels
+    (Lanczos-4 overshoots it by a tenth)."""
+    rng = np.random.default_rng(12)
+    img = rng.random((96, 96, 3)).astype(np.float32)
+    ii, jj = np.mgrid[8:88, 8:88].astype(np.float32)
+    grad = lambda a: np.abs(np.diff(a[..., 0], axis=1)).mean() + np.abs(np.diff(a[..., 0], axis=0)).mean()
+    l4 = grad(lookup(img, jj + 0.5, ii + 0.5, filter="lanczos4"))
+    assert grad(lookup(img, jj + 0.5, ii + 0.5, filter="flat4")) > 1.05 * l4
+    step = np.zeros((40, 40, 3), np.float32)
+    step[:, 20:] = 1.0
+    x = np.tile(np.linspace(12.0, 28.0, 97, dtype=np.float32), (3, 1))
+    y = np.full_like(x, 10.3)
+    assert lookup(step, x, y, filter="lanczos4").max() > 1.05
+    got = lookup(step, x, y, filter="flat4")
+    assert got.min() >= 0.0 and got.max() <= 1.0 and np.ptp(got) == 1.0
+
+
+@pytest.mark.parametrize("filter", ["bilinear", "lanczos4", "flat4"])
 def test_mask_reads_only_masked_pixels(filter):
     """``mask=``: the masked pixels are the plain lookup's, the others 0 (the colour
     fast path, where the output is larger than the image, and the general one)."""

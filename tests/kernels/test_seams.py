@@ -223,3 +223,110 @@ def test_a_straight_seam_shifts_where_one_pixel_moves_stick():
     run, moves = ks.refine_seams(S, img, target, labels, 8, runs=True)
     assert moves == H and (run[:, 4, 1] == 24).all() and (run[:, 3, 1] == 3).all()
     assert ks.seam_cost(run, img, target) == pytest.approx(10 * 0.1 + 2 * 0.5, rel=1e-4)
+
+
+def ref_shift(S, img, target, labels, patch, radius, passes, adopt=0):
+    """Whole-patch shifts: patches in id order, each takes the offset within ``radius`` of
+    its own (rows then columns, ascending) whose seams to the pixels outside it cost
+    least, strictly less than its own, where every pixel of it reads its label (its own
+    offset need not); a patch of at most ``adopt`` pixels then the offsets of the patches beside it farther
+    than ``radius`` (the first 8 met: its pixels in raster order, neighbours up, left,
+    right, down)."""
+    S = S.copy()
+    H, W = target.shape
+    Hs, Ws = labels.shape
+    moves = 0
+    for _ in range(passes):
+        moved = 0
+        for pid in range(1, int(patch.max()) + 1):
+            pix = list(zip(*np.nonzero(patch == pid)))
+            if not pix:
+                continue
+            i0, j0 = pix[0]
+            own = (S[i0, j0, 0] - i0, S[i0, j0, 1] - j0)
+
+            def cost(off, check=True):
+                if check and not all(0 <= i + off[0] < Hs and 0 <= j + off[1] < Ws and labels[i + off[0], j + off[1]] == target[i, j]
+                           for i, j in pix):
+                    return np.inf
+                e = 0.0
+                for i, j in pix:
+                    for dy, dx in N4:
+                        y, x = i + dy, j + dx
+                        if not (0 <= y < H and 0 <= x < W) or target[y, x] != target[i, j] or patch[y, x] == pid:
+                            continue
+                        q = (S[y, x, 0] - y, S[y, x, 1] - x)
+                        if q != off:
+                            e += ref_cost(img, (i + off[0], j + off[1]), (i + q[0], j + q[1]))
+                            e += ref_cost(img, (y + off[0], x + off[1]), (y + q[0], x + q[1]))
+                return e
+
+            best, pick = cost(own, check=False), own
+            for dy in range(-radius, radius + 1):
+                for dx in range(-radius, radius + 1):
+                    if (dy, dx) != (0, 0) and (e := cost((own[0] + dy, own[1] + dx))) < best:
+                        best, pick = e, (own[0] + dy, own[1] + dx)
+            if len(pix) <= adopt:
+                cands = []
+                for i, j in pix:
+                    for dy, dx in N4:
+                        y, x = i + dy, j + dx
+                        if not (0 <= y < H and 0 <= x < W) or target[y, x] != target[i, j] or patch[y, x] == pid:
+                            continue
+                        q = (S[y, x, 0] - y, S[y, x, 1] - x)
+                        if max(abs(q[0] - own[0]), abs(q[1] - own[1])) > radius and q not in cands and len(cands) < 8:
+                            cands.append(q)
+                for q in cands:
+                    if (e := cost(q)) < best:
+                        best, pick = e, q
+            if pick != own:
+                for i, j in pix:
+                    S[i, j] = (i + pick[0], j + pick[1])
+                moved += 1
+        moves += moved
+        if moved == 0:
+            break
+    return S, moves
+
+
+@pytest.mark.parametrize("seed,adopt", [(s, a) for s in range(6) for a in (0, 6, 10**6)])
+def test_patch_shifts_match_reference_exactly(seed, adopt):
+    from proxyshade.kernels.patch import offset_components
+    S, img, target, labels = random_case(seed, H=13, W=15, Hs=26, Ws=28)
+    img = (img + np.roll(img, 1, 0) + np.roll(img, 1, 1)) / 3  # neighbours alike: a shift can pay off
+    patch, _ = offset_components(S)
+    got, moves = ks.shift_patches(S, img, target, labels, patch, 1 + seed % 2, 3, adopt)
+    want, want_moves = ref_shift(S, img, target, labels, patch, 1 + seed % 2, 3, adopt)
+    assert np.array_equal(got, want) and moves == want_moves
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_patch_shifts_lower_the_seam_cost_and_keep_labels(seed):
+    from proxyshade.kernels.patch import offset_components
+    S, img, target, labels = random_case(seed, nlab=2)
+    img = (img + np.roll(img, 1, 0) + np.roll(img, 1, 1)) / 3
+    patch, _ = offset_components(S)
+    before = ks.seam_cost(S, img, target)
+    out, moves = ks.shift_patches(S, img, target, labels, patch, 2, 2)
+    assert moves > 0 and ks.seam_cost(out, img, target) < before
+    moved = (out != S).any(-1)
+    assert (labels[out[moved, 0], out[moved, 1]] == target[moved]).all()
+    # a patch moves whole: every pixel of one patch keeps one offset
+    off = out - np.stack(np.mgrid[0:S.shape[0], 0:S.shape[1]], -1)
+    for pid in np.unique(patch):
+        assert len(np.unique(off[patch == pid], axis=0)) == 1
+
+
+def test_a_patch_shifts_onto_its_neighbours_texture():
+    # a smooth ramp image; the right half reads it 2 columns off its neighbour's continuation
+    # (as a magnified patch placed to a whole synthesis pixel would): the shift joins them
+    H, W = 8, 12
+    img = np.broadcast_to(np.linspace(0, 1, 40, dtype=np.float32)[None, :, None] ** 2, (H, 40, 3)).copy()
+    S = np.stack(np.mgrid[0:H, 0:W], -1).astype(np.int32)
+    S[:, 6:, 1] += 2
+    target, labels = np.zeros((H, W), np.int32), np.zeros((H, 40), np.int32)
+    from proxyshade.kernels.patch import offset_components
+    patch, n = offset_components(S)
+    assert n == 2 and ks.seam_cost(S, img, target) > 0
+    out, moves = ks.shift_patches(S, img, target, labels, patch, 2, 2)
+    assert moves == 1 and ks.seam_cost(out, img, target) == 0.0

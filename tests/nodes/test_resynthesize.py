@@ -169,6 +169,20 @@ def test_solve_margin_spreads_a_thin_regions_mismatch_over_its_kept_ring():
     np.testing.assert_array_equal(others.rgb()[mine], img.rgb()[mine])  # its kept pixels not freed
     assert not np.array_equal(others.rgb()[kept], img.rgb()[kept])  # the other labels' rings were
     assert same(gated([]), resynth(img))  # nothing creeping: neither remedy
+    # gate_result: a label that the previous frame did not show rising but this frame's result
+    # does (its gradient over the first frame's above the gate) is solved again with the remedies
+    from proxyshade.synthesis.temporal import label_ratios
+
+    plain_result = gated([])
+    g = label_ratios(plain_result.rgb(), lab, {k: 1.0 for k in every})  # the result's own mean gradients
+
+    def after(ratio):
+        first = {str(k): (g[k] / ratio if k == band else 10 * g[k]) for k in g}
+        meta = {"temporal": dict(img.meta.get("temporal", {}), rising=[], gate=1.05, first_gradient=first)}
+        return resynth(img.with_channels(meta=meta), kept_as_one=True, solve_margin=8, gate_result=True)
+
+    assert same(after(1.2), gated([band]))
+    assert same(after(1.0), plain_result)
 
 
 def test_deterministic_per_frame_seed():
