@@ -504,10 +504,12 @@ def load_worker_image() -> None:
         from proxyshade.graph import warmup
         from proxyshade.kernels import _cache
 
-        found = warmup.callers()
-        cached = {t for t in set(found.values()) if _cache.kernels_cached([warmup.node_unit(t)])}
+        found, held = warmup.callers(), warmup.variant_units()
+        marks = {u: _cache.kernels_cached([u]) for t in set(found.values()) for u in [warmup.node_unit(t)]}
+        marks.update((u, _cache.kernels_cached([u])) for units in held.values() for u in units)
         for (kernel, text), t in found.items():
-            if t in cached:
+            # precompiled under its type's unit, or under a variant's (a first frame's Poisson)
+            if marks[warmup.node_unit(t)] or any(marks[u] for u in held.get((kernel, text), ())):
                 with contextlib.suppress(Exception):  # a stale entry: left to the call
                     disp = warmup._dispatcher(kernel)
                     if not disp.targetoptions.get("parallel"):
