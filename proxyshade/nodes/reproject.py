@@ -99,8 +99,9 @@ class Reproject(Carry, Progressive, Node):
 
         if ctx.previous is not None:
             up = carry_update(ctx.previous.plate, ctx.previous.inputs, ctx.depth, ctx.prev, ctx.first, ctx.source,
-                              ctx.p, frame=ctx.frame, first_frame=ctx.first_frame, note=ctx.note, memo=ctx.memo)
+                              Carry.of(ctx.p), frame=ctx.frame, first_frame=ctx.first_frame, note=ctx.note,
+                              memo=ctx.memo)
             if up is not None:
                 return up[0]
-        return carry(ctx.depth, ctx.prev, ctx.first, ctx.source, ctx.p, frame=ctx.frame, first_frame=ctx.first_frame,
-                     note=ctx.note, memo=ctx.memo)
+        return carry(ctx.depth, ctx.prev, ctx.first, ctx.source, Carry.of(ctx.p), frame=ctx.frame,
+                     first_frame=ctx.first_frame, note=ctx.note, memo=ctx.memo)
