@@ -80,13 +80,12 @@ class Magnify(Node):
         sx, sy, patch, npatch, rep = magnify_map(S.astype(np.int32), f, (Ho, Wo), scale=scale,
                                                  target=g if ctx.p.repair else None, labels=wl, memo=ctx.memo,
                                                  colours=colours, seam_passes=ctx.p.seam_passes,
-                                                 seam_runs=ctx.p.seam_runs)
+                                                 seam_runs=ctx.p.seam_runs, patch_shift=ctx.p.patch_shift,
+                                                 patch_adopt=ctx.p.patch_adopt)
         if ctx.p.repair:
             ctx.note(f"{rep['wrong']} pixels landed on another label: {rep['extended']} continued a neighbour's "
                      f"patch, {rep['nearest']} took the nearest right-label source pixel; "
-                     f"{rep['seam_moves']} seam moves")
-        if ctx.p.patch_shift and colours is not None:
-            sx, sy, patch, npatch, rep["patch_shifts"] = shift_patches(sx, sy, patch, scale, colours, g, wl, ctx.p)
+                     f"{rep['seam_moves']} seam moves, {rep['patch_shifts']} patches shifted")
         rgb = lookup(source.rgb(), sx, sy)
         ch = {"R": rgb[..., 0].copy(), "G": rgb[..., 1].copy(), "B": rgb[..., 2].copy(),
               "label.id": guide["label.id"].astype(np.uint32, copy=False), "source.x": sx, "source.y": sy,
@@ -107,19 +106,3 @@ class Magnify(Node):
                     break
         return Plate(ch, meta)
 
-
-SHIFT_PASSES = 2  # passes of whole-patch shifts (a third moves under 1 % of the patches)
-
-
-def shift_patches(sx, sy, patch, scale, colours, target, labels, p):
-    """Magnify's map after whole-patch shifts (``kernels.seams.shift_patches``) and seam
-    moves again: (source.x, source.y, patch ids, patch count, patches moved)."""
-    from proxyshade.kernels import seams as kseams
-    from proxyshade.synthesis.exemplar import grid_to_source, source_to_grid
-    from proxyshade.synthesis.patches import patch_ids
-
-    S = np.stack([source_to_grid(sy, scale), source_to_grid(sx, scale)], -1).astype(np.int32)
-    S, moved = kseams.shift_patches(S, colours, target, labels, patch, p.patch_shift, SHIFT_PASSES, p.patch_adopt)
-    S, _ = kseams.refine_seams(S, colours, target, labels, p.seam_passes, runs=p.seam_runs)
-    patch, npatch = patch_ids(S)
-    return grid_to_source(S[..., 1], scale), grid_to_source(S[..., 0], scale), patch, npatch, moved

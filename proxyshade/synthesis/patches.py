@@ -81,10 +81,13 @@ def repair_map(setup: SynthesisSetup, coords: np.ndarray) -> tuple[np.ndarray, d
     return kmag.repair_labels(coords, setup.tgt_lab, setup.ex_lab)
 
 
+SHIFT_PASSES = 2  # passes of whole-patch shifts in magnify_map (a third moves under 1 % of the patches)
+
+
 def magnify_map(coords: np.ndarray, factor: int, shape: tuple[int, int], *, scale: float,
                 target: np.ndarray | None = None, labels: np.ndarray | None = None,
                 only: np.ndarray | None = None, memo=None, colours: np.ndarray | None = None,
-                seam_passes: int = 0, seam_runs: bool = False):
+                seam_passes: int = 0, seam_runs: bool = False, patch_shift: int = 0, patch_adopt: int = 0):
     """The exemplar map ``coords`` magnified by ``factor`` to the output size ``shape`` (each
     patch keeps its translation, the source is read at full detail). With ``target``,
     pixels whose ``labels`` (the source's on the output-scale grid,
@@ -93,20 +96,28 @@ def magnify_map(coords: np.ndarray, factor: int, shape: tuple[int, int], *, scal
     (``synthesis.memo``) keeps the nearest sites of each label of ``labels``. With
     ``colours`` (the source on the same grid as ``labels``) and ``seam_passes``, the seams
     between patches then move to where their colours agree (``kernels.seams``; needs
-    ``target``), with ``seam_runs`` also as runs along a seam.
+    ``target``), with ``seam_runs`` also as runs along a seam; with ``patch_shift`` each whole
+    patch then moves by up to that many output pixels to where its seams cost least, a patch
+    of at most ``patch_adopt`` pixels may take a neighbour's offset (``kernels.seams.
+    shift_patches``, ``SHIFT_PASSES`` passes), and the seams move again.
 
     Returns (source.x, source.y float32, patch ids uint32 from 1, patch count, the
-    repair's counts, with ``seam_moves``)."""
+    repair's counts, with ``seam_moves`` and ``patch_shifts``)."""
     coords_out = kmag.magnify(coords, factor, shape)
     rep = {"wrong": 0, "extended": 0, "nearest": 0}
     if target is not None:
         if only is not None:
             target = kmag.only_target(coords_out, labels, only, target)
         coords_out, rep = kmag.repair_labels(coords_out, target, labels, sites_of=lambda lab: nearest_sites(labels, lab, memo))
-    rep["seam_moves"] = 0
+    rep["seam_moves"] = rep["patch_shifts"] = 0
     if seam_passes > 0 and colours is not None and target is not None:
         coords_out, rep["seam_moves"] = kseams.refine_seams(coords_out, colours, target, labels, seam_passes,
                                                              runs=seam_runs)
+        if patch_shift > 0:
+            patch, _ = patch_ids(coords_out)
+            coords_out, rep["patch_shifts"] = kseams.shift_patches(coords_out, colours, target, labels, patch,
+                                                                   patch_shift, SHIFT_PASSES, patch_adopt)
+            coords_out, _ = kseams.refine_seams(coords_out, colours, target, labels, seam_passes, runs=seam_runs)
     patch, npatch = patch_ids(coords_out)
     return grid_to_source(coords_out[..., 1], scale), grid_to_source(coords_out[..., 0], scale), patch, npatch, rep
 

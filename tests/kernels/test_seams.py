@@ -245,20 +245,22 @@ def ref_shift(S, img, target, labels, patch, radius, passes, adopt=0):
             i0, j0 = pix[0]
             own = (S[i0, j0, 0] - i0, S[i0, j0, 1] - j0)
 
+            def across():  # (pixel, its same-label neighbour outside the patch, that one's offset)
+                for i, j in pix:
+                    for dy, dx in N4:
+                        y, x = i + dy, j + dx
+                        if 0 <= y < H and 0 <= x < W and target[y, x] == target[i, j] and patch[y, x] != pid:
+                            yield i, j, y, x, (S[y, x, 0] - y, S[y, x, 1] - x)
+
             def cost(off, check=True):
                 if check and not all(0 <= i + off[0] < Hs and 0 <= j + off[1] < Ws and labels[i + off[0], j + off[1]] == target[i, j]
                            for i, j in pix):
                     return np.inf
                 e = 0.0
-                for i, j in pix:
-                    for dy, dx in N4:
-                        y, x = i + dy, j + dx
-                        if not (0 <= y < H and 0 <= x < W) or target[y, x] != target[i, j] or patch[y, x] == pid:
-                            continue
-                        q = (S[y, x, 0] - y, S[y, x, 1] - x)
-                        if q != off:
-                            e += ref_cost(img, (i + off[0], j + off[1]), (i + q[0], j + q[1]))
-                            e += ref_cost(img, (y + off[0], x + off[1]), (y + q[0], x + q[1]))
+                for i, j, y, x, q in across():
+                    if q != off:
+                        e += ref_cost(img, (i + off[0], j + off[1]), (i + q[0], j + q[1]))
+                        e += ref_cost(img, (y + off[0], x + off[1]), (y + q[0], x + q[1]))
                 return e
 
             best, pick = cost(own, check=False), own
@@ -268,14 +270,9 @@ def ref_shift(S, img, target, labels, patch, radius, passes, adopt=0):
                         best, pick = e, (own[0] + dy, own[1] + dx)
             if len(pix) <= adopt:
                 cands = []
-                for i, j in pix:
-                    for dy, dx in N4:
-                        y, x = i + dy, j + dx
-                        if not (0 <= y < H and 0 <= x < W) or target[y, x] != target[i, j] or patch[y, x] == pid:
-                            continue
-                        q = (S[y, x, 0] - y, S[y, x, 1] - x)
-                        if max(abs(q[0] - own[0]), abs(q[1] - own[1])) > radius and q not in cands and len(cands) < 8:
-                            cands.append(q)
+                for *_, q in across():
+                    if max(abs(q[0] - own[0]), abs(q[1] - own[1])) > radius and q not in cands and len(cands) < 8:
+                        cands.append(q)
                 for q in cands:
                     if (e := cost(q)) < best:
                         best, pick = e, q
