@@ -259,17 +259,6 @@ def _seam_cost(S, img, target):
 
 
 @njit(**JIT)
-def _across(target, patch, pid, i, j, k):
-    """The 4-neighbour ``k`` of (i, j) when it has the same target label and lies outside
-    patch ``pid`` (a seam of that patch), else (-1, -1)."""
-    H, W = target.shape
-    y, x = i + _DY[k], j + _DX[k]
-    if y < 0 or x < 0 or y >= H or x >= W or target[y, x] != target[i, j] or patch[y, x] == pid:
-        return -1, -1
-    return y, x
-
-
-@njit(**JIT)
 def _shift_cost(S, img, target, labels, patch, order, a, b, edge, ea, eb, pid, oy, ox, bound, check):
     """Summed seam cost of patch ``pid`` (its pixels ``order[a:b]``, those with a neighbour
     outside it ``edge[ea:eb]``, flat indices) read at offset (oy, ox) against its same-label
@@ -282,9 +271,9 @@ def _shift_cost(S, img, target, labels, patch, order, a, b, edge, ea, eb, pid, o
     for t in range(ea, eb):
         f = edge[t]
         i, j = f // W, f % W
-        for k in range(4):
-            y, x = _across(target, patch, pid, i, j, k)
-            if y < 0:
+        for k in range(4):  # the neighbour test is written out here and in _shift_pass: a helper returning
+            y, x = i + _DY[k], j + _DX[k]  # the neighbour made the step 4x slower (0.67 -> 2.84 s, 1024x640)
+            if y < 0 or x < 0 or y >= H or x >= W or target[y, x] != target[i, j] or patch[y, x] == pid:
                 continue
             qy, qx = S[y, x, 0] - y, S[y, x, 1] - x
             if qy == oy and qx == ox:
@@ -342,8 +331,8 @@ def _shift_pass(S, img, target, labels, patch, order, starts, edge, estarts, rad
                 f = edge[t]
                 i, j = f // W, f % W
                 for k in range(4):
-                    y, x = _across(target, patch, pid, i, j, k)
-                    if y < 0:
+                    y, x = i + _DY[k], j + _DX[k]
+                    if y < 0 or x < 0 or y >= H or x >= W or target[y, x] != target[i, j] or patch[y, x] == pid:
                         continue
                     qy, qx = S[y, x, 0] - y, S[y, x, 1] - x
                     if max(abs(qy - oy), abs(qx - ox)) <= radius:
