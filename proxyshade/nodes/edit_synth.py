@@ -15,10 +15,10 @@ from __future__ import annotations
 
 from proxyshade.graph.node import Input, Node, Param, Progressive
 from proxyshade.graph.plate import Plate
-from proxyshade.synthesis.params import Correction, FloodFill, PoissonSolve, SynthesisGrid, source_input
+from proxyshade.synthesis.params import EditSynthesis, source_input
 
 
-class EditSynth(FloodFill, Correction, PoissonSolve, SynthesisGrid, Progressive, Node):
+class EditSynth(EditSynthesis, Progressive, Node):
     """The synthesized frame of a detailed guide, updated progressively after edits.
 
     Output at the guide's size: ``R,G,B``, ``label.id``, ``source.x/y``, ``patch.id`` and
@@ -42,8 +42,9 @@ class EditSynth(FloodFill, Correction, PoissonSolve, SynthesisGrid, Progressive,
         if prev is not None:
             region = changed_region(prev.inputs, {"guide": ctx.guide, "source": ctx.source},
                                     {"guide": ("label.id",), "source": ("R", "G", "B", "label.id")}, ctx.p.dilate)
-        out = edit_synthesis(ctx.guide, ctx.source, ctx.p, previous=prev.plate if region is not None else None,
-                             region=region, note=ctx.note, memo=ctx.memo, tiles=ctx.tiles)
+        out = edit_synthesis(ctx.guide, ctx.source, EditSynthesis.of(ctx.p, "seed"),
+                             previous=prev.plate if region is not None else None, region=region, note=ctx.note,
+                             memo=ctx.memo, tiles=ctx.tiles)
         e = out.meta["edit"]
         ctx.note(f"{'whole frame' if e['whole'] else 'progressive'}: {e['pixels']} pixels ({100 * e['share']:.2f}%) "
                  f"synthesized, {e['synthesis_pixels']} synthesis pixels")

@@ -30,8 +30,8 @@ def edit_synthesis(guide: Plate, source: Plate, p, *, previous: Plate | None, re
     """The synthesized frame for the detailed ``guide`` (labels, and depth AOVs passed on):
     without ``previous``, every pixel synthesized (the first frame's steps on the whole
     frame); with it, only ``region``'s pixels (the others keep ``previous``'s colours, map
-    and ids bit for bit). ``p``: the ``FloodFill``, ``Correction`` and ``PoissonSolve``
-    parameters, ``factor``, ``scale``, ``seed``; ``memo``, ``tiles``: as ``resynthesize``'s."""
+    and ids bit for bit). ``p``: ``params.EditSynthesis.of(node_p, "seed")``
+    (or its ``defaults()`` with a ``seed``); ``memo``, ``tiles``: as ``resynthesize``'s."""
     H, W = guide.shape
     geometry = {c: guide[c] for c in GEOMETRY if c in guide}
     if previous is not None:

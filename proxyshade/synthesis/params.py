@@ -31,9 +31,10 @@ class ParamGroup:
         return SimpleNamespace(**{k: getattr(cls, k).default for k in cls.names()})
 
     @classmethod
-    def of(cls, p: Any) -> SimpleNamespace:
-        """This group's parameter values read from ``p`` (a node's ``ctx.p``), as attributes."""
-        return SimpleNamespace(**{k: getattr(p, k) for k in cls.names()})
+    def of(cls, p: Any, *also: str) -> SimpleNamespace:
+        """This group's parameter values read from ``p`` (a node's ``ctx.p``), as attributes,
+        with the node's own parameters named in ``also`` (e.g. its ``seed``)."""
+        return SimpleNamespace(**{k: getattr(p, k) for k in [*cls.names(), *also]})
 
 
 class PatchMetric(ParamGroup):
@@ -135,6 +136,11 @@ class PoissonSolve(ColourFidelity):
     label_dirichlet = Param(bool, True, doc="keep pixels on boundaries between label ids (Γ2) unchanged")
     tol = Param(float, 1e-5, min=1e-12, max=1.0, doc="relative residual at which the solver stops")
     max_iter = Param(int, 100, min=1, doc="most conjugate-gradient iterations")
+
+
+class EditSynthesis(FloodFill, Correction, PoissonSolve, SynthesisGrid):
+    """The first frame's steps run as a restricted resynthesis (``synthesis.edit_colour``):
+    what EditSynth hands the layer, with its ``seed``."""
 
 
 class RestrictedSolve(ParamGroup):
