@@ -307,7 +307,7 @@ def _fill(Q, A, i, j, same, bw, b, q, sep, ly, lx, ld):
     for y in range(0, Ha, step):
         for x in range(0, bw, step):
             if ld[q - 1] == np.inf:
-                _try(Q, A, i, j, same, bw, b, q, sep, y, b * bw + x, ly, lx, ld)
+                _try(Q, A, i, j, same, bw, b, q, sep, cy=y, cx=b * bw + x, ly=ly, lx=lx, ld=ld)
 
 
 @njit(**PJIT)
@@ -328,12 +328,14 @@ def _cand_init(Q, A, bw, nb, q, sep, own_box, seed, init, cy_, cx_, cd_):
                 same = own_box and j // bw == b
                 if init.shape[0] > 0:
                     for t in range(q):
-                        _try(Q, A, i, j, same, bw, b, q, sep, init[i, j, b, t, 0], init[i, j, b, t, 1], ly, lx, ld)
+                        _try(Q, A, i, j, same, bw, b, q, sep, cy=init[i, j, b, t, 0], cx=init[i, j, b, t, 1],
+                             ly=ly, lx=lx, ld=ld)
                 else:
                     for t in range(4 * q + 4):  # random draws in the box
                         r = rand(seed, i * Wq + j, b, t)
-                        _try(Q, A, i, j, same, bw, b, q, sep, (r >> 20) % Ha, b * bw + r % bw, ly, lx, ld)
-                _fill(Q, A, i, j, same, bw, b, q, sep, ly, lx, ld)
+                        _try(Q, A, i, j, same, bw, b, q, sep, cy=(r >> 20) % Ha, cx=b * bw + r % bw,
+                             ly=ly, lx=lx, ld=ld)
+                _fill(Q, A, i, j, same, bw, b, q, sep, ly=ly, lx=lx, ld=ld)
 
 
 @njit(**PJIT)
@@ -370,8 +372,8 @@ def _cand_iter(Q, A, bw, nb, q, sep, own_box, seed, it, step, old, new):
                         continue
                     for t in range(q):
                         if oy[ii, jj, b, t] >= 0:
-                            _try(Q, A, i, j, same, bw, b, q, sep, oy[ii, jj, b, t] - dy, ox[ii, jj, b, t] - dx,
-                                 ly, lx, ld)
+                            _try(Q, A, i, j, same, bw, b, q, sep, cy=oy[ii, jj, b, t] - dy, cx=ox[ii, jj, b, t] - dx,
+                                 ly=ly, lx=lx, ld=ld)
                 if own_box:
                     for t in range(q):
                         cy = oy[i, j, b, t]
@@ -380,7 +382,8 @@ def _cand_iter(Q, A, bw, nb, q, sep, own_box, seed, it, step, old, new):
                             continue
                         for u in range(q):
                             if oy[cy, cx, b, u] >= 0:
-                                _try(Q, A, i, j, same, bw, b, q, sep, oy[cy, cx, b, u], ox[cy, cx, b, u], ly, lx, ld)
+                                _try(Q, A, i, j, same, bw, b, q, sep, cy=oy[cy, cx, b, u], cx=ox[cy, cx, b, u],
+                                     ly=ly, lx=lx, ld=ld)
                 draw = 0
                 for t in range(q):
                     by = ly[t]
@@ -393,9 +396,9 @@ def _cand_iter(Q, A, bw, nb, q, sep, own_box, seed, it, step, old, new):
                         draw += 1
                         cy = by + (r >> 20) % (2 * R + 1) - R
                         cx = bx + r % (2 * R + 1) - R
-                        _try(Q, A, i, j, same, bw, b, q, sep, cy, cx, ly, lx, ld)
+                        _try(Q, A, i, j, same, bw, b, q, sep, cy=cy, cx=cx, ly=ly, lx=lx, ld=ld)
                         R //= 2
-                _fill(Q, A, i, j, same, bw, b, q, sep, ly, lx, ld)  # a displacement may have emptied a slot
+                _fill(Q, A, i, j, same, bw, b, q, sep, ly=ly, lx=lx, ld=ld)  # a displacement may have emptied a slot
 
 
 def candidates(Q: np.ndarray, A: np.ndarray, bw: int, q: int, sep: int, *, own_box: bool, iterations: int,
@@ -414,12 +417,13 @@ def candidates(Q: np.ndarray, A: np.ndarray, bw: int, q: int, sep: int, *, own_b
     cx = np.empty_like(cy)
     cd = np.empty((Hq, Wq, nb, q), np.float64)
     init = np.zeros((0, 0, nb, q, 2), np.int32) if init is None else np.ascontiguousarray(init, np.int32)
-    _cand_init(Q, A, int(bw), nb, int(q), int(sep), bool(own_box), int(seed), init, cy, cx, cd)
+    _cand_init(Q, A, bw=int(bw), nb=nb, q=int(q), sep=int(sep), own_box=bool(own_box), seed=int(seed), init=init,
+               cy_=cy, cx_=cx, cd_=cd)
     ny, nx, nd = np.empty_like(cy), np.empty_like(cx), np.empty_like(cd)
     for it in range(iterations):
         step = min(2 ** max(iterations - 2 - it, 0), max(bw // 4, 1))  # jump flooding: ..., 4, 2, 1, 1
-        _cand_iter(Q, A, int(bw), nb, int(q), int(sep), bool(own_box), int(seed), it + 1, step, (cy, cx, cd),
-                   (ny, nx, nd))
+        _cand_iter(Q, A, bw=int(bw), nb=nb, q=int(q), sep=int(sep), own_box=bool(own_box), seed=int(seed), it=it + 1,
+                   step=step, old=(cy, cx, cd), new=(ny, nx, nd))
         cy, ny = ny, cy
         cx, nx = nx, cx
         cd, nd = nd, cd
@@ -562,8 +566,9 @@ def run_pass(level: tuple, inv_w, S, *, h: int, bw: int, jitter_threshold: float
     inv_w = np.ascontiguousarray(inv_w)
     S_new = S_old.copy()
     for k, (pi, pj) in enumerate(PARITIES):
-        _subpass(level, inv_w, S_old, S_new, pi, pj, int(h), int(bw), float(jitter_threshold), int(seed),
-                 int(salt) * 4 + k, float(coherence))
+        _subpass(level, inv_w, S_old, S_new, pi=pi, pj=pj, h=int(h), bw=int(bw),
+                 jitter_threshold=float(jitter_threshold), seed=int(seed), salt=int(salt) * 4 + k,
+                 coherence=float(coherence))
         S_old[...] = S_new
     return S_old
 

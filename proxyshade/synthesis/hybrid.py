@@ -289,7 +289,8 @@ def analyse(rgb: np.ndarray, bw: int, *, levels: int, descriptor_levels: int, q:
         c, _ = kh.candidates(D, D, bw, q, sep, own_box=True, iterations=iterations if s == 0 else 1,
                              seed=mix_seed(seed, s), init=cands[-1] if cands else None)
         cands.append(np.ascontiguousarray(c))
-    return Analysis(bw, bh, nb, descriptor_levels, q, sep, stacks, means, bases, P, cands, time.perf_counter() - t0)
+    return Analysis(bw=bw, bh=bh, nb=nb, descriptor_levels=descriptor_levels, q=q, sep=sep, stacks=stacks,
+                    means=means, bases=bases, P=P, cands=cands, seconds=time.perf_counter() - t0)
 
 
 def ramp_map(shape: tuple[int, int], order, nb: int, axis: int = 1) -> np.ndarray:

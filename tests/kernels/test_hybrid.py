@@ -295,8 +295,9 @@ def test_subpass_matches_the_written_out_reference(J, weights, coherence):
     for s, h in ((0, 1), (1, 2)):
         for pi, pj in ((0, 0), (1, 0)):
             S_new = S.copy()
-            kh._subpass(an.level(s), per_pixel, S, S_new, pi, pj, h, an.bw, J, 77, 3, coherence)
-            want = reference_subpass(an, s, per_pixel, S, pi, pj, h, J, 77, 3, coherence)
+            kh._subpass(an.level(s), per_pixel, S, S_new, pi=pi, pj=pj, h=h, bw=an.bw, jitter_threshold=J, seed=77,
+                        salt=3, coherence=coherence)
+            want = reference_subpass(an, s, per_pixel, S, pi, pj, h=h, J=J, seed=77, salt=3, coherence=coherence)
             np.testing.assert_allclose(S_new, want)  # float64 sums in the same order: exact
     if J > 0:
         S1 = kh.run_pass(an.level(0), inv_w, S, h=1, bw=an.bw, jitter_threshold=J, seed=1, salt=0)
