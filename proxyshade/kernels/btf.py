@@ -130,14 +130,15 @@ def disk_distance(out, k, T, inp, py, px, cy, cx, dk, bound):
     """eq. 3 at output pixel (py, px) against input pixel (cy, cx): Σ w‖out − in‖² over the
     ``Disk`` ``dk`` (its steps a level's scale), w = k / T; stops once the sum exceeds
     ``bound``."""
-    return _disk_sum(out, k, T, inp, Support(out, inp, k, k, 0.0, False), py, px, cy, cx, dk, bound)
+    return _disk_sum(out, k, T, inp, Support(out, inp, k, k, 0.0, False), py=py, px=px, cy=cy, cx=cx, dk=dk,
+                     bound=bound)
 
 
 @njit(**JIT)
 def pair_distance(out_b, k, T, inp_b, sup, py, px, cy, cx, dk, bound):
     """Other-view distance at (py, px) against input (cy, cx): Σ w‖B′ − B‖² +
     c (1 − w)‖A′ − A‖² over the ``Disk`` ``dk`` (A the ``Support``, B this view)."""
-    return _disk_sum(out_b, k, T, inp_b, sup, py, px, cy, cx, dk, bound)
+    return _disk_sum(out_b, k, T, inp_b, sup, py=py, px=px, cy=cy, cx=cx, dk=dk, bound=bound)
 
 
 @njit(**JIT)
@@ -198,7 +199,7 @@ def synth_level(inp, out, qy, qx, k, T, dk, seed, level, sup, visits):
         px = p % W
         by = qy[py, px]
         bx = qx[py, px]
-        best = _disk_sum(out, k, T, inp, sup, py, px, by, bx, dk, np.inf)
+        best = _disk_sum(out, k, T, inp, sup, py=py, px=px, cy=by, cx=bx, dk=dk, bound=np.inf)
         ncand = 2 * nc + 1 if pair else nc
         for m in range(ncand):
             if m < 2 * nc:  # a neighbour's source shifted back: this view's map, then the support's
@@ -220,7 +221,7 @@ def synth_level(inp, out, qy, qx, k, T, dk, seed, level, sup, visits):
                 continue
             if cy == by and cx == bx:
                 continue
-            d = _disk_sum(out, k, T, inp, sup, py, px, cy, cx, dk, best)
+            d = _disk_sum(out, k, T, inp, sup, py=py, px=px, cy=cy, cx=cx, dk=dk, bound=best)
             if d < best:
                 best = d
                 by = cy
