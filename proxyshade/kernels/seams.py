@@ -259,105 +259,164 @@ def _seam_cost(S, img, target):
 
 
 @njit(**JIT)
-def _shift_cost(S, img, target, labels, patch, order, a, b, edge, ea, eb, pid, oy, ox, bound, check):
-    """Summed seam cost of patch ``pid`` (its pixels ``order[a:b]``, those with a neighbour
-    outside it ``edge[ea:eb]``, flat indices) read at offset (oy, ox) against its same-label
-    neighbours outside it, read at their own offsets; returned as soon as it passes
-    ``bound``; under it, with ``check``, inf when a pixel would read a source pixel off the
-    grid or of another label than its target's."""
-    H, W = target.shape
-    Hs, Ws = labels.shape
+def _shift_cost(img, pi, pj, qi, qj, ps, n, qoff, ok, col, oy, ox, bound):
+    """Summed seam cost of a patch read at offset (oy, ox) against its same-label neighbours
+    outside it: its ``n`` pairs from ``ps`` (inside pixel ``pi, pj``, neighbour ``qi, qj``),
+    each neighbour's offset ``qoff[t]``, whether it reads on the grid at that offset ``ok[t]``
+    (inside pixel, neighbour) and the colours it reads there ``col[t]``; returned as soon as it
+    reaches ``bound`` (terms are never negative: no later pair can bring it back under)."""
+    Hs, Ws, C = img.shape
     e = 0.0
-    for t in range(ea, eb):
-        f = edge[t]
-        i, j = f // W, f % W
-        for k in range(4):  # the neighbour test is written out here and in _shift_pass: a helper returning
-            y, x = i + _DY[k], j + _DX[k]  # the neighbour made the step 4x slower (0.67 -> 2.84 s, 1024x640)
-            if y < 0 or x < 0 or y >= H or x >= W or target[y, x] != target[i, j] or patch[y, x] == pid:
-                continue
-            qy, qx = S[y, x, 0] - y, S[y, x, 1] - x
-            if qy == oy and qx == ox:
-                continue
-            e += _dist2(img, i + oy, j + ox, i + qy, j + qx) + _dist2(img, y + oy, x + ox, y + qy, x + qx)
-        if e > bound:
+    for t in range(n):
+        if qoff[t, 0] == oy and qoff[t, 1] == ox:
+            continue
+        u = ps + t
+        sy, sx = pi[u] + oy, pj[u] + ox
+        if not ok[t, 0] or sy < 0 or sx < 0 or sy >= Hs or sx >= Ws:
+            d1 = OUTSIDE
+        else:
+            d1 = 0.0
+            for c in range(C):
+                r = img[sy, sx, c] - col[t, 0, c]
+                d1 += r * r
+        sy, sx = qi[u] + oy, qj[u] + ox
+        if not ok[t, 1] or sy < 0 or sx < 0 or sy >= Hs or sx >= Ws:
+            d2 = OUTSIDE
+        else:
+            d2 = 0.0
+            for c in range(C):
+                r = img[sy, sx, c] - col[t, 1, c]
+                d2 += r * r
+        e += d1 + d2
+        if e >= bound:
             return e
-    for t in range(a if check else b, b):
+    return e
+
+
+@njit(**JIT)
+def _reads_labels(target, labels, order, a, b, oy, ox):
+    """Whether every pixel ``order[a:b]`` (flat indices) read at offset (oy, ox) reads a
+    source pixel on the grid of its target's label."""
+    W = target.shape[1]
+    Hs, Ws = labels.shape
+    for t in range(a, b):
         f = order[t]
         i, j = f // W, f % W
         sy, sx = i + oy, j + ox
         if sy < 0 or sx < 0 or sy >= Hs or sx >= Ws or labels[sy, sx] != target[i, j]:
-            return np.inf
-    return e
+            return False
+    return True
 
 
-ADOPT_MAX = 8  # most neighbouring patches' offsets a patch tries (``_shift_pass``)
+ADOPT_MAX = 8  # most neighbouring patches' offsets a patch tries (``_shift_passes``)
 
 
 @njit(**JIT)
-def _shift_pass(S, img, target, labels, patch, order, starts, edge, estarts, radius, adopt):
-    """Each patch in turn (ids in order; ``order[starts[p]:starts[p + 1]]`` the flat
-    indices of patch p + 1's pixels) takes, among its offset moved by up to ``radius``
-    pixels each way, the one of least summed seam cost to its neighbours (``_shift_cost``;
-    its own when none is lower; a moved patch reads its labels everywhere, where it is
-    need not), and a patch of at most ``adopt`` pixels also among the offsets of the
-    patches around it (the first ``ADOPT_MAX`` met, farther than ``radius``: joining a
-    neighbour removes their seam); sequential, so any thread count gives one result.
-    Returns the number of patches moved."""
-    H, W = target.shape
-    moved = 0
+def _shift_passes(S, img, target, labels, order, starts, pi, pj, qi, qj, qp, pstarts, radius, adopt, passes):
+    """Up to ``passes`` passes (stopping after one that moves nothing); in each, each patch
+    in turn (ids in order; ``order[starts[p]:starts[p + 1]]`` the flat indices of patch
+    p + 1's pixels, ``pstarts[p]:pstarts[p + 1]`` its pairs with a same-label neighbour in
+    another patch: ``pi, pj`` inside, ``qi, qj`` outside, of patch ``qp``; inside pixels in
+    raster order, neighbours up, left, right, down) takes, among its offset moved by up to
+    ``radius`` pixels each way, the one of least summed seam cost to its neighbours
+    (``_shift_cost``; its own when none is lower; a moved patch reads its labels
+    everywhere, where it is need not), and a patch of at most ``adopt`` pixels also among
+    the offsets of the patches around it (the first ``ADOPT_MAX`` met, farther than
+    ``radius``: joining a neighbour removes their seam); sequential, so any thread count
+    gives one result. A patch that moved nothing when last tried, none of whose neighbours
+    has moved since, is not tried again (it would again move nothing). Returns the number
+    of patch moves."""
+    Hs, Ws, C = img.shape
+    W = target.shape[1]
+    npatch = len(starts) - 1
+    most = 0
+    for p in range(npatch):
+        most = max(most, pstarts[p + 1] - pstarts[p])
+    qoff = np.empty((most, 2), np.int64)
+    ok = np.empty((most, 2), np.bool_)
+    col = np.zeros((most, 2, C), np.float32)
     cand = np.empty((ADOPT_MAX, 2), np.int64)
-    for p in range(len(starts) - 1):
-        a, b = starts[p], starts[p + 1]
-        ea, eb = estarts[p], estarts[p + 1]
-        if b == a:
-            continue
-        pid = p + 1
-        f = order[a]
-        oy, ox = S[f // W, f % W, 0] - f // W, S[f // W, f % W, 1] - f % W
-        best = _shift_cost(S, img, target, labels, patch, order, a, b, edge, ea, eb, pid, oy, ox, np.inf, False)
-        if best == 0.0:
-            continue
-        by, bx = oy, ox
-        for dy in range(-radius, radius + 1):
-            for dx in range(-radius, radius + 1):
-                if dy == 0 and dx == 0:
+    tried = np.full(npatch + 1, -1, np.int64)  # the clock when a patch last moved nothing
+    moved_at = np.zeros(npatch + 1, np.int64)  # the clock when a patch last moved
+    clock = 0
+    moves = 0
+    for _ in range(passes):
+        moved = 0
+        for p in range(npatch):
+            a, b = starts[p], starts[p + 1]
+            if b == a:
+                continue
+            pid = p + 1
+            ps, n = pstarts[p], pstarts[p + 1] - pstarts[p]
+            if tried[pid] >= 0:
+                again = False
+                for t in range(ps, ps + n):
+                    if moved_at[qp[t]] > tried[pid]:
+                        again = True
+                        break
+                if not again:
                     continue
-                e = _shift_cost(S, img, target, labels, patch, order, a, b, edge, ea, eb, pid, oy + dy, ox + dx, best, True)
-                if e < best:
-                    best, by, bx = e, oy + dy, ox + dx
-        if b - a <= adopt:  # then each neighbouring patch's offset (first met, pixels in raster order)
-            seen = 0
-            for t in range(ea, eb):
-                f = edge[t]
-                i, j = f // W, f % W
-                for k in range(4):
-                    y, x = i + _DY[k], j + _DX[k]
-                    if y < 0 or x < 0 or y >= H or x >= W or target[y, x] != target[i, j] or patch[y, x] == pid:
-                        continue
-                    qy, qx = S[y, x, 0] - y, S[y, x, 1] - x
-                    if max(abs(qy - oy), abs(qx - ox)) <= radius:
-                        continue  # among the shifts already
-                    dup = False
+            f = order[a]
+            oy, ox = S[f // W, f % W, 0] - f // W, S[f // W, f % W, 1] - f % W
+            for t in range(n):  # what the neighbours read: the same for every offset tried
+                y, x = qi[ps + t], qj[ps + t]
+                ry, rx = S[y, x, 0] - y, S[y, x, 1] - x
+                qoff[t, 0], qoff[t, 1] = ry, rx
+                sy, sx = pi[ps + t] + ry, pj[ps + t] + rx
+                ok[t, 0] = 0 <= sy < Hs and 0 <= sx < Ws
+                if ok[t, 0]:
+                    for c in range(C):
+                        col[t, 0, c] = img[sy, sx, c]
+                sy, sx = y + ry, x + rx
+                ok[t, 1] = 0 <= sy < Hs and 0 <= sx < Ws
+                if ok[t, 1]:
+                    for c in range(C):
+                        col[t, 1, c] = img[sy, sx, c]
+            best = _shift_cost(img, pi, pj, qi, qj, ps, n, qoff, ok, col, oy, ox, np.inf)
+            by, bx = oy, ox
+            if best > 0.0:
+                for dy in range(-radius, radius + 1):
+                    for dx in range(-radius, radius + 1):
+                        if dy == 0 and dx == 0:
+                            continue
+                        e = _shift_cost(img, pi, pj, qi, qj, ps, n, qoff, ok, col, oy + dy, ox + dx, best)
+                        if e < best and _reads_labels(target, labels, order, a, b, oy + dy, ox + dx):
+                            best, by, bx = e, oy + dy, ox + dx
+                if b - a <= adopt:  # then each neighbouring patch's offset (first met)
+                    seen = 0
+                    for t in range(n):
+                        ry, rx = qoff[t, 0], qoff[t, 1]
+                        if max(abs(ry - oy), abs(rx - ox)) <= radius:
+                            continue  # among the shifts already
+                        dup = False
+                        for u in range(seen):
+                            if cand[u, 0] == ry and cand[u, 1] == rx:
+                                dup = True
+                                break
+                        if dup or seen == ADOPT_MAX:
+                            continue
+                        cand[seen, 0] = ry
+                        cand[seen, 1] = rx
+                        seen += 1
                     for u in range(seen):
-                        if cand[u, 0] == qy and cand[u, 1] == qx:
-                            dup = True
-                            break
-                    if dup or seen == cand.shape[0]:
-                        continue
-                    cand[seen, 0] = qy
-                    cand[seen, 1] = qx
-                    seen += 1
-            for u in range(seen):
-                e = _shift_cost(S, img, target, labels, patch, order, a, b, edge, ea, eb, pid, cand[u, 0], cand[u, 1], best, True)
-                if e < best:
-                    best, by, bx = e, cand[u, 0], cand[u, 1]
-        if by != oy or bx != ox:
-            for t in range(a, b):
-                f = order[t]
-                S[f // W, f % W, 0] = f // W + by
-                S[f // W, f % W, 1] = f % W + bx
-            moved += 1
-    return moved
+                        e = _shift_cost(img, pi, pj, qi, qj, ps, n, qoff, ok, col, cand[u, 0], cand[u, 1], best)
+                        if e < best and _reads_labels(target, labels, order, a, b, cand[u, 0], cand[u, 1]):
+                            best, by, bx = e, cand[u, 0], cand[u, 1]
+            if by != oy or bx != ox:
+                for t in range(a, b):
+                    f = order[t]
+                    S[f // W, f % W, 0] = f // W + by
+                    S[f // W, f % W, 1] = f % W + bx
+                clock += 1
+                moved_at[pid] = clock
+                tried[pid] = -1
+                moved += 1
+            else:
+                tried[pid] = clock
+        moves += moved
+        if moved == 0:
+            break
+    return moves
 
 
 def shift_patches(S: np.ndarray, img: np.ndarray, target: np.ndarray, labels: np.ndarray, patch: np.ndarray,
@@ -369,30 +428,31 @@ def shift_patches(S: np.ndarray, img: np.ndarray, target: np.ndarray, labels: np
     target label: a patch magnified from the synthesis is placed to a whole exemplar pixel
     (``factor`` output pixels); this aligns it with its neighbours at the output's
     resolution. A patch of at most ``adopt`` pixels may also take a neighbouring patch's
-    offset (``_shift_pass``). Each pass lowers the total ``seam_cost``. Patch ids are kept (a patch
+    offset (``_shift_passes``). Each pass lowers the total ``seam_cost``. Patch ids are kept (a patch
     keeps its pixels); stops early when a pass moves nothing. Returns the map and the
     number of patch moves."""
     S = np.ascontiguousarray(S, np.int32).copy()
     img = np.ascontiguousarray(img, np.float32)
     target = np.ascontiguousarray(target, np.int32)
     labels = np.ascontiguousarray(labels, np.int32)
-    patch = np.ascontiguousarray(patch, np.int64)
-    order = np.argsort(patch.ravel(), kind="stable").astype(np.int64)
-    ids = np.arange(1, int(patch.max(initial=0)) + 2)
-    starts = np.searchsorted(patch.ravel()[order], ids).astype(np.int64)
-    # the pixels with a same-label 4-neighbour in another patch: the only ones a shift's cost reads
-    rim = np.zeros(patch.shape, bool)
-    for sa, sb in (((slice(None), slice(1, None)), (slice(None), slice(None, -1))),
-                   ((slice(1, None), slice(None)), (slice(None, -1), slice(None)))):
-        d = (patch[sa] != patch[sb]) & (target[sa] == target[sb])
-        rim[sa] |= d
-        rim[sb] |= d
-    edge = order[rim.ravel()[order]]
-    estarts = np.searchsorted(patch.ravel()[edge], ids).astype(np.int64)
-    moves = 0
-    for _ in range(passes):
-        n = _shift_pass(S, img, target, labels, patch, order, starts, edge, estarts, int(radius), int(adopt))
-        moves += int(n)
-        if n == 0:
-            break
-    return S, moves
+    H, W = target.shape
+    flat = np.ascontiguousarray(patch, np.int64).ravel()
+    order = np.argsort(flat, kind="stable").astype(np.int64)
+    ids = np.arange(1, int(flat.max(initial=0)) + 2)
+    starts = np.searchsorted(flat[order], ids).astype(np.int64)
+    # each pixel's same-label 4-neighbours in another patch (up, left, right, down): the only
+    # pairs a shift's cost reads, listed patch by patch, pixels in raster order
+    pid2, tgt = flat.reshape(H, W), target
+    across = np.zeros((H, W, 4), bool)
+    for k, (sa, sb) in enumerate((((slice(1, None), slice(None)), (slice(None, -1), slice(None))),
+                                  ((slice(None), slice(1, None)), (slice(None), slice(None, -1))))):
+        d = (pid2[sa] != pid2[sb]) & (tgt[sa] == tgt[sb])
+        across[sa + (k,)] = d  # k = 0: up, 1: left
+        across[sb + (3 - k,)] = d  # 3: down, 2: right
+    pos, k = np.nonzero(across.reshape(-1, 4)[order])
+    pf = order[pos]
+    qf = pf + np.array([-W, -1, 1, W], np.int64)[k]
+    pstarts = np.searchsorted(flat[pf], ids).astype(np.int64)
+    moves = _shift_passes(S, img, target, labels, order, starts, pf // W, pf % W, qf // W, qf % W, flat[qf],
+                          pstarts, int(radius), int(adopt), int(passes))
+    return S, int(moves)
