@@ -70,13 +70,21 @@ def _energy(S, img, target, i, j, oy, ox):
 
 
 @njit(**PJIT)
-def _sub_pass(S, img, target, labels, parity):
+def _sub_pass(S, img, target, labels, parity, stamp, tried, lines, clock):
     """One checkerboard half: every pixel of ``parity`` takes its best offset; the number
-    of pixels that changed."""
+    of pixels that changed. ``stamp``: the ``clock`` at which each pixel last changed;
+    ``tried``: at which each pixel was last tried (a pixel none of whose neighbours or
+    itself changed since is not tried again: it would keep its offset again); ``lines``:
+    the same per row and column (``_mark_lines``): a row none of whose pixels or its
+    neighbour rows' changed since it was last tried is not tried again."""
     H, W = target.shape
     Hs, Ws = labels.shape
     changed = np.zeros(H, np.int64)
     for i in prange(H):
+        if lines[2 + parity, i] > lines[0, i] and (i == 0 or lines[2 + parity, i] > lines[0, i - 1]) and (
+                i == H - 1 or lines[2 + parity, i] > lines[0, i + 1]):
+            continue
+        lines[2 + parity, i] = clock
         for j in range((i + parity) % 2, W, 2):
             oy, ox = S[i, j, 0] - i, S[i, j, 1] - j
             seam = False
@@ -88,6 +96,11 @@ def _sub_pass(S, img, target, labels, parity):
                     break
             if not seam:
                 continue
+            if tried[i, j] > stamp[i, j] and (i == 0 or tried[i, j] > stamp[i - 1, j]) and (
+                    j == 0 or tried[i, j] > stamp[i, j - 1]) and (j == W - 1 or tried[i, j] > stamp[i, j + 1]) and (
+                    i == H - 1 or tried[i, j] > stamp[i + 1, j]):
+                continue
+            tried[i, j] = clock
             best = _energy(S, img, target, i, j, oy, ox)
             by, bx = oy, ox
             for k in range(4):
@@ -106,14 +119,34 @@ def _sub_pass(S, img, target, labels, parity):
             if by != oy or bx != ox:
                 S[i, j, 0] = i + by
                 S[i, j, 1] = j + bx
+                stamp[i, j] = clock
                 changed[i] += 1
+    _mark_lines(stamp, lines, changed, False, clock)
     return changed.sum()
 
 
 @njit(**JIT)
-def _run_at(S, img, target, labels, i, j, k, rc, rv, lo_end, hi_end):
+def _mark_lines(stamp, lines, moved, vertical, clock):
+    """After a pass over the rows (columns with ``vertical``) that changed pixels at
+    ``clock`` (``moved``: how many per line): ``lines[0]`` (each row's last change) and
+    ``lines[1]`` (each column's) updated."""
+    H, W = stamp.shape
+    for t in range(len(moved)):
+        if moved[t] == 0:
+            continue
+        lines[int(vertical), t] = clock
+        for u in range(H if vertical else W):
+            i, j = (u, t) if vertical else (t, u)
+            if stamp[i, j] == clock:
+                lines[1 - int(vertical), u] = clock
+
+
+@njit(**JIT)
+def _run_at(S, img, target, labels, i, j, k, rc, rv, lo_end, hi_end, stamp, tried, clock):
     """The run move of the seam run that starts at (i, j) across direction ``k`` (see
-    ``_run_pass``), if (i, j) starts one; the number of pixels moved."""
+    ``_run_pass``), if (i, j) starts one; the number of pixels moved. Not tried again
+    (``tried[i, j, k]``, the ``clock`` when it last was) where no pixel the run reads (its
+    pixels, those before and after it and those on either side) changed since (``stamp``)."""
     H, W = target.shape
     Hs, Ws = labels.shape
     y, x = i + _DY[k], j + _DX[k]
@@ -132,6 +165,32 @@ def _run_at(S, img, target, labels, i, j, k, rc, rv, lo_end, hi_end):
             and S[u + _DY[k], v + _DX[k], 0] - u - _DY[k] == by \
             and S[u + _DY[k], v + _DX[k], 1] - v - _DX[k] == bx:
         return 0
+    ev = tried[i, j, k]
+    if ev > 0:  # the run as it is now; does anything it reads carry a later stamp?
+        again = False
+        n = -1
+        while not again:
+            u, v = i + n * ey, j + n * ex
+            if u >= 0 and v >= 0 and u < H and v < W:
+                again = stamp[u, v] >= ev
+                for kk in (k, kb):
+                    uy, vx = u + _DY[kk], v + _DX[kk]
+                    if uy >= 0 and vx >= 0 and uy < H and vx < W and stamp[uy, vx] >= ev:
+                        again = True
+            if n < 0:
+                n = 0
+                continue
+            uy, vx = u + _DY[k], v + _DX[k]
+            if u >= H or v >= W or uy < 0 or vx < 0 or uy >= H or vx >= W:
+                break
+            if (target[u, v] != target[i, j] or target[uy, vx] != target[i, j]
+                    or S[u, v, 0] - u != ay or S[u, v, 1] - v != ax
+                    or S[uy, vx, 0] - uy != by or S[uy, vx, 1] - vx != bx):
+                break
+            n += 1
+        if not again:
+            return 0
+    tried[i, j, k] = clock
     n = 0
     while True:
         u, v = i + n * ey, j + n * ex
@@ -176,11 +235,12 @@ def _run_at(S, img, target, labels, i, j, k, rc, rv, lo_end, hi_end):
         u, v = i + t * ey, j + t * ex
         S[u, v, 0] = u + by
         S[u, v, 1] = v + bx
+        stamp[u, v] = clock
     return hi - lo + 1
 
 
 @njit(**PJIT)
-def _run_pass(S, img, target, labels, vertical, parity):
+def _run_pass(S, img, target, labels, vertical, parity, stamp, tried, lines, clock):
     """Run moves on the rows (``vertical`` false: seams between a row and the rows above
     and below, runs along the row) or columns of ``parity``. A run: the pixels ``r_0 ..
     r_{n-1}`` along a seam (each the next one's neighbour) that read one offset ``a``
@@ -193,12 +253,19 @@ def _run_pass(S, img, target, labels, vertical, parity):
     pixel, which one-pixel moves cannot do (each adds two pairs along the seam). Lines in
     order along them, directions in order (up, down; left, right); a line changes only
     itself and reads its neighbours, of the other parity: any thread count gives one
-    result. Returns the number of pixels moved."""
+    result. Returns the number of pixels moved. ``stamp``, ``tried``, ``clock``: as
+    ``_run_at``; ``lines``: as ``_sub_pass`` (a line none of whose pixels or its neighbour
+    lines' changed since it was last tried is not tried again)."""
     H, W = target.shape
     nl, L = (W, H) if vertical else (H, W)
     moved = np.zeros(nl, np.int64)
+    ls, lt = (1, 5) if vertical else (0, 4)
     for li in prange((nl - parity + 1) // 2):
         line = 2 * li + parity
+        if lines[lt, line] > lines[ls, line] and (line == 0 or lines[lt, line] > lines[ls, line - 1]) and (
+                line == nl - 1 or lines[lt, line] > lines[ls, line + 1]):
+            continue
+        lines[lt, line] = clock
         rc = np.empty(L, np.float64)
         rv = np.empty(L, np.bool_)
         lo_end = np.empty(L, np.float64)
@@ -211,29 +278,80 @@ def _run_pass(S, img, target, labels, vertical, parity):
                 if y < 0 or x < 0 or y >= H or x >= W or (S[y, x, 0] - y == S[i, j, 0] - i
                                                           and S[y, x, 1] - x == S[i, j, 1] - j):
                     continue
-                moved[line] += _run_at(S, img, target, labels, i, j, k, rc, rv, lo_end, hi_end)
+                moved[line] += _run_at(S, img, target, labels, i, j, k, rc, rv, lo_end, hi_end, stamp, tried, clock)
+    _mark_lines(stamp, lines, moved, vertical, clock)
     return moved.sum()
 
 
+class SeamMemory:
+    """What ``refine_seams`` keeps between its calls on one map (the colours, targets and
+    labels the same arrays): when each pixel last changed and when each was last tried, so
+    that a later call tries again only what a change since can move; the result is the same
+    as without it. The map a call returns is kept (not copied): change it only through a
+    copy (``shift_patches`` copies) before giving it back."""
+
+    def __init__(self):
+        self.S = None
+
+    def start(self, S: np.ndarray, args: tuple) -> None:
+        """Ready for a call on ``S`` with ``args`` (img, target, labels): the pixels that
+        differ from the map the last call returned marked as changed; everything marked
+        untried on the first call or other arrays."""
+        H, W = S.shape[:2]
+        if self.S is None or self.S.shape != S.shape or any(x is not y for x, y in zip(args, self.args)):
+            self.args = args
+            self.stamp = np.zeros((H, W), np.uint8)  # the clock at which each pixel last changed
+            self.tried = np.zeros((H, W), np.uint8)  # ... was last tried by a one-pixel move
+            self.tried_run = np.zeros((H, W, 4), np.uint8)  # ... was last tried as a run's start, per direction
+            # per row and column: last change (rows, columns), last tried by one-pixel moves
+            # (rows, parity 0 and 1), by run moves (rows, columns)
+            self.lines = np.zeros((6, max(H, W)), np.uint8)
+            self.clock = 0
+        else:
+            diff = (S != self.S).any(-1)
+            c = self.tick()
+            self.stamp[diff] = c
+            self.lines[0, :H][diff.any(1)] = c
+            self.lines[1, :W][diff.any(0)] = c
+
+    def tick(self) -> int:
+        """The next clock value (all marks cleared when the 8-bit clock would wrap)."""
+        self.clock += 1
+        if self.clock == 256:
+            self.stamp[:] = 0
+            self.tried[:] = 0
+            self.tried_run[:] = 0
+            self.lines[:] = 0
+            self.clock = 1
+        return self.clock
+
+
 def refine_seams(S: np.ndarray, img: np.ndarray, target: np.ndarray, labels: np.ndarray,
-                 passes: int, runs: bool = False) -> tuple[np.ndarray, int]:
+                 passes: int, runs: bool = False, memory: SeamMemory | None = None) -> tuple[np.ndarray, int]:
     """``S`` (copied) after ``passes`` passes of seam moves (each two checkerboard halves
     of one-pixel moves, then, with ``runs``, run moves on even and odd rows, then columns:
     ``_run_pass``),
-    stopping early when a pass changes nothing; and the number of pixel moves made."""
+    stopping early when a pass changes nothing; and the number of pixel moves made. A pixel
+    or run whose neighbourhood has not changed since it was last tried is not tried again;
+    ``memory`` carries that over calls on one map (the same result, less work)."""
     S = np.ascontiguousarray(S, np.int32).copy()
     img = np.ascontiguousarray(img, np.float32)
     target = np.ascontiguousarray(target, np.int32)
     labels = np.ascontiguousarray(labels, np.int32)
+    m = memory if memory is not None else SeamMemory()
+    m.start(S, (img, target, labels))
     moves = 0
     for _ in range(passes):
-        n = _sub_pass(S, img, target, labels, 0) + _sub_pass(S, img, target, labels, 1)
+        n = (_sub_pass(S, img, target, labels, 0, m.stamp, m.tried, m.lines, m.tick())
+             + _sub_pass(S, img, target, labels, 1, m.stamp, m.tried, m.lines, m.tick()))
         if runs:
             for vertical in (False, True):
-                n += _run_pass(S, img, target, labels, vertical, 0) + _run_pass(S, img, target, labels, vertical, 1)
+                for parity in (0, 1):
+                    n += _run_pass(S, img, target, labels, vertical, parity, m.stamp, m.tried_run, m.lines, m.tick())
         moves += int(n)
         if n == 0:
             break
+    m.S = S
     return S, moves
 
 
@@ -312,12 +430,9 @@ ADOPT_MAX = 8  # most neighbouring patches' offsets a patch tries (``_shift_pass
 
 
 @njit(**JIT)
-def _shift_passes(S, img, target, labels, order, starts, pi, pj, qi, qj, qp, pstarts, radius, adopt, passes):
+def _shift_passes(S, img, target, labels, patch, radius, adopt, passes):
     """Up to ``passes`` passes (stopping after one that moves nothing); in each, each patch
-    in turn (ids in order; ``order[starts[p]:starts[p + 1]]`` the flat indices of patch
-    p + 1's pixels, ``pstarts[p]:pstarts[p + 1]`` its pairs with a same-label neighbour in
-    another patch: ``pi, pj`` inside, ``qi, qj`` outside, of patch ``qp``; inside pixels in
-    raster order, neighbours up, left, right, down) takes, among its offset moved by up to
+    in turn (ids in order) takes, among its offset moved by up to
     ``radius`` pixels each way, the one of least summed seam cost to its neighbours
     (``_shift_cost``; its own when none is lower; a moved patch reads its labels
     everywhere, where it is need not), and a patch of at most ``adopt`` pixels also among
@@ -327,8 +442,47 @@ def _shift_passes(S, img, target, labels, order, starts, pi, pj, qi, qj, qp, pst
     has moved since, is not tried again (it would again move nothing). Returns the number
     of patch moves."""
     Hs, Ws, C = img.shape
-    W = target.shape[1]
-    npatch = len(starts) - 1
+    H, W = target.shape
+    # order[starts[p]:starts[p + 1]]: the flat indices of patch p + 1's pixels, in raster order
+    npatch = 0
+    for i in range(H):
+        for j in range(W):
+            npatch = max(npatch, patch[i, j])
+    starts = np.zeros(npatch + 1, np.int64)
+    for i in range(H):
+        for j in range(W):
+            if patch[i, j] > 0:
+                starts[patch[i, j]] += 1
+    for p in range(npatch):
+        starts[p + 1] += starts[p]
+    order = np.empty(starts[npatch], np.int64)
+    fill = starts[:npatch].copy()
+    for i in range(H):
+        for j in range(W):
+            if patch[i, j] > 0:
+                order[fill[patch[i, j] - 1]] = i * W + j
+                fill[patch[i, j] - 1] += 1
+    # pstarts[p]:pstarts[p + 1]: patch p + 1's pairs with a same-label 4-neighbour in another
+    # patch (the only pixels a shift's cost reads): inside (pi, pj), outside (qi, qj) of patch
+    # qp; inside pixels in raster order, neighbours up, left, right, down
+    pstarts = np.zeros(npatch + 1, np.int64)
+    pi = pj = qi = qj = qp = np.empty(0, np.int64)
+    for r in range(2):  # count, then fill
+        t = 0
+        for p in range(npatch):
+            for u in range(starts[p], starts[p + 1]):
+                i, j = order[u] // W, order[u] % W
+                for k in range(4):
+                    y, x = i + _DY[k], j + _DX[k]
+                    if y < 0 or x < 0 or y >= H or x >= W or target[y, x] != target[i, j] or patch[y, x] == p + 1:
+                        continue
+                    if r == 1:
+                        pi[t], pj[t], qi[t], qj[t], qp[t] = i, j, y, x, patch[y, x]
+                    t += 1
+            pstarts[p + 1] = t
+        if r == 0:
+            pi, pj, qi, qj, qp = (np.empty(t, np.int64), np.empty(t, np.int64), np.empty(t, np.int64),
+                                  np.empty(t, np.int64), np.empty(t, np.int64))
     most = 0
     for p in range(npatch):
         most = max(most, pstarts[p + 1] - pstarts[p])
@@ -435,24 +589,6 @@ def shift_patches(S: np.ndarray, img: np.ndarray, target: np.ndarray, labels: np
     img = np.ascontiguousarray(img, np.float32)
     target = np.ascontiguousarray(target, np.int32)
     labels = np.ascontiguousarray(labels, np.int32)
-    H, W = target.shape
-    flat = np.ascontiguousarray(patch, np.int64).ravel()
-    order = np.argsort(flat, kind="stable").astype(np.int64)
-    ids = np.arange(1, int(flat.max(initial=0)) + 2)
-    starts = np.searchsorted(flat[order], ids).astype(np.int64)
-    # each pixel's same-label 4-neighbours in another patch (up, left, right, down): the only
-    # pairs a shift's cost reads, listed patch by patch, pixels in raster order
-    pid2, tgt = flat.reshape(H, W), target
-    across = np.zeros((H, W, 4), bool)
-    for k, (sa, sb) in enumerate((((slice(1, None), slice(None)), (slice(None, -1), slice(None))),
-                                  ((slice(None), slice(1, None)), (slice(None), slice(None, -1))))):
-        d = (pid2[sa] != pid2[sb]) & (tgt[sa] == tgt[sb])
-        across[sa + (k,)] = d  # k = 0: up, 1: left
-        across[sb + (3 - k,)] = d  # 3: down, 2: right
-    pos, k = np.nonzero(across.reshape(-1, 4)[order])
-    pf = order[pos]
-    qf = pf + np.array([-W, -1, 1, W], np.int64)[k]
-    pstarts = np.searchsorted(flat[pf], ids).astype(np.int64)
-    moves = _shift_passes(S, img, target, labels, order, starts, pf // W, pf % W, qf // W, qf % W, flat[qf],
-                          pstarts, int(radius), int(adopt), int(passes))
+    moves = _shift_passes(S, img, target, labels, np.ascontiguousarray(patch, np.int64), int(radius), int(adopt),
+                          int(passes))
     return S, int(moves)
