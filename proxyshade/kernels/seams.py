@@ -70,16 +70,17 @@ def _energy(S, img, target, i, j, oy, ox):
 
 
 @njit(**PJIT)
-def _sub_pass(S, img, target, labels, parity, stamp, tried, lines, clock):
+def _sub_pass(S, img, target, labels, parity, stamp, tried, lines, clock, changed):
     """One checkerboard half: every pixel of ``parity`` takes its best offset; the number
     of pixels that changed. ``stamp``: the ``clock`` at which each pixel last changed;
     ``tried``: at which each pixel was last tried (a pixel none of whose neighbours or
     itself changed since is not tried again: it would keep its offset again); ``lines``:
-    the same per row and column (``_mark_lines``): a row none of whose pixels or its
-    neighbour rows' changed since it was last tried is not tried again."""
+    the same per row and column (``SeamMemory``): a row none of whose pixels or its
+    neighbour rows' changed since it was last tried is not tried again. ``changed``: set to
+    the number of pixels changed per row."""
     H, W = target.shape
     Hs, Ws = labels.shape
-    changed = np.zeros(H, np.int64)
+    changed[:] = 0
     for i in prange(H):
         if lines[2 + parity, i] > lines[0, i] and (i == 0 or lines[2 + parity, i] > lines[0, i - 1]) and (
                 i == H - 1 or lines[2 + parity, i] > lines[0, i + 1]):
@@ -121,24 +122,7 @@ def _sub_pass(S, img, target, labels, parity, stamp, tried, lines, clock):
                 S[i, j, 1] = j + bx
                 stamp[i, j] = clock
                 changed[i] += 1
-    _mark_lines(stamp, lines, changed, False, clock)
     return changed.sum()
-
-
-@njit(**JIT)
-def _mark_lines(stamp, lines, moved, vertical, clock):
-    """After a pass over the rows (columns with ``vertical``) that changed pixels at
-    ``clock`` (``moved``: how many per line): ``lines[0]`` (each row's last change) and
-    ``lines[1]`` (each column's) updated."""
-    H, W = stamp.shape
-    for t in range(len(moved)):
-        if moved[t] == 0:
-            continue
-        lines[int(vertical), t] = clock
-        for u in range(H if vertical else W):
-            i, j = (u, t) if vertical else (t, u)
-            if stamp[i, j] == clock:
-                lines[1 - int(vertical), u] = clock
 
 
 @njit(**JIT)
@@ -240,7 +224,7 @@ def _run_at(S, img, target, labels, i, j, k, rc, rv, lo_end, hi_end, stamp, trie
 
 
 @njit(**PJIT)
-def _run_pass(S, img, target, labels, vertical, parity, stamp, tried, lines, clock):
+def _run_pass(S, img, target, labels, vertical, parity, stamp, tried, lines, clock, moved):
     """Run moves on the rows (``vertical`` false: seams between a row and the rows above
     and below, runs along the row) or columns of ``parity``. A run: the pixels ``r_0 ..
     r_{n-1}`` along a seam (each the next one's neighbour) that read one offset ``a``
@@ -255,10 +239,11 @@ def _run_pass(S, img, target, labels, vertical, parity, stamp, tried, lines, clo
     itself and reads its neighbours, of the other parity: any thread count gives one
     result. Returns the number of pixels moved. ``stamp``, ``tried``, ``clock``: as
     ``_run_at``; ``lines``: as ``_sub_pass`` (a line none of whose pixels or its neighbour
-    lines' changed since it was last tried is not tried again)."""
+    lines' changed since it was last tried is not tried again); ``moved``: set to the number
+    of pixels moved per line."""
     H, W = target.shape
     nl, L = (W, H) if vertical else (H, W)
-    moved = np.zeros(nl, np.int64)
+    moved[:] = 0
     ls, lt = (1, 5) if vertical else (0, 4)
     for li in prange((nl - parity + 1) // 2):
         line = 2 * li + parity
@@ -279,7 +264,6 @@ def _run_pass(S, img, target, labels, vertical, parity, stamp, tried, lines, clo
                                                           and S[y, x, 1] - x == S[i, j, 1] - j):
                     continue
                 moved[line] += _run_at(S, img, target, labels, i, j, k, rc, rv, lo_end, hi_end, stamp, tried, clock)
-    _mark_lines(stamp, lines, moved, vertical, clock)
     return moved.sum()
 
 
@@ -314,6 +298,17 @@ class SeamMemory:
             self.lines[0, :H][diff.any(1)] = c
             self.lines[1, :W][diff.any(0)] = c
 
+    def mark(self, per_line: np.ndarray, vertical: bool) -> None:
+        """After a pass over the rows (columns with ``vertical``) that changed ``per_line``
+        pixels of each at the clock: the last change of each row and column (``lines[0]``,
+        ``lines[1]``) updated."""
+        t = np.flatnonzero(per_line)
+        if t.size:
+            v = int(vertical)
+            self.lines[v, t] = self.clock
+            hit = (self.stamp[:, t] if vertical else self.stamp[t]) == self.clock
+            self.lines[1 - v, np.flatnonzero(hit.any(axis=v))] = self.clock
+
     def tick(self) -> int:
         """The next clock value (all marks cleared when the 8-bit clock would wrap)."""
         self.clock += 1
@@ -341,13 +336,18 @@ def refine_seams(S: np.ndarray, img: np.ndarray, target: np.ndarray, labels: np.
     m = memory if memory is not None else SeamMemory()
     m.start(S, (img, target, labels))
     moves = 0
+    rows, cols = np.zeros(S.shape[0], np.int64), np.zeros(S.shape[1], np.int64)  # changes per line
     for _ in range(passes):
-        n = (_sub_pass(S, img, target, labels, 0, m.stamp, m.tried, m.lines, m.tick())
-             + _sub_pass(S, img, target, labels, 1, m.stamp, m.tried, m.lines, m.tick()))
+        n = 0
+        for parity in (0, 1):
+            n += _sub_pass(S, img, target, labels, parity, m.stamp, m.tried, m.lines, m.tick(), rows)
+            m.mark(rows, False)
         if runs:
             for vertical in (False, True):
                 for parity in (0, 1):
-                    n += _run_pass(S, img, target, labels, vertical, parity, m.stamp, m.tried_run, m.lines, m.tick())
+                    n += _run_pass(S, img, target, labels, vertical, parity, m.stamp, m.tried_run, m.lines, m.tick(),
+                                   cols if vertical else rows)
+                    m.mark(cols if vertical else rows, vertical)
         moves += int(n)
         if n == 0:
             break
@@ -376,56 +376,6 @@ def _seam_cost(S, img, target):
 # whole patches shifted by a few output pixels
 
 
-@njit(**JIT)
-def _shift_cost(img, pi, pj, qi, qj, ps, n, qoff, ok, col, oy, ox, bound):
-    """Summed seam cost of a patch read at offset (oy, ox) against its same-label neighbours
-    outside it: its ``n`` pairs from ``ps`` (inside pixel ``pi, pj``, neighbour ``qi, qj``),
-    each neighbour's offset ``qoff[t]``, whether it reads on the grid at that offset ``ok[t]``
-    (inside pixel, neighbour) and the colours it reads there ``col[t]``; returned as soon as it
-    reaches ``bound`` (terms are never negative: no later pair can bring it back under)."""
-    Hs, Ws, C = img.shape
-    e = 0.0
-    for t in range(n):
-        if qoff[t, 0] == oy and qoff[t, 1] == ox:
-            continue
-        u = ps + t
-        sy, sx = pi[u] + oy, pj[u] + ox
-        if not ok[t, 0] or sy < 0 or sx < 0 or sy >= Hs or sx >= Ws:
-            d1 = OUTSIDE
-        else:
-            d1 = 0.0
-            for c in range(C):
-                r = img[sy, sx, c] - col[t, 0, c]
-                d1 += r * r
-        sy, sx = qi[u] + oy, qj[u] + ox
-        if not ok[t, 1] or sy < 0 or sx < 0 or sy >= Hs or sx >= Ws:
-            d2 = OUTSIDE
-        else:
-            d2 = 0.0
-            for c in range(C):
-                r = img[sy, sx, c] - col[t, 1, c]
-                d2 += r * r
-        e += d1 + d2
-        if e >= bound:
-            return e
-    return e
-
-
-@njit(**JIT)
-def _reads_labels(target, labels, order, a, b, oy, ox):
-    """Whether every pixel ``order[a:b]`` (flat indices) read at offset (oy, ox) reads a
-    source pixel on the grid of its target's label."""
-    W = target.shape[1]
-    Hs, Ws = labels.shape
-    for t in range(a, b):
-        f = order[t]
-        i, j = f // W, f % W
-        sy, sx = i + oy, j + ox
-        if sy < 0 or sx < 0 or sy >= Hs or sx >= Ws or labels[sy, sx] != target[i, j]:
-            return False
-    return True
-
-
 ADOPT_MAX = 8  # most neighbouring patches' offsets a patch tries (``_shift_passes``)
 
 
@@ -434,7 +384,7 @@ def _shift_passes(S, img, target, labels, patch, radius, adopt, passes):
     """Up to ``passes`` passes (stopping after one that moves nothing); in each, each patch
     in turn (ids in order) takes, among its offset moved by up to
     ``radius`` pixels each way, the one of least summed seam cost to its neighbours
-    (``_shift_cost``; its own when none is lower; a moved patch reads its labels
+    (its own when none is lower; a moved patch reads its labels
     everywhere, where it is need not), and a patch of at most ``adopt`` pixels also among
     the offsets of the patches around it (the first ``ADOPT_MAX`` met, farther than
     ``radius``: joining a neighbour removes their seam); sequential, so any thread count
@@ -463,10 +413,10 @@ def _shift_passes(S, img, target, labels, patch, radius, adopt, passes):
                 order[fill[patch[i, j] - 1]] = i * W + j
                 fill[patch[i, j] - 1] += 1
     # pstarts[p]:pstarts[p + 1]: patch p + 1's pairs with a same-label 4-neighbour in another
-    # patch (the only pixels a shift's cost reads): inside (pi, pj), outside (qi, qj) of patch
-    # qp; inside pixels in raster order, neighbours up, left, right, down
+    # patch (the only pixels a shift's cost reads): pr[t] = inside (row, column), outside
+    # (row, column), its patch; inside pixels in raster order, neighbours up, left, right, down
     pstarts = np.zeros(npatch + 1, np.int64)
-    pi = pj = qi = qj = qp = np.empty(0, np.int64)
+    pr = np.empty((0, 5), np.int64)
     for r in range(2):  # count, then fill
         t = 0
         for p in range(npatch):
@@ -477,19 +427,18 @@ def _shift_passes(S, img, target, labels, patch, radius, adopt, passes):
                     if y < 0 or x < 0 or y >= H or x >= W or target[y, x] != target[i, j] or patch[y, x] == p + 1:
                         continue
                     if r == 1:
-                        pi[t], pj[t], qi[t], qj[t], qp[t] = i, j, y, x, patch[y, x]
+                        pr[t, 0], pr[t, 1], pr[t, 2], pr[t, 3], pr[t, 4] = i, j, y, x, patch[y, x]
                     t += 1
             pstarts[p + 1] = t
         if r == 0:
-            pi, pj, qi, qj, qp = (np.empty(t, np.int64), np.empty(t, np.int64), np.empty(t, np.int64),
-                                  np.empty(t, np.int64), np.empty(t, np.int64))
+            pr = np.empty((t, 5), np.int64)
     most = 0
     for p in range(npatch):
         most = max(most, pstarts[p + 1] - pstarts[p])
     qoff = np.empty((most, 2), np.int64)
     ok = np.empty((most, 2), np.bool_)
     col = np.zeros((most, 2, C), np.float32)
-    cand = np.empty((ADOPT_MAX, 2), np.int64)
+    cand = np.empty(((2 * radius + 1) ** 2 + ADOPT_MAX, 2), np.int64)
     tried = np.full(npatch + 1, -1, np.int64)  # the clock when a patch last moved nothing
     moved_at = np.zeros(npatch + 1, np.int64)  # the clock when a patch last moved
     clock = 0
@@ -505,7 +454,7 @@ def _shift_passes(S, img, target, labels, patch, radius, adopt, passes):
             if tried[pid] >= 0:
                 again = False
                 for t in range(ps, ps + n):
-                    if moved_at[qp[t]] > tried[pid]:
+                    if moved_at[pr[t, 4]] > tried[pid]:
                         again = True
                         break
                 if not again:
@@ -513,10 +462,10 @@ def _shift_passes(S, img, target, labels, patch, radius, adopt, passes):
             f = order[a]
             oy, ox = S[f // W, f % W, 0] - f // W, S[f // W, f % W, 1] - f % W
             for t in range(n):  # what the neighbours read: the same for every offset tried
-                y, x = qi[ps + t], qj[ps + t]
+                y, x = pr[ps + t, 2], pr[ps + t, 3]
                 ry, rx = S[y, x, 0] - y, S[y, x, 1] - x
                 qoff[t, 0], qoff[t, 1] = ry, rx
-                sy, sx = pi[ps + t] + ry, pj[ps + t] + rx
+                sy, sx = pr[ps + t, 0] + ry, pr[ps + t, 1] + rx
                 ok[t, 0] = 0 <= sy < Hs and 0 <= sx < Ws
                 if ok[t, 0]:
                     for c in range(C):
@@ -526,36 +475,70 @@ def _shift_passes(S, img, target, labels, patch, radius, adopt, passes):
                 if ok[t, 1]:
                     for c in range(C):
                         col[t, 1, c] = img[sy, sx, c]
-            best = _shift_cost(img, pi, pj, qi, qj, ps, n, qoff, ok, col, oy, ox, np.inf)
+            # the offsets tried, in order: its own, moved by up to radius each way (rows, then
+            # columns, ascending), then for a small patch its neighbours' (first met, farther)
+            ncand = 0
+            for dy in range(-radius, radius + 1):
+                for dx in range(-radius, radius + 1):
+                    if dy != 0 or dx != 0:
+                        ncand += 1
+                        cand[ncand, 0], cand[ncand, 1] = oy + dy, ox + dx
+            cand[0, 0], cand[0, 1] = oy, ox
+            if b - a <= adopt:
+                seen = 0
+                for t in range(n):
+                    ry, rx = qoff[t, 0], qoff[t, 1]
+                    if max(abs(ry - oy), abs(rx - ox)) <= radius:
+                        continue  # among the shifts already
+                    dup = False
+                    for u in range(ncand + 1 - seen, ncand + 1):
+                        if cand[u, 0] == ry and cand[u, 1] == rx:
+                            dup = True
+                            break
+                    if dup or seen == ADOPT_MAX:
+                        continue
+                    ncand += 1
+                    cand[ncand, 0], cand[ncand, 1] = ry, rx
+                    seen += 1
+            # each one's summed seam cost to the neighbours, cut short once it reaches the best
+            # (terms are never negative); one lower than the best is taken where every pixel of
+            # the patch then reads a source pixel of its target's label (its own offset need not)
+            best = np.inf
             by, bx = oy, ox
-            if best > 0.0:
-                for dy in range(-radius, radius + 1):
-                    for dx in range(-radius, radius + 1):
-                        if dy == 0 and dx == 0:
-                            continue
-                        e = _shift_cost(img, pi, pj, qi, qj, ps, n, qoff, ok, col, oy + dy, ox + dx, best)
-                        if e < best and _reads_labels(target, labels, order, a, b, oy + dy, ox + dx):
-                            best, by, bx = e, oy + dy, ox + dx
-                if b - a <= adopt:  # then each neighbouring patch's offset (first met)
-                    seen = 0
-                    for t in range(n):
-                        ry, rx = qoff[t, 0], qoff[t, 1]
-                        if max(abs(ry - oy), abs(rx - ox)) <= radius:
-                            continue  # among the shifts already
-                        dup = False
-                        for u in range(seen):
-                            if cand[u, 0] == ry and cand[u, 1] == rx:
-                                dup = True
-                                break
-                        if dup or seen == ADOPT_MAX:
-                            continue
-                        cand[seen, 0] = ry
-                        cand[seen, 1] = rx
-                        seen += 1
-                    for u in range(seen):
-                        e = _shift_cost(img, pi, pj, qi, qj, ps, n, qoff, ok, col, cand[u, 0], cand[u, 1], best)
-                        if e < best and _reads_labels(target, labels, order, a, b, cand[u, 0], cand[u, 1]):
-                            best, by, bx = e, cand[u, 0], cand[u, 1]
+            for u in range(ncand + 1):
+                cy, cx = cand[u, 0], cand[u, 1]
+                e = 0.0
+                for t in range(n):
+                    if qoff[t, 0] == cy and qoff[t, 1] == cx:
+                        continue
+                    sy, sx = pr[ps + t, 0] + cy, pr[ps + t, 1] + cx
+                    d1 = OUTSIDE
+                    if ok[t, 0] and 0 <= sy < Hs and 0 <= sx < Ws:
+                        d1 = 0.0
+                        for c in range(C):
+                            r = img[sy, sx, c] - col[t, 0, c]
+                            d1 += r * r
+                    sy, sx = pr[ps + t, 2] + cy, pr[ps + t, 3] + cx
+                    d2 = OUTSIDE
+                    if ok[t, 1] and 0 <= sy < Hs and 0 <= sx < Ws:
+                        d2 = 0.0
+                        for c in range(C):
+                            r = img[sy, sx, c] - col[t, 1, c]
+                            d2 += r * r
+                    e += d1 + d2
+                    if e >= best:
+                        break
+                if e < best and u > 0:
+                    for t in range(a, b):
+                        f = order[t]
+                        sy, sx = f // W + cy, f % W + cx
+                        if sy < 0 or sx < 0 or sy >= Hs or sx >= Ws or labels[sy, sx] != target[f // W, f % W]:
+                            e = np.inf
+                            break
+                if e < best or u == 0:
+                    best, by, bx = e, cy, cx
+                if u == 0 and not best > 0.0:
+                    break
             if by != oy or bx != ox:
                 for t in range(a, b):
                     f = order[t]
