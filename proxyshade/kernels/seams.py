@@ -406,7 +406,7 @@ def _shift_passes(S, img, target, labels, patch, radius, adopt, passes):
     for p in range(npatch):
         starts[p + 1] += starts[p]
     order = np.empty(starts[npatch], np.int64)
-    fill = starts[:npatch].copy()
+    fill = starts[:npatch].copy()  # then each patch's next free place in order, in pr
     for i in range(H):
         for j in range(W):
             if patch[i, j] > 0:
@@ -417,21 +417,24 @@ def _shift_passes(S, img, target, labels, patch, radius, adopt, passes):
     # (row, column), its patch; inside pixels in raster order, neighbours up, left, right, down
     pstarts = np.zeros(npatch + 1, np.int64)
     pr = np.empty((0, 5), np.int64)
-    for r in range(2):  # count, then fill
-        t = 0
-        for p in range(npatch):
-            for u in range(starts[p], starts[p + 1]):
-                i, j = order[u] // W, order[u] % W
+    fill[:] = 0
+    for r in range(2):  # count, then fill (a raster scan each)
+        for i in range(H):
+            for j in range(W):
+                p = patch[i, j]
                 for k in range(4):
                     y, x = i + _DY[k], j + _DX[k]
-                    if y < 0 or x < 0 or y >= H or x >= W or target[y, x] != target[i, j] or patch[y, x] == p + 1:
+                    if p == 0 or y < 0 or x < 0 or y >= H or x >= W or target[y, x] != target[i, j] or patch[y, x] == p:
                         continue
                     if r == 1:
+                        t = fill[p - 1]
                         pr[t, 0], pr[t, 1], pr[t, 2], pr[t, 3], pr[t, 4] = i, j, y, x, patch[y, x]
-                    t += 1
-            pstarts[p + 1] = t
+                    fill[p - 1] += 1
         if r == 0:
-            pr = np.empty((t, 5), np.int64)
+            for p in range(npatch):
+                pstarts[p + 1] = pstarts[p] + fill[p]
+            pr = np.empty((pstarts[npatch], 5), np.int64)
+        fill[:] = pstarts[:npatch]
     most = 0
     for p in range(npatch):
         most = max(most, pstarts[p + 1] - pstarts[p])
