@@ -76,11 +76,10 @@ def _sub_pass(S, img, target, labels, parity, stamp, tried, lines, clock, change
     ``tried``: at which each pixel was last tried (a pixel none of whose neighbours or
     itself changed since is not tried again: it would keep its offset again); ``lines``:
     the same per row and column (``SeamMemory``): a row none of whose pixels or its
-    neighbour rows' changed since it was last tried is not tried again. ``changed``: set to
-    the number of pixels changed per row."""
+    neighbour rows' changed since it was last tried is not tried again. ``changed`` (zeros):
+    the number of pixels changed per row is added."""
     H, W = target.shape
     Hs, Ws = labels.shape
-    changed[:] = 0
     for i in prange(H):
         if lines[2 + parity, i] > lines[0, i] and (i == 0 or lines[2 + parity, i] > lines[0, i - 1]) and (
                 i == H - 1 or lines[2 + parity, i] > lines[0, i + 1]):
@@ -239,11 +238,10 @@ def _run_pass(S, img, target, labels, vertical, parity, stamp, tried, lines, clo
     itself and reads its neighbours, of the other parity: any thread count gives one
     result. Returns the number of pixels moved. ``stamp``, ``tried``, ``clock``: as
     ``_run_at``; ``lines``: as ``_sub_pass`` (a line none of whose pixels or its neighbour
-    lines' changed since it was last tried is not tried again); ``moved``: set to the number
-    of pixels moved per line."""
+    lines' changed since it was last tried is not tried again); ``moved`` (zeros): the number
+    of pixels moved per line is added."""
     H, W = target.shape
     nl, L = (W, H) if vertical else (H, W)
-    moved[:] = 0
     ls, lt = (1, 5) if vertical else (0, 4)
     for li in prange((nl - parity + 1) // 2):
         line = 2 * li + parity
@@ -340,11 +338,13 @@ def refine_seams(S: np.ndarray, img: np.ndarray, target: np.ndarray, labels: np.
     for _ in range(passes):
         n = 0
         for parity in (0, 1):
+            rows[:] = 0
             n += _sub_pass(S, img, target, labels, parity, m.stamp, m.tried, m.lines, m.tick(), rows)
             m.mark(rows, False)
         if runs:
             for vertical in (False, True):
                 for parity in (0, 1):
+                    (cols if vertical else rows)[:] = 0
                     n += _run_pass(S, img, target, labels, vertical, parity, m.stamp, m.tried_run, m.lines, m.tick(),
                                    cols if vertical else rows)
                     m.mark(cols if vertical else rows, vertical)
@@ -406,7 +406,9 @@ def _shift_passes(S, img, target, labels, patch, radius, adopt, passes):
     for p in range(npatch):
         starts[p + 1] += starts[p]
     order = np.empty(starts[npatch], np.int64)
-    fill = starts[:npatch].copy()  # then each patch's next free place in order, in pr
+    fill = np.empty(npatch, np.int64)  # each patch's next free place in order, then in pr
+    for p in range(npatch):
+        fill[p] = starts[p]
     for i in range(H):
         for j in range(W):
             if patch[i, j] > 0:
@@ -417,8 +419,9 @@ def _shift_passes(S, img, target, labels, patch, radius, adopt, passes):
     # (row, column), its patch; inside pixels in raster order, neighbours up, left, right, down
     pstarts = np.zeros(npatch + 1, np.int64)
     pr = np.empty((0, 5), np.int64)
-    fill[:] = 0
     for r in range(2):  # count, then fill (a raster scan each)
+        for p in range(npatch):
+            fill[p] = pstarts[p] if r == 1 else 0
         for i in range(H):
             for j in range(W):
                 p = patch[i, j]
@@ -434,7 +437,6 @@ def _shift_passes(S, img, target, labels, patch, radius, adopt, passes):
             for p in range(npatch):
                 pstarts[p + 1] = pstarts[p] + fill[p]
             pr = np.empty((pstarts[npatch], 5), np.int64)
-        fill[:] = pstarts[:npatch]
     most = 0
     for p in range(npatch):
         most = max(most, pstarts[p + 1] - pstarts[p])
