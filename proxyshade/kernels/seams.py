@@ -12,7 +12,9 @@ label. Checkerboard sub-passes (a pixel's neighbours are all of the other parity
 result does not depend on the number of threads. A straight seam across many rows is a
 local minimum of those one-pixel moves; run moves (``_run_pass``) shift the best part of
 each run of pixels along a seam at once. Pixels of different target labels are not
-neighbours here (a label border is not a patch seam).
+neighbours here (a label border is not a patch seam). A pixel, run or line none of whose
+neighbourhood changed since it was last tried is not tried again (``SeamMemory``, also
+across calls on one map): the result is that of trying everything, with less work.
 
 ``S``: (H, W, 2) int32 map (row, column) into a source grid; ``img``: (Hs, Ws, C) float32
 colours of that grid; ``target``: (H, W) int32 labels the output needs; ``labels``: (Hs, Ws)
@@ -382,15 +384,16 @@ ADOPT_MAX = 8  # most neighbouring patches' offsets a patch tries (``_shift_pass
 @njit(**JIT)
 def _shift_passes(S, img, target, labels, patch, radius, adopt, passes):
     """Up to ``passes`` passes (stopping after one that moves nothing); in each, each patch
-    in turn (ids in order) takes, among its offset moved by up to
-    ``radius`` pixels each way, the one of least summed seam cost to its neighbours
-    (its own when none is lower; a moved patch reads its labels
-    everywhere, where it is need not), and a patch of at most ``adopt`` pixels also among
-    the offsets of the patches around it (the first ``ADOPT_MAX`` met, farther than
-    ``radius``: joining a neighbour removes their seam); sequential, so any thread count
-    gives one result. A patch that moved nothing when last tried, none of whose neighbours
-    has moved since, is not tried again (it would again move nothing). Returns the number
-    of patch moves."""
+    in turn (``patch`` ids in order) takes, among its offset moved by up to ``radius``
+    pixels each way, the one of least summed seam cost to its neighbours (its own when none
+    is lower; a moved patch reads its labels everywhere, where it is need not), and a patch
+    of at most ``adopt`` pixels also among the offsets of the patches around it (the first
+    ``ADOPT_MAX`` met, farther than ``radius``: joining a neighbour removes their seam);
+    sequential, so any thread count gives one result. A patch's pairs across its seams and
+    what its neighbours read are gathered once; an offset's sum stops once it reaches the
+    best so far. A patch that moved nothing when last tried, none of whose neighbours has
+    moved since, is not tried again (it would again move nothing). Returns the number of
+    patch moves."""
     Hs, Ws, C = img.shape
     H, W = target.shape
     # order[starts[p]:starts[p + 1]]: the flat indices of patch p + 1's pixels, in raster order
