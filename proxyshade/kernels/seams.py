@@ -12,7 +12,9 @@ label. Checkerboard sub-passes (a pixel's neighbours are all of the other parity
 result does not depend on the number of threads. A straight seam across many rows is a
 local minimum of those one-pixel moves; run moves (``_run_pass``) shift the best part of
 each run of pixels along a seam at once. Pixels of different target labels are not
-neighbours here (a label border is not a patch seam).
+neighbours here (a label border is not a patch seam). A pixel, run or line none of whose
+neighbourhood changed since it was last tried is not tried again (``SeamMemory``, also
+across calls on one map): the result is that of trying everything, with less work.
 
 ``S``: (H, W, 2) int32 map (row, column) into a source grid; ``img``: (Hs, Ws, C) float32
 colours of that grid; ``target``: (H, W) int32 labels the output needs; ``labels``: (Hs, Ws)
@@ -70,13 +72,21 @@ def _energy(S, img, target, i, j, oy, ox):
 
 
 @njit(**PJIT)
-def _sub_pass(S, img, target, labels, parity):
+def _sub_pass(S, img, target, labels, parity, stamp, tried, lines, clock, changed):
     """One checkerboard half: every pixel of ``parity`` takes its best offset; the number
-    of pixels that changed."""
+    of pixels that changed. ``stamp``: the ``clock`` at which each pixel last changed;
+    ``tried``: at which each pixel was last tried (a pixel none of whose neighbours or
+    itself changed since is not tried again: it would keep its offset again); ``lines``:
+    the same per row and column (``SeamMemory``): a row none of whose pixels or its
+    neighbour rows' changed since it was last tried is not tried again. ``changed`` (zeros):
+    the number of pixels changed per row is added."""
     H, W = target.shape
     Hs, Ws = labels.shape
-    changed = np.zeros(H, np.int64)
     for i in prange(H):
+        if lines[2 + parity, i] > lines[0, i] and (i == 0 or lines[2 + parity, i] > lines[0, i - 1]) and (
+                i == H - 1 or lines[2 + parity, i] > lines[0, i + 1]):
+            continue
+        lines[2 + parity, i] = clock
         for j in range((i + parity) % 2, W, 2):
             oy, ox = S[i, j, 0] - i, S[i, j, 1] - j
             seam = False
@@ -88,6 +98,11 @@ def _sub_pass(S, img, target, labels, parity):
                     break
             if not seam:
                 continue
+            if tried[i, j] > stamp[i, j] and (i == 0 or tried[i, j] > stamp[i - 1, j]) and (
+                    j == 0 or tried[i, j] > stamp[i, j - 1]) and (j == W - 1 or tried[i, j] > stamp[i, j + 1]) and (
+                    i == H - 1 or tried[i, j] > stamp[i + 1, j]):
+                continue
+            tried[i, j] = clock
             best = _energy(S, img, target, i, j, oy, ox)
             by, bx = oy, ox
             for k in range(4):
@@ -106,14 +121,17 @@ def _sub_pass(S, img, target, labels, parity):
             if by != oy or bx != ox:
                 S[i, j, 0] = i + by
                 S[i, j, 1] = j + bx
+                stamp[i, j] = clock
                 changed[i] += 1
     return changed.sum()
 
 
 @njit(**JIT)
-def _run_at(S, img, target, labels, i, j, k, rc, rv, lo_end, hi_end):
+def _run_at(S, img, target, labels, i, j, k, rc, rv, lo_end, hi_end, stamp, tried, clock):
     """The run move of the seam run that starts at (i, j) across direction ``k`` (see
-    ``_run_pass``), if (i, j) starts one; the number of pixels moved."""
+    ``_run_pass``), if (i, j) starts one; the number of pixels moved. Not tried again
+    (``tried[i, j, k]``, the ``clock`` when it last was) where no pixel the run reads (its
+    pixels, those before and after it and those on either side) changed since (``stamp``)."""
     H, W = target.shape
     Hs, Ws = labels.shape
     y, x = i + _DY[k], j + _DX[k]
@@ -132,6 +150,32 @@ def _run_at(S, img, target, labels, i, j, k, rc, rv, lo_end, hi_end):
             and S[u + _DY[k], v + _DX[k], 0] - u - _DY[k] == by \
             and S[u + _DY[k], v + _DX[k], 1] - v - _DX[k] == bx:
         return 0
+    ev = tried[i, j, k]
+    if ev > 0:  # the run as it is now; does anything it reads carry a later stamp?
+        again = False
+        n = -1
+        while not again:
+            u, v = i + n * ey, j + n * ex
+            if u >= 0 and v >= 0 and u < H and v < W:
+                again = stamp[u, v] >= ev
+                for kk in (k, kb):
+                    uy, vx = u + _DY[kk], v + _DX[kk]
+                    if uy >= 0 and vx >= 0 and uy < H and vx < W and stamp[uy, vx] >= ev:
+                        again = True
+            if n < 0:
+                n = 0
+                continue
+            uy, vx = u + _DY[k], v + _DX[k]
+            if u >= H or v >= W or uy < 0 or vx < 0 or uy >= H or vx >= W:
+                break
+            if (target[u, v] != target[i, j] or target[uy, vx] != target[i, j]
+                    or S[u, v, 0] - u != ay or S[u, v, 1] - v != ax
+                    or S[uy, vx, 0] - uy != by or S[uy, vx, 1] - vx != bx):
+                break
+            n += 1
+        if not again:
+            return 0
+    tried[i, j, k] = clock
     n = 0
     while True:
         u, v = i + n * ey, j + n * ex
@@ -176,11 +220,12 @@ def _run_at(S, img, target, labels, i, j, k, rc, rv, lo_end, hi_end):
         u, v = i + t * ey, j + t * ex
         S[u, v, 0] = u + by
         S[u, v, 1] = v + bx
+        stamp[u, v] = clock
     return hi - lo + 1
 
 
 @njit(**PJIT)
-def _run_pass(S, img, target, labels, vertical, parity):
+def _run_pass(S, img, target, labels, vertical, parity, stamp, tried, lines, clock, moved):
     """Run moves on the rows (``vertical`` false: seams between a row and the rows above
     and below, runs along the row) or columns of ``parity``. A run: the pixels ``r_0 ..
     r_{n-1}`` along a seam (each the next one's neighbour) that read one offset ``a``
@@ -193,12 +238,19 @@ def _run_pass(S, img, target, labels, vertical, parity):
     pixel, which one-pixel moves cannot do (each adds two pairs along the seam). Lines in
     order along them, directions in order (up, down; left, right); a line changes only
     itself and reads its neighbours, of the other parity: any thread count gives one
-    result. Returns the number of pixels moved."""
+    result. Returns the number of pixels moved. ``stamp``, ``tried``, ``clock``: as
+    ``_run_at``; ``lines``: as ``_sub_pass`` (a line none of whose pixels or its neighbour
+    lines' changed since it was last tried is not tried again); ``moved`` (zeros): the number
+    of pixels moved per line is added."""
     H, W = target.shape
     nl, L = (W, H) if vertical else (H, W)
-    moved = np.zeros(nl, np.int64)
+    ls, lt = (1, 5) if vertical else (0, 4)
     for li in prange((nl - parity + 1) // 2):
         line = 2 * li + parity
+        if lines[lt, line] > lines[ls, line] and (line == 0 or lines[lt, line] > lines[ls, line - 1]) and (
+                line == nl - 1 or lines[lt, line] > lines[ls, line + 1]):
+            continue
+        lines[lt, line] = clock
         rc = np.empty(L, np.float64)
         rv = np.empty(L, np.bool_)
         lo_end = np.empty(L, np.float64)
@@ -211,29 +263,97 @@ def _run_pass(S, img, target, labels, vertical, parity):
                 if y < 0 or x < 0 or y >= H or x >= W or (S[y, x, 0] - y == S[i, j, 0] - i
                                                           and S[y, x, 1] - x == S[i, j, 1] - j):
                     continue
-                moved[line] += _run_at(S, img, target, labels, i, j, k, rc, rv, lo_end, hi_end)
+                moved[line] += _run_at(S, img, target, labels, i, j, k, rc, rv, lo_end, hi_end, stamp, tried, clock)
     return moved.sum()
 
 
+class SeamMemory:
+    """What ``refine_seams`` keeps between its calls on one map (the colours, targets and
+    labels the same arrays): when each pixel last changed and when each was last tried, so
+    that a later call tries again only what a change since can move; the result is the same
+    as without it. The map a call returns is kept (not copied): change it only through a
+    copy (``shift_patches`` copies) before giving it back."""
+
+    def __init__(self):
+        self.S = None
+
+    def start(self, S: np.ndarray, args: tuple) -> None:
+        """Ready for a call on ``S`` with ``args`` (img, target, labels): the pixels that
+        differ from the map the last call returned marked as changed; everything marked
+        untried on the first call or other arrays."""
+        H, W = S.shape[:2]
+        if self.S is None or self.S.shape != S.shape or any(x is not y for x, y in zip(args, self.args)):
+            self.args = args
+            self.stamp = np.zeros((H, W), np.uint8)  # the clock at which each pixel last changed
+            self.tried = np.zeros((H, W), np.uint8)  # ... was last tried by a one-pixel move
+            self.tried_run = np.zeros((H, W, 4), np.uint8)  # ... was last tried as a run's start, per direction
+            # per row and column: last change (rows, columns), last tried by one-pixel moves
+            # (rows, parity 0 and 1), by run moves (rows, columns)
+            self.lines = np.zeros((6, max(H, W)), np.uint8)
+            self.clock = 0
+        else:
+            diff = (S != self.S).any(-1)
+            c = self.tick()
+            self.stamp[diff] = c
+            self.lines[0, :H][diff.any(1)] = c
+            self.lines[1, :W][diff.any(0)] = c
+
+    def mark(self, per_line: np.ndarray, vertical: bool) -> None:
+        """After a pass over the rows (columns with ``vertical``) that changed ``per_line``
+        pixels of each at the clock: the last change of each row and column (``lines[0]``,
+        ``lines[1]``) updated."""
+        t = np.flatnonzero(per_line)
+        if t.size:
+            v = int(vertical)
+            self.lines[v, t] = self.clock
+            hit = (self.stamp[:, t] if vertical else self.stamp[t]) == self.clock
+            self.lines[1 - v, np.flatnonzero(hit.any(axis=v))] = self.clock
+
+    def tick(self) -> int:
+        """The next clock value (all marks cleared when the 8-bit clock would wrap)."""
+        self.clock += 1
+        if self.clock == 256:
+            self.stamp[:] = 0
+            self.tried[:] = 0
+            self.tried_run[:] = 0
+            self.lines[:] = 0
+            self.clock = 1
+        return self.clock
+
+
 def refine_seams(S: np.ndarray, img: np.ndarray, target: np.ndarray, labels: np.ndarray,
-                 passes: int, runs: bool = False) -> tuple[np.ndarray, int]:
+                 passes: int, runs: bool = False, memory: SeamMemory | None = None) -> tuple[np.ndarray, int]:
     """``S`` (copied) after ``passes`` passes of seam moves (each two checkerboard halves
     of one-pixel moves, then, with ``runs``, run moves on even and odd rows, then columns:
     ``_run_pass``),
-    stopping early when a pass changes nothing; and the number of pixel moves made."""
+    stopping early when a pass changes nothing; and the number of pixel moves made. A pixel
+    or run whose neighbourhood has not changed since it was last tried is not tried again;
+    ``memory`` carries that over calls on one map (the same result, less work)."""
     S = np.ascontiguousarray(S, np.int32).copy()
     img = np.ascontiguousarray(img, np.float32)
     target = np.ascontiguousarray(target, np.int32)
     labels = np.ascontiguousarray(labels, np.int32)
+    m = memory if memory is not None else SeamMemory()
+    m.start(S, (img, target, labels))
     moves = 0
+    rows, cols = np.zeros(S.shape[0], np.int64), np.zeros(S.shape[1], np.int64)  # changes per line
     for _ in range(passes):
-        n = _sub_pass(S, img, target, labels, 0) + _sub_pass(S, img, target, labels, 1)
+        n = 0
+        for parity in (0, 1):
+            rows[:] = 0
+            n += _sub_pass(S, img, target, labels, parity, m.stamp, m.tried, m.lines, m.tick(), rows)
+            m.mark(rows, False)
         if runs:
             for vertical in (False, True):
-                n += _run_pass(S, img, target, labels, vertical, 0) + _run_pass(S, img, target, labels, vertical, 1)
+                for parity in (0, 1):
+                    (cols if vertical else rows)[:] = 0
+                    n += _run_pass(S, img, target, labels, vertical, parity, m.stamp, m.tried_run, m.lines, m.tick(),
+                                   cols if vertical else rows)
+                    m.mark(cols if vertical else rows, vertical)
         moves += int(n)
         if n == 0:
             break
+    m.S = S
     return S, moves
 
 
@@ -258,106 +378,190 @@ def _seam_cost(S, img, target):
 # whole patches shifted by a few output pixels
 
 
-@njit(**JIT)
-def _shift_cost(S, img, target, labels, patch, order, a, b, edge, ea, eb, pid, oy, ox, bound, check):
-    """Summed seam cost of patch ``pid`` (its pixels ``order[a:b]``, those with a neighbour
-    outside it ``edge[ea:eb]``, flat indices) read at offset (oy, ox) against its same-label
-    neighbours outside it, read at their own offsets; returned as soon as it passes
-    ``bound``; under it, with ``check``, inf when a pixel would read a source pixel off the
-    grid or of another label than its target's."""
-    H, W = target.shape
-    Hs, Ws = labels.shape
-    e = 0.0
-    for t in range(ea, eb):
-        f = edge[t]
-        i, j = f // W, f % W
-        for k in range(4):  # the neighbour test is written out here and in _shift_pass: a helper returning
-            y, x = i + _DY[k], j + _DX[k]  # the neighbour made the step 4x slower (0.67 -> 2.84 s, 1024x640)
-            if y < 0 or x < 0 or y >= H or x >= W or target[y, x] != target[i, j] or patch[y, x] == pid:
-                continue
-            qy, qx = S[y, x, 0] - y, S[y, x, 1] - x
-            if qy == oy and qx == ox:
-                continue
-            e += _dist2(img, i + oy, j + ox, i + qy, j + qx) + _dist2(img, y + oy, x + ox, y + qy, x + qx)
-        if e > bound:
-            return e
-    for t in range(a if check else b, b):
-        f = order[t]
-        i, j = f // W, f % W
-        sy, sx = i + oy, j + ox
-        if sy < 0 or sx < 0 or sy >= Hs or sx >= Ws or labels[sy, sx] != target[i, j]:
-            return np.inf
-    return e
-
-
-ADOPT_MAX = 8  # most neighbouring patches' offsets a patch tries (``_shift_pass``)
+ADOPT_MAX = 8  # most neighbouring patches' offsets a patch tries (``_shift_passes``)
 
 
 @njit(**JIT)
-def _shift_pass(S, img, target, labels, patch, order, starts, edge, estarts, radius, adopt):
-    """Each patch in turn (ids in order; ``order[starts[p]:starts[p + 1]]`` the flat
-    indices of patch p + 1's pixels) takes, among its offset moved by up to ``radius``
-    pixels each way, the one of least summed seam cost to its neighbours (``_shift_cost``;
-    its own when none is lower; a moved patch reads its labels everywhere, where it is
-    need not), and a patch of at most ``adopt`` pixels also among the offsets of the
-    patches around it (the first ``ADOPT_MAX`` met, farther than ``radius``: joining a
-    neighbour removes their seam); sequential, so any thread count gives one result.
-    Returns the number of patches moved."""
+def _shift_passes(S, img, target, labels, patch, radius, adopt, passes):
+    """Up to ``passes`` passes (stopping after one that moves nothing); in each, each patch
+    in turn (``patch`` ids in order) takes, among its offset moved by up to ``radius``
+    pixels each way, the one of least summed seam cost to its neighbours (its own when none
+    is lower; a moved patch reads its labels everywhere, where it is need not), and a patch
+    of at most ``adopt`` pixels also among the offsets of the patches around it (the first
+    ``ADOPT_MAX`` met, farther than ``radius``: joining a neighbour removes their seam);
+    sequential, so any thread count gives one result. A patch's pairs across its seams and
+    what its neighbours read are gathered once; an offset's sum stops once it reaches the
+    best so far. A patch that moved nothing when last tried, none of whose neighbours has
+    moved since, is not tried again (it would again move nothing). Returns the number of
+    patch moves."""
+    Hs, Ws, C = img.shape
     H, W = target.shape
-    moved = 0
-    cand = np.empty((ADOPT_MAX, 2), np.int64)
-    for p in range(len(starts) - 1):
-        a, b = starts[p], starts[p + 1]
-        ea, eb = estarts[p], estarts[p + 1]
-        if b == a:
-            continue
-        pid = p + 1
-        f = order[a]
-        oy, ox = S[f // W, f % W, 0] - f // W, S[f // W, f % W, 1] - f % W
-        best = _shift_cost(S, img, target, labels, patch, order, a, b, edge, ea, eb, pid, oy, ox, np.inf, False)
-        if best == 0.0:
-            continue
-        by, bx = oy, ox
-        for dy in range(-radius, radius + 1):
-            for dx in range(-radius, radius + 1):
-                if dy == 0 and dx == 0:
-                    continue
-                e = _shift_cost(S, img, target, labels, patch, order, a, b, edge, ea, eb, pid, oy + dy, ox + dx, best, True)
-                if e < best:
-                    best, by, bx = e, oy + dy, ox + dx
-        if b - a <= adopt:  # then each neighbouring patch's offset (first met, pixels in raster order)
-            seen = 0
-            for t in range(ea, eb):
-                f = edge[t]
-                i, j = f // W, f % W
+    # order[starts[p]:starts[p + 1]]: the flat indices of patch p + 1's pixels, in raster order
+    npatch = 0
+    for i in range(H):
+        for j in range(W):
+            npatch = max(npatch, patch[i, j])
+    starts = np.zeros(npatch + 1, np.int64)
+    for i in range(H):
+        for j in range(W):
+            if patch[i, j] > 0:
+                starts[patch[i, j]] += 1
+    for p in range(npatch):
+        starts[p + 1] += starts[p]
+    order = np.empty(starts[npatch], np.int64)
+    fill = np.empty(npatch, np.int64)  # each patch's next free place in order, then in pr
+    for p in range(npatch):
+        fill[p] = starts[p]
+    for i in range(H):
+        for j in range(W):
+            if patch[i, j] > 0:
+                order[fill[patch[i, j] - 1]] = i * W + j
+                fill[patch[i, j] - 1] += 1
+    # pstarts[p]:pstarts[p + 1]: patch p + 1's pairs with a same-label 4-neighbour in another
+    # patch (the only pixels a shift's cost reads): pr[t] = inside (row, column), outside
+    # (row, column), its patch; inside pixels in raster order, neighbours up, left, right, down
+    pstarts = np.zeros(npatch + 1, np.int64)
+    pr = np.empty((0, 5), np.int64)
+    for r in range(2):  # count, then fill (a raster scan each)
+        for p in range(npatch):
+            fill[p] = pstarts[p] if r == 1 else 0
+        for i in range(H):
+            for j in range(W):
+                p = patch[i, j]
                 for k in range(4):
                     y, x = i + _DY[k], j + _DX[k]
-                    if y < 0 or x < 0 or y >= H or x >= W or target[y, x] != target[i, j] or patch[y, x] == pid:
+                    if p == 0 or y < 0 or x < 0 or y >= H or x >= W or target[y, x] != target[i, j] or patch[y, x] == p:
                         continue
-                    qy, qx = S[y, x, 0] - y, S[y, x, 1] - x
-                    if max(abs(qy - oy), abs(qx - ox)) <= radius:
+                    if r == 1:
+                        t = fill[p - 1]
+                        pr[t, 0], pr[t, 1], pr[t, 2], pr[t, 3], pr[t, 4] = i, j, y, x, patch[y, x]
+                    fill[p - 1] += 1
+        if r == 0:
+            for p in range(npatch):
+                pstarts[p + 1] = pstarts[p] + fill[p]
+            pr = np.empty((pstarts[npatch], 5), np.int64)
+    most = 0
+    for p in range(npatch):
+        most = max(most, pstarts[p + 1] - pstarts[p])
+    qoff = np.empty((most, 2), np.int64)
+    ok = np.empty((most, 2), np.bool_)
+    col = np.zeros((most, 2, C), np.float32)
+    cand = np.empty(((2 * radius + 1) ** 2 + ADOPT_MAX, 2), np.int64)
+    tried = np.full(npatch + 1, -1, np.int64)  # the clock when a patch last moved nothing
+    moved_at = np.zeros(npatch + 1, np.int64)  # the clock when a patch last moved
+    clock = 0
+    moves = 0
+    for _ in range(passes):
+        moved = 0
+        for p in range(npatch):
+            a, b = starts[p], starts[p + 1]
+            if b == a:
+                continue
+            pid = p + 1
+            ps, n = pstarts[p], pstarts[p + 1] - pstarts[p]
+            if tried[pid] >= 0:
+                again = False
+                for t in range(ps, ps + n):
+                    if moved_at[pr[t, 4]] > tried[pid]:
+                        again = True
+                        break
+                if not again:
+                    continue
+            f = order[a]
+            oy, ox = S[f // W, f % W, 0] - f // W, S[f // W, f % W, 1] - f % W
+            for t in range(n):  # what the neighbours read: the same for every offset tried
+                y, x = pr[ps + t, 2], pr[ps + t, 3]
+                ry, rx = S[y, x, 0] - y, S[y, x, 1] - x
+                qoff[t, 0], qoff[t, 1] = ry, rx
+                sy, sx = pr[ps + t, 0] + ry, pr[ps + t, 1] + rx
+                ok[t, 0] = 0 <= sy < Hs and 0 <= sx < Ws
+                if ok[t, 0]:
+                    for c in range(C):
+                        col[t, 0, c] = img[sy, sx, c]
+                sy, sx = y + ry, x + rx
+                ok[t, 1] = 0 <= sy < Hs and 0 <= sx < Ws
+                if ok[t, 1]:
+                    for c in range(C):
+                        col[t, 1, c] = img[sy, sx, c]
+            # the offsets tried, in order: its own, moved by up to radius each way (rows, then
+            # columns, ascending), then for a small patch its neighbours' (first met, farther)
+            ncand = 0
+            for dy in range(-radius, radius + 1):
+                for dx in range(-radius, radius + 1):
+                    if dy != 0 or dx != 0:
+                        ncand += 1
+                        cand[ncand, 0], cand[ncand, 1] = oy + dy, ox + dx
+            cand[0, 0], cand[0, 1] = oy, ox
+            if b - a <= adopt:
+                seen = 0
+                for t in range(n):
+                    ry, rx = qoff[t, 0], qoff[t, 1]
+                    if max(abs(ry - oy), abs(rx - ox)) <= radius:
                         continue  # among the shifts already
                     dup = False
-                    for u in range(seen):
-                        if cand[u, 0] == qy and cand[u, 1] == qx:
+                    for u in range(ncand + 1 - seen, ncand + 1):
+                        if cand[u, 0] == ry and cand[u, 1] == rx:
                             dup = True
                             break
-                    if dup or seen == cand.shape[0]:
+                    if dup or seen == ADOPT_MAX:
                         continue
-                    cand[seen, 0] = qy
-                    cand[seen, 1] = qx
+                    ncand += 1
+                    cand[ncand, 0], cand[ncand, 1] = ry, rx
                     seen += 1
-            for u in range(seen):
-                e = _shift_cost(S, img, target, labels, patch, order, a, b, edge, ea, eb, pid, cand[u, 0], cand[u, 1], best, True)
-                if e < best:
-                    best, by, bx = e, cand[u, 0], cand[u, 1]
-        if by != oy or bx != ox:
-            for t in range(a, b):
-                f = order[t]
-                S[f // W, f % W, 0] = f // W + by
-                S[f // W, f % W, 1] = f % W + bx
-            moved += 1
-    return moved
+            # each one's summed seam cost to the neighbours, cut short once it reaches the best
+            # (terms are never negative); one lower than the best is taken where every pixel of
+            # the patch then reads a source pixel of its target's label (its own offset need not)
+            best = np.inf
+            by, bx = oy, ox
+            for u in range(ncand + 1):
+                cy, cx = cand[u, 0], cand[u, 1]
+                e = 0.0
+                for t in range(n):
+                    if qoff[t, 0] == cy and qoff[t, 1] == cx:
+                        continue
+                    sy, sx = pr[ps + t, 0] + cy, pr[ps + t, 1] + cx
+                    d1 = OUTSIDE
+                    if ok[t, 0] and 0 <= sy < Hs and 0 <= sx < Ws:
+                        d1 = 0.0
+                        for c in range(C):
+                            r = img[sy, sx, c] - col[t, 0, c]
+                            d1 += r * r
+                    sy, sx = pr[ps + t, 2] + cy, pr[ps + t, 3] + cx
+                    d2 = OUTSIDE
+                    if ok[t, 1] and 0 <= sy < Hs and 0 <= sx < Ws:
+                        d2 = 0.0
+                        for c in range(C):
+                            r = img[sy, sx, c] - col[t, 1, c]
+                            d2 += r * r
+                    e += d1 + d2
+                    if e >= best:
+                        break
+                if e < best and u > 0:
+                    for t in range(a, b):
+                        f = order[t]
+                        sy, sx = f // W + cy, f % W + cx
+                        if sy < 0 or sx < 0 or sy >= Hs or sx >= Ws or labels[sy, sx] != target[f // W, f % W]:
+                            e = np.inf
+                            break
+                if e < best or u == 0:
+                    best, by, bx = e, cy, cx
+                if u == 0 and not best > 0.0:
+                    break
+            if by != oy or bx != ox:
+                for t in range(a, b):
+                    f = order[t]
+                    S[f // W, f % W, 0] = f // W + by
+                    S[f // W, f % W, 1] = f % W + bx
+                clock += 1
+                moved_at[pid] = clock
+                tried[pid] = -1
+                moved += 1
+            else:
+                tried[pid] = clock
+        moves += moved
+        if moved == 0:
+            break
+    return moves
 
 
 def shift_patches(S: np.ndarray, img: np.ndarray, target: np.ndarray, labels: np.ndarray, patch: np.ndarray,
@@ -369,30 +573,13 @@ def shift_patches(S: np.ndarray, img: np.ndarray, target: np.ndarray, labels: np
     target label: a patch magnified from the synthesis is placed to a whole exemplar pixel
     (``factor`` output pixels); this aligns it with its neighbours at the output's
     resolution. A patch of at most ``adopt`` pixels may also take a neighbouring patch's
-    offset (``_shift_pass``). Each pass lowers the total ``seam_cost``. Patch ids are kept (a patch
+    offset (``_shift_passes``). Each pass lowers the total ``seam_cost``. Patch ids are kept (a patch
     keeps its pixels); stops early when a pass moves nothing. Returns the map and the
     number of patch moves."""
     S = np.ascontiguousarray(S, np.int32).copy()
     img = np.ascontiguousarray(img, np.float32)
     target = np.ascontiguousarray(target, np.int32)
     labels = np.ascontiguousarray(labels, np.int32)
-    patch = np.ascontiguousarray(patch, np.int64)
-    order = np.argsort(patch.ravel(), kind="stable").astype(np.int64)
-    ids = np.arange(1, int(patch.max(initial=0)) + 2)
-    starts = np.searchsorted(patch.ravel()[order], ids).astype(np.int64)
-    # the pixels with a same-label 4-neighbour in another patch: the only ones a shift's cost reads
-    rim = np.zeros(patch.shape, bool)
-    for sa, sb in (((slice(None), slice(1, None)), (slice(None), slice(None, -1))),
-                   ((slice(1, None), slice(None)), (slice(None, -1), slice(None)))):
-        d = (patch[sa] != patch[sb]) & (target[sa] == target[sb])
-        rim[sa] |= d
-        rim[sb] |= d
-    edge = order[rim.ravel()[order]]
-    estarts = np.searchsorted(patch.ravel()[edge], ids).astype(np.int64)
-    moves = 0
-    for _ in range(passes):
-        n = _shift_pass(S, img, target, labels, patch, order, starts, edge, estarts, int(radius), int(adopt))
-        moves += int(n)
-        if n == 0:
-            break
-    return S, moves
+    moves = _shift_passes(S, img, target, labels, np.ascontiguousarray(patch, np.int64), int(radius), int(adopt),
+                          int(passes))
+    return S, int(moves)

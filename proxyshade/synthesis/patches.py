@@ -111,13 +111,15 @@ def magnify_map(coords: np.ndarray, factor: int, shape: tuple[int, int], *, scal
         coords_out, rep = kmag.repair_labels(coords_out, target, labels, sites_of=lambda lab: nearest_sites(labels, lab, memo))
     rep["seam_moves"] = rep["patch_shifts"] = 0
     if seam_passes > 0 and colours is not None and target is not None:
+        seams = kseams.SeamMemory()  # the second seam moves try again only what the shifts changed
         coords_out, rep["seam_moves"] = kseams.refine_seams(coords_out, colours, target, labels, seam_passes,
-                                                             runs=seam_runs)
+                                                             runs=seam_runs, memory=seams)
         if patch_shift > 0:
             patch, _ = patch_ids(coords_out)
             coords_out, rep["patch_shifts"] = kseams.shift_patches(coords_out, colours, target, labels, patch,
                                                                    patch_shift, SHIFT_PASSES, patch_adopt)
-            coords_out, _ = kseams.refine_seams(coords_out, colours, target, labels, seam_passes, runs=seam_runs)
+            coords_out, _ = kseams.refine_seams(coords_out, colours, target, labels, seam_passes, runs=seam_runs,
+                                                memory=seams)
     patch, npatch = patch_ids(coords_out)
     return grid_to_source(coords_out[..., 1], scale), grid_to_source(coords_out[..., 0], scale), patch, npatch, rep
 

@@ -327,3 +327,22 @@ def test_a_patch_shifts_onto_its_neighbours_texture():
     assert n == 2 and ks.seam_cost(S, img, target) > 0
     out, moves = ks.shift_patches(S, img, target, labels, patch, 2, 2)
     assert moves == 1 and ks.seam_cost(out, img, target) == 0.0
+
+
+@pytest.mark.parametrize("seed,wrap", [(s, w) for s in range(4) for w in (0, 243, 247, 251, 254)])
+def test_seam_memory_over_calls_matches_reference(seed, wrap):
+    # Magnify's order: seam moves, whole-patch shifts, seam moves again on one memory (the
+    # second call tries again only what the shifts changed); with ``wrap`` its 8-bit clock
+    # jumps there and wraps during the second call (every mark cleared)
+    from proxyshade.kernels.patch import offset_components
+    S, img, target, labels = random_case(seed, H=13, W=15, Hs=26, Ws=28)
+    img = (img + np.roll(img, 1, 0) + np.roll(img, 1, 1)) / 3
+    memory = ks.SeamMemory()
+    first, _ = ks.refine_seams(S, img, target, labels, 2, runs=True, memory=memory)
+    assert np.array_equal(first, ref_refine(S, img, target, labels, 2, runs=True))
+    shifted, moves = ks.shift_patches(first, img, target, labels, offset_components(first)[0], 2, 2, 6)
+    assert moves > 0
+    if wrap:
+        memory.clock = wrap
+    got, _ = ks.refine_seams(shifted, img, target, labels, 3, runs=True, memory=memory)
+    assert np.array_equal(got, ref_refine(shifted, img, target, labels, 3, runs=True))
