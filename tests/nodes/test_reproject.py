@@ -1,6 +1,7 @@
 """Reproject on hand-made camera moves over the analytic wall/ball scene."""
 import numpy as np
 import pytest
+from scipy import ndimage
 
 from proxyshade.errors import NodeInputError
 from proxyshade.graph.plate import Plate
@@ -73,6 +74,42 @@ def test_continued_pixels_join_the_solve_with_solve_continued():
     plain = lookup(toy_source().rgb(), b["source.x"], b["source.y"], filter="lanczos4")
     np.testing.assert_allclose(b.rgb()[four], plain[four], atol=1e-6)
     np.testing.assert_allclose(a.rgb()[four], plain[four] + 0.05, atol=1e-6)
+
+
+def test_continue_tail_stops_continuation_on_the_labels_rare_looks():
+    """With ``continue_tail`` a disoccluded pixel continues its neighbour's patch only onto
+    a source pixel outside its label's luminance tails (``typical_labels``); where the
+    continuation would read a rare look the pixel is flagged disoccluded (resynthesized).
+    Every other pixel is as without it."""
+    from proxyshade.synthesis.temporal import RARE, typical_labels
+
+    cams = [camera(pos=(0.5 * k, 0, 0), frame=k + 1) for k in range(2)]
+    r0, r1 = (render(c, sphere=None) for c in cams)
+    prev = with_distortion(state_plate(r0), np.zeros((64, 64)))
+    params = dict(EXACT, fill_radius=6)
+    a = step(r1, r0, prev, **params)
+    b = step(r1, r0, prev, continue_tail=0.25, **params)
+    typ = typical_labels(toy_source(), 0.25)
+    hs, ws = typ.shape
+
+    def rare(p, m):
+        c = np.clip(np.floor(np.clip(p["source.x"][m], 0, ws - 1) + 0.5), 0, ws - 1).astype(int)
+        r = np.clip(np.floor(np.clip(p["source.y"][m], 0, hs - 1) + 0.5), 0, hs - 1).astype(int)
+        return typ[r, c] == RARE
+
+    cont_a = (a["extension"] > 0) & (a["flag"] == 0)
+    cont_b = (b["extension"] > 0) & (b["flag"] == 0)
+    on_rare = np.zeros((64, 64), bool)
+    on_rare[cont_a] = rare(a, cont_a)
+    assert 5 < on_rare.sum() < cont_a.sum()  # the toy source's tails are hit, not everywhere
+    assert not rare(b, cont_b).any()
+    assert (b["flag"][on_rare] == FLAG["disoccluded"]).all()
+    # the new flags are dilated by 2 px (``dilate``): beyond that every pixel is as without the option
+    near = ndimage.binary_dilation(on_rare, np.ones((5, 5), bool))
+    assert not (cont_b & ~cont_a).any() and (cont_b == cont_a)[~near].all()
+    assert (b["flag"] == a["flag"])[~near].all()
+    for c in ("source.x", "source.y", "patch.id"):
+        np.testing.assert_array_equal(b[c][cont_b], a[c][cont_b])
 
 
 def test_creep_gate_continues_into_the_solve_only_where_the_gradient_rose():
