@@ -244,7 +244,8 @@ def carry(cd: Plate, prev: Plate | None, first: Plate | None, source: Plate, p, 
     filled = None
     src_lab = np.ascontiguousarray(source["label.id"], np.uint32)
     # continuation stops on the label's rare looks (continue_tail): a patch extruded past where the
-    # synthesis placed it reads source pixels no match chose (clumps in the water, flecks in the sky)
+    # synthesis placed it reads source pixels no match chose (clumps in the water, flecks in the sky);
+    # re-anchored copies and absorbed fragments on them are resynthesized (below)
     cont_lab = typical_labels(source, p.continue_tail, memo) if p.continue_tail > 0 else src_lab
     if p.fill_radius > 0 and not valid.all():
         # in place: it writes only the unkept pixels and reads only kept ones (gather_prev's fresh arrays)
@@ -273,6 +274,13 @@ def carry(cd: Plate, prev: Plate | None, first: Plate | None, source: Plate, p, 
                                  src_lab=src_lab, sx=sx, sy=sy, lab=lab, margin=0.5,
                                  cat=np.ascontiguousarray(cat, np.uint32), cat_c=np.uint32(CATEGORY_C),
                                  land=tuple(land), prev_lab=state.label, codes=tuple(FLAG_CODES))
+    if p.continue_tail > 0:
+        # re-anchored copies and absorbed fragments extend a map too: on a rare look, resynthesized
+        moved = (absorbed | distorted) & (raw == FLAG["reanchored"])
+        if moved.any():
+            rare = kt.fits_label(src_lab, sx, sy, lab, moved) & ~kt.fits_label(cont_lab, sx, sy, lab, moved)
+            raw[rare] = FLAG["distorted"]
+            stray |= rare  # distorted even where clean_flags drops it as isolated
     # clean_flags, then unflagged pixels with nothing to carry (dropped as isolated) disoccluded,
     # off their label distorted, and the counts per flag, in one pass
     flag, nflag = kt.clean_flags(raw, int(p.isolated_radius), int(p.min_neighbours), int(p.dilate),
