@@ -181,6 +181,28 @@ def test_zoom_is_measured_on_the_carried_map_and_reanchored_past_the_threshold()
     assert deviation(out, re).max() < 1e-4
 
 
+def test_continue_tail_resynthesizes_reanchored_copies_on_rare_looks():
+    """With ``continue_tail`` a re-anchored copy (a zoom past the threshold) keeps its new map
+    (flag 4) only on source pixels outside its label's luminance tails; on a rare look it is
+    flagged distorted (resynthesized). Pixels not re-anchored are as without the option."""
+    from proxyshade.synthesis.temporal import RARE, typical_labels
+
+    p0 = render(camera(f=40.0), sphere=None)
+    p1 = render(camera(f=44.0, frame=2), sphere=None)
+    prev = with_distortion(state_plate(p0), np.zeros((64, 64)))
+    a = step(p1, p0, prev, threshold=0.1, cut_threshold=1.0, **EXACT)
+    b = step(p1, p0, prev, threshold=0.1, cut_threshold=1.0, continue_tail=0.25, **EXACT)
+    typ = typical_labels(toy_source(), 0.25)
+    hs, ws = typ.shape
+    re = a["flag"] == FLAG["reanchored"]
+    c = np.floor(np.clip(a["source.x"], 0, ws - 1) + 0.5).astype(int)
+    r = np.floor(np.clip(a["source.y"], 0, hs - 1) + 0.5).astype(int)
+    rare = re & (typ[r, c] == RARE)
+    assert 10 < rare.sum() < re.sum() // 2
+    assert (b["flag"][rare] == FLAG["distorted"]).all()
+    np.testing.assert_array_equal(b["flag"][~rare], a["flag"][~rare])
+
+
 def test_shear_with_unit_determinant_is_seen():
     # a map sheared by k has det J = 1 (what the paper's det J never flags) but ||J - I|| = k
     i, j = np.mgrid[0:32, 0:32].astype(np.float64)
