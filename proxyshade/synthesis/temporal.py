@@ -24,6 +24,7 @@ from proxyshade.io.camera import CameraInfo
 from proxyshade.io.colourlib import srgb_encoding_table
 from proxyshade.kernels import reproject as kr
 from proxyshade.kernels import temporal as kt
+from proxyshade.kernels.layout import LUMA
 from proxyshade.kernels.lookup import lookup
 from proxyshade.kernels.random import uniform_field
 from proxyshade.synthesis.grain import source_colours
@@ -329,8 +330,7 @@ def typical_labels(source: Plate, tail: float, memo=None) -> np.ndarray:
     match chose, so there the continuation stops and the pixel is resynthesized."""
     def compute():
         lab = np.ascontiguousarray(source["label.id"], np.uint32)
-        rgb = source.rgb().astype(np.float64)
-        lum = rgb[..., 0] * 0.2126 + rgb[..., 1] * 0.7152 + rgb[..., 2] * 0.0722
+        lum = source.rgb().astype(np.float64) @ np.asarray(LUMA, np.float64)
         out = lab.copy()
         for k in np.unique(lab):
             m = lab == k
