@@ -17,7 +17,8 @@ Resynthesize every frame), at each output size, per frame:
             that floor is printed alongside (docs/temporal.md, "Measuring a shot")
   share     share of pixels flagged (resynthesized or re-anchored) in the frame
   update s  seconds of the frame after the first (proxy render + ConsistentDepth +
-            Reproject + Resynthesize)
+            Reproject + Resynthesize), with the run's memo kept across frames as
+            ``proxyshade run`` keeps it (``--no-memo``: without)
 
 and per label at frames 1, 12, 24 and the last (``--per-frame``: every frame), on display
 luma (sRGB-encoded, ``kernels.quality``):
@@ -139,6 +140,26 @@ def attached_floor(scene: str, size: int, f0, sigma: float, shifts=((0.3, 0.05),
 
 
 _clock = time.perf_counter  # the update frames' clock (--cpu: process CPU time)
+
+
+def run_memo(node_type: str, params: dict, inputs: dict, frame: int, memo) -> "object":
+    """``run_node`` with the run's memo (``graph.memo``) as the engine hands it to a node
+    (``ctx.memo``): what every frame would compute again from the same data (the source's
+    similarity sets, its graded colours, the first frame's grid) is kept across the frames of
+    a shot, as in ``proxyshade run``; ``memo`` None: ``run_node`` (nothing kept)."""
+    if memo is None:
+        return run_node(node_type, params, inputs, frame=frame)
+    from proxyshade.graph.memo import RunMemo
+    from proxyshade.graph.node import REGISTRY, Context, find_type
+
+    cls = find_type(node_type) or REGISTRY[node_type]
+    node = cls(node_type, params or {})
+    ins = dict.fromkeys(cls.inputs_spec)
+    ins.update(inputs)
+    ctx = Context(node, frame, 1, ins, node.params, ROOT, 0, [])
+    ctx.memo = RunMemo(memo)
+    node.check_inputs(ins)
+    return node.compute(ctx)
 NODES = {"init": "PatchInit", "correct": "Correct", "magnify": "Magnify", "first": "Poisson",
          "reproject": "Reproject", "final": "Resynthesize"}
 
@@ -231,8 +252,11 @@ def write_frame(path: Path, plate) -> None:
 
 
 def shot(scene: str, size: int, frames: int, every: int = 1, sigma: float = 1.0, params: dict | None = None,
-         frames_out: Path | None = None, edges: bool = False) -> list[dict]:
+         frames_out: Path | None = None, edges: bool = False, memo: bool = True) -> list[dict]:
+    from proxyshade.graph.memo import Memo
+
     params = params or graph_params()
+    store = Memo() if memo else None
     src = T.source(T.SCENES[scene])
     p0 = T.proxy(scene, 1, size)
     g0, d0 = T.detailed(scene, 1, size)
@@ -249,12 +273,12 @@ def shot(scene: str, size: int, frames: int, every: int = 1, sigma: float = 1.0,
     prev, indep_prev, indep_frame = f0, f0, 1
     for fr in range(2, frames + 1):
         t = _clock()
-        pN = run_node("ProxyRender", {"scene": str(ROOT / "samples" / "scenes" / f"{scene}.usda"),
-                                      "resolution": [size, size]}, {"source": src}, frame=fr)
-        cd = run_node("ConsistentDepth", {}, {"proxy": pN, "guide": g0, "depth": d0, "ref_proxy": p0}, frame=fr)
-        rp = run_node("Reproject", params["reproject"], {"depth": cd, "prev": prev, "first": f0, "source": src},
-                      frame=fr)
-        fin = run_node("Resynthesize", params["final"], {"image": rp, "source": src}, frame=fr)
+        pN = run_memo("ProxyRender", {"scene": str(ROOT / "samples" / "scenes" / f"{scene}.usda"),
+                                      "resolution": [size, size]}, {"source": src}, fr, store)
+        cd = run_memo("ConsistentDepth", {}, {"proxy": pN, "guide": g0, "depth": d0, "ref_proxy": p0}, fr, store)
+        rp = run_memo("Reproject", params["reproject"], {"depth": cd, "prev": prev, "first": f0, "source": src}, fr,
+                      store)
+        fin = run_memo("Resynthesize", params["final"], {"image": rp, "source": src}, fr, store)
         upd = _clock() - t
         row = {"frame": fr, "update": upd, "share": float((rp["flag"] > 0).mean()),
                "seams": Q.seam_share(fin["source.x"], fin["source.y"], fin["label.id"], scale=scale) / s0,
@@ -318,6 +342,9 @@ def main(argv=None) -> None:
     ap.add_argument("--cpu", action="store_true",
                     help="time update frames by the process's CPU time on one numba thread (steady on shared cores; "
                          "'update s' is then CPU seconds; the total over the shot is printed)")
+    ap.add_argument("--no-memo", action="store_true",
+                    help="no run memo across frames (each frame recomputes the source's similarity sets, graded "
+                         "colours and the first frame's grid; proxyshade run keeps them)")
     args = ap.parse_args(sys.argv[2:] if argv is None and len(sys.argv) > 1 and sys.argv[1] == "shot" else argv)
     if args.cpu:
         import numba
@@ -331,7 +358,8 @@ def main(argv=None) -> None:
     labels_summary = []
     for size in args.sizes:
         for scene in args.scenes:
-            rows = shot(scene, size, args.frames, args.warp_every, args.warp_sigma, params, args.frames_out, args.edges)
+            rows = shot(scene, size, args.frames, args.warp_every, args.warp_sigma, params, args.frames_out, args.edges,
+                        memo=not args.no_memo)
             floor = attached_floor(scene, size, T.first_frame(scene, size, frame=1, detail=True), args.warp_sigma) \
                 if args.warp_every else {"lanczos4": float("nan"), "lowpass": float("nan")}
             T.proxy.cache_clear()  # the per-frame proxies and guides of the independent runs

@@ -230,6 +230,11 @@ class Carry(SameSurface):
     extend_frames = Param(int, 6, min=0,
                           doc="frames a disoccluded band may continue its neighbour's patch before it is flood-filled "
                               "(the 'extension' channel counts them)")
+    continue_tail = Param(float, 0.0, min=0.0, max=0.25,
+                          doc="> 0: a disoccluded pixel does not continue a neighbour's patch onto a source pixel in "
+                              "its label's lowest or highest this share of luminance (the label's rare looks: "
+                              "clumps, ghosts), nor does a re-anchored copy or an absorbed fragment keep one: they "
+                              "are resynthesized instead (synthesis.temporal.typical_labels)")
     min_patch_area = Param(int, 16, min=0,
                            doc="patches smaller than this (pixels) continue the neighbouring patch they touch most "
                                "(flagged re-anchored); 0 keeps every fragment")

@@ -223,10 +223,13 @@ def _resynthesize(img: Plate, source: Plate, p, frame: int, *, note: Callable[[s
                                                     scale, filt, memo)
         later = rising_after(rgb, img["label.id"], img.meta.get("temporal") or {}) if p.gate_result else []
         if later and creeping is not None:
-            # labels the result shows creeping: solved again with the remedies (the gate on this frame)
-            creeping = creeping | np.isin(img["label.id"], np.asarray(later, np.uint32))
-            rgb, free, before, pinfo = restricted_solve(img, source, p, unsolved, unfreed, flagged, creeping, sx, sy,
-                                                        patch, scale, filt, memo)
+            # labels the result shows creeping: solved again with the remedies (the gate on this frame),
+            # only the regions that reach them (every other region is the same problem as before)
+            newly = np.isin(img["label.id"], np.asarray(later, np.uint32))
+            first_rgb = rgb
+            rgb, free, before, pinfo = restricted_solve(img, source, p, unsolved, unfreed, flagged, creeping | newly,
+                                                        sx, sy, patch, scale, filt, memo, only=newly)
+            rgb = np.where(pinfo["solved"][..., None], rgb, first_rgb)
             info["gated_after"] = later
         # flagged pixels were the source through the map: the correction adds the solve's change
         correct = all(c in img for c in CORRECTION)
@@ -250,11 +253,22 @@ def _resynthesize(img: Plate, source: Plate, p, frame: int, *, note: Callable[[s
 
 def restricted_solve(img: Plate, source: Plate, p, rgb: np.ndarray, before: np.ndarray, flagged: np.ndarray,
                      creeping: np.ndarray | None, sx: np.ndarray, sy: np.ndarray, patch: np.ndarray, scale: float,
-                     filt: str, memo=None):
+                     filt: str, memo=None, only: np.ndarray | None = None):
     """The restricted Poisson solve of ``rgb`` on the ``flagged`` pixels, with the
     ``RestrictedSolve`` remedies on the ``creeping`` pixels (None: everywhere). Returns
-    (colours, the pixels it freed, ``before`` with the ring's source colours, the solve's info)."""
+    (colours, the pixels it freed, ``before`` with the ring's source colours, the solve's info,
+    whose ``solved`` is the (H, W) mask of the pixels solved). With ``only`` ((H, W) bool) just
+    the 4-connected regions of freed pixels that contain or touch one of those pixels are solved (the
+    rest keep ``rgb``): each region is its own problem, so a second solve that changed the
+    remedies on ``only`` alone need not redo the others."""
     free, before = solve_ring(img, flagged, before, int(p.solve_margin), creeping)
+    solved = free
+    if only is not None:
+        comp, _ = kt.components4(np.ascontiguousarray(free, np.bool_))
+        hit = np.zeros(int(comp.max()) + 1, bool)
+        hit[comp[free & kt.dilate(np.ascontiguousarray(only, np.bool_), 1)]] = True  # touching one: its edges' ids
+        hit[0] = False
+        solved = hit[comp]
     # kept_as_one: between two kept pixels the solve keeps their own difference (a ring pixel's
     # seams are not blended again, a flag-4 region does not keep the correction's step at its
     # border); an edge touching a flagged pixel takes the source's gradient
@@ -267,9 +281,10 @@ def restricted_solve(img: Plate, source: Plate, p, rgb: np.ndarray, before: np.n
         # the kept pixels' seams (the ring's) blended again
         apart = flagged if creeping is None else flagged & creeping
         ids = np.where(apart, patch | np.uint32(APART), patch).astype(np.uint32, copy=False)
-    out, pinfo = blend_regions(rgb, ids, img["label.id"], free, PoissonSolve.of(p),
+    out, pinfo = blend_regions(rgb, ids, img["label.id"], solved, PoissonSolve.of(p),
                                source_rgb=source_colours(source, img.meta, memo), sx=sx, sy=sy, scale=scale,
                                filter=filt, thin=p.sor_thickness or None)
+    pinfo["solved"] = solved
     return out, free, before, pinfo
 
 

@@ -24,6 +24,7 @@ from proxyshade.io.camera import CameraInfo
 from proxyshade.io.colourlib import srgb_encoding_table
 from proxyshade.kernels import reproject as kr
 from proxyshade.kernels import temporal as kt
+from proxyshade.kernels.layout import LUMA
 from proxyshade.kernels.lookup import lookup
 from proxyshade.kernels.random import uniform_field
 from proxyshade.synthesis.grain import source_colours
@@ -243,6 +244,10 @@ def carry(cd: Plate, prev: Plate | None, first: Plate | None, source: Plate, p, 
     have = valid
     filled = None
     src_lab = np.ascontiguousarray(source["label.id"], np.uint32)
+    # continuation stops on the label's rare looks (continue_tail): a patch extruded past where the
+    # synthesis placed it reads source pixels no match chose (clumps in the water, flecks in the sky);
+    # re-anchored copies and absorbed fragments on them are resynthesized (below)
+    cont_lab = typical_labels(source, p.continue_tail, memo) if p.continue_tail > 0 else src_lab
     if p.fill_radius > 0 and not valid.all():
         # in place: it writes only the unkept pixels and reads only kept ones (gather_prev's fresh arrays)
         sx, sy, patch, res, ext, filled = kr.fill_from_neighbours_into(
@@ -250,7 +255,7 @@ def carry(cd: Plate, prev: Plate | None, first: Plate | None, source: Plate, p, 
             radius=p.fill_radius, scale=scale, osx=sx, osy=sy, opatch=patch, ores=res, odist=ext)
         # a patch continued frame after frame would extrude its borders into streaks:
         # past extend_frames the continued band is flood-filled afresh instead (ext counted up in place)
-        filled, have = kt.continue_filled(filled, valid, ext, src_lab, sx, sy, lab, float(p.extend_frames))
+        filled, have = kt.continue_filled(filled, valid, ext, cont_lab, sx, sy, lab, float(p.extend_frames))
     D = kt.map_deviation_patches(sx, sy, np.ascontiguousarray(have, np.bool_), patch, lab, float(scale))
     distorted, sx, sy = reanchor_distorted(have, patch, D, sx, sy, scale, p.threshold, p.spread, p.seed)
     absorbed, sx, sy, patch = absorb_fragments(have, patch, lab, sx, sy, scale, p.min_patch_area, src_lab,
@@ -270,6 +275,13 @@ def carry(cd: Plate, prev: Plate | None, first: Plate | None, source: Plate, p, 
                                  src_lab=src_lab, sx=sx, sy=sy, lab=lab, margin=0.5,
                                  cat=np.ascontiguousarray(cat, np.uint32), cat_c=np.uint32(CATEGORY_C),
                                  land=tuple(land), prev_lab=state.label, codes=tuple(FLAG_CODES))
+    if p.continue_tail > 0:
+        # re-anchored copies and absorbed fragments extend a map too: on a rare look, resynthesized
+        moved = (absorbed | distorted) & (raw == FLAG["reanchored"])
+        if moved.any():
+            rare = kt.fits_label(src_lab, sx, sy, lab, moved) & ~kt.fits_label(cont_lab, sx, sy, lab, moved)
+            raw[rare] = FLAG["distorted"]
+            stray |= rare  # distorted even where clean_flags drops it as isolated
     # clean_flags, then unflagged pixels with nothing to carry (dropped as isolated) disoccluded,
     # off their label distorted, and the counts per flag, in one pass
     flag, nflag = kt.clean_flags(raw, int(p.isolated_radius), int(p.min_neighbours), int(p.dilate),
@@ -304,6 +316,30 @@ def carry(cd: Plate, prev: Plate | None, first: Plate | None, source: Plate, p, 
                                 gate=float(p.creep_gate), first_gradient={str(k): g for k, g in
                                                                           first_gradients(first, memo).items()})
     return Plate(ch, meta)
+
+
+RARE = np.uint32(0xFFFFFFFF)  # typical_labels' id of a label's rare looks (no label has it)
+
+
+def typical_labels(source: Plate, tail: float, memo=None) -> np.ndarray:
+    """The source's ``label.id`` with each label's rare looks set to ``RARE``: its pixels
+    whose linear luminance (Rec. 709 weights) lies in the label's lowest or highest ``tail``
+    share (``np.quantile``, per label). A patch continued into a disocclusion reads source
+    pixels beyond where the synthesis placed it; on these it would copy a look the label
+    rarely has (a dark trunk in the vegetation, a rock in the water) that no neighbourhood
+    match chose, so there the continuation stops and the pixel is resynthesized."""
+    def compute():
+        lab = np.ascontiguousarray(source["label.id"], np.uint32)
+        lum = source.rgb().astype(np.float64) @ np.asarray(LUMA, np.float64)
+        out = lab.copy()
+        for k in np.unique(lab):
+            m = lab == k
+            lo, hi = np.quantile(lum[m], [tail, 1.0 - tail])
+            out[m & ((lum < lo) | (lum > hi))] = RARE
+        return out
+
+    return kept(memo, "temporal.typical_labels", (source["R"], source["G"], source["B"], source["label.id"], tail),
+                compute, size=1)
 
 
 def gradient_sums(rgb: np.ndarray, label: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

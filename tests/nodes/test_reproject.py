@@ -1,6 +1,7 @@
 """Reproject on hand-made camera moves over the analytic wall/ball scene."""
 import numpy as np
 import pytest
+from scipy import ndimage
 
 from proxyshade.errors import NodeInputError
 from proxyshade.graph.plate import Plate
@@ -75,6 +76,42 @@ def test_continued_pixels_join_the_solve_with_solve_continued():
     np.testing.assert_allclose(a.rgb()[four], plain[four] + 0.05, atol=1e-6)
 
 
+def test_continue_tail_stops_continuation_on_the_labels_rare_looks():
+    """With ``continue_tail`` a disoccluded pixel continues its neighbour's patch only onto
+    a source pixel outside its label's luminance tails (``typical_labels``); where the
+    continuation would read a rare look the pixel is flagged disoccluded (resynthesized).
+    Every other pixel is as without it."""
+    from proxyshade.synthesis.temporal import RARE, typical_labels
+
+    cams = [camera(pos=(0.5 * k, 0, 0), frame=k + 1) for k in range(2)]
+    r0, r1 = (render(c, sphere=None) for c in cams)
+    prev = with_distortion(state_plate(r0), np.zeros((64, 64)))
+    params = dict(EXACT, fill_radius=6)
+    a = step(r1, r0, prev, **params)
+    b = step(r1, r0, prev, continue_tail=0.25, **params)
+    typ = typical_labels(toy_source(), 0.25)
+    hs, ws = typ.shape
+
+    def rare(p, m):
+        c = np.clip(np.floor(np.clip(p["source.x"][m], 0, ws - 1) + 0.5), 0, ws - 1).astype(int)
+        r = np.clip(np.floor(np.clip(p["source.y"][m], 0, hs - 1) + 0.5), 0, hs - 1).astype(int)
+        return typ[r, c] == RARE
+
+    cont_a = (a["extension"] > 0) & (a["flag"] == 0)
+    cont_b = (b["extension"] > 0) & (b["flag"] == 0)
+    on_rare = np.zeros((64, 64), bool)
+    on_rare[cont_a] = rare(a, cont_a)
+    assert 5 < on_rare.sum() < cont_a.sum()  # the toy source's tails are hit, not everywhere
+    assert not rare(b, cont_b).any()
+    assert (b["flag"][on_rare] == FLAG["disoccluded"]).all()
+    # the new flags are dilated by 2 px (``dilate``): beyond that every pixel is as without the option
+    near = ndimage.binary_dilation(on_rare, np.ones((5, 5), bool))
+    assert not (cont_b & ~cont_a).any() and (cont_b == cont_a)[~near].all()
+    assert (b["flag"] == a["flag"])[~near].all()
+    for c in ("source.x", "source.y", "patch.id"):
+        np.testing.assert_array_equal(b[c][cont_b], a[c][cont_b])
+
+
 def test_creep_gate_continues_into_the_solve_only_where_the_gradient_rose():
     """With ``creep_gate`` Reproject measures each label's mean display-luma gradient in
     ``prev`` over the first frame's (meta ``temporal.gradient``, bench_shot's grad) and lists
@@ -142,6 +179,28 @@ def test_zoom_is_measured_on_the_carried_map_and_reanchored_past_the_threshold()
     assert (flag == FLAG["reanchored"]).mean() > 0.5
     re = flag == FLAG["reanchored"]
     assert deviation(out, re).max() < 1e-4
+
+
+def test_continue_tail_resynthesizes_reanchored_copies_on_rare_looks():
+    """With ``continue_tail`` a re-anchored copy (a zoom past the threshold) keeps its new map
+    (flag 4) only on source pixels outside its label's luminance tails; on a rare look it is
+    flagged distorted (resynthesized). Pixels not re-anchored are as without the option."""
+    from proxyshade.synthesis.temporal import RARE, typical_labels
+
+    p0 = render(camera(f=40.0), sphere=None)
+    p1 = render(camera(f=44.0, frame=2), sphere=None)
+    prev = with_distortion(state_plate(p0), np.zeros((64, 64)))
+    a = step(p1, p0, prev, threshold=0.1, cut_threshold=1.0, **EXACT)
+    b = step(p1, p0, prev, threshold=0.1, cut_threshold=1.0, continue_tail=0.25, **EXACT)
+    typ = typical_labels(toy_source(), 0.25)
+    hs, ws = typ.shape
+    re = a["flag"] == FLAG["reanchored"]
+    c = np.floor(np.clip(a["source.x"], 0, ws - 1) + 0.5).astype(int)
+    r = np.floor(np.clip(a["source.y"], 0, hs - 1) + 0.5).astype(int)
+    rare = re & (typ[r, c] == RARE)
+    assert 10 < rare.sum() < re.sum() // 2
+    assert (b["flag"][rare] == FLAG["distorted"]).all()
+    np.testing.assert_array_equal(b["flag"][~rare], a["flag"][~rare])
 
 
 def test_shear_with_unit_determinant_is_seen():

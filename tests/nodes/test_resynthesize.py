@@ -185,6 +185,49 @@ def test_solve_margin_spreads_a_thin_regions_mismatch_over_its_kept_ring():
     assert same(after(1.0), plain_result)
 
 
+def test_gate_result_solves_again_only_the_regions_of_the_labels_it_adds():
+    """``gate_result``'s second solve (a label the result shows rising) redoes only the
+    regions of freed pixels in or beside that label: each region is its own problem, so the
+    result is the full second solve's (``rising`` listing the label from the start), and a
+    flagged region of another label keeps the first solve's colours bit for bit."""
+    from proxyshade.synthesis.temporal import label_ratios
+
+    base = carried()
+    lab = base["label.id"]
+    counts = np.bincount(lab.ravel())
+    a, b = (int(k) for k in np.argsort(counts)[::-1][:2])  # the two largest labels
+    flag = np.zeros(base.shape, np.uint32)
+    corr = np.zeros(base.shape + (3,), np.float32)
+    for k, v in ((a, 0.1), (b, -0.08)):
+        ii, jj = np.nonzero(lab == k)
+        i, j = int(np.median(ii)), int(np.median(jj))
+        box = (slice(max(i - 6, 0), i + 6), slice(max(j - 2, 0), j + 2))
+        flag[box] = np.where(lab[box] == k, FLAG["disoccluded"], 0)
+        corr[box[0], box[1].stop:box[1].stop + 20] = v
+    kept = flag == 0
+    rgb = lookup(source_colours(source("renoir"), base.meta), base["source.x"], base["source.y"])
+    ch = {c: (rgb[..., i] + corr[..., i] * kept).astype(np.float32) for i, c in enumerate("RGB")}
+    ch.update({f"correction.{c}": (corr[..., i] * kept).astype(np.float32) for i, c in enumerate("RGB")})
+    img = base.with_channels(dict(ch, flag=flag))
+    every = [int(k) for k in np.unique(lab)]
+
+    def run(rising, first=None, **p):
+        t = dict(img.meta.get("temporal", {}), rising=rising)
+        if first is not None:
+            t.update(gate=1.05, first_gradient=first)
+        return resynth(img.with_channels(meta={"temporal": t}), flagged_apart=True, solve_margin=8, **p)
+
+    plain = run([])
+    g = label_ratios(plain.rgb(), lab, {k: 1.0 for k in every})
+    after = run([], {str(k): (g[k] / 1.2 if k == a else 10 * g[k]) for k in g}, gate_result=True)
+    assert after.meta["resynthesis"]["gated_after"] == [a]
+    full = run([a])
+    np.testing.assert_allclose(after.rgb(), full.rgb(), atol=2e-6)
+    near_b = (lab == b) & ~kept
+    np.testing.assert_array_equal(after.rgb()[near_b], plain.rgb()[near_b])
+    assert not np.array_equal(after.rgb()[(lab == a) & ~kept], plain.rgb()[(lab == a) & ~kept])
+
+
 def test_deterministic_per_frame_seed():
     img = carried()
     flag = np.zeros(img.shape, np.uint32)

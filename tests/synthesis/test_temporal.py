@@ -57,3 +57,35 @@ def test_thin_slivers_are_fragments_too():
                                                 np.ones((40, 240), np.uint32), 1.5)
     assert absorbed.sum() == 36 and set(np.unique(npatch[5, 2:38])) <= {1, 2}
     assert not absorbed[patch != 3].any()
+
+
+def test_typical_labels_mark_each_labels_luminance_tails():
+    """``typical_labels``: a pixel is RARE when its luminance lies below its label's ``tail``
+    quantile or above its ``1 - tail`` quantile (linear interpolation between order
+    statistics), against a per-pixel loop over sorted values."""
+    from proxyshade.graph.plate import Plate
+    from proxyshade.synthesis.temporal import RARE, typical_labels
+
+    rng = np.random.default_rng(3)
+    h, w = 23, 31
+    lab = rng.integers(1, 4, (h, w)).astype(np.uint32)
+    rgb = rng.random((h, w, 3)).astype(np.float32)
+    src = Plate({"R": rgb[..., 0].copy(), "G": rgb[..., 1].copy(), "B": rgb[..., 2].copy(), "label.id": lab}, {})
+    tail = 0.07
+    got = typical_labels(src, tail)
+    lum = rgb.astype(np.float64) @ np.array([0.2126, 0.7152, 0.0722])
+
+    def quantile(vals, q):
+        v = sorted(vals)
+        x = q * (len(v) - 1)
+        i = int(x)
+        return v[i] if i + 1 >= len(v) else v[i] + (x - i) * (v[i + 1] - v[i])
+
+    for k in (1, 2, 3):
+        vals = [lum[i, j] for i in range(h) for j in range(w) if lab[i, j] == k]
+        lo, hi = quantile(vals, tail), quantile(vals, 1 - tail)
+        for i in range(h):
+            for j in range(w):
+                if lab[i, j] == k:
+                    assert got[i, j] == (RARE if lum[i, j] < lo or lum[i, j] > hi else k)
+    assert 0.1 < (got == RARE).mean() < 0.18
