@@ -18,10 +18,10 @@ from __future__ import annotations
 
 from proxyshade.graph.node import Input, Node, Param, Progressive
 from proxyshade.graph.plate import Plate
-from proxyshade.synthesis.params import Correction, FloodFill, PoissonSolve, RestrictedSolve, source_input
+from proxyshade.synthesis.params import Resynthesis, source_input
 
 
-class Resynthesize(FloodFill, Correction, PoissonSolve, RestrictedSolve, Progressive, Node):
+class Resynthesize(Resynthesis, Progressive, Node):
     """Flagged pixels resynthesized with the first-frame steps; the rest kept.
 
     Output at the input's size: the input's channels with ``R,G,B`` (the source through
@@ -44,11 +44,12 @@ class Resynthesize(FloodFill, Correction, PoissonSolve, RestrictedSolve, Progres
     def compute(self, ctx) -> Plate:
         from proxyshade.synthesis.resynthesis import resynthesize, resynthesize_update
 
-        if ctx.previous is not None and ctx.p.solve:
+        p = Resynthesis.of(ctx.p, "factor", "scale", "seed", "solve")
+        if ctx.previous is not None and p.solve:
             prev = ctx.previous
             out = resynthesize_update(prev.plate, prev.inputs.get("image"), ctx.image, ctx.source,
-                                      prev.inputs.get("source"), ctx.p, ctx.frame, note=ctx.note, memo=ctx.memo,
+                                      prev.inputs.get("source"), p, ctx.frame, note=ctx.note, memo=ctx.memo,
                                       tiles=ctx.tiles)
             if out is not None:
                 return out
-        return resynthesize(ctx.image, ctx.source, ctx.p, ctx.frame, note=ctx.note, memo=ctx.memo, tiles=ctx.tiles)
+        return resynthesize(ctx.image, ctx.source, p, ctx.frame, note=ctx.note, memo=ctx.memo, tiles=ctx.tiles)

@@ -179,6 +179,11 @@ class RestrictedSolve(ParamGroup):
                               "same system, to the solver's tol); 0: only regions in small boxes")
 
 
+class Resynthesis(FloodFill, Correction, PoissonSolve, RestrictedSolve):
+    """The steps a resynthesis runs (``synthesis.resynthesis``): what Resynthesize hands the
+    layer, with its own ``factor``, ``scale``, ``seed`` and ``solve``."""
+
+
 class Guidance(ParamGroup):
     """Guidance synthesis (§4): the detailed label guide."""
 

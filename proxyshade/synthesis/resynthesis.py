@@ -219,16 +219,17 @@ def _resynthesize(img: Plate, source: Plate, p, frame: int, *, note: Callable[[s
             rgb = rgb + extended_correction(img, flagged, PoissonSolve.of(p), p.sor_thickness or None)
         creeping = creeping_labels(img)
         unsolved, unfreed = rgb, before
-        rgb, free, before, pinfo = restricted_solve(img, source, p, unsolved, unfreed, flagged, creeping, sx, sy, patch,
-                                                    scale, filt, memo)
+        rgb, free, before, pinfo = restricted_solve(img, source, p, unsolved, unfreed, flagged, creeping=creeping, sx=sx,
+                                                    sy=sy, patch=patch, scale=scale, filt=filt, memo=memo)
         later = rising_after(rgb, img["label.id"], img.meta.get("temporal") or {}) if p.gate_result else []
         if later and creeping is not None:
             # labels the result shows creeping: solved again with the remedies (the gate on this frame),
             # only the regions that reach them (every other region is the same problem as before)
             newly = np.isin(img["label.id"], np.asarray(later, np.uint32))
             first_rgb = rgb
-            rgb, free, before, pinfo = restricted_solve(img, source, p, unsolved, unfreed, flagged, creeping | newly,
-                                                        sx, sy, patch, scale, filt, memo, only=newly)
+            rgb, free, before, pinfo = restricted_solve(img, source, p, unsolved, unfreed, flagged,
+                                                        creeping=creeping | newly, sx=sx, sy=sy, patch=patch,
+                                                        scale=scale, filt=filt, memo=memo, only=newly)
             rgb = np.where(pinfo["solved"][..., None], rgb, first_rgb)
             info["gated_after"] = later
         # flagged pixels were the source through the map: the correction adds the solve's change
@@ -251,7 +252,7 @@ def _resynthesize(img: Plate, source: Plate, p, frame: int, *, note: Callable[[s
     return img.with_channels(out, meta=meta, drop=() if p.solve else CORRECTION)
 
 
-def restricted_solve(img: Plate, source: Plate, p, rgb: np.ndarray, before: np.ndarray, flagged: np.ndarray,
+def restricted_solve(img: Plate, source: Plate, p, rgb: np.ndarray, before: np.ndarray, flagged: np.ndarray, *,
                      creeping: np.ndarray | None, sx: np.ndarray, sy: np.ndarray, patch: np.ndarray, scale: float,
                      filt: str, memo=None, only: np.ndarray | None = None):
     """The restricted Poisson solve of ``rgb`` on the ``flagged`` pixels, with the
