@@ -80,6 +80,7 @@ class CameraInfo:
 
     @classmethod
     def from_meta(cls, m: dict) -> "CameraInfo":
-        return cls(m["path"], int(m["frame"]), int(m["resolution"][0]), int(m["resolution"][1]), float(m["fx"]),
-                   float(m["fy"]), float(m["cx"]), float(m["cy"]), float(m["near"]), float(m["far"]),
-                   np.array(m["camera_to_world"], np.float64))
+        return cls(path=m["path"], frame=int(m["frame"]), width=int(m["resolution"][0]),
+                   height=int(m["resolution"][1]), fx=float(m["fx"]), fy=float(m["fy"]), cx=float(m["cx"]),
+                   cy=float(m["cy"]), near=float(m["near"]), far=float(m["far"]),
+                   camera_to_world=np.array(m["camera_to_world"], np.float64))

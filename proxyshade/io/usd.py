@@ -210,7 +210,8 @@ def camera_at(stage: Usd.Stage, path: str | None, frame: int, width: int, height
     cx = width / 2.0 - width * gcam.horizontalApertureOffset / ha  # the window moves, the image moves back
     cy = height / 2.0 + height * gcam.verticalApertureOffset / va
     near, far = gcam.clippingRange.min, gcam.clippingRange.max
-    return CameraInfo(str(path), frame, width, height, fx, fy, cx, cy, near, far, _np(gcam.transform))
+    return CameraInfo(path=str(path), frame=frame, width=width, height=height, fx=fx, fy=fy, cx=cx, cy=cy, near=near,
+                      far=far, camera_to_world=_np(gcam.transform))
 
 
 def gf_frustum(cam: CameraInfo, stage: Usd.Stage) -> Gf.Frustum:

@@ -492,7 +492,8 @@ def splat_grid(cw, keep, M, k0, k1, near, height, width, max_extent):
     start, lst = bin_rows_parallel(r0, r1, nb, SPLAT_BAND)
     zbuf = np.full((int(height), int(width)), -1.0, np.float64)
     src = np.full((int(height), int(width)), -1, np.int64)
-    _splat_bands(cw, A, k1, float(near), int(height), int(width), SPLAT_BAND, start, lst, zbuf, src)
+    _splat_bands(cw, A, k1, near=float(near), height=int(height), width=int(width), band=SPLAT_BAND, start=start,
+                 lst=lst, zbuf=zbuf, src=src)
     return zbuf, src
 
 
