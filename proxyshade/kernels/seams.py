@@ -259,12 +259,29 @@ def _seam_cost(S, img, target):
 
 
 @njit(**JIT)
-def _shift_cost(S, img, target, labels, patch, order, a, b, edge, ea, eb, pid, oy, ox, bound, check):
+def _spread(img, target, mu, order, a, b, oy, ox, W):
+    """Σ over the pixels ``order[a:b]`` read at offset (oy, ox) of (their tone − ``mu`` of
+    their target label)², tone the sum of ``img``'s channels (off the grid: 0)."""
+    Hs, Ws, C = img.shape
+    s = 0.0
+    for t in range(a, b):
+        i, j = order[t] // W, order[t] % W
+        if 0 <= i + oy < Hs and 0 <= j + ox < Ws:
+            v = -mu[target[i, j]]
+            for c in range(C):
+                v += img[i + oy, j + ox, c]
+            s += v * v
+    return s
+
+
+@njit(**JIT)
+def _shift_cost(S, img, target, labels, patch, order, a, b, edge, ea, eb, pid, oy, ox, bound, check, mu, least):
     """Summed seam cost of patch ``pid`` (its pixels ``order[a:b]``, those with a neighbour
     outside it ``edge[ea:eb]``, flat indices) read at offset (oy, ox) against its same-label
     neighbours outside it, read at their own offsets; returned as soon as it passes
     ``bound``; under it, with ``check``, inf when a pixel would read a source pixel off the
-    grid or of another label than its target's."""
+    grid or of another label than its target's, or when its tones' spread about their
+    labels' means (``_spread``) would fall under ``least``."""
     H, W = target.shape
     Hs, Ws = labels.shape
     e = 0.0
@@ -287,14 +304,32 @@ def _shift_cost(S, img, target, labels, patch, order, a, b, edge, ea, eb, pid, o
         sy, sx = i + oy, j + ox
         if sy < 0 or sx < 0 or sy >= Hs or sx >= Ws or labels[sy, sx] != target[i, j]:
             return np.inf
+    if check and _spread(img, target, mu, order, a, b, oy, ox, W) < least:
+        return np.inf
     return e
 
 
+@njit(**JIT)
+def _label_spread(S, img, target, mu, order, starts, nl):
+    """Per target label (of each patch's first pixel), the summed ``_spread`` of its
+    patches at their offsets, patches in id order."""
+    W = target.shape[1]
+    tot = np.zeros(nl, np.float64)
+    for p in range(len(starts) - 1):
+        a, b = starts[p], starts[p + 1]
+        if b > a:
+            f = order[a]
+            i, j = f // W, f % W
+            tot[target[i, j]] += _spread(img, target, mu, order, a, b, S[i, j, 0] - i, S[i, j, 1] - j, W)
+    return tot
+
+
+SPREAD_LOSS = 0.1  # the most share of a label's spread about its mean tone the shifts may lose (``shift_patches``)
 ADOPT_MAX = 8  # most neighbouring patches' offsets a patch tries (``_shift_pass``)
 
 
 @njit(**JIT)
-def _shift_pass(S, img, target, labels, patch, order, starts, edge, estarts, radius, adopt):
+def _shift_pass(S, img, target, labels, patch, order, starts, edge, estarts, radius, adopt, mu, tot, floor):
     """Each patch in turn (ids in order; ``order[starts[p]:starts[p + 1]]`` the flat
     indices of patch p + 1's pixels) takes, among its offset moved by up to ``radius``
     pixels each way, the one of least summed seam cost to its neighbours (``_shift_cost``;
@@ -314,15 +349,21 @@ def _shift_pass(S, img, target, labels, patch, order, starts, edge, estarts, rad
         pid = p + 1
         f = order[a]
         oy, ox = S[f // W, f % W, 0] - f // W, S[f // W, f % W, 1] - f % W
-        best = _shift_cost(S, img, target, labels, patch, order, a, b, edge, ea, eb, pid, oy, ox, np.inf, False)
+        best = _shift_cost(S, img, target, labels, patch, order, a, b, edge, ea, eb, pid, oy, ox, np.inf, False, mu, 0.0)
         if best == 0.0:
             continue
+        # its label (its first pixel's) may lose spread about its mean down to ``floor`` over the step
+        # (``tot``: its spread now, earlier moves' gains and losses included)
+        lab = target[f // W, f % W]
+        spread = _spread(img, target, mu, order, a, b, oy, ox, W)
+        least = spread - (tot[lab] - floor[lab])
         by, bx = oy, ox
         for dy in range(-radius, radius + 1):
             for dx in range(-radius, radius + 1):
                 if dy == 0 and dx == 0:
                     continue
-                e = _shift_cost(S, img, target, labels, patch, order, a, b, edge, ea, eb, pid, oy + dy, ox + dx, best, True)
+                e = _shift_cost(S, img, target, labels, patch, order, a, b, edge, ea, eb, pid, oy + dy, ox + dx, best, True,
+                                mu, least)
                 if e < best:
                     best, by, bx = e, oy + dy, ox + dx
         if b - a <= adopt:  # then each neighbouring patch's offset (first met, pixels in raster order)
@@ -348,10 +389,12 @@ def _shift_pass(S, img, target, labels, patch, order, starts, edge, estarts, rad
                     cand[seen, 1] = qx
                     seen += 1
             for u in range(seen):
-                e = _shift_cost(S, img, target, labels, patch, order, a, b, edge, ea, eb, pid, cand[u, 0], cand[u, 1], best, True)
+                e = _shift_cost(S, img, target, labels, patch, order, a, b, edge, ea, eb, pid, cand[u, 0], cand[u, 1], best, True,
+                            mu, least)
                 if e < best:
                     best, by, bx = e, cand[u, 0], cand[u, 1]
         if by != oy or bx != ox:
+            tot[lab] += _spread(img, target, mu, order, a, b, by, bx, W) - spread
             for t in range(a, b):
                 f = order[t]
                 S[f // W, f % W, 0] = f // W + by
@@ -376,7 +419,10 @@ def shift_patches(S: np.ndarray, img: np.ndarray, target: np.ndarray, labels: np
     img = np.ascontiguousarray(img, np.float32)
     target = np.ascontiguousarray(target, np.int32)
     labels = np.ascontiguousarray(labels, np.int32)
-    patch = np.ascontiguousarray(patch, np.int64)
+    nl = int(max(labels.max(initial=0), target.max(initial=0))) + 1
+    # a patch across a label border moves as one piece per label (no seam joins them; a label's spread
+    # below is its own pieces'): ids in order of (patch, label)
+    patch = np.unique(np.asarray(patch, np.int64) * nl + target, return_inverse=True)[1].reshape(target.shape) + 1
     order = np.argsort(patch.ravel(), kind="stable").astype(np.int64)
     ids = np.arange(1, int(patch.max(initial=0)) + 2)
     starts = np.searchsorted(patch.ravel()[order], ids).astype(np.int64)
@@ -389,9 +435,16 @@ def shift_patches(S: np.ndarray, img: np.ndarray, target: np.ndarray, labels: np
         rim[sb] |= d
     edge = order[rim.ravel()[order]]
     estarts = np.searchsorted(patch.ravel()[edge], ids).astype(np.int64)
+    # each label's mean tone on the source grid, and its patches' summed spread about it (``_spread``):
+    # the shifts may lower that sum by SPREAD_LOSS at most (they drew patches of a label's tails onto its mode)
+    tone = img.sum(-1, dtype=np.float64).ravel()
+    mu = np.bincount(labels.ravel(), tone, nl) / np.maximum(np.bincount(labels.ravel(), minlength=nl), 1)
+    tot = _label_spread(S, img, target, mu, order, starts, nl)
+    floor = tot * (1.0 - SPREAD_LOSS)
     moves = 0
     for _ in range(passes):
-        n = _shift_pass(S, img, target, labels, patch, order, starts, edge, estarts, int(radius), int(adopt))
+        n = _shift_pass(S, img, target, labels, patch, order, starts, edge, estarts, int(radius), int(adopt), mu,
+                        tot, floor)
         moves += int(n)
         if n == 0:
             break

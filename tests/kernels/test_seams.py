@@ -229,12 +229,41 @@ def ref_shift(S, img, target, labels, patch, radius, passes, adopt=0):
     """Whole-patch shifts: patches in id order, each takes the offset within ``radius`` of
     its own (rows then columns, ascending) whose seams to the pixels outside it cost
     least, strictly less than its own, where every pixel of it reads its label (its own
-    offset need not); a patch of at most ``adopt`` pixels then the offsets of the patches beside it farther
-    than ``radius`` (the first 8 met: its pixels in raster order, neighbours up, left,
-    right, down)."""
+    offset need not) and its label's spread (Σ (tone − the label's mean tone on the source
+    grid)², tone the channel sum, over its patches) stays at least 1 − SPREAD_LOSS of what
+    it was before the first pass; a patch of at most ``adopt`` pixels then the offsets of
+    the patches beside it farther than ``radius`` (the first 8 met: its pixels in raster
+    order, neighbours up, left, right, down). A patch across a label border is one patch
+    per label (ids in order of (patch, label))."""
     S = S.copy()
     H, W = target.shape
     Hs, Ws = labels.shape
+    nl = int(max(labels.max(), target.max())) + 1
+    pieces = {}
+    for i, j in sorted(zip(*np.nonzero(np.ones_like(target))), key=lambda p: (patch[p], target[p], p)):
+        pieces.setdefault((int(patch[i, j]), int(target[i, j])), []).append((i, j))
+    patch = np.zeros_like(target, dtype=np.int64)
+    for n, key in enumerate(sorted(pieces), 1):
+        for p in pieces[key]:
+            patch[p] = n
+    tone = img.astype(np.float64).sum(-1)
+    mu = [sum(tone[labels == lab].tolist(), 0.0) / max(int((labels == lab).sum()), 1) for lab in range(nl)]
+
+    def spread(pix, off):
+        s = 0.0
+        for i, j in pix:
+            if 0 <= i + off[0] < Hs and 0 <= j + off[1] < Ws:
+                v = -mu[int(target[i, j])]
+                for c in img[i + off[0], j + off[1]]:
+                    v += float(c)
+                s += v * v
+        return s
+
+    tot = [0.0] * nl
+    for pid in range(1, int(patch.max()) + 1):
+        pix = list(zip(*np.nonzero(patch == pid)))
+        tot[int(target[pix[0]])] += spread(pix, (S[pix[0]][0] - pix[0][0], S[pix[0]][1] - pix[0][1]))
+    floor = [t * (1.0 - ks.SPREAD_LOSS) for t in tot]
     moves = 0
     for _ in range(passes):
         moved = 0
@@ -252,9 +281,14 @@ def ref_shift(S, img, target, labels, patch, radius, passes, adopt=0):
                         if 0 <= y < H and 0 <= x < W and target[y, x] == target[i, j] and patch[y, x] != pid:
                             yield i, j, y, x, (S[y, x, 0] - y, S[y, x, 1] - x)
 
+            lab = int(target[i0, j0])
+            least = spread(pix, own) - (tot[lab] - floor[lab])
+
             def cost(off, check=True):
                 if check and not all(0 <= i + off[0] < Hs and 0 <= j + off[1] < Ws and labels[i + off[0], j + off[1]] == target[i, j]
                            for i, j in pix):
+                    return np.inf
+                if check and spread(pix, off) < least:
                     return np.inf
                 e = 0.0
                 for i, j, y, x, q in across():
@@ -277,6 +311,7 @@ def ref_shift(S, img, target, labels, patch, radius, passes, adopt=0):
                     if (e := cost(q)) < best:
                         best, pick = e, q
             if pick != own:
+                tot[lab] += spread(pix, pick) - spread(pix, own)
                 for i, j in pix:
                     S[i, j] = (i + pick[0], j + pick[1])
                 moved += 1
@@ -327,3 +362,21 @@ def test_a_patch_shifts_onto_its_neighbours_texture():
     assert n == 2 and ks.seam_cost(S, img, target) > 0
     out, moves = ks.shift_patches(S, img, target, labels, patch, 2, 2)
     assert moves == 1 and ks.seam_cost(out, img, target) == 0.0
+
+
+def test_a_shift_does_not_draw_a_patch_onto_its_labels_mean_tone():
+    # one label: a flat grey field with a bright streak (its tail). A patch (one column)
+    # reads the streak; moved a column either way it would read grey and its seams would
+    # vanish, but the label would lose its tail (bench_photos: the sunset's near-black
+    # vegetation std 0.88 -> 0.70 from such shifts), so it stays
+    H, W = 6, 9
+    img = np.full((H, 30, 3), 0.5, np.float32)
+    img[:, 14, :] = 1.0
+    S = np.stack(np.mgrid[0:H, 0:W], -1).astype(np.int32)
+    S[:, 4, 1] = 14
+    target, labels = np.zeros((H, W), np.int32), np.zeros((H, 30), np.int32)
+    from proxyshade.kernels.patch import offset_components
+    patch, n = offset_components(S)
+    assert n == 3 and ks.seam_cost(S, img, target) > 0
+    out, moves = ks.shift_patches(S, img, target, labels, patch, 1, 2, adopt=64)
+    assert moves == 0 and np.array_equal(out, S)
