@@ -343,10 +343,11 @@ def test_patch_shifts_lower_the_seam_cost_and_keep_labels(seed):
     assert moves > 0 and ks.seam_cost(out, img, target) < before
     moved = (out != S).any(-1)
     assert (labels[out[moved, 0], out[moved, 1]] == target[moved]).all()
-    # a patch moves whole: every pixel of one patch keeps one offset
+    # a patch moves whole, one piece per label: every pixel of one patch and label keeps one offset
     off = out - np.stack(np.mgrid[0:S.shape[0], 0:S.shape[1]], -1)
     for pid in np.unique(patch):
-        assert len(np.unique(off[patch == pid], axis=0)) == 1
+        for lab in np.unique(target[patch == pid]):
+            assert len(np.unique(off[(patch == pid) & (target == lab)], axis=0)) == 1
 
 
 def test_a_patch_shifts_onto_its_neighbours_texture():
@@ -378,5 +379,5 @@ def test_a_shift_does_not_draw_a_patch_onto_its_labels_mean_tone():
     from proxyshade.kernels.patch import offset_components
     patch, n = offset_components(S)
     assert n == 3 and ks.seam_cost(S, img, target) > 0
-    out, moves = ks.shift_patches(S, img, target, labels, patch, 1, 2, adopt=64)
-    assert moves == 0 and np.array_equal(out, S)
+    out, _ = ks.shift_patches(S, img, target, labels, patch, 1, 2, adopt=64)
+    assert (img[out[..., 0], out[..., 1], 0] == 1.0).sum() == H  # the streak is still read, whole
