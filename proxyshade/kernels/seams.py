@@ -412,9 +412,12 @@ def shift_patches(S: np.ndarray, img: np.ndarray, target: np.ndarray, labels: np
     target label: a patch magnified from the synthesis is placed to a whole exemplar pixel
     (``factor`` output pixels); this aligns it with its neighbours at the output's
     resolution. A patch of at most ``adopt`` pixels may also take a neighbouring patch's
-    offset (``_shift_pass``). Each pass lowers the total ``seam_cost``. Patch ids are kept (a patch
-    keeps its pixels); stops early when a pass moves nothing. Returns the map and the
-    number of patch moves."""
+    offset (``_shift_pass``). A patch across a label border moves as one piece per label. No
+    label loses more than ``SPREAD_LOSS`` of its pieces' summed squared tone deviation from its
+    mean tone on the source grid (``_spread``): shifts to where seams cost least drew the
+    pieces of a label's tails onto its mode (bench_photos: a near-black label's std ratio
+    0.88 -> 0.70). Each pass lowers the total ``seam_cost``; pieces keep their pixels; stops
+    early when a pass moves nothing. Returns the map and the number of piece moves."""
     S = np.ascontiguousarray(S, np.int32).copy()
     img = np.ascontiguousarray(img, np.float32)
     target = np.ascontiguousarray(target, np.int32)
