@@ -535,10 +535,11 @@ def _shift_passes(S, img, target, labels, patch, radius, adopt, passes, mu, keep
             ps, n = pstarts[p], pstarts[p + 1] - pstarts[p]
             f = order[a]
             lab = target[f // W, f % W]
-            if tried[pid] >= 0:
-                again = own[pid] - (tot[lab] - floor[lab]) < refused[pid]  # its label's budget grew
+            # (tried again anyway when its label's budget has grown past an offset it refused)
+            if tried[pid] >= 0 and not own[pid] - (tot[lab] - floor[lab]) < refused[pid]:
+                again = False
                 for t in range(ps, ps + n):
-                    if again or moved_at[pr[t, 4]] > tried[pid]:
+                    if moved_at[pr[t, 4]] > tried[pid]:
                         again = True
                         break
                 if not again:
