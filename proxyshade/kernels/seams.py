@@ -399,14 +399,14 @@ def _spread(img, target, mu, order, a, b, oy, ox, W):
 
 
 @njit(**JIT)
-def _shift_passes(S, img, target, labels, patch, radius, adopt, passes, mu, keep):
+def _shift_passes(S, img, target, labels, patch, radius, adopt, passes, keep):
     """Up to ``passes`` passes (stopping after one that moves nothing); in each, each piece
     (a patch's pixels of one target label; ids in order of (``patch`` id, label)) in turn
     takes, among its offset moved by up to ``radius`` pixels each way, the one of least
     summed seam cost to its neighbours (its own when none is lower; a moved piece reads its
     label everywhere, where it is need not, and its label's summed spread about its mean
-    tone ``mu`` (``_spread``, the running total over its pieces) stays at least ``keep``
-    times its value before the first pass), and a piece of at most ``adopt`` pixels also
+    tone on the source grid (``_spread``, the running total over its pieces) stays at least
+    ``keep`` times its value before the first pass), and a piece of at most ``adopt`` pixels also
     among the offsets of the pieces around it (the first ``ADOPT_MAX`` met, farther than
     ``radius``: joining a neighbour removes their seam); sequential, so any thread count
     gives one result. A piece's pairs across its seams and what its neighbours read are
@@ -417,73 +417,118 @@ def _shift_passes(S, img, target, labels, patch, radius, adopt, passes, mu, keep
     moves."""
     Hs, Ws, C = img.shape
     H, W = target.shape
-    nl = len(mu)
-    # pieces: each patch's pixels (ordered by patch id, counting sort) split by target label,
-    # numbered in order of (patch, label)
+    # each label's mean tone (its source pixels' channel sums, summed in raster order)
+    nl = 0
+    for sy in range(Hs):
+        for sx in range(Ws):
+            nl = max(nl, labels[sy, sx])
     npatch = 0
     for i in range(H):
         for j in range(W):
+            nl = max(nl, target[i, j])
             npatch = max(npatch, patch[i, j])
-    starts = np.zeros(npatch + 2, np.int64)
+    nl += 1
+    mu = np.zeros(nl, np.float64)
+    cnt = np.zeros(nl, np.int64)
+    for sy in range(Hs):
+        for sx in range(Ws):
+            v = 0.0
+            for c in range(C):
+                v += img[sy, sx, c]
+            mu[labels[sy, sx]] += v
+            cnt[labels[sy, sx]] += 1
+    for lab in range(nl):
+        mu[lab] /= max(cnt[lab], 1)
+    # pieces: a patch's pixels of one target label, ids from 1 in order of (patch, label). Per patch
+    # (ids from 0): its size, its first pixel's label and whether it has pixels of another (mixed)
+    size = np.zeros(npatch + 1, np.int64)
+    one = np.empty(npatch + 1, np.int64)
+    mixed = np.zeros(npatch + 1, np.bool_)
     for i in range(H):
         for j in range(W):
-            starts[patch[i, j] + 1] += 1
+            p = patch[i, j]
+            if size[p] == 0:
+                one[p] = target[i, j]
+            elif target[i, j] != one[p]:
+                mixed[p] = True
+            size[p] += 1
+    # a mixed patch's labels ascending, ``nlab[p]`` of them from ``lab_at[p]`` in ``labs`` (its
+    # pixels' labels gathered there first)
+    lab_at = np.zeros(npatch + 2, np.int64)
     for p in range(npatch + 1):
-        starts[p + 1] += starts[p]
-    order = np.empty(H * W, np.int64)
-    fill = np.empty(max(npatch + 1, H * W), np.int64)  # each patch's (then piece's, pair list's) next free place
-    for p in range(npatch + 1):
-        fill[p] = starts[p]
+        lab_at[p + 1] = lab_at[p] + (size[p] if mixed[p] else 0)
+    labs = np.empty(lab_at[npatch + 1], np.int64)
+    nlab = np.zeros(npatch + 1, np.int64)
     for i in range(H):
         for j in range(W):
-            order[fill[patch[i, j]]] = i * W + j
-            fill[patch[i, j]] += 1
-    piece = np.empty((H, W), np.int64)
-    seen_at = np.full(nl, -1, np.int64)  # the patch whose pixels last showed each label
-    labs = np.empty(nl, np.int64)  # one patch's labels, ascending
-    lid = np.empty(nl, np.int64)  # ... and their piece ids
+            p = patch[i, j]
+            if mixed[p]:
+                labs[lab_at[p] + nlab[p]] = target[i, j]
+                nlab[p] += 1
+    seen = np.full(nl, -1, np.int64)  # the patch whose labels last showed each label
+    base = np.zeros(npatch + 1, np.int64)  # each patch's first piece id
     npiece = 0
     for p in range(npatch + 1):
-        m = 0
-        for t in range(starts[p], starts[p + 1]):
-            lab = target[order[t] // W, order[t] % W]
-            if seen_at[lab] != p:
-                seen_at[lab] = p
-                u = m  # insert lab into labs[:m], ascending
-                while u > 0 and labs[u - 1] > lab:
+        base[p] = npiece + 1
+        if not mixed[p]:
+            npiece += 1 if size[p] > 0 else 0
+            continue
+        m, o = 0, lab_at[p]
+        for t in range(o, o + nlab[p]):
+            lab = labs[t]
+            if seen[lab] != p:
+                seen[lab] = p
+                u = o + m  # insert into labs[o:o + m], ascending (u <= t)
+                while u > o and labs[u - 1] > lab:
                     labs[u] = labs[u - 1]
                     u -= 1
                 labs[u] = lab
                 m += 1
-        for u in range(m):
-            npiece += 1
-            lid[labs[u]] = npiece
-        for t in range(starts[p], starts[p + 1]):
-            f = order[t]
-            piece[f // W, f % W] = lid[target[f // W, f % W]]
+        nlab[p] = m
+        npiece += m
+    # each piece's pixels (``starts`` counted), label and first pixel's offset
+    piece = np.empty((H, W), np.int64)
+    starts = np.zeros(npiece + 1, np.int64)
+    plab = np.empty(npiece + 1, np.int64)
+    poff = np.empty((npiece + 1, 2), np.int64)
+    for i in range(H):
+        for j in range(W):
+            p = patch[i, j]
+            q = base[p]
+            if mixed[p]:
+                while labs[lab_at[p] + q - base[p]] != target[i, j]:
+                    q += 1
+            piece[i, j] = q
+            if starts[q] == 0:
+                plab[q] = target[i, j]
+                poff[q, 0], poff[q, 1] = S[i, j, 0] - i, S[i, j, 1] - j
+            starts[q] += 1
     patch = piece
     npatch = npiece
-    # order[starts[p]:starts[p + 1]]: the flat indices of piece p + 1's pixels, in raster order
-    starts = np.zeros(npatch + 1, np.int64)
-    for i in range(H):
-        for j in range(W):
-            starts[patch[i, j]] += 1
     for p in range(npatch):
         starts[p + 1] += starts[p]
+    # order[starts[p]:starts[p + 1]]: the flat indices of piece p + 1's pixels, in raster order; and
+    # each label's summed spread now (``_spread`` of its pieces at their first pixels' offsets, pieces
+    # in id order) and the least it may fall to
+    fill = np.empty(npatch, np.int64)  # each piece's next free place in order, then in pr
     for p in range(npatch):
         fill[p] = starts[p]
+    order = np.empty(H * W, np.int64)
+    psum = np.zeros(npatch + 1, np.float64)
     for i in range(H):
         for j in range(W):
-            order[fill[patch[i, j] - 1]] = i * W + j
-            fill[patch[i, j] - 1] += 1
-    # each label's summed spread now (pieces in id order, each at its first pixel's offset) and
-    # the least it may fall to
+            q = patch[i, j]
+            order[fill[q - 1]] = i * W + j
+            fill[q - 1] += 1
+            sy, sx = i + poff[q, 0], j + poff[q, 1]
+            if 0 <= sy < Hs and 0 <= sx < Ws:
+                v = -mu[target[i, j]]
+                for c in range(C):
+                    v += img[sy, sx, c]
+                psum[q] += v * v
     tot = np.zeros(nl, np.float64)
-    for p in range(npatch):
-        a, b = starts[p], starts[p + 1]
-        f = order[a]
-        i, j = f // W, f % W
-        tot[target[i, j]] += _spread(img, target, mu, order, a, b, S[i, j, 0] - i, S[i, j, 1] - j, W)
+    for q in range(1, npatch + 1):
+        tot[plab[q]] += psum[q]
     floor = np.empty(nl, np.float64)
     for lab in range(nl):
         floor[lab] = tot[lab] * keep
@@ -675,11 +720,6 @@ def shift_patches(S: np.ndarray, img: np.ndarray, target: np.ndarray, labels: np
     img = np.ascontiguousarray(img, np.float32)
     target = np.ascontiguousarray(target, np.int32)
     labels = np.ascontiguousarray(labels, np.int32)
-    # each label's mean tone on the source grid: the shifts may lower its pieces' summed spread about it
-    # by SPREAD_LOSS at most (they drew pieces of a label's tails onto its mode)
-    nl = int(max(labels.max(initial=0), target.max(initial=0))) + 1
-    tone = img.sum(-1, dtype=np.float64).ravel()
-    mu = np.bincount(labels.ravel(), tone, nl) / np.maximum(np.bincount(labels.ravel(), minlength=nl), 1)
     moves = _shift_passes(S, img, target, labels, np.ascontiguousarray(patch, np.int64), int(radius), int(adopt),
-                          int(passes), mu, 1.0 - SPREAD_LOSS)
+                          int(passes), 1.0 - SPREAD_LOSS)
     return S, int(moves)
