@@ -79,24 +79,17 @@ def _coarsen(diag, we, ws, mass, alpha):
 
 
 @njit(**JIT)
-def _smooth_serial(diag, we, ws, x, b, color):
-    """``_smooth`` on one thread (for the tiny coarsest level: no parallel launch). The
-    cells of one colour do not neighbour each other, so the result is the same."""
-    for i in range(diag.shape[0]):
-        _smooth_row(diag, we, ws, x, b, color, i)
-
-
-@njit(**JIT)
 def _coarse_solve(diag, we, ws, x, b, sweeps):
     """The coarsest level of a V-cycle: from x = 0, ``sweeps`` red-black then ``sweeps``
     black-red Gauss-Seidel sweeps, in one compiled call."""
     x[...] = 0.0
+    red, black, h = np.int64(0), np.int64(1), np.int64(diag.shape[0])  # not literals: one signature
     for _ in range(sweeps):
-        _smooth_serial(diag, we, ws, x, b, 0)
-        _smooth_serial(diag, we, ws, x, b, 1)
+        _smooth_band(diag, we, ws, x, b, red, red, h)
+        _smooth_band(diag, we, ws, x, b, black, red, h)
     for _ in range(sweeps):
-        _smooth_serial(diag, we, ws, x, b, 1)
-        _smooth_serial(diag, we, ws, x, b, 0)
+        _smooth_band(diag, we, ws, x, b, black, red, h)
+        _smooth_band(diag, we, ws, x, b, red, red, h)
 
 
 @njit(inline="always", **JIT)
@@ -295,30 +288,12 @@ def _prolong_add(xc, x, diag, alpha):
     rows(_prolong_add_band, diag.shape[0], xc, x, diag, float(alpha))
 
 
-# serial twins of the V-cycle kernels for small levels (one compiled call per V-cycle
-# below ``SERIAL_CELLS`` instead of a parallel launch per kernel): every cell is
-# computed from the same neighbours as in the parallel kernels, so the bits are the same
+# small levels: the band kernels over all rows in one compiled call per V-cycle below
+# ``SERIAL_CELLS`` instead of a threaded call per kernel: every cell is computed from the
+# same neighbours as on threads, so the bits are the same
 
 
 SERIAL_CELLS = 1 << 15  # levels with fewer cells run their whole V-cycle serially
-
-
-@njit(**JIT)
-def _jacobi_start_serial(diag, x, b, color):
-    for i in range(diag.shape[0]):
-        _jacobi_start_row(diag, x, b, color, i)
-
-
-@njit(**JIT)
-def _residual_restrict_serial(diag, we, ws, x, b, rc):
-    for I in range(rc.shape[0]):
-        _residual_restrict_row(diag, we, ws, x, b, rc, I)
-
-
-@njit(**JIT)
-def _prolong_add_serial(xc, x, diag, alpha):
-    for i in range(diag.shape[0]):
-        _prolong_add_row(xc, x, diag, alpha, i)
 
 
 @njit(inline="always", **JIT)
@@ -342,25 +317,29 @@ def _vcycle_serial(diags, wes, wss, xs, bs, shapes, offsets, sweeps, coarse_swee
     ``offsets[l]`` cells, of shape ``shapes[l]``; ``xs``, ``bs`` three values a cell): the
     right-hand side of the first in ``bs``, the result in ``xs``."""
     last = shapes.shape[0] - 1
+    red, black = np.int64(0), np.int64(1)  # not literals: one signature of each band kernel
     for l in range(0, last):
         d, e, sw = _level2(diags, shapes, offsets, l), _level2(wes, shapes, offsets, l), _level2(wss, shapes, offsets, l)
         x, b = _level3(xs, shapes, offsets, l), _level3(bs, shapes, offsets, l)
-        _jacobi_start_serial(d, x, b, 0)
-        _smooth_serial(d, e, sw, x, b, 1)
+        h = np.int64(d.shape[0])
+        _jacobi_start_band(d, x, b, red, red, h)
+        _smooth_band(d, e, sw, x, b, black, red, h)
         for _ in range(sweeps - 1):
-            _smooth_serial(d, e, sw, x, b, 0)
-            _smooth_serial(d, e, sw, x, b, 1)
-        _residual_restrict_serial(d, e, sw, x, b, _level3(bs, shapes, offsets, l + 1))
+            _smooth_band(d, e, sw, x, b, red, red, h)
+            _smooth_band(d, e, sw, x, b, black, red, h)
+        bc = _level3(bs, shapes, offsets, l + 1)
+        _residual_restrict_band(d, e, sw, x, b, bc, red, np.int64(bc.shape[0]))
     _coarse_solve(_level2(diags, shapes, offsets, last), _level2(wes, shapes, offsets, last),
                   _level2(wss, shapes, offsets, last), _level3(xs, shapes, offsets, last),
                   _level3(bs, shapes, offsets, last), coarse_sweeps)
     for l in range(last - 1, -1, -1):
         d, e, sw = _level2(diags, shapes, offsets, l), _level2(wes, shapes, offsets, l), _level2(wss, shapes, offsets, l)
         x, b = _level3(xs, shapes, offsets, l), _level3(bs, shapes, offsets, l)
-        _prolong_add_serial(_level3(xs, shapes, offsets, l + 1), x, d, 1.0)
+        h = np.int64(d.shape[0])
+        _prolong_add_band(_level3(xs, shapes, offsets, l + 1), x, d, 1.0, red, h)
         for _ in range(sweeps):
-            _smooth_serial(d, e, sw, x, b, 1)
-            _smooth_serial(d, e, sw, x, b, 0)
+            _smooth_band(d, e, sw, x, b, black, red, h)
+            _smooth_band(d, e, sw, x, b, red, red, h)
 
 
 @njit(**JIT)
