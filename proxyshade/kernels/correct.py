@@ -510,7 +510,7 @@ def correct_level(level, S: np.ndarray, knn: np.ndarray, *, passes: int, metric:
     finest level (h = 1); 0: the usage term alone (exactly as without it). At a level whose
     spacing h is under ``tone_spacing`` the term is off (the usage term alone).
 
-    ``tiles``: None (every sub-pass whole, numba's threads over its rows), or a runner
+    ``tiles``: None (every sub-pass whole, the kernels' threads over its rows), or a runner
     ``tiles(fn, shared, jobs) -> [fn(*shared, *job) for job in jobs]`` that may run the
     jobs elsewhere (Dask workers: ``synthesis.tiles``); then, at a level of at least
     ``TILE_MIN_PIXELS``, each sub-pass runs as ``tiles.bands`` row bands of
