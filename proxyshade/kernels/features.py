@@ -50,11 +50,16 @@ NB2 = NB * NB
 # resampling the source to the exemplar
 
 
+def _area_resample(img, oh, ow, f, out):
+    """Box-filter ``img`` (H, W, C) by the (possibly fractional) factor f to (oh, ow, C):
+    exemplar pixel (i, j) averages the source area [i f, (i + 1) f) x [j f, (j + 1) f)
+    (rows in bands on the kernels' threads, ``_config.rows``)."""
+    rows(_area_resample_rows, oh, img, oh, ow, f, out)
+
+
 @njit(**JIT)
-def _area_resample(img, oh, ow, f, out, r0, r1):
-    """Box-filter ``img`` (H, W, C) by the (possibly fractional) factor f to (oh, ow, C),
-    rows r0..r1 (all of them in bands: ``_config.rows``): exemplar pixel (i, j) averages
-    the source area [i f, (i + 1) f) x [j f, (j + 1) f)."""
+def _area_resample_rows(img, oh, ow, f, out, r0, r1):
+    """``_area_resample``'s rows r0..r1."""
     h, w, c = img.shape
     for i in range(r0, r1):
         y0 = i * f
@@ -258,7 +263,7 @@ def build_exemplar(rgb: np.ndarray, lab: np.ndarray, f: float, n: int) -> tuple[
         ex_rgb[...] = rgb
         ex_lab[...] = lab
     else:
-        rows(_area_resample, oh, np.ascontiguousarray(rgb, np.float32), oh, ow, float(f), ex_rgb)
+        _area_resample(np.ascontiguousarray(rgb, np.float32), oh, ow, float(f), ex_rgb)
         _mode_resample(np.ascontiguousarray(lab, np.int32), oh, ow, float(f), n, ex_lab)
     return ex_rgb, ex_lab
 
