@@ -9,13 +9,6 @@ calls with ``np.int64(index)`` (``guide._subpass_row``, ``bench/bench_compile.py
 entries`` measures each).
 ``nogil`` lets the graph executor run independent nodes on threads.
 
-``rows(kernel, n, *args)`` is the other way to spread a loop over threads: a serial kernel
-``kernel(*args, r0, r1)`` over rows r0..r1 called on row bands from Python threads (it
-releases the GIL). It compiles as one serial kernel; a ``prange`` loop passing a record of
-arrays (``features.Level``) to its body cost about 1 s more to compile per loop
-(``correct._subpass``, the k-NN search). Each row must depend only on what the call
-does not write, so the result is the same for any band split and thread count.
-
 Threads wait passively between parallel loops (``OMP_WAIT_POLICY=PASSIVE`` unless the
 environment sets it): numba's OpenMP layer otherwise spins after every parallel loop, and
 on cores shared with other processes a spinning thread holds the core the thread with the
@@ -43,42 +36,6 @@ JIT = dict(cache=True, nogil=True, fastmath=False, error_model="numpy")
 PJIT = dict(cache=True, nogil=True, fastmath=False, error_model="numpy", parallel=True)
 
 
-
-
-_POOL = None
-BANDS_PER_THREAD = 4  # bands each thread takes in turn (rows differ in cost)
-
-
-def rows(kernel, n: int, *args) -> None:
-    """``kernel(*args, r0, r1)`` over rows 0..n in bands on the threads the kernels called
-    from this thread use (``numba.get_num_threads``; ``graph.set_kernel_threads``), this
-    thread one of them. The kernel must be serial and ``nogil``, and a row must not read
-    what another row writes."""
-    import numba
-
-    t = min(numba.get_num_threads(), n)
-    if t <= 1:
-        kernel(*args, 0, n)
-        return
-    global _POOL
-    if _POOL is None:
-        from concurrent.futures import ThreadPoolExecutor
-
-        _POOL = ThreadPoolExecutor(max_workers=max(numba.config.NUMBA_NUM_THREADS - 1, 1),
-                                   thread_name_prefix="proxyshade-rows")
-    nb = min(n, t * BANDS_PER_THREAD)
-    edges = [n * b // nb for b in range(nb + 1)]
-
-    def share(s):
-        for b in range(s, nb, t):
-            kernel(*args, edges[b], edges[b + 1])
-
-    futures = [_POOL.submit(share, s) for s in range(1, t)]
-    try:
-        share(0)
-    finally:
-        for f in futures:
-            f.result()
 
 
 class KernelsLocator(caching._SourceFileBackedLocatorMixin, caching._CacheLocator):

@@ -32,7 +32,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from proxyshade.kernels._config import JIT, rows
+from proxyshade.kernels._config import JIT
 
 NB = 5  # window side
 NB2 = NB * NB
@@ -183,7 +183,7 @@ def masks_from_windows(win: np.ndarray, n: int) -> np.ndarray:
     """(H, W, 25) int labels of windows (row-major) -> (H, W, n) uint32 label masks."""
     win = np.ascontiguousarray(win, np.int32)
     out = np.empty(win.shape[:2] + (n,), np.uint32)
-    rows(_masks_from_windows, win.shape[0], win, n, out)
+    _masks_from_windows(win, n, out, 0, win.shape[0])
     return out
 
 

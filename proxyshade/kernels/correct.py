@@ -37,9 +37,9 @@ import os
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
-from proxyshade.kernels._config import JIT, rows
+from proxyshade.kernels._config import JIT, PJIT
 from proxyshade.kernels.random import mix_seed, rand
 from proxyshade.kernels.features import (NB2, Level, Metric, chamfer_masks, dist_sq_contour, dist_sq_rgb, gather_target,
                                          height_sq)
@@ -195,6 +195,26 @@ def _knn_iter(lv, m, k, excl, seed, it, old, new, y0, y1):
                     _insert(ly, lx, ld, k, cy, cx, d)
 
 
+KNN_INIT, KNN_ITER, KNN_RESCORE = 0, 1, 2  # the steps of ``_knn_pass``
+
+
+@njit(**PJIT)
+def _knn_pass(step, lv, m, k, excl, seed, it, starts, flat, old, new):
+    """One step of the k-NN search over the exemplar's rows in parallel: ``KNN_INIT``
+    (``_knn_init`` into ``new``, from the label lists ``starts``, ``flat``), ``KNN_ITER``
+    (``_knn_iter`` from ``old`` into ``new``) or ``KNN_RESCORE`` (``_knn_rescore`` of ``new``
+    in place). One parallel loop calling serial row kernels: each parallel loop passing a
+    ``Level`` costs about 1 s to compile (``kernels/_config.py``)."""
+    for y in prange(lv.src_lab.shape[0]):
+        y0 = np.int64(y)
+        if step == KNN_INIT:
+            _knn_init(lv, m, k, excl, seed, starts, flat, new, y0, y0 + 1)
+        elif step == KNN_ITER:
+            _knn_iter(lv, m, k, excl, seed, it, old, new, y0, y0 + 1)
+        else:
+            _knn_rescore(lv, m, k, excl, new, y0, y0 + 1)
+
+
 def similarity_sets(level, k: int, metric: Metric, *, seed: int, iterations: int,
                     init: np.ndarray | None = None) -> np.ndarray:
     """(He, We, k, 2) int32: for each exemplar pixel, k similar exemplar pixels of the
@@ -210,17 +230,18 @@ def similarity_sets(level, k: int, metric: Metric, *, seed: int, iterations: int
     excl = 2 * level.h
     m = Metric(float(metric.w), float(metric.height_weight))
     lists = (np.empty((H, W, k), np.int32), np.empty((H, W, k), np.int32), np.empty((H, W, k), np.float64))
+    none = np.zeros(0, np.int64)
     if init is None:
         starts, flat = _label_lists(lab, n)
-        rows(_knn_init, H, level, m, k, excl, seed, starts, flat, lists)
+        _knn_pass(KNN_INIT, level, m, k, excl, seed, 0, starts, flat, lists, lists)
     else:
         lists[0][...] = init[..., 0]
         lists[1][...] = init[..., 1]
         lists[2][...] = np.inf
-        rows(_knn_rescore, H, level, m, k, excl, lists)
+        _knn_pass(KNN_RESCORE, level, m, k, excl, seed, 0, none, none, lists, lists)
     spare = tuple(np.empty_like(a) for a in lists)
     for it in range(iterations):
-        rows(_knn_iter, H, level, m, k, excl, seed, it + 1, lists, spare)
+        _knn_pass(KNN_ITER, level, m, k, excl, seed, it + 1, none, none, lists, spare)
         lists, spare = spare, lists
     return np.stack(lists[:2], axis=-1)
 
@@ -473,10 +494,12 @@ def _subpass_rows(lv, m, rule, knn, over, S_old, S_new, active, parity, counts, 
             S_new[i, j, 1] = bx
 
 
+@njit(**PJIT)
 def _subpass(lv, m, rule, knn, over, S_old, S_new, active, parity, counts):
-    """``_subpass_rows`` of every row of the parity, on the kernels' threads (``_config.rows``)."""
-    rows(_subpass_rows, (lv.tgt_lab.shape[0] - parity[0] + 1) // 2, lv, m, rule, knn, over, S_old, S_new, active,
-         parity, counts)
+    """``_subpass_rows`` of every row of the parity, in parallel (the loop body a serial
+    kernel called with int64 rows: typed once, ``kernels/_config.py``)."""
+    for r in prange((lv.tgt_lab.shape[0] - parity[0] + 1) // 2):
+        _subpass_rows(lv, m, rule, knn, over, S_old, S_new, active, parity, counts, np.int64(r), np.int64(r + 1))
 
 
 # levels smaller than this (512² synthesis pixels) are corrected whole even with a band runner

@@ -36,7 +36,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from proxyshade.kernels._config import JIT, rows
+from proxyshade.kernels._config import JIT
 from proxyshade.kernels.chamfer import chamfer_masks  # noqa: F401  (re-exported for the synthesis kernels)
 from proxyshade.kernels.chamfer import masks_from_windows
 from proxyshade.kernels.distance import contour_distance
@@ -52,9 +52,8 @@ NB2 = NB * NB
 
 def _area_resample(img, oh, ow, f, out):
     """Box-filter ``img`` (H, W, C) by the (possibly fractional) factor f to (oh, ow, C):
-    exemplar pixel (i, j) averages the source area [i f, (i + 1) f) x [j f, (j + 1) f)
-    (rows in bands on the kernels' threads, ``_config.rows``)."""
-    rows(_area_resample_rows, oh, img, oh, ow, f, out)
+    exemplar pixel (i, j) averages the source area [i f, (i + 1) f) x [j f, (j + 1) f)."""
+    _area_resample_rows(img, oh, ow, f, out, 0, oh)
 
 
 @njit(**JIT)
@@ -226,7 +225,7 @@ def label_heights(lab: np.ndarray, *, lengths: bool = False):
     run's length in pixels ((H, W) int32)."""
     out = np.empty(lab.shape, np.float32)
     n = np.empty(lab.shape, np.int32)
-    rows(_heights, lab.shape[1], np.ascontiguousarray(lab, np.int32), out, n)
+    _heights(np.ascontiguousarray(lab, np.int32), out, n, 0, lab.shape[1])
     return (out, n) if lengths else out
 
 
@@ -249,7 +248,7 @@ def _windows(lab, h, out, r0, r1):
 def window_masks(lab: np.ndarray, h: int, n: int) -> np.ndarray:
     """(H, W, n) uint32 per-label bit masks of each pixel's 5x5 window (spacing h)."""
     win = np.empty(lab.shape + (NB2,), np.int32)
-    rows(_windows, lab.shape[0], np.ascontiguousarray(lab, dtype=np.int32), h, win)
+    _windows(np.ascontiguousarray(lab, dtype=np.int32), h, win, 0, lab.shape[0])
     return masks_from_windows(win, n)
 
 

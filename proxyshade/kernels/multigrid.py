@@ -18,9 +18,9 @@ Computing 55, 1995 (over-correction of aggregation coarse grids).
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
-from proxyshade.kernels._config import JIT, rows
+from proxyshade.kernels._config import JIT, PJIT
 from proxyshade.kernels.stencil import apply_at, fine_operator, neighbour_sum
 
 @njit(**JIT)
@@ -37,7 +37,7 @@ def _coarsen(diag, we, ws, mass, alpha):
     sc = np.zeros((hc, wc), np.float32)
     mc = np.zeros((hc, wc), np.float32)
     inv = 1.0 / alpha
-    for I in range(hc):
+    for I in range(hc):  # serial: a few milliseconds a solve (a parallel loop compiles 1 s slower)
         for J in range(wc):
             d = 0.0
             m = 0.0
@@ -79,17 +79,24 @@ def _coarsen(diag, we, ws, mass, alpha):
 
 
 @njit(**JIT)
+def _smooth_serial(diag, we, ws, x, b, color):
+    """``_smooth`` on one thread (for the tiny coarsest level: no parallel launch). The
+    cells of one colour do not neighbour each other, so the result is the same."""
+    for i in range(diag.shape[0]):
+        _smooth_row(diag, we, ws, x, b, color, i)
+
+
+@njit(**JIT)
 def _coarse_solve(diag, we, ws, x, b, sweeps):
     """The coarsest level of a V-cycle: from x = 0, ``sweeps`` red-black then ``sweeps``
     black-red Gauss-Seidel sweeps, in one compiled call."""
     x[...] = 0.0
-    red, black, h = np.int64(0), np.int64(1), np.int64(diag.shape[0])  # not literals: one signature
     for _ in range(sweeps):
-        _smooth_band(diag, we, ws, x, b, red, red, h)
-        _smooth_band(diag, we, ws, x, b, black, red, h)
+        _smooth_serial(diag, we, ws, x, b, 0)
+        _smooth_serial(diag, we, ws, x, b, 1)
     for _ in range(sweeps):
-        _smooth_band(diag, we, ws, x, b, black, red, h)
-        _smooth_band(diag, we, ws, x, b, red, red, h)
+        _smooth_serial(diag, we, ws, x, b, 1)
+        _smooth_serial(diag, we, ws, x, b, 0)
 
 
 @njit(inline="always", **JIT)
@@ -111,28 +118,17 @@ def _smooth_row(diag, we, ws, x, b, color, i):
         x[i, j, 2] = s2 * inv
 
 
-@njit(**JIT)
-def _smooth_band(diag, we, ws, x, b, color, r0, r1):
-    for i in range(r0, r1):
+@njit(**PJIT)
+def _smooth(diag, we, ws, x, b, color):
+    """One Gauss-Seidel half sweep on cells with (i + j) % 2 == color, 3 channels."""
+    for i in prange(diag.shape[0]):
         _smooth_row(diag, we, ws, x, b, color, i)
 
 
-def _smooth(diag, we, ws, x, b, color):
-    """One Gauss-Seidel half sweep on cells with (i + j) % 2 == color, 3 channels (rows in
-    bands on the kernels' threads, ``_config.rows``: the cells of one colour do not
-    neighbour each other)."""
-    rows(_smooth_band, diag.shape[0], diag, we, ws, x, b, color)
-
-
+@njit(**PJIT)
 def _residual(diag, we, ws, x, b, r):
-    """r = b - A x (0 on fixed cells)."""
-    rows(_residual_band, diag.shape[0], diag, we, ws, x, b, r)
-
-
-@njit(**JIT)
-def _residual_band(diag, we, ws, x, b, r, r0, r1):
     h, w = diag.shape
-    for i in range(r0, r1):
+    for i in prange(h):
         for j in range(w):
             d = diag[i, j]
             if d == 0.0:
@@ -164,15 +160,11 @@ def _jacobi_start_row(diag, x, b, color, i):
             x[i, j, 2] = 0.0
 
 
-@njit(**JIT)
-def _jacobi_start_band(diag, x, b, color, r0, r1):
-    for i in range(r0, r1):
-        _jacobi_start_row(diag, x, b, color, i)
-
-
+@njit(**PJIT)
 def _jacobi_start(diag, x, b, color):
     """x = 0 except cells of ``color``: b / diag (a red half-sweep from zero)."""
-    rows(_jacobi_start_band, diag.shape[0], diag, x, b, color)
+    for i in prange(diag.shape[0]):
+        _jacobi_start_row(diag, x, b, color, i)
 
 
 @njit(inline="always", **JIT)
@@ -193,38 +185,19 @@ def _residual_restrict_row(diag, we, ws, x, b, rc, I):
             rc[I, J, 2] += b[i, j, 2] - a2
 
 
-@njit(**JIT)
-def _residual_restrict_band(diag, we, ws, x, b, rc, r0, r1):
-    for I in range(r0, r1):
+@njit(**PJIT)
+def _residual_restrict(diag, we, ws, x, b, rc):
+    """rc = P^T (b - A x): the residual summed over each 2x2 aggregate."""
+    for I in prange(rc.shape[0]):
         _residual_restrict_row(diag, we, ws, x, b, rc, I)
 
 
-def _residual_restrict(diag, we, ws, x, b, rc):
-    """rc = P^T (b - A x): the residual summed over each 2x2 aggregate."""
-    rows(_residual_restrict_band, rc.shape[0], diag, we, ws, x, b, rc)
-
-
-@njit(**JIT)
-def _sum_rows(part, out):
-    """out[c] = the sum of part[:, c] in row order (the same for any thread count)."""
-    for c in range(3):
-        out[c] = 0.0
-    for i in range(part.shape[0]):
-        for c in range(3):
-            out[c] += part[i, c]
-
-
+@njit(**PJIT)
 def _matvec_dot(diag, we, ws, p, q, pq):
     """q = A p and pq[c] = <p, q> per channel (fixed summation order)."""
-    part = np.zeros((diag.shape[0], 3), np.float64)
-    rows(_matvec_dot_band, diag.shape[0], diag, we, ws, p, q, part)
-    _sum_rows(part, pq)
-
-
-@njit(**JIT)
-def _matvec_dot_band(diag, we, ws, p, q, part, r0, r1):
     h, w = diag.shape
-    for i in range(r0, r1):
+    part = np.zeros((h, 3), np.float64)
+    for i in prange(h):
         t0 = 0.0
         t1 = 0.0
         t2 = 0.0
@@ -244,25 +217,33 @@ def _matvec_dot_band(diag, we, ws, p, q, part, r0, r1):
         part[i, 0] = t0
         part[i, 1] = t1
         part[i, 2] = t2
+    for c in range(3):
+        pq[c] = 0.0
+    for i in range(h):
+        for c in range(3):
+            pq[c] += part[i, c]
 
 
+@njit(**PJIT)
 def _cg_update(v, r, p, q, a, rr):
     """v += a p; r -= a q; rr = <r, r> per channel (fixed summation order)."""
-    part = np.zeros((v.shape[0], 3), np.float64)
-    rows(_cg_update_band, v.shape[0], v, r, p, q, np.asarray(a, np.float32), part)
-    _sum_rows(part, rr)
-
-
-@njit(**JIT)
-def _cg_update_band(v, r, p, q, a32, part, r0, r1):
-    w = v.shape[1]
-    for i in range(r0, r1):
+    h, w = v.shape[0], v.shape[1]
+    a32 = np.empty(3, np.float32)
+    for c in range(3):
+        a32[c] = a[c]
+    part = np.zeros((h, 3), np.float64)
+    for i in prange(h):
         for j in range(w):
             for c in range(3):
                 v[i, j, c] += a32[c] * p[i, j, c]
                 rv = r[i, j, c] - a32[c] * q[i, j, c]
                 r[i, j, c] = rv
                 part[i, c] += np.float64(rv) * np.float64(rv)
+    for c in range(3):
+        rr[c] = 0.0
+    for i in range(h):
+        for c in range(3):
+            rr[c] += part[i, c]
 
 
 @njit(inline="always", **JIT)
@@ -277,23 +258,36 @@ def _prolong_add_row(xc, x, diag, alpha, i):
         x[i, j, 2] += alpha * xc[I, J, 2]
 
 
-@njit(**JIT)
-def _prolong_add_band(xc, x, diag, alpha, r0, r1):
-    for i in range(r0, r1):
+@njit(**PJIT)
+def _prolong_add(xc, x, diag, alpha):
+    for i in prange(diag.shape[0]):
         _prolong_add_row(xc, x, diag, alpha, i)
 
 
-def _prolong_add(xc, x, diag, alpha):
-    """x += alpha × the coarse correction xc on the free cells."""
-    rows(_prolong_add_band, diag.shape[0], xc, x, diag, float(alpha))
-
-
-# small levels: the band kernels over all rows in one compiled call per V-cycle below
-# ``SERIAL_CELLS`` instead of a threaded call per kernel: every cell is computed from the
-# same neighbours as on threads, so the bits are the same
+# serial twins of the V-cycle kernels for small levels (one compiled call per V-cycle
+# below ``SERIAL_CELLS`` instead of a parallel launch per kernel): every cell is
+# computed from the same neighbours as in the parallel kernels, so the bits are the same
 
 
 SERIAL_CELLS = 1 << 15  # levels with fewer cells run their whole V-cycle serially
+
+
+@njit(**JIT)
+def _jacobi_start_serial(diag, x, b, color):
+    for i in range(diag.shape[0]):
+        _jacobi_start_row(diag, x, b, color, i)
+
+
+@njit(**JIT)
+def _residual_restrict_serial(diag, we, ws, x, b, rc):
+    for I in range(rc.shape[0]):
+        _residual_restrict_row(diag, we, ws, x, b, rc, I)
+
+
+@njit(**JIT)
+def _prolong_add_serial(xc, x, diag, alpha):
+    for i in range(diag.shape[0]):
+        _prolong_add_row(xc, x, diag, alpha, i)
 
 
 @njit(inline="always", **JIT)
@@ -317,57 +311,50 @@ def _vcycle_serial(diags, wes, wss, xs, bs, shapes, offsets, sweeps, coarse_swee
     ``offsets[l]`` cells, of shape ``shapes[l]``; ``xs``, ``bs`` three values a cell): the
     right-hand side of the first in ``bs``, the result in ``xs``."""
     last = shapes.shape[0] - 1
-    red, black = np.int64(0), np.int64(1)  # not literals: one signature of each band kernel
     for l in range(0, last):
         d, e, sw = _level2(diags, shapes, offsets, l), _level2(wes, shapes, offsets, l), _level2(wss, shapes, offsets, l)
         x, b = _level3(xs, shapes, offsets, l), _level3(bs, shapes, offsets, l)
-        h = np.int64(d.shape[0])
-        _jacobi_start_band(d, x, b, red, red, h)
-        _smooth_band(d, e, sw, x, b, black, red, h)
+        _jacobi_start_serial(d, x, b, 0)
+        _smooth_serial(d, e, sw, x, b, 1)
         for _ in range(sweeps - 1):
-            _smooth_band(d, e, sw, x, b, red, red, h)
-            _smooth_band(d, e, sw, x, b, black, red, h)
-        bc = _level3(bs, shapes, offsets, l + 1)
-        _residual_restrict_band(d, e, sw, x, b, bc, red, np.int64(bc.shape[0]))
+            _smooth_serial(d, e, sw, x, b, 0)
+            _smooth_serial(d, e, sw, x, b, 1)
+        _residual_restrict_serial(d, e, sw, x, b, _level3(bs, shapes, offsets, l + 1))
     _coarse_solve(_level2(diags, shapes, offsets, last), _level2(wes, shapes, offsets, last),
                   _level2(wss, shapes, offsets, last), _level3(xs, shapes, offsets, last),
                   _level3(bs, shapes, offsets, last), coarse_sweeps)
     for l in range(last - 1, -1, -1):
         d, e, sw = _level2(diags, shapes, offsets, l), _level2(wes, shapes, offsets, l), _level2(wss, shapes, offsets, l)
         x, b = _level3(xs, shapes, offsets, l), _level3(bs, shapes, offsets, l)
-        h = np.int64(d.shape[0])
-        _prolong_add_band(_level3(xs, shapes, offsets, l + 1), x, d, 1.0, red, h)
+        _prolong_add_serial(_level3(xs, shapes, offsets, l + 1), x, d, 1.0)
         for _ in range(sweeps):
-            _smooth_band(d, e, sw, x, b, black, red, h)
-            _smooth_band(d, e, sw, x, b, red, red, h)
+            _smooth_serial(d, e, sw, x, b, 1)
+            _smooth_serial(d, e, sw, x, b, 0)
 
 
-@njit(**JIT)
-def _dot3_band(a, b, part, r0, r1):
-    w = a.shape[1]
-    for i in range(r0, r1):
+@njit(**PJIT)
+def _dot3(a, b, out):
+    h, w = a.shape[0], a.shape[1]
+    part = np.zeros((h, 3), np.float64)
+    for i in prange(h):
         for j in range(w):
             for c in range(3):
                 part[i, c] += np.float64(a[i, j, c]) * np.float64(b[i, j, c])
+    for c in range(3):
+        out[c] = 0.0
+    for i in range(h):  # fixed summation order: same result for any thread count
+        for c in range(3):
+            out[c] += part[i, c]
 
 
-def _dot3(a, b, out):
-    """out[c] = <a, b> per channel (fixed summation order: the same for any thread count)."""
-    part = np.zeros((a.shape[0], 3), np.float64)
-    rows(_dot3_band, a.shape[0], a, b, part)
-    _sum_rows(part, out)
-
-
+@njit(**PJIT)
 def _xpby3(z, beta, p):
     """p = z + beta[c] * p."""
-    b32 = np.asarray(beta, np.float32)
-    rows(_xpby3_band, z.shape[0], z, b32[0], b32[1], b32[2], p)
-
-
-@njit(**JIT)
-def _xpby3_band(z, b0, b1, b2, p, r0, r1):
-    w = z.shape[1]
-    for i in range(r0, r1):
+    h, w = z.shape[0], z.shape[1]
+    b0 = np.float32(beta[0])
+    b1 = np.float32(beta[1])
+    b2 = np.float32(beta[2])
+    for i in prange(h):
         for j in range(w):
             p[i, j, 0] = z[i, j, 0] + b0 * p[i, j, 0]
             p[i, j, 1] = z[i, j, 1] + b1 * p[i, j, 1]

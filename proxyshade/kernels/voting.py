@@ -24,7 +24,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from proxyshade.kernels._config import JIT, rows
+from proxyshade.kernels._config import JIT
 
 
 # serial: 0.1 ms a call (label pyramids); a parallel loop compiled 0.5 s longer
@@ -96,7 +96,7 @@ def vote_down(lab: np.ndarray, h: int, n: int) -> np.ndarray:
         return lab.copy()
     H, W = lab.shape
     out = np.empty((len(range(h // 2, H, h)), len(range(h // 2, W, h))), np.int32)
-    rows(_vote_blocks, out.shape[0], lab, int(h), int(n), out)
+    _vote_blocks(lab, int(h), int(n), out, 0, out.shape[0])
     return out
 
 
