@@ -30,9 +30,9 @@ for rendering natural scenes. VMV 2010.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
-from proxyshade.kernels._config import JIT, PJIT
+from proxyshade.kernels._config import JIT
 
 NB = 5  # window side
 NB2 = NB * NB
@@ -168,10 +168,10 @@ def chamfer_ring(ma, mb):
     return _one_way_ring(ma, mb, n) + _one_way_ring(mb, ma, n)
 
 
-@njit(**PJIT)
-def _masks_from_windows(win, n, out):
+@njit(**JIT)
+def _masks_from_windows(win, n, out, r0, r1):
     H, W, K = win.shape
-    for i in prange(H):
+    for i in range(r0, r1):
         for j in range(W):
             for l in range(n):
                 out[i, j, l] = 0
@@ -183,7 +183,7 @@ def masks_from_windows(win: np.ndarray, n: int) -> np.ndarray:
     """(H, W, 25) int labels of windows (row-major) -> (H, W, n) uint32 label masks."""
     win = np.ascontiguousarray(win, np.int32)
     out = np.empty(win.shape[:2] + (n,), np.uint32)
-    _masks_from_windows(win, n, out)
+    _masks_from_windows(win, n, out, 0, win.shape[0])
     return out
 
 

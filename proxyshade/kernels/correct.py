@@ -115,15 +115,15 @@ def _insert(ly, lx, ld, k, cy, cx, d):
     ld[t] = d
 
 
-@njit(**PJIT)
-def _knn_init(lv, m, k, excl, seed, starts, lists, out):
+@njit(**JIT)
+def _knn_init(lv, m, k, excl, seed, starts, lists, out, y0, y1):
     """Random first k-NN lists ``out`` = (rows, columns, distances) (H, W, k) of the
-    exemplar pixels of level ``lv``: 2k draws among the pixel's label (``starts``,
+    exemplar pixels of level ``lv``, rows y0..y1: 2k draws among the pixel's label (``starts``,
     ``lists``: ``patch._label_lists``), none within ``excl`` of it."""
     ky, kx, kd = out
     src_lab, h = lv.src_lab, lv.h
     H, W = src_lab.shape
-    for y in prange(H):
+    for y in range(y0, y1):
         for x in range(W):
             for t in range(k):
                 ky[y, x, t] = y
@@ -141,16 +141,16 @@ def _knn_init(lv, m, k, excl, seed, starts, lists, out):
                 _insert(ky[y, x], kx[y, x], kd[y, x], k, cy, cx, d)
 
 
-@njit(**PJIT)
-def _knn_iter(lv, m, k, excl, seed, it, old, new):
-    """One PatchMatch k-NN iteration (reads the lists ``old``, writes ``new``, each
-    (rows, columns, distances)): propagation from the 4 neighbours' lists, then random
+@njit(**JIT)
+def _knn_iter(lv, m, k, excl, seed, it, old, new, y0, y1):
+    """One PatchMatch k-NN iteration on rows y0..y1 (reads the lists ``old``, writes ``new``,
+    each (rows, columns, distances)): propagation from the 4 neighbours' lists, then random
     search around each entry with halving radius."""
     oy, ox, od = old
     ny, nx, nd = new
     src_lab, h = lv.src_lab, lv.h
     H, W = src_lab.shape
-    for y in prange(H):
+    for y in range(y0, y1):
         for x in range(W):
             ly = ny[y, x]
             lx = nx[y, x]
@@ -195,6 +195,26 @@ def _knn_iter(lv, m, k, excl, seed, it, old, new):
                     _insert(ly, lx, ld, k, cy, cx, d)
 
 
+KNN_INIT, KNN_ITER, KNN_RESCORE = 0, 1, 2  # the steps of ``_knn_pass``
+
+
+@njit(**PJIT)
+def _knn_pass(step, lv, m, k, excl, seed, it, starts, flat, old, new):
+    """One step of the k-NN search over the exemplar's rows in parallel: ``KNN_INIT``
+    (``_knn_init`` into ``new``, from the label lists ``starts``, ``flat``), ``KNN_ITER``
+    (``_knn_iter`` from ``old`` into ``new``) or ``KNN_RESCORE`` (``_knn_rescore`` of ``new``
+    in place). One parallel loop calling serial row kernels: each parallel loop passing a
+    ``Level`` costs about 1 s to compile (``kernels/_config.py``)."""
+    for y in prange(lv.src_lab.shape[0]):
+        y0 = np.int64(y)
+        if step == KNN_INIT:
+            _knn_init(lv, m, k, excl, seed, starts, flat, new, y0, y0 + 1)
+        elif step == KNN_ITER:
+            _knn_iter(lv, m, k, excl, seed, it, old, new, y0, y0 + 1)
+        else:
+            _knn_rescore(lv, m, k, excl, new, y0, y0 + 1)
+
+
 def similarity_sets(level, k: int, metric: Metric, *, seed: int, iterations: int,
                     init: np.ndarray | None = None) -> np.ndarray:
     """(He, We, k, 2) int32: for each exemplar pixel, k similar exemplar pixels of the
@@ -210,29 +230,30 @@ def similarity_sets(level, k: int, metric: Metric, *, seed: int, iterations: int
     excl = 2 * level.h
     m = Metric(float(metric.w), float(metric.height_weight))
     lists = (np.empty((H, W, k), np.int32), np.empty((H, W, k), np.int32), np.empty((H, W, k), np.float64))
+    none = np.zeros(0, np.int64)
     if init is None:
         starts, flat = _label_lists(lab, n)
-        _knn_init(level, m, k, excl, seed, starts, flat, lists)
+        _knn_pass(KNN_INIT, level, m, k, excl, seed, 0, starts, flat, lists, lists)
     else:
         lists[0][...] = init[..., 0]
         lists[1][...] = init[..., 1]
         lists[2][...] = np.inf
-        _knn_rescore(level, m, k, excl, lists)
+        _knn_pass(KNN_RESCORE, level, m, k, excl, seed, 0, none, none, lists, lists)
     spare = tuple(np.empty_like(a) for a in lists)
     for it in range(iterations):
-        _knn_iter(level, m, k, excl, seed, it + 1, lists, spare)
+        _knn_pass(KNN_ITER, level, m, k, excl, seed, it + 1, none, none, lists, spare)
         lists, spare = spare, lists
     return np.stack(lists[:2], axis=-1)
 
 
-@njit(**PJIT)
-def _knn_rescore(lv, m, k, excl, lists):
-    """Re-evaluate given ``lists`` (rows, columns, distances) at level ``lv`` (entries
-    breaking the rules become self with inf)."""
+@njit(**JIT)
+def _knn_rescore(lv, m, k, excl, lists, y0, y1):
+    """Re-evaluate given ``lists`` (rows, columns, distances) at level ``lv``, rows y0..y1
+    (entries breaking the rules become self with inf)."""
     ky, kx, kd = lists
     src_lab = lv.src_lab
     H, W = src_lab.shape
-    for y in prange(H):
+    for y in range(y0, y1):
         for x in range(W):
             ly = ky[y, x].copy()
             lx = kx[y, x].copy()
@@ -241,8 +262,8 @@ def _knn_rescore(lv, m, k, excl, lists):
                 kx[y, x, t] = x
                 kd[y, x, t] = np.inf
             for t in range(k):
-                cy = ly[t]
-                cx = lx[t]
+                cy = np.int64(ly[t])  # one signature of _ex_dist and _insert with _knn_init's
+                cx = np.int64(lx[t])
                 if src_lab[cy, cx] != src_lab[y, x] or max(abs(cy - y), abs(cx - x)) <= excl:
                     continue
                 d = _ex_dist(lv, m, y, x, cy, cx, kd[y, x, k - 1])
@@ -311,8 +332,12 @@ def _tone_balance(S, src_lab, src_rgb, nlab, nbins, out):
             y = S[i, j, 0]
             x = S[i, j, 1]
             ht[src_lab[y, x], b[y, x]] += 1.0
-    ns = hs.sum(1)
-    nt = ht.sum(1)
+    ns = np.zeros(nlab)
+    nt = np.zeros(nlab)
+    for l in range(nlab):  # sequential sums (numpy's axis sum compiles slowly)
+        for k in range(nbins):
+            ns[l] += hs[l, k]
+            nt[l] += ht[l, k]
     for y in range(He):
         for x in range(We):
             l = src_lab[y, x]
@@ -363,8 +388,8 @@ def _cand_dist(lv, m, use_rgb, i, j, cy, cx, target_dist, target_rgb, best):
     return d + m.w * chamfer_masks(lv.src_masks[cy, cx], lv.tgt_masks[i, j])
 
 
-@njit(**PJIT)
-def _subpass(lv, m, rule, knn, over, S_old, S_new, active, parity, counts):
+@njit(**JIT)
+def _subpass_rows(lv, m, rule, knn, over, S_old, S_new, active, parity, counts, r0, r1):
     """Correct pixels with (i % 2, j % 2) == ``parity`` of level ``lv``, reading S_old,
     writing S_new; ``knn`` the similarity sets (He, We, k, 2).
 
@@ -372,7 +397,8 @@ def _subpass(lv, m, rule, knn, over, S_old, S_new, active, parity, counts):
     distance multiplied by 1 + kappa; every candidate's by 1 + uniformity × its exemplar
     neighbourhood's over-use ``over`` (``usage_excess``).
 
-    counts[i] accumulates (changed, all rejected) per row for reporting.
+    counts[i] accumulates (changed, all rejected) per row for reporting. Rows 2 r + parity[0]
+    for r in r0..r1 (``_subpass``: all of them in parallel).
     """
     pi, pj = parity
     src_lab, src_rgb, tgt_lab, tgt_dist, h = lv.src_lab, lv.src_rgb, lv.tgt_lab, lv.tgt_dist, lv.h
@@ -381,7 +407,7 @@ def _subpass(lv, m, rule, knn, over, S_old, S_new, active, parity, counts):
     He, We = src_lab.shape
     k = knn.shape[2]
     ncand = 9 * (k + 1)
-    for r in prange((Ht - pi + 1) // 2):
+    for r in range(r0, r1):
         i = pi + 2 * r
         target_dist = np.empty(NB2, np.float32)
         target_rgb = np.empty((NB2, 3), np.float32)
@@ -468,6 +494,14 @@ def _subpass(lv, m, rule, knn, over, S_old, S_new, active, parity, counts):
             S_new[i, j, 1] = bx
 
 
+@njit(**PJIT)
+def _subpass(lv, m, rule, knn, over, S_old, S_new, active, parity, counts):
+    """``_subpass_rows`` of every row of the parity, in parallel (the loop body a serial
+    kernel called with int64 rows: typed once, ``kernels/_config.py``)."""
+    for r in prange((lv.tgt_lab.shape[0] - parity[0] + 1) // 2):
+        _subpass_rows(lv, m, rule, knn, over, S_old, S_new, active, parity, counts, np.int64(r), np.int64(r + 1))
+
+
 # levels smaller than this (512² synthesis pixels) are corrected whole even with a band runner
 # (the environment variable lets a test band small levels on Dask workers; results are the same)
 TILE_MIN_PIXELS = int(os.environ.get("PROXYSHADE_TILE_MIN_PIXELS", 1 << 18))
@@ -499,7 +533,7 @@ def correct_level(level, S: np.ndarray, knn: np.ndarray, *, passes: int, metric:
     finest level (h = 1); 0: the usage term alone (exactly as without it). At a level whose
     spacing h is under ``tone_spacing`` the term is off (the usage term alone).
 
-    ``tiles``: None (every sub-pass whole, numba's threads over its rows), or a runner
+    ``tiles``: None (every sub-pass whole, the kernels' threads over its rows), or a runner
     ``tiles(fn, shared, jobs) -> [fn(*shared, *job) for job in jobs]`` that may run the
     jobs elsewhere (Dask workers: ``synthesis.tiles``); then, at a level of at least
     ``TILE_MIN_PIXELS``, each sub-pass runs as ``tiles.bands`` row bands of
@@ -550,11 +584,11 @@ def correct_level(level, S: np.ndarray, knn: np.ndarray, *, passes: int, metric:
 # moving the state between levels
 
 
-@njit(**PJIT)
+@njit(**JIT)
 def _downsample(S, h, Hl, Wl, He, We, out):
     """S_l[P] = S[h P + h // 2] (the anchor fine pixel), clamped into the exemplar."""
     Ht, Wt = S.shape[0], S.shape[1]
-    for I in prange(Hl):
+    for I in range(Hl):
         for J in range(Wl):
             ai = h * I + h // 2
             aj = h * J + h // 2
@@ -566,13 +600,13 @@ def _downsample(S, h, Hl, Wl, He, We, out):
             out[I, J, 1] = min(max(x, 0), We - 1)
 
 
-@njit(**PJIT)
+@njit(**JIT)
 def _upsample(Sp, h, Hl, Wl, He, We, out):
     """From the level with spacing 2h to spacing h: child 2P + D of parent P takes
     S_p[P] + h D - (h - h // 2), clamped into the exemplar."""
     Hp, Wp = Sp.shape[0], Sp.shape[1]
     off = h - h // 2
-    for i in prange(Hl):
+    for i in range(Hl):
         I = min(i // 2, Hp - 1)
         di = i - 2 * I
         for j in range(Wl):
@@ -594,10 +628,10 @@ def upsample_state(S: np.ndarray, h: int, shape: tuple[int, int], ex_shape: tupl
     return out
 
 
-@njit(**PJIT)
+@njit(**JIT)
 def _block_any(mask, h, out):
     Ht, Wt = mask.shape
-    for I in prange(out.shape[0]):
+    for I in range(out.shape[0]):
         for i in range(I * h, min((I + 1) * h, Ht)):
             for j in range(Wt):
                 if mask[i, j]:

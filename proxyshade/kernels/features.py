@@ -34,9 +34,9 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
-from proxyshade.kernels._config import JIT, PJIT
+from proxyshade.kernels._config import JIT
 from proxyshade.kernels.chamfer import chamfer_masks  # noqa: F401  (re-exported for the synthesis kernels)
 from proxyshade.kernels.chamfer import masks_from_windows
 from proxyshade.kernels.distance import contour_distance
@@ -50,12 +50,17 @@ NB2 = NB * NB
 # resampling the source to the exemplar
 
 
-@njit(**PJIT)
 def _area_resample(img, oh, ow, f, out):
     """Box-filter ``img`` (H, W, C) by the (possibly fractional) factor f to (oh, ow, C):
     exemplar pixel (i, j) averages the source area [i f, (i + 1) f) x [j f, (j + 1) f)."""
+    _area_resample_rows(img, oh, ow, f, out, 0, oh)
+
+
+@njit(**JIT)
+def _area_resample_rows(img, oh, ow, f, out, r0, r1):
+    """``_area_resample``'s rows r0..r1."""
     h, w, c = img.shape
-    for i in prange(oh):
+    for i in range(r0, r1):
         y0 = i * f
         y1 = (i + 1) * f
         acc = np.zeros(c)
@@ -197,10 +202,10 @@ class Level(NamedTuple):
     tgt_height: np.ndarray
 
 
-@njit(**PJIT)
-def _heights(lab, out, length):
+@njit(**JIT)
+def _heights(lab, out, length, c0, c1):
     H, W = lab.shape
-    for j in prange(W):
+    for j in range(c0, c1):
         i0 = 0
         while i0 < H:
             i1 = i0
@@ -220,15 +225,16 @@ def label_heights(lab: np.ndarray, *, lengths: bool = False):
     run's length in pixels ((H, W) int32)."""
     out = np.empty(lab.shape, np.float32)
     n = np.empty(lab.shape, np.int32)
-    _heights(np.ascontiguousarray(lab, np.int32), out, n)
+    _heights(np.ascontiguousarray(lab, np.int32), out, n, 0, lab.shape[1])
     return (out, n) if lengths else out
 
 
-@njit(**PJIT)
-def _windows(lab, h, out):
-    """(H, W, 25) int32: the labels of each pixel's 5x5 window with spacing h, clamped."""
+@njit(**JIT)
+def _windows(lab, h, out, r0, r1):
+    """(H, W, 25) int32: the labels of each pixel's 5x5 window with spacing h, clamped (rows
+    r0..r1)."""
     H, W = lab.shape
-    for i in prange(H):
+    for i in range(r0, r1):
         for j in range(W):
             k = 0
             for di in range(-2, 3):
@@ -242,7 +248,7 @@ def _windows(lab, h, out):
 def window_masks(lab: np.ndarray, h: int, n: int) -> np.ndarray:
     """(H, W, n) uint32 per-label bit masks of each pixel's 5x5 window (spacing h)."""
     win = np.empty(lab.shape + (NB2,), np.int32)
-    _windows(np.ascontiguousarray(lab, dtype=np.int32), h, win)
+    _windows(np.ascontiguousarray(lab, dtype=np.int32), h, win, 0, lab.shape[0])
     return masks_from_windows(win, n)
 
 

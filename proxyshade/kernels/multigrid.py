@@ -23,7 +23,7 @@ from numba import njit, prange
 from proxyshade.kernels._config import JIT, PJIT
 from proxyshade.kernels.stencil import apply_at, fine_operator, neighbour_sum
 
-@njit(**PJIT)
+@njit(**JIT)
 def _coarsen(diag, we, ws, mass, alpha):
     """Coarse operator for 2x2 piecewise-constant aggregation: the Galerkin product
     P^T A P, its Laplacian part (edge weights, and the diagonal less the screening mass)
@@ -37,7 +37,7 @@ def _coarsen(diag, we, ws, mass, alpha):
     sc = np.zeros((hc, wc), np.float32)
     mc = np.zeros((hc, wc), np.float32)
     inv = 1.0 / alpha
-    for I in prange(hc):
+    for I in range(hc):  # serial: a few milliseconds a solve (a parallel loop compiles 1 s slower)
         for J in range(wc):
             d = 0.0
             m = 0.0

@@ -250,26 +250,23 @@ def _label_lists(src_lab, n):
 
 
 @njit(**JIT)
-def _window_groups(src_masks, starts, lists):
-    """Each label's candidates ordered by the hash of their label masks (``_mask_hash``;
-    by index among equal hashes), windows alike side by side: (flat indices, hashes,
-    the end of each position's run of equal hashes, whether the run's masks are all
-    equal (no hash collision))."""
+def _mask_hashes(src_masks, lists):
+    """``_mask_hash`` of the window of each exemplar pixel of ``lists`` (flat indices)."""
     We = src_masks.shape[1]
-    grouped = lists.copy()
-    hashes = np.empty(lists.shape[0], np.uint64)
-    for l in range(starts.shape[0] - 1):
-        a, b = starts[l], starts[l + 1]
-        h = np.empty(b - a, np.uint64)
-        for t in range(b - a):
-            c = lists[a + t]
-            h[t] = _mask_hash(src_masks[c // We, c % We])
-        o = np.argsort(h, kind="mergesort")
-        for t in range(b - a):
-            grouped[a + t] = lists[a + o[t]]
-            hashes[a + t] = h[o[t]]
-    end = np.empty(lists.shape[0], np.int64)
-    uniform = np.ones(lists.shape[0], np.bool_)
+    out = np.empty(lists.shape[0], np.uint64)
+    for t in range(lists.shape[0]):
+        c = lists[t]
+        out[t] = _mask_hash(src_masks[c // We, c % We])
+    return out
+
+
+@njit(**JIT)
+def _runs(src_masks, starts, grouped, hashes):
+    """The end of each position's run of equal ``hashes`` within its label, and whether
+    the run's masks are all equal (no hash collision)."""
+    We = src_masks.shape[1]
+    end = np.empty(grouped.shape[0], np.int64)
+    uniform = np.ones(grouped.shape[0], np.bool_)
     for l in range(starts.shape[0] - 1):
         r = starts[l]
         while r < starts[l + 1]:
@@ -283,7 +280,23 @@ def _window_groups(src_masks, starts, lists):
                     uniform[r] = False
             end[r] = e
             r = e
-    return Groups(grouped, hashes, end, uniform)
+    return end, uniform
+
+
+def _window_groups(src_masks, starts, lists):
+    """Each label's candidates ordered by the hash of their label masks (``_mask_hash``;
+    by index among equal hashes: a stable sort, numpy's, which numba compiles in 1 s),
+    windows alike side by side: ``Groups`` (flat indices, hashes, the end of each
+    position's run of equal hashes, whether the run's masks are all equal (no hash
+    collision))."""
+    h = _mask_hashes(src_masks, lists)
+    grouped, hashes = lists.copy(), h.copy()
+    for l in range(starts.shape[0] - 1):
+        a, b = starts[l], starts[l + 1]
+        o = np.argsort(h[a:b], kind="stable")
+        grouped[a:b] = lists[a:b][o]
+        hashes[a:b] = h[a:b][o]
+    return Groups(grouped, hashes, *_runs(src_masks, starts, grouped, hashes))
 
 
 @njit(**JIT)
@@ -303,7 +316,7 @@ def _best_by_window(groups, a, b, lv, m, probe, bound, c0, scan):
     while r < b:
         e = end[r]
         if not uniform[r]:  # a hash collision: candidate by candidate
-            bi, bd = _best_match(grouped[r:e], lv, m, probe, bd, bi, scan, False)
+            bi, bd = _best_match(grouped[r:e], lv, m, probe, bd, bi, scan, np.bool_(False))  # not literal: one signature
             bk = _tie_key(bi, scan) if bi >= 0 else scan.n
             r = e
             continue
@@ -347,15 +360,27 @@ def _positions(starts, lists, size):
     return posof
 
 
+@njit(inline="always", **JIT)
+def _bisect(a, v, right):
+    """``np.searchsorted(a, v, side="right" if right else "left")`` (inlined: numpy's compiles
+    slower)."""
+    lo = 0
+    hi = a.shape[0]
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if a[mid] < v or (right and a[mid] == v):
+            lo = mid + 1
+        else:
+            hi = mid
+    return lo
+
+
 @njit(**JIT)
-def _flood_fill(lv, m, cover, order, first_id, thr_scale, thr_offset, seed):
+def _flood_fill(lv, m, cover, order, first_id, thr_scale, thr_offset, seed, starts, groups, posof):
     """Patches grown from the free pixels of ``cover`` taken in ``order``, ids from
-    ``first_id``; returns their count."""
+    ``first_id``; returns their count. ``starts``: the label lists' (``_label_lists``),
+    ``groups``: ``_window_groups``, ``posof``: ``_positions``."""
     src_lab, tgt_lab, free = lv.src_lab, lv.tgt_lab, cover.free
-    n = lv.src_masks.shape[2]
-    starts, lists = _label_lists(src_lab, n)
-    groups = _window_groups(lv.src_masks, starts, lists)
-    posof = _positions(starts, lists, lists.shape[0])
     Ht, Wt = tgt_lab.shape
     queue = np.empty(Ht * Wt, np.int64)
     stamp = np.zeros((Ht, Wt), np.int64)
@@ -379,9 +404,9 @@ def _flood_fill(lv, m, cover, order, first_id, thr_scale, thr_offset, seed):
         # exhaustive answer; otherwise every candidate is searched
         hs = groups.hashes[starts[l]:starts[l + 1]]
         tk = _mask_hash(probe.masks)
-        g0 = starts[l] + np.searchsorted(hs, tk)
-        g1 = starts[l] + np.searchsorted(hs, tk, side="right")
-        c, best = _best_match(groups.grouped[g0:g1], lv, m, probe, b0, c0, scan, True)
+        g0 = starts[l] + _bisect(hs, tk, False)
+        g1 = starts[l] + _bisect(hs, tk, True)
+        c, best = _best_match(groups.grouped[g0:g1], lv, m, probe, b0, c0, scan, np.bool_(True))
         if best >= m.w:
             c, best = _best_by_window(groups, starts[l], starts[l + 1], lv, m, probe, best, c, scan)
         We = src_lab.shape[1]
@@ -432,8 +457,10 @@ def flood_fill(level: Level, metric: Metric, *, seed: int, threshold_scale: floa
         patch = np.ascontiguousarray(patch, dtype=np.int64).copy()
         first = int(patch.max()) + 1 if patch.size else 1
     order = permutation(seed, Ht * Wt)
+    starts, lists = _label_lists(level.src_lab, level.src_masks.shape[2])
     r = _flood_fill(level, Metric(float(metric.w), float(metric.height_weight)), Cover(free, coords, patch), order, first,
-                    float(threshold_scale), float(threshold_offset), int(seed))
+                    float(threshold_scale), float(threshold_offset), int(seed), starts,
+                    _window_groups(level.src_masks, starts, lists), _positions(starts, lists, lists.shape[0]))
     return coords, patch, r
 
 

@@ -7,9 +7,9 @@ Natural Scenes. INRIA RR-7298, 2010 (§5 step 3: the Poisson transfer this opera
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
-from proxyshade.kernels._config import JIT, PJIT
+from proxyshade.kernels._config import JIT
 
 # ---------------------------------------------------------------------------
 # operators: level = (diag, wE, wS); (A x)_p = diag_p x_p - sum_q w_pq x_q.
@@ -49,7 +49,7 @@ def neighbour_sum(x, we, ws, i, j, h, w):
     return s0, s1, s2
 
 
-@njit(**PJIT)
+@njit(**JIT)
 def fine_operator(fixed, screen):
     """The finest level's operator: diag (float32: in-image neighbours + ``screen`` at a
     free pixel, 0 at a fixed one) and the east and south weights (uint8: 1 between two
@@ -58,7 +58,7 @@ def fine_operator(fixed, screen):
     diag = np.zeros((h, w), np.float32)
     we = np.zeros((h, w), np.uint8)
     ws = np.zeros((h, w), np.uint8)
-    for i in prange(h):
+    for i in range(h):  # serial: a few milliseconds a frame (a parallel loop compiles 1 s slower)
         for j in range(w):
             if fixed[i, j]:
                 continue

@@ -22,9 +22,9 @@ Labels are dense indices ``0..n-1`` (int32).
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
-from proxyshade.kernels._config import JIT, PJIT
+from proxyshade.kernels._config import JIT
 
 
 # serial: 0.1 ms a call (label pyramids); a parallel loop compiled 0.5 s longer
@@ -58,12 +58,13 @@ def _vote_stack_level(lab, k, n, out):
             out[i, j] = best
 
 
-@njit(**PJIT)
-def _vote_blocks(lab, h, n, out):
-    """out[m, q] = most frequent label of the block [m h, (m+1) h) x [q h, (q+1) h)."""
+@njit(**JIT)
+def _vote_blocks(lab, h, n, out, r0, r1):
+    """out[m, q] = most frequent label of the block [m h, (m+1) h) x [q h, (q+1) h), rows
+    m in r0..r1."""
     H, W = lab.shape
     Ho, Wo = out.shape
-    for m in prange(Ho):
+    for m in range(r0, r1):
         cnt = np.zeros(n, np.int64)
         for q in range(Wo):
             cnt[:] = 0
@@ -95,7 +96,7 @@ def vote_down(lab: np.ndarray, h: int, n: int) -> np.ndarray:
         return lab.copy()
     H, W = lab.shape
     out = np.empty((len(range(h // 2, H, h)), len(range(h // 2, W, h))), np.int32)
-    _vote_blocks(lab, int(h), int(n), out)
+    _vote_blocks(lab, int(h), int(n), out, 0, out.shape[0])
     return out
 
 
