@@ -4,29 +4,29 @@
 CALLERS: the node type whose compute first called each entry (by index); VARIANTS: that
 node's ``warmup.node_variant``."""
 ENTRIES = [
-    ('proxyshade.kernels.raster._setup_pass', "(Array(float64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Named('proxyshade.kernels.raster.Camera', (float64, float64, float64, float64, bool, int64, int64)), bool, Array(int64, 1, 'C', False, aligned=True), Array(int64, 3, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True))", 5.4, (
+    ('proxyshade.kernels.raster._setup_pass', "(Array(float64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Named('proxyshade.kernels.raster.Camera', (float64, float64, float64, float64, bool, int64, int64)), bool, Array(int64, 1, 'C', False, aligned=True), Array(int64, 3, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True))", 1.56, (
         ('proxyshade.kernels.raster._clip', "(Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True))"),
         ('proxyshade.kernels.raster._polygon', "(Array(float64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), int64, Array(float64, 2, 'C', False, aligned=True), Named('proxyshade.kernels.raster.Camera', (float64, float64, float64, float64, bool, int64, int64)), Array(float64, 3, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True))"),
     )),
-    ('proxyshade.kernels.raster.bin_rows', "(Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), int64, int64)", 1.32, (
+    ('proxyshade.kernels.raster.bin_rows', "(Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), int64, int64)", 0.42, (
     )),
-    ('proxyshade.kernels.raster._raster_bands', "(Array(int64, 3, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), int64, int64, Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True))", 5.23, (
+    ('proxyshade.kernels.raster._raster_bands', "(Array(int64, 3, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), int64, int64, Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True))", 1.3, (
         ('proxyshade.kernels.raster._owns', '(int64, int64, int64, int64)'),
     )),
-    ('proxyshade.kernels.raster._interpolate', "(Array(float64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), float64, bool, Array(float32, 3, 'C', False, aligned=True))", 2.37, (
+    ('proxyshade.kernels.raster._interpolate', "(Array(float64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), float64, bool, Array(float32, 3, 'C', False, aligned=True))", 0.53, (
     )),
-    ('proxyshade.kernels.voting._vote_blocks', "(Array(int32, 2, 'C', False, aligned=True), int64, int64, Array(int32, 2, 'C', False, aligned=True), int64, int64)", 0.87, (
+    ('proxyshade.kernels.voting._vote_blocks', "(Array(int32, 2, 'C', False, aligned=True), int64, int64, Array(int32, 2, 'C', False, aligned=True), int64, int64)", 0.19, (
     )),
-    ('proxyshade.kernels.voting._vote_stack_level', "(Array(int32, 2, 'C', False, aligned=True), int64, int64, Array(int32, 2, 'C', False, aligned=True))", 1.72, (
+    ('proxyshade.kernels.voting._vote_stack_level', "(Array(int32, 2, 'C', False, aligned=True), int64, int64, Array(int32, 2, 'C', False, aligned=True))", 0.32, (
     )),
-    ('proxyshade.kernels.features._windows', "(Array(int32, 2, 'C', False, aligned=True), int64, Array(int32, 3, 'C', False, aligned=True), int64, int64)", 0.57, (
+    ('proxyshade.kernels.features._windows', "(Array(int32, 2, 'C', False, aligned=True), int64, Array(int32, 3, 'C', False, aligned=True), int64, int64)", 0.12, (
     )),
-    ('proxyshade.kernels.chamfer._masks_from_windows', "(Array(int32, 3, 'C', False, aligned=True), int64, Array(uint32, 3, 'C', False, aligned=True), int64, int64)", 0.56, (
+    ('proxyshade.kernels.chamfer._masks_from_windows', "(Array(int32, 3, 'C', False, aligned=True), int64, Array(uint32, 3, 'C', False, aligned=True), int64, int64)", 0.13, (
     )),
-    ('proxyshade.kernels.random.rand', '(uint64, uint64, int64, int64)', 0.39, (
+    ('proxyshade.kernels.random.rand', '(uint64, uint64, int64, int64)', 0.09, (
         ('proxyshade.kernels.random._mix', '(uint64,)'),
     )),
-    ('proxyshade.kernels.guide.similarity_sets', "(Array(int32, 2, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), int64, int64, int64, int64, int64)", 11.01, (
+    ('proxyshade.kernels.guide.similarity_sets', "(Array(int32, 2, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), int64, int64, int64, int64, int64)", 2.65, (
         ('proxyshade.kernels.chamfer._label_term', "(Array(uint32, 1, 'C', False, aligned=True), Array(uint32, 1, 'C', False, aligned=True), int64)"),
         ('proxyshade.kernels.chamfer.chamfer_bounded', "(Array(uint32, 1, 'C', False, aligned=True), Array(uint32, 1, 'C', False, aligned=True), int64)"),
         ('proxyshade.kernels.chamfer.chamfer_masks', "(Array(uint32, 1, 'C', False, aligned=True), Array(uint32, 1, 'C', False, aligned=True))"),
@@ -40,56 +40,56 @@ ENTRIES = [
         ('proxyshade.kernels.random.rand', '(int64, int64, int64, Literal[int](0))'),
         ('proxyshade.kernels.random.uniform', '(int64, int64, int64, Literal[int](0))'),
     )),
-    ('proxyshade.kernels.patch._label_lists', "(Array(int32, 2, 'C', False, aligned=True), int64)", 0.77, (
+    ('proxyshade.kernels.patch._label_lists', "(Array(int32, 2, 'C', False, aligned=True), int64)", 0.16, (
     )),
-    ('proxyshade.kernels.guide._init_state', "(Array(int32, 2, 'C', False, aligned=True), int64, int64, Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), int64)", 1.59, (
+    ('proxyshade.kernels.guide._init_state', "(Array(int32, 2, 'C', False, aligned=True), int64, int64, Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), int64)", 0.32, (
     )),
-    ('proxyshade.kernels.guide._subpass', "(Array(int32, 3, 'C', False, aligned=True), Array(int32, 3, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), UniTuple(int64, 2), Named('proxyshade.kernels.guide.Exemplar', (Array(int32, 2, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(int32, 4, 'C', False, aligned=True))), Named('proxyshade.kernels.guide.Guide', (Array(uint32, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True))), Named('proxyshade.kernels.guide.Rule', (int64, float64, int64, int64)))", 11.94, (
+    ('proxyshade.kernels.guide._subpass', "(Array(int32, 3, 'C', False, aligned=True), Array(int32, 3, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), UniTuple(int64, 2), Named('proxyshade.kernels.guide.Exemplar', (Array(int32, 2, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(int32, 4, 'C', False, aligned=True))), Named('proxyshade.kernels.guide.Guide', (Array(uint32, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True))), Named('proxyshade.kernels.guide.Rule', (int64, float64, int64, int64)))", 2.5, (
         ('proxyshade.kernels.guide._candidate', "(int64, int64, int64, Array(int32, 3, 'C', False, aligned=True), Array(int32, 4, 'C', False, aligned=True), int64)"),
         ('proxyshade.kernels.guide._color_window', "(Array(float64, 3, 'C', False, aligned=True), int32, int32, int64, Array(float64, 1, 'C', False, aligned=True))"),
         ('proxyshade.kernels.guide._subpass_row', "(int64, int64, Array(int32, 3, 'C', False, aligned=True), Array(int32, 3, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Named('proxyshade.kernels.guide.Exemplar', (Array(int32, 2, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(int32, 4, 'C', False, aligned=True))), Named('proxyshade.kernels.guide.Guide', (Array(uint32, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True))), Named('proxyshade.kernels.guide.Rule', (int64, float64, int64, int64)))"),
     )),
-    ('proxyshade.kernels.guide.upsample_state', "(Array(int32, 3, 'C', False, aligned=True), int64, int64, int64, int64, int64)", 0.56, (
+    ('proxyshade.kernels.guide.upsample_state', "(Array(int32, 3, 'C', False, aligned=True), int64, int64, int64, int64, int64)", 0.12, (
     )),
-    ('proxyshade.kernels.jfa._pass', "(Array(int64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), int64, float64, Array(int64, 1, 'C', False, aligned=True))", 3.65, (
+    ('proxyshade.kernels.jfa._pass', "(Array(int64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), int64, float64, Array(int64, 1, 'C', False, aligned=True))", 0.76, (
         ('proxyshade.kernels.jfa._cost', '(int64, int64, int64, int64, int64, int64, float64)'),
     )),
-    ('proxyshade.kernels.edit.paste_depth', "(Array(bool, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), int64, int64, int64, Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True))", 2.1, (
+    ('proxyshade.kernels.edit.paste_depth', "(Array(bool, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), int64, int64, int64, Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True))", 0.43, (
     )),
-    ('proxyshade.kernels.edit.paste_unproject', "(Array(bool, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), int64, int64, Array(float64, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))", 2.95, (
+    ('proxyshade.kernels.edit.paste_unproject', "(Array(bool, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), int64, int64, Array(float64, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))", 0.59, (
     )),
-    ('proxyshade.kernels.edit.paste_follow', "(Array(bool, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), int64, int64, Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))", 2.46, (
+    ('proxyshade.kernels.edit.paste_follow', "(Array(bool, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), int64, int64, Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))", 0.49, (
     )),
-    ('proxyshade.kernels.edit.paste_follow', "(Array(bool, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), int64, int64, Array(uint32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True))", 1.66, (
+    ('proxyshade.kernels.edit.paste_follow', "(Array(bool, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), int64, int64, Array(uint32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True))", 0.33, (
     )),
-    ('proxyshade.kernels.features._area_resample_rows', "(Array(float32, 3, 'C', False, aligned=True), int64, int64, float64, Array(float32, 3, 'C', False, aligned=True), int64, int64)", 1.17, (
+    ('proxyshade.kernels.features._area_resample_rows', "(Array(float32, 3, 'C', False, aligned=True), int64, int64, float64, Array(float32, 3, 'C', False, aligned=True), int64, int64)", 0.32, (
     )),
-    ('proxyshade.kernels.features._mode_resample', "(Array(int32, 2, 'C', False, aligned=True), int64, int64, float64, int64, Array(int32, 2, 'C', False, aligned=True))", 1.88, (
+    ('proxyshade.kernels.features._mode_resample', "(Array(int32, 2, 'C', False, aligned=True), int64, int64, float64, int64, Array(int32, 2, 'C', False, aligned=True))", 0.39, (
     )),
-    ('proxyshade.kernels.distance._contour_mask', "(Array(int32, 2, 'C', False, aligned=True),)", 1.42, (
+    ('proxyshade.kernels.distance._contour_mask', "(Array(int32, 2, 'C', False, aligned=True),)", 0.28, (
     )),
-    ('proxyshade.kernels.distance._nearest_site_columns', "(Array(bool, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), int64, int64)", 1.92, (
+    ('proxyshade.kernels.distance._nearest_site_columns', "(Array(bool, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), int64, int64)", 0.39, (
         ('proxyshade.kernels.distance._envelope_1d_arg', "(Array(int64, 1, 'C', False, aligned=True), int64, Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True))"),
     )),
-    ('proxyshade.kernels.distance._nearest_site_rows', "(Array(int64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(int32, 3, 'C', False, aligned=True), int64, int64)", 0.89, (
+    ('proxyshade.kernels.distance._nearest_site_rows', "(Array(int64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(int32, 3, 'C', False, aligned=True), int64, int64)", 0.18, (
     )),
-    ('proxyshade.kernels.distance._dist_sq', "(Array(int32, 3, 'C', False, aligned=True),)", 0.64, (
+    ('proxyshade.kernels.distance._dist_sq', "(Array(int32, 3, 'C', False, aligned=True),)", 0.14, (
     )),
-    ('proxyshade.kernels.distance._sqrt_clamped', "(Array(int64, 2, 'C', False, aligned=True), float64, Array(float32, 2, 'C', False, aligned=True))", 0.4, (
+    ('proxyshade.kernels.distance._sqrt_clamped', "(Array(int64, 2, 'C', False, aligned=True), float64, Array(float32, 2, 'C', False, aligned=True))", 0.08, (
     )),
-    ('proxyshade.kernels.features._heights', "(Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), int64, int64)", 1.53, (
+    ('proxyshade.kernels.features._heights', "(Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), int64, int64)", 0.13, (
     )),
-    ('proxyshade.kernels.random._keys', '(int64, int64)', 0.58, (
+    ('proxyshade.kernels.random._keys', '(int64, int64)', 0.11, (
         ('proxyshade.kernels.random.rand', '(int64, int64, Literal[int](0), Literal[int](0))'),
     )),
-    ('proxyshade.kernels.patch._mask_hashes', "(Array(uint32, 3, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True))", 0.97, (
+    ('proxyshade.kernels.patch._mask_hashes', "(Array(uint32, 3, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True))", 0.36, (
         ('proxyshade.kernels.patch._mask_hash', "(Array(uint32, 1, 'C', False, aligned=True),)"),
     )),
-    ('proxyshade.kernels.patch._runs', "(Array(uint32, 3, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(uint64, 1, 'C', False, aligned=True))", 1.31, (
+    ('proxyshade.kernels.patch._runs', "(Array(uint32, 3, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(uint64, 1, 'C', False, aligned=True))", 0.26, (
     )),
-    ('proxyshade.kernels.patch._positions', "(Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), int64)", 0.43, (
+    ('proxyshade.kernels.patch._positions', "(Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), int64)", 0.09, (
     )),
-    ('proxyshade.kernels.patch._flood_fill', "(Named('proxyshade.kernels.features.Level', (int64, Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))), Named('proxyshade.kernels.features.Metric', (float64, float64)), Named('proxyshade.kernels.patch.Cover', (Array(bool, 2, 'C', False, aligned=True), Array(int32, 3, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True))), Array(int64, 1, 'C', False, aligned=True), int64, float64, float64, int64, Array(int64, 1, 'C', False, aligned=True), Named('proxyshade.kernels.patch.Groups', (Array(int64, 1, 'C', False, aligned=True), Array(uint64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(bool, 1, 'C', False, aligned=True))), Array(int64, 1, 'C', False, aligned=True))", 13.96, (
+    ('proxyshade.kernels.patch._flood_fill', "(Named('proxyshade.kernels.features.Level', (int64, Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))), Named('proxyshade.kernels.features.Metric', (float64, float64)), Named('proxyshade.kernels.patch.Cover', (Array(bool, 2, 'C', False, aligned=True), Array(int32, 3, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True))), Array(int64, 1, 'C', False, aligned=True), int64, float64, float64, int64, Array(int64, 1, 'C', False, aligned=True), Named('proxyshade.kernels.patch.Groups', (Array(int64, 1, 'C', False, aligned=True), Array(uint64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(bool, 1, 'C', False, aligned=True))), Array(int64, 1, 'C', False, aligned=True))", 3.0, (
         ('proxyshade.kernels.features.dist_sq_contour', "(Array(float32, 2, 'C', False, aligned=True), Literal[int](1), int64, int64, Array(float32, 1, 'C', False, aligned=True), float64)"),
         ('proxyshade.kernels.features.gather_target', "(Array(float32, 2, 'C', False, aligned=True), int64, int64, Array(float32, 1, 'C', False, aligned=True))"),
         ('proxyshade.kernels.patch._best_by_window', "(Named('proxyshade.kernels.patch.Groups', (Array(int64, 1, 'C', False, aligned=True), Array(uint64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(bool, 1, 'C', False, aligned=True))), int64, int64, Named('proxyshade.kernels.features.Level', (int64, Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))), Named('proxyshade.kernels.features.Metric', (float64, float64)), Named('proxyshade.kernels.patch.Probe', (Array(float32, 1, 'C', False, aligned=True), Array(uint32, 1, 'C', False, aligned=True), float32)), float64, int64, Named('proxyshade.kernels.patch.Scan', (Array(int64, 1, 'C', False, aligned=True), int64, int64)))"),
@@ -99,13 +99,13 @@ ENTRIES = [
         ('proxyshade.kernels.patch._grow', "(Named('proxyshade.kernels.features.Level', (int64, Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))), Named('proxyshade.kernels.features.Metric', (float64, float64)), Named('proxyshade.kernels.patch.Cover', (Array(bool, 2, 'C', False, aligned=True), Array(int32, 3, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True))), int64, int64, int64, int64, int64, float64, Array(int64, 1, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True))"),
         ('proxyshade.kernels.random.rand', '(int64, int64, Literal[int](23719), Literal[int](0))'),
     )),
-    ('proxyshade.kernels.lookup._bilinear', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 3.71, (
+    ('proxyshade.kernels.lookup._bilinear', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 0.86, (
     )),
-    ('proxyshade.kernels.features._box_blur_centred', "(Array(float32, 3, 'C', False, aligned=True), int64, Array(float32, 3, 'C', False, aligned=True))", 1.73, (
+    ('proxyshade.kernels.features._box_blur_centred', "(Array(float32, 3, 'C', False, aligned=True), int64, Array(float32, 3, 'C', False, aligned=True))", 0.37, (
         ('proxyshade.kernels.features._box_mean_1d', "(Array(float32, 3, 'C', False, aligned=True), int64, int64, int64, int64, Literal[int](0), Literal[int](1))"),
         ('proxyshade.kernels.features._box_mean_1d', "(Array(float32, 3, 'C', False, aligned=True), int64, int64, int64, int64, Literal[int](1), Literal[int](0))"),
     )),
-    ('proxyshade.kernels.correct._knn_pass', "(int64, Named('proxyshade.kernels.features.Level', (int64, Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))), Named('proxyshade.kernels.features.Metric', (float64, float64)), int64, int64, int64, int64, Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Tuple((Array(int32, 3, 'C', False, aligned=True), Array(int32, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True))), Tuple((Array(int32, 3, 'C', False, aligned=True), Array(int32, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True))))", 22.6, (
+    ('proxyshade.kernels.correct._knn_pass', "(int64, Named('proxyshade.kernels.features.Level', (int64, Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))), Named('proxyshade.kernels.features.Metric', (float64, float64)), int64, int64, int64, int64, Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Tuple((Array(int32, 3, 'C', False, aligned=True), Array(int32, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True))), Tuple((Array(int32, 3, 'C', False, aligned=True), Array(int32, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True))))", 5.15, (
         ('proxyshade.kernels.correct._ex_dist', "(Named('proxyshade.kernels.features.Level', (int64, Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))), Named('proxyshade.kernels.features.Metric', (float64, float64)), int64, int64, int64, int64, float64)"),
         ('proxyshade.kernels.correct._insert', "(Array(int32, 1, 'C', False, aligned=True), Array(int32, 1, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), int64, int64, int64, float64)"),
         ('proxyshade.kernels.correct._knn_init', "(Named('proxyshade.kernels.features.Level', (int64, Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))), Named('proxyshade.kernels.features.Metric', (float64, float64)), int64, int64, int64, Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Tuple((Array(int32, 3, 'C', False, aligned=True), Array(int32, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True))), int64, int64)"),
@@ -113,66 +113,65 @@ ENTRIES = [
         ('proxyshade.kernels.correct._knn_rescore', "(Named('proxyshade.kernels.features.Level', (int64, Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))), Named('proxyshade.kernels.features.Metric', (float64, float64)), int64, int64, Tuple((Array(int32, 3, 'C', False, aligned=True), Array(int32, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True))), int64, int64)"),
         ('proxyshade.kernels.random.rand', '(int64, int64, int64, int64)'),
     )),
-    ('proxyshade.kernels.correct._downsample', "(Array(int32, 3, 'C', False, aligned=True), int64, int64, int64, int64, int64, Array(int32, 3, 'C', False, aligned=True))", 0.62, (
+    ('proxyshade.kernels.correct._downsample', "(Array(int32, 3, 'C', False, aligned=True), int64, int64, int64, int64, int64, Array(int32, 3, 'C', False, aligned=True))", 0.11, (
     )),
-    ('proxyshade.kernels.correct._usage_excess', "(Array(int32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), int64, Array(float64, 2, 'C', False, aligned=True))", 3.0, (
+    ('proxyshade.kernels.correct._usage_excess', "(Array(int32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), int64, Array(float64, 2, 'C', False, aligned=True))", 0.59, (
     )),
-    ('proxyshade.kernels.correct._tone_balance', "(Array(int32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), int64, int64, Array(float64, 2, 'C', False, aligned=True))", 1.33, (
+    ('proxyshade.kernels.correct._tone_balance', "(Array(int32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), int64, int64, Array(float64, 2, 'C', False, aligned=True))", 0.26, (
     )),
-    ('proxyshade.kernels.correct._subpass', "(Named('proxyshade.kernels.features.Level', (int64, Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))), Named('proxyshade.kernels.features.Metric', (float64, float64)), Named('proxyshade.kernels.correct.Rule', (int64, bool, float64, float64)), Array(int32, 4, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(int32, 3, 'C', False, aligned=True), Array(int32, 3, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), UniTuple(int64, 2), Array(int64, 2, 'C', False, aligned=True))", 18.53, (
+    ('proxyshade.kernels.correct._subpass', "(Named('proxyshade.kernels.features.Level', (int64, Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))), Named('proxyshade.kernels.features.Metric', (float64, float64)), Named('proxyshade.kernels.correct.Rule', (int64, bool, float64, float64)), Array(int32, 4, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(int32, 3, 'C', False, aligned=True), Array(int32, 3, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), UniTuple(int64, 2), Array(int64, 2, 'C', False, aligned=True))", 3.63, (
         ('proxyshade.kernels.correct._cand_dist', "(Named('proxyshade.kernels.features.Level', (int64, Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))), Named('proxyshade.kernels.features.Metric', (float64, float64)), bool, int64, int64, int64, int64, Array(float32, 1, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float64)"),
         ('proxyshade.kernels.correct._subpass_rows', "(Named('proxyshade.kernels.features.Level', (int64, Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))), Named('proxyshade.kernels.features.Metric', (float64, float64)), Named('proxyshade.kernels.correct.Rule', (int64, bool, float64, float64)), Array(int32, 4, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(int32, 3, 'C', False, aligned=True), Array(int32, 3, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), UniTuple(int64, 2), Array(int64, 2, 'C', False, aligned=True), int64, int64)"),
         ('proxyshade.kernels.correct.rejected', "(Array(int32, 3, 'C', False, aligned=True), int64, int64, int64, int64, int64, int64)"),
         ('proxyshade.kernels.features.dist_sq_contour', "(Array(float32, 2, 'C', False, aligned=True), int64, int64, int64, Array(float32, 1, 'C', False, aligned=True), float64)"),
         ('proxyshade.kernels.features.dist_sq_rgb', "(Array(float32, 3, 'C', False, aligned=True), int64, int64, int64, Array(float32, 2, 'C', False, aligned=True), float64)"),
     )),
-    ('proxyshade.kernels.correct._upsample', "(Array(int32, 3, 'C', False, aligned=True), int64, int64, int64, int64, int64, Array(int32, 3, 'C', False, aligned=True))", 0.59, (
+    ('proxyshade.kernels.correct._upsample', "(Array(int32, 3, 'C', False, aligned=True), int64, int64, int64, int64, int64, Array(int32, 3, 'C', False, aligned=True))", 0.12, (
     )),
-    ('proxyshade.kernels.magnify._label_ok', "(Array(int32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True))", 2.43, (
+    ('proxyshade.kernels.magnify._label_ok', "(Array(int32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True))", 0.5, (
     )),
-    ('proxyshade.kernels.magnify._front_steps', "(Array(int32, 3, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), int64)", 4.56, (
+    ('proxyshade.kernels.magnify._front_steps', "(Array(int32, 3, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), int64)", 0.93, (
     )),
-    ('proxyshade.kernels.patch._offset_components', "(Array(int64, 3, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True))", 2.18, (
+    ('proxyshade.kernels.patch._offset_components', "(Array(int64, 3, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True))", 0.46, (
     )),
-    ('proxyshade.kernels.magnify._magnify', "(Array(int32, 3, 'C', False, aligned=True), int64, int64, int64, Array(int32, 3, 'C', False, aligned=True))", 2.37, (
+    ('proxyshade.kernels.magnify._magnify', "(Array(int32, 3, 'C', False, aligned=True), int64, int64, int64, Array(int32, 3, 'C', False, aligned=True))", 0.45, (
     )),
-    ('proxyshade.kernels.seams._sub_pass', "(Array(int32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', True, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), int64)", 11.07, (
+    ('proxyshade.kernels.seams._sub_pass', "(Array(int32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', True, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), int64, Array(uint8, 2, 'C', False, aligned=True), Array(uint8, 2, 'C', False, aligned=True), Array(uint8, 2, 'C', False, aligned=True), int64, Array(int64, 1, 'C', False, aligned=True))", 2.76, (
         ('proxyshade.kernels.seams._dist2', "(Array(float32, 3, 'C', True, aligned=True), int64, int64, int64, int64)"),
         ('proxyshade.kernels.seams._energy', "(Array(int32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', True, aligned=True), Array(int32, 2, 'C', False, aligned=True), int64, int64, int64, int64)"),
         ('proxyshade.kernels.seams._energy', "(Array(int32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', True, aligned=True), Array(int32, 2, 'C', False, aligned=True), uint64, int64, int64, int64)"),
         ('proxyshade.kernels.seams._pair_cost', "(Array(int32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', True, aligned=True), Array(int32, 2, 'C', False, aligned=True), int64, int64, int64, int64, int64)"),
         ('proxyshade.kernels.seams._pair_cost', "(Array(int32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', True, aligned=True), Array(int32, 2, 'C', False, aligned=True), uint64, int64, int64, int64, int64)"),
     )),
-    ('proxyshade.kernels.seams._run_pass', "(Array(int32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', True, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), bool, int64)", 9.98, (
-        ('proxyshade.kernels.seams._run_at', "(Array(int32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', True, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), int64, int64, int64, Array(float64, 1, 'C', False, aligned=True), Array(bool, 1, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True))"),
+    ('proxyshade.kernels.seams._run_pass', "(Array(int32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', True, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), bool, int64, Array(uint8, 2, 'C', False, aligned=True), Array(uint8, 3, 'C', False, aligned=True), Array(uint8, 2, 'C', False, aligned=True), int64, Array(int64, 1, 'C', False, aligned=True))", 2.75, (
+        ('proxyshade.kernels.seams._run_at', "(Array(int32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', True, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), int64, int64, int64, Array(float64, 1, 'C', False, aligned=True), Array(bool, 1, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), Array(uint8, 2, 'C', False, aligned=True), Array(uint8, 3, 'C', False, aligned=True), int64)"),
     )),
-    ('proxyshade.kernels.seams._shift_pass', "(Array(int32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', True, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), int64, int64)", 4.85, (
-        ('proxyshade.kernels.seams._shift_cost', "(Array(int32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', True, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), int64, int64, Array(int64, 1, 'C', False, aligned=True), int64, int64, int64, int64, int64, float64, Literal[bool](False))"),
-        ('proxyshade.kernels.seams._shift_cost', "(Array(int32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', True, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), int64, int64, Array(int64, 1, 'C', False, aligned=True), int64, int64, int64, int64, int64, float64, Literal[bool](True))"),
+    ('proxyshade.kernels.seams._shift_passes', "(Array(int32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', True, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), int64, int64, int64, float64)", 3.96, (
+        ('proxyshade.kernels.seams._spread', "(Array(float32, 3, 'C', True, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), int64, int64, int64, int64, int64)"),
     )),
-    ('proxyshade.kernels.poisson._rhs', "(Array(float32, 3, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 3.93, (
+    ('proxyshade.kernels.poisson._rhs', "(Array(float32, 3, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 0.99, (
     )),
-    ('proxyshade.kernels.stencil.fine_operator', "(Array(bool, 2, 'C', False, aligned=True), float32)", 1.47, (
+    ('proxyshade.kernels.stencil.fine_operator', "(Array(bool, 2, 'C', False, aligned=True), float32)", 0.37, (
     )),
-    ('proxyshade.kernels.multigrid._coarsen', "(Array(float32, 2, 'C', False, aligned=True), Array(uint8, 2, 'C', False, aligned=True), Array(uint8, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float32)", 1.14, (
+    ('proxyshade.kernels.multigrid._coarsen', "(Array(float32, 2, 'C', False, aligned=True), Array(uint8, 2, 'C', False, aligned=True), Array(uint8, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float32)", 0.31, (
     )),
-    ('proxyshade.kernels.multigrid._coarsen', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float32)", 1.12, (
+    ('proxyshade.kernels.multigrid._coarsen', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float32)", 0.29, (
     )),
-    ('proxyshade.kernels.multigrid._residual', "(Array(float32, 2, 'C', False, aligned=True), Array(uint8, 2, 'C', False, aligned=True), Array(uint8, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 3.97, (
+    ('proxyshade.kernels.multigrid._residual', "(Array(float32, 2, 'C', False, aligned=True), Array(uint8, 2, 'C', False, aligned=True), Array(uint8, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 0.69, (
     )),
-    ('proxyshade.kernels.multigrid._dot3', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True))", 2.93, (
+    ('proxyshade.kernels.multigrid._dot3', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True))", 1.09, (
     )),
-    ('proxyshade.kernels.multigrid._jacobi_start', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), int64)", 1.7, (
+    ('proxyshade.kernels.multigrid._jacobi_start', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), int64)", 0.45, (
     )),
-    ('proxyshade.kernels.multigrid._smooth', "(Array(float32, 2, 'C', False, aligned=True), Array(uint8, 2, 'C', False, aligned=True), Array(uint8, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), int64)", 3.94, (
+    ('proxyshade.kernels.multigrid._smooth', "(Array(float32, 2, 'C', False, aligned=True), Array(uint8, 2, 'C', False, aligned=True), Array(uint8, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), int64)", 0.7, (
     )),
-    ('proxyshade.kernels.multigrid._residual_restrict', "(Array(float32, 2, 'C', False, aligned=True), Array(uint8, 2, 'C', False, aligned=True), Array(uint8, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 4.09, (
+    ('proxyshade.kernels.multigrid._residual_restrict', "(Array(float32, 2, 'C', False, aligned=True), Array(uint8, 2, 'C', False, aligned=True), Array(uint8, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 1.42, (
     )),
-    ('proxyshade.kernels.multigrid._smooth', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), int64)", 3.84, (
+    ('proxyshade.kernels.multigrid._smooth', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), int64)", 0.68, (
     )),
-    ('proxyshade.kernels.multigrid._residual_restrict', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 5.45, (
+    ('proxyshade.kernels.multigrid._residual_restrict', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 1.46, (
     )),
-    ('proxyshade.kernels.multigrid._vcycle_serial', "(Array(float32, 1, 'C', False, aligned=True), Array(float32, 1, 'C', False, aligned=True), Array(float32, 1, 'C', False, aligned=True), Array(float32, 1, 'C', False, aligned=True), Array(float32, 1, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), int64, int64)", 13.31, (
+    ('proxyshade.kernels.multigrid._vcycle_serial', "(Array(float32, 1, 'C', False, aligned=True), Array(float32, 1, 'C', False, aligned=True), Array(float32, 1, 'C', False, aligned=True), Array(float32, 1, 'C', False, aligned=True), Array(float32, 1, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), int64, int64)", 3.67, (
         ('proxyshade.kernels.multigrid._coarse_solve', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), int64)"),
         ('proxyshade.kernels.multigrid._jacobi_start_serial', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Literal[int](0))"),
         ('proxyshade.kernels.multigrid._prolong_add_serial', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float64)"),
@@ -180,139 +179,139 @@ ENTRIES = [
         ('proxyshade.kernels.multigrid._smooth_serial', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Literal[int](0))"),
         ('proxyshade.kernels.multigrid._smooth_serial', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Literal[int](1))"),
     )),
-    ('proxyshade.kernels.multigrid._prolong_add', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float64)", 1.09, (
+    ('proxyshade.kernels.multigrid._prolong_add', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float64)", 0.34, (
     )),
-    ('proxyshade.kernels.multigrid._matvec_dot', "(Array(float32, 2, 'C', False, aligned=True), Array(uint8, 2, 'C', False, aligned=True), Array(uint8, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True))", 1.8, (
+    ('proxyshade.kernels.multigrid._matvec_dot', "(Array(float32, 2, 'C', False, aligned=True), Array(uint8, 2, 'C', False, aligned=True), Array(uint8, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True))", 1.49, (
     )),
-    ('proxyshade.kernels.multigrid._cg_update', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True))", 2.68, (
+    ('proxyshade.kernels.multigrid._cg_update', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True))", 0.8, (
     )),
-    ('proxyshade.kernels.multigrid._xpby3', "(Array(float32, 3, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 0.95, (
+    ('proxyshade.kernels.multigrid._xpby3', "(Array(float32, 3, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 0.42, (
     )),
-    ('proxyshade.kernels.shadow._pcf', "(Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), int64, float64, Array(float64, 2, 'C', False, aligned=True))", 3.63, (
+    ('proxyshade.kernels.shadow._pcf', "(Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), int64, float64, Array(float64, 2, 'C', False, aligned=True))", 1.16, (
         ('proxyshade.kernels.shadow._occluded', "(Array(float64, 2, 'C', False, aligned=True), int64, int64, float64, float64)"),
     )),
-    ('proxyshade.kernels.reproject._inverse_depth', "(Array(float32, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True))", 0.56, (
+    ('proxyshade.kernels.reproject._inverse_depth', "(Array(float32, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True))", 0.27, (
     )),
-    ('proxyshade.kernels.reproject.grid_corners', "(Array(float64, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), float64)", 10.03, (
+    ('proxyshade.kernels.reproject.grid_corners', "(Array(float64, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), float64)", 4.35, (
         ('proxyshade.kernels.reproject._connected', "(Array(float64, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), int64, int64, int64, int64, float64)"),
         ('proxyshade.kernels.reproject._links', "(Array(float64, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), float64)"),
         ('proxyshade.kernels.reproject.same_surface', '(float64, float64, float64)'),
     )),
-    ('proxyshade.kernels.reproject._quad_rows', "(Array(float64, 3, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), float64, int64, int64, float64)", 7.56, (
+    ('proxyshade.kernels.reproject._quad_rows', "(Array(float64, 3, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), float64, int64, int64, float64)", 3.06, (
         ('proxyshade.kernels.reproject._quad', "(Array(float64, 3, 'C', False, aligned=True), int64, int64, Array(float64, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), float64, Array(float64, 2, 'C', False, aligned=True))"),
         ('proxyshade.kernels.reproject._quad', "(Array(float64, 3, 'C', False, aligned=True), uint64, int64, Array(float64, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), float64, Array(float64, 2, 'C', False, aligned=True))"),
         ('proxyshade.kernels.reproject._quad_after', "(Array(float64, 3, 'C', False, aligned=True), int64, int64, Array(float64, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), float64, Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True))"),
         ('proxyshade.kernels.reproject._quad_after', "(Array(float64, 3, 'C', False, aligned=True), uint64, int64, Array(float64, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), float64, Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True))"),
     )),
-    ('proxyshade.kernels.raster._bin_count', "(Array(int32, 1, 'C', False, aligned=True), Array(int32, 1, 'C', False, aligned=True), int64, Array(int64, 2, 'C', False, aligned=True))", 0.95, (
+    ('proxyshade.kernels.raster._bin_count', "(Array(int32, 1, 'C', False, aligned=True), Array(int32, 1, 'C', False, aligned=True), int64, Array(int64, 2, 'C', False, aligned=True))", 0.88, (
     )),
-    ('proxyshade.kernels.raster._bin_fill', "(Array(int32, 1, 'C', False, aligned=True), Array(int32, 1, 'C', False, aligned=True), int64, Array(int64, 2, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True))", 1.06, (
+    ('proxyshade.kernels.raster._bin_fill', "(Array(int32, 1, 'C', False, aligned=True), Array(int32, 1, 'C', False, aligned=True), int64, Array(int64, 2, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True))", 0.46, (
     )),
-    ('proxyshade.kernels.reproject._splat_bands', "(Array(float64, 3, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), float64, int64, int64, int64, Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True))", 2.12, (
+    ('proxyshade.kernels.reproject._splat_bands', "(Array(float64, 3, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), float64, int64, int64, int64, Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True))", 1.27, (
         ('proxyshade.kernels.reproject._edge', '(float64, float64, float64, float64, float64, float64)'),
         ('proxyshade.kernels.reproject._tri_area', "(Array(float64, 2, 'C', False, aligned=True), Literal[int](0), Literal[int](1), Literal[int](3), float64, float64, float64)"),
         ('proxyshade.kernels.reproject._tri_area', "(Array(float64, 2, 'C', False, aligned=True), Literal[int](0), Literal[int](3), Literal[int](2), float64, float64, float64)"),
     )),
-    ('proxyshade.kernels.reproject._stale', "(Array(float64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), float64, int64, int64, Array(bool, 2, 'C', False, aligned=True))", 2.09, (
+    ('proxyshade.kernels.reproject._stale', "(Array(float64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), float64, int64, int64, Array(bool, 2, 'C', False, aligned=True))", 0.5, (
     )),
-    ('proxyshade.kernels.reproject.classify', "(Array(int64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), float64)", 2.61, (
+    ('proxyshade.kernels.reproject.classify', "(Array(int64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), float64)", 1.73, (
     )),
-    ('proxyshade.kernels.layout._luma_encoded', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 0.84, (
+    ('proxyshade.kernels.layout._luma_encoded', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 0.44, (
     )),
-    ('proxyshade.kernels.layout._profile', "(Array(float32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), int64, int64, Array(float64, 3, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True))", 0.25, (
+    ('proxyshade.kernels.layout._profile', "(Array(float32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), int64, int64, Array(float64, 3, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True))", 0.12, (
     )),
-    ('proxyshade.kernels.layout._at_height', "(Array(float64, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 1.85, (
+    ('proxyshade.kernels.layout._at_height', "(Array(float64, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 0.35, (
     )),
-    ('proxyshade.kernels.layout._block_sums', "(Array(float32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), int64, int64, Array(float64, 4, 'C', False, aligned=True))", 0.27, (
+    ('proxyshade.kernels.layout._block_sums', "(Array(float32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), int64, int64, Array(float64, 4, 'C', False, aligned=True))", 0.12, (
     )),
-    ('proxyshade.kernels.layout._box_blocks', "(Array(float64, 4, 'C', False, aligned=True), int64)", 0.69, (
+    ('proxyshade.kernels.layout._box_blocks', "(Array(float64, 4, 'C', False, aligned=True), int64)", 0.33, (
     )),
-    ('proxyshade.kernels.layout._spread', "(Array(float64, 4, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), int64, Array(float32, 3, 'C', False, aligned=True))", 1.2, (
+    ('proxyshade.kernels.layout._spread', "(Array(float64, 4, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), int64, Array(float32, 3, 'C', False, aligned=True))", 1.08, (
     )),
-    ('proxyshade.kernels.layout._move_luma_chroma', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 1.07, (
+    ('proxyshade.kernels.layout._move_luma_chroma', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 0.48, (
     )),
-    ('proxyshade.kernels.layout._cctf_image', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), bool)", 1.22, (
+    ('proxyshade.kernels.layout._cctf_image', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), bool)", 0.56, (
     )),
-    ('proxyshade.kernels.grain._boxes', "(Array(int32, 2, 'C', False, aligned=True), int64)", 0.31, (
+    ('proxyshade.kernels.grain._boxes', "(Array(int32, 2, 'C', False, aligned=True), int64)", 0.14, (
     )),
-    ('proxyshade.kernels.grain._sat', "(Array(float32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), int64, int64, int64, int64, int64, int64, Array(float64, 3, 'C', False, aligned=True))", 3.33, (
+    ('proxyshade.kernels.grain._sat', "(Array(float32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), int64, int64, int64, int64, int64, int64, Array(float64, 3, 'C', False, aligned=True))", 1.09, (
     )),
-    ('proxyshade.kernels.grain._label_pass', "(Array(float32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), int64, int64, int64, Array(float64, 3, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), bool)", 2.68, (
+    ('proxyshade.kernels.grain._label_pass', "(Array(float32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), int64, int64, int64, Array(float64, 3, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), bool)", 1.84, (
     )),
-    ('proxyshade.kernels.grain._block_means', "(Array(float64, 3, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(float64, 4, 'C', False, aligned=True))", 1.05, (
+    ('proxyshade.kernels.grain._block_means', "(Array(float64, 3, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(float64, 4, 'C', False, aligned=True))", 0.48, (
     )),
-    ('proxyshade.kernels.grain._block_bins', "(Array(int32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), int64, int64, int64, int64, int64, int64, Array(int64, 3, 'C', False, aligned=True))", 0.92, (
+    ('proxyshade.kernels.grain._block_bins', "(Array(int32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), int64, int64, int64, int64, int64, int64, Array(int64, 3, 'C', False, aligned=True))", 0.43, (
     )),
-    ('proxyshade.kernels.grain._block_energy', "(Array(float64, 4, 'C', False, aligned=True), Array(int64, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True))", 2.12, (
+    ('proxyshade.kernels.grain._block_energy', "(Array(float64, 4, 'C', False, aligned=True), Array(int64, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True))", 0.42, (
     )),
-    ('proxyshade.kernels.grain._spread_pass', "(Array(float32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), int64, int64, int64, int64, int64, int64, Array(float64, 3, 'C', False, aligned=True), Array(float64, 4, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(float64, 4, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 3.94, (
+    ('proxyshade.kernels.grain._spread_pass', "(Array(float32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), int64, int64, int64, int64, int64, int64, Array(float64, 3, 'C', False, aligned=True), Array(float64, 4, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(float64, 4, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 1.76, (
     )),
-    ('proxyshade.kernels.reproject.transfer', "(Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), float64)", 1.9, (
+    ('proxyshade.kernels.reproject.transfer', "(Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), float64)", 1.47, (
     )),
-    ('proxyshade.kernels.lookup._lanczos_rgb', "(Array(float32, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 2.36, (
+    ('proxyshade.kernels.lookup._lanczos_rgb', "(Array(float32, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 1.12, (
         ('proxyshade.kernels.lookup._tap_start', '(float64, int64, int64, int64)'),
     )),
-    ('proxyshade.kernels.lookup._clamp_taps', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 1.07, (
+    ('proxyshade.kernels.lookup._clamp_taps', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 0.69, (
     )),
-    ('proxyshade.kernels.reproject.gather_prev_planes', "(Tuple((Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True))), Array(uint32, 2, 'C', False, aligned=True), Tuple((Array(float64, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))), float64, float64)", 2.82, (
+    ('proxyshade.kernels.reproject.gather_prev_planes', "(Tuple((Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True))), Array(uint32, 2, 'C', False, aligned=True), Tuple((Array(float64, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))), float64, float64)", 1.96, (
     )),
-    ('proxyshade.kernels.reproject.first_positions', "(Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float64, float64)", 1.86, (
+    ('proxyshade.kernels.reproject.first_positions', "(Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float64, float64)", 1.02, (
     )),
-    ('proxyshade.kernels.reproject.anchor_seams', "(Tuple((Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True))), Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Tuple((Array(float64, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))), Tuple((Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True))), float64, float64, float64, Tuple((Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))))", 2.03, (
+    ('proxyshade.kernels.reproject.anchor_seams', "(Tuple((Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True))), Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Tuple((Array(float64, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))), Tuple((Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True))), float64, float64, float64, Tuple((Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))))", 1.85, (
     )),
-    ('proxyshade.kernels.reproject.fill_from_neighbours_into', "(Array(bool, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), int64, float64, Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))", 3.15, (
+    ('proxyshade.kernels.reproject.fill_from_neighbours_into', "(Array(bool, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), int64, float64, Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True))", 1.07, (
     )),
-    ('proxyshade.kernels.temporal.continue_filled', "(Array(bool, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), float64)", 0.79, (
+    ('proxyshade.kernels.temporal.continue_filled', "(Array(bool, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), float64)", 0.57, (
     )),
-    ('proxyshade.kernels.temporal.map_deviation_patches', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), float64)", 2.36, (
+    ('proxyshade.kernels.temporal.map_deviation_patches', "(Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), float64)", 1.16, (
     )),
-    ('proxyshade.kernels.temporal.patch_mean', "(Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), int64)", 0.36, (
+    ('proxyshade.kernels.temporal.patch_mean', "(Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), int64)", 0.74, (
     )),
-    ('proxyshade.kernels.random.uniform_field', "(int64, Array(uint32, 2, 'C', False, aligned=True))", 0.97, (
+    ('proxyshade.kernels.random.uniform_field', "(int64, Array(uint32, 2, 'C', False, aligned=True))", 0.47, (
         ('proxyshade.kernels.random.rand', '(int64, uint32, Literal[int](0), Literal[int](0))'),
         ('proxyshade.kernels.random.uniform', '(int64, uint32, Literal[int](0), Literal[int](0))'),
     )),
-    ('proxyshade.kernels.temporal.in_ids', "(Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(bool, 1, 'C', False, aligned=True))", 2.36, (
+    ('proxyshade.kernels.temporal.in_ids', "(Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(bool, 1, 'C', False, aligned=True))", 0.55, (
     )),
-    ('proxyshade.kernels.temporal.area_perimeter', "(Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), int64)", 0.34, (
+    ('proxyshade.kernels.temporal.area_perimeter', "(Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), int64)", 0.15, (
     )),
-    ('proxyshade.kernels.temporal.fits_label', "(Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True))", 1.48, (
+    ('proxyshade.kernels.temporal.fits_label', "(Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True))", 0.68, (
     )),
-    ('proxyshade.kernels.temporal._label_gradients', "(Array(float32, 3, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), int64, Array(float64, 1, 'C', True, aligned=True))", 3.78, (
+    ('proxyshade.kernels.temporal._label_gradients', "(Array(float32, 3, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), int64, Array(float64, 1, 'C', True, aligned=True))", 1.76, (
     )),
-    ('proxyshade.kernels.temporal.flag_reasons', "(Array(bool, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), float64, Array(uint32, 2, 'C', False, aligned=True), uint32, Tuple((Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True))), Array(uint32, 2, 'C', False, aligned=True), UniTuple(uint32, 4))", 5.16, (
+    ('proxyshade.kernels.temporal.flag_reasons', "(Array(bool, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), float64, Array(uint32, 2, 'C', False, aligned=True), uint32, Tuple((Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True))), Array(uint32, 2, 'C', False, aligned=True), UniTuple(uint32, 4))", 2.52, (
     )),
-    ('proxyshade.kernels.temporal.clean_flags', "(Array(uint32, 2, 'C', False, aligned=True), int64, int64, int64, Array(bool, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), int64, int64, int64)", 6.54, (
+    ('proxyshade.kernels.temporal.clean_flags', "(Array(uint32, 2, 'C', False, aligned=True), int64, int64, int64, Array(bool, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), int64, int64, int64)", 3.19, (
     )),
-    ('proxyshade.kernels.temporal.keep_carried', "(Array(uint32, 2, 'C', False, aligned=True), int64, Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), bool)", 2.1, (
+    ('proxyshade.kernels.temporal.keep_carried', "(Array(uint32, 2, 'C', False, aligned=True), int64, Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), bool)", 0.97, (
     )),
-    ('proxyshade.kernels.correct._block_any', "(Array(bool, 2, 'C', False, aligned=True), int64, Array(bool, 2, 'C', False, aligned=True))", 0.2, (
+    ('proxyshade.kernels.correct._block_any', "(Array(bool, 2, 'C', False, aligned=True), int64, Array(bool, 2, 'C', False, aligned=True))", 0.12, (
     )),
-    ('proxyshade.kernels.magnify._only_target', "(Array(int32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True))", 0.84, (
+    ('proxyshade.kernels.magnify._only_target', "(Array(int32, 3, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True))", 0.42, (
     )),
-    ('proxyshade.kernels.temporal.merge_redo', "(Array(bool, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), uint32, Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True))", 1.18, (
+    ('proxyshade.kernels.temporal.merge_redo', "(Array(bool, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), uint32, Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True))", 1.47, (
     )),
-    ('proxyshade.kernels.lookup._lanczos', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 3.14, (
+    ('proxyshade.kernels.lookup._lanczos', "(Array(float32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 1.41, (
     )),
-    ('proxyshade.kernels.temporal.components4', "(Array(bool, 2, 'C', False, aligned=True),)", 4.17, (
+    ('proxyshade.kernels.temporal.components4', "(Array(bool, 2, 'C', False, aligned=True),)", 2.96, (
     )),
-    ('proxyshade.kernels.temporal.area_perimeter', "(Array(bool, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), int64)", 0.22, (
+    ('proxyshade.kernels.temporal.area_perimeter', "(Array(bool, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), int64)", 0.15, (
     )),
-    ('proxyshade.kernels.sor._dense_ranks', "(Array(int64, 1, 'C', False, aligned=True),)", 0.15, (
+    ('proxyshade.kernels.sor._dense_ranks', "(Array(int64, 1, 'C', False, aligned=True),)", 0.13, (
     )),
-    ('proxyshade.kernels.sor._group_order', "(Array(int64, 1, 'C', False, aligned=True), int64)", 0.13, (
+    ('proxyshade.kernels.sor._group_order', "(Array(int64, 1, 'C', False, aligned=True), int64)", 0.11, (
     )),
-    ('proxyshade.kernels.sor._list_neighbours', "(Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), int64, int64)", 0.34, (
+    ('proxyshade.kernels.sor._list_neighbours', "(Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), int64, int64)", 0.89, (
     )),
-    ('proxyshade.kernels.sor._seam_edges', "(Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float32)", 1.48, (
+    ('proxyshade.kernels.sor._seam_edges', "(Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float32)", 0.3, (
     )),
-    ('proxyshade.kernels.sor._rhs_at', "(Array(float32, 3, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float32, Array(float32, 2, 'C', False, aligned=True), Array(float32, 1, 'C', False, aligned=True))", 1.23, (
+    ('proxyshade.kernels.sor._rhs_at', "(Array(float32, 3, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), float32, Array(float32, 2, 'C', False, aligned=True), Array(float32, 1, 'C', False, aligned=True))", 0.66, (
     )),
-    ('proxyshade.kernels.sor._sor_regions', "(Named('proxyshade.kernels.sor.Regions', (Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True))), Named('proxyshade.kernels.sor.ListedSystem', (Array(int64, 2, 'C', False, aligned=True), Array(float32, 1, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True))), Array(float32, 2, 'C', False, aligned=True), float64, int64, int64, Array(int64, 1, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True))", 1.81, (
+    ('proxyshade.kernels.sor._sor_regions', "(Named('proxyshade.kernels.sor.Regions', (Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True))), Named('proxyshade.kernels.sor.ListedSystem', (Array(int64, 2, 'C', False, aligned=True), Array(float32, 1, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True))), Array(float32, 2, 'C', False, aligned=True), float64, int64, int64, Array(int64, 1, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True))", 1.07, (
         ('proxyshade.kernels.sor._run_residual', "(Array(int64, 2, 'C', False, aligned=True), Array(float32, 1, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), int64, int64, Array(float32, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True))"),
         ('proxyshade.kernels.sor._sor_run', "(Array(int64, 2, 'C', False, aligned=True), Array(float32, 1, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), int64, int64, Array(float32, 2, 'C', False, aligned=True))"),
     )),
-    ('proxyshade.kernels.temporal.colour_planes', "(Array(float32, 3, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), bool)", 1.94, (
+    ('proxyshade.kernels.temporal.colour_planes', "(Array(float32, 3, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), Array(float32, 2, 'C', False, aligned=True), bool)", 1.22, (
     )),
     ('proxyshade.kernels.cryptomatte._rank', "(Array(uint32, 2, 'C', False, aligned=True), int64, Array(float32, 1, 'C', False, aligned=True), int64, Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 1.12, (
         ('proxyshade.kernels.cryptomatte._rank_row', "(int64, Array(uint32, 2, 'C', False, aligned=True), int64, Array(float32, 1, 'C', False, aligned=True), int64, Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))"),
@@ -527,24 +526,24 @@ VARIANTS = {
     84: '260063618204',
     85: '260063618204',
     86: '260063618204',
-    87: '8242a9d6e370',
-    88: '8242a9d6e370',
-    89: '8242a9d6e370',
-    90: '8242a9d6e370',
-    91: '8242a9d6e370',
-    92: '8242a9d6e370',
-    93: '8242a9d6e370',
-    94: '8242a9d6e370',
-    95: '8242a9d6e370',
-    96: '8242a9d6e370',
-    97: '8242a9d6e370',
-    98: '8242a9d6e370',
-    99: '8242a9d6e370',
-    100: '8242a9d6e370',
-    101: '8242a9d6e370',
-    102: '8242a9d6e370',
-    103: '8242a9d6e370',
-    104: '8242a9d6e370',
+    87: 'ed7816307a19',
+    88: 'ed7816307a19',
+    89: 'ed7816307a19',
+    90: 'ed7816307a19',
+    91: 'ed7816307a19',
+    92: 'ed7816307a19',
+    93: 'ed7816307a19',
+    94: 'ed7816307a19',
+    95: 'ed7816307a19',
+    96: 'ed7816307a19',
+    97: 'ed7816307a19',
+    98: 'ed7816307a19',
+    99: 'ed7816307a19',
+    100: 'ed7816307a19',
+    101: 'ed7816307a19',
+    102: 'ed7816307a19',
+    103: 'ed7816307a19',
+    104: 'ed7816307a19',
     105: 'f78e2325ac9e',
     106: 'f78e2325ac9e',
     107: 'f78e2325ac9e',
