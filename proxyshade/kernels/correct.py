@@ -233,15 +233,15 @@ def similarity_sets(level, k: int, metric: Metric, *, seed: int, iterations: int
     none = np.zeros(0, np.int64)
     if init is None:
         starts, flat = _label_lists(lab, n)
-        _knn_pass(KNN_INIT, level, m, k, excl, seed, 0, starts, flat, lists, lists)
+        _knn_pass(KNN_INIT, level, m, k, excl, seed, it=0, starts=starts, flat=flat, old=lists, new=lists)
     else:
         lists[0][...] = init[..., 0]
         lists[1][...] = init[..., 1]
         lists[2][...] = np.inf
-        _knn_pass(KNN_RESCORE, level, m, k, excl, seed, 0, none, none, lists, lists)
+        _knn_pass(KNN_RESCORE, level, m, k, excl, seed, it=0, starts=none, flat=none, old=lists, new=lists)
     spare = tuple(np.empty_like(a) for a in lists)
     for it in range(iterations):
-        _knn_pass(KNN_ITER, level, m, k, excl, seed, it + 1, none, none, lists, spare)
+        _knn_pass(KNN_ITER, level, m, k, excl, seed, it=it + 1, starts=none, flat=none, old=lists, new=spare)
         lists, spare = spare, lists
     return np.stack(lists[:2], axis=-1)
 
@@ -499,7 +499,8 @@ def _subpass(lv, m, rule, knn, over, S_old, S_new, active, parity, counts):
     """``_subpass_rows`` of every row of the parity, in parallel (the loop body a serial
     kernel called with int64 rows: typed once, ``kernels/_config.py``)."""
     for r in prange((lv.tgt_lab.shape[0] - parity[0] + 1) // 2):
-        _subpass_rows(lv, m, rule, knn, over, S_old, S_new, active, parity, counts, np.int64(r), np.int64(r + 1))
+        _subpass_rows(lv, m, rule, knn, over, S_old, S_new, active=active, parity=parity, counts=counts, r0=np.int64(r),
+                      r1=np.int64(r + 1))
 
 
 # levels smaller than this (512² synthesis pixels) are corrected whole even with a band runner

@@ -170,7 +170,8 @@ def band_energy(img: np.ndarray, lab: np.ndarray, hbin: np.ndarray, radii: np.nd
         _sat(img, lab, k, r0, r1, c0, c1, 1, sat)
         rows = np.zeros((r1 - r0, bins, R), np.float64)
         crow = np.zeros((r1 - r0, bins), np.int64)
-        _label_pass(img, lab, hbin, k, r0, c0, sat, radii, _NO_GAINS, rows, crow, _NO_OUT, False)
+        _label_pass(img, lab, hbin, k, r0, c0, sat, radii, gains=_NO_GAINS, rows=rows, counts=crow, out=_NO_OUT,
+                    regrade=False)
         sums[k] = rows.sum(0)  # numpy's pairwise sum over a fixed layout: thread-independent
         counts[k] = crow.sum(0)
     return sums, counts
@@ -191,7 +192,8 @@ def regrade(img: np.ndarray, lab: np.ndarray, hbin: np.ndarray, radii: np.ndarra
             continue
         sat = np.empty((r1 - r0 + 1, c1 - c0 + 1, 4), np.float64)
         _sat(img, lab, k, r0, r1, c0, c1, 1, sat)
-        _label_pass(img, lab, hbin, k, r0, c0, sat, radii, gains, _NO_ROWS, _NO_COUNTS, out, True)
+        _label_pass(img, lab, hbin, k, r0, c0, sat, radii, gains=gains, rows=_NO_ROWS, counts=_NO_COUNTS, out=out,
+                    regrade=True)
     return out
 
 
@@ -314,7 +316,8 @@ def _spread_labels(img, lab, hbin, radii, f, n, gains, bins):
         M = np.zeros((hb, wb, R, 3), np.float64)
         _block_means(sat, rb, M)
         if regrade:
-            _spread_pass(img, lab, hbin, k, r0, r1, c0, c1, f, sat, M, gains, np.empty((hb, wb, bins, 3)), out)
+            _spread_pass(img, lab, hbin, k, r0, r1, c0, c1, f=f, sat=sat, M=M, gains=gains,
+                         D=np.empty((hb, wb, bins, 3)), out=out)
         else:
             cb = np.zeros((hb, wb, bins), np.int64)
             _block_bins(lab, hbin, k, r0, r1, c0, c1, f, cb)

@@ -412,7 +412,7 @@ def _flood_fill(lv, m, cover, order, first_id, thr_scale, thr_offset, seed, star
         We = src_lab.shape[1]
         oy = c // We - i
         ox = c % We - j
-        _grow(lv, m, cover, pid, i, j, oy, ox, thr_scale * best + thr_offset, queue, stamp)
+        _grow(lv, m, cover, pid, i, j, oy, ox, thr=thr_scale * best + thr_offset, queue=queue, stamp=stamp)
         pid += 1
         npatch += 1
     return npatch
@@ -458,9 +458,10 @@ def flood_fill(level: Level, metric: Metric, *, seed: int, threshold_scale: floa
         first = int(patch.max()) + 1 if patch.size else 1
     order = permutation(seed, Ht * Wt)
     starts, lists = _label_lists(level.src_lab, level.src_masks.shape[2])
-    r = _flood_fill(level, Metric(float(metric.w), float(metric.height_weight)), Cover(free, coords, patch), order, first,
-                    float(threshold_scale), float(threshold_offset), int(seed), starts,
-                    _window_groups(level.src_masks, starts, lists), _positions(starts, lists, lists.shape[0]))
+    r = _flood_fill(level, Metric(float(metric.w), float(metric.height_weight)), Cover(free, coords, patch), order,
+                    first_id=first, thr_scale=float(threshold_scale), thr_offset=float(threshold_offset),
+                    seed=int(seed), starts=starts, groups=_window_groups(level.src_masks, starts, lists),
+                    posof=_positions(starts, lists, lists.shape[0]))
     return coords, patch, r
 
 

@@ -263,7 +263,8 @@ def _run_pass(S, img, target, labels, vertical, parity, stamp, tried, lines, clo
                 if y < 0 or x < 0 or y >= H or x >= W or (S[y, x, 0] - y == S[i, j, 0] - i
                                                           and S[y, x, 1] - x == S[i, j, 1] - j):
                     continue
-                moved[line] += _run_at(S, img, target, labels, i, j, k, rc, rv, lo_end, hi_end, stamp, tried, clock)
+                moved[line] += _run_at(S, img, target, labels, i, j, k, rc=rc, rv=rv, lo_end=lo_end, hi_end=hi_end,
+                                       stamp=stamp, tried=tried, clock=clock)
     return moved.sum()
 
 
@@ -347,8 +348,8 @@ def refine_seams(S: np.ndarray, img: np.ndarray, target: np.ndarray, labels: np.
             for vertical in (False, True):
                 for parity in (0, 1):
                     (cols if vertical else rows)[:] = 0
-                    n += _run_pass(S, img, target, labels, vertical, parity, m.stamp, m.tried_run, m.lines, m.tick(),
-                                   cols if vertical else rows)
+                    n += _run_pass(S, img, target, labels, vertical, parity, stamp=m.stamp, tried=m.tried_run,
+                                   lines=m.lines, clock=m.tick(), moved=cols if vertical else rows)
                     m.mark(cols if vertical else rows, vertical)
         moves += int(n)
         if n == 0:
