@@ -127,6 +127,19 @@ def _sub_pass(S, img, target, labels, parity, stamp, tried, lines, clock, change
 
 
 @njit(**JIT)
+def _on_run(S, target, t, u, v, k, ay, ax, by, bx):
+    """Whether (u, v) and its neighbour across direction ``k`` are a pixel pair of the seam
+    run: both inside, of label ``t``, read at offsets (ay, ax) and (by, bx)."""
+    H, W = target.shape
+    uy, vx = u + _DY[k], v + _DX[k]
+    if u < 0 or v < 0 or u >= H or v >= W or uy < 0 or vx < 0 or uy >= H or vx >= W:
+        return False
+    return (target[u, v] == t and target[uy, vx] == t
+            and S[u, v, 0] - u == ay and S[u, v, 1] - v == ax
+            and S[uy, vx, 0] - uy == by and S[uy, vx, 1] - vx == bx)
+
+
+@njit(**JIT)
 def _run_at(S, img, target, labels, i, j, k, rc, rv, lo_end, hi_end, stamp, tried, clock):
     """The run move of the seam run that starts at (i, j) across direction ``k`` (see
     ``_run_pass``), if (i, j) starts one; the number of pixels moved. Not tried again
@@ -144,11 +157,8 @@ def _run_at(S, img, target, labels, i, j, k, rc, rv, lo_end, hi_end, stamp, trie
     ey, ex = _DX[k] * _DX[k], _DY[k] * _DY[k]  # along the seam: (0, 1) or (1, 0)
     kb = 3 - k  # the opposite direction (_DY/_DX are symmetric)
     ke = 2 if ex == 1 else 3  # direction +e
-    u, v = i - ey, j - ex  # does the predecessor continue the run? then (i, j) does not start it
-    if u >= 0 and v >= 0 and target[u, v] == target[i, j] and S[u, v, 0] - u == ay \
-            and S[u, v, 1] - v == ax and target[u + _DY[k], v + _DX[k]] == target[i, j] \
-            and S[u + _DY[k], v + _DX[k], 0] - u - _DY[k] == by \
-            and S[u + _DY[k], v + _DX[k], 1] - v - _DX[k] == bx:
+    t = target[i, j]
+    if _on_run(S, target, t, i - ey, j - ex, k, ay, ax, by, bx):  # the predecessor continues the run
         return 0
     ev = tried[i, j, k]
     if ev > 0:  # the run as it is now; does anything it reads carry a later stamp?
@@ -165,12 +175,7 @@ def _run_at(S, img, target, labels, i, j, k, rc, rv, lo_end, hi_end, stamp, trie
             if n < 0:
                 n = 0
                 continue
-            uy, vx = u + _DY[k], v + _DX[k]
-            if u >= H or v >= W or uy < 0 or vx < 0 or uy >= H or vx >= W:
-                break
-            if (target[u, v] != target[i, j] or target[uy, vx] != target[i, j]
-                    or S[u, v, 0] - u != ay or S[u, v, 1] - v != ax
-                    or S[uy, vx, 0] - uy != by or S[uy, vx, 1] - vx != bx):
+            if not _on_run(S, target, t, u, v, k, ay, ax, by, bx):
                 break
             n += 1
         if not again:
@@ -179,12 +184,7 @@ def _run_at(S, img, target, labels, i, j, k, rc, rv, lo_end, hi_end, stamp, trie
     n = 0
     while True:
         u, v = i + n * ey, j + n * ex
-        uy, vx = u + _DY[k], v + _DX[k]
-        if u >= H or v >= W or uy < 0 or vx < 0 or uy >= H or vx >= W:
-            break
-        if (target[u, v] != target[i, j] or target[uy, vx] != target[i, j]
-                or S[u, v, 0] - u != ay or S[u, v, 1] - v != ax
-                or S[uy, vx, 0] - uy != by or S[uy, vx, 1] - vx != bx):
+        if not _on_run(S, target, t, u, v, k, ay, ax, by, bx):
             break
         sy, sx = u + by, v + bx
         rv[n] = 0 <= sy < Hs and 0 <= sx < Ws and labels[sy, sx] == target[u, v]
