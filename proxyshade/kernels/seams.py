@@ -645,21 +645,17 @@ def _shift_passes(S, img, target, labels, patch, radius, adopt, passes, keep):
                 for t in range(n):
                     if qoff[t, 0] == cy and qoff[t, 1] == cx:
                         continue
-                    sy, sx = pr[ps + t, 0] + cy, pr[ps + t, 1] + cx
-                    d1 = OUTSIDE
-                    if ok[t, 0] and 0 <= sy < Hs and 0 <= sx < Ws:
-                        d1 = 0.0
-                        for c in range(C):
-                            r = img[sy, sx, c] - col[t, 0, c]
-                            d1 += r * r
-                    sy, sx = pr[ps + t, 2] + cy, pr[ps + t, 3] + cx
-                    d2 = OUTSIDE
-                    if ok[t, 1] and 0 <= sy < Hs and 0 <= sx < Ws:
-                        d2 = 0.0
-                        for c in range(C):
-                            r = img[sy, sx, c] - col[t, 1, c]
-                            d2 += r * r
-                    e += d1 + d2
+                    pair = 0.0  # the pair's two sides read at (cy, cx) against the neighbours' colours
+                    for side in range(2):
+                        sy, sx = pr[ps + t, 2 * side] + cy, pr[ps + t, 2 * side + 1] + cx
+                        d = OUTSIDE
+                        if ok[t, side] and 0 <= sy < Hs and 0 <= sx < Ws:
+                            d = 0.0
+                            for c in range(C):
+                                r = img[sy, sx, c] - col[t, side, c]
+                                d += r * r
+                        pair += d
+                    e += pair
                     if e >= best:
                         break
                 if e < best and u > 0:
