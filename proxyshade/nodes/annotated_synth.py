@@ -66,9 +66,7 @@ class AnnotatedSynth(AnnotatedMatching, Node):
 
             usable &= within_one_exemplar(src["exemplar.id"], ctx.p.patch // 2)
         alpha = src["A"].astype(np.float32) if "A" in src else np.ones(src.shape, np.float32)
-        p = AnnotatedParams(eps=ctx.p.eps, patch=ctx.p.patch, levels=ctx.p.levels, em=ctx.p.em,
-                            iterations=ctx.p.iterations, bandwidth=ctx.p.bandwidth, mode=ctx.p.mode, seed=ctx.p.seed,
-                            ann_distance=ctx.p.ann_distance, uniformity=ctx.p.uniformity)
+        p = AnnotatedParams.of(ctx.p, AnnotatedMatching, "seed")
         tgt_ann = tgt.layer(["ann." + n for n in names], np.float64)
         tmask = tgt["mask"] > 0.5 if "mask" in tgt else None
         if tmask is not None:  # only the masked pixels are a target; the others take the masked mean

@@ -58,8 +58,7 @@ class TextureSynth(PatchOptimisation, Node):
 
             r = hybrid.plain_texture(rgb, (size, size), seed=p.seed)
         else:
-            a = AnnotatedParams(patch=p.patch, levels=levels, em=p.em, iterations=p.iterations,
-                                uniformity=p.uniformity, seed=p.seed)
+            a = AnnotatedParams.of(p, PatchOptimisation, "seed", levels=levels)
             r = plain_texture(rgb, (size, size), a)
         out = r["rgb"]
         ch = {"R": out[..., 0].copy(), "G": out[..., 1].copy(), "B": out[..., 2].copy(),

@@ -84,6 +84,13 @@ class AnnotatedParams:
     min_pixels: int = 1000
     seed: int = 0
 
+    @classmethod
+    def of(cls, p, group: type = AnnotatedMatching, *also: str, **given) -> "AnnotatedParams":
+        """The record a node hands the layer: ``group``'s parameters and the node's own named in
+        ``also`` read from ``p`` (its ``ctx.p``), as ``ParamGroup.of`` reads them, with values the
+        node derived in ``given`` (e.g. ``levels``); the other fields keep their defaults."""
+        return cls(**{**vars(group.of(p, *also)), **given})
+
 
 def check_annotations(src_ann, usable, tgt_ann, names, *, min_pixels=1000, where_src="source", where_tgt="target"):
     """The bad inputs of annotated synthesis, each a one-line NodeInputError."""

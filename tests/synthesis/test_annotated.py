@@ -226,3 +226,17 @@ def test_unique_points_is_numpys_unique_of_the_rows():
         np.testing.assert_array_equal(gu, u)
         np.testing.assert_array_equal(ginv, inv.ravel())
         np.testing.assert_array_equal(gcnt, cnt)
+
+
+def test_params_of_reads_every_parameter_a_node_sets():
+    """A node hands the layer its values through AnnotatedParams.of: every parameter of its
+    group and its seed arrive, values it derived override, the rest keep their defaults."""
+    from types import SimpleNamespace
+
+    set_ = dict(eps=0.2, patch=7, levels=3, em=2, iterations=5, uniformity=0.01, bandwidth=0.4,
+                ann_distance=2.0, mode="binary", seed=9)
+    p = sa.AnnotatedParams.of(SimpleNamespace(**set_), sa.AnnotatedMatching, "seed")
+    assert {k: getattr(p, k) for k in set_} == set_
+    assert p.min_pixels == sa.AnnotatedParams().min_pixels
+    q = sa.AnnotatedParams.of(SimpleNamespace(**set_), sa.PatchOptimisation, "seed", levels=4)
+    assert (q.patch, q.levels, q.seed, q.eps, q.mode) == (7, 4, 9, sa.AnnotatedParams().eps, "full")
