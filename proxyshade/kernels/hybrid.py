@@ -24,8 +24,9 @@ The exemplars sit side by side in an *atlas*: equal boxes of ``bw`` columns in a
   For pixel p, the synthesized neighbourhood Ñ_S(p) is the PCA projection of the stack
   colours at the 5 × 5 neighbours' pointers (past the grid's border: the nearest pointer
   continued by h per pixel, clamped into its box); the candidates are, for each 3 × 3
-  neighbour q, S[q] − h (q − p) and its candidate set shifted the same way (staying in
-  the pointer's box); d_i = ‖Ñ_S(p) − Ñ_E(c_i)‖² / weight(p, exemplar of c_i) (a weight
+  neighbour q, S[q] − h (q − p) (S: the pointer map, ``coords`` in the code) and its
+  candidate set shifted the same way (staying in the pointer's box);
+  d_i = ‖Ñ_S(p) − Ñ_E(c_i)‖² / weight(p, exemplar of c_i) (a weight
   per output pixel and exemplar, ``inv_w`` holding 1 / weight; weight 0: never a candidate). Correction
   takes the first smallest d_i; jitter drops candidates with
   (d_i − d_min) / (d_max − d_min) > J and picks uniformly among the rest (duplicates
@@ -435,11 +436,11 @@ def candidates(Q: np.ndarray, A: np.ndarray, bw: int, q: int, sep: int, *, own_b
 
 
 @njit(**JIT)
-def _neigh_desc(stack, mean, basis, S, i, j, h, bw, x, out):
+def _neigh_desc(stack, mean, basis, coords, i, j, h, bw, x, out):
     """Ñ_S(i, j): the stack colours at the 5 × 5 neighbours' pointers, projected. A
     neighbour outside the grid continues the nearest inside one's pointer by h per pixel,
     clamped into its box (as ``gather`` clamps): an exemplar's own map matches exactly."""
-    Ht, Wt = S.shape[0], S.shape[1]
+    Ht, Wt = coords.shape[0], coords.shape[1]
     Ha = stack.shape[0]
     C = stack.shape[2]
     t = 0
@@ -447,9 +448,9 @@ def _neigh_desc(stack, mean, basis, S, i, j, h, bw, x, out):
         ii = min(max(i + di, 0), Ht - 1)
         for dj in range(-2, 3):
             jj = min(max(j + dj, 0), Wt - 1)
-            sy = min(max(S[ii, jj, 0] + h * (i + di - ii), 0), Ha - 1)
-            x0 = (S[ii, jj, 1] // bw) * bw
-            sx = min(max(S[ii, jj, 1] + h * (j + dj - jj), x0), x0 + bw - 1)
+            sy = min(max(coords[ii, jj, 0] + h * (i + di - ii), 0), Ha - 1)
+            x0 = (coords[ii, jj, 1] // bw) * bw
+            sx = min(max(coords[ii, jj, 1] + h * (j + dj - jj), x0), x0 + bw - 1)
             for c in range(C):
                 x[t] = np.float64(stack[sy, sx, c]) - mean[t]
                 t += 1
@@ -461,11 +462,11 @@ def _neigh_desc(stack, mean, basis, S, i, j, h, bw, x, out):
 
 
 @njit(**PJIT)
-def _subpass(level, inv_w, S_old, S_new, pi, pj, h, bw, jitter_threshold, seed, salt, coherence):
+def _subpass(level, inv_w, coords_old, S_new, pi, pj, h, bw, jitter_threshold, seed, salt, coherence):
     """One parity sub-set (rows pi, pi + 2, ..; columns pj, pj + 2, ..) of a pass, reading
-    ``S_old`` and writing ``S_new``. ``level``: the level's (stack, mean, basis, P, cand)."""
+    ``coords_old`` and writing ``S_new``. ``level``: the level's (stack, mean, basis, P, cand)."""
     stack, mean, basis, P, cand = level
-    Ht, Wt = S_old.shape[0], S_old.shape[1]
+    Ht, Wt = coords_old.shape[0], coords_old.shape[1]
     Ha = P.shape[0]
     nb = cand.shape[2]
     q = cand.shape[3]
@@ -479,7 +480,7 @@ def _subpass(level, inv_w, S_old, S_new, pi, pj, h, bw, jitter_threshold, seed, 
         cxl = np.empty(ncand, np.int64)
         dl = np.empty(ncand)
         for j in range(pj, Wt, 2):
-            _neigh_desc(stack, mean, basis, S_old, i, j, h, bw, x, nd)
+            _neigh_desc(stack, mean, basis, coords_old, i, j, h, bw, x, nd)
             nc = 0
             dmin = np.inf
             dmax = -np.inf
@@ -491,8 +492,8 @@ def _subpass(level, inv_w, S_old, S_new, pi, pj, h, bw, jitter_threshold, seed, 
                     jj = j + dj
                     if jj < 0 or jj >= Wt:
                         continue
-                    qy = S_old[ii, jj, 0]
-                    qx = S_old[ii, jj, 1]
+                    qy = coords_old[ii, jj, 0]
+                    qx = coords_old[ii, jj, 1]
                     for t in range(1 + nb * q):
                         if t == 0:
                             py = qy
@@ -521,8 +522,8 @@ def _subpass(level, inv_w, S_old, S_new, pi, pj, h, bw, jitter_threshold, seed, 
                         dmin = min(dmin, s)
                         dmax = max(dmax, s)
             if nc == 0:
-                S_new[i, j, 0] = S_old[i, j, 0]
-                S_new[i, j, 1] = S_old[i, j, 1]
+                S_new[i, j, 0] = coords_old[i, j, 0]
+                S_new[i, j, 1] = coords_old[i, j, 1]
                 continue
             pick = -1
             if jitter_threshold <= 0.0:
@@ -550,49 +551,49 @@ def _subpass(level, inv_w, S_old, S_new, pi, pj, h, bw, jitter_threshold, seed, 
 PARITIES = ((0, 0), (1, 1), (0, 1), (1, 0))
 
 
-def run_pass(level: tuple, inv_w, S, *, h: int, bw: int, jitter_threshold: float, seed: int, salt: int,
+def run_pass(level: tuple, inv_w, coords, *, h: int, bw: int, jitter_threshold: float, seed: int, salt: int,
              coherence: float = 1.0) -> np.ndarray:
     """One pass of 4 parity sub-passes (each reads the state the previous left);
     ``jitter_threshold`` (the paper's J) 0: correction, > 0: structure-preserving jitter. ``level``: the analysis of the level,
     (stack, mean, basis, P, cand) (``synthesis.hybrid.Analysis.level``). ``inv_w``: 1 / weight per exemplar (nb,)
     or per state pixel and exemplar (Ht, Wt, nb); inf: never a candidate. Returns the new
     state. ``coherence`` (<= 1) multiplies the cost of the coherent candidates (a
-    neighbour's pointer continued, S[q] − h (q − p)): below 1 it favours copying whole
+    neighbour's pointer continued, coords[q] − h (q − p)): below 1 it favours copying whole
     regions (Ashikhmin 2001's coherence, as a factor)."""
-    S_old = np.ascontiguousarray(S, np.int32).copy()
+    coords_old = np.ascontiguousarray(coords, np.int32).copy()
     inv_w = np.asarray(inv_w, np.float64)
     if inv_w.ndim == 1:
-        inv_w = np.broadcast_to(inv_w, S_old.shape[:2] + inv_w.shape)
+        inv_w = np.broadcast_to(inv_w, coords_old.shape[:2] + inv_w.shape)
     inv_w = np.ascontiguousarray(inv_w)
-    S_new = S_old.copy()
+    S_new = coords_old.copy()
     for k, (pi, pj) in enumerate(PARITIES):
-        _subpass(level, inv_w, S_old, S_new, pi=pi, pj=pj, h=int(h), bw=int(bw),
+        _subpass(level, inv_w, coords_old, S_new, pi=pi, pj=pj, h=int(h), bw=int(bw),
                  jitter_threshold=float(jitter_threshold), seed=int(seed), salt=int(salt) * 4 + k,
                  coherence=float(coherence))
-        S_old[...] = S_new
-    return S_old
+        coords_old[...] = S_new
+    return coords_old
 
 
 @njit(**PJIT)
-def _spatial(S, h, r, bw, Ha, seed, out):
-    Ht, Wt = S.shape[0], S.shape[1]
+def _spatial(coords, h, r, bw, Ha, seed, out):
+    Ht, Wt = coords.shape[0], coords.shape[1]
     for i in prange(Ht):
         for j in range(Wt):
-            x0 = (S[i, j, 1] // bw) * bw
+            x0 = (coords[i, j, 1] // bw) * bw
             for c in range(2):
                 xi = 2.0 * (rand(seed, i * Wt + j, c, 0) * (1.0 / 9007199254740992.0)) - 1.0
-                v = S[i, j, c] + int(np.floor(h * r * xi + 0.5))
+                v = coords[i, j, c] + int(np.floor(h * r * xi + 0.5))
                 if c == 0:
                     out[i, j, 0] = min(max(v, 0), Ha - 1)
                 else:
                     out[i, j, 1] = min(max(v, x0), x0 + bw - 1)
 
 
-def spatial_jitter(S: np.ndarray, *, h: int, r: float, bw: int, atlas_height: int, seed: int) -> np.ndarray:
-    """The baseline's jitter: S[p] + ⌊h r ξ + ½⌋ per coordinate, ξ uniform in [−1, 1),
+def spatial_jitter(coords: np.ndarray, *, h: int, r: float, bw: int, atlas_height: int, seed: int) -> np.ndarray:
+    """The baseline's jitter: coords[p] + ⌊h r ξ + ½⌋ per coordinate, ξ uniform in [−1, 1),
     clamped into the pointer's box."""
-    out = np.empty_like(S, dtype=np.int32)
-    _spatial(np.ascontiguousarray(S, np.int32), int(h), float(r), int(bw), int(atlas_height), int(seed), out)
+    out = np.empty_like(coords, dtype=np.int32)
+    _spatial(np.ascontiguousarray(coords, np.int32), int(h), float(r), int(bw), int(atlas_height), int(seed), out)
     return out
 
 

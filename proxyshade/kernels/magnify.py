@@ -1,8 +1,9 @@
 """Synthesis magnification (Bonneel et al. 2010, §5 step 3) and label repair.
 
 Magnification upsamples the patches, not the pixels: output pixel f p + δ (δ in
-[0, f)²) takes exemplar position S[p] scaled by f plus δ, so every patch keeps its
-translation and the output reads the source at full detail. No correction pass runs.
+[0, f)²) takes exemplar position S[p] (the synthesis map, ``coords`` in the code) scaled
+by f plus δ, so every patch keeps its translation and the output reads the source at full
+detail. No correction pass runs.
 
 The detailed guide at the output size has finer borders than the synthesis-size guide,
 so some pixels land on a source pixel of another label. ``repair_labels`` moves them:
@@ -20,30 +21,30 @@ from proxyshade.kernels.distance import nearest_site
 
 
 @njit(**PJIT)
-def _magnify(S, f, Ho, Wo, out):
-    Ht, Wt = S.shape[0], S.shape[1]
+def _magnify(coords, f, Ho, Wo, out):
+    Ht, Wt = coords.shape[0], coords.shape[1]
     for i in prange(Ho):
         I = min(i // f, Ht - 1)
         di = i - f * I
         for j in range(Wo):
             J = min(j // f, Wt - 1)
             dj = j - f * J
-            out[i, j, 0] = f * S[I, J, 0] + di
-            out[i, j, 1] = f * S[I, J, 1] + dj
+            out[i, j, 0] = f * coords[I, J, 0] + di
+            out[i, j, 1] = f * coords[I, J, 1] + dj
 
 
-def magnify(S: np.ndarray, f: int, shape: tuple[int, int]) -> np.ndarray:
-    """(Ho, Wo, 2) int32: S (Ht, Wt, 2) magnified by the integer factor f (exemplar
+def magnify(coords: np.ndarray, f: int, shape: tuple[int, int]) -> np.ndarray:
+    """(Ho, Wo, 2) int32: coords (Ht, Wt, 2) magnified by the integer factor f (exemplar
     coordinates scaled by f plus the sub-pixel offset), cropped to ``shape``."""
     out = np.empty(tuple(shape) + (2,), np.int32)
-    _magnify(np.ascontiguousarray(S, np.int32), int(f), shape[0], shape[1], out)
+    _magnify(np.ascontiguousarray(coords, np.int32), int(f), shape[0], shape[1], out)
     return out
 
 
 @njit(**PJIT)
-def _only_target(S, srclab, only, guide):
+def _only_target(coords, srclab, only, guide):
     """``guide`` where ``only``, elsewhere the label each pixel lands on (row/column of
-    ``S`` clamped into ``srclab``): the target under which only ``only`` pixels move."""
+    ``coords`` clamped into ``srclab``): the target under which only ``only`` pixels move."""
     Ht, Wt = guide.shape
     Hs, Ws = srclab.shape
     out = np.empty((Ht, Wt), np.int32)
@@ -52,28 +53,28 @@ def _only_target(S, srclab, only, guide):
             if only[i, j]:
                 out[i, j] = guide[i, j]
             else:
-                out[i, j] = srclab[min(max(S[i, j, 0], 0), Hs - 1), min(max(S[i, j, 1], 0), Ws - 1)]
+                out[i, j] = srclab[min(max(coords[i, j, 0], 0), Hs - 1), min(max(coords[i, j, 1], 0), Ws - 1)]
     return out
 
 
-def only_target(S: np.ndarray, srclab: np.ndarray, only: np.ndarray, guide: np.ndarray) -> np.ndarray:
-    """(M, N) int32: ``guide`` on the ``only`` pixels, the source label under ``S``
+def only_target(coords: np.ndarray, srclab: np.ndarray, only: np.ndarray, guide: np.ndarray) -> np.ndarray:
+    """(M, N) int32: ``guide`` on the ``only`` pixels, the source label under ``coords``
     elsewhere (``repair_labels`` then moves only the ``only`` pixels, and those whose
-    ``S`` leaves the source)."""
-    return _only_target(np.ascontiguousarray(S, np.int32), np.ascontiguousarray(srclab, np.int32),
+    ``coords`` leaves the source)."""
+    return _only_target(np.ascontiguousarray(coords, np.int32), np.ascontiguousarray(srclab, np.int32),
                         np.ascontiguousarray(only, np.bool_), np.ascontiguousarray(guide, np.int32))
 
 
 @njit(**PJIT)
-def _label_ok(S, guide, srclab, ok):
+def _label_ok(coords, guide, srclab, ok):
     Ht, Wt = guide.shape
     Hs, Ws = srclab.shape
     bad = 0
     rows = np.zeros(Ht, np.int64)
     for i in prange(Ht):
         for j in range(Wt):
-            y = S[i, j, 0]
-            x = S[i, j, 1]
+            y = coords[i, j, 0]
+            x = coords[i, j, 1]
             good = 0 <= y < Hs and 0 <= x < Ws and srclab[y, x] == guide[i, j]
             ok[i, j] = good
             if not good:
@@ -84,12 +85,12 @@ def _label_ok(S, guide, srclab, ok):
 
 
 @njit(**PJIT)
-def _front_steps(S, ok, guide, srclab, ii, jj, max_steps):
+def _front_steps(coords, ok, guide, srclab, ii, jj, max_steps):
     """Front steps (at most ``max_steps``, until a step fixes nothing), visiting only the
     pixels still wrong (``ii``, ``jj``: the wrong pixels, scan order). In one step a wrong
     pixel takes the first of its 8 neighbours (fixed order) that is right, of its label,
     and whose translation continued lands on its label in the source; each step reads the
-    state of the previous one (whole-frame steps give the same result: the tests' reference). Updates S, ok in place;
+    state of the previous one (whole-frame steps give the same result: the tests' reference). Updates coords, ok in place;
     returns how many were fixed."""
     Ht, Wt = guide.shape
     Hs, Ws = srclab.shape
@@ -113,8 +114,8 @@ def _front_steps(S, ok, guide, srclab, ii, jj, max_steps):
                 b = j + dj
                 if a < 0 or a >= Ht or b < 0 or b >= Wt or not ok[a, b] or guide[a, b] != lab:
                     continue
-                y = S[a, b, 0] - di
-                x = S[a, b, 1] - dj
+                y = coords[a, b, 0] - di
+                x = coords[a, b, 1] - dj
                 if 0 <= y < Hs and 0 <= x < Ws and srclab[y, x] == lab:
                     ny[k] = y
                     nx[k] = x
@@ -123,8 +124,8 @@ def _front_steps(S, ok, guide, srclab, ii, jj, max_steps):
         m = 0
         for k in range(n):
             if got[k]:
-                S[ii[k], jj[k], 0] = ny[k]
-                S[ii[k], jj[k], 1] = nx[k]
+                coords[ii[k], jj[k], 0] = ny[k]
+                coords[ii[k], jj[k], 1] = nx[k]
                 ok[ii[k], jj[k]] = True
             else:
                 ii[m] = ii[k]
@@ -137,13 +138,13 @@ def _front_steps(S, ok, guide, srclab, ii, jj, max_steps):
     return extended
 
 
-def repair_labels(S: np.ndarray, guide: np.ndarray, srclab: np.ndarray, *, max_steps: int = 64,
+def repair_labels(coords: np.ndarray, guide: np.ndarray, srclab: np.ndarray, *, max_steps: int = 64,
                   nearest: bool = True, sites_of=None) -> tuple[np.ndarray, dict]:
     """Move pixels whose source label differs from the guide's onto the right label.
 
     Parameters
     ----------
-    S : (M, N, 2) int row/column into ``srclab``.
+    coords : (M, N, 2) int row/column into ``srclab``.
     guide : (M, N) int labels wanted; srclab : (Hs, Ws) int labels of the source grid.
     max_steps : front-growth steps before the nearest-source-pixel fallback.
     sites_of : callable, optional
@@ -152,14 +153,14 @@ def repair_labels(S: np.ndarray, guide: np.ndarray, srclab: np.ndarray, *, max_s
 
     Returns the repaired map and counts {"wrong", "extended", "nearest", "left"}.
     """
-    S = np.ascontiguousarray(S, np.int32).copy()
+    coords = np.ascontiguousarray(coords, np.int32).copy()
     guide = np.ascontiguousarray(guide, np.int32)
     srclab = np.ascontiguousarray(srclab, np.int32)
     ok = np.empty(guide.shape, np.bool_)
-    wrong = int(_label_ok(S, guide, srclab, ok))
+    wrong = int(_label_ok(coords, guide, srclab, ok))
     ii, jj = np.nonzero(~ok)
     ii, jj = ii.astype(np.int64), jj.astype(np.int64)
-    extended = int(_front_steps(S, ok, guide, srclab, ii.copy(), jj.copy(), int(max_steps)))
+    extended = int(_front_steps(coords, ok, guide, srclab, ii.copy(), jj.copy(), int(max_steps)))
     near = 0
     if nearest and extended < wrong:
         left = ~ok[ii, jj]  # the wrong pixels the fronts did not reach, in scan order
@@ -175,9 +176,9 @@ def repair_labels(S: np.ndarray, guide: np.ndarray, srclab: np.ndarray, *, max_s
                 continue
             m = g == lab
             a, b = ii[m], jj[m]
-            y = np.clip(S[a, b, 0], 0, srclab.shape[0] - 1)
-            x = np.clip(S[a, b, 1], 0, srclab.shape[1] - 1)
-            S[a, b] = ft[y, x]
+            y = np.clip(coords[a, b, 0], 0, srclab.shape[0] - 1)
+            x = np.clip(coords[a, b, 1], 0, srclab.shape[1] - 1)
+            coords[a, b] = ft[y, x]
             ok[a, b] = True
             near += int(m.sum())
-    return S, {"wrong": wrong, "extended": extended, "nearest": near, "left": wrong - extended - near}
+    return coords, {"wrong": wrong, "extended": extended, "nearest": near, "left": wrong - extended - near}
