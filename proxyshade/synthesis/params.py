@@ -61,11 +61,16 @@ class FloodFill(PatchMetric):
     threshold_offset = Param(float, 5.0, min=0.0, doc="see threshold_scale")
 
 
-class SynthesisGrid(ParamGroup):
+class TextureScale(ParamGroup):
+    """The texture scale, read by the guide (§4) and the synthesis grid (§5)."""
+
+    scale = Param(float, 1.0, min=0.01, max=100.0, doc="source pixels per output pixel (texture scale)")
+
+
+class SynthesisGrid(TextureScale):
     """The synthesis grid (§5): output pixels per synthesis pixel and the texture scale."""
 
     factor = Param(int, 4, min=1, max=64, doc="output pixels per synthesis pixel (power of two; 1024 -> 256 is 4)")
-    scale = Param(float, 1.0, min=0.01, max=100.0, doc="source pixels per output pixel (texture scale)")
 
 
 class CoarseLevel(ParamGroup):
@@ -184,7 +189,7 @@ class Resynthesis(FloodFill, Correction, PoissonSolve, RestrictedSolve):
     layer, with its own ``factor``, ``scale``, ``seed`` and ``solve``."""
 
 
-class Guidance(ParamGroup):
+class Guidance(TextureScale):
     """Guidance synthesis (§4): the detailed label guide."""
 
     size = Param(int, 256, min=8, doc="synthesis size of the longer side, a power of two")
@@ -192,7 +197,6 @@ class Guidance(ParamGroup):
     k = Param(int, 5, min=1, max=16, doc="coherent candidates per neighbour (chosen among 4k)")
     passes = Param(int, 2, min=0, max=16, doc="correction passes per level (4 parity sub-passes each)")
     proxy_weight = Param(float, 1.0, min=0.0, doc="weight of agreement with the proxy guide")
-    scale = Param(float, 1.0, min=0.01, doc="source pixels per output pixel")
     sample = Param(int, 48, min=4, max=1024, doc="random exemplar windows examined per similarity set")
     metric = Param(str, "chamfer", choices=("chamfer", "l2"), doc="'l2' = label colours, Gaussian stack, L2 (Fig. 3 baseline)")
     locked = Param(list, [], doc="label name pairs whose borders stay as in the proxy, e.g. [[sky, water]]")
