@@ -141,7 +141,7 @@ def _encode_index() -> tuple:
     t = srgb_tables()[1]
     n = ENCODE_BUCKETS
     counts = np.searchsorted(t, np.arange(-1, n + 2) / n, side="right")
-    return counts[:n], np.append(t, np.nan), int((counts[3:] - counts[:n]).max())
+    return counts[:n].astype(np.uint8), np.append(t, np.nan), int((counts[3:] - counts[:n]).max())
 
 
 def encode_srgb8(linear) -> "np.ndarray":
@@ -152,7 +152,10 @@ def encode_srgb8(linear) -> "np.ndarray":
     preview's 0.09 CPU s)."""
     start, thresholds, steps = _encode_index()
     v = np.asarray(linear, np.float64)
-    code = start[np.clip(v * ENCODE_BUCKETS, 0, ENCODE_BUCKETS - 1).astype(np.intp)]
+    bucket = v * ENCODE_BUCKETS
+    np.clip(bucket, 0, ENCODE_BUCKETS - 1, out=bucket)
+    code = start[bucket.astype(np.intp)]  # uint8: at most 255, the NaN after the last threshold never passed
+    del bucket
     for _ in range(steps):
         code += thresholds[code] <= v
-    return code.astype(np.uint8)
+    return code
