@@ -182,6 +182,11 @@ def read_float(path: str | Path) -> np.ndarray:
     return rgb.astype(np.float32, copy=False)
 
 
+# zlib level of the PNGs written (OpenImageIO's default 6): a 1024x1024 preview 0.17 -> 0.09
+# CPU s, its file 2 % larger; the pixels are the same at every level
+PNG_LEVEL = 2
+
+
 def write_png(path: str | Path, rgb8: np.ndarray) -> Path:
     """Write an (H, W, 3) uint8 array as PNG, atomically (temporary name, then rename).
 
@@ -195,6 +200,7 @@ def write_png(path: str | Path, rgb8: np.ndarray) -> Path:
     target = output_target(path)
     h, w, c = rgb8.shape
     spec = oiio.ImageSpec(w, h, c, oiio.UINT8)
+    spec.attribute("png:compressionLevel", PNG_LEVEL)
     tmp, out = None, None
     try:
         target.parent.mkdir(parents=True, exist_ok=True)

@@ -153,9 +153,12 @@ def snap_labels(rgb8: np.ndarray, table: list[dict], *, far_distance: float):
     """
     pal = np.array([parse_colour(t["color"], "table") for t in table], dtype=np.int32)
     ids = np.array([t["id"] for t in table], dtype=np.uint32)
-    flat = rgb8.reshape(-1, 3).astype(np.int32)
-    # Few distinct colours in a label map: work on the unique colours only.
-    uniq, inverse = np.unique(flat, axis=0, return_inverse=True)
+    # Few distinct colours in a label map: work on the unique colours only, found as one
+    # integer per pixel (0xRRGGBB: the same order as unique rows, without sorting rows)
+    flat = rgb8.reshape(-1, 3)
+    codes = (flat[:, 0].astype(np.int32) << 16) | (flat[:, 1].astype(np.int32) << 8) | flat[:, 2]
+    ucodes, inverse = np.unique(codes, return_inverse=True)
+    uniq = np.column_stack([ucodes >> 16, (ucodes >> 8) & 255, ucodes & 255]).astype(np.int32)
     d2 = ((uniq[:, None, :] - pal[None, :, :]) ** 2).sum(-1)
     nearest = d2.argmin(1)
     best = d2[np.arange(len(uniq)), nearest]

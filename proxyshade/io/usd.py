@@ -361,16 +361,17 @@ def sphere_mesh(segments: int) -> tuple[np.ndarray, np.ndarray]:
     T, P = np.meshgrid(th, ph, indexing="ij")
     body = np.column_stack([(np.sin(T) * np.cos(P)).ravel(), np.cos(T).ravel(), (np.sin(T) * np.sin(P)).ravel()])
     pts = np.vstack([[0, 1, 0], body, [0, -1, 0]])
-    tris = []
-    r = lambda i, j: 1 + i * n + (j % n)  # noqa: E731
-    for j in range(n):
-        tris.append((0, r(0, j + 1), r(0, j)))
-        tris.append((len(pts) - 1, r(rings - 2, j), r(rings - 2, j + 1)))
-    for i in range(rings - 2):
-        for j in range(n):
-            tris.append((r(i, j), r(i, j + 1), r(i + 1, j + 1)))
-            tris.append((r(i, j), r(i + 1, j + 1), r(i + 1, j)))
-    pts, tris = pts.astype(np.float64), np.array(tris, np.int64)
+    j = np.arange(n)
+    i = np.arange(rings - 2)[:, None]
+    r = lambda i, j: 1 + i * n + (j % n)  # noqa: E731 - the vertex of ring i, meridian j
+    # per meridian j the north cap's triangle, then the south's; then per ring band i and
+    # meridian j the quad's two triangles
+    caps = np.stack([np.stack([np.zeros_like(j), r(0, j + 1), r(0, j)], -1),
+                     np.stack([np.full_like(j, len(pts) - 1), r(rings - 2, j), r(rings - 2, j + 1)], -1)], 1)
+    band = np.stack([np.stack([r(i, j), r(i, j + 1), r(i + 1, j + 1)], -1),
+                     np.stack([r(i, j), r(i + 1, j + 1), r(i + 1, j)], -1)], 2)
+    pts = pts.astype(np.float64)
+    tris = np.concatenate([caps.reshape(-1, 3), band.reshape(-1, 3)]).astype(np.int64)
     pts.flags.writeable = False  # shared by the cache
     tris.flags.writeable = False
     return pts, tris

@@ -42,9 +42,11 @@ def test_encode_is_colour_science_bit_for_bit(tables_home):
     _, thresholds = colourlib.srgb_tables()
     bits = thresholds.view(np.int64)
     near = np.concatenate([(bits + d).view(np.float64) for d in range(-3, 4)])  # each code's edge, +-3 ulp
+    edges = (np.arange(colourlib.ENCODE_BUCKETS + 1) / colourlib.ENCODE_BUCKETS).view(np.int64)
+    near = np.concatenate([near] + [(edges[edges + d >= 0] + d).view(np.float64) for d in (-2, -1, 0, 1, 2)])  # the buckets' edges
     cases = [rng.uniform(-0.2, 1.3, 200_000), 10 ** rng.uniform(-7, 0.05, 200_000),
              rng.uniform(0, 1, 100_000).astype(np.float32).astype(np.float64), near,
-             np.array([0.0, -0.0, -1.0, 1.0, 2.0, 1e6, 5e-324, 0.0031308])]
+             np.array([0.0, -0.0, -1.0, 1.0, 2.0, 1e6, 5e-324, 0.0031308, np.inf, -np.inf])]
     for v in cases:
         v = v[rng.permutation(len(v))].reshape(-1, 1)  # any order and shape
         got = colourlib.encode_srgb8(v)

@@ -135,3 +135,14 @@ def test_non_finite_or_negative_exr_photos_are_refused(shot, capsys, case, expec
     g = write_graph(folder, f"  src: {{type: SourceRead, params: {{table: {t.name}}}}}\n", frames="1", vars_="")
     code, out, err = cli(capsys, "run", g, "-q")
     assert code == 2 and len(err) == 1 and expect in err[0], err
+
+
+def test_a_png_written_reads_back_as_the_same_pixels(tmp_path):
+    """write_png is lossless at its compression level: every byte of the picture read back."""
+    from proxyshade.io.images import write_png
+
+    rng = np.random.default_rng(5)
+    smooth = np.cumsum(rng.integers(0, 3, (37, 53, 3)), 1).astype(np.uint8)  # a preview-like ramp
+    for rgb8 in (rng.integers(0, 256, (37, 53, 3), dtype=np.uint8), smooth):
+        write_png(tmp_path / "p.png", rgb8)
+        assert (read_u8(tmp_path / "p.png") == rgb8).all()

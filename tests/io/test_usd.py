@@ -86,6 +86,24 @@ def test_sphere_tessellation_bound():
         assert r * (1 - plane.min()) <= 0.25 + 1e-9
 
 
+def test_sphere_mesh_is_the_ring_by_ring_triangle_list():
+    """The triangles in the loop's order: per meridian the north then the south cap's, then
+    per ring band and meridian the quad's two (a reference written as loops)."""
+    for seg in (8, 13, 40):
+        pts, tris = U.sphere_mesh(seg)
+        n = max(8, seg)
+        rings = max(4, n // 2)
+        r = lambda i, j: 1 + i * n + (j % n)  # noqa: E731
+        want = []
+        for j in range(n):
+            want += [(0, r(0, j + 1), r(0, j)), (len(pts) - 1, r(rings - 2, j), r(rings - 2, j + 1))]
+        for i in range(rings - 2):
+            for j in range(n):
+                want += [(r(i, j), r(i, j + 1), r(i + 1, j + 1)), (r(i, j), r(i + 1, j + 1), r(i + 1, j))]
+        assert tris.dtype == np.int64 and [tuple(t) for t in tris.tolist()] == want
+        assert pts.dtype == np.float64 and len(pts) == 2 + (rings - 1) * n
+
+
 def test_unreadable_stage(tmp_path):
     bad = tmp_path / "bad.usda"
     bad.write_text("#usda 1.0\n(\n garbage")

@@ -41,6 +41,27 @@ def test_snap_picks_the_nearest_table_colour():
     assert ids.tolist() == [[1, 2, 2]] and snapped == 3 and far == 1
 
 
+def test_snap_matches_a_per_pixel_nearest_colour_search():
+    """Against the obvious loop: each pixel's nearest table colour (first on ties), its squared
+    distance counted as snapped (> 0) and far (> far_distance²)."""
+    rng = np.random.default_rng(3)
+    table = [{"id": int(i), "color": "#%02x%02x%02x" % tuple(int(v) for v in rng.integers(0, 256, 3))}
+             for i in rng.choice(1000, 6, replace=False) + 1]
+    pal = np.array([[int(t["color"][k:k + 2], 16) for k in (1, 3, 5)] for t in table])
+    near = pal[rng.integers(0, len(pal), (9, 11))] + rng.integers(-30, 31, (9, 11, 3))
+    img = np.clip(np.where(rng.random((9, 11, 1)) < 0.2, rng.integers(0, 256, (9, 11, 3)), near), 0, 255).astype(np.uint8)
+    ids, snapped, far = snap_labels(img, table, far_distance=60)
+    want, n_snap, n_far = np.zeros(img.shape[:2], np.uint32), 0, 0
+    for y in range(img.shape[0]):
+        for x in range(img.shape[1]):
+            d2 = [int(((img[y, x].astype(int) - c) ** 2).sum()) for c in pal]
+            k = int(np.argmin(d2))
+            want[y, x] = table[k]["id"]
+            n_snap += d2[k] > 0
+            n_far += d2[k] > 60 ** 2
+    assert ids.dtype == np.uint32 and (ids == want).all() and (snapped, far) == (n_snap, n_far)
+
+
 def test_far_colours_fail_with_a_clear_error(tmp_path):
     shutil.copytree(ROOT / "samples" / "monet", tmp_path / "monet")
     table = tmp_path / "monet" / "source.yaml"
