@@ -239,7 +239,8 @@ def stages(src: Plate, ids: np.ndarray, src_srgb: np.ndarray, sets: dict[str, di
     S0 = np.stack([np.rint((init["source.y"] + 0.5) / F - 0.5), np.rint((init["source.x"] + 0.5) / F - 0.5)], -1)
     rows = [("PatchInit", read_map(S0.astype(np.int32), 1))]
     rows += [(f"Correct h={lv.h} {tag}", read_map(S, lv.h)) for lv, tag, S in rec]
-    rows += [("Magnify map", read_plate(mag)), ("Magnify", ratios(srgb(mag.rgb()))), ("Poisson", ratios(srgb(fin.rgb())))]
+    rows += [("Magnify map", read_plate(mag)), ("Magnify", ratios(srgb(mag.rgb()))),
+             ("Poisson", ratios(srgb(fin.rgb())))]
     return rows
 
 

@@ -352,9 +352,10 @@ def _tone_spread(S, src_lab, src_rgb, nlab, keep, out):
     (``src_rgb``: 255 · sRGB, the colour features), μ the mean luma of the label's target
     pixels (read through ``S``), V the variance of the photo label's luma (its exemplar
     pixels), d = max(0, 1 − v / (keep² V)) the label's deficit (v: the target pixels'
-    variance about μ; ``keep`` the std ratio it aims at); 0 for a label no target pixel uses or with V = 0. Positive (a penalty) near
-    the mean, negative (a bonus) for tones farther than √V from it, only in a label that
-    lost spread. Deterministic (sequential sums)."""
+    variance about μ; ``keep`` the std ratio it aims at); 0 for a label no target pixel
+    uses or with V = 0. Positive (a penalty) near the mean, negative (a bonus) for tones
+    farther than √V from it, only in a label that lost spread. Deterministic (sequential
+    sums)."""
     He, We = src_lab.shape
     t = np.empty((He, We))
     s0 = np.zeros(nlab)
@@ -594,9 +595,9 @@ def correct_level(level, S: np.ndarray, knn: np.ndarray, *, passes: int, metric:
     (``_tone_balance``: negative for tones the target uses less than the photo's label
     does), at least ``TONE_FLOOR``, except in the last ``TONE_FREE_PASSES`` passes of the
     finest level (h = 1); 0: the usage term alone (exactly as without it). ``tone_spread``
-    (D) adds D × ``_tone_spread`` (aiming at ``spread_keep``) the same way: in a label whose tones spread less about
-    their mean than the photo label's, candidates near the mean pay, those far from it
-    gain. At a level whose spacing h is under ``tone_spacing`` (``spread_spacing``) the
+    (D) adds D × ``_tone_spread`` (aiming at ``spread_keep``) the same way: in a label
+    whose tones spread less about their mean than the photo label's, candidates near the
+    mean pay, those far from it gain. At a level whose spacing h is under ``tone_spacing`` (``spread_spacing``) the
     tone-balance (tone-spread) term is off; with neither, the usage term alone.
 
     ``tiles``: None (every sub-pass whole, the kernels' threads over its rows), or a runner
