@@ -32,6 +32,8 @@ Bars (issue #32): hist χ² <= EbSynth's and windowed χ² <= 1.2x EbSynth's in 
 median windowed χ² <= EbSynth's, outside share <= 1 % per label, no negative pixels, std
 ratio 0.8-1.2 per label.
 
+``--stages`` prints instead, per case and variant, each label's std ratio after PatchInit,
+before and after each Correct level, after Magnify and Poisson (``stages``).
 ``--width 1920`` (or 3840) makes HD (4K) frames from the same photos at the photo's texture
 scale, and prints each output's repetition (``kernels.quality.repetition``, ``copies``)
 beside its time, to compare with the 1024-wide run's.
@@ -178,6 +180,68 @@ def proxyshade(src: Plate, ids: np.ndarray, variants: dict[str, dict]) -> dict[s
         fin = memo[pre] if fp.pop("skip", False) else run_node("Poisson", fp, {"image": memo[pre], "source": src})
         out[name] = (fin, time.perf_counter() - t0)
     return out
+
+
+def stages(src: Plate, ids: np.ndarray, src_srgb: np.ndarray, sets: dict[str, dict]) -> list[tuple[str, dict]]:
+    """Where a label's tone spread goes: [(stage, {label: std ratio})] after PatchInit, before
+    and after each Correct level, after Correct, Magnify and Poisson. A map is read at the
+    output size (each level's map upsampled to the synthesis size, then magnified, without
+    the seam moves), counting only the pixels that read their own label; plates by their RGB."""
+    from proxyshade.kernels import correct as kc
+    from proxyshade.kernels import magnify as kmag
+
+    names = {int(t["id"]): t["name"] for t in src.meta["labels"]}
+    lab = src["label.id"]
+
+    def ratios(img, read=None):
+        out = {}
+        for k in np.unique(ids):
+            m, ms = (ids == k) & (True if read is None else read == k), lab == k
+            if m.sum() >= 200 and ms.sum() >= 200:
+                out[names.get(int(k), str(k))] = float(np.sqrt(img[m].var(0).sum() / src_srgb[ms].var(0).sum()))
+        return out
+
+    rec, orig = [], kc.correct_level
+
+    def spy(level, S, knn, **kw):
+        rec.append((level, "in", np.array(S)))
+        res = orig(level, S, knn, **kw)
+        rec.append((level, "out", np.array(res[0])))
+        return res
+
+    guide = Plate({"label.id": ids}, {"labels": src.meta["labels"]})
+    kc.correct_level = spy
+    try:
+        init = run_node("PatchInit", sets["init"], {"guide": guide, "source": src})
+        corr = run_node("Correct", sets["correct"], {"init": init, "source": src})
+    finally:
+        kc.correct_level = orig
+    mag = run_node("Magnify", sets["magnify"], {"synth": corr, "source": src, "guide": guide})
+    fin = run_node("Poisson", sets["final"], {"image": mag, "source": src})
+    shapes = {lv.h: lv.tgt_lab.shape for lv, _, _ in rec}
+    ex_shape = rec[0][0].src_lab.shape
+    factor = ids.shape[0] // shapes[1][0]
+
+    def read_map(S, h):
+        while h > 1:
+            h //= 2
+            S = kc.upsample_state(S, h, shapes[h], ex_shape)
+        co = kmag.magnify(np.ascontiguousarray(S, np.int32), factor, ids.shape)
+        y, x = np.clip(co[..., 0], 0, lab.shape[0] - 1), np.clip(co[..., 1], 0, lab.shape[1] - 1)
+        return ratios(src_srgb[y, x], lab[y, x])
+
+    def read_plate(p):  # a map plate through its source.x/y (Magnify's, at the output size)
+        y = np.clip(np.rint(p["source.y"]).astype(int), 0, lab.shape[0] - 1)
+        x = np.clip(np.rint(p["source.x"]).astype(int), 0, lab.shape[1] - 1)
+        return ratios(src_srgb[y, x], lab[y, x])
+
+    F = float(init.meta["synthesis"]["exemplar_factor"])
+    S0 = np.stack([np.rint((init["source.y"] + 0.5) / F - 0.5), np.rint((init["source.x"] + 0.5) / F - 0.5)], -1)
+    rows = [("PatchInit", read_map(S0.astype(np.int32), 1))]
+    rows += [(f"Correct h={lv.h} {tag}", read_map(S, lv.h)) for lv, tag, S in rec]
+    rows += [("Magnify map", read_plate(mag)), ("Magnify", ratios(srgb(mag.rgb()))),
+             ("Poisson", ratios(srgb(fin.rgb())))]
+    return rows
 
 
 def ebsynth(exe: Path, src: Plate, ids: np.ndarray, cache: Path) -> tuple[np.ndarray, float]:
@@ -393,6 +457,8 @@ def main(argv=None) -> None:
     ap.add_argument("--variant", action="append", default=[], help="NAME:node.param=value,... (repeatable)")
     ap.add_argument("--no-default", action="store_true", help="only the --variant configurations")
     ap.add_argument("--out", type=Path, default=ROOT / "out" / "bench_photos", help="contact sheets, EbSynth outputs")
+    ap.add_argument("--stages", action="store_true",
+                    help="only where each label's std goes: its ratio to the photo's after each stage (``stages``)")
     ap.add_argument("--width", type=int, default=WIDTH,
                     help="output width (1920: HD, 3840: 4K from the same photos; texture at the photo's scale)")
     args = ap.parse_args(sys.argv[2:] if argv is None and len(sys.argv) > 1 and sys.argv[1] == "photos" else argv)
@@ -413,6 +479,16 @@ def main(argv=None) -> None:
             src_srgb = srgb(src.rgb())
             ids = case_guide(case, src, args.width)
             stride = max(16, 16 * args.width // WIDTH)  # as many output windows as at 1024 wide
+            if args.stages:
+                base = graph_params()
+                for name, sets in variants.items():
+                    rows = stages(src, ids, src_srgb, {k: {**base[k], **sets.get(k, {})} for k in NODES})
+                    labels = list(rows[-1][1])
+                    print(f"\n## {case['name']} {name}: std ratio per label after each stage")
+                    print(f"{'stage':<20}" + "".join(f"{n:>12}" for n in labels))
+                    for st, r in rows:
+                        print(f"{st:<20}" + "".join(f"{r.get(n, float('nan')):12.3f}" for n in labels), flush=True)
+                continue
             runs = proxyshade(src, ids, variants)
             figs, outs = {}, {}
             for name, (plate, dt) in runs.items():

@@ -346,6 +346,68 @@ def _tone_balance(S, src_lab, src_rgb, nlab, nbins, out):
 
 
 @njit(**JIT)
+def _tone_spread(S, src_lab, src_rgb, nlab, keep, out):
+    """For each exemplar pixel, how a target pixel taking it would move its label's tone
+    spread back toward the photo's: d × clip(1 − (t − μ)² / V, −1, 1), t the pixel's luma
+    (``src_rgb``: 255 · sRGB, the colour features), μ the mean luma of the label's target
+    pixels (read through ``S``), V the variance of the photo label's luma (its exemplar
+    pixels), d = max(0, 1 − v / (keep² V)) the label's deficit (v: the target pixels'
+    variance about μ; ``keep`` the std ratio it aims at); 0 for a label no target pixel
+    uses or with V = 0. Positive (a penalty) near the mean, negative (a bonus) for tones
+    farther than √V from it, only in a label that lost spread. Deterministic (sequential
+    sums)."""
+    He, We = src_lab.shape
+    t = np.empty((He, We))
+    s0 = np.zeros(nlab)
+    s1 = np.zeros(nlab)
+    for y in range(He):
+        for x in range(We):
+            v = 0.2126 * src_rgb[y, x, 0] + 0.7152 * src_rgb[y, x, 1] + 0.0722 * src_rgb[y, x, 2]
+            t[y, x] = v
+            s0[src_lab[y, x]] += 1.0
+            s1[src_lab[y, x]] += v
+    V = np.zeros(nlab)
+    for y in range(He):
+        for x in range(We):
+            l = src_lab[y, x]
+            e = t[y, x] - s1[l] / s0[l]
+            V[l] += e * e
+    n = np.zeros(nlab)
+    m = np.zeros(nlab)
+    for i in range(S.shape[0]):
+        for j in range(S.shape[1]):
+            y = S[i, j, 0]
+            x = S[i, j, 1]
+            n[src_lab[y, x]] += 1.0
+            m[src_lab[y, x]] += t[y, x]
+    for l in range(nlab):
+        if n[l] > 0:
+            m[l] /= n[l]
+        if s0[l] > 0:
+            V[l] /= s0[l]
+    v = np.zeros(nlab)
+    for i in range(S.shape[0]):
+        for j in range(S.shape[1]):
+            y = S[i, j, 0]
+            x = S[i, j, 1]
+            l = src_lab[y, x]
+            e = t[y, x] - m[l]
+            v[l] += e * e
+    d = np.zeros(nlab)
+    for l in range(nlab):
+        if n[l] > 0 and V[l] > 0:
+            d[l] = max(1.0 - v[l] / n[l] / (keep * keep * V[l]), 0.0)
+    for y in range(He):
+        for x in range(We):
+            l = src_lab[y, x]
+            if d[l] > 0:
+                e = t[y, x] - m[l]
+                out[y, x] = d[l] * min(max(1.0 - e * e / V[l], -1.0), 1.0)
+            else:
+                out[y, x] = 0.0
+
+
+@njit(**JIT)
 def rejected(S, i, j, cy, cx, h, radius):
     """Whether candidate (cy, cx) for pixel (i, j) repeats a use in the 9x9 window.
 
@@ -524,15 +586,19 @@ def subpass_rows(level, knn, S_old, active, over, r0: int, r1: int, parity: tupl
 
 def correct_level(level, S: np.ndarray, knn: np.ndarray, *, passes: int, metric: Metric, rule: Rule,
                   active: np.ndarray | None = None, tiles=None, tone_balance: float = 0.0,
-                  tone_spacing: int = 1) -> tuple[np.ndarray, dict]:
+                  tone_spacing: int = 1, tone_spread: float = 0.0,
+                  spread_spacing: int = 1, spread_keep: float = 1.0) -> tuple[np.ndarray, dict]:
     """``passes`` correction passes (4 parity sub-passes each) at one level.
 
     ``tone_balance`` (T): each candidate's distance is multiplied by 1 + U × over-use
     (``_usage_excess``, U = ``rule.uniformity``) + T × its tone's imbalance in its label
     (``_tone_balance``: negative for tones the target uses less than the photo's label
     does), at least ``TONE_FLOOR``, except in the last ``TONE_FREE_PASSES`` passes of the
-    finest level (h = 1); 0: the usage term alone (exactly as without it). At a level whose
-    spacing h is under ``tone_spacing`` the term is off (the usage term alone).
+    finest level (h = 1); 0: the usage term alone (exactly as without it). ``tone_spread``
+    (D) adds D × ``_tone_spread`` (aiming at ``spread_keep``) the same way: in a label
+    whose tones spread less about their mean than the photo label's, candidates near the
+    mean pay, those far from it gain. At a level whose spacing h is under ``tone_spacing`` (``spread_spacing``) the
+    tone-balance (tone-spread) term is off; with neither, the usage term alone.
 
     ``tiles``: None (every sub-pass whole, the kernels' threads over its rows), or a runner
     ``tiles(fn, shared, jobs) -> [fn(*shared, *job) for job in jobs]`` that may run the
@@ -553,6 +619,7 @@ def correct_level(level, S: np.ndarray, knn: np.ndarray, *, passes: int, metric:
                 / np.maximum(np.bincount(level.src_lab.ravel(), minlength=n), 1)).astype(np.float64)
     over = np.zeros(level.src_lab.shape, np.float64)
     tone = np.zeros(level.src_lab.shape, np.float64) if tone_balance > 0 and level.h >= tone_spacing else None
+    spread = np.zeros(level.src_lab.shape, np.float64) if tone_spread > 0 and level.h >= spread_spacing else None
     kernel_rule = rule
     nb = min(getattr(tiles, "bands", 1), Ht // 8) if tiles is not None and Ht * Wt >= TILE_MIN_PIXELS else 1
     edges = np.linspace(0, Ht, nb + 1).astype(int)
@@ -560,13 +627,18 @@ def correct_level(level, S: np.ndarray, knn: np.ndarray, *, passes: int, metric:
         for parity in ((0, 0), (1, 1), (0, 1), (1, 0)):
             if rule.uniformity > 0:
                 _usage_excess(S_old, level.src_lab, expected, 2 * level.h, over)
-            if tone is not None and level.h == 1 and p >= passes - TONE_FREE_PASSES:
+            terms = tone is not None or spread is not None
+            if terms and level.h == 1 and p >= passes - TONE_FREE_PASSES:
                 kernel_rule = rule  # the finest level's last passes: seams settle on colour alone
-            elif tone is not None:
+            elif terms:
                 kernel_rule = rule._replace(uniformity=1.0)  # the factor is in ``over``
-                _tone_balance(S_old, level.src_lab, level.src_rgb, n, TONE_BINS, tone)
                 over *= rule.uniformity
-                over += tone_balance * tone
+                if tone is not None:
+                    _tone_balance(S_old, level.src_lab, level.src_rgb, n, TONE_BINS, tone)
+                    over += tone_balance * tone
+                if spread is not None:
+                    _tone_spread(S_old, level.src_lab, level.src_rgb, n, spread_keep, spread)
+                    over += tone_spread * spread
                 np.maximum(over, TONE_FLOOR - 1.0, out=over)
             if nb > 1:
                 jobs = [(S_old, active, over, int(a), int(b), parity, metric, kernel_rule)
@@ -731,7 +803,8 @@ def synthesize(levels: list, S_init: np.ndarray, corr, *, seed: int, mask: np.nd
         S, st = correct_level(lv, S, knns[l], passes=n, metric=metric,
                               rule=Rule(radius, bool(corr.use_rgb), float(corr.kappa), float(corr.uniformity)),
                               active=active, tiles=tiles, tone_balance=float(corr.tone_balance),
-                              tone_spacing=int(corr.tone_spacing))
+                              tone_spacing=int(corr.tone_spacing), tone_spread=float(corr.tone_spread),
+                              spread_spacing=int(corr.spread_spacing), spread_keep=float(corr.spread_keep))
         st.update(level=l, h=h, shape=shape, passes=n, radius=radius)
         stats.append(st)
     if mask is not None:

@@ -102,6 +102,16 @@ class Correction(CoarseLevel, PatchMetric):
                          doc="tone_balance acts only at levels whose spacing (exemplar pixels per level pixel) is at "
                              "least this: 1 = every level, 2 = not at the synthesis size (the finest levels then "
                              "build coherent patches around the tones it restored)")
+    tone_spread = Param(float, 0.0, min=0.0, max=4.0,
+                        doc="adds tone_spread x d x (1 - (t - mean)^2 / V, clipped to +-1) to that factor, at the "
+                            "levels of spread_spacing or more: in a label whose target luma varies less about its mean "
+                            "than the photo label's (variance V, deficit d = 1 - variance ratio), candidates near "
+                            "the mean pay and those farther than one photo std gain (off in the finest level's "
+                            "last 2 passes); 0 = off")
+    spread_spacing = Param(int, 1, min=1, doc="tone_spread acts only at levels whose spacing is at least this")
+    spread_keep = Param(float, 1.0, min=0.1, max=2.0,
+                        doc="the std ratio (target over photo, per label) tone_spread aims at: the deficit is "
+                            "1 - variance ratio / spread_keep^2")
     use_rgb = Param(bool, True, doc="add the colour neighbourhood to the metric (the paper does)")
     radius = Param(str, "spacing", choices=("spacing", "level"),
                    doc="near-copy radius: one level pixel (spacing h) or 2^l exemplar pixels at level l")

@@ -158,11 +158,12 @@ def test_translation_survives_down_and_up():
         assert np.array_equal(up, S)
 
 
-@pytest.mark.parametrize("tone_balance,tone_spacing", [(0.0, 1), (1.0, 1), (0.25, 2)])
-def test_synthesis_is_deterministic_across_thread_counts(tone_balance, tone_spacing):
+@pytest.mark.parametrize("tone_balance,tone_spacing,tone_spread", [(0.0, 1, 0.0), (1.0, 1, 0.0), (0.25, 2, 0.0),
+                                                                 (0.25, 2, 2.0)])
+def test_synthesis_is_deterministic_across_thread_counts(tone_balance, tone_spacing, tone_spread):
     rng, levels = small_case(9, ex=(40, 48), tgt=(32, 32), nlev=3)
     S0 = random_state(rng, levels[-1])
-    c = corr(k=2, tone_balance=tone_balance, tone_spacing=tone_spacing)
+    c = corr(k=2, tone_balance=tone_balance, tone_spacing=tone_spacing, tone_spread=tone_spread)
     a, _ = kc.synthesize(levels, S0, c, seed=3)
     numba.set_num_threads(1)
     try:
@@ -205,7 +206,7 @@ def test_sub_passes_in_row_bands_are_exactly_the_whole_ones(monkeypatch, bands):
     S0 = random_state(rng, levels[-1])
     mask = np.ones((48, 40), bool)
     mask[30:, :12] = False
-    c = corr(k=2, uniformity=0.25, height_weight=4.0, tone_balance=0.5)
+    c = corr(k=2, uniformity=0.25, height_weight=4.0, tone_balance=0.5, tone_spread=1.0)
     a, _ = kc.synthesize(levels, S0, c, seed=4, mask=mask)
     calls = []
 
@@ -328,3 +329,72 @@ def test_tone_balance_acts_only_at_levels_of_tone_spacing_or_more(monkeypatch, s
     if not want:
         b, _ = kc.synthesize(levels, S0, corr(k=2, uniformity=0.25), seed=2)
         assert np.array_equal(a, b)
+
+
+def tone_spread_reference(S, src_lab, src_rgb, nlab, keep):
+    """``_tone_spread`` written out: per label, the target's luma mean and variance read
+    through ``S`` against the photo label's variance."""
+    rgb = src_rgb.astype(np.float64)
+    luma = 0.2126 * rgb[..., 0] + 0.7152 * rgb[..., 1] + 0.0722 * rgb[..., 2]
+    used_lab = src_lab[S[..., 0], S[..., 1]]
+    used = luma[S[..., 0], S[..., 1]]
+    out = np.zeros(src_lab.shape)
+    for l in range(nlab):
+        t = used[used_lab == l]
+        if t.size == 0:
+            continue
+        V = luma[src_lab == l].var()
+        if V <= 0:
+            continue
+        d = max(1.0 - t.var() / (keep * keep * V), 0.0)
+        m = src_lab == l
+        out[m] = d * np.clip(1.0 - (luma[m] - t.mean()) ** 2 / V, -1.0, 1.0)
+    return out
+
+
+@pytest.mark.parametrize("seed,keep", [(0, 1.0), (1, 0.8), (2, 1.0)])
+def test_tone_spread_matches_reference(seed, keep):
+    rng = np.random.default_rng(seed)
+    He, We, n = 13, 17, 3
+    src_lab = rng.integers(0, n - (seed == 2), (He, We)).astype(np.int32)  # seed 2: a label absent from the target
+    src_rgb = (rng.random((He, We, 3)) * 255 * rng.choice([0.3, 1.0], (He, We, 1))).astype(np.float32)
+    S = np.stack([rng.integers(0, He, (9, 11)), rng.integers(0, We, (9, 11))], -1).astype(np.int32)
+    S[:5] = S[0, 0]  # a clump: the target's spread falls under the photo's
+    out = np.full((He, We), np.nan)
+    kc._tone_spread(S, src_lab, src_rgb, n, keep, out)
+    want = tone_spread_reference(S, src_lab, src_rgb, n, keep)
+    np.testing.assert_allclose(out, want, rtol=1e-9, atol=1e-9)
+    assert (want != 0).any() and (want < 0).any() and (want > 0).any()
+
+
+def test_tone_spread_keeps_a_labels_spread_the_correction_would_lose():
+    """A label whose exemplar is a smooth ramp from dark to bright, and a map reading mostly
+    its middle: with the tone-spread term the corrected map's luma spread in the label is
+    nearer the photo's than with the usage term alone, and a map already as spread as the
+    photo gets no term at all."""
+    rng = np.random.default_rng(7)
+    He, We = 24, 32
+    ex_lab = np.zeros((He, We), np.int32)
+    ex_lab[:, :2] = 1
+    ramp = np.linspace(0.05, 0.95, We - 2, dtype=np.float32)
+    ex_rgb = np.full((He, We, 3), 0.5, np.float32)
+    ex_rgb[:, 2:] = (ramp[None, :, None] + 0.02 * rng.random((He, We - 2, 1))).astype(np.float32)
+    tgt = np.zeros((20, 20), np.int32)
+    tgt[:, :2] = 1
+    levels = kf.build_levels(ex_rgb, ex_lab, tgt, 2, 1, max_distance=5.0)
+    lv = levels[-1]
+    mid = rng.integers(We // 2 - 4, We // 2 + 4, (20, 20))
+    S = np.stack([rng.integers(0, He, (20, 20)), np.where(rng.random((20, 20)) < 0.9, mid,
+                                                         rng.integers(2, We, (20, 20)))], -1).astype(np.int32)
+    S[tgt == 1] = np.stack([rng.integers(0, He, (tgt == 1).sum()), rng.integers(0, 2, (tgt == 1).sum())], -1)
+    luma = lambda S: (lv.src_rgb[S[..., 0], S[..., 1]] @ np.array([0.2126, 0.7152, 0.0722]))[tgt == 0]  # noqa: E731
+    photo = (lv.src_rgb[ex_lab == 0] @ np.array([0.2126, 0.7152, 0.0722])).std()
+    knn = kc.similarity_sets(lv, 2, kf.Metric(90.0, 0.0), seed=0, iterations=2)
+    rule = kc.Rule(1, True, 0.0, 0.0)  # no usage term: the colour metric alone keeps the clump
+    a, _ = kc.correct_level(lv, S, knn, passes=6, metric=kf.Metric(90.0, 0.0), rule=rule)
+    b, _ = kc.correct_level(lv, S, knn, passes=6, metric=kf.Metric(90.0, 0.0), rule=rule, tone_spread=2.0)
+    assert luma(b).std() > luma(a).std() + 0.1 * photo, (luma(S).std(), luma(a).std(), luma(b).std(), photo)
+    spread = np.full(ex_lab.shape, np.nan)
+    full = np.stack(np.nonzero(np.ones((He, We), bool)), -1).reshape(He, We, 2).astype(np.int32)  # the photo itself
+    kc._tone_spread(full, lv.src_lab, lv.src_rgb, 2, 1.0, spread)
+    assert np.abs(spread).max() < 1e-9
