@@ -7,10 +7,11 @@ interleaved sub-sets (row and column parity); within one sub-set all pixels are 
 in parallel from the state before it, so results do not depend on the thread count.
 
 For a pixel p the candidates are k-coherent: for each pixel q of p's 3×3 neighbourhood,
-the exemplar position S[q] shifted back by h (q − p), and the same shift applied to the
-k most similar exemplar pixels of S[q] (its similarity set, found once per level by a
-k-nearest-neighbour PatchMatch over the exemplar). A candidate must lie in the exemplar
-and carry the guide's label at p, and is rejected when
+the exemplar position S[q] (the map, ``coords`` in the code) shifted back by h (q − p),
+and the same shift applied to the k most similar exemplar pixels of S[q] (its similarity
+set, found once per level by a k-nearest-neighbour PatchMatch over the exemplar). A
+candidate must lie in the exemplar and carry the guide's label at p, and is rejected
+when
 
 * it is already used in the 9×9 window around p, or
 * a non-coherent pixel of that window uses an exemplar pixel within ``radius`` of it
@@ -275,18 +276,18 @@ def _knn_rescore(lv, m, k, excl, lists, y0, y1):
 
 
 @njit(**JIT)
-def _usage_excess(S, src_lab, expected, R, out):
+def _usage_excess(coords, src_lab, expected, R, out):
     """For each exemplar pixel, how much its (2R+1)² window is over-used: max(0, uses /
-    expected uses − 1), uses = target pixels whose ``S`` falls in the window, expected =
+    expected uses − 1), uses = target pixels whose ``coords`` falls in the window, expected =
     Σ over the window's exemplar pixels of ``expected[label]`` (target pixels per exemplar
     pixel of that label: the rate of a synthesis that draws on the whole source region
     evenly). Window sums by integral images; deterministic."""
     He, We = src_lab.shape
     iu = np.zeros((He + 1, We + 1))
     ie = np.zeros((He + 1, We + 1))
-    for i in range(S.shape[0]):
-        for j in range(S.shape[1]):
-            iu[S[i, j, 0] + 1, S[i, j, 1] + 1] += 1.0
+    for i in range(coords.shape[0]):
+        for j in range(coords.shape[1]):
+            iu[coords[i, j, 0] + 1, coords[i, j, 1] + 1] += 1.0
     for y in range(He):
         for x in range(We):
             ie[y + 1, x + 1] = expected[src_lab[y, x]]
@@ -311,10 +312,10 @@ TONE_FREE_PASSES = 2  # the finest level's last passes run without it (bench_pho
 
 
 @njit(**JIT)
-def _tone_balance(S, src_lab, src_rgb, nlab, nbins, out):
+def _tone_balance(coords, src_lab, src_rgb, nlab, nbins, out):
     """For each exemplar pixel, how over- or under-represented its tone is among the target
     pixels of its label: r − 1 clipped at −1, r = (share of the label's target pixels whose
-    ``S`` falls in the pixel's luma bin) / (share of the label's exemplar pixels in that
+    ``coords`` falls in the pixel's luma bin) / (share of the label's exemplar pixels in that
     bin); 0 for a label no target pixel uses. Luma of ``src_rgb`` (255 · sRGB, the colour
     features) in ``nbins`` equal bins. Deterministic (sequential sums)."""
     He, We = src_lab.shape
@@ -327,10 +328,10 @@ def _tone_balance(S, src_lab, src_rgb, nlab, nbins, out):
             k = min(max(int(v * nbins), 0), nbins - 1)
             b[y, x] = k
             hs[src_lab[y, x], k] += 1.0
-    for i in range(S.shape[0]):
-        for j in range(S.shape[1]):
-            y = S[i, j, 0]
-            x = S[i, j, 1]
+    for i in range(coords.shape[0]):
+        for j in range(coords.shape[1]):
+            y = coords[i, j, 0]
+            x = coords[i, j, 1]
             ht[src_lab[y, x], b[y, x]] += 1.0
     ns = np.zeros(nlab)
     nt = np.zeros(nlab)
@@ -346,11 +347,11 @@ def _tone_balance(S, src_lab, src_rgb, nlab, nbins, out):
 
 
 @njit(**JIT)
-def _tone_spread(S, src_lab, src_rgb, nlab, keep, out):
+def _tone_spread(coords, src_lab, src_rgb, nlab, keep, out):
     """For each exemplar pixel, how a target pixel taking it would move its label's tone
     spread back toward the photo's: d × clip(1 − (t − μ)² / V, −1, 1), t the pixel's luma
     (``src_rgb``: 255 · sRGB, the colour features), μ the mean luma of the label's target
-    pixels (read through ``S``), V the variance of the photo label's luma (its exemplar
+    pixels (read through ``coords``), V the variance of the photo label's luma (its exemplar
     pixels), d = max(0, 1 − v / (keep² V)) the label's deficit (v: the target pixels'
     variance about μ; ``keep`` the std ratio it aims at); 0 for a label no target pixel
     uses or with V = 0. Positive (a penalty) near the mean, negative (a bonus) for tones
@@ -374,10 +375,10 @@ def _tone_spread(S, src_lab, src_rgb, nlab, keep, out):
             V[l] += e * e
     n = np.zeros(nlab)
     m = np.zeros(nlab)
-    for i in range(S.shape[0]):
-        for j in range(S.shape[1]):
-            y = S[i, j, 0]
-            x = S[i, j, 1]
+    for i in range(coords.shape[0]):
+        for j in range(coords.shape[1]):
+            y = coords[i, j, 0]
+            x = coords[i, j, 1]
             n[src_lab[y, x]] += 1.0
             m[src_lab[y, x]] += t[y, x]
     for l in range(nlab):
@@ -386,10 +387,10 @@ def _tone_spread(S, src_lab, src_rgb, nlab, keep, out):
         if s0[l] > 0:
             V[l] /= s0[l]
     v = np.zeros(nlab)
-    for i in range(S.shape[0]):
-        for j in range(S.shape[1]):
-            y = S[i, j, 0]
-            x = S[i, j, 1]
+    for i in range(coords.shape[0]):
+        for j in range(coords.shape[1]):
+            y = coords[i, j, 0]
+            x = coords[i, j, 1]
             l = src_lab[y, x]
             e = t[y, x] - m[l]
             v[l] += e * e
@@ -408,13 +409,13 @@ def _tone_spread(S, src_lab, src_rgb, nlab, keep, out):
 
 
 @njit(**JIT)
-def rejected(S, i, j, cy, cx, h, radius):
+def rejected(coords, i, j, cy, cx, h, radius):
     """Whether candidate (cy, cx) for pixel (i, j) repeats a use in the 9x9 window.
 
-    A window pixel q != p using exactly (cy, cx), or a non-coherent one (S[q] !=
+    A window pixel q != p using exactly (cy, cx), or a non-coherent one (coords[q] !=
     candidate + h (q - p)) using an exemplar pixel within ``radius`` (L-inf), rejects it.
     """
-    Ht, Wt = S.shape[0], S.shape[1]
+    Ht, Wt = coords.shape[0], coords.shape[1]
     for di in range(-WINDOW, WINDOW + 1):
         ii = i + di
         if ii < 0 or ii >= Ht:
@@ -423,8 +424,8 @@ def rejected(S, i, j, cy, cx, h, radius):
             jj = j + dj
             if jj < 0 or jj >= Wt or (di == 0 and dj == 0):
                 continue
-            dy = S[ii, jj, 0] - cy
-            dx = S[ii, jj, 1] - cx
+            dy = coords[ii, jj, 0] - cy
+            dx = coords[ii, jj, 1] - cx
             if dy == h * di and dx == h * dj:
                 continue  # coherent neighbour
             if abs(dy) <= radius and abs(dx) <= radius:
@@ -451,9 +452,9 @@ def _cand_dist(lv, m, use_rgb, i, j, cy, cx, target_dist, target_rgb, best):
 
 
 @njit(**JIT)
-def _subpass_rows(lv, m, rule, knn, over, S_old, S_new, active, parity, counts, r0, r1):
-    """Correct pixels with (i % 2, j % 2) == ``parity`` of level ``lv``, reading S_old,
-    writing S_new; ``knn`` the similarity sets (He, We, k, 2).
+def _subpass_rows(lv, m, rule, knn, over, coords_old, coords_new, active, parity, counts, r0, r1):
+    """Correct pixels with (i % 2, j % 2) == ``parity`` of level ``lv``, reading coords_old,
+    writing coords_new; ``knn`` the similarity sets (He, We, k, 2).
 
     Candidates from similarity sets (not a neighbour's coherent continuation) have their
     distance multiplied by 1 + kappa; every candidate's by 1 + uniformity × its exemplar
@@ -487,8 +488,8 @@ def _subpass_rows(lv, m, rule, knn, over, S_old, S_new, active, parity, counts, 
                     ii = min(max(i + di, 0), Ht - 1)
                     for dj in range(-2, 3):
                         jj = min(max(j + dj, 0), Wt - 1)
-                        sy = S_old[ii, jj, 0]
-                        sx = S_old[ii, jj, 1]
+                        sy = coords_old[ii, jj, 0]
+                        sx = coords_old[ii, jj, 1]
                         for c in range(3):
                             target_rgb[t, c] = src_rgb[sy, sx, c]
                         t += 1
@@ -502,8 +503,8 @@ def _subpass_rows(lv, m, rule, knn, over, S_old, S_new, active, parity, counts, 
                     jj = j + dj
                     if jj < 0 or jj >= Wt:
                         continue
-                    qy = S_old[ii, jj, 0]
-                    qx = S_old[ii, jj, 1]
+                    qy = coords_old[ii, jj, 0]
+                    qx = coords_old[ii, jj, 1]
                     for t in range(k + 1):
                         if t == 0:
                             cy = qy - h * di
@@ -525,15 +526,15 @@ def _subpass_rows(lv, m, rule, knn, over, S_old, S_new, active, parity, counts, 
                             coh[nc] = t == 0
                             nc += 1
             best = np.inf
-            by = S_old[i, j, 0]
-            bx = S_old[i, j, 1]
+            by = coords_old[i, j, 0]
+            bx = coords_old[i, j, 1]
             for u in range(nc):
                 cy = cyl[u]
                 cx = cxl[u]
                 f = (1.0 if coh[u] else 1.0 + kappa) * (1.0 + uniformity * over[cy, cx])
                 d = f * _cand_dist(lv, m, use_rgb, i, j, cy, cx, target_dist, target_rgb, best / f)
                 # rejection is only tested for a candidate that would win (same result, cheaper)
-                if d < best and not rejected(S_old, i, j, cy, cx, h, radius):
+                if d < best and not rejected(coords_old, i, j, cy, cx, h, radius):
                     best = d
                     by = cy
                     bx = cx
@@ -550,18 +551,18 @@ def _subpass_rows(lv, m, rule, knn, over, S_old, S_new, active, parity, counts, 
                 counts[i, 1] += 1
             elif best == np.inf:
                 counts[i, 1] += 1
-            if by != S_old[i, j, 0] or bx != S_old[i, j, 1]:
+            if by != coords_old[i, j, 0] or bx != coords_old[i, j, 1]:
                 counts[i, 0] += 1
-            S_new[i, j, 0] = by
-            S_new[i, j, 1] = bx
+            coords_new[i, j, 0] = by
+            coords_new[i, j, 1] = bx
 
 
 @njit(**PJIT)
-def _subpass(lv, m, rule, knn, over, S_old, S_new, active, parity, counts):
+def _subpass(lv, m, rule, knn, over, coords_old, coords_new, active, parity, counts):
     """``_subpass_rows`` of every row of the parity, in parallel (the loop body a serial
     kernel called with int64 rows: typed once, ``kernels/_config.py``)."""
     for r in prange((lv.tgt_lab.shape[0] - parity[0] + 1) // 2):
-        _subpass_rows(lv, m, rule, knn, over, S_old, S_new, active=active, parity=parity, counts=counts, r0=np.int64(r),
+        _subpass_rows(lv, m, rule, knn, over, coords_old, coords_new, active=active, parity=parity, counts=counts, r0=np.int64(r),
                       r1=np.int64(r + 1))
 
 
@@ -570,21 +571,21 @@ def _subpass(lv, m, rule, knn, over, S_old, S_new, active, parity, counts):
 TILE_MIN_PIXELS = int(os.environ.get("PROXYSHADE_TILE_MIN_PIXELS", 1 << 18))
 
 
-def subpass_rows(level, knn, S_old, active, over, r0: int, r1: int, parity: tuple[int, int], metric: Metric,
+def subpass_rows(level, knn, coords_old, active, over, r0: int, r1: int, parity: tuple[int, int], metric: Metric,
                  rule: Rule):
-    """One parity sub-pass on rows r0..r1 of the target only: (the new S of those rows,
-    their counts). Every pixel of a sub-pass reads only the state before it (``S_old``)
+    """One parity sub-pass on rows r0..r1 of the target only: (the new coords of those rows,
+    their counts). Every pixel of a sub-pass reads only the state before it (``coords_old``)
     and the usage term ``over`` computed from it, so the rows of a band come out exactly
     as in the whole sub-pass: a tile of ``correct_level``."""
-    S_new = S_old.copy()
+    coords_new = coords_old.copy()
     band = np.zeros(active.shape, np.bool_)
     band[r0:r1] = active[r0:r1]
-    counts = np.zeros((S_old.shape[0], 2), np.int64)
-    _subpass(level, metric, rule, knn, over, S_old, S_new, band, parity, counts)
-    return S_new[r0:r1], counts[r0:r1]
+    counts = np.zeros((coords_old.shape[0], 2), np.int64)
+    _subpass(level, metric, rule, knn, over, coords_old, coords_new, band, parity, counts)
+    return coords_new[r0:r1], counts[r0:r1]
 
 
-def correct_level(level, S: np.ndarray, knn: np.ndarray, *, passes: int, metric: Metric, rule: Rule,
+def correct_level(level, coords: np.ndarray, knn: np.ndarray, *, passes: int, metric: Metric, rule: Rule,
                   active: np.ndarray | None = None, tiles=None, tone_balance: float = 0.0,
                   tone_spacing: int = 1, tone_spread: float = 0.0,
                   spread_spacing: int = 1, spread_keep: float = 1.0) -> tuple[np.ndarray, dict]:
@@ -611,8 +612,8 @@ def correct_level(level, S: np.ndarray, knn: np.ndarray, *, passes: int, metric:
         active = np.ones((Ht, Wt), np.bool_)
     metric = Metric(float(metric.w), float(metric.height_weight))
     rule = Rule(int(rule.radius), bool(rule.use_rgb), float(rule.kappa), float(rule.uniformity))
-    S_old = np.ascontiguousarray(S, np.int32).copy()
-    S_new = S_old.copy()
+    coords_old = np.ascontiguousarray(coords, np.int32).copy()
+    coords_new = coords_old.copy()
     counts = np.zeros((Ht, 2), np.int64)
     n = level.src_masks.shape[2]
     expected = (np.bincount(level.tgt_lab.ravel(), minlength=n)
@@ -626,7 +627,7 @@ def correct_level(level, S: np.ndarray, knn: np.ndarray, *, passes: int, metric:
     for p in range(passes):
         for parity in ((0, 0), (1, 1), (0, 1), (1, 0)):
             if rule.uniformity > 0:
-                _usage_excess(S_old, level.src_lab, expected, 2 * level.h, over)
+                _usage_excess(coords_old, level.src_lab, expected, 2 * level.h, over)
             terms = tone is not None or spread is not None
             if terms and level.h == 1 and p >= passes - TONE_FREE_PASSES:
                 kernel_rule = rule  # the finest level's last passes: seams settle on colour alone
@@ -634,23 +635,23 @@ def correct_level(level, S: np.ndarray, knn: np.ndarray, *, passes: int, metric:
                 kernel_rule = rule._replace(uniformity=1.0)  # the factor is in ``over``
                 over *= rule.uniformity
                 if tone is not None:
-                    _tone_balance(S_old, level.src_lab, level.src_rgb, n, TONE_BINS, tone)
+                    _tone_balance(coords_old, level.src_lab, level.src_rgb, n, TONE_BINS, tone)
                     over += tone_balance * tone
                 if spread is not None:
-                    _tone_spread(S_old, level.src_lab, level.src_rgb, n, spread_keep, spread)
+                    _tone_spread(coords_old, level.src_lab, level.src_rgb, n, spread_keep, spread)
                     over += tone_spread * spread
                 np.maximum(over, TONE_FLOOR - 1.0, out=over)
             if nb > 1:
-                jobs = [(S_old, active, over, int(a), int(b), parity, metric, kernel_rule)
+                jobs = [(coords_old, active, over, int(a), int(b), parity, metric, kernel_rule)
                         for a, b in zip(edges[:-1], edges[1:])]
                 for (a, b), (rows, cnt) in zip(zip(edges[:-1], edges[1:]), tiles(subpass_rows, (level, knn), jobs)):
-                    S_new[a:b] = rows
+                    coords_new[a:b] = rows
                     counts[a:b] += cnt
             else:
-                _subpass(level, metric, kernel_rule, knn, over, S_old, S_new, active, parity, counts)
-            S_old[...] = S_new  # only this sub-set changed
+                _subpass(level, metric, kernel_rule, knn, over, coords_old, coords_new, active, parity, counts)
+            coords_old[...] = coords_new  # only this sub-set changed
     c = counts.sum(0)
-    return S_old, {"changed": int(c[0]), "all_rejected": int(c[1])}
+    return coords_old, {"changed": int(c[0]), "all_rejected": int(c[1])}
 
 
 # ---------------------------------------------------------------------------
@@ -658,17 +659,17 @@ def correct_level(level, S: np.ndarray, knn: np.ndarray, *, passes: int, metric:
 
 
 @njit(**JIT)
-def _downsample(S, h, Hl, Wl, He, We, out):
-    """S_l[P] = S[h P + h // 2] (the anchor fine pixel), clamped into the exemplar."""
-    Ht, Wt = S.shape[0], S.shape[1]
+def _downsample(coords, h, Hl, Wl, He, We, out):
+    """S_l[P] = coords[h P + h // 2] (the anchor fine pixel), clamped into the exemplar."""
+    Ht, Wt = coords.shape[0], coords.shape[1]
     for I in range(Hl):
         for J in range(Wl):
             ai = h * I + h // 2
             aj = h * J + h // 2
             fi = min(ai, Ht - 1)
             fj = min(aj, Wt - 1)
-            y = S[fi, fj, 0] + (ai - fi)
-            x = S[fi, fj, 1] + (aj - fj)
+            y = coords[fi, fj, 0] + (ai - fi)
+            x = coords[fi, fj, 1] + (aj - fj)
             out[I, J, 0] = min(max(y, 0), He - 1)
             out[I, J, 1] = min(max(x, 0), We - 1)
 
@@ -689,15 +690,15 @@ def _upsample(Sp, h, Hl, Wl, He, We, out):
             out[i, j, 1] = min(max(Sp[I, J, 1] + h * dj - off, 0), We - 1)
 
 
-def downsample_state(S: np.ndarray, h: int, shape: tuple[int, int], ex_shape: tuple[int, int]) -> np.ndarray:
+def downsample_state(coords: np.ndarray, h: int, shape: tuple[int, int], ex_shape: tuple[int, int]) -> np.ndarray:
     out = np.empty(shape + (2,), np.int32)
-    _downsample(np.ascontiguousarray(S, np.int32), h, shape[0], shape[1], ex_shape[0], ex_shape[1], out)
+    _downsample(np.ascontiguousarray(coords, np.int32), h, shape[0], shape[1], ex_shape[0], ex_shape[1], out)
     return out
 
 
-def upsample_state(S: np.ndarray, h: int, shape: tuple[int, int], ex_shape: tuple[int, int]) -> np.ndarray:
+def upsample_state(coords: np.ndarray, h: int, shape: tuple[int, int], ex_shape: tuple[int, int]) -> np.ndarray:
     out = np.empty(shape + (2,), np.int32)
-    _upsample(np.ascontiguousarray(S, np.int32), h, shape[0], shape[1], ex_shape[0], ex_shape[1], out)
+    _upsample(np.ascontiguousarray(coords, np.int32), h, shape[0], shape[1], ex_shape[0], ex_shape[1], out)
     return out
 
 
@@ -783,24 +784,24 @@ def synthesize(levels: list, S_init: np.ndarray, corr, *, seed: int, mask: np.nd
             raise ValueError(f"similarity must hold {L} arrays of shape {ex_shape + (corr.k, 2)}")
     t1 = time.perf_counter()
     stats = []
-    S = None
+    coords = None
     for l, lv in enumerate(levels):
         shape = lv.tgt_lab.shape
         h = lv.h
         start = downsample_state(S_init, h, shape, ex_shape)
-        if S is None:
-            S = start
+        if coords is None:
+            coords = start
         else:
-            up = upsample_state(S, h, shape, ex_shape)
+            up = upsample_state(coords, h, shape, ex_shape)
             if mask is not None:
                 act = downsample_mask(mask, h, shape)
-                S = np.where(act[..., None], up, start)
+                coords = np.where(act[..., None], up, start)
             else:
-                S = up
+                coords = up
         active = downsample_mask(mask, h, shape) if mask is not None else None
         radius = max(h if corr.radius == "spacing" else 2 ** l, int(min_radius))
         n = corr.passes_finest if l == L - 1 else corr.passes
-        S, st = correct_level(lv, S, knns[l], passes=n, metric=metric,
+        coords, st = correct_level(lv, coords, knns[l], passes=n, metric=metric,
                               rule=Rule(radius, bool(corr.use_rgb), float(corr.kappa), float(corr.uniformity)),
                               active=active, tiles=tiles, tone_balance=float(corr.tone_balance),
                               tone_spacing=int(corr.tone_spacing), tone_spread=float(corr.tone_spread),
@@ -808,8 +809,8 @@ def synthesize(levels: list, S_init: np.ndarray, corr, *, seed: int, mask: np.nd
         st.update(level=l, h=h, shape=shape, passes=n, radius=radius)
         stats.append(st)
     if mask is not None:
-        S = np.where(np.asarray(mask)[..., None], S, S_init)
+        coords = np.where(np.asarray(mask)[..., None], coords, S_init)
     if timings is not None:
         timings["similarity"] = t1 - t0
         timings["corrections"] = time.perf_counter() - t1
-    return S, stats
+    return coords, stats

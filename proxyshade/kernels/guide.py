@@ -211,7 +211,7 @@ def _similarity_row(y, masks, col, h, k, sample, seed, metric, out):
 @njit(**JIT)
 def _init_state(target, He, We, starts, lists, seed):
     H, W = target.shape
-    S = np.empty((H, W, 2), np.int32)
+    coords = np.empty((H, W, 2), np.int32)
     for i in range(H):
         for j in range(W):
             l = target[i, j]
@@ -221,9 +221,9 @@ def _init_state(target, He, We, starts, lists, seed):
                 f = lists[starts[l] + int(u * cnt)]
             else:
                 f = int(u * He * We)
-            S[i, j, 0] = f // We
-            S[i, j, 1] = f % We
-    return S
+            coords[i, j, 0] = f // We
+            coords[i, j, 1] = f % We
+    return coords
 
 
 def init_state(target, ex_lab, seed):
@@ -239,38 +239,38 @@ def init_state(target, ex_lab, seed):
 
 # serial: 0.07 ms a call at the guide size; a parallel loop compiled 0.3 s longer
 @njit(**JIT)
-def upsample_state(S, h, He, We, H, W):
-    """Children of a coarser level's coordinates: S + h·d for d in {0, 1}², clamped."""
+def upsample_state(coords, h, He, We, H, W):
+    """Children of a coarser level's coordinates: coords + h·d for d in {0, 1}², clamped."""
     out = np.empty((H, W, 2), np.int32)
     for i in range(H):
         for j in range(W):
-            pi = min(i // 2, S.shape[0] - 1)
-            pj = min(j // 2, S.shape[1] - 1)
-            out[i, j, 0] = _clamp(S[pi, pj, 0] + h * (i % 2), 0, He - 1)
-            out[i, j, 1] = _clamp(S[pi, pj, 1] + h * (j % 2), 0, We - 1)
+            pi = min(i // 2, coords.shape[0] - 1)
+            pj = min(j // 2, coords.shape[1] - 1)
+            out[i, j, 0] = _clamp(coords[pi, pj, 0] + h * (i % 2), 0, He - 1)
+            out[i, j, 1] = _clamp(coords[pi, pj, 1] + h * (j % 2), 0, We - 1)
     return out
 
 
 @njit(**JIT)
-def _candidate(q, i, j, S_old, sim, h):
+def _candidate(q, i, j, coords_old, sim, h):
     """Candidate ``q`` of pixel (i, j): -1 is the current coordinate, then for each 3×3
     neighbour (row-major) the k entries of the similarity set ``sim`` (He, We, k, 2) of the
     coordinate that continues the neighbour's patch at (i, j)."""
-    H, W = S_old.shape[0], S_old.shape[1]
+    H, W = coords_old.shape[0], coords_old.shape[1]
     He, We, k = sim.shape[0], sim.shape[1], sim.shape[2]
     if q < 0:
-        return S_old[i, j, 0], S_old[i, j, 1]
+        return coords_old[i, j, 0], coords_old[i, j, 1]
     nb = q // k
     t = q % k
     ii = _clamp(i + nb // 3 - 1, 0, H - 1)
     jj = _clamp(j + nb % 3 - 1, 0, W - 1)
-    by = _clamp(S_old[ii, jj, 0] - h * (ii - i), 0, He - 1)
-    bx = _clamp(S_old[ii, jj, 1] - h * (jj - j), 0, We - 1)
+    by = _clamp(coords_old[ii, jj, 0] - h * (ii - i), 0, He - 1)
+    bx = _clamp(coords_old[ii, jj, 1] - h * (jj - j), 0, We - 1)
     return sim[by, bx, t, 0], sim[by, bx, t, 1]
 
 
 @njit(inline="always", **JIT)
-def _correct_pixel(i, j, S_old, ex, guide, rule, scratch):
+def _correct_pixel(i, j, coords_old, ex, guide, rule, scratch):
     """The corrected coordinates of pixel (i, j): among its candidates, the first one
     minimizing d(synthesized window, candidate) + w_proxy d(proxy window, candidate).
     Repeated candidates are evaluated once and Chamfer sums stop early once they cannot
@@ -279,7 +279,7 @@ def _correct_pixel(i, j, S_old, ex, guide, rule, scratch):
     tgt_masks, tgt_col, target, locked_mask, allowed = guide
     h, w_proxy, metric, n = rule
     ms, fs, fe, seen = scratch
-    H, W = S_old.shape[0], S_old.shape[1]
+    H, W = coords_old.shape[0], coords_old.shape[1]
     He, We = ex_lab.shape
     k = sim.shape[2]
     # the synthesized neighbourhood: labels (colours) under the current coordinates
@@ -290,17 +290,17 @@ def _correct_pixel(i, j, S_old, ex, guide, rule, scratch):
         ii = _clamp(i + dy, 0, H - 1)
         for dx in range(-R, R + 1):
             jj = _clamp(j + dx, 0, W - 1)
-            ey, ex = S_old[ii, jj, 0], S_old[ii, jj, 1]
+            ey, ex = coords_old[ii, jj, 0], coords_old[ii, jj, 1]
             ms[ex_lab[ey, ex]] |= np.uint32(1) << np.uint32(kk)
             if metric == 1:
                 for c in range(3):
                     fs[3 * kk + c] = ex_col[ey, ex, c]
             kk += 1
-    best_y, best_x = S_old[i, j, 0], S_old[i, j, 1]
+    best_y, best_x = coords_old[i, j, 0], coords_old[i, j, 1]
     best = np.inf
     nseen = 0
     for q in range(-1, 9 * k):
-        cy, cx = _candidate(q, i, j, S_old, sim, h)
+        cy, cx = _candidate(q, i, j, coords_old, sim, h)
         key = np.int64(cy) * We + cx
         dup = False
         for u in range(nseen):
@@ -320,7 +320,7 @@ def _correct_pixel(i, j, S_old, ex, guide, rule, scratch):
             nj = j + (d == 2) - (d == 3)
             if ni < 0 or ni >= H or nj < 0 or nj >= W:
                 continue
-            ln = ex_lab[S_old[ni, nj, 0], S_old[ni, nj, 1]]
+            ln = ex_lab[coords_old[ni, nj, 0], coords_old[ni, nj, 1]]
             if not allowed[lc, ln]:
                 ok = False
         if not ok:
@@ -355,20 +355,20 @@ def _correct_pixel(i, j, S_old, ex, guide, rule, scratch):
 
 
 @njit(**PJIT)
-def _subpass(S_old, S_new, active, parity, ex, guide, rule):
+def _subpass(coords_old, coords_new, active, parity, ex, guide, rule):
     """Correct the ``active`` pixels of ``parity`` (i % 2, j % 2) (``_correct_pixel``); the
-    others keep ``S_new``'s coordinates."""
+    others keep ``coords_new``'s coordinates."""
     par_i, par_j = parity
-    H = S_old.shape[0]
+    H = coords_old.shape[0]
     for i2 in prange((H - par_i + 1) // 2):
-        _subpass_row(np.int64(par_i + 2 * i2), par_j, S_old, S_new, active, ex, guide, rule)
+        _subpass_row(np.int64(par_i + 2 * i2), par_j, coords_old, coords_new, active, ex, guide, rule)
 
 
 @njit(**JIT)
-def _subpass_row(i, par_j, S_old, S_new, active, ex, guide, rule):
+def _subpass_row(i, par_j, coords_old, coords_new, active, ex, guide, rule):
     """Row ``i`` of ``_subpass`` (its loop body: a serial kernel compiles faster than the
     same code inside a parallel loop, where the loop index takes two types)."""
-    W = S_old.shape[1]
+    W = coords_old.shape[1]
     k = ex.sim.shape[2]
     ms = np.zeros(rule.n, np.uint32)
     fs = np.empty(75, np.float64)
@@ -376,25 +376,25 @@ def _subpass_row(i, par_j, S_old, S_new, active, ex, guide, rule):
     seen = np.empty(9 * k + 1, np.int64)
     for j in range(par_j, W, 2):
         if active[i, j]:
-            S_new[i, j, 0], S_new[i, j, 1] = _correct_pixel(i, j, S_old, ex, guide, rule, (ms, fs, fe, seen))
+            coords_new[i, j, 0], coords_new[i, j, 1] = _correct_pixel(i, j, coords_old, ex, guide, rule, (ms, fs, fe, seen))
 
 
-def correct(S, ex: Exemplar, guide: Guide, rule: Rule, *, passes, active=None):
+def correct(coords, ex: Exemplar, guide: Guide, rule: Rule, *, passes, active=None):
     """``passes`` correction passes of four parity sub-passes each; returns the new state.
     ``active`` (H, W bool, default every pixel): only those pixels are corrected, every other
     one keeps its coordinates and is context for its neighbours (an edit's progressive
     update, §7: "we initialize flagged areas with the new labels and perform correction
     passes")."""
     rule = Rule(int(rule.h), float(rule.w_proxy), int(rule.metric), int(rule.n))
-    S = S.copy()
-    active = np.ones(S.shape[:2], np.bool_) if active is None else np.ascontiguousarray(active, np.bool_)
+    coords = coords.copy()
+    active = np.ones(coords.shape[:2], np.bool_) if active is None else np.ascontiguousarray(active, np.bool_)
     if not active.any():
-        return S
+        return coords
     for _ in range(passes):
         for par_i, par_j in ((0, 0), (1, 1), (0, 1), (1, 0)):
-            snap = S.copy()
-            _subpass(snap, S, active, (par_i, par_j), ex, guide, rule)
-    return S
+            snap = coords.copy()
+            _subpass(snap, coords, active, (par_i, par_j), ex, guide, rule)
+    return coords
 
 
 def adjacency(*label_maps: np.ndarray, n: int) -> np.ndarray:

@@ -462,9 +462,9 @@ def _neigh_desc(stack, mean, basis, coords, i, j, h, bw, x, out):
 
 
 @njit(**PJIT)
-def _subpass(level, inv_w, coords_old, S_new, pi, pj, h, bw, jitter_threshold, seed, salt, coherence):
+def _subpass(level, inv_w, coords_old, coords_new, pi, pj, h, bw, jitter_threshold, seed, salt, coherence):
     """One parity sub-set (rows pi, pi + 2, ..; columns pj, pj + 2, ..) of a pass, reading
-    ``coords_old`` and writing ``S_new``. ``level``: the level's (stack, mean, basis, P, cand)."""
+    ``coords_old`` and writing ``coords_new``. ``level``: the level's (stack, mean, basis, P, cand)."""
     stack, mean, basis, P, cand = level
     Ht, Wt = coords_old.shape[0], coords_old.shape[1]
     Ha = P.shape[0]
@@ -522,8 +522,8 @@ def _subpass(level, inv_w, coords_old, S_new, pi, pj, h, bw, jitter_threshold, s
                         dmin = min(dmin, s)
                         dmax = max(dmax, s)
             if nc == 0:
-                S_new[i, j, 0] = coords_old[i, j, 0]
-                S_new[i, j, 1] = coords_old[i, j, 1]
+                coords_new[i, j, 0] = coords_old[i, j, 0]
+                coords_new[i, j, 1] = coords_old[i, j, 1]
                 continue
             pick = -1
             if jitter_threshold <= 0.0:
@@ -544,8 +544,8 @@ def _subpass(level, inv_w, coords_old, S_new, pi, pj, h, bw, jitter_threshold, s
                             pick = u
                             break
                         k -= 1
-            S_new[i, j, 0] = cyl[pick]
-            S_new[i, j, 1] = cxl[pick]
+            coords_new[i, j, 0] = cyl[pick]
+            coords_new[i, j, 1] = cxl[pick]
 
 
 PARITIES = ((0, 0), (1, 1), (0, 1), (1, 0))
@@ -565,12 +565,12 @@ def run_pass(level: tuple, inv_w, coords, *, h: int, bw: int, jitter_threshold: 
     if inv_w.ndim == 1:
         inv_w = np.broadcast_to(inv_w, coords_old.shape[:2] + inv_w.shape)
     inv_w = np.ascontiguousarray(inv_w)
-    S_new = coords_old.copy()
+    coords_new = coords_old.copy()
     for k, (pi, pj) in enumerate(PARITIES):
-        _subpass(level, inv_w, coords_old, S_new, pi=pi, pj=pj, h=int(h), bw=int(bw),
+        _subpass(level, inv_w, coords_old, coords_new, pi=pi, pj=pj, h=int(h), bw=int(bw),
                  jitter_threshold=float(jitter_threshold), seed=int(seed), salt=int(salt) * 4 + k,
                  coherence=float(coherence))
-        coords_old[...] = S_new
+        coords_old[...] = coords_new
     return coords_old
 
 
