@@ -128,6 +128,9 @@ def test_many_colour_reads_take_the_padded_kernel_bit_identically(filt):
         _clamp_taps(img, sx, sy, np.zeros((0, 0), np.bool_), want)
     got = lookup(img, sx, sy, filter=filt)
     assert np.array_equal(got.view(np.uint32), want.view(np.uint32))
+    m = rng.random(sx.shape) < 0.5  # flat4's clamp as it reads, on the read pixels only
+    masked = lookup(img, sx, sy, filter=filt, mask=m)
+    assert np.array_equal(masked.view(np.uint32), np.where(m[..., None], want, np.float32(0)).view(np.uint32))
     if filt == "flat4":
         return  # its weights against their reference: test_flat4_matches_the_least_squares_delay...
     for i in range(0, 40, 9):
