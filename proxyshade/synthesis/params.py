@@ -240,6 +240,11 @@ class Carry(SameSurface):
                               "its label's lowest or highest this share of luminance (the label's rare looks: "
                               "clumps, ghosts), nor does a re-anchored copy or an absorbed fragment keep one: they "
                               "are resynthesized instead (synthesis.temporal.typical_labels)")
+    continue_other = Param(bool, False,
+                           doc="with continue_tail: a disoccluded pixel whose nearest kept neighbour's patch would "
+                               "continue onto a rare look continues the next neighbour's (fill_radius) whose lands "
+                               "on a typical pixel of its label, and is resynthesized only when none does (no new "
+                               "patch where a neighbour's fits)")
     min_patch_area = Param(int, 16, min=0,
                            doc="patches smaller than this (pixels) continue the neighbouring patch they touch most "
                                "(flagged re-anchored); 0 keeps every fragment")
@@ -256,6 +261,12 @@ class Carry(SameSurface):
                            "solve_margin) act only on labels whose mean gradient (display luma) in the previous "
                            "frame exceeds the first frame's by this ratio (meta temporal.gradient / rising), so a "
                            "label whose texture has not crept is not flattened by repeated solves; 0: everywhere")
+    gate_hold = Param(float, 0.0, min=0.0,
+                      doc="> 0 (with creep_gate): a label gated in the previous frame (its rising labels and those "
+                          "Resynthesize's gate_result added) stays gated while its gradient ratio in the previous "
+                          "frame stays above this (a hysteresis: the remedies are not dropped for one frame to be "
+                          "found needed again after the solve, and that frame's plain solve is not wasted); 0: the "
+                          "gate decided anew each frame")
     anchor = Param(bool, True,
                    doc="a pixel on a seam between first-frame patches takes the patch the first frame has at its "
                        "position (the seam rounded once, from the first frame), not the nearest previous pixel's "

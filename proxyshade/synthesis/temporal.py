@@ -252,7 +252,8 @@ def carry(cd: Plate, prev: Plate | None, first: Plate | None, source: Plate, p, 
         # in place: it writes only the unkept pixels and reads only kept ones (gather_prev's fresh arrays)
         sx, sy, patch, res, ext, filled = kr.fill_from_neighbours_into(
             need=~valid, have=valid, lab=lab, sx=sx, sy=sy, patch=patch, res=res, dist=ext,
-            radius=p.fill_radius, scale=scale, osx=sx, osy=sy, opatch=patch, ores=res, odist=ext)
+            radius=p.fill_radius, scale=scale, osx=sx, osy=sy, opatch=patch, ores=res, odist=ext,
+            src_lab=cont_lab if p.continue_tail > 0 and p.continue_other else NO_LABELS)
         # a patch continued frame after frame would extrude its borders into streaks:
         # past extend_frames the continued band is flood-filled afresh instead (ext counted up in place)
         filled, have = kt.continue_filled(filled, valid, ext, cont_lab, sx, sy, lab, float(p.extend_frames))
@@ -267,6 +268,9 @@ def carry(cd: Plate, prev: Plate | None, first: Plate | None, source: Plate, p, 
     # resynthesized, however few there are (stray); disoccluded; newly occluded
     ratios = gradient_ratios(prev, first, memo) if p.creep_gate > 0 and first is not None else None
     rising = None if ratios is None else sorted(k for k, r in ratios.items() if r > p.creep_gate)
+    if rising is not None and p.gate_hold > 0:  # gated in the previous frame, not yet back under the hold level
+        held = gated_labels(prev.meta)
+        rising = sorted(set(rising) | {k for k in held if ratios.get(k, 0.0) > p.gate_hold})
     if p.solve_continued and filled is not None:
         if rising is not None:  # only where the label's gradient rose
             filled = filled & np.isin(lab, np.asarray(rising, np.uint32))
@@ -318,6 +322,7 @@ def carry(cd: Plate, prev: Plate | None, first: Plate | None, source: Plate, p, 
     return Plate(ch, meta)
 
 
+NO_LABELS = np.zeros((0, 0), np.uint32)  # kr.fill_from_neighbours_into: any neighbour of the label
 RARE = np.uint32(0xFFFFFFFF)  # typical_labels' id of a label's rare looks (no label has it)
 
 
@@ -371,6 +376,14 @@ def label_ratios(rgb: np.ndarray, label: np.ndarray, first: dict[int, float]) ->
     the frame's mean display-luma gradient over the first frame's."""
     sn, cn = gradient_sums(rgb, label)
     return {k: float((sn[k] / cn[k]) / g) for k, g in first.items() if k < len(sn) and cn[k] >= 64}
+
+
+def gated_labels(meta: dict) -> set[int]:
+    """The labels a final frame's metadata shows gated (``creep_gate``): its Reproject's
+    ``temporal.rising`` and its Resynthesize's ``resynthesis.gated_after`` (``gate_result``)."""
+    t = meta.get("temporal") if isinstance(meta.get("temporal"), dict) else {}
+    r = meta.get("resynthesis") if isinstance(meta.get("resynthesis"), dict) else {}
+    return {int(k) for k in (t.get("rising") or ())} | {int(k) for k in (r.get("gated_after") or ())}
 
 
 def rising_after(rgb: np.ndarray, label: np.ndarray, temporal: dict) -> list[int]:
