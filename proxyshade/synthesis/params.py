@@ -261,12 +261,6 @@ class Carry(SameSurface):
                            "solve_margin) act only on labels whose mean gradient (display luma) in the previous "
                            "frame exceeds the first frame's by this ratio (meta temporal.gradient / rising), so a "
                            "label whose texture has not crept is not flattened by repeated solves; 0: everywhere")
-    gate_hold = Param(float, 0.0, min=0.0,
-                      doc="> 0 (with creep_gate): a label gated in the previous frame (its rising labels and those "
-                          "Resynthesize's gate_result added) stays gated while its gradient ratio in the previous "
-                          "frame stays above this (a hysteresis: the remedies are not dropped for one frame to be "
-                          "found needed again after the solve, and that frame's plain solve is not wasted); 0: the "
-                          "gate decided anew each frame")
     anchor = Param(bool, True,
                    doc="a pixel on a seam between first-frame patches takes the patch the first frame has at its "
                        "position (the seam rounded once, from the first frame), not the nearest previous pixel's "

@@ -268,9 +268,6 @@ def carry(cd: Plate, prev: Plate | None, first: Plate | None, source: Plate, p, 
     # resynthesized, however few there are (stray); disoccluded; newly occluded
     ratios = gradient_ratios(prev, first, memo) if p.creep_gate > 0 and first is not None else None
     rising = None if ratios is None else sorted(k for k, r in ratios.items() if r > p.creep_gate)
-    if rising is not None and p.gate_hold > 0:  # gated in the previous frame, not yet back under the hold level
-        held = gated_labels(prev.meta)
-        rising = sorted(set(rising) | {k for k in held if ratios.get(k, 0.0) > p.gate_hold})
     if p.solve_continued and filled is not None:
         if rising is not None:  # only where the label's gradient rose
             filled = filled & np.isin(lab, np.asarray(rising, np.uint32))
@@ -376,14 +373,6 @@ def label_ratios(rgb: np.ndarray, label: np.ndarray, first: dict[int, float]) ->
     the frame's mean display-luma gradient over the first frame's."""
     sn, cn = gradient_sums(rgb, label)
     return {k: float((sn[k] / cn[k]) / g) for k, g in first.items() if k < len(sn) and cn[k] >= 64}
-
-
-def gated_labels(meta: dict) -> set[int]:
-    """The labels a final frame's metadata shows gated (``creep_gate``): its Reproject's
-    ``temporal.rising`` and its Resynthesize's ``resynthesis.gated_after`` (``gate_result``)."""
-    t = meta.get("temporal") if isinstance(meta.get("temporal"), dict) else {}
-    r = meta.get("resynthesis") if isinstance(meta.get("resynthesis"), dict) else {}
-    return {int(k) for k in (t.get("rising") or ())} | {int(k) for k in (r.get("gated_after") or ())}
 
 
 def rising_after(rgb: np.ndarray, label: np.ndarray, temporal: dict) -> list[int]:

@@ -154,22 +154,6 @@ def test_creep_gate_continues_into_the_solve_only_where_the_gradient_rose():
     assert (ungated["flag"] == FLAG["reanchored"]).sum() > (off["flag"] == FLAG["reanchored"]).sum() + 40
     np.testing.assert_array_equal(rose["flag"], ungated["flag"])
     np.testing.assert_array_equal(fell["flag"], off["flag"])
-    # gate_hold: a label the previous frame gated (Reproject's rising or Resynthesize's gate_result)
-    # stays gated while its ratio stays above the hold level, though under the gate
-    ratio = rose.meta["temporal"]["gradient"]["1"]
-    for meta in ({"temporal": {"rising": [1]}}, {"resynthesis": {"gated_after": [1]}}):
-        gated = prev.with_channels(meta=dict(prev.meta, **meta))
-
-        def held(hold, before=gated):
-            return run_node("Reproject", dict(params, solve_continued=True, creep_gate=ratio + 0.5, gate_hold=hold),
-                            {"depth": cd, "prev": before, "first": flat, "source": toy_source()}, frame=2)
-
-        kept = held(ratio - 0.1)
-        assert kept.meta["temporal"]["rising"] == [1]
-        np.testing.assert_array_equal(kept["flag"], ungated["flag"])
-        assert held(ratio + 0.1).meta["temporal"]["rising"] == []  # back under the hold level: released
-        assert held(0.0).meta["temporal"]["rising"] == []  # no hold: the gate alone
-        assert held(ratio - 0.1, prev).meta["temporal"]["rising"] == []  # not gated before
 
 
 def deviation(plate: Plate, mask: np.ndarray) -> np.ndarray:
