@@ -146,7 +146,9 @@ def run_memo(node_type: str, params: dict, inputs: dict, frame: int, memo) -> "o
     """``run_node`` with the run's memo (``graph.memo``) as the engine hands it to a node
     (``ctx.memo``): what every frame would compute again from the same data (the source's
     similarity sets, its graded colours, the first frame's grid) is kept across the frames of
-    a shot, as in ``proxyshade run``; ``memo`` None: ``run_node`` (nothing kept)."""
+    a shot, as in ``proxyshade run``; ``memo`` None: ``run_node`` (nothing kept). As the
+    engine binds each input plate to its cache key, each input plate is bound to a key of
+    its own (``plate_key``), so the memo names it without hashing its pixels every frame."""
     if memo is None:
         return run_node(node_type, params, inputs, frame=frame)
     from proxyshade.graph.memo import RunMemo
@@ -158,8 +160,25 @@ def run_memo(node_type: str, params: dict, inputs: dict, frame: int, memo) -> "o
     ins.update(inputs)
     ctx = Context(node, frame, 1, ins, node.params, ROOT, 0, [])
     ctx.memo = RunMemo(memo)
+    for plate in inputs.values():
+        if plate is not None:
+            ctx.memo.bind(plate, plate_key(memo, plate))
     node.check_inputs(ins)
     return node.compute(ctx)
+def plate_key(memo, plate) -> str:
+    """A key of ``plate``'s own for ``memo`` (the engine's cache key stands there): a serial
+    number per plate object, which the bench never writes to after making it."""
+    import itertools
+    import weakref
+
+    keys = memo.__dict__.setdefault("_bench_keys", {})  # id -> (weak reference, key)
+    serial = memo.__dict__.setdefault("_bench_serial", itertools.count())
+    got = keys.get(id(plate))
+    if got is None or got[0]() is not plate:  # a new plate (or a freed one's id)
+        got = keys[id(plate)] = (weakref.ref(plate), f"bench:{next(serial)}")
+    return got[1]
+
+
 NODES = {"init": "PatchInit", "correct": "Correct", "magnify": "Magnify", "first": "Poisson",
          "reproject": "Reproject", "final": "Resynthesize"}
 

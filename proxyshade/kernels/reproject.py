@@ -32,7 +32,7 @@ from numba import njit, prange
 
 from proxyshade.kernels._config import JIT, PJIT
 from proxyshade.kernels.raster import bin_rows_parallel
-from proxyshade.kernels.temporal import jacobian_det
+from proxyshade.kernels.temporal import _on_label, jacobian_det
 
 
 # Records the carry's kernels take (issue 40: no long positional lists). The kernels receive
@@ -676,23 +676,28 @@ def surface_jacobian_det(u, v, w, lab, valid, tol):
 
 
 @njit(**JIT)  # the loop is fill_from_neighbours_into's (parallel)
-def fill_from_neighbours(need, have, lab, sx, sy, patch, res, dist, radius, scale):
+def fill_from_neighbours(need, have, lab, sx, sy, patch, res, dist, radius, scale, src_lab):
     """Give pixels in ``need`` the state of the nearest pixel in ``have`` with their label
     (square rings up to ``radius``, first found in scan order of the ring), continuing its
-    patch translation (source coordinates moved by the offset × ``scale``). Reads only
-    ``have`` pixels, so the result does not depend on the order. Returns new arrays and
-    the mask of pixels filled."""
+    patch translation (source coordinates moved by the offset × ``scale``). With a
+    non-empty ``src_lab`` (the source's labels, uint32) only a neighbour whose continued
+    position lands on a source pixel of the pixel's label (``temporal._on_label``) is
+    taken: the next one in that order when the nearest's does not. Reads only ``have``
+    pixels, so the result does not depend on the order. Returns new arrays and the mask
+    of pixels filled."""
     return fill_from_neighbours_into(need, have, lab, sx, sy, patch, res, dist, radius, scale,
                                      osx=sx.copy(), osy=sy.copy(), opatch=patch.copy(), ores=res.copy(),
-                                     odist=dist.copy())
+                                     odist=dist.copy(), src_lab=src_lab)
 
 
 @njit(**PJIT)
-def fill_from_neighbours_into(need, have, lab, sx, sy, patch, res, dist, radius, scale, osx, osy, opatch, ores, odist):
+def fill_from_neighbours_into(need, have, lab, sx, sy, patch, res, dist, radius, scale, osx, osy, opatch, ores, odist,
+                              src_lab):
     """``fill_from_neighbours`` writing into ``osx`` … ``odist`` (copies of the inputs, or
     the inputs themselves when ``need`` and ``have`` are disjoint: it writes only ``need``
     pixels and reads only ``have`` ones). Returns them and the mask of pixels filled."""
     h, wd = need.shape
+    check = src_lab.size > 0
     filled = np.zeros((h, wd), np.bool_)
     for i0 in prange(h):
         i = np.int64(i0)
@@ -708,8 +713,12 @@ def fill_from_neighbours_into(need, have, lab, sx, sy, patch, res, dist, radius,
                     for b in range(j - r, j + r + 1, step):
                         if b < 0 or b >= wd or not have[a, b] or lab[a, b] != lab[i, j]:
                             continue
-                        osx[i, j] = sx[a, b] + (j - b) * scale
-                        osy[i, j] = sy[a, b] + (i - a) * scale
+                        x = sx[a, b] + (j - b) * scale
+                        y = sy[a, b] + (i - a) * scale
+                        if check and not _on_label(src_lab, np.float32(x), np.float32(y), lab[i, j]):
+                            continue
+                        osx[i, j] = x
+                        osy[i, j] = y
                         opatch[i, j] = patch[a, b]
                         ores[i, j, 0] = res[a, b, 0]
                         ores[i, j, 1] = res[a, b, 1]

@@ -254,6 +254,11 @@ class Carry(SameSurface):
                               "its label's lowest or highest this share of luminance (the label's rare looks: "
                               "clumps, ghosts), nor does a re-anchored copy or an absorbed fragment keep one: they "
                               "are resynthesized instead (synthesis.temporal.typical_labels)")
+    continue_other = Param(bool, False,
+                           doc="with continue_tail: a disoccluded pixel whose nearest kept neighbour's patch would "
+                               "continue onto a rare look continues the next neighbour's (fill_radius) whose lands "
+                               "on a typical pixel of its label, and is resynthesized only when none does (no new "
+                               "patch where a neighbour's fits)")
     min_patch_area = Param(int, 16, min=0,
                            doc="patches smaller than this (pixels) continue the neighbouring patch they touch most "
                                "(flagged re-anchored); 0 keeps every fragment")

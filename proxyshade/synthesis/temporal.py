@@ -252,7 +252,8 @@ def carry(cd: Plate, prev: Plate | None, first: Plate | None, source: Plate, p, 
         # in place: it writes only the unkept pixels and reads only kept ones (gather_prev's fresh arrays)
         sx, sy, patch, res, ext, filled = kr.fill_from_neighbours_into(
             need=~valid, have=valid, lab=lab, sx=sx, sy=sy, patch=patch, res=res, dist=ext,
-            radius=p.fill_radius, scale=scale, osx=sx, osy=sy, opatch=patch, ores=res, odist=ext)
+            radius=p.fill_radius, scale=scale, osx=sx, osy=sy, opatch=patch, ores=res, odist=ext,
+            src_lab=cont_lab if p.continue_tail > 0 and p.continue_other else NO_LABELS)
         # a patch continued frame after frame would extrude its borders into streaks:
         # past extend_frames the continued band is flood-filled afresh instead (ext counted up in place)
         filled, have = kt.continue_filled(filled, valid, ext, cont_lab, sx, sy, lab, float(p.extend_frames))
@@ -318,6 +319,7 @@ def carry(cd: Plate, prev: Plate | None, first: Plate | None, source: Plate, p, 
     return Plate(ch, meta)
 
 
+NO_LABELS = np.zeros((0, 0), np.uint32)  # kr.fill_from_neighbours_into: any neighbour of the label
 RARE = np.uint32(0xFFFFFFFF)  # typical_labels' id of a label's rare looks (no label has it)
 
 

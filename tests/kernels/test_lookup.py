@@ -108,10 +108,12 @@ def test_lanczos_keeps_detail_that_bilinear_blurs():
     assert half < 0.8 * g0 and sharp > half * 1.15
 
 
+@pytest.mark.parametrize("many", [True, False])
 @pytest.mark.parametrize("filt", ["lanczos3", "lanczos4", "flat4"])
-def test_many_colour_reads_take_the_padded_kernel_bit_identically(filt):
-    """A read of at least as many positions as the image has pixels goes through the
-    padded float64 copy (``_lanczos_rgb``): the same bits as the per-tap kernel, inside,
+def test_colour_reads_take_the_unrolled_kernel_bit_identically(filt, many):
+    """A colour read goes through ``_lanczos_rgb`` (from a padded float64 copy when there
+    are at least as many positions as the image has pixels, else from the image, flat4's
+    clamp as it reads): the same bits as the per-tap kernel then ``_clamp_taps``, inside,
     at the borders and at integer positions."""
     from proxyshade.kernels.lookup import _LANCZOS, CLAMPED, _clamp_taps, _lanczos
 
@@ -121,16 +123,21 @@ def test_many_colour_reads_take_the_padded_kernel_bit_identically(filt):
     sy = (rng.random((40, 30)) * 30 - 4).astype(np.float32)
     sx[::7] = np.round(sx[::7])
     sy[::7] = np.round(sy[::7])
-    assert sx.size >= img.shape[0] * img.shape[1]
+    if not many:
+        sx, sy = sx[:15], sy[:15]
+    assert (sx.size >= img.shape[0] * img.shape[1]) == many
     want = np.empty(sx.shape + (3,), np.float32)
     _lanczos(img, sx, sy, _LANCZOS[filt], want)
     if filt in CLAMPED:
         _clamp_taps(img, sx, sy, np.zeros((0, 0), np.bool_), want)
     got = lookup(img, sx, sy, filter=filt)
     assert np.array_equal(got.view(np.uint32), want.view(np.uint32))
+    m = rng.random(sx.shape) < 0.5  # flat4's clamp as it reads, on the read pixels only
+    masked = lookup(img, sx, sy, filter=filt, mask=m)
+    assert np.array_equal(masked.view(np.uint32), np.where(m[..., None], want, np.float32(0)).view(np.uint32))
     if filt == "flat4":
         return  # its weights against their reference: test_flat4_matches_the_least_squares_delay...
-    for i in range(0, 40, 9):
+    for i in range(0, sx.shape[0], 9):
         for j in range(0, 30, 7):
             a = 3 if filt == "lanczos3" else 4
             np.testing.assert_allclose(got[i, j], _lanczos_reference(img, float(sx[i, j]), float(sy[i, j]), a),

@@ -7,6 +7,8 @@ from proxyshade.kernels import reproject as K
 from proxyshade.kernels.lookup import lookup
 
 
+NO_CHECK = np.zeros((0, 0), np.uint32)  # fill_from_neighbours without the source-label check
+
 def cam(width=24, height=20, f=30.0, pos=(0.0, 0.0, 0.0), yaw=0.0, pitch=0.0, cx=None, cy=None):
     c, s = np.cos(yaw), np.sin(yaw)
     Ry = np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]])
@@ -362,14 +364,64 @@ def test_fill_from_neighbours_continues_the_patch():
     patch = np.arange(h * w, dtype=np.uint32).reshape(h, w)
     res = np.zeros((h, w, 3), np.float32)
     d = np.zeros((h, w), np.float32)
-    osx, osy, op, _, _, filled = K.fill_from_neighbours(need, have, lab, sx, sy, patch, res, d, 2, 2.0)
+    osx, osy, op, _, _, filled = K.fill_from_neighbours(need, have, lab, sx, sy, patch, res, d, 2, 2.0, NO_CHECK)
     assert filled[3, 4] and filled.sum() == 1
     assert (osx[3, 4], osy[3, 4]) == (sx[3, 4], sy[3, 4])  # a translation continued exactly
     assert op[3, 4] == patch[2, 3]
     lab[:, :] = 2
     lab[3, 4] = 1  # no neighbour of its label: not filled
-    *_, filled = K.fill_from_neighbours(need, have, lab, sx, sy, patch, res, d, 2, 2.0)
+    *_, filled = K.fill_from_neighbours(need, have, lab, sx, sy, patch, res, d, 2, 2.0, NO_CHECK)
     assert not filled.any()
+
+
+def _fill_reference(need, have, lab, sx, sy, radius, scale, src_lab):
+    """Plain Python: the first pixel of ``have`` with the label, ring by ring in scan order,
+    whose continued position lies in the source on that label; (sx, sy, from) or None."""
+    h, w = need.shape
+    out = {}
+    for i, j in zip(*np.nonzero(need)):
+        for r in range(1, radius + 1):
+            ring = [(a, b) for a in range(i - r, i + r + 1) for b in range(j - r, j + r + 1)
+                    if max(abs(a - i), abs(b - j)) == r and 0 <= a < h and 0 <= b < w]
+            hit = None
+            for a, b in ring:
+                if not have[a, b] or lab[a, b] != lab[i, j]:
+                    continue
+                x, y = np.float32(sx[a, b] + (j - b) * scale), np.float32(sy[a, b] + (i - a) * scale)
+                xi, yi = int(np.floor(x + 0.5)), int(np.floor(y + 0.5))
+                if 0 <= x <= src_lab.shape[1] - 1 and 0 <= y <= src_lab.shape[0] - 1 and src_lab[yi, xi] == lab[i, j]:
+                    hit = (x, y, (a, b))
+                    break
+            if hit:
+                out[(i, j)] = hit
+                break
+    return out
+
+
+def test_fill_from_neighbours_with_source_labels_takes_the_next_neighbour_landing_on_the_label():
+    """With the source's labels, a neighbour whose continued position lands on a source pixel
+    of another label (or outside the source) is passed over for the next one in ring order
+    whose lands on the pixel's label; none: not filled. Against a plain-Python search."""
+    rng = np.random.default_rng(5)
+    h, w = 24, 20
+    lab = rng.integers(1, 3, (h, w)).astype(np.uint32)
+    need = rng.random((h, w)) < 0.3
+    have = ~need & (rng.random((h, w)) < 0.8)
+    sx = (rng.random((h, w)) * 40 - 2).astype(np.float32)
+    sy = (rng.random((h, w)) * 30 - 2).astype(np.float32)
+    patch = np.arange(h * w, dtype=np.uint32).reshape(h, w)
+    res = rng.random((h, w, 3)).astype(np.float32)
+    d = rng.random((h, w)).astype(np.float32)
+    src_lab = rng.integers(1, 4, (30, 40)).astype(np.uint32)
+    osx, osy, op, ores, od, filled = K.fill_from_neighbours(need, have, lab, sx, sy, patch, res, d, 3, 1.5, src_lab)
+    want = _fill_reference(need, have, lab, sx, sy, 3, 1.5, src_lab)
+    assert 20 < len(want) < need.sum()  # some pixels pass their nearest neighbour over, some find none
+    assert set(zip(*np.nonzero(filled))) == set(want)
+    for (i, j), (x, y, (a, b)) in want.items():
+        assert (osx[i, j], osy[i, j], op[i, j], od[i, j]) == (x, y, patch[a, b], d[a, b])
+        np.testing.assert_array_equal(ores[i, j], res[a, b])
+    plain = K.fill_from_neighbours(need, have, lab, sx, sy, patch, res, d, 3, 1.5, NO_CHECK)
+    assert plain[-1].sum() > filled.sum()  # without the check the nearest is taken wherever it lands
 
 
 def test_unproject_inverts_transfer_geometry():

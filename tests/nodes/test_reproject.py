@@ -110,6 +110,11 @@ def test_continue_tail_stops_continuation_on_the_labels_rare_looks():
     assert (b["flag"] == a["flag"])[~near].all()
     for c in ("source.x", "source.y", "patch.id"):
         np.testing.assert_array_equal(b[c][cont_b], a[c][cont_b])
+    # continue_other: another neighbour's patch may be continued there, never onto a rare look (one
+    # patch here: every neighbour continues to the same position; the choice: tests/kernels/test_reproject)
+    o = step(r1, r0, prev, continue_tail=0.25, continue_other=True, **params)
+    cont_o = (o["extension"] > 0) & (o["flag"] == 0)
+    assert not rare(o, cont_o).any() and not (cont_b & ~cont_o).any()
 
 
 def test_creep_gate_continues_into_the_solve_only_where_the_gradient_rose():
