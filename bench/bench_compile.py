@@ -2,9 +2,8 @@
 cold numba cache (``NUMBA_CACHE_DIR`` at a fresh temporary folder) and a cold graph cache,
 in a fresh process, as ``proxyshade run`` does it: ``manifest``, the kernel signatures of
 the manifest (proxyshade/graph/kernel_manifest.py) compiled first on one process per core
-(the run's and spawned workers: ``warmup.precompile``) beside the run, which loads what the
-workers compiled from numba's cache, as ``proxyshade run`` does (``warmup.Background``);
-``manifest-first``: all of them compiled before the run starts; ``lazy``,
+(the run's and spawned workers: ``warmup.precompile``), then the run, which loads what the
+workers compiled from numba's cache; ``lazy``,
 without the manifest: each kernel compiles in the run's process when first called (the
 way before the manifest). Prints, to the end of the first frame: the process wall time,
 the CPU seconds of the process (from its start) and of its workers (the work: less
@@ -16,8 +15,7 @@ a kernel loaded from the cache holds the kernels it calls inside it, so fewer sh
 many compiles it ran itself (numba's compile events, numba's own helpers included) and
 the kernels whose compiles took longest there; then a forced re-run of the frame in that
 process (the kernels' run time: the same whether compiled there or loaded).
-``--mode lazy|manifest|manifest-first|both`` (default both: lazy and manifest; several
-comma-separated), ``--repeat N`` (default 1: a lazy run
+``--mode lazy|manifest|both`` (default both), ``--repeat N`` (default 1: a lazy run
 compiles for over a minute on 2 cores). ``--mode entries``: each manifest entry the first
 frame's precompile compiles, one after another in one fresh process with a cold numba
 cache (the work of one precompile worker that took them all): CPU seconds per entry
@@ -72,12 +70,9 @@ def cpu(who=resource.RUSAGE_SELF):
 c0 = cpu()
 t0 = time.perf_counter()
 g = Graph.load(sys.argv[1], cache=sys.argv[2], variables={"scene": "lake", "source": "renoir", "out": sys.argv[3]})
-mode = sys.argv[4]
-pre = warmup.precompile(warmup.manifest_modules(g), overlap=mode == "manifest") if mode != "lazy" else None
+pre = warmup.precompile(warmup.manifest_modules(g)) if sys.argv[4] == "manifest" else None
 t1, c1 = time.perf_counter(), cpu()
 g.run([1])
-bg = warmup.finish_background()  # the precompile beside the run: its figures
-pre = dict(bg, background=True) if bg else pre
 c2, t_done = cpu(), time.perf_counter()
 cw = cpu(resource.RUSAGE_CHILDREN)
 wall = time.perf_counter() - t0
@@ -95,7 +90,7 @@ for f in sorted(pathlib.Path(sys.argv[3]).rglob("*.exr")):
 print(json.dumps({"wall": wall, "run": t_done - t1, "sigs": sigs, "spent": rec.spent,
                   "events": n_events, "cpu_split": [c0, c1 - c0, c2 - c1, cw],
                   "after": time.perf_counter() - t_done, "rerun": min(reruns), "exr": h.hexdigest()[:16],
-                  "pre": pre and {k: pre.get(k) for k in ("compiled", "seconds", "workers", "background")}}))
+                  "pre": pre and {k: pre[k] for k in ("compiled", "seconds", "workers")}}))
 """
 
 
@@ -163,8 +158,7 @@ def main(repeat: int = 1, modes=("lazy", "manifest")):
                 ("Graph.load + precompile + run", {"median": statistics.median(graph), "min": min(graph)}, None)]
         if last["pre"]:
             pre = [r["pre"]["seconds"] for r in runs]
-            beside = ", beside the run" if last["pre"]["background"] else ""
-            rows.append((f"precompile ({last['pre']['compiled']} signatures, {last['pre']['workers']} workers{beside})",
+            rows.append((f"precompile ({last['pre']['compiled']} signatures, {last['pre']['workers']} workers)",
                          {"median": statistics.median(pre), "min": min(pre)}, None))
         rows.append(("run", {"median": statistics.median([r["run"] for r in runs]), "min": min(r["run"] for r in runs)}, None))
         rows.append(("forced re-run in that process (best of 2)", {"median": statistics.median([r["rerun"] for r in runs]),
@@ -190,4 +184,4 @@ if __name__ == "__main__":
     if mode == "entries":
         sys.exit(main_entries())
     main(int(sys.argv[sys.argv.index("--repeat") + 1]) if "--repeat" in sys.argv else 1,
-         ("lazy", "manifest") if mode == "both" else tuple(mode.split(",")))
+         ("lazy", "manifest") if mode == "both" else (mode,))

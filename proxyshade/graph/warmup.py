@@ -186,8 +186,7 @@ class Prefetch:
             u = _unit_of(graph, name, every)
             if u not in units:
                 units.append(u)
-        bg = _BACKGROUND
-        if not found or not units or not (bg is not None or _cache.kernels_cached(units)):
+        if not found or not units or not _cache.kernels_cached(units):
             return
         rank = {u: i for i, u in enumerate(units)}
         entries = []
@@ -195,10 +194,10 @@ class Prefetch:
             mine = [rank[u] for u in _units(kernel, text, found, held) if u in rank]
             if mine:
                 entries.append((min(mine), kernel, text))
-        self.jobs, self.background = [], bg
+        self.jobs = []
         for _, kernel, text in sorted(entries):
             try:
-                self.jobs.append((_dispatcher(kernel), parse_types(text), (kernel, text)))
+                self.jobs.append((_dispatcher(kernel), parse_types(text)))
             except Exception:  # noqa: BLE001 - a stale entry: left to the call
                 continue
         if self.jobs:
@@ -206,29 +205,19 @@ class Prefetch:
             self.thread.start()
 
     def _load(self) -> None:
-        bg = self.background
-        for disp, sig, job in self.jobs:
+        for disp, sig in self.jobs:
             if self._stop.is_set():
                 return
-            mine = bg is not None and bg.take(job)  # still queued: compiled here (else loaded)
-            t0 = time.perf_counter()
             try:
                 disp.compile(sig)
-            except Exception as e:  # noqa: BLE001 - the call compiles it, or says what is wrong
-                if mine:
-                    bg.finished((*job, time.perf_counter() - t0, f"{type(e).__name__}: {e}"))
+            except Exception:  # noqa: BLE001 - the call compiles it, or says what is wrong
                 continue
-            if mine:
-                bg.finished((*job, time.perf_counter() - t0, None))
 
     def stop(self) -> None:
-        """Stop after the load under way and wait for it (before the run returns); then
-        end a background precompile (``Background.finish``)."""
+        """Stop after the load under way and wait for it (before the run returns)."""
         self._stop.set()
         if self.thread is not None:
             self.thread.join()
-        if getattr(self, "background", None) is not None:
-            self.background.finish()
 
 
 def _units(kernel: str, text: str, found: dict, held: dict | None = None) -> list[str]:
@@ -371,145 +360,21 @@ def mark_precompiled(modules=None) -> None:
     _cache.mark_precompiled(modules)
 
 
-_BACKGROUND = None  # the precompile under way beside the run (``precompile(overlap=True)``)
-LAST_BACKGROUND: dict | None = None  # the last one's report, once finished
-
-
-class Background:
-    """A precompile beside the run (``precompile(overlap=True)``): the pending manifest
-    entries in run order (the manifest's: it is recorded from the first frame's run); the
-    spawned workers take them from the end (the kernels the run needs last), the run's
-    process from the start, as its ``Prefetch`` reaches them: the first nodes run while
-    the workers still compile what the later ones call, and no entry is compiled twice. A
-    node calling a kernel before the prefetch has it compiles or loads it itself (numba's
-    compile lock: the same machine code). ``finish`` at the run's end drops the entries no
-    one took (nodes not computed: compiled when first called), waits for the workers and
-    marks ``modules`` precompiled when every entry was compiled."""
-
-    def __init__(self, todo, modules, workers: int, progress=None):
-        import collections
-        import multiprocessing
-        import threading
-        from concurrent.futures import ProcessPoolExecutor
-
-        self.t0, self.modules, self.progress = time.perf_counter(), modules, progress
-        self.queue = collections.deque(todo)
-        self.total, self.running, self.failed, self.n_done = len(todo), set(), [], 0
-        self.cond = threading.Condition()
-        _lock_cache_writes()  # this process writes to the cache too
-        ctx = multiprocessing.get_context("spawn")  # a fresh interpreter: no forked numba/OpenMP state
-        self.pool = ProcessPoolExecutor(workers - 1, mp_context=ctx, initializer=_lock_cache_writes)
-        self.broken = False
-        for _ in range(workers - 1):
-            self._feed()
-
-    def _feed(self, fut=None, job=None) -> None:
-        """A worker's next entry (from the end of the queue) when its last is done."""
-        with self.cond:
-            if fut is not None:
-                self.running.discard(job)
-                try:
-                    self.finished(fut.result(), locked=True)
-                except Exception:  # noqa: BLE001 - a broken worker: the run's process takes its entry
-                    self.queue.append(job)
-                    self.broken = True
-                self.cond.notify_all()
-            if self.broken or not self.queue:
-                return
-            job = self.queue.pop()
-            self.running.add(job)
-        try:
-            self.pool.submit(_compile_job, *job).add_done_callback(lambda f, job=job: self._feed(f, job))
-        except Exception:  # noqa: BLE001 - no worker: the run's process takes it
-            with self.cond:
-                self.running.discard(job)
-                self.queue.append(job)
-                self.broken = True
-                self.cond.notify_all()
-
-    def take(self, job) -> bool:
-        """For the run's process: True when it is to compile ``job`` itself (still queued:
-        taken off the queue); False when a worker compiled it (waits while one does) or it
-        was never pending."""
-        with self.cond:
-            while job in self.running:
-                self.cond.wait()
-            try:
-                self.queue.remove(job)
-            except ValueError:
-                return False
-            return True
-
-    def finished(self, r, locked: bool = False) -> None:
-        """An entry compiled (``_compile_job``'s result: kernel, types, seconds, error)."""
-        if not locked:
-            with self.cond:
-                return self.finished(r, locked=True)
-        self.n_done += 1
-        if r[3]:
-            self.failed.append(r)
-        if self.progress:
-            self.progress(self.n_done, self.total, r[0])
-
-    def finish(self) -> dict:
-        """At the run's end: the entries no one took dropped (the pool's queue holds none:
-        one entry a worker at a time), the workers' last waited for and stopped, the
-        modules marked precompiled when every entry was compiled. Returns the report."""
-        global _BACKGROUND, LAST_BACKGROUND
-        with self.cond:
-            dropped = len(self.queue)
-            self.queue.clear()
-            while self.running:
-                self.cond.wait()
-        self.pool.shutdown(wait=True)
-        if _BACKGROUND is self:
-            _BACKGROUND = None
-        if not dropped:
-            mark_precompiled(self.modules)
-        LAST_BACKGROUND = {"compiled": self.n_done - len(self.failed), "failed": self.failed, "dropped": dropped,
-                           "seconds": time.perf_counter() - self.t0, "workers": self.pool._max_workers + 1}
-        return LAST_BACKGROUND
-
-
-def finish_background() -> dict | None:
-    """End the background precompile still under way, if any (``Background.finish``: its
-    run computed no node, or none of its nodes' kernels); the report of the last one
-    finished since the previous call, None when there was none."""
-    global LAST_BACKGROUND
-    if _BACKGROUND is not None:
-        _BACKGROUND.finish()
-    r, LAST_BACKGROUND = LAST_BACKGROUND, None
-    return r
-
-
-def precompile(modules=None, progress=None, workers=None, overlap: bool = False) -> dict:
+def precompile(modules=None, progress=None, workers=None) -> dict:
     """Compile the manifest's signatures of the modules not yet precompiled (``pending``) on
     ``workers`` processes (default: one per core): this one and ``workers - 1`` spawned
     ones, each taking the slowest signature left when it is free (a signature numba's cache
     holds already only loads). ``progress(done, total, kernel)`` is called as each
     finishes. Then marks ``modules`` precompiled (``mark_precompiled``; a failed signature
-    compiles lazily when first called). Returns {'compiled', 'failed', 'seconds', 'workers'}.
-    ``overlap``: with more than one worker, returns at once, the workers compiling beside
-    the run that follows in this process (``Background``; {'background': True, ...}): the
-    run's first nodes need few kernels, its last ones most of the compile time."""
+    compiles lazily when first called). Returns {'compiled', 'failed', 'seconds', 'workers'}."""
     import collections
     import threading
 
-    global _BACKGROUND
     t0 = time.perf_counter()
     todo = pending(modules)
     workers = min(workers or default_workers(), len(todo))
     if sys.platform == "win32":
         workers = min(workers, 1)  # the cache lock below is POSIX
-    if overlap and workers > 1 and _BACKGROUND is None:
-        order = {(k, t): i for i, (k, t, *_) in enumerate(manifest())}
-        try:
-            _BACKGROUND = Background(sorted(((k, t) for k, t, _ in todo), key=order.__getitem__), modules,
-                                     workers, progress)
-            return {"compiled": 0, "failed": [], "seconds": time.perf_counter() - t0, "workers": workers,
-                    "background": True, "signatures": len(todo)}
-        except Exception:  # noqa: BLE001 - no processes to be had here: compiled first, as below
-            _BACKGROUND = None
     queue = collections.deque((kernel, text) for kernel, text, _ in todo)
     failed, done, lock = [], [0], threading.Lock()
 

@@ -8,7 +8,6 @@ import os
 import subprocess
 import sys
 from pathlib import Path
-import pytest
 
 from proxyshade.graph import warmup
 from proxyshade.kernels import _cache
@@ -220,65 +219,3 @@ def test_the_first_frame_compiles_no_layout_or_grain_kernel(tmp_path, monkeypatc
     first = pending("first_frame.yaml", {"scene": "farm", "source": "creek", "out": str(tmp_path / "out")})
     assert {"poisson", "multigrid", "raster", "guide"} <= first and not first & {"layout", "grain"}
     assert {"layout", "grain"} <= pending("camera_move.yaml", {})
-
-
-BESIDE = r"""
-import json, sys
-from numba.core import event
-from proxyshade.graph import warmup
-import kernel_manifest
-warmup.manifest = lambda: list(kernel_manifest.ENTRIES)
-from proxyshade.kernels import _cache
-
-compiled = []
-
-class Rec(event.Listener):
-    def on_start(self, ev):
-        compiled.append([ev.data["dispatcher"].py_func.__name__, warmup.type_text(ev.data["args"])])
-    def on_end(self, ev):
-        pass
-
-event.register("numba:compile", Rec())
-mods = {"proxyshade.kernels.random"}
-r = warmup.precompile(mods, workers=2, overlap=True)
-here = []
-if sys.argv[1] == "take":  # as the run's Prefetch does: in run order, compiling what is still queued
-    for kernel, text, *_ in kernel_manifest.ENTRIES:
-        if warmup._BACKGROUND.take((kernel, text)):
-            warmup._dispatcher(kernel).compile(warmup.parse_types(text))
-            warmup._BACKGROUND.finished((kernel, text, 0.0, None))
-            here.append(kernel.rpartition(".")[2])
-rep = warmup.finish_background()
-print(json.dumps({"background": r.get("background"), "here": here, "compiled_here": compiled, "compiled": rep["compiled"],
-                  "dropped": rep["dropped"], "marked": _cache.kernels_cached(sorted(mods)), "pending": len(warmup.pending(mods))}))
-"""
-
-
-@pytest.mark.parametrize("mode", ["take", "none"])
-def test_a_precompile_beside_the_run_compiles_each_entry_once(tmp_path, mode):
-    """``precompile(overlap=True)``: a worker compiles the entries from the end of the run
-    order while this process takes them from the start; each entry is compiled once, in one
-    of the two, and the module is marked precompiled at the end. Entries no one took by the
-    end of the run are dropped (compiled when first called) and nothing is marked."""
-    entries = [("proxyshade.kernels.random._keys", "(int64, int64)"),
-               ("proxyshade.kernels.random.uniform_field", "(int64, Array(uint32, 2, 'C', False, aligned=True))"),
-               ("proxyshade.kernels.random.rand", "(int64, int64, int64, int64)")]
-    manifest = tmp_path / "m"
-    manifest.mkdir()
-    (manifest / "kernel_manifest.py").write_text(
-        "ENTRIES = [%s]\n" % ", ".join(f"({k!r}, {t!r}, 1.0, ())" for k, t in entries))
-    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "numba"),
-               PYTHONPATH=os.pathsep.join([str(manifest), str(ROOT)]))
-    r = subprocess.run([sys.executable, "-c", BESIDE, mode], env=env, capture_output=True, text=True, timeout=300)
-    assert r.returncode == 0, r.stderr
-    got = json.loads(r.stdout.strip().splitlines()[-1])
-    assert got["background"]
-    if mode == "take":
-        assert got["here"] and got["here"][0] == "_keys"  # the run's first entry: taken by this process
-        assert got["compiled"] == 3 and got["dropped"] == 0  # the worker compiled the rest
-        mine = [k.rpartition(".")[2] for k, t in entries if [k.rpartition(".")[2], t] in got["compiled_here"]]
-        assert sorted(mine) == sorted(got["here"])  # no entry the worker compiled was compiled here too
-        assert got["marked"] and got["pending"] == 0
-    else:  # finished at once: the worker's first entry done, the two queued dropped
-        assert got["dropped"] == 2 and got["compiled"] == 1 and got["here"] == []
-        assert not got["marked"] and got["pending"] == 3
