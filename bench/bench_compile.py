@@ -87,7 +87,7 @@ import hashlib, pathlib
 h = hashlib.sha256()
 for f in sorted(pathlib.Path(sys.argv[3]).rglob("*.exr")):
     h.update(f.name.encode() + f.read_bytes())
-print(json.dumps({"wall": wall, "run": time.perf_counter() - t1, "sigs": sigs, "spent": rec.spent,
+print(json.dumps({"wall": wall, "run": t_done - t1, "sigs": sigs, "spent": rec.spent,
                   "events": n_events, "cpu_split": [c0, c1 - c0, c2 - c1, cw],
                   "after": time.perf_counter() - t_done, "rerun": min(reruns), "exr": h.hexdigest()[:16],
                   "pre": pre and {k: pre[k] for k in ("compiled", "seconds", "workers")}}))

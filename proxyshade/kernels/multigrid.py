@@ -91,12 +91,13 @@ def _coarse_solve(diag, we, ws, x, b, sweeps):
     """The coarsest level of a V-cycle: from x = 0, ``sweeps`` red-black then ``sweeps``
     black-red Gauss-Seidel sweeps, in one compiled call."""
     x[...] = 0.0
+    red, black = np.int64(0), np.int64(1)  # not literals: one signature of _smooth_serial for both
     for _ in range(sweeps):
-        _smooth_serial(diag, we, ws, x, b, 0)
-        _smooth_serial(diag, we, ws, x, b, 1)
+        _smooth_serial(diag, we, ws, x, b, red)
+        _smooth_serial(diag, we, ws, x, b, black)
     for _ in range(sweeps):
-        _smooth_serial(diag, we, ws, x, b, 1)
-        _smooth_serial(diag, we, ws, x, b, 0)
+        _smooth_serial(diag, we, ws, x, b, black)
+        _smooth_serial(diag, we, ws, x, b, red)
 
 
 @njit(inline="always", **JIT)
@@ -311,14 +312,15 @@ def _vcycle_serial(diags, wes, wss, xs, bs, shapes, offsets, sweeps, coarse_swee
     ``offsets[l]`` cells, of shape ``shapes[l]``; ``xs``, ``bs`` three values a cell): the
     right-hand side of the first in ``bs``, the result in ``xs``."""
     last = shapes.shape[0] - 1
+    red, black = np.int64(0), np.int64(1)  # not literals: one signature of _smooth_serial for both
     for l in range(0, last):
         d, e, sw = _level2(diags, shapes, offsets, l), _level2(wes, shapes, offsets, l), _level2(wss, shapes, offsets, l)
         x, b = _level3(xs, shapes, offsets, l), _level3(bs, shapes, offsets, l)
-        _jacobi_start_serial(d, x, b, 0)
-        _smooth_serial(d, e, sw, x, b, 1)
+        _jacobi_start_serial(d, x, b, red)
+        _smooth_serial(d, e, sw, x, b, black)
         for _ in range(sweeps - 1):
-            _smooth_serial(d, e, sw, x, b, 0)
-            _smooth_serial(d, e, sw, x, b, 1)
+            _smooth_serial(d, e, sw, x, b, red)
+            _smooth_serial(d, e, sw, x, b, black)
         _residual_restrict_serial(d, e, sw, x, b, _level3(bs, shapes, offsets, l + 1))
     _coarse_solve(_level2(diags, shapes, offsets, last), _level2(wes, shapes, offsets, last),
                   _level2(wss, shapes, offsets, last), _level3(xs, shapes, offsets, last),
@@ -328,8 +330,8 @@ def _vcycle_serial(diags, wes, wss, xs, bs, shapes, offsets, sweeps, coarse_swee
         x, b = _level3(xs, shapes, offsets, l), _level3(bs, shapes, offsets, l)
         _prolong_add_serial(_level3(xs, shapes, offsets, l + 1), x, d, 1.0)
         for _ in range(sweeps):
-            _smooth_serial(d, e, sw, x, b, 1)
-            _smooth_serial(d, e, sw, x, b, 0)
+            _smooth_serial(d, e, sw, x, b, black)
+            _smooth_serial(d, e, sw, x, b, red)
 
 
 @njit(**PJIT)

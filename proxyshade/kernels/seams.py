@@ -82,7 +82,8 @@ def _sub_pass(S, img, target, labels, parity, stamp, tried, lines, clock, change
     the number of pixels changed per row is added."""
     H, W = target.shape
     Hs, Ws = labels.shape
-    for i in prange(H):
+    for i0 in prange(H):
+        i = np.int64(i0)  # the callees typed for int64 only (a parallel loop's index is typed uint64 too)
         if lines[2 + parity, i] > lines[0, i] and (i == 0 or lines[2 + parity, i] > lines[0, i - 1]) and (
                 i == H - 1 or lines[2 + parity, i] > lines[0, i + 1]):
             continue
