@@ -16,7 +16,7 @@ neighbours here (a label border is not a patch seam). A pixel, run or line none 
 neighbourhood changed since it was last tried is not tried again (``SeamMemory``, also
 across calls on one map): the result is that of trying everything, with less work.
 
-``S``: (H, W, 2) int32 map (row, column) into a source grid; ``img``: (Hs, Ws, C) float32
+``coords``: (H, W, 2) int32 map (row, column) into a source grid; ``img``: (Hs, Ws, C) float32
 colours of that grid; ``target``: (H, W) int32 labels the output needs; ``labels``: (Hs, Ws)
 int32 labels of the grid.
 """
@@ -47,7 +47,7 @@ def _dist2(img, ay, ax, by, bx):
 
 
 @njit(**JIT)
-def _pair_cost(S, img, target, i, j, oy, ox, k):
+def _pair_cost(coords, img, target, i, j, oy, ox, k):
     """The seam cost between pixel (i, j) read at offset (oy, ox) and its neighbour ``k``
     (``_DY``/``_DX``) read at its own offset: 0 off the image, across a label border or
     when both read at one offset."""
@@ -55,24 +55,24 @@ def _pair_cost(S, img, target, i, j, oy, ox, k):
     y, x = i + _DY[k], j + _DX[k]
     if y < 0 or x < 0 or y >= H or x >= W or target[y, x] != target[i, j]:
         return 0.0
-    qy, qx = S[y, x, 0] - y, S[y, x, 1] - x
+    qy, qx = coords[y, x, 0] - y, coords[y, x, 1] - x
     if qy == oy and qx == ox:
         return 0.0
     return _dist2(img, i + oy, j + ox, i + qy, j + qx) + _dist2(img, y + oy, x + ox, y + qy, x + qx)
 
 
 @njit(**JIT)
-def _energy(S, img, target, i, j, oy, ox):
+def _energy(coords, img, target, i, j, oy, ox):
     """Summed seam cost between pixel (i, j) read at offset (oy, ox) and its same-label
     neighbours read at their own offsets."""
     e = 0.0
     for k in range(4):
-        e += _pair_cost(S, img, target, i, j, oy, ox, k)
+        e += _pair_cost(coords, img, target, i, j, oy, ox, k)
     return e
 
 
 @njit(**PJIT)
-def _sub_pass(S, img, target, labels, parity, stamp, tried, lines, clock, changed):
+def _sub_pass(coords, img, target, labels, parity, stamp, tried, lines, clock, changed):
     """One checkerboard half: every pixel of ``parity`` takes its best offset; the number
     of pixels that changed. ``stamp``: the ``clock`` at which each pixel last changed;
     ``tried``: at which each pixel was last tried (a pixel none of whose neighbours or
@@ -89,12 +89,12 @@ def _sub_pass(S, img, target, labels, parity, stamp, tried, lines, clock, change
             continue
         lines[2 + parity, i] = clock
         for j in range((i + parity) % 2, W, 2):
-            oy, ox = S[i, j, 0] - i, S[i, j, 1] - j
+            oy, ox = coords[i, j, 0] - i, coords[i, j, 1] - j
             seam = False
             for k in range(4):
                 y, x = i + _DY[k], j + _DX[k]
                 if 0 <= y < H and 0 <= x < W and target[y, x] == target[i, j] and (
-                        S[y, x, 0] - y != oy or S[y, x, 1] - x != ox):
+                        coords[y, x, 0] - y != oy or coords[y, x, 1] - x != ox):
                     seam = True
                     break
             if not seam:
@@ -104,31 +104,31 @@ def _sub_pass(S, img, target, labels, parity, stamp, tried, lines, clock, change
                     i == H - 1 or tried[i, j] > stamp[i + 1, j]):
                 continue
             tried[i, j] = clock
-            best = _energy(S, img, target, i, j, oy, ox)
+            best = _energy(coords, img, target, i, j, oy, ox)
             by, bx = oy, ox
             for k in range(4):
                 y, x = i + _DY[k], j + _DX[k]
                 if y < 0 or x < 0 or y >= H or x >= W or target[y, x] != target[i, j]:
                     continue
-                cy, cx = S[y, x, 0] - y, S[y, x, 1] - x
+                cy, cx = coords[y, x, 0] - y, coords[y, x, 1] - x
                 if (cy == oy and cx == ox) or (cy == by and cx == bx):
                     continue
                 sy, sx = i + cy, j + cx
                 if sy < 0 or sx < 0 or sy >= Hs or sx >= Ws or labels[sy, sx] != target[i, j]:
                     continue
-                e = _energy(S, img, target, i, j, cy, cx)
+                e = _energy(coords, img, target, i, j, cy, cx)
                 if e < best:
                     best, by, bx = e, cy, cx
             if by != oy or bx != ox:
-                S[i, j, 0] = i + by
-                S[i, j, 1] = j + bx
+                coords[i, j, 0] = i + by
+                coords[i, j, 1] = j + bx
                 stamp[i, j] = clock
                 changed[i] += 1
     return changed.sum()
 
 
 @njit(**JIT)
-def _on_run(S, target, t, u, v, k, ay, ax, by, bx):
+def _on_run(coords, target, t, u, v, k, ay, ax, by, bx):
     """Whether (u, v) and its neighbour across direction ``k`` are a pixel pair of the seam
     run: both inside, of label ``t``, read at offsets (ay, ax) and (by, bx)."""
     H, W = target.shape
@@ -136,12 +136,12 @@ def _on_run(S, target, t, u, v, k, ay, ax, by, bx):
     if u < 0 or v < 0 or u >= H or v >= W or uy < 0 or vx < 0 or uy >= H or vx >= W:
         return False
     return (target[u, v] == t and target[uy, vx] == t
-            and S[u, v, 0] - u == ay and S[u, v, 1] - v == ax
-            and S[uy, vx, 0] - uy == by and S[uy, vx, 1] - vx == bx)
+            and coords[u, v, 0] - u == ay and coords[u, v, 1] - v == ax
+            and coords[uy, vx, 0] - uy == by and coords[uy, vx, 1] - vx == bx)
 
 
 @njit(**JIT)
-def _run_at(S, img, target, labels, i, j, k, rc, rv, lo_end, hi_end, stamp, tried, clock):
+def _run_at(coords, img, target, labels, i, j, k, rc, rv, lo_end, hi_end, stamp, tried, clock):
     """The run move of the seam run that starts at (i, j) across direction ``k`` (see
     ``_run_pass``), if (i, j) starts one; the number of pixels moved. Not tried again
     (``tried[i, j, k]``, the ``clock`` when it last was) where no pixel the run reads (its
@@ -151,15 +151,15 @@ def _run_at(S, img, target, labels, i, j, k, rc, rv, lo_end, hi_end, stamp, trie
     y, x = i + _DY[k], j + _DX[k]
     if y < 0 or x < 0 or y >= H or x >= W or target[y, x] != target[i, j]:
         return 0
-    ay, ax = S[i, j, 0] - i, S[i, j, 1] - j
-    by, bx = S[y, x, 0] - y, S[y, x, 1] - x
+    ay, ax = coords[i, j, 0] - i, coords[i, j, 1] - j
+    by, bx = coords[y, x, 0] - y, coords[y, x, 1] - x
     if ay == by and ax == bx:
         return 0
     ey, ex = _DX[k] * _DX[k], _DY[k] * _DY[k]  # along the seam: (0, 1) or (1, 0)
     kb = 3 - k  # the opposite direction (_DY/_DX are symmetric)
     ke = 2 if ex == 1 else 3  # direction +e
     t = target[i, j]
-    if _on_run(S, target, t, i - ey, j - ex, k, ay, ax, by, bx):  # the predecessor continues the run
+    if _on_run(coords, target, t, i - ey, j - ex, k, ay, ax, by, bx):  # the predecessor continues the run
         return 0
     ev = tried[i, j, k]
     if ev > 0:  # the run as it is now; does anything it reads carry a later stamp?
@@ -176,7 +176,7 @@ def _run_at(S, img, target, labels, i, j, k, rc, rv, lo_end, hi_end, stamp, trie
             if n < 0:
                 n = 0
                 continue
-            if not _on_run(S, target, t, u, v, k, ay, ax, by, bx):
+            if not _on_run(coords, target, t, u, v, k, ay, ax, by, bx):
                 break
             n += 1
         if not again:
@@ -185,15 +185,15 @@ def _run_at(S, img, target, labels, i, j, k, rc, rv, lo_end, hi_end, stamp, trie
     n = 0
     while True:
         u, v = i + n * ey, j + n * ex
-        if not _on_run(S, target, t, u, v, k, ay, ax, by, bx):
+        if not _on_run(coords, target, t, u, v, k, ay, ax, by, bx):
             break
         sy, sx = u + by, v + bx
         rv[n] = 0 <= sy < Hs and 0 <= sx < Ws and labels[sy, sx] == target[u, v]
-        rc[n] = (_pair_cost(S, img, target, u, v, by, bx, k) + _pair_cost(S, img, target, u, v, by, bx, kb)
-                 - _pair_cost(S, img, target, u, v, ay, ax, k) - _pair_cost(S, img, target, u, v, ay, ax, kb))
-        lo_end[n] = (_pair_cost(S, img, target, u, v, by, bx, 3 - ke)
-                     - _pair_cost(S, img, target, u, v, ay, ax, 3 - ke))
-        hi_end[n] = _pair_cost(S, img, target, u, v, by, bx, ke) - _pair_cost(S, img, target, u, v, ay, ax, ke)
+        rc[n] = (_pair_cost(coords, img, target, u, v, by, bx, k) + _pair_cost(coords, img, target, u, v, by, bx, kb)
+                 - _pair_cost(coords, img, target, u, v, ay, ax, k) - _pair_cost(coords, img, target, u, v, ay, ax, kb))
+        lo_end[n] = (_pair_cost(coords, img, target, u, v, by, bx, 3 - ke)
+                     - _pair_cost(coords, img, target, u, v, ay, ax, 3 - ke))
+        hi_end[n] = _pair_cost(coords, img, target, u, v, by, bx, ke) - _pair_cost(coords, img, target, u, v, ay, ax, ke)
         n += 1
     # the part [l, h] of least Σ_{l..h} rc + lo_end[l] + hi_end[h] (pairs along the run
     # inside the part cost 0 before and after), of valid pixels only
@@ -219,14 +219,14 @@ def _run_at(S, img, target, labels, i, j, k, rc, rv, lo_end, hi_end, stamp, trie
         return 0
     for t in range(lo, hi + 1):
         u, v = i + t * ey, j + t * ex
-        S[u, v, 0] = u + by
-        S[u, v, 1] = v + bx
+        coords[u, v, 0] = u + by
+        coords[u, v, 1] = v + bx
         stamp[u, v] = clock
     return hi - lo + 1
 
 
 @njit(**PJIT)
-def _run_pass(S, img, target, labels, vertical, parity, stamp, tried, lines, clock, moved):
+def _run_pass(coords, img, target, labels, vertical, parity, stamp, tried, lines, clock, moved):
     """Run moves on the rows (``vertical`` false: seams between a row and the rows above
     and below, runs along the row) or columns of ``parity``. A run: the pixels ``r_0 ..
     r_{n-1}`` along a seam (each the next one's neighbour) that read one offset ``a``
@@ -261,10 +261,10 @@ def _run_pass(S, img, target, labels, vertical, parity, stamp, tried, lines, clo
             for kk in range(2):
                 k = (1 + kk) if vertical else 3 * kk
                 y, x = i + _DY[k], j + _DX[k]  # most pixels are on no seam: no call
-                if y < 0 or x < 0 or y >= H or x >= W or (S[y, x, 0] - y == S[i, j, 0] - i
-                                                          and S[y, x, 1] - x == S[i, j, 1] - j):
+                if y < 0 or x < 0 or y >= H or x >= W or (coords[y, x, 0] - y == coords[i, j, 0] - i
+                                                          and coords[y, x, 1] - x == coords[i, j, 1] - j):
                     continue
-                moved[line] += _run_at(S, img, target, labels, i, j, k, rc=rc, rv=rv, lo_end=lo_end, hi_end=hi_end,
+                moved[line] += _run_at(coords, img, target, labels, i, j, k, rc=rc, rv=rv, lo_end=lo_end, hi_end=hi_end,
                                        stamp=stamp, tried=tried, clock=clock)
     return moved.sum()
 
@@ -277,14 +277,14 @@ class SeamMemory:
     copy (``shift_patches`` copies) before giving it back."""
 
     def __init__(self):
-        self.S = None
+        self.coords = None
 
-    def start(self, S: np.ndarray, args: tuple) -> None:
-        """Ready for a call on ``S`` with ``args`` (img, target, labels): the pixels that
+    def start(self, coords: np.ndarray, args: tuple) -> None:
+        """Ready for a call on ``coords`` with ``args`` (img, target, labels): the pixels that
         differ from the map the last call returned marked as changed; everything marked
         untried on the first call or other arrays."""
-        H, W = S.shape[:2]
-        if self.S is None or self.S.shape != S.shape or any(x is not y for x, y in zip(args, self.args)):
+        H, W = coords.shape[:2]
+        if self.coords is None or self.coords.shape != coords.shape or any(x is not y for x, y in zip(args, self.args)):
             self.args = args
             self.stamp = np.zeros((H, W), np.uint8)  # the clock at which each pixel last changed
             self.tried = np.zeros((H, W), np.uint8)  # ... was last tried by a one-pixel move
@@ -294,7 +294,7 @@ class SeamMemory:
             self.lines = np.zeros((6, max(H, W)), np.uint8)
             self.clock = 0
         else:
-            diff = (S != self.S).any(-1)
+            diff = (coords != self.coords).any(-1)
             c = self.tick()
             self.stamp[diff] = c
             self.lines[0, :H][diff.any(1)] = c
@@ -323,56 +323,56 @@ class SeamMemory:
         return self.clock
 
 
-def refine_seams(S: np.ndarray, img: np.ndarray, target: np.ndarray, labels: np.ndarray,
+def refine_seams(coords: np.ndarray, img: np.ndarray, target: np.ndarray, labels: np.ndarray,
                  passes: int, runs: bool = False, memory: SeamMemory | None = None) -> tuple[np.ndarray, int]:
-    """``S`` (copied) after ``passes`` passes of seam moves (each two checkerboard halves
+    """``coords`` (copied) after ``passes`` passes of seam moves (each two checkerboard halves
     of one-pixel moves, then, with ``runs``, run moves on even and odd rows, then columns:
     ``_run_pass``),
     stopping early when a pass changes nothing; and the number of pixel moves made. A pixel
     or run whose neighbourhood has not changed since it was last tried is not tried again;
     ``memory`` carries that over calls on one map (the same result, less work)."""
-    S = np.ascontiguousarray(S, np.int32).copy()
+    coords = np.ascontiguousarray(coords, np.int32).copy()
     img = np.ascontiguousarray(img, np.float32)
     target = np.ascontiguousarray(target, np.int32)
     labels = np.ascontiguousarray(labels, np.int32)
     m = memory if memory is not None else SeamMemory()
-    m.start(S, (img, target, labels))
+    m.start(coords, (img, target, labels))
     moves = 0
-    rows, cols = np.zeros(S.shape[0], np.int64), np.zeros(S.shape[1], np.int64)  # changes per line
+    rows, cols = np.zeros(coords.shape[0], np.int64), np.zeros(coords.shape[1], np.int64)  # changes per line
     for _ in range(passes):
         n = 0
         for parity in (0, 1):
             rows[:] = 0
-            n += _sub_pass(S, img, target, labels, parity, m.stamp, m.tried, m.lines, m.tick(), rows)
+            n += _sub_pass(coords, img, target, labels, parity, m.stamp, m.tried, m.lines, m.tick(), rows)
             m.mark(rows, False)
         if runs:
             for vertical in (False, True):
                 for parity in (0, 1):
                     (cols if vertical else rows)[:] = 0
-                    n += _run_pass(S, img, target, labels, vertical, parity, stamp=m.stamp, tried=m.tried_run,
+                    n += _run_pass(coords, img, target, labels, vertical, parity, stamp=m.stamp, tried=m.tried_run,
                                    lines=m.lines, clock=m.tick(), moved=cols if vertical else rows)
                     m.mark(cols if vertical else rows, vertical)
         moves += int(n)
         if n == 0:
             break
-    m.S = S
-    return S, moves
+    m.coords = coords
+    return coords, moves
 
 
-def seam_cost(S: np.ndarray, img: np.ndarray, target: np.ndarray) -> float:
+def seam_cost(coords: np.ndarray, img: np.ndarray, target: np.ndarray) -> float:
     """The total seam cost of a map (each neighbouring pair of one target label counted once)."""
-    return float(_seam_cost(np.ascontiguousarray(S, np.int32), np.ascontiguousarray(img, np.float32),
+    return float(_seam_cost(np.ascontiguousarray(coords, np.int32), np.ascontiguousarray(img, np.float32),
                             np.ascontiguousarray(target, np.int32)))
 
 
 @njit(**JIT)
-def _seam_cost(S, img, target):
+def _seam_cost(coords, img, target):
     H, W = target.shape
     tot = 0.0
     for i in range(H):
         for j in range(W):
             for k in range(2, 4):  # right and down: each pair once
-                tot += _pair_cost(S, img, target, i, j, S[i, j, 0] - i, S[i, j, 1] - j, k)
+                tot += _pair_cost(coords, img, target, i, j, coords[i, j, 0] - i, coords[i, j, 1] - j, k)
     return tot
 
 
@@ -401,7 +401,7 @@ def _spread(img, target, mu, order, a, b, oy, ox, W):
 
 
 @njit(**JIT)
-def _shift_passes(S, img, target, labels, patch, radius, adopt, passes, keep):
+def _shift_passes(coords, img, target, labels, patch, radius, adopt, passes, keep):
     """Up to ``passes`` passes (stopping after one that moves nothing); in each, each piece
     (a patch's pixels of one target label; ids in order of (``patch`` id, label)) in turn
     takes, among its offset moved by up to ``radius`` pixels each way, the one of least
@@ -503,7 +503,7 @@ def _shift_passes(S, img, target, labels, patch, radius, adopt, passes, keep):
             piece[i, j] = q
             if starts[q] == 0:
                 plab[q] = target[i, j]
-                poff[q, 0], poff[q, 1] = S[i, j, 0] - i, S[i, j, 1] - j
+                poff[q, 0], poff[q, 1] = coords[i, j, 0] - i, coords[i, j, 1] - j
             starts[q] += 1
     patch = piece
     npatch = npiece
@@ -591,10 +591,10 @@ def _shift_passes(S, img, target, labels, patch, radius, adopt, passes, keep):
                         break
                 if not again:
                     continue
-            oy, ox = S[f // W, f % W, 0] - f // W, S[f // W, f % W, 1] - f % W
+            oy, ox = coords[f // W, f % W, 0] - f // W, coords[f // W, f % W, 1] - f % W
             for t in range(n):  # what the neighbours read: the same for every offset tried
                 y, x = pr[ps + t, 2], pr[ps + t, 3]
-                ry, rx = S[y, x, 0] - y, S[y, x, 1] - x
+                ry, rx = coords[y, x, 0] - y, coords[y, x, 1] - x
                 qoff[t, 0], qoff[t, 1] = ry, rx
                 sy, sx = pr[ps + t, 0] + ry, pr[ps + t, 1] + rx
                 ok[t, 0] = 0 <= sy < Hs and 0 <= sx < Ws
@@ -684,8 +684,8 @@ def _shift_passes(S, img, target, labels, patch, radius, adopt, passes, keep):
                 tot[lab] += pick - spread
                 for t in range(a, b):
                     f = order[t]
-                    S[f // W, f % W, 0] = f // W + by
-                    S[f // W, f % W, 1] = f % W + bx
+                    coords[f // W, f % W, 0] = f // W + by
+                    coords[f // W, f % W, 1] = f % W + bx
                 clock += 1
                 moved_at[pid] = clock
                 tried[pid] = -1
@@ -699,9 +699,9 @@ def _shift_passes(S, img, target, labels, patch, radius, adopt, passes, keep):
     return moves
 
 
-def shift_patches(S: np.ndarray, img: np.ndarray, target: np.ndarray, labels: np.ndarray, patch: np.ndarray,
+def shift_patches(coords: np.ndarray, img: np.ndarray, target: np.ndarray, labels: np.ndarray, patch: np.ndarray,
                   radius: int, passes: int, adopt: int = 0) -> tuple[np.ndarray, int]:
-    """``S`` (copied) after ``passes`` passes in which every patch (``patch``: ids from 1,
+    """``coords`` (copied) after ``passes`` passes in which every patch (``patch``: ids from 1,
     4-connected regions of one offset, ``patch.offset_components``) may move whole by up to
     ``radius`` pixels each way to where its seams cost least (Kwatra et al. 2003's cost, as
     ``refine_seams``), as long as each of its pixels then reads a source pixel of its
@@ -714,10 +714,10 @@ def shift_patches(S: np.ndarray, img: np.ndarray, target: np.ndarray, labels: np
     pieces of a label's tails onto its mode (bench_photos: a near-black label's std ratio
     0.88 -> 0.70). Each pass lowers the total ``seam_cost``; pieces keep their pixels; stops
     early when a pass moves nothing. Returns the map and the number of piece moves."""
-    S = np.ascontiguousarray(S, np.int32).copy()
+    coords = np.ascontiguousarray(coords, np.int32).copy()
     img = np.ascontiguousarray(img, np.float32)
     target = np.ascontiguousarray(target, np.int32)
     labels = np.ascontiguousarray(labels, np.int32)
-    moves = _shift_passes(S, img, target, labels, np.ascontiguousarray(patch, np.int64), int(radius), int(adopt),
+    moves = _shift_passes(coords, img, target, labels, np.ascontiguousarray(patch, np.int64), int(radius), int(adopt),
                           int(passes), 1.0 - SPREAD_LOSS)
-    return S, int(moves)
+    return coords, int(moves)
