@@ -676,26 +676,27 @@ def surface_jacobian_det(u, v, w, lab, valid, tol):
 
 
 @njit(**JIT)  # the loop is fill_from_neighbours_into's (parallel)
-def fill_from_neighbours(need, have, lab, sx, sy, patch, res, dist, radius, scale, src_lab):
-    """Give pixels in ``need`` the state of the nearest pixel in ``have`` with their label
-    (square rings up to ``radius``, first found in scan order of the ring), continuing its
-    patch translation (source coordinates moved by the offset × ``scale``). With a
-    non-empty ``src_lab`` (the source's labels, uint32) only a neighbour whose continued
-    position lands on a source pixel of the pixel's label (``temporal._on_label``) is
-    taken: the next one in that order when the nearest's does not. Reads only ``have``
-    pixels, so the result does not depend on the order. Returns new arrays and the mask
-    of pixels filled."""
-    return fill_from_neighbours_into(need, have, lab, sx, sy, patch, res, dist, radius, scale,
-                                     osx=sx.copy(), osy=sy.copy(), opatch=patch.copy(), ores=res.copy(),
-                                     odist=dist.copy(), src_lab=src_lab)
+def fill_from_neighbours(need, have, lab, state, radius, scale, src_lab):
+    """Give pixels in ``need`` the state (``Carried``: sx, sy, patch, res and ``scalar``, the
+    distance) of the nearest pixel in ``have`` with their label (square rings up to
+    ``radius``, first found in scan order of the ring), continuing its patch translation
+    (source coordinates moved by the offset × ``scale``). With a non-empty ``src_lab`` (the
+    source's labels, uint32) only a neighbour whose continued position lands on a source
+    pixel of the pixel's label (``temporal._on_label``) is taken: the next one in that order
+    when the nearest's does not. Reads only ``have`` pixels, so the result does not depend
+    on the order. Returns new arrays (sx, sy, patch, res, scalar) and the mask of pixels
+    filled."""
+    out = Carried(state.sx.copy(), state.sy.copy(), state.patch.copy(), state.res.copy(), state.scalar.copy())
+    return fill_from_neighbours_into(need, have, lab, state, radius, scale, out=out, src_lab=src_lab)
 
 
 @njit(**PJIT)
-def fill_from_neighbours_into(need, have, lab, sx, sy, patch, res, dist, radius, scale, osx, osy, opatch, ores, odist,
-                              src_lab):
-    """``fill_from_neighbours`` writing into ``osx`` … ``odist`` (copies of the inputs, or
-    the inputs themselves when ``need`` and ``have`` are disjoint: it writes only ``need``
-    pixels and reads only ``have`` ones). Returns them and the mask of pixels filled."""
+def fill_from_neighbours_into(need, have, lab, state, radius, scale, out, src_lab):
+    """``fill_from_neighbours`` writing into ``out`` (``Carried``: copies of ``state``, or
+    ``state`` itself when ``need`` and ``have`` are disjoint: it writes only ``need`` pixels
+    and reads only ``have`` ones). Returns out's arrays and the mask of pixels filled."""
+    sx, sy, patch, res, dist = state.sx, state.sy, state.patch, state.res, state.scalar
+    osx, osy, opatch, ores, odist = out.sx, out.sy, out.patch, out.res, out.scalar
     h, wd = need.shape
     check = src_lab.size > 0
     filled = np.zeros((h, wd), np.bool_)

@@ -250,9 +250,9 @@ def carry(cd: Plate, prev: Plate | None, first: Plate | None, source: Plate, p, 
     cont_lab = typical_labels(source, p.continue_tail, memo) if p.continue_tail > 0 else src_lab
     if p.fill_radius > 0 and not valid.all():
         # in place: it writes only the unkept pixels and reads only kept ones (gather_prev's fresh arrays)
+        carried = kr.Carried(sx, sy, patch, res, ext)
         sx, sy, patch, res, ext, filled = kr.fill_from_neighbours_into(
-            need=~valid, have=valid, lab=lab, sx=sx, sy=sy, patch=patch, res=res, dist=ext,
-            radius=p.fill_radius, scale=scale, osx=sx, osy=sy, opatch=patch, ores=res, odist=ext,
+            ~valid, valid, lab, carried, radius=p.fill_radius, scale=scale, out=carried,
             src_lab=cont_lab if p.continue_tail > 0 and p.continue_other else NO_LABELS)
         # a patch continued frame after frame would extrude its borders into streaks:
         # past extend_frames the continued band is flood-filled afresh instead (ext counted up in place)

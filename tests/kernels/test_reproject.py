@@ -364,13 +364,13 @@ def test_fill_from_neighbours_continues_the_patch():
     patch = np.arange(h * w, dtype=np.uint32).reshape(h, w)
     res = np.zeros((h, w, 3), np.float32)
     d = np.zeros((h, w), np.float32)
-    osx, osy, op, _, _, filled = K.fill_from_neighbours(need, have, lab, sx, sy, patch, res, d, 2, 2.0, NO_CHECK)
+    osx, osy, op, _, _, filled = K.fill_from_neighbours(need, have, lab, K.Carried(sx, sy, patch, res, d), 2, 2.0, NO_CHECK)
     assert filled[3, 4] and filled.sum() == 1
     assert (osx[3, 4], osy[3, 4]) == (sx[3, 4], sy[3, 4])  # a translation continued exactly
     assert op[3, 4] == patch[2, 3]
     lab[:, :] = 2
     lab[3, 4] = 1  # no neighbour of its label: not filled
-    *_, filled = K.fill_from_neighbours(need, have, lab, sx, sy, patch, res, d, 2, 2.0, NO_CHECK)
+    *_, filled = K.fill_from_neighbours(need, have, lab, K.Carried(sx, sy, patch, res, d), 2, 2.0, NO_CHECK)
     assert not filled.any()
 
 
@@ -413,14 +413,14 @@ def test_fill_from_neighbours_with_source_labels_takes_the_next_neighbour_landin
     res = rng.random((h, w, 3)).astype(np.float32)
     d = rng.random((h, w)).astype(np.float32)
     src_lab = rng.integers(1, 4, (30, 40)).astype(np.uint32)
-    osx, osy, op, ores, od, filled = K.fill_from_neighbours(need, have, lab, sx, sy, patch, res, d, 3, 1.5, src_lab)
+    osx, osy, op, ores, od, filled = K.fill_from_neighbours(need, have, lab, K.Carried(sx, sy, patch, res, d), 3, 1.5, src_lab)
     want = _fill_reference(need, have, lab, sx, sy, 3, 1.5, src_lab)
     assert 20 < len(want) < need.sum()  # some pixels pass their nearest neighbour over, some find none
     assert set(zip(*np.nonzero(filled))) == set(want)
     for (i, j), (x, y, (a, b)) in want.items():
         assert (osx[i, j], osy[i, j], op[i, j], od[i, j]) == (x, y, patch[a, b], d[a, b])
         np.testing.assert_array_equal(ores[i, j], res[a, b])
-    plain = K.fill_from_neighbours(need, have, lab, sx, sy, patch, res, d, 3, 1.5, NO_CHECK)
+    plain = K.fill_from_neighbours(need, have, lab, K.Carried(sx, sy, patch, res, d), 3, 1.5, NO_CHECK)
     assert plain[-1].sum() > filled.sum()  # without the check the nearest is taken wherever it lands
 
 
