@@ -76,7 +76,8 @@ def test_subpass_matches_reference(seed, kappa, use_level, hw, uniformity):
         S_new = S.copy()
         active = np.ones(lv.tgt_lab.shape, bool)
         counts = np.zeros((S.shape[0], 2), np.int64)
-        subpass(lv, knn, S, S_new, active, pi, pj, radius, kappa, counts, hw, over, uniformity)
+        subpass(lv, knn, S, S_new, active, pi, pj, radius=radius, kappa=kappa, counts=counts, hw=hw, over=over,
+                uniformity=uniformity)
         for i in range(pi, S.shape[0], 2):
             for j in range(pj, S.shape[1], 2):
                 assert tuple(S_new[i, j]) == naive.correct_pixel(lv, knn, S, i, j, radius, 90.0, kappa, hw, over,

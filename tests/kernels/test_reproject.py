@@ -17,8 +17,8 @@ def cam(width=24, height=20, f=30.0, pos=(0.0, 0.0, 0.0), yaw=0.0, pitch=0.0, cx
     M = np.eye(4)
     M[:3, :3] = Ry @ Rx
     M[:3, 3] = pos
-    return CameraInfo("/cam", 1, width, height, f, f, width / 2 if cx is None else cx, height / 2 if cy is None else cy,
-                      0.1, 1000.0, M)
+    return CameraInfo("/cam", 1, width=width, height=height, fx=f, fy=f, cx=width / 2 if cx is None else cx,
+                      cy=height / 2 if cy is None else cy, near=0.1, far=1000.0, camera_to_world=M)
 
 
 def random_cams(rng):

@@ -85,7 +85,8 @@ def camera(size=64, f=40.0, pos=(0.0, 0.0, 0.0), frame=1, yaw=0.0):
     c, s = np.cos(yaw), np.sin(yaw)
     M[:3, :3] = [[c, 0, s], [0, 1, 0], [-s, 0, c]]
     M[:3, 3] = pos
-    return CameraInfo("/cam", frame, size, size, f, f, size / 2, size / 2, 0.1, 1000.0, M)
+    return CameraInfo("/cam", frame, width=size, height=size, fx=f, fy=f, cx=size / 2, cy=size / 2, near=0.1, far=1000.0,
+                      camera_to_world=M)
 
 
 def render(cam, sphere=(0.0, 0.0, -10.0), radius=2.0, wall=20.0, wall_half=None) -> Plate:
