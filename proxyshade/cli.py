@@ -610,8 +610,6 @@ def main(argv: list[str] | None = None) -> int:
     """Entry point: returns the exit code (see the module docstring). ``argv`` None: the
     process's own command line (the console script), which ends here (``_exit_now``)."""
     code = EXIT_INTERNAL
-    if argv is None:
-        _fewer_collections()
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("default")
@@ -628,22 +626,6 @@ def main(argv: list[str] | None = None) -> int:
     if argv is None and threading.current_thread() is threading.main_thread():
         _exit_now(code)
     return code
-
-
-# the cyclic garbage collector's thresholds for the command's process (Python's: 700, 10, 10)
-GC_THRESHOLDS = (20_000, 100, 100)
-
-
-def _fewer_collections() -> None:
-    """Collect cyclic garbage less often in the command's own process: the libraries a run
-    imports (numba, USD, numpy) leave about a million long-lived objects, which every
-    collection of the oldest generation walks again (two such collections and 370 younger
-    ones: 0.13 CPU s of a 1024-wide first frame, on the run's serial path; with these
-    thresholds about 40 collections of the youngest, 0.05 s, and the same peak resident
-    set). Nothing changes a result; cycles are still freed."""
-    import gc
-
-    gc.set_threshold(*GC_THRESHOLDS)
 
 
 def _exit_now(code: int) -> None:
