@@ -25,7 +25,7 @@ def edge(diag, wt, i, j, i2, j2):
     """The weight ``wt[i, j]`` of the edge (i, j)-(i2, j2) as float32; an empty ``wt``:
     the finest level's, 1 where both cells have an unknown (diag != 0), else 0."""
     if wt.shape[0] == 0:
-        return np.float32(diag[i, j] != 0.0 and diag[i2, j2] != 0.0)
+        return np.float32((diag[i, j] != 0.0) & (diag[i2, j2] != 0.0))
     return np.float32(wt[i, j])
 
 
