@@ -460,13 +460,13 @@ def solve_system(fixed: np.ndarray, b: np.ndarray, *, screen: float = 0.0, tol: 
     either way.
     """
     hier = _Hierarchy(np.ascontiguousarray(fixed, dtype=np.bool_), screen=screen, alpha=alpha)
-    diag, we, ws = hier.ops[0]
+    diag = hier.ops[0][0]
     own = overwrite_b and isinstance(b, np.ndarray) and b.dtype == np.float32 and b.flags.c_contiguous
     b = np.ascontiguousarray(b, dtype=np.float32)
     shape = b.shape
     v = np.zeros(shape, np.float32)
     r = b if own else np.empty(shape, np.float32)
-    _residual(diag, we, ws, v, b, r)  # r = b with the fixed entries zeroed (in place: each cell reads only its own b)
+    _residual(diag, None, None, v, b, r)  # r = b with the fixed entries zeroed (in place: each cell reads only its own b)
     del b
     rr = np.zeros(3)
     _dot3(r, r, rr)
@@ -484,7 +484,7 @@ def solve_system(fixed: np.ndarray, b: np.ndarray, *, screen: float = 0.0, tol: 
     res = r0
     while it < max_iter:
         it += 1
-        _matvec_dot(diag, we, ws, p, zq, pq)
+        _matvec_dot(diag, None, None, p, zq, pq)  # the finest level's weights, typed as read from diag
         a = np.where(pq > 0, rz / np.where(pq > 0, pq, 1.0), 0.0)
         _cg_update(v, r, p, zq, a, rr)
         res = np.sqrt(rr)
