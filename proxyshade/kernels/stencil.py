@@ -8,8 +8,6 @@ from __future__ import annotations
 
 import numpy as np
 from numba import njit
-from numba.core import types
-from numba.extending import overload
 
 from proxyshade.kernels._config import JIT
 
@@ -22,28 +20,18 @@ from proxyshade.kernels._config import JIT
 # levels. A weight is read as float32 in every case, so every product and sum is the same.
 
 
+@njit(**JIT)
 def edge(diag, wt, i, j, i2, j2):
     """The weight ``wt[i, j]`` of the edge (i, j)-(i2, j2) as float32; an empty ``wt``:
     the finest level's, 1 where both cells have an unknown (diag != 0), else 0; ``None``:
-    the same, chosen when the kernel is typed (no test of the array in the compiled loop:
-    the finest level's own kernels compile and run faster)."""
-    if wt is None or wt.shape[0] == 0:
+    the same, chosen when the kernel is typed (numba prunes the ``is None`` branch: no test
+    of the array in the compiled loop, so the finest level's own kernels compile and run
+    faster). Not inlined by numba (that would skip the pruning); LLVM inlines it."""
+    if wt is None:
+        return np.float32((diag[i, j] != 0.0) & (diag[i2, j2] != 0.0))
+    if wt.shape[0] == 0:
         return np.float32((diag[i, j] != 0.0) & (diag[i2, j2] != 0.0))
     return np.float32(wt[i, j])
-
-
-@overload(edge, inline="always", jit_options=JIT)
-def _edge(diag, wt, i, j, i2, j2):
-    if isinstance(wt, types.NoneType):
-        def fine(diag, wt, i, j, i2, j2):
-            return np.float32((diag[i, j] != 0.0) & (diag[i2, j2] != 0.0))
-        return fine
-
-    def either(diag, wt, i, j, i2, j2):
-        if wt.shape[0] == 0:
-            return np.float32((diag[i, j] != 0.0) & (diag[i2, j2] != 0.0))
-        return np.float32(wt[i, j])
-    return either
 
 
 @njit(inline="always", **JIT)
