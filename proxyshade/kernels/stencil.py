@@ -38,6 +38,7 @@ def edge(diag, wt, i, j, i2, j2):
 def neighbour_sum(diag, x, we, ws, i, j, h, w):
     """Sum over the 4 neighbours of (i, j) of edge weight × x, per channel (east weights
     ``we[i, j]`` join (i, j)-(i, j+1), south weights ``ws[i, j]`` join (i, j)-(i+1, j))."""
+    i, j = np.int64(i), np.int64(j)  # one signature of ``edge`` (a prange index is uint64)
     s0 = 0.0
     s1 = 0.0
     s2 = 0.0
@@ -97,6 +98,7 @@ def fine_operator(fixed, screen):
 @njit(inline="always", **JIT)
 def apply_at(diag, we, ws, x, i, j):
     """(A x)_(i, j) for the three channels."""
+    i, j = np.int64(i), np.int64(j)  # one signature of ``edge`` (a prange index is uint64)
     h, w = diag.shape
     d = diag[i, j]
     s0 = d * x[i, j, 0]
