@@ -21,14 +21,14 @@ import numpy as np
 from numba import njit, prange
 
 from proxyshade.kernels._config import JIT, PJIT
-from proxyshade.kernels.stencil import apply_at, fine_operator, neighbour_sum
+from proxyshade.kernels.stencil import apply_at, edge, fine_operator, neighbour_sum
 
 @njit(**JIT)
 def _coarsen(diag, we, ws, mass, alpha):
     """Coarse operator for 2x2 piecewise-constant aggregation: the Galerkin product
     P^T A P, its Laplacian part (edge weights, and the diagonal less the screening mass)
     divided by ``alpha``, its mass part (the screening term) kept exact. The fine weights
-    are read as float32 (the finest level's are uint8, ``stencil.fine_operator``)."""
+    are read as float32 (``stencil.edge``: the finest level's from its diagonal)."""
     h, w = diag.shape
     hc = (h + 1) // 2
     wc = (w + 1) // 2
@@ -55,25 +55,25 @@ def _coarsen(diag, we, ws, mass, alpha):
                     m += mass[i, j]
             # internal edges count twice (both off-diagonal entries)
             if i0 < h and j0 + 1 < w:
-                d -= 2.0 * np.float32(we[i0, j0])
+                d -= 2.0 * edge(diag, we, i0, j0, i0, j0 + 1)
             if i0 + 1 < h and j0 + 1 < w:
-                d -= 2.0 * np.float32(we[i0 + 1, j0])
+                d -= 2.0 * edge(diag, we, i0 + 1, j0, i0 + 1, j0 + 1)
             if i0 + 1 < h:
-                d -= 2.0 * np.float32(ws[i0, j0])
+                d -= 2.0 * edge(diag, ws, i0, j0, i0 + 1, j0)
                 if j0 + 1 < w:
-                    d -= 2.0 * np.float32(ws[i0, j0 + 1])
+                    d -= 2.0 * edge(diag, ws, i0, j0 + 1, i0 + 1, j0 + 1)
             dc[I, J] = d * inv + m
             mc[I, J] = m
             # east: fine edges from column j0+1 to j0+2
             if j0 + 2 < w:
-                e = np.float32(we[i0, j0 + 1])
+                e = edge(diag, we, i0, j0 + 1, i0, j0 + 2)
                 if i0 + 1 < h:
-                    e += np.float32(we[i0 + 1, j0 + 1])
+                    e += edge(diag, we, i0 + 1, j0 + 1, i0 + 1, j0 + 2)
                 ec[I, J] = e * inv
             if i0 + 2 < h:
-                s = np.float32(ws[i0 + 1, j0])
+                s = edge(diag, ws, i0 + 1, j0, i0 + 2, j0)
                 if j0 + 1 < w:
-                    s += np.float32(ws[i0 + 1, j0 + 1])
+                    s += edge(diag, ws, i0 + 1, j0 + 1, i0 + 2, j0 + 1)
                 sc[I, J] = s * inv
     return dc, ec, sc, mc
 
@@ -109,7 +109,7 @@ def _smooth_row(diag, we, ws, x, b, color, i):
         d = diag[i, j]
         if d == 0.0:
             continue
-        n0, n1, n2 = neighbour_sum(x, we, ws, i, j, h, w)
+        n0, n1, n2 = neighbour_sum(diag, x, we, ws, i, j, h, w)
         s0 = b[i, j, 0] + n0
         s1 = b[i, j, 1] + n1
         s2 = b[i, j, 2] + n2
@@ -137,7 +137,7 @@ def _residual(diag, we, ws, x, b, r):
                 r[i, j, 1] = 0.0
                 r[i, j, 2] = 0.0
                 continue
-            n0, n1, n2 = neighbour_sum(x, we, ws, i, j, h, w)
+            n0, n1, n2 = neighbour_sum(diag, x, we, ws, i, j, h, w)
             s0 = b[i, j, 0] - d * x[i, j, 0] + n0
             s1 = b[i, j, 1] - d * x[i, j, 1] + n1
             s2 = b[i, j, 2] - d * x[i, j, 2] + n2
@@ -376,7 +376,12 @@ class _Hierarchy:
     """
 
     def __init__(self, fixed: np.ndarray, *, screen: float = 0.0, coarsest: int = 4, alpha: float = 1.9):
-        diag, we, ws = fine_operator(fixed, np.float32(screen))
+        # the finest level's 0/1 weights are not stored: empty arrays, read from the diagonal
+        # (``stencil.edge``; one float32 signature per kernel for every level)
+        diag, we8, ws8 = fine_operator(fixed, np.float32(screen))
+        stored = (diag, we8, ws8) if diag.size < SERIAL_CELLS else None  # the finest level in the serial buffers
+        del we8, ws8
+        we = ws = np.zeros((0, 0), np.float32)
         mass = np.where(diag > 0, np.float32(screen), np.float32(0.0)).astype(np.float32)
         ops = [(diag, we, ws)]
         while min(ops[-1][0].shape) > coarsest:
@@ -387,6 +392,8 @@ class _Hierarchy:
         # after another in flat buffers (one signature whatever their count; x and b of a
         # serial level are views of its buffers)
         self.serial_from = k0 = next((k for k, op in enumerate(ops) if op[0].size < SERIAL_CELLS), len(ops))
+        full = [stored] + ops[1:] if k0 == 0 else ops  # the serial kernels read stored weights
+        del stored
         # the finest level's x and b are the caller's (``vcycle`` from level 0 writes into the
         # x it is given): work arrays from level 1 down only (a whole frame's two buffers less)
         self.x = [None] + [np.zeros(op[0].shape + (3,), np.float32) for op in ops[1:k0]]
@@ -396,7 +403,8 @@ class _Hierarchy:
         if k0 < len(ops):
             shapes = np.array([op[0].shape for op in ops[k0:]], np.int64)
             offsets = np.concatenate([[0], np.cumsum(shapes[:, 0] * shapes[:, 1])]).astype(np.int64)
-            flat = [np.concatenate([op[i].ravel() for op in ops[k0:]]) for i in range(3)]
+            flat = [np.concatenate([op[i].ravel() for op in full[k0:]]).astype(np.float32, copy=False)
+                    for i in range(3)]
             xs, bs = np.zeros(3 * offsets[-1], np.float32), np.zeros(3 * offsets[-1], np.float32)
             for (h, w), o in zip(shapes, offsets):
                 self.x.append(xs[3 * o:3 * (o + h * w)].reshape(h, w, 3))
@@ -452,13 +460,13 @@ def solve_system(fixed: np.ndarray, b: np.ndarray, *, screen: float = 0.0, tol: 
     either way.
     """
     hier = _Hierarchy(np.ascontiguousarray(fixed, dtype=np.bool_), screen=screen, alpha=alpha)
-    diag, we, ws = hier.ops[0]
+    diag = hier.ops[0][0]
     own = overwrite_b and isinstance(b, np.ndarray) and b.dtype == np.float32 and b.flags.c_contiguous
     b = np.ascontiguousarray(b, dtype=np.float32)
     shape = b.shape
     v = np.zeros(shape, np.float32)
     r = b if own else np.empty(shape, np.float32)
-    _residual(diag, we, ws, v, b, r)  # r = b with the fixed entries zeroed (in place: each cell reads only its own b)
+    _residual(diag, None, None, v, b, r)  # r = b with the fixed entries zeroed (in place: each cell reads only its own b)
     del b
     rr = np.zeros(3)
     _dot3(r, r, rr)
@@ -476,7 +484,7 @@ def solve_system(fixed: np.ndarray, b: np.ndarray, *, screen: float = 0.0, tol: 
     res = r0
     while it < max_iter:
         it += 1
-        _matvec_dot(diag, we, ws, p, zq, pq)
+        _matvec_dot(diag, None, None, p, zq, pq)  # the finest level's weights, typed as read from diag
         a = np.where(pq > 0, rz / np.where(pq > 0, pq, 1.0), 0.0)
         _cg_update(v, r, p, zq, a, rr)
         res = np.sqrt(rr)

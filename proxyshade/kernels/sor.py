@@ -68,7 +68,7 @@ def _sor_sweep(ii, jj, omega, diag, we, ws, b, v):
     for k in prange(ii.shape[0]):
         i = ii[k]
         j = jj[k]
-        n0, n1, n2 = neighbour_sum(v, we, ws, i, j, h, w)
+        n0, n1, n2 = neighbour_sum(diag, v, we, ws, i, j, h, w)
         inv = 1.0 / diag[i, j]
         o = omega[k]
         v[i, j, 0] += o * ((b[i, j, 0] + n0) * inv - v[i, j, 0])

@@ -13,36 +13,52 @@ from proxyshade.kernels._config import JIT
 
 # ---------------------------------------------------------------------------
 # operators: level = (diag, wE, wS); (A x)_p = diag_p x_p - sum_q w_pq x_q.
-# diag == 0 marks a cell with no unknown (fixed). The finest level's edge weights are 0 or 1:
-# uint8 there (``fine_operator``: a frame's two weight arrays in a quarter of the memory,
-# 50 MiB less at 4K), float32 on the coarse levels; a weight is read as float32 either way
-# (``np.float32(we[i, j])``), so every product and sum is the same.
+# diag == 0 marks a cell with no unknown (fixed). The finest level's edge weights are 0 or 1
+# (1 between two cells with unknowns): uint8 from ``fine_operator``, or not stored at all
+# (empty weight arrays: ``edge`` reads them from the diagonal, so the multigrid levels share
+# one float32 signature per kernel and a 4K frame holds 16 MiB less); float32 on the coarse
+# levels. A weight is read as float32 in every case, so every product and sum is the same.
+
+
+@njit(**JIT)
+def edge(diag, wt, i, j, i2, j2):
+    """The weight ``wt[i, j]`` of the edge (i, j)-(i2, j2) as float32; an empty ``wt``:
+    the finest level's, 1 where both cells have an unknown (diag != 0), else 0; ``None``:
+    the same, chosen when the kernel is typed (numba prunes the ``is None`` branch: no test
+    of the array in the compiled loop, so the finest level's own kernels compile and run
+    faster). Not inlined by numba (that would skip the pruning); LLVM inlines it."""
+    if wt is None:
+        return np.float32((diag[i, j] != 0.0) & (diag[i2, j2] != 0.0))
+    if wt.shape[0] == 0:
+        return np.float32((diag[i, j] != 0.0) & (diag[i2, j2] != 0.0))
+    return np.float32(wt[i, j])
 
 
 @njit(inline="always", **JIT)
-def neighbour_sum(x, we, ws, i, j, h, w):
+def neighbour_sum(diag, x, we, ws, i, j, h, w):
     """Sum over the 4 neighbours of (i, j) of edge weight × x, per channel (east weights
     ``we[i, j]`` join (i, j)-(i, j+1), south weights ``ws[i, j]`` join (i, j)-(i+1, j))."""
+    i, j = np.int64(i), np.int64(j)  # one signature of ``edge`` (a prange index is uint64)
     s0 = 0.0
     s1 = 0.0
     s2 = 0.0
     if j + 1 < w:
-        c = np.float32(we[i, j])
+        c = edge(diag, we, i, j, i, j + 1)
         s0 += c * x[i, j + 1, 0]
         s1 += c * x[i, j + 1, 1]
         s2 += c * x[i, j + 1, 2]
     if j > 0:
-        c = np.float32(we[i, j - 1])
+        c = edge(diag, we, i, j - 1, i, j)
         s0 += c * x[i, j - 1, 0]
         s1 += c * x[i, j - 1, 1]
         s2 += c * x[i, j - 1, 2]
     if i + 1 < h:
-        c = np.float32(ws[i, j])
+        c = edge(diag, ws, i, j, i + 1, j)
         s0 += c * x[i + 1, j, 0]
         s1 += c * x[i + 1, j, 1]
         s2 += c * x[i + 1, j, 2]
     if i > 0:
-        c = np.float32(ws[i - 1, j])
+        c = edge(diag, ws, i - 1, j, i, j)
         s0 += c * x[i - 1, j, 0]
         s1 += c * x[i - 1, j, 1]
         s2 += c * x[i - 1, j, 2]
@@ -82,28 +98,29 @@ def fine_operator(fixed, screen):
 @njit(inline="always", **JIT)
 def apply_at(diag, we, ws, x, i, j):
     """(A x)_(i, j) for the three channels."""
+    i, j = np.int64(i), np.int64(j)  # one signature of ``edge`` (a prange index is uint64)
     h, w = diag.shape
     d = diag[i, j]
     s0 = d * x[i, j, 0]
     s1 = d * x[i, j, 1]
     s2 = d * x[i, j, 2]
     if j + 1 < w:
-        c = np.float32(we[i, j])
+        c = edge(diag, we, i, j, i, j + 1)
         s0 -= c * x[i, j + 1, 0]
         s1 -= c * x[i, j + 1, 1]
         s2 -= c * x[i, j + 1, 2]
     if j > 0:
-        c = np.float32(we[i, j - 1])
+        c = edge(diag, we, i, j - 1, i, j)
         s0 -= c * x[i, j - 1, 0]
         s1 -= c * x[i, j - 1, 1]
         s2 -= c * x[i, j - 1, 2]
     if i + 1 < h:
-        c = np.float32(ws[i, j])
+        c = edge(diag, ws, i, j, i + 1, j)
         s0 -= c * x[i + 1, j, 0]
         s1 -= c * x[i + 1, j, 1]
         s2 -= c * x[i + 1, j, 2]
     if i > 0:
-        c = np.float32(ws[i - 1, j])
+        c = edge(diag, ws, i - 1, j, i, j)
         s0 -= c * x[i - 1, j, 0]
         s1 -= c * x[i - 1, j, 1]
         s2 -= c * x[i - 1, j, 2]

@@ -9,16 +9,17 @@ import numpy as np
 import pytest
 
 from proxyshade.kernels import multigrid as mg
+from proxyshade.kernels.stencil import fine_operator
 
 
 def reference_solve(fixed, b, *, screen, tol, max_iter, float_weights=False):
     """Preconditioned CG with its own array for every vector (b kept, z and q apart): the
     textbook loop, on the module's kernels. ``float_weights``: the finest level's edge
-    weights as float32 arrays (``fine_operator`` makes them uint8), its coarse levels
-    aggregated from those."""
+    weights stored as float32 arrays (``fine_operator``'s 0/1 weights; the solver reads
+    them from the diagonal), its coarse levels aggregated from those."""
     hier = mg._Hierarchy(np.ascontiguousarray(fixed, np.bool_), screen=screen)
     if float_weights:
-        diag, we, ws = hier.ops[0]
+        diag, we, ws = fine_operator(np.ascontiguousarray(fixed, np.bool_), np.float32(screen))
         ops = [(diag, we.astype(np.float32), ws.astype(np.float32))]
         mass = np.where(diag > 0, np.float32(screen), np.float32(0.0)).astype(np.float32)
         for _ in hier.ops[1:]:
@@ -86,20 +87,24 @@ def test_solve_is_bit_identical_to_the_textbook_loop(h, w, screen):
 
 
 @pytest.mark.parametrize("h,w,screen", [(37, 53, 0.0), (210, 190, 0.5)])
-def test_uint8_fine_weights_give_the_float32_weights_bits(h, w, screen):
-    """The finest level's 0/1 edge weights stored as uint8 (a quarter of the memory) are
-    read as the float32 weights were: the same coarse operators, the same solution bits."""
+def test_fine_weights_from_the_diagonal_give_the_stored_weights_bits(h, w, screen):
+    """The finest level's 0/1 edge weights, not stored but read from the diagonal (empty
+    weight arrays, ``stencil.edge``), give what float32 weights stored as arrays gave: the
+    same coarse operators, the same solution bits."""
     rng = np.random.default_rng(h + w)
     fixed, b = case(rng, h, w)
     hier = mg._Hierarchy(np.ascontiguousarray(fixed, np.bool_), screen=screen)
     diag, we, ws = hier.ops[0]
-    assert we.dtype == ws.dtype == np.uint8 and diag.dtype == np.float32
-    assert set(np.unique(we)) == set(np.unique(ws)) == {0, 1}
+    assert we.size == ws.size == 0 and diag.dtype == np.float32
+    _, we8, ws8 = fine_operator(np.ascontiguousarray(fixed, np.bool_), np.float32(screen))
+    assert set(np.unique(we8)) == set(np.unique(ws8)) == {0, 1}
     mass = np.where(diag > 0, np.float32(screen), np.float32(0.0)).astype(np.float32)
-    c8 = mg._coarsen(diag, we, ws, mass, np.float32(1.9))
-    c32 = mg._coarsen(diag, we.astype(np.float32), ws.astype(np.float32), mass, np.float32(1.9))
-    for a, b_ in zip(c8, c32):
+    c0 = mg._coarsen(diag, we, ws, mass, np.float32(1.9))
+    c32 = mg._coarsen(diag, we8.astype(np.float32), ws8.astype(np.float32), mass, np.float32(1.9))
+    for a, b_ in zip(c0, c32):
         assert a.dtype == b_.dtype == np.float32 and np.array_equal(a.view(np.uint32), b_.view(np.uint32))
+    for name in ("_smooth", "_residual_restrict", "_coarsen"):  # one signature for every level
+        assert {str(sig[1].dtype) for sig in getattr(mg, name).signatures} == {"float32"}
     want, iters = reference_solve(fixed, b, screen=screen, tol=1e-6, max_iter=60, float_weights=True)
     got, info = mg.solve_system(fixed, b.copy(), screen=screen, tol=1e-6, max_iter=60)
     assert info["iterations"] == iters and iters > 2
@@ -109,10 +114,10 @@ def test_uint8_fine_weights_give_the_float32_weights_bits(h, w, screen):
 def test_solve_holds_three_frames_of_vectors_and_its_operators():
     """The solve's peak allocation (tracemalloc: numpy's buffers) with ``overwrite_b``:
     v, p and the shared z/q buffer (3 frame-sized float32 arrays of 3 channels), the
-    operators (a float32 diagonal and two uint8 weight arrays at the finest level, a third
-    of a frame more below) and the coarse levels' work arrays: 4.9 frames, where float32
-    weights took 5.4 and a buffer per vector (r, z, q apart) and the finest level's unused
-    x and b 9.4."""
+    operators (a float32 diagonal at the finest level, its weights read from it, and a
+    third of a frame more below) and the coarse levels' work arrays: under 5 frames, where
+    stored float32 weights took 5.4 and a buffer per vector (r, z, q apart) and the finest
+    level's unused x and b 9.4."""
     rng = np.random.default_rng(5)
     fixed, b = case(rng, 256, 256)
     frame = b.nbytes
