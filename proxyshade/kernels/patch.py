@@ -55,11 +55,11 @@ class Scan(NamedTuple):
 
 
 class Cover(NamedTuple):
-    """The map being covered: ``free`` (Ht, Wt) bool pixels still to cover, ``S`` (Ht, Wt, 2)
+    """The map being covered: ``free`` (Ht, Wt) bool pixels still to cover, ``coords`` (Ht, Wt, 2)
     int32 exemplar (row, column), ``patch`` (Ht, Wt) int64 patch ids."""
 
     free: np.ndarray
-    S: np.ndarray
+    coords: np.ndarray
     patch: np.ndarray
 
 
@@ -157,7 +157,7 @@ def _continued_bound(lv, m, cover, i, j, probe, scan):
     4-neighbour's translation that lands on an exemplar pixel of (i, j)'s label (the first
     in the ``scan`` order among equals), as (distance, flat index); (inf, −1) when there
     is none."""
-    src_lab, tgt_lab, free, S = lv.src_lab, lv.tgt_lab, cover.free, cover.S
+    src_lab, tgt_lab, free, coords = lv.src_lab, lv.tgt_lab, cover.free, cover.coords
     Ht, Wt = tgt_lab.shape
     He, We = src_lab.shape
     bd = np.inf
@@ -168,8 +168,8 @@ def _continued_bound(lv, m, cover, i, j, probe, scan):
         jj = j + (k == 3) - (k == 2)
         if ii < 0 or ii >= Ht or jj < 0 or jj >= Wt or free[ii, jj]:
             continue
-        y = S[ii, jj, 0] + i - ii
-        x = S[ii, jj, 1] + j - jj
+        y = coords[ii, jj, 0] + i - ii
+        x = coords[ii, jj, 1] + j - jj
         if y < 0 or y >= He or x < 0 or x >= We or src_lab[y, x] != tgt_lab[i, j]:
             continue
         c = y * We + x
@@ -188,7 +188,7 @@ def _grow(lv, m, cover, pid, i0, j0, oy, ox, thr, queue, stamp):
     ``thr``; returns pixel count. ``queue``, ``stamp``: the caller's scratch buffers."""
     src_lab, src_dist, src_masks, src_h = lv.src_lab, lv.src_dist, lv.src_masks, lv.src_height
     tgt_lab, tgt_dist, tgt_masks, tgt_h = lv.tgt_lab, lv.tgt_dist, lv.tgt_masks, lv.tgt_height
-    free, S, patch = cover
+    free, coords, patch = cover
     Ht, Wt = tgt_lab.shape
     He, We = src_lab.shape
     target_dist = np.empty(NB2, np.float32)
@@ -213,8 +213,8 @@ def _grow(lv, m, cover, pid, i0, j0, oy, ox, thr, queue, stamp):
             if d > thr:
                 continue
         free[i, j] = False
-        S[i, j, 0] = y
-        S[i, j, 1] = x
+        coords[i, j, 0] = y
+        coords[i, j, 1] = x
         patch[i, j] = pid
         count += 1
         for k in range(4):
@@ -466,8 +466,8 @@ def flood_fill(level: Level, metric: Metric, *, seed: int, threshold_scale: floa
 
 
 @njit(**JIT)
-def _offset_components(S, out):
-    Ht, Wt = S.shape[0], S.shape[1]
+def _offset_components(coords, out):
+    Ht, Wt = coords.shape[0], coords.shape[1]
     stack = np.empty(Ht * Wt, np.int64)
     nid = 0
     for i0 in range(Ht):
@@ -475,8 +475,8 @@ def _offset_components(S, out):
             if out[i0, j0] != 0:
                 continue
             nid += 1
-            oy = S[i0, j0, 0] - i0
-            ox = S[i0, j0, 1] - j0
+            oy = coords[i0, j0, 0] - i0
+            ox = coords[i0, j0, 1] - j0
             out[i0, j0] = nid
             stack[0] = i0 * Wt + j0
             top = 1
@@ -490,19 +490,19 @@ def _offset_components(S, out):
                     jj = j + (k == 3) - (k == 2)
                     if ii < 0 or ii >= Ht or jj < 0 or jj >= Wt or out[ii, jj] != 0:
                         continue
-                    if S[ii, jj, 0] - ii == oy and S[ii, jj, 1] - jj == ox:
+                    if coords[ii, jj, 0] - ii == oy and coords[ii, jj, 1] - jj == ox:
                         out[ii, jj] = nid
                         stack[top] = ii * Wt + jj
                         top += 1
     return nid
 
 
-def offset_components(S: np.ndarray) -> tuple[np.ndarray, int]:
+def offset_components(coords: np.ndarray) -> tuple[np.ndarray, int]:
     """Patch ids of a coordinate map: 4-connected pixels sharing one translation
-    (S[p] - p) form a patch; ids 1.. in scan order of each patch's first pixel.
+    (coords[p] - p) form a patch; ids 1.. in scan order of each patch's first pixel.
 
     Returns ((M, N) uint32 ids, number of patches).
     """
-    out = np.zeros(S.shape[:2], np.int64)
-    n = _offset_components(np.ascontiguousarray(S, dtype=np.int64), out)
+    out = np.zeros(coords.shape[:2], np.int64)
+    n = _offset_components(np.ascontiguousarray(coords, dtype=np.int64), out)
     return out.astype(np.uint32), int(n)

@@ -77,15 +77,15 @@ class HybridSynth(Node):
                            iterations=p.iterations, memo=ctx.memo)
         wmap = (H.ramp_weights(shape, ramp, nb, axis=1 if p.ramp_axis == "x" else 0, cell=p.ramp_cell, seed=ctx.frame)
                 if ramp else None)
-        S = H.synthesize(an, shape, jitter_threshold=p.J, seed=ctx.frame, weights=w, passes=p.passes,
+        coords = H.synthesize(an, shape, jitter_threshold=p.J, seed=ctx.frame, weights=w, passes=p.passes,
                          jitter_levels=p.jitter_levels, level_weights=lw, weight_map=wmap, symmetric=p.symmetric,
                          coherence=p.coherence)
-        out = H.hybrid_plate(atlas, S, {"J": p.J, "seed": ctx.frame, "weights": [float(v) for v in w],
+        out = H.hybrid_plate(atlas, coords, {"J": p.J, "seed": ctx.frame, "weights": [float(v) for v in w],
                                         "level_weights": [] if lw is None else lw.tolist(),
                                         "ramp": [e + 1 for e in ramp], "ramp_cell": p.ramp_cell,
                                         "symmetric": bool(p.symmetric),
                                         "coherence": p.coherence})
-        share = np.bincount(S[..., 1].ravel() // bw, minlength=nb) / S[..., 0].size
+        share = np.bincount(coords[..., 1].ravel() // bw, minlength=nb) / coords[..., 0].size
         ctx.note(f"hybrid {shape[1]}x{shape[0]} from {nb} exemplars (shares "
                  + ", ".join(f"{s:.0%}" for s in share) + f"); analysis {an.seconds:.1f} s")
         return out

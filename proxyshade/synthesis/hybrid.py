@@ -378,17 +378,17 @@ def level_field(weights: np.ndarray, level_row, weight_map, sh: tuple[int, int],
     return np.ascontiguousarray(field, np.float64)
 
 
-def mirror_state(S: np.ndarray, bw: int) -> np.ndarray:
+def mirror_state(coords: np.ndarray, bw: int) -> np.ndarray:
     """The symmetric option: the state's right half becomes the left half mirrored, each
     pointer's column reflected inside its exemplar's box (for exemplars symmetric about
     their vertical axis, like aligned faces)."""
-    S = S.copy()
-    Wt = S.shape[1]
-    left = S[:, :Wt // 2][:, ::-1]
+    coords = coords.copy()
+    Wt = coords.shape[1]
+    left = coords[:, :Wt // 2][:, ::-1]
     x0 = (left[..., 1] // bw) * bw
-    S[:, Wt - Wt // 2:, 0] = left[..., 0]
-    S[:, Wt - Wt // 2:, 1] = x0 + bw - 1 - (left[..., 1] - x0)
-    return S
+    coords[:, Wt - Wt // 2:, 0] = left[..., 0]
+    coords[:, Wt - Wt // 2:, 1] = x0 + bw - 1 - (left[..., 1] - x0)
+    return coords
 
 
 def synthesize(an: Analysis, shape: tuple[int, int], *, jitter_threshold: float, seed: int, weights: np.ndarray,
@@ -420,13 +420,13 @@ def synthesize(an: Analysis, shape: tuple[int, int], *, jitter_threshold: float,
     Ht, Wt = shape
     levels = len(an.stacks)
     lw = None if level_weights is None or not len(level_weights) else np.asarray(level_weights, np.float64)
-    S = None
+    coords = None
     for s in range(levels - 1, -1, -1):
         h = 2 ** s
         sh = (-(-Ht // h), -(-Wt // h))
         w = level_field(weights, None if lw is None else lw[min(levels - 1 - s, len(lw) - 1)], weight_map, sh, h)
         inv_w = np.where(w > 0, 1.0 / np.maximum(w, 1e-300), np.inf)  # weight 0: never a candidate
-        if S is None:
+        if coords is None:
             ii, jj = np.mgrid[0:sh[0], 0:sh[1]]
             # one fixed draw, not the seed's: with J = 0 every seed gives the same result
             u = uniform_field(0xE7, (ii * sh[1] + jj).astype(np.int64))
@@ -439,42 +439,42 @@ def synthesize(an: Analysis, shape: tuple[int, int], *, jitter_threshold: float,
                 ids = (ii * sh[1] + jj).astype(np.int64)
                 y = (uniform_field(mix_seed(seed, 0x1A), ids) * an.bh).astype(np.int64)
                 x = (uniform_field(mix_seed(seed, 0x1B), ids) * an.bw).astype(np.int64)
-            S = np.stack([y, x + e * an.bw], -1).astype(np.int32)
+            coords = np.stack([y, x + e * an.bw], -1).astype(np.int32)
         else:
-            e = S[..., 1] // an.bw
-            local = S.copy()
+            e = coords[..., 1] // an.bw
+            local = coords.copy()
             local[..., 1] -= e * an.bw
             up = upsample_state(local, h, sh, (an.bh, an.bw))
             Hp, Wp = e.shape
             ec = e[np.minimum(np.arange(sh[0]) // 2, Hp - 1)][:, np.minimum(np.arange(sh[1]) // 2, Wp - 1)]
             up[..., 1] += ec * an.bw
-            S = up
+            coords = up
         level = an.level(s)
         lseed = mix_seed(seed, s)
         if jitter_levels is not None and s >= jitter_levels:
             pass  # only the finest ``jitter_levels`` levels are jittered
         elif jitter == "structure":
-            S = kh.run_pass(level, inv_w, S, h=h, bw=an.bw, jitter_threshold=jitter_threshold, seed=lseed, salt=0)
+            coords = kh.run_pass(level, inv_w, coords, h=h, bw=an.bw, jitter_threshold=jitter_threshold, seed=lseed, salt=0)
         elif r > 0:
-            S = kh.spatial_jitter(S, h=h, r=r, bw=an.bw, atlas_height=an.bh, seed=lseed)
+            coords = kh.spatial_jitter(coords, h=h, r=r, bw=an.bw, atlas_height=an.bh, seed=lseed)
         for k in range(passes):
-            S = kh.run_pass(level, inv_w, S, h=h, bw=an.bw, jitter_threshold=0.0, seed=lseed, salt=k + 1,
+            coords = kh.run_pass(level, inv_w, coords, h=h, bw=an.bw, jitter_threshold=0.0, seed=lseed, salt=k + 1,
                             coherence=coherence)
         if symmetric:
-            S = mirror_state(S, an.bw)
-    return S
+            coords = mirror_state(coords, an.bw)
+    return coords
 
 
-def hybrid_plate(atlas: Plate, S: np.ndarray, extra: dict) -> Plate:
+def hybrid_plate(atlas: Plate, coords: np.ndarray, extra: dict) -> Plate:
     """The hybrid as an annotated source: colour and labels looked up at the pointers,
     ``exemplar.id``, ``atlas.x/y`` (float32 atlas column, row) and the atlas's label table."""
-    y, x = S[..., 0], S[..., 1]
+    y, x = coords[..., 0], coords[..., 1]
     ch = {c: np.ascontiguousarray(atlas[c][y, x]) for c in ("R", "G", "B", "label.id", "exemplar.id")}
     ch["atlas.x"] = x.astype(np.float32)
     ch["atlas.y"] = y.astype(np.float32)
     meta = {"labels": atlas.meta.get("labels", []), "source": dict(atlas.meta.get("source", {})),
             "atlas": atlas.meta.get("atlas", []), "hybrid": extra}
-    meta["source"]["size"] = [int(S.shape[1]), int(S.shape[0])]
+    meta["source"]["size"] = [int(coords.shape[1]), int(coords.shape[0])]
     return Plate(ch, meta)
 
 
@@ -504,9 +504,9 @@ def plain_texture(rgb: np.ndarray, size: tuple[int, int], *, seed: int, jitter_t
         levels = max(l for l in range(1, 13) if coarsest_span(l) <= min(bh, bw)) if min(bh, bw) >= 5 else 1
     check_levels(levels, bh, bw)
     an = analyse(rgb, bw, levels=levels, descriptor_levels=descriptor_levels, q=q, iterations=iterations, seed=0)
-    S = synthesize(an, size, jitter_threshold=jitter_threshold, seed=seed, weights=np.ones(1), passes=passes,
+    coords = synthesize(an, size, jitter_threshold=jitter_threshold, seed=seed, weights=np.ones(1), passes=passes,
                    coherence=coherence)
-    return {"rgb": rgb[S[..., 0], S[..., 1]], "sx": S[..., 1].astype(np.float32), "sy": S[..., 0].astype(np.float32)}
+    return {"rgb": rgb[coords[..., 0], coords[..., 1]], "sx": coords[..., 1].astype(np.float32), "sy": coords[..., 0].astype(np.float32)}
 
 
 def label_window(ids: np.ndarray, label: int, area: float, smallest: int = 33, avoid=()) -> tuple[int, int, int, int]:
@@ -551,9 +551,9 @@ def variant_states(rgb: np.ndarray, ids: np.ndarray, n: int, *, even: bool, seed
             levels = max(l for l in range(1, 9) if coarsest_span(l) <= min(h, w)) if min(h, w) >= 5 else 1
             analyses[y0, x0, h, w] = analyse(np.ascontiguousarray(rgb[y0:y0 + h, x0:x0 + w]), w, levels=levels,
                                              descriptor_levels=descriptor_levels, q=q, iterations=iterations, seed=0)
-        S = synthesize(analyses[y0, x0, h, w], (Hs, width), jitter_threshold=jitter_threshold, seed=seed + k,
+        coords = synthesize(analyses[y0, x0, h, w], (Hs, width), jitter_threshold=jitter_threshold, seed=seed + k,
                        weights=np.ones(1), passes=passes, coherence=coherence, layout="random" if even else "exemplar")
-        return S + np.array([y0, x0], np.int32)
+        return coords + np.array([y0, x0], np.int32)
 
     if not even:
         return [texture(0, 0, Hs, Ws, Ws, k) for k in range(n)]
@@ -593,8 +593,8 @@ def with_variants(source: Plate, n: int, *, even: bool = True, seed: int = 1, ji
     parts = (rgb, ids, n, even, seed, jitter_threshold, coherence, passes, descriptor_levels, q, iterations)
     states = kept(memo, "hybrid.with_variants", parts, run)
     ii, jj = np.mgrid[0:Hs, 0:Ws]
-    ys = [ii] + [S[..., 0] for S in states]
-    xs = [jj] + [S[..., 1] for S in states]
+    ys = [ii] + [coords[..., 0] for coords in states]
+    xs = [jj] + [coords[..., 1] for coords in states]
     ch = {c: np.ascontiguousarray(np.concatenate([source[c][y, x] for y, x in zip(ys, xs)], 1))
           for c in ("R", "G", "B", "label.id")}
     ch["origin.x"] = np.concatenate(xs, 1).astype(np.float32)
