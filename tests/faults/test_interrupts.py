@@ -27,8 +27,10 @@ nodes:
   m: {type: Movie, inputs: {image: {node: a, frame: all}}, params: {path: out/a.gif, channels: [label.id], max_size: 64}}
 """
 # the CLI as the console script runs it, in a fresh interpreter with the test node types; "ready"
-# once everything is imported
-RUNNER = ("import sys; sys.path.insert(0, sys.argv.pop(1)); sys.argv[0] = 'proxyshade'\n"
+# once everything is imported. Ctrl-C raises KeyboardInterrupt as in a terminal, also where the
+# tests run as a background job (the shell starts those with SIGINT ignored, which children inherit)
+RUNNER = ("import signal, sys; signal.signal(signal.SIGINT, signal.default_int_handler)\n"
+          "sys.path.insert(0, sys.argv.pop(1)); sys.argv[0] = 'proxyshade'\n"
           "import proxyshade.nodes, proxyshade.graph.graph; from proxyshade.graph.node import REGISTRY\n"
           "from tests.conftest import TYPES; REGISTRY.update(TYPES); from proxyshade.cli import main\n"
           "print('ready', flush=True); sys.exit(main())")
