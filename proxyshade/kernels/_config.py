@@ -15,6 +15,8 @@ on cores shared with other processes a spinning thread holds the core the thread
 work needs. Set ``OMP_WAIT_POLICY=ACTIVE`` (or ``GOMP_SPINCOUNT``) on a machine of one's own
 (measurements: docs/temporal.md, "Tried and not kept").
 
+LLVM optimises at ``-O2`` unless ``NUMBA_OPT`` is set (below).
+
 Every kernel is cached (``cache=True``) in the folder of this version of the kernels
 package (``_cache.folder()``): importing this module puts ``KernelsLocator`` first among
 numba's cache locators, for the files of this package only.
@@ -23,11 +25,20 @@ import os
 import tempfile
 from pathlib import Path
 
-from numba.core import caching
+from numba.core import caching, config
 
 from proxyshade.kernels import _cache
 
 os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")  # read when the OpenMP runtime starts
+
+# LLVM optimises at -O2, not numba's -O3, unless the environment sets NUMBA_OPT: the first
+# frame's kernels compile in 6-10 % fewer CPU seconds (bench/bench_compile.py --mode entries),
+# run as fast (the forced lake frame on one thread: 4.49-4.59 CPU s against 4.51-4.61) and
+# give the same bytes (no kernel uses fastmath, so neither level may reorder arithmetic).
+# Set in the environment, so worker processes (precompile, Dask) compile at the same level.
+if "NUMBA_OPT" not in os.environ:
+    os.environ["NUMBA_OPT"] = "2"
+    config.reload_config()
 
 # error_model="numpy": a float division by zero gives inf or nan as numpy does instead of
 # raising, so no check and exception path is compiled at each division (8% less compile
