@@ -9,7 +9,9 @@
              in it) and of the processes it reaped (the forkserver and the workers it forked);
              how busy the workers were while the tasks ran (the run's note: each worker's tasks'
              time over that span); medians, the ratios, and whether the two runs' outputs are
-             byte-identical. Bars: >= 1.7x wall, CPU <= 1.1x.
+             byte-identical; the Dask run's split of its workers' CPU (its note: compute, cache
+             reads and writes, before the first task, between tasks) and the wall ceiling on
+             this machine's cores (cores x local wall / Dask CPU). Bars: >= 1.7x wall, CPU <= 1.1x.
   overhead   a chain of 100 tiny instances (each reads the previous frame's, nothing else to
              run): per task, the time between a task's end and the next one's start on the
              workers (the scheduler's round trip), median. Bar: <= 5 ms. The wall time per task
