@@ -320,7 +320,7 @@ class DaskExecutor:
         home = self._homes(jobs)
         # each shot on a worker of its own: a frame's instances as one task (_groups)
         multi = _shared_keys(jobs) if home and not shared else None
-        for job in jobs:
+        for n, job in enumerate(jobs):
             plan = job.plan
             if self.cluster is not None and plan.threads == 0:
                 plan.threads = max(1, (os.cpu_count() or 1) // self.workers)
@@ -354,7 +354,8 @@ class DaskExecutor:
                 dkeys[ck] = _dask_key(ck, [f.key for f in deps] if shared else ())
                 futures[dkeys[ck]] = client.submit(_task, plans[-1], job.token, insts,
                                                    [i[0] in plan.force for i in insts], memory, shared, *deps,
-                                                   key=dkeys[ck], pure=False, **home.get(id(job), {}))
+                                                   key=dkeys[ck], pure=False, priority=len(jobs) - n,
+                                                   **home.get(id(job), {}))
         by_token = {job.token: job for job in jobs}
         self.records = []
         t0 = time.time()
