@@ -494,3 +494,7 @@ def test_adaptive_malloc_undoes_dasks_trim_threshold():
         faults[mode] = int(n)
     assert faults["plain"] > 40 * 100  # each array's pages faulted in afresh (20641 here)
     assert faults["fix"] < faults["plain"] / 10  # the heap's, reused (516 here; 1535 with no variable)
+    env.pop("MALLOC_TRIM_THRESHOLD_")  # a LocalCluster's worker: raised all the same (Preload(local=True))
+    out = subprocess.run([sys.executable, "-c", "from proxyshade.graph.dask_executor import adaptive_malloc as a\n"
+                          "print(a(), a(always=True))"], env=env, capture_output=True, text=True, check=True)
+    assert out.stdout.split() == ["False", "True"]
