@@ -276,6 +276,7 @@ def test_shots_on_workers_of_their_own_run_a_frame_per_task_as_a_local_run(tmp_p
                 for src, scene in (("renoir", "lake"), ("creek", "farm"))]
 
     local = run_graphs(shots("local"))
+    dask_ex.client.wait_for_workers(2, timeout=300)  # one shot per worker: both up
     with get_task_stream(dask_ex.client) as ts:
         dask = run_graphs(shots("dask"), executor=dask_ex)
     assert outputs(tmp_path / "dask") == outputs(tmp_path / "local") and len(outputs(tmp_path / "local")) == 2 * 13
