@@ -9,7 +9,9 @@
              in it) and of the processes it reaped (the forkserver and the workers it forked);
              how busy the workers were while the tasks ran (the run's note: each worker's tasks'
              time over that span); medians, the ratios, and whether the two runs' outputs are
-             byte-identical. Bars: >= 1.7x wall, CPU <= 1.1x.
+             byte-identical; the Dask run's split of its workers' CPU (its note: compute, cache
+             reads and writes, before the first task, between tasks) and the wall ceiling on
+             this machine's cores (cores x local wall / Dask CPU). Bars: >= 1.7x wall, CPU <= 1.1x.
   overhead   a chain of 100 tiny instances (each reads the previous frame's, nothing else to
              run): per task, the time between a task's end and the next one's start on the
              workers (the scheduler's round trip), median. Bar: <= 5 ms. The wall time per task
@@ -104,8 +106,10 @@ def run_command(size: int, frames: int, folder: Path, dask: bool) -> dict:
         raise SystemExit(f"proxyshade run failed ({r.returncode}): {r.stderr[-2000:]}")
     c = json.loads(cpu.read_text())
     busy = re.search(r"workers busy (\d+)% of ([\d.]+) s", r.stdout)  # the Dask run's note (dask_executor.busy)
+    split = re.search(r"workers' CPU (.*)", r.stdout)  # and where the workers' CPU went (dask_executor.cpu)
     return {"wall": wall, "client": c["client"], "workers": c["children"], "cpu": c["client"] + c["children"],
-            "busy": int(busy[1]) if busy else None, "phase": float(busy[2]) if busy else None}
+            "busy": int(busy[1]) if busy else None, "phase": float(busy[2]) if busy else None,
+            "split": split[1] if split else None}
 
 
 def outputs(folder: Path) -> dict[str, bytes]:
@@ -131,6 +135,9 @@ def bench_shots(size: int, repeat: int, frames: int) -> None:
                 busy = f"  workers busy {r['busy']}% of the {r['phase']:.1f} s computing" if r["busy"] is not None else ""
                 print(f"   round {i + 1} {mode:<5} wall {r['wall']:6.1f} s  CPU {r['cpu']:6.1f} s (client "
                       f"{r['client']:5.1f}, workers {r['workers']:5.1f}){busy}  load {r['load']:.1f}", flush=True)
+                if r["split"]:
+                    print(f"         workers' CPU {r['split']}; forkserver and after the last task "
+                          f"{r['workers'] - float(r['split'].split(' s ', 1)[0]):.1f} s", flush=True)
             if i == 0:
                 same = outputs(Path(d) / "local0" / "out") == outputs(Path(d) / "dask0" / "out")
             for mode in ("local", "dask"):
@@ -143,6 +150,10 @@ def bench_shots(size: int, repeat: int, frames: int) -> None:
           f"workers {D['workers']:.1f}  (load {D['load']:.1f})")
     print(f"wall: dask {L['wall'] / D['wall']:.2f}x faster (bar >= 1.7x); CPU: dask / local {D['cpu'] / L['cpu']:.2f}x "
           f"(bar <= 1.1x), client alone {D['client'] / L['cpu']:.2f}x; outputs identical: {'yes' if same else 'NO'}")
+    cores = os.cpu_count() or 1
+    print(f"ceiling: the local run keeps {L['cpu'] / L['wall']:.2f} cores busy; {cores} cores can run the Dask run's "
+          f"{D['cpu']:.1f} CPU s in {D['cpu'] / cores:.1f} s at best: at most {cores * L['wall'] / D['cpu']:.2f}x "
+          f"faster here ({cores} x local wall / Dask CPU; with the machine to itself)")
 
 
 def chain_graph(cache: Path, frames: int) -> Graph:

@@ -262,6 +262,57 @@ def test_independent_shots_each_stay_on_one_worker(tmp_path, dask_ex, registry):
     assert len(pa) == len(pb) == 1 and pa != pb
 
 
+def test_shots_on_workers_of_their_own_run_a_frame_per_task_as_a_local_run(tmp_path, dask_ex):
+    """Two shots of the camera move on the 2 workers (no key in common): each frame of a shot
+    is one task (6 tasks for 2 x 3 frames, not one per instance), the outputs, the rows and
+    the cache entries are the local executor's: Cryptomatte's plates, read only by the
+    frame's writer in the same task, stay in memory as in a local run."""
+    from distributed import get_task_stream
+
+    def shots(name):
+        return [(Graph.load(ROOT / "graphs" / "camera_move.yaml", cache=tmp_path / f"c_{name}",
+                            overrides=["proxy.resolution=[64,64]", "guide.size=32", "guide.start=16"],
+                            variables={"out": str(tmp_path / name / src), "source": src, "scene": scene}), [1, 2, 3])
+                for src, scene in (("renoir", "lake"), ("creek", "farm"))]
+
+    local = run_graphs(shots("local"))
+    dask_ex.client.wait_for_workers(2, timeout=300)  # one shot per worker: both up
+    with get_task_stream(dask_ex.client) as ts:
+        dask = run_graphs(shots("dask"), executor=dask_ex)
+    assert outputs(tmp_path / "dask") == outputs(tmp_path / "local") and len(outputs(tmp_path / "local")) == 2 * 13
+    for r, ref in zip(dask, local):
+        assert [(x.node, x.frame, x.status) for x in r.runs] == [(x.node, x.frame, x.status) for x in ref.runs]
+        assert len([n for n in r.notes if n.startswith("computed on Dask")]) == 1
+    assert len({t["key"] for t in ts.data if t["key"].startswith("proxyshade-")}) == 6  # a task per shot and frame
+    assert sum(x.status == "computed" for r in dask for x in r.runs) > 40
+    crypto = {x.key for r in local for x in r.runs if x.node == "crypto"}
+    assert crypto and set(entries_intact(tmp_path / "c_dask")) == set(entries_intact(tmp_path / "c_local"))
+    assert not crypto & set(entries_intact(tmp_path / "c_dask")) and all(entries_intact(tmp_path / "c_dask").values())
+
+
+def test_frame_tasks_never_wait_in_a_circle():
+    """``_groups`` on a DAG where joining the frame's task would make two tasks wait for
+    each other (c@1 reads a@1 and b@2, b@2 reads a@1): c@1 is a task of its own; every
+    instance of a task has the task's frame and the tasks wait for each other without a cycle."""
+    import networkx as nx
+
+    from proxyshade.graph.dask_executor import _groups
+
+    class Job:
+        todo = nx.DiGraph([(("a", 1), ("b", 2)), (("a", 1), ("c", 1)), (("b", 2), ("c", 1)), (("a", 1), ("d", 1)),
+                           (("d", 1), ("e", 1)), (("b", 2), ("f", 2)), (("s", 1), ("a", 1)), (("s", 1), ("b", 2))])
+        plan = type("Plan", (), {"keys": {inst: f"{inst[0]}{inst[1]}" for inst in todo}})
+
+    order = list(nx.lexicographical_topological_sort(Job.todo, key=str))
+    head = _groups(Job, order, shared=set())
+    assert head[("c", 1)] == ("c", 1) and head[("d", 1)] == head[("e", 1)] == head[("a", 1)]
+    assert head[("f", 2)] == ("b", 2) and all(h[1] == i[1] for i, h in head.items())
+    tasks = nx.DiGraph((head[u], head[v]) for u, v in Job.todo.edges if head[u] != head[v])
+    assert nx.is_directed_acyclic_graph(tasks)
+    shared = _groups(Job, order, shared={"a1"})  # a key another shot computes too: a task of its own
+    assert shared[("a", 1)] == ("a", 1) and shared[("d", 1)] == ("d", 1) != shared[("s", 1)]
+
+
 GRAPH = """\
 format: proxyshade/1
 frames: 1-3
@@ -444,3 +495,7 @@ def test_adaptive_malloc_undoes_dasks_trim_threshold():
         faults[mode] = int(n)
     assert faults["plain"] > 40 * 100  # each array's pages faulted in afresh (20641 here)
     assert faults["fix"] < faults["plain"] / 10  # the heap's, reused (516 here; 1535 with no variable)
+    env.pop("MALLOC_TRIM_THRESHOLD_")  # a LocalCluster's worker: raised all the same (Preload(local=True))
+    out = subprocess.run([sys.executable, "-c", "from proxyshade.graph.dask_executor import adaptive_malloc as a\n"
+                          "print(a(), a(always=True))"], env=env, capture_output=True, text=True, check=True)
+    assert out.stdout.split() == ["False", "True"]
