@@ -381,6 +381,7 @@ def _seam_cost(coords, img, target):
 
 
 SPREAD_LOSS = 0.1  # the most share of a label's spread about its mean tone the shifts may lose (``shift_patches``)
+SPREAD_ABOUT = "photo"  # EXPERIMENT: the spread about the photo label's mean tone, or "output": the output's
 ADOPT_MAX = 8  # most neighbouring patches' offsets a patch tries (``_shift_passes``)
 
 
@@ -401,7 +402,7 @@ def _spread(img, target, mu, order, a, b, oy, ox, W):
 
 
 @njit(**JIT)
-def _shift_passes(coords, img, target, labels, patch, radius, adopt, passes, keep):
+def _shift_passes(coords, img, target, labels, patch, radius, adopt, passes, keep, about_output):
     """Up to ``passes`` passes (stopping after one that moves nothing); in each, each piece
     (a patch's pixels of one target label; ids in order of (``patch`` id, label)) in turn
     takes, among its offset moved by up to ``radius`` pixels each way, the one of least
@@ -432,13 +433,24 @@ def _shift_passes(coords, img, target, labels, patch, radius, adopt, passes, kee
     nl += 1
     mu = np.zeros(nl, np.float64)
     cnt = np.zeros(nl, np.int64)
-    for sy in range(Hs):
-        for sx in range(Ws):
-            v = 0.0
-            for c in range(C):
-                v += img[sy, sx, c]
-            mu[labels[sy, sx]] += v
-            cnt[labels[sy, sx]] += 1
+    if about_output:  # the label's mean tone in the output now (target pixels read through coords, in range)
+        for i in range(H):
+            for j in range(W):
+                sy, sx = coords[i, j, 0], coords[i, j, 1]
+                if 0 <= sy < Hs and 0 <= sx < Ws:
+                    v = 0.0
+                    for c in range(C):
+                        v += img[sy, sx, c]
+                    mu[target[i, j]] += v
+                    cnt[target[i, j]] += 1
+    else:
+        for sy in range(Hs):
+            for sx in range(Ws):
+                v = 0.0
+                for c in range(C):
+                    v += img[sy, sx, c]
+                mu[labels[sy, sx]] += v
+                cnt[labels[sy, sx]] += 1
     for lab in range(nl):
         mu[lab] /= max(cnt[lab], 1)
     # pieces: a patch's pixels of one target label, ids from 1 in order of (patch, label). Per patch
@@ -719,5 +731,5 @@ def shift_patches(coords: np.ndarray, img: np.ndarray, target: np.ndarray, label
     target = np.ascontiguousarray(target, np.int32)
     labels = np.ascontiguousarray(labels, np.int32)
     moves = _shift_passes(coords, img, target, labels, np.ascontiguousarray(patch, np.int64), int(radius), int(adopt),
-                          int(passes), 1.0 - SPREAD_LOSS)
+                          int(passes), 1.0 - SPREAD_LOSS, SPREAD_ABOUT == "output")
     return coords, int(moves)
