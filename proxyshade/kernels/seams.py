@@ -429,7 +429,6 @@ def _seam_cost(coords, img, target):
 
 
 SPREAD_LOSS = 0.1  # the most share of a label's spread about its mean tone the shifts may lose (``shift_patches``)
-SPREAD_ABOUT = "photo"  # EXPERIMENT: the spread about the photo label's mean tone, or "output": the output's
 ADOPT_MAX = 8  # most neighbouring patches' offsets a patch tries (``_shift_passes``)
 
 
@@ -450,7 +449,7 @@ def _spread(img, target, mu, order, a, b, oy, ox, W):
 
 
 @njit(**JIT)
-def _shift_passes(coords, img, target, labels, patch, radius, adopt, passes, keep, about_output):
+def _shift_passes(coords, img, target, labels, patch, radius, adopt, passes, keep):
     """Up to ``passes`` passes (stopping after one that moves nothing); in each, each piece
     (a patch's pixels of one target label; ids in order of (``patch`` id, label)) in turn
     takes, among its offset moved by up to ``radius`` pixels each way, the one of least
@@ -481,24 +480,13 @@ def _shift_passes(coords, img, target, labels, patch, radius, adopt, passes, kee
     nl += 1
     mu = np.zeros(nl, np.float64)
     cnt = np.zeros(nl, np.int64)
-    if about_output:  # the label's mean tone in the output now (target pixels read through coords, in range)
-        for i in range(H):
-            for j in range(W):
-                sy, sx = coords[i, j, 0], coords[i, j, 1]
-                if 0 <= sy < Hs and 0 <= sx < Ws:
-                    v = 0.0
-                    for c in range(C):
-                        v += img[sy, sx, c]
-                    mu[target[i, j]] += v
-                    cnt[target[i, j]] += 1
-    else:
-        for sy in range(Hs):
-            for sx in range(Ws):
-                v = 0.0
-                for c in range(C):
-                    v += img[sy, sx, c]
-                mu[labels[sy, sx]] += v
-                cnt[labels[sy, sx]] += 1
+    for sy in range(Hs):
+        for sx in range(Ws):
+            v = 0.0
+            for c in range(C):
+                v += img[sy, sx, c]
+            mu[labels[sy, sx]] += v
+            cnt[labels[sy, sx]] += 1
     for lab in range(nl):
         mu[lab] /= max(cnt[lab], 1)
     # pieces: a patch's pixels of one target label, ids from 1 in order of (patch, label). Per patch
@@ -760,7 +748,7 @@ def _shift_passes(coords, img, target, labels, patch, radius, adopt, passes, kee
 
 
 def shift_patches(coords: np.ndarray, img: np.ndarray, target: np.ndarray, labels: np.ndarray, patch: np.ndarray,
-                  radius: int, passes: int, adopt: int = 0) -> tuple[np.ndarray, int]:
+                  radius: int, passes: int, adopt: int = 0, spread_loss: float | None = None) -> tuple[np.ndarray, int]:
     """``coords`` (copied) after ``passes`` passes in which every patch (``patch``: ids from 1,
     4-connected regions of one offset, ``patch.offset_components``) may move whole by up to
     ``radius`` pixels each way to where its seams cost least (Kwatra et al. 2003's cost, as
@@ -769,7 +757,7 @@ def shift_patches(coords: np.ndarray, img: np.ndarray, target: np.ndarray, label
     (``factor`` output pixels); this aligns it with its neighbours at the output's
     resolution. A patch of at most ``adopt`` pixels may also take a neighbouring patch's
     offset (``_shift_passes``). A patch across a label border moves as one piece per label. No
-    label loses more than ``SPREAD_LOSS`` of its pieces' summed squared tone deviation from its
+    label loses more than ``spread_loss`` (None: ``SPREAD_LOSS``) of its pieces' summed squared tone deviation from its
     mean tone on the source grid (``_spread``): shifts to where seams cost least drew the
     pieces of a label's tails onto its mode (bench_photos: a near-black label's std ratio
     0.88 -> 0.70). Each pass lowers the total ``seam_cost``; pieces keep their pixels; stops
@@ -779,5 +767,5 @@ def shift_patches(coords: np.ndarray, img: np.ndarray, target: np.ndarray, label
     target = np.ascontiguousarray(target, np.int32)
     labels = np.ascontiguousarray(labels, np.int32)
     moves = _shift_passes(coords, img, target, labels, np.ascontiguousarray(patch, np.int64), int(radius), int(adopt),
-                          int(passes), 1.0 - SPREAD_LOSS, SPREAD_ABOUT == "output")
+                          int(passes), 1.0 - (SPREAD_LOSS if spread_loss is None else float(spread_loss)))
     return coords, int(moves)

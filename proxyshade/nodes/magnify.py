@@ -59,6 +59,10 @@ class Magnify(Node):
                         doc="with patch_shift, a patch of at most this many pixels may also take the offset of a "
                             "patch beside it (their seam goes) where that costs least; 0 = none")
 
+    spread_loss = Param(float, 0.1, min=0.0, max=1.0,
+                        doc="with patch_shift, the most share of a label's summed squared tone deviation from "
+                            "its mean the shifts may lose (they draw a label's light and dark patches to its mode)")
+
     def compute(self, ctx) -> Plate:
         from proxyshade.kernels.lookup import lookup
         from proxyshade.synthesis import labels as L
@@ -85,7 +89,7 @@ class Magnify(Node):
                                                  target=g if ctx.p.repair else None, labels=wl, memo=ctx.memo,
                                                  colours=colours, seam_passes=ctx.p.seam_passes,
                                                  seam_runs=ctx.p.seam_runs, patch_shift=ctx.p.patch_shift,
-                                                 patch_adopt=ctx.p.patch_adopt, seam_spread=ctx.p.seam_spread)
+                                                 patch_adopt=ctx.p.patch_adopt, seam_spread=ctx.p.seam_spread, spread_loss=ctx.p.spread_loss)
         if ctx.p.repair:
             ctx.note(f"{rep['wrong']} pixels landed on another label: {rep['extended']} continued a neighbour's "
                      f"patch, {rep['nearest']} took the nearest right-label source pixel; "

@@ -88,7 +88,7 @@ def magnify_map(coords: np.ndarray, factor: int, shape: tuple[int, int], *, scal
                 target: np.ndarray | None = None, labels: np.ndarray | None = None,
                 only: np.ndarray | None = None, memo=None, colours: np.ndarray | None = None,
                 seam_passes: int = 0, seam_runs: bool = False, patch_shift: int = 0, patch_adopt: int = 0,
-                seam_spread: float = 0.0):
+                seam_spread: float = 0.0, spread_loss: float | None = None):
     """The exemplar map ``coords`` magnified by ``factor`` to the output size ``shape`` (each
     patch keeps its translation, the source is read at full detail). With ``target``,
     pixels whose ``labels`` (the source's on the output-scale grid,
@@ -102,7 +102,8 @@ def magnify_map(coords: np.ndarray, factor: int, shape: tuple[int, int], *, scal
     of at most ``patch_adopt`` pixels may take a neighbour's offset (``kernels.seams.
     shift_patches``, ``SHIFT_PASSES`` passes), and the seams move again. ``seam_spread`` > 0:
     the seam moves also pay for drawing a label's tones to its mean where the repaired map
-    lacks the photo label's spread (``kernels.seams.spread_weights``).
+    lacks the photo label's spread (``kernels.seams.spread_weights``); ``spread_loss``: the most
+    share of a label's tone spread the shifts may lose (None: ``kernels.seams.SPREAD_LOSS``).
 
     Returns (source.x, source.y float32, patch ids uint32 from 1, patch count, the
     repair's counts, with ``seam_moves`` and ``patch_shifts``)."""
@@ -121,7 +122,8 @@ def magnify_map(coords: np.ndarray, factor: int, shape: tuple[int, int], *, scal
         if patch_shift > 0:
             patch, _ = patch_ids(coords_out)
             coords_out, rep["patch_shifts"] = kseams.shift_patches(coords_out, colours, target, labels, patch,
-                                                                   patch_shift, SHIFT_PASSES, patch_adopt)
+                                                                   patch_shift, SHIFT_PASSES, patch_adopt,
+                                                                   spread_loss=spread_loss)
             coords_out, _ = kseams.refine_seams(coords_out, colours, target, labels, seam_passes, runs=seam_runs,
                                                 memory=seams, spread=spread)
     patch, npatch = patch_ids(coords_out)

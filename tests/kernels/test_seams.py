@@ -421,6 +421,7 @@ def test_patch_shifts_under_a_tight_spread_budget_match_reference(seed, loss, mo
     assert np.array_equal(got, want) and moves == want_moves
     monkeypatch.setattr(ks, "SPREAD_LOSS", 1.0)  # the budget decides some moves
     assert not np.array_equal(ks.shift_patches(S, img, target, labels, patch, 2, 3, 6)[0], got)
+    assert np.array_equal(ks.shift_patches(S, img, target, labels, patch, 2, 3, 6, spread_loss=loss)[0], got)
 
 
 @pytest.mark.parametrize("seed", range(4))
