@@ -33,7 +33,8 @@ median windowed χ² <= EbSynth's, outside share <= 1 % per label, no negative p
 ratio 0.8-1.2 per label.
 
 ``--stages`` prints instead, per case and variant, each label's std ratio after PatchInit,
-before and after each Correct level, after Magnify and Poisson (``stages``).
+before and after each Correct level, after each of Magnify's steps (magnified, label repair,
+seam moves, patch shifts, seam moves again) and Poisson (``stages``).
 ``--width 1920`` (or 3840) makes HD (4K) frames from the same photos at the photo's texture
 scale, and prints each output's repetition (``kernels.quality.repetition``, ``copies``)
 beside its time, to compare with the 1024-wide run's.
@@ -184,11 +185,13 @@ def proxyshade(src: Plate, ids: np.ndarray, variants: dict[str, dict]) -> dict[s
 
 def stages(src: Plate, ids: np.ndarray, src_srgb: np.ndarray, sets: dict[str, dict]) -> list[tuple[str, dict]]:
     """Where a label's tone spread goes: [(stage, {label: std ratio})] after PatchInit, before
-    and after each Correct level, after Correct, Magnify and Poisson. A map is read at the
+    and after each Correct level, after each of Magnify's steps, Magnify and Poisson. A map is read at the
     output size (each level's map upsampled to the synthesis size, then magnified, without
     the seam moves), counting only the pixels that read their own label; plates by their RGB."""
     from proxyshade.kernels import correct as kc
     from proxyshade.kernels import magnify as kmag
+    from proxyshade.kernels import seams as kseams
+    from proxyshade.synthesis.exemplar import grid_to_source
 
     names = {int(t["id"]): t["name"] for t in src.meta["labels"]}
     lab = src["label.id"]
@@ -216,11 +219,25 @@ def stages(src: Plate, ids: np.ndarray, src_srgb: np.ndarray, sets: dict[str, di
         corr = run_node("Correct", sets["correct"], {"init": init, "source": src})
     finally:
         kc.correct_level = orig
-    mag = run_node("Magnify", sets["magnify"], {"synth": corr, "source": src, "guide": guide})
+    steps, kept = [], (kmag.magnify, kmag.repair_labels, kseams.refine_seams, kseams.shift_patches)
+
+    def watch(name, fn):  # Magnify's steps, each map at the output size as it leaves the step
+        def run(*a, **kw):
+            res = fn(*a, **kw)
+            steps.append((name, np.array(res if name == "raw" else res[0])))
+            return res
+        return run
+
+    kmag.magnify, kmag.repair_labels = watch("raw", kept[0]), watch("repaired", kept[1])
+    kseams.refine_seams, kseams.shift_patches = watch("seams", kept[2]), watch("shifts", kept[3])
+    try:
+        mag = run_node("Magnify", sets["magnify"], {"synth": corr, "source": src, "guide": guide})
+    finally:
+        kmag.magnify, kmag.repair_labels, kseams.refine_seams, kseams.shift_patches = kept
     fin = run_node("Poisson", sets["final"], {"image": mag, "source": src})
     shapes = {lv.h: lv.tgt_lab.shape for lv, _, _ in rec}
     ex_shape = rec[0][0].src_lab.shape
-    factor = ids.shape[0] // shapes[1][0]
+    factor = int(init.meta["synthesis"]["factor"])  # (not the height ratio: a height need not be a multiple)
 
     def read_map(S, h):
         while h > 1:
@@ -239,6 +256,12 @@ def stages(src: Plate, ids: np.ndarray, src_srgb: np.ndarray, sets: dict[str, di
     S0 = np.stack([np.rint((init["source.y"] + 0.5) / F - 0.5), np.rint((init["source.x"] + 0.5) / F - 0.5)], -1)
     rows = [("PatchInit", read_map(S0.astype(np.int32), 1))]
     rows += [(f"Correct h={lv.h} {tag}", read_map(S, lv.h)) for lv, tag, S in rec]
+    step = float(mag.meta["synthesis"]["scale"])
+    for t, (name, co) in enumerate(steps):  # own-label pixels only before the repair
+        y = np.clip(np.rint(grid_to_source(co[..., 0], step)).astype(int), 0, lab.shape[0] - 1)
+        x = np.clip(np.rint(grid_to_source(co[..., 1], step)).astype(int), 0, lab.shape[1] - 1)
+        again = " 2" if any(n == name for n, _ in steps[:t]) else ""
+        rows.append((f"Magnify {name}{again}", ratios(src_srgb[y, x], lab[y, x])))
     rows += [("Magnify map", read_plate(mag)), ("Magnify", ratios(srgb(mag.rgb()))),
              ("Poisson", ratios(srgb(fin.rgb())))]
     return rows

@@ -347,13 +347,13 @@ def _tone_balance(coords, src_lab, src_rgb, nlab, nbins, out):
 
 
 @njit(**JIT)
-def _tone_spread(coords, src_lab, src_rgb, nlab, keep, out):
+def _tone_spread(coords, src_lab, src_rgb, nlab, out):
     """For each exemplar pixel, how a target pixel taking it would move its label's tone
     spread back toward the photo's: d × clip(1 − (t − μ)² / V, −1, 1), t the pixel's luma
     (``src_rgb``: 255 · sRGB, the colour features), μ the mean luma of the label's target
     pixels (read through ``coords``), V the variance of the photo label's luma (its exemplar
-    pixels), d = max(0, 1 − v / (keep² V)) the label's deficit (v: the target pixels'
-    variance about μ; ``keep`` the std ratio it aims at); 0 for a label no target pixel
+    pixels), d = max(0, 1 − v / V) the label's deficit (v: the target pixels' variance
+    about μ); 0 for a label no target pixel
     uses or with V = 0. Positive (a penalty) near the mean, negative (a bonus) for tones
     farther than √V from it, only in a label that lost spread. Deterministic (sequential
     sums)."""
@@ -397,7 +397,7 @@ def _tone_spread(coords, src_lab, src_rgb, nlab, keep, out):
     d = np.zeros(nlab)
     for l in range(nlab):
         if n[l] > 0 and V[l] > 0:
-            d[l] = max(1.0 - v[l] / n[l] / (keep * keep * V[l]), 0.0)
+            d[l] = max(1.0 - v[l] / n[l] / V[l], 0.0)
     for y in range(He):
         for x in range(We):
             l = src_lab[y, x]
@@ -588,7 +588,7 @@ def subpass_rows(level, knn, coords_old, active, over, r0: int, r1: int, parity:
 def correct_level(level, coords: np.ndarray, knn: np.ndarray, *, passes: int, metric: Metric, rule: Rule,
                   active: np.ndarray | None = None, tiles=None, tone_balance: float = 0.0,
                   tone_spacing: int = 1, tone_spread: float = 0.0,
-                  spread_spacing: int = 1, spread_keep: float = 1.0) -> tuple[np.ndarray, dict]:
+                  spread_spacing: int = 1) -> tuple[np.ndarray, dict]:
     """``passes`` correction passes (4 parity sub-passes each) at one level.
 
     ``tone_balance`` (T): each candidate's distance is multiplied by 1 + U × over-use
@@ -596,7 +596,7 @@ def correct_level(level, coords: np.ndarray, knn: np.ndarray, *, passes: int, me
     (``_tone_balance``: negative for tones the target uses less than the photo's label
     does), at least ``TONE_FLOOR``, except in the last ``TONE_FREE_PASSES`` passes of the
     finest level (h = 1); 0: the usage term alone (exactly as without it). ``tone_spread``
-    (D) adds D × ``_tone_spread`` (aiming at ``spread_keep``) the same way: in a label
+    (D) adds D × ``_tone_spread`` the same way: in a label
     whose tones spread less about their mean than the photo label's, candidates near the
     mean pay, those far from it gain. At a level whose spacing h is under ``tone_spacing`` (``spread_spacing``) the
     tone-balance (tone-spread) term is off; with neither, the usage term alone.
@@ -638,7 +638,7 @@ def correct_level(level, coords: np.ndarray, knn: np.ndarray, *, passes: int, me
                     _tone_balance(coords_old, level.src_lab, level.src_rgb, n, TONE_BINS, tone)
                     over += tone_balance * tone
                 if spread is not None:
-                    _tone_spread(coords_old, level.src_lab, level.src_rgb, n, spread_keep, spread)
+                    _tone_spread(coords_old, level.src_lab, level.src_rgb, n, spread)
                     over += tone_spread * spread
                 np.maximum(over, TONE_FLOOR - 1.0, out=over)
             if nb > 1:
@@ -805,7 +805,7 @@ def synthesize(levels: list, S_init: np.ndarray, corr, *, seed: int, mask: np.nd
                               rule=Rule(radius, bool(corr.use_rgb), float(corr.kappa), float(corr.uniformity)),
                               active=active, tiles=tiles, tone_balance=float(corr.tone_balance),
                               tone_spacing=int(corr.tone_spacing), tone_spread=float(corr.tone_spread),
-                              spread_spacing=int(corr.spread_spacing), spread_keep=float(corr.spread_keep))
+                              spread_spacing=int(corr.spread_spacing))
         st.update(level=l, h=h, shape=shape, passes=n, radius=radius)
         stats.append(st)
     if mask is not None:

@@ -109,9 +109,6 @@ class Correction(CoarseLevel, PatchMetric):
                             "the mean pay and those farther than one photo std gain (off in the finest level's "
                             "last 2 passes); 0 = off")
     spread_spacing = Param(int, 1, min=1, doc="tone_spread acts only at levels whose spacing is at least this")
-    spread_keep = Param(float, 1.0, min=0.1, max=2.0,
-                        doc="the std ratio (target over photo, per label) tone_spread aims at: the deficit is "
-                            "1 - variance ratio / spread_keep^2")
     use_rgb = Param(bool, True, doc="add the colour neighbourhood to the metric (the paper does)")
     radius = Param(str, "spacing", choices=("spacing", "level"),
                    doc="near-copy radius: one level pixel (spacing h) or 2^l exemplar pixels at level l")
