@@ -71,25 +71,8 @@ def _energy(coords, img, target, i, j, oy, ox):
     return e
 
 
-@njit(**JIT)
-def _drawn_in(img, mu, lam, t, ay, ax, by, bx):
-    """What reading source pixel (by, bx) instead of (ay, ax) costs a pixel of label ``t``
-    in tone spread: ``lam[t]`` × how much nearer its label's mean tone ``mu[t]`` it comes,
-    ``max(0, (a − μ)² − (b − μ)²)``, tone the channel sum; 0 off the grid or where
-    ``lam[t]`` is 0 (``seam_spread``)."""
-    Hs, Ws, C = img.shape
-    if lam[t] == 0.0 or ay < 0 or ax < 0 or by < 0 or bx < 0 or ay >= Hs or ax >= Ws or by >= Hs or bx >= Ws:
-        return 0.0
-    a = -mu[t]
-    b = -mu[t]
-    for c in range(C):
-        a += img[ay, ax, c]
-        b += img[by, bx, c]
-    return lam[t] * max(a * a - b * b, 0.0)
-
-
 @njit(**PJIT)
-def _sub_pass(coords, img, target, labels, parity, stamp, tried, lines, clock, changed, mu, lam):
+def _sub_pass(coords, img, target, labels, parity, stamp, tried, lines, clock, changed):
     """One checkerboard half: every pixel of ``parity`` takes its best offset; the number
     of pixels that changed. ``stamp``: the ``clock`` at which each pixel last changed;
     ``tried``: at which each pixel was last tried (a pixel none of whose neighbours or
@@ -133,8 +116,7 @@ def _sub_pass(coords, img, target, labels, parity, stamp, tried, lines, clock, c
                 sy, sx = i + cy, j + cx
                 if sy < 0 or sx < 0 or sy >= Hs or sx >= Ws or labels[sy, sx] != target[i, j]:
                     continue
-                e = _energy(coords, img, target, i, j, cy, cx) + _drawn_in(img, mu, lam, target[i, j], i + oy, j + ox,
-                                                                         sy, sx)
+                e = _energy(coords, img, target, i, j, cy, cx)
                 if e < best:
                     best, by, bx = e, cy, cx
             if by != oy or bx != ox:
@@ -159,7 +141,7 @@ def _on_run(coords, target, t, u, v, k, ay, ax, by, bx):
 
 
 @njit(**JIT)
-def _run_at(coords, img, target, labels, i, j, k, rc, rv, lo_end, hi_end, stamp, tried, clock, mu, lam):
+def _run_at(coords, img, target, labels, i, j, k, rc, rv, lo_end, hi_end, stamp, tried, clock):
     """The run move of the seam run that starts at (i, j) across direction ``k`` (see
     ``_run_pass``), if (i, j) starts one; the number of pixels moved. Not tried again
     (``tried[i, j, k]``, the ``clock`` when it last was) where no pixel the run reads (its
@@ -208,8 +190,7 @@ def _run_at(coords, img, target, labels, i, j, k, rc, rv, lo_end, hi_end, stamp,
         sy, sx = u + by, v + bx
         rv[n] = 0 <= sy < Hs and 0 <= sx < Ws and labels[sy, sx] == target[u, v]
         rc[n] = (_pair_cost(coords, img, target, u, v, by, bx, k) + _pair_cost(coords, img, target, u, v, by, bx, kb)
-                 - _pair_cost(coords, img, target, u, v, ay, ax, k) - _pair_cost(coords, img, target, u, v, ay, ax, kb)
-                 + _drawn_in(img, mu, lam, t, u + ay, v + ax, sy, sx))
+                 - _pair_cost(coords, img, target, u, v, ay, ax, k) - _pair_cost(coords, img, target, u, v, ay, ax, kb))
         lo_end[n] = (_pair_cost(coords, img, target, u, v, by, bx, 3 - ke)
                      - _pair_cost(coords, img, target, u, v, ay, ax, 3 - ke))
         hi_end[n] = _pair_cost(coords, img, target, u, v, by, bx, ke) - _pair_cost(coords, img, target, u, v, ay, ax, ke)
@@ -245,7 +226,7 @@ def _run_at(coords, img, target, labels, i, j, k, rc, rv, lo_end, hi_end, stamp,
 
 
 @njit(**PJIT)
-def _run_pass(coords, img, target, labels, vertical, parity, stamp, tried, lines, clock, moved, mu, lam):
+def _run_pass(coords, img, target, labels, vertical, parity, stamp, tried, lines, clock, moved):
     """Run moves on the rows (``vertical`` false: seams between a row and the rows above
     and below, runs along the row) or columns of ``parity``. A run: the pixels ``r_0 ..
     r_{n-1}`` along a seam (each the next one's neighbour) that read one offset ``a``
@@ -284,7 +265,7 @@ def _run_pass(coords, img, target, labels, vertical, parity, stamp, tried, lines
                                                           and coords[y, x, 1] - x == coords[i, j, 1] - j):
                     continue
                 moved[line] += _run_at(coords, img, target, labels, i, j, k, rc=rc, rv=rv, lo_end=lo_end, hi_end=hi_end,
-                                       stamp=stamp, tried=tried, clock=clock, mu=mu, lam=lam)
+                                       stamp=stamp, tried=tried, clock=clock)
     return moved.sum()
 
 
@@ -299,13 +280,11 @@ class SeamMemory:
         self.coords = None
 
     def start(self, coords: np.ndarray, args: tuple) -> None:
-        """Ready for a call on ``coords`` with ``args`` (img, target, labels: the same arrays;
-        then the spread weights mu, lam: equal values): the pixels that
+        """Ready for a call on ``coords`` with ``args`` (img, target, labels): the pixels that
         differ from the map the last call returned marked as changed; everything marked
         untried on the first call or other arrays."""
         H, W = coords.shape[:2]
-        if self.coords is None or self.coords.shape != coords.shape or any(x is not y for x, y in zip(args[:3], self.args)) \
-                or any(not np.array_equal(x, y) for x, y in zip(args[3:], self.args[3:])):
+        if self.coords is None or self.coords.shape != coords.shape or any(x is not y for x, y in zip(args, self.args)):
             self.args = args
             self.stamp = np.zeros((H, W), np.uint8)  # the clock at which each pixel last changed
             self.tried = np.zeros((H, W), np.uint8)  # ... was last tried by a one-pixel move
@@ -344,61 +323,34 @@ class SeamMemory:
         return self.clock
 
 
-def spread_weights(coords: np.ndarray, img: np.ndarray, target: np.ndarray, labels: np.ndarray,
-                   weight: float) -> tuple[np.ndarray, np.ndarray]:
-    """``refine_seams``' ``spread``: per label, the photo label's mean tone μ on the source
-    grid (tone: the channel sum of ``img``) and λ = ``weight`` × d, d = max(0, 1 − v / V)
-    the share of the photo label's tone variance V the output's (v: its target pixels read
-    through ``coords``, in the grid) lacks; 0 where the output holds its spread."""
-    nl = int(max(labels.max(), target.max())) + 1
-    tone = np.asarray(img, np.float64).sum(-1)
-    n = np.bincount(labels.ravel(), minlength=nl)
-    mu = np.bincount(labels.ravel(), tone.ravel(), nl) / np.maximum(n, 1)
-    V = np.bincount(labels.ravel(), (tone - mu[labels]).ravel() ** 2, nl) / np.maximum(n, 1)
-    y, x = coords[..., 0], coords[..., 1]
-    inside = (y >= 0) & (x >= 0) & (y < labels.shape[0]) & (x < labels.shape[1])
-    t, lab = tone[y[inside], x[inside]], target[inside]
-    m = np.bincount(lab, minlength=nl)
-    mo = np.bincount(lab, t, nl) / np.maximum(m, 1)
-    v = np.bincount(lab, (t - mo[lab]) ** 2, nl) / np.maximum(m, 1)
-    d = np.where((m > 0) & (V > 0), np.maximum(1.0 - v / np.where(V > 0, V, 1.0), 0.0), 0.0)
-    return mu, float(weight) * d
-
-
 def refine_seams(coords: np.ndarray, img: np.ndarray, target: np.ndarray, labels: np.ndarray,
-                 passes: int, runs: bool = False, memory: SeamMemory | None = None,
-                 spread: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[np.ndarray, int]:
+                 passes: int, runs: bool = False, memory: SeamMemory | None = None) -> tuple[np.ndarray, int]:
     """``coords`` (copied) after ``passes`` passes of seam moves (each two checkerboard halves
     of one-pixel moves, then, with ``runs``, run moves on even and odd rows, then columns:
     ``_run_pass``),
     stopping early when a pass changes nothing; and the number of pixel moves made. A pixel
     or run whose neighbourhood has not changed since it was last tried is not tried again;
-    ``memory`` carries that over calls on one map (the same result, less work). With
-    ``spread`` ((μ, λ) per label, ``spread_weights``), a move that reads a tone nearer its
-    label's mean μ also pays λ × the fall of (tone − μ)² (``_drawn_in``): seams that route
-    round a label's light and dark pixels take its tone spread with them."""
+    ``memory`` carries that over calls on one map (the same result, less work)."""
     coords = np.ascontiguousarray(coords, np.int32).copy()
     img = np.ascontiguousarray(img, np.float32)
     target = np.ascontiguousarray(target, np.int32)
     labels = np.ascontiguousarray(labels, np.int32)
-    nl = int(max(labels.max(), target.max())) + 1
-    mu, lam = (np.zeros(nl), np.zeros(nl)) if spread is None else (np.asarray(x, np.float64) for x in spread)
     m = memory if memory is not None else SeamMemory()
-    m.start(coords, (img, target, labels, mu, lam))
+    m.start(coords, (img, target, labels))
     moves = 0
     rows, cols = np.zeros(coords.shape[0], np.int64), np.zeros(coords.shape[1], np.int64)  # changes per line
     for _ in range(passes):
         n = 0
         for parity in (0, 1):
             rows[:] = 0
-            n += _sub_pass(coords, img, target, labels, parity, m.stamp, m.tried, m.lines, m.tick(), rows, mu, lam)
+            n += _sub_pass(coords, img, target, labels, parity, m.stamp, m.tried, m.lines, m.tick(), rows)
             m.mark(rows, False)
         if runs:
             for vertical in (False, True):
                 for parity in (0, 1):
                     (cols if vertical else rows)[:] = 0
                     n += _run_pass(coords, img, target, labels, vertical, parity, stamp=m.stamp, tried=m.tried_run,
-                                   lines=m.lines, clock=m.tick(), moved=cols if vertical else rows, mu=mu, lam=lam)
+                                   lines=m.lines, clock=m.tick(), moved=cols if vertical else rows)
                     m.mark(cols if vertical else rows, vertical)
         moves += int(n)
         if n == 0:

@@ -47,10 +47,6 @@ class Magnify(Node):
     seam_runs = Param(bool, True,
                       doc="with seam_passes, also move runs of pixels along a seam at once (the part of a "
                           "straight seam that gains most shifts by a pixel); false = one-pixel moves only")
-    seam_spread = Param(float, 0.0, min=0.0,
-                        doc="with seam_passes, a seam move that reads a tone nearer its label's mean also pays "
-                            "this x the fall of (tone - mean)^2 x the share of the photo label's tone variance the "
-                            "label lacks (labels that keep their spread pay nothing); 0 = off")
     patch_shift = Param(int, 0, min=0, max=8,
                         doc="with seam_passes, each whole patch may then move by up to this many output pixels "
                             "each way to where its seams cost least (a magnified patch is placed to a whole "
@@ -89,7 +85,8 @@ class Magnify(Node):
                                                  target=g if ctx.p.repair else None, labels=wl, memo=ctx.memo,
                                                  colours=colours, seam_passes=ctx.p.seam_passes,
                                                  seam_runs=ctx.p.seam_runs, patch_shift=ctx.p.patch_shift,
-                                                 patch_adopt=ctx.p.patch_adopt, seam_spread=ctx.p.seam_spread, spread_loss=ctx.p.spread_loss)
+                                                 patch_adopt=ctx.p.patch_adopt,
+                                                 spread_loss=ctx.p.spread_loss)
         if ctx.p.repair:
             ctx.note(f"{rep['wrong']} pixels landed on another label: {rep['extended']} continued a neighbour's "
                      f"patch, {rep['nearest']} took the nearest right-label source pixel; "

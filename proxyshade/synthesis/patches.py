@@ -88,7 +88,7 @@ def magnify_map(coords: np.ndarray, factor: int, shape: tuple[int, int], *, scal
                 target: np.ndarray | None = None, labels: np.ndarray | None = None,
                 only: np.ndarray | None = None, memo=None, colours: np.ndarray | None = None,
                 seam_passes: int = 0, seam_runs: bool = False, patch_shift: int = 0, patch_adopt: int = 0,
-                seam_spread: float = 0.0, spread_loss: float | None = None):
+                spread_loss: float | None = None):
     """The exemplar map ``coords`` magnified by ``factor`` to the output size ``shape`` (each
     patch keeps its translation, the source is read at full detail). With ``target``,
     pixels whose ``labels`` (the source's on the output-scale grid,
@@ -100,9 +100,7 @@ def magnify_map(coords: np.ndarray, factor: int, shape: tuple[int, int], *, scal
     ``target``), with ``seam_runs`` also as runs along a seam; with ``patch_shift`` each whole
     patch then moves by up to that many output pixels to where its seams cost least, a patch
     of at most ``patch_adopt`` pixels may take a neighbour's offset (``kernels.seams.
-    shift_patches``, ``SHIFT_PASSES`` passes), and the seams move again. ``seam_spread`` > 0:
-    the seam moves also pay for drawing a label's tones to its mean where the repaired map
-    lacks the photo label's spread (``kernels.seams.spread_weights``); ``spread_loss``: the most
+    shift_patches``, ``SHIFT_PASSES`` passes), and the seams move again. ``spread_loss``: the most
     share of a label's tone spread the shifts may lose (None: ``kernels.seams.SPREAD_LOSS``).
 
     Returns (source.x, source.y float32, patch ids uint32 from 1, patch count, the
@@ -116,16 +114,15 @@ def magnify_map(coords: np.ndarray, factor: int, shape: tuple[int, int], *, scal
     rep["seam_moves"] = rep["patch_shifts"] = 0
     if seam_passes > 0 and colours is not None and target is not None:
         seams = kseams.SeamMemory()  # the second seam moves try again only what the shifts changed
-        spread = kseams.spread_weights(coords_out, colours, target, labels, seam_spread) if seam_spread > 0 else None
         coords_out, rep["seam_moves"] = kseams.refine_seams(coords_out, colours, target, labels, seam_passes,
-                                                             runs=seam_runs, memory=seams, spread=spread)
+                                                             runs=seam_runs, memory=seams)
         if patch_shift > 0:
             patch, _ = patch_ids(coords_out)
             coords_out, rep["patch_shifts"] = kseams.shift_patches(coords_out, colours, target, labels, patch,
                                                                    patch_shift, SHIFT_PASSES, patch_adopt,
                                                                    spread_loss=spread_loss)
             coords_out, _ = kseams.refine_seams(coords_out, colours, target, labels, seam_passes, runs=seam_runs,
-                                                memory=seams, spread=spread)
+                                                memory=seams)
     patch, npatch = patch_ids(coords_out)
     return grid_to_source(coords_out[..., 1], scale), grid_to_source(coords_out[..., 0], scale), patch, npatch, rep
 

@@ -47,20 +47,7 @@ def ref_total(S, img, target):
     return tot
 
 
-def ref_drawn_in(img, spread, lab, a, b):
-    """A move's spread cost: λ × the fall of (tone − μ)² reading source pixel b instead of a."""
-    if spread is None or spread[1][lab] == 0:
-        return 0.0
-    Hs, Ws, _ = img.shape
-    if not (0 <= a[0] < Hs and 0 <= a[1] < Ws and 0 <= b[0] < Hs and 0 <= b[1] < Ws):
-        return 0.0
-    mu, lam = spread
-    ta = sum(float(c) for c in img[a]) - mu[lab]
-    tb = sum(float(c) for c in img[b]) - mu[lab]
-    return lam[lab] * max(ta * ta - tb * tb, 0.0)
-
-
-def ref_runs(S, img, target, labels, spread=None):
+def ref_runs(S, img, target, labels):
     """Run moves: even rows, odd rows (pixels left to right, up then down), even columns,
     odd columns (top to bottom, left then right); each run (from its first pixel) tries
     every contiguous part, judged by the whole map's seam cost before and after; the part
@@ -100,8 +87,7 @@ def ref_runs(S, img, target, labels, spread=None):
                 T = S.copy()
                 for u, v in part:
                     T[u, v] = (u + b[0], v + b[1])
-                gain = before - ref_total(T, img, target) - sum(
-                    ref_drawn_in(img, spread, target[u, v], (u + a[0], v + a[1]), (u + b[0], v + b[1])) for u, v in part)
+                gain = before - ref_total(T, img, target)
                 if gain > best + 1e-9:
                     best, pick = gain, T
         if pick is not None:
@@ -110,7 +96,7 @@ def ref_runs(S, img, target, labels, spread=None):
     return moved
 
 
-def ref_refine(S, img, target, labels, passes, runs=False, spread=None):
+def ref_refine(S, img, target, labels, passes, runs=False):
     S = S.copy()
     H, W = target.shape
     for _ in range(passes):
@@ -133,8 +119,7 @@ def ref_refine(S, img, target, labels, passes, runs=False, spread=None):
                             continue
                         if labels[sy, sx] != target[i, j]:
                             continue
-                        e = ref_energy(S, img, target, i, j, o) + ref_drawn_in(
-                            img, spread, target[i, j], (i + own[0], j + own[1]), (sy, sx))
+                        e = ref_energy(S, img, target, i, j, o)
                         if e < best:
                             best, pick = e, o
                     if pick != own:
@@ -142,7 +127,7 @@ def ref_refine(S, img, target, labels, passes, runs=False, spread=None):
                         moved += 1
             S = new
         if runs:
-            moved += ref_runs(S, img, target, labels, spread)
+            moved += ref_runs(S, img, target, labels)
         if moved == 0:
             break
     return S
@@ -212,62 +197,6 @@ def test_run_moves_match_reference_exactly(seed):
     want = ref_refine(S, img, target, labels, 3, runs=True)
     assert np.array_equal(got, want)
     assert moves >= int((got != S).any(-1).sum())
-
-
-@pytest.mark.parametrize("seed", range(6))
-def test_seam_moves_with_a_spread_cost_match_reference_exactly(seed):
-    S, img, target, labels = random_case(seed, H=13, W=15, Hs=26, Ws=28)
-    img = (img + np.roll(img, 1, 0) + np.roll(img, 1, 1)) / 3
-    mu, lam = ks.spread_weights(S, img, target, labels, 4.0)
-    lam = np.array([4.0 + seed, 0.0 if seed % 2 else 4.0 + seed])  # odd seeds: the border label pays nothing
-    got, moves = ks.refine_seams(S, img, target, labels, 3, runs=True, spread=(mu, lam))
-    want = ref_refine(S, img, target, labels, 3, runs=True, spread=(mu, lam))
-    assert np.array_equal(got, want)
-    free = ks.refine_seams(S, img, target, labels, 3, runs=True)[0]
-    assert not np.array_equal(got, free)  # the cost decides some moves
-    zero = ks.refine_seams(S, img, target, labels, 3, runs=True, spread=(mu, np.zeros_like(lam)))[0]
-    assert np.array_equal(zero, free)
-
-
-def test_spread_weights_match_their_definition():
-    S, img, target, labels = random_case(1, nlab=2)
-    S[0, 0] = (-3, 5)  # off the grid: not counted
-    mu, lam = ks.spread_weights(S, img, target, labels, 3.0)
-    tone = img.astype(np.float64).sum(-1)
-    for lab in range(2):
-        photo = tone[labels == lab]
-        read = [tone[tuple(S[i, j])] for i, j in zip(*np.nonzero(target == lab)) if (i, j) != (0, 0)]
-        assert mu[lab] == pytest.approx(photo.mean(), rel=1e-12)
-        assert lam[lab] == pytest.approx(3.0 * max(1.0 - np.var(read) / photo.var(), 0.0), rel=1e-9, abs=1e-12)
-    S2 = np.stack(np.nonzero(labels >= 0), -1).reshape(labels.shape + (2,)).astype(np.int32)  # the photo itself
-    assert np.abs(ks.spread_weights(S2, img, labels, labels, 3.0)[1]).max() < 1e-9
-
-
-def test_seams_with_a_spread_cost_keep_a_labels_tail():
-    # one row of one label: the map reads offset +20 (grey) except three one-pixel islands
-    # reading offset 0, bright there. Without the cost each island takes its neighbours'
-    # offset (its seams vanish, the bright pixels go: the output, already less spread than
-    # the photo, 14 of whose 34 pixels are bright, loses its tail); with it they stay
-    rng = np.random.default_rng(4)
-    img = np.full((1, 40, 3), 0.4, np.float32) + 0.02 * rng.random((1, 40, 1)).astype(np.float32)
-    img[:, 20:32] = img[:, :12]
-    img[0, [3, 6, 9]] = 1.0
-    img[0, 12:20] = img[0, 32:35] = 1.0  # bright pixels the map does not read
-    S = np.stack(np.mgrid[0:1, 0:12], -1).astype(np.int32)
-    S[0, :, 1] += 20
-    S[0, [3, 6, 9], 1] -= 20
-    target, labels = np.zeros((1, 12), np.int32), np.zeros((1, 40), np.int32)
-    labels[0, [2, 4, 5, 7, 8, 10]] = 1  # round them offset 0 reads another label: the islands cannot grow
-    n_bright = lambda out: int((img[out[..., 0], out[..., 1], 0] == 1.0).sum())  # noqa: E731
-    assert n_bright(S) == 3
-    free, _ = ks.refine_seams(S, img, target, labels, 4, runs=True)
-    assert n_bright(free) == 0 and ks.seam_cost(free, img, target) == 0.0
-    spread = ks.spread_weights(S, img, target, labels, 64.0)
-    assert spread[1][0] > 0  # the output lacks the photo's spread
-    kept, _ = ks.refine_seams(S, img, target, labels, 4, runs=True, spread=spread)
-    assert n_bright(kept) == 3
-    weak = ks.refine_seams(S, img, target, labels, 4, runs=True, spread=(spread[0], spread[1] / 64))[0]
-    assert n_bright(weak) == 0  # a weight under the seams' cost: they move as without it
 
 
 def test_a_straight_seam_shifts_where_one_pixel_moves_stick():
@@ -474,14 +403,6 @@ def test_seam_memory_over_calls_matches_reference(seed, wrap):
         memory.clock = wrap
     got, _ = ks.refine_seams(shifted, img, target, labels, 3, runs=True, memory=memory)
     assert np.array_equal(got, ref_refine(shifted, img, target, labels, 3, runs=True))
-    spread = ks.spread_weights(S, img, target, labels, 2.0 + seed)  # with the spread cost, the same
-    memory = ks.SeamMemory()
-    first, _ = ks.refine_seams(S, img, target, labels, 2, runs=True, memory=memory, spread=spread)
-    assert np.array_equal(first, ref_refine(S, img, target, labels, 2, runs=True, spread=spread))
-    shifted, _ = ks.shift_patches(first, img, target, labels, offset_components(first)[0], 2, 2, 6)
-    got, _ = ks.refine_seams(shifted, img, target, labels, 3, runs=True, memory=memory,
-                             spread=tuple(x.copy() for x in spread))  # equal values: the memory holds
-    assert np.array_equal(got, ref_refine(shifted, img, target, labels, 3, runs=True, spread=spread))
 
 
 def test_a_shift_does_not_draw_a_patch_onto_its_labels_mean_tone():

@@ -167,13 +167,11 @@ def test_odd_non_square_output_size():
     assert T.label_fidelity(src, mag) >= 0.995
 
 
-def test_seam_spread_and_spread_loss_keep_a_labels_tone_spread():
-    import numba
-
+def test_spread_loss_bounds_what_the_patch_shifts_take_from_a_labels_tone_spread():
     from proxyshade.synthesis import labels as L
     from proxyshade.synthesis.patches import working_colours
     c = T.chain("renoir")
-    cor, src, g, plain = c["correct"], c["source"], c["guide"], c["magnify"]
+    cor, src, g = c["correct"], c["source"], c["guide"]
     table = L.source_table(src)
     img = working_colours(src.rgb(), L.source_dense(src, table), 1.0, len(table)).astype(np.float64)
     tone, lab = img.sum(-1), L.source_dense(src, table)
@@ -183,19 +181,7 @@ def test_seam_spread_and_spread_loss_keep_a_labels_tone_spread():
         t = tone[p["source.y"].astype(int), p["source.x"].astype(int)]
         return np.array([t[tgt == k].var() / tone[lab == k].var() for k in np.unique(tgt)])
 
-    runs = []
-    for t in (1, 2):
-        numba.set_num_threads(t)
-        try:
-            runs.append(run_node("Magnify", {"seam_spread": 1.0}, {"synth": cor, "source": src, "guide": g}))
-        finally:
-            numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
-    assert all(np.array_equal(runs[0][n], runs[1][n]) for n in ("R", "G", "B", "source.x", "source.y", "patch.id"))
-    before, after = ratios(plain), ratios(runs[0])
-    short = before < 1.0  # the labels whose seams may not draw tones in
-    assert short.any() and (after[short] >= before[short] - 1e-3).all() and (after - before).max() > 0.01
-    assert T.label_fidelity(src, runs[0]) >= T.label_fidelity(src, plain)
-    # the patch shifts' spread budget: none kept (1) loses more than 10 % (the default), none lost (0)
+    # the patch shifts' spread budget: none kept (1) loses more than none lost (0)
     shifted = {q: ratios(run_node("Magnify", {"patch_shift": 5, "patch_adopt": 64, "spread_loss": q},
                                   {"synth": cor, "source": src, "guide": g})) for q in (0.0, 1.0)}
     assert (shifted[0.0] >= shifted[1.0] - 1e-3).all() and (shifted[0.0] - shifted[1.0]).max() > 0.01
