@@ -97,6 +97,7 @@ def _flat_table(a: int, band: float = 0.9, bins: int = LANCZOS_BINS) -> np.ndarr
 
 
 _LANCZOS = {"lanczos3": _lanczos_table(3), "lanczos4": _lanczos_table(4), "flat4": _flat_table(4)}
+FLAT4 = _LANCZOS["flat4"]  # (bins + 1, 8) flat4 weights per phase, for kernels that read with them
 
 
 @njit(**JIT)
