@@ -1016,19 +1016,21 @@ def uniform_windows(patch, lab, before, after):
 
 @njit(**PJIT)
 def sharpen_residual(land, valid, uniform, r0, r1, r2, table, res):
-    """``gather_prev``'s residual ``res`` ((H, W, 3), in place) read again with the 8×8 taps
-    of ``table`` (``lookup``'s flat4 weights per phase) and clamped to the 4×4 pixels' range,
-    at the ``valid`` pixels whose taps all lie in one patch and label of the previous frame
-    (``uniform``: ``uniform_windows(patch, label, 3, 4)`` of the previous frame); elsewhere
-    (near a seam, where the correction jumps) it is left bilinear. The bilinear carry
-    halves the correction's finest detail at half a pixel, and a frame after frame it is
-    gone: the first frame's Poisson damps the copied texture (its correction holds the
-    opposite of the texture's finest detail), so the carried frames gain gradient
-    (docs/temporal.md, "Gradient creep")."""
+    """``gather_prev``'s residual ``res`` ((H, W, 3), in place) read again with the 2a × 2a
+    taps of ``table`` (per phase, ``lookup``'s flat weights: ``FLAT4`` a = 4, ``FLAT2`` a = 2)
+    and clamped to the 4×4 pixels' range, at the ``valid`` pixels whose taps all lie in one
+    patch and label of the previous frame (``uniform``: ``uniform_windows(patch, label,
+    a − 1, a)`` of the previous frame); elsewhere (near a seam, where the correction jumps)
+    it is left bilinear. The bilinear carry halves the correction's finest detail at half a
+    pixel, and frame after frame it is gone: the first frame's Poisson damps the copied
+    texture (its correction holds the opposite of the texture's finest detail), so the
+    carried frames gain gradient (docs/temporal.md, "Gradient creep")."""
     u, v = land[0], land[1]
     h, w = u.shape
     hp, wp = r0.shape
     bins = table.shape[0] - 1
+    n = table.shape[1]
+    a = n // 2
     for i in prange(h):
         for j in range(w):
             if not valid[i, j]:
@@ -1037,16 +1039,16 @@ def sharpen_residual(land, valid, uniform, r0, r1, r2, table, res):
             y = np.float64(v[i, j]) - 0.5
             c0 = int(np.floor(x))
             rr0 = int(np.floor(y))
-            if c0 < 3 or rr0 < 3 or c0 + 4 >= wp or rr0 + 4 >= hp or not uniform[rr0, c0]:
+            if c0 < a - 1 or rr0 < a - 1 or c0 + a >= wp or rr0 + a >= hp or not uniform[rr0, c0]:
                 continue
             bx = int(np.floor((x - c0) * bins + 0.5))
             by = int(np.floor((y - rr0) * bins + 0.5))
-            xs = c0 - 3
-            ys = rr0 - 3
+            xs = c0 - a + 1
+            ys = rr0 - a + 1
             a0 = a1 = a2 = 0.0
-            for r in range(8):
+            for r in range(n):
                 t0 = t1 = t2 = 0.0
-                for t in range(8):
+                for t in range(n):
                     wx = table[bx, t]
                     t0 += wx * r0[ys + r, xs + t]
                     t1 += wx * r1[ys + r, xs + t]
@@ -1057,14 +1059,14 @@ def sharpen_residual(land, valid, uniform, r0, r1, r2, table, res):
                 a2 += wy * t2
             lo0 = lo1 = lo2 = np.inf
             hi0 = hi1 = hi2 = -np.inf
-            for r in range(2, 6):
-                for t in range(2, 6):
-                    lo0 = min(lo0, r0[ys + r, xs + t])
-                    hi0 = max(hi0, r0[ys + r, xs + t])
-                    lo1 = min(lo1, r1[ys + r, xs + t])
-                    hi1 = max(hi1, r1[ys + r, xs + t])
-                    lo2 = min(lo2, r2[ys + r, xs + t])
-                    hi2 = max(hi2, r2[ys + r, xs + t])
+            for r in range(rr0 - 1, rr0 + 3):  # the 4x4 pixels around the position
+                for t in range(c0 - 1, c0 + 3):
+                    lo0 = min(lo0, r0[r, t])
+                    hi0 = max(hi0, r0[r, t])
+                    lo1 = min(lo1, r1[r, t])
+                    hi1 = max(hi1, r1[r, t])
+                    lo2 = min(lo2, r2[r, t])
+                    hi2 = max(hi2, r2[r, t])
             res[i, j, 0] = min(max(a0, lo0), hi0)
             res[i, j, 1] = min(max(a1, lo1), hi1)
             res[i, j, 2] = min(max(a2, lo2), hi2)

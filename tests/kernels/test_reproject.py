@@ -594,8 +594,12 @@ def test_uniform_windows_match_reference():
         np.testing.assert_array_equal(got, ref)
 
 
-def test_sharpen_residual_matches_plain_flat4_read_inside_patches():
-    from proxyshade.kernels.lookup import FLAT4
+@pytest.mark.parametrize("name", ["FLAT4", "FLAT2"])
+def test_sharpen_residual_matches_plain_flat_read_inside_patches(name):
+    from proxyshade.kernels import lookup as lk
+
+    table = getattr(lk, name)
+    a = table.shape[1] // 2
 
     rng = np.random.default_rng(5)
     hp, wp = 30, 34
@@ -610,24 +614,25 @@ def test_sharpen_residual_matches_plain_flat4_read_inside_patches():
     valid = rng.random((h, w)) < 0.9
     valid[0, 0] = True
     res = np.full((h, w, 3), -7.0, np.float32)
-    uni = K.uniform_windows(patch, lab, 3, 4)
-    K.sharpen_residual((u, v, np.zeros((h, w)), np.ones((h, w), bool)), valid, uni, *planes, FLAT4, res)
+    uni = K.uniform_windows(patch, lab, a - 1, a)
+    K.sharpen_residual((u, v, np.zeros((h, w)), np.ones((h, w), bool)), valid, uni, *planes, table, res)
     stack = np.stack(planes, -1)
     done = 0
     for i in range(h):
         for j in range(w):
             x, y = u[i, j] - 0.5, v[i, j] - 0.5
             c0, r0 = int(np.floor(x)), int(np.floor(y))
-            inside = 3 <= c0 < wp - 4 and 3 <= r0 < hp - 4
-            if not (valid[i, j] and inside and np.all(patch[r0 - 3:r0 + 5, c0 - 3:c0 + 5] == patch[r0, c0])):
+            inside = a - 1 <= c0 < wp - a and a - 1 <= r0 < hp - a
+            if not (valid[i, j] and inside and np.all(patch[r0 - a + 1:r0 + a + 1, c0 - a + 1:c0 + a + 1]
+                                                       == patch[r0, c0])):
                 assert np.all(res[i, j] == -7.0)  # left as gathered
                 continue
             # plain reference: separable per-phase weights, then the 4x4 pixels' range
-            wx = FLAT4[int(np.floor((x - c0) * (len(FLAT4) - 1) + 0.5))]
-            wy = FLAT4[int(np.floor((y - r0) * (len(FLAT4) - 1) + 0.5))]
-            win = stack[r0 - 3:r0 + 5, c0 - 3:c0 + 5].astype(np.float64)
+            wx = table[int(np.floor((x - c0) * (len(table) - 1) + 0.5))]
+            wy = table[int(np.floor((y - r0) * (len(table) - 1) + 0.5))]
+            win = stack[r0 - a + 1:r0 + a + 1, c0 - a + 1:c0 + a + 1].astype(np.float64)
             val = np.einsum("r,t,rtk->k", wy, wx, win)
-            box = win[2:6, 2:6].reshape(-1, 3)
+            box = stack[r0 - 1:r0 + 3, c0 - 1:c0 + 3].reshape(-1, 3)
             val = np.clip(val, box.min(0), box.max(0))
             np.testing.assert_allclose(res[i, j], val, rtol=0, atol=1e-5)
             done += 1
@@ -636,5 +641,5 @@ def test_sharpen_residual_matches_plain_flat4_read_inside_patches():
     # a read just left of the seam would take taps across it: left bilinear (untouched here)
     res2 = np.full((1, 1, 3), -7.0, np.float32)
     K.sharpen_residual((np.array([[18.5]]), np.array([[15.5]]), np.zeros((1, 1)), np.ones((1, 1), bool)),
-                       np.ones((1, 1), bool), uni, *planes, FLAT4, res2)
+                       np.ones((1, 1), bool), uni, *planes, table, res2)
     assert np.all(res2 == -7.0)

@@ -289,7 +289,7 @@ def test_bad_inputs():
         run_node("Reproject", {}, {"depth": cd, "prev": state_plate(p0), "source": None}, frame=2)
 
 
-def test_correction_filter_flat4_keeps_more_of_the_corrections_fine_detail_over_frames():
+def test_correction_filter_flat_keeps_more_of_the_corrections_fine_detail_over_frames():
     # the camera slides half a pixel a frame along the wall; the previous frame's Poisson correction
     # holds fine detail (period 5 px: a first-frame solve that damped the copied texture holds the
     # opposite of its finest detail). Bilinear keeps cos(pi / 5) = 0.81 of it at each half-pixel step
@@ -305,7 +305,7 @@ def test_correction_filter_flat4_keeps_more_of_the_corrections_fine_detail_over_
     interior = ((j + 2) % 30 >= 5) & ((j + 2) % 30 <= 24) & (j < 56)
     want = 0.02 * np.cos(2 * np.pi * (j + 2) / 5.0)[interior]
     kept = {}
-    for cfilter in ("bilinear", "flat4"):
+    for cfilter in ("bilinear", "flat4", "flat2"):
         prev = state_plate(renders[0])
         prev = prev.with_channels({"R": prev["R"] + detail})
         for k in range(1, 5):
@@ -317,4 +317,5 @@ def test_correction_filter_flat4_keeps_more_of_the_corrections_fine_detail_over_
         # the rows are the same (a horizontal slide): the detail is where the texture moved, not smeared
         assert np.ptp(got, axis=0).max() < 1e-6
     assert kept["bilinear"] < 0.45
-    assert kept["flat4"] > 0.6 and kept["flat4"] > 1.4 * kept["bilinear"]
+    for sharp in ("flat4", "flat2"):
+        assert kept[sharp] > 0.6 and kept[sharp] > 1.4 * kept["bilinear"], kept
