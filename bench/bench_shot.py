@@ -36,7 +36,10 @@ luma (sRGB-encoded, ``kernels.quality``):
             (``quality.outside_share``, bench_photos' ``outside``)
 
 and with ``--edges`` the label's |d luma| per pixel split into patch interiors and seams,
-untouched and touching this frame's flags (``edge_classes``).
+untouched and touching this frame's flags (``edge_classes``); with ``--steps`` the label's grad
+after each step: Reproject's output (``carried``: the carry alone, before the resynthesis and
+its solve) and the source through the final map without the Poisson correction (``S(map)``):
+a rise in ``carried`` that ``S(map)`` does not show is the carried correction's.
 
 The nodes take graphs/camera_move.yaml's parameters (init, correct, magnify, first,
 reproject, final), then ``--set node.param=value`` (repeatable), e.g. the first-frame
@@ -236,6 +239,25 @@ class LabelFigures:
         return out
 
 
+def step_gradients(figures: "LabelFigures", rp, fin, source, filt: str) -> dict:
+    """Per label name: the mean display-luma gradient of Reproject's output ``rp`` over its kept
+    pixels (flag 0: the carry alone, not the holes the resynthesis fills) and of the source read
+    through ``fin``'s map with ``filt`` (no Poisson correction), for ``--steps``."""
+    from proxyshade.kernels.lookup import lookup
+    from proxyshade.synthesis.grain import source_colours
+
+    smap = lookup(source_colours(source, fin.meta), fin["source.x"], fin["source.y"], filter=filt)
+    out = {}
+    for name, plate_lum in (("carried", Q.luma(srgb(rp.rgb()))), ("smap", Q.luma(srgb(smap)))):
+        lab = rp["label.id"] if name == "carried" else fin["label.id"]
+        kept = (rp["flag"] == 0) if name == "carried" and "flag" in rp else np.ones(lab.shape, bool)
+        for k in figures.ranges:
+            m = (lab == k) & kept
+            if m.sum() >= 400:
+                out.setdefault(figures.names[k], {})[name] = Q.gradient_magnitude(plate_lum, m)
+    return out
+
+
 def edge_classes(plate, flag, lum: np.ndarray | None = None) -> dict:
     """Per label: the sum of |Δ luma| (display) over its 4-neighbour pairs per label pixel,
     split into pairs inside a patch / across a seam (``patch.id`` differs) and untouched /
@@ -271,7 +293,7 @@ def write_frame(path: Path, plate) -> None:
 
 
 def shot(scene: str, size: int, frames: int, every: int = 1, sigma: float = 1.0, params: dict | None = None,
-         frames_out: Path | None = None, edges: bool = False, memo: bool = True) -> list[dict]:
+         frames_out: Path | None = None, edges: bool = False, memo: bool = True, steps: bool = False) -> list[dict]:
     from proxyshade.graph.memo import Memo
 
     params = params or graph_params()
@@ -284,8 +306,10 @@ def shot(scene: str, size: int, frames: int, every: int = 1, sigma: float = 1.0,
     scale = float(f0.meta.get("synthesis", {}).get("scale", 1.0))
     s0 = Q.seam_share(f0["source.x"], f0["source.y"], f0["label.id"], scale=scale)
     det0 = Q.detail(f0.rgb(), f0["label.id"])
+    filt = params["reproject"].get("filter", "lanczos4")
     rows = [{"frame": 1, "seams": 1.0, "detail": 1.0, "share": 0.0, "update": None, "warp": None,
-             "labels": figures(f0), "edges": edge_classes(f0, np.zeros(f0.shape, np.uint32)) if edges else None}]
+             "labels": figures(f0), "edges": edge_classes(f0, np.zeros(f0.shape, np.uint32)) if edges else None,
+             "steps": step_gradients(figures, f0, f0, src, filt) if steps else None}]
     keep = {1, 24, frames}
     if frames_out:
         write_frame(frames_out / f"{scene}_{size}.0001.png", f0)
@@ -302,7 +326,8 @@ def shot(scene: str, size: int, frames: int, every: int = 1, sigma: float = 1.0,
         row = {"frame": fr, "update": upd, "share": float((rp["flag"] > 0).mean()),
                "seams": Q.seam_share(fin["source.x"], fin["source.y"], fin["label.id"], scale=scale) / s0,
                "detail": Q.detail(fin.rgb(), fin["label.id"]) / det0, "warp": None, "labels": figures(fin),
-               "edges": edge_classes(fin, rp["flag"]) if edges else None}
+               "edges": edge_classes(fin, rp["flag"]) if edges else None,
+               "steps": step_gradients(figures, rp, fin, src, filt) if steps else None}
         if frames_out and fr in keep:
             write_frame(frames_out / f"{scene}_{size}.{fr:04d}.png", fin)
         # pairs (fr - 1, fr) ending at frames 2, 2 + every, ...: independent syntheses of both
@@ -358,6 +383,9 @@ def main(argv=None) -> None:
     ap.add_argument("--edges", action="store_true",
                     help="per label at the shown frames: |d luma| per label pixel inside patches / across seams, "
                          "untouched / touching this frame's flags (edge_classes)")
+    ap.add_argument("--steps", action="store_true",
+                    help="per label at the shown frames: grad of Reproject's output (the carry alone) and of the source "
+                         "through the final map without the correction, over frame 1's (step_gradients)")
     ap.add_argument("--cpu", action="store_true",
                     help="time update frames by the process's CPU time on one numba thread (steady on shared cores; "
                          "'update s' is then CPU seconds; the total over the shot is printed)")
@@ -378,7 +406,7 @@ def main(argv=None) -> None:
     for size in args.sizes:
         for scene in args.scenes:
             rows = shot(scene, size, args.frames, args.warp_every, args.warp_sigma, params, args.frames_out, args.edges,
-                        memo=not args.no_memo)
+                        memo=not args.no_memo, steps=args.steps)
             floor = attached_floor(scene, size, T.first_frame(scene, size, frame=1, detail=True), args.warp_sigma) \
                 if args.warp_every else {"lanczos4": float("nan"), "lowpass": float("nan")}
             T.proxy.cache_clear()  # the per-frame proxies and guides of the independent runs
@@ -395,6 +423,16 @@ def main(argv=None) -> None:
                     print(f"{r['frame']:>5} {r['seams']:6.2f} {r['detail']:7.3f} {100 * r['share']:6.2f}% {upd} {wp} {wl} {wb}")
             shown = {r["frame"] for r in rows} if args.per_frame else {1, 12, 24, 48, args.frames}
             labels_summary += [dict(x, scene=scene, size=size) for x in label_table(rows, shown)]
+            if args.steps:
+                g1 = rows[0]["steps"]
+                print(f"{'frame':>5} {'label':<12} {'grad':>6} {'carried':>7} {'S(map)':>7}  (over frame 1's)")
+                for r in rows[1:]:
+                    if r["frame"] in shown:
+                        for name, st in r["steps"].items():
+                            if name in g1 and name in r["labels"] and name in rows[0]["labels"]:
+                                print(f"{r['frame']:>5} {name:<12} "
+                                      f"{r['labels'][name]['grad'] / rows[0]['labels'][name]['grad']:6.3f} "
+                                      f"{st['carried'] / g1[name]['carried']:7.3f} {st['smap'] / g1[name]['smap']:7.3f}")
             if args.edges:
                 names = {int(t["id"]): t["name"] for t in T.source(T.SCENES[scene]).meta["labels"]}
                 print(f"{'frame':>5} {'label':<12} {'in':>7} {'in flag':>7} {'seam':>7} {'seam flag':>9}  (|d luma| per label pixel)")

@@ -97,6 +97,8 @@ def _flat_table(a: int, band: float = 0.9, bins: int = LANCZOS_BINS) -> np.ndarr
 
 
 _LANCZOS = {"lanczos3": _lanczos_table(3), "lanczos4": _lanczos_table(4), "flat4": _flat_table(4)}
+FLAT4 = _LANCZOS["flat4"]  # (bins + 1, 8) flat4 weights per phase, for kernels that read with them
+FLAT2 = _flat_table(2, 0.5)  # (bins + 1, 4): 4x4 taps flat to 0.5 x Nyquist (0.95 there, gain <= 1.014 below)
 
 
 @njit(**JIT)

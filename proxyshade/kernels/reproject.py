@@ -984,3 +984,89 @@ def anchor_seams(land, valid, lab, prev, first, tol, scale, match, out):
             res[i, j, 1] = a1 / wsum
             res[i, j, 2] = a2 / wsum
             dist[i, j] = dd / wsum
+
+
+@njit(**PJIT)
+def uniform_windows(patch, lab, before, after):
+    """(H, W) bool: the pixels (r, c) whose window of rows r − ``before`` … r + ``after`` and
+    columns c − ``before`` … c + ``after`` lies inside the image with every pixel of the same
+    ``patch`` and ``lab`` as (r, c): where an 8×8 read (``before`` 3, ``after`` 4) whose first
+    tap's floor is (r, c) stays inside one patch. Runs along rows, then columns (O(H W))."""
+    h, w = patch.shape
+    row_ok = np.zeros((h, w), np.bool_)
+    for r in prange(h):
+        run = 0
+        for c in range(w):  # run of equal pixels ending at c
+            run = run + 1 if c > 0 and patch[r, c] == patch[r, c - 1] and lab[r, c] == lab[r, c - 1] else 1
+            # the pixel run - 1 left of c ... c: the window of the pixel c - after ends at c
+            k = c - after
+            if k >= 0 and run >= before + after + 1:
+                row_ok[r, k] = True
+    out = np.zeros((h, w), np.bool_)
+    for c in prange(w):
+        run = 0
+        for r in range(h):
+            same = r > 0 and row_ok[r - 1, c] and patch[r, c] == patch[r - 1, c] and lab[r, c] == lab[r - 1, c]
+            run = run + 1 if row_ok[r, c] and same else (1 if row_ok[r, c] else 0)
+            k = r - after
+            if k >= 0 and run >= before + after + 1:
+                out[k, c] = True
+    return out
+
+
+@njit(**PJIT)
+def sharpen_residual(land, valid, uniform, r0, r1, r2, table, res):
+    """``gather_prev``'s residual ``res`` ((H, W, 3), in place) read again with the 2a × 2a
+    taps of ``table`` (per phase, ``lookup``'s flat weights: ``FLAT4`` a = 4, ``FLAT2`` a = 2)
+    and clamped to the 4×4 pixels' range, at the ``valid`` pixels whose taps all lie in one
+    patch and label of the previous frame (``uniform``: ``uniform_windows(patch, label,
+    a − 1, a)`` of the previous frame); elsewhere (near a seam, where the correction jumps)
+    it is left bilinear. The bilinear carry halves the correction's finest detail at half a
+    pixel, and frame after frame it is gone: the first frame's Poisson damps the copied
+    texture (its correction holds the opposite of the texture's finest detail), so the
+    carried frames gain gradient (docs/temporal.md, "Gradient creep")."""
+    u, v = land[0], land[1]
+    h, w = u.shape
+    hp, wp = r0.shape
+    bins = table.shape[0] - 1
+    n = table.shape[1]
+    a = n // 2
+    for i in prange(h):
+        for j in range(w):
+            if not valid[i, j]:
+                continue
+            x = np.float64(u[i, j]) - 0.5  # lookup's convention: pixel centres at integers
+            y = np.float64(v[i, j]) - 0.5
+            c0 = int(np.floor(x))
+            rr0 = int(np.floor(y))
+            if c0 < a - 1 or rr0 < a - 1 or c0 + a >= wp or rr0 + a >= hp or not uniform[rr0, c0]:
+                continue
+            bx = int(np.floor((x - c0) * bins + 0.5))
+            by = int(np.floor((y - rr0) * bins + 0.5))
+            xs = c0 - a + 1
+            ys = rr0 - a + 1
+            a0 = a1 = a2 = 0.0
+            for r in range(n):
+                t0 = t1 = t2 = 0.0
+                for t in range(n):
+                    wx = table[bx, t]
+                    t0 += wx * r0[ys + r, xs + t]
+                    t1 += wx * r1[ys + r, xs + t]
+                    t2 += wx * r2[ys + r, xs + t]
+                wy = table[by, r]
+                a0 += wy * t0
+                a1 += wy * t1
+                a2 += wy * t2
+            lo0 = lo1 = lo2 = np.inf
+            hi0 = hi1 = hi2 = -np.inf
+            for r in range(rr0 - 1, rr0 + 3):  # the 4x4 pixels around the position
+                for t in range(c0 - 1, c0 + 3):
+                    lo0 = min(lo0, r0[r, t])
+                    hi0 = max(hi0, r0[r, t])
+                    lo1 = min(lo1, r1[r, t])
+                    hi1 = max(hi1, r1[r, t])
+                    lo2 = min(lo2, r2[r, t])
+                    hi2 = max(hi2, r2[r, t])
+            res[i, j, 0] = min(max(a0, lo0), hi0)
+            res[i, j, 1] = min(max(a1, lo1), hi1)
+            res[i, j, 2] = min(max(a2, lo2), hi2)

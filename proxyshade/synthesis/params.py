@@ -246,6 +246,12 @@ class Carry(SameSurface):
     extend_frames = Param(int, 6, min=0,
                           doc="frames a disoccluded band may continue its neighbour's patch before it is flood-filled "
                               "(the 'extension' channel counts them)")
+    correction_filter = Param(str, "bilinear", choices=("bilinear", "flat4", "flat2"),
+                              doc="how the previous frame's Poisson correction is read where a pixel lands (colour: "
+                                  "map): bilinear within the nearest pixel's patch, or flat4 (lookup's 8x8 taps) / "
+                                  "flat2 (4x4 taps flat to 0.5 x Nyquist, a quarter of the cost), clamped to the 4x4 "
+                                  "pixels' range, where all taps lie in that patch (bilinear near seams): the "
+                                  "correction's finest detail is not blurred away frame after frame")
     continue_tail = Param(float, 0.0, min=0.0, max=0.25,
                           doc="> 0: a disoccluded pixel does not continue a neighbour's patch onto a source pixel in "
                               "its label's lowest or highest this share of luminance (the label's rare looks: "

@@ -25,7 +25,7 @@ from proxyshade.io.colourlib import srgb_encoding_table
 from proxyshade.kernels import reproject as kr
 from proxyshade.kernels import temporal as kt
 from proxyshade.kernels.layout import LUMA
-from proxyshade.kernels.lookup import lookup
+from proxyshade.kernels.lookup import FLAT2, FLAT4, lookup
 from proxyshade.kernels.random import uniform_field
 from proxyshade.synthesis.grain import source_colours
 from proxyshade.synthesis.memo import kept
@@ -236,6 +236,12 @@ def carry(cd: Plate, prev: Plate | None, first: Plate | None, source: Plate, p, 
                          prev["source.x"].astype(np.float32, copy=False),
                          prev["source.y"].astype(np.float32, copy=False), *planes, prev_ext)
     valid, sx, sy, patch, res, ext = kr.gather_prev_planes(tuple(land), lab, tuple(state), tol, scale)
+    if p.colour == "map" and p.correction_filter != "bilinear":
+        # the correction's fine detail kept inside patches (bilinear would blur it away frame after frame)
+        table = FLAT4 if p.correction_filter == "flat4" else FLAT2
+        a = table.shape[1] // 2
+        kr.sharpen_residual(tuple(land), valid, kr.uniform_windows(state.patch, state.label, a - 1, a), *planes,
+                            table, res)
     if getattr(p, "anchor", False) and first is not None and first is not prev and "patch.id" in first:
         anchor_first_seams(cd, first, k1=k1, w1=w1, lab=lab, land=land, valid=valid, prev=state, tol=tol,
                            scale=scale, out=kr.Carried(sx, sy, patch, res, ext))

@@ -568,3 +568,78 @@ def test_anchor_leaves_pixels_whose_first_patch_is_gone():
                    K.FirstPositions(fok, fp, fx, fy), 0.02, 1.0, 0.01, K.Carried(sx, sy, patch, res, d))
     np.testing.assert_array_equal(patch, before[0])
     np.testing.assert_array_equal(sx, before[1])
+
+
+def _uniform_ref(patch, lab, before, after):
+    h, w = patch.shape
+    out = np.zeros((h, w), bool)
+    for r in range(h):
+        for c in range(w):
+            if r - before < 0 or c - before < 0 or r + after >= h or c + after >= w:
+                continue
+            win = (slice(r - before, r + after + 1), slice(c - before, c + after + 1))
+            out[r, c] = bool(np.all(patch[win] == patch[r, c]) and np.all(lab[win] == lab[r, c]))
+    return out
+
+
+def test_uniform_windows_match_reference():
+    rng = np.random.default_rng(3)
+    for _ in range(5):
+        # blocky patches (ids from a coarse grid) and a few labels, so some windows are uniform
+        patch = np.repeat(np.repeat(rng.integers(0, 4, (5, 6)), 9, 0), 7, 1).astype(np.uint32)[:40, :37]
+        lab = (rng.random(patch.shape) < 0.01).astype(np.uint32)
+        got = K.uniform_windows(patch, lab, 3, 4)
+        ref = _uniform_ref(patch, lab, 3, 4)
+        assert ref.any() and not ref.all()
+        np.testing.assert_array_equal(got, ref)
+
+
+@pytest.mark.parametrize("name", ["FLAT4", "FLAT2"])
+def test_sharpen_residual_matches_plain_flat_read_inside_patches(name):
+    from proxyshade.kernels import lookup as lk
+
+    table = getattr(lk, name)
+    a = table.shape[1] // 2
+
+    rng = np.random.default_rng(5)
+    hp, wp = 30, 34
+    patch = np.ones((hp, wp), np.uint32)
+    patch[:, 20:] = 2  # a seam at column 20
+    lab = np.zeros((hp, wp), np.uint32)
+    planes = [rng.normal(size=(hp, wp)).astype(np.float32) for _ in range(3)]
+    h, w = 12, 15
+    u = rng.uniform(0, wp, (h, w))
+    v = rng.uniform(0, hp, (h, w))
+    u[0, 0], v[0, 0] = 10.5, 12.5  # exactly on a pixel centre: that pixel's value
+    valid = rng.random((h, w)) < 0.9
+    valid[0, 0] = True
+    res = np.full((h, w, 3), -7.0, np.float32)
+    uni = K.uniform_windows(patch, lab, a - 1, a)
+    K.sharpen_residual((u, v, np.zeros((h, w)), np.ones((h, w), bool)), valid, uni, *planes, table, res)
+    stack = np.stack(planes, -1)
+    done = 0
+    for i in range(h):
+        for j in range(w):
+            x, y = u[i, j] - 0.5, v[i, j] - 0.5
+            c0, r0 = int(np.floor(x)), int(np.floor(y))
+            inside = a - 1 <= c0 < wp - a and a - 1 <= r0 < hp - a
+            if not (valid[i, j] and inside and np.all(patch[r0 - a + 1:r0 + a + 1, c0 - a + 1:c0 + a + 1]
+                                                       == patch[r0, c0])):
+                assert np.all(res[i, j] == -7.0)  # left as gathered
+                continue
+            # plain reference: separable per-phase weights, then the 4x4 pixels' range
+            wx = table[int(np.floor((x - c0) * (len(table) - 1) + 0.5))]
+            wy = table[int(np.floor((y - r0) * (len(table) - 1) + 0.5))]
+            win = stack[r0 - a + 1:r0 + a + 1, c0 - a + 1:c0 + a + 1].astype(np.float64)
+            val = np.einsum("r,t,rtk->k", wy, wx, win)
+            box = stack[r0 - 1:r0 + 3, c0 - 1:c0 + 3].reshape(-1, 3)
+            val = np.clip(val, box.min(0), box.max(0))
+            np.testing.assert_allclose(res[i, j], val, rtol=0, atol=1e-5)
+            done += 1
+    assert done > 20
+    np.testing.assert_array_equal(res[0, 0], stack[12, 10])
+    # a read just left of the seam would take taps across it: left bilinear (untouched here)
+    res2 = np.full((1, 1, 3), -7.0, np.float32)
+    K.sharpen_residual((np.array([[18.5]]), np.array([[15.5]]), np.zeros((1, 1)), np.ones((1, 1), bool)),
+                       np.ones((1, 1), bool), uni, *planes, table, res2)
+    assert np.all(res2 == -7.0)

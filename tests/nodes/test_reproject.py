@@ -287,3 +287,35 @@ def test_bad_inputs():
         run_node("Reproject", {}, {"depth": cd, "prev": Plate({"R": p0["Z"]}), "source": toy_source()}, frame=2)
     with pytest.raises(NodeInputError, match="source"):
         run_node("Reproject", {}, {"depth": cd, "prev": state_plate(p0), "source": None}, frame=2)
+
+
+def test_correction_filter_flat_keeps_more_of_the_corrections_fine_detail_over_frames():
+    # the camera slides half a pixel a frame along the wall; the previous frame's Poisson correction
+    # holds fine detail (period 5 px: a first-frame solve that damped the copied texture holds the
+    # opposite of its finest detail). Bilinear keeps cos(pi / 5) = 0.81 of it at each half-pixel step
+    # (0.43 after four); flat4 more (its response is 0.96-1.0 there; clamped to the 4x4 pixels' range, the
+    # peaks between samples are flattened), and never more than there was (the clamp: no ringing that grows)
+    cams = [camera(pos=(0.25 * k, 0, 0), frame=k + 1) for k in range(5)]
+    renders = [render(c, sphere=None) for c in cams]
+    jj = np.arange(64, dtype=np.float32)
+    detail = (0.02 * np.cos(2 * np.pi * jj / 5.0))[None, :] * np.ones((64, 1), np.float32)
+    # 2 px moved by four half-pixel steps: the detail where the texture is now, in patch interiors
+    # (the state plate's patches are 30 columns wide; 4 px from every seam; not the entering columns)
+    j = np.arange(64)
+    interior = ((j + 2) % 30 >= 5) & ((j + 2) % 30 <= 24) & (j < 56)
+    want = 0.02 * np.cos(2 * np.pi * (j + 2) / 5.0)[interior]
+    kept = {}
+    for cfilter in ("bilinear", "flat4", "flat2"):
+        prev = state_plate(renders[0])
+        prev = prev.with_channels({"R": prev["R"] + detail})
+        for k in range(1, 5):
+            out = step(renders[k], renders[0], prev, frame=k + 1, correction_filter=cfilter, **EXACT)
+            prev = out.with_channels({"flag": np.zeros((64, 64), np.uint32)})
+        got = out["correction.R"][8:56][:, interior]
+        kept[cfilter] = float((got * want).sum() / (want * want).sum() / got.shape[0])  # share left, in phase
+        assert np.abs(out["correction.R"]).max() <= 0.02 + 1e-6
+        # the rows are the same (a horizontal slide): the detail is where the texture moved, not smeared
+        assert np.ptp(got, axis=0).max() < 1e-6
+    assert kept["bilinear"] < 0.45
+    for sharp in ("flat4", "flat2"):
+        assert kept[sharp] > 0.6 and kept[sharp] > 1.4 * kept["bilinear"], kept
