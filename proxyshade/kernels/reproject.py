@@ -31,6 +31,7 @@ import numpy as np
 from numba import njit, prange
 
 from proxyshade.kernels._config import JIT, PJIT
+from proxyshade.kernels.lookup import _lanczos_colour, _range4, _tap_start
 from proxyshade.kernels.raster import bin_rows_parallel
 from proxyshade.kernels.temporal import _on_label, jacobian_det
 
@@ -1015,22 +1016,23 @@ def uniform_windows(patch, lab, before, after):
 
 
 @njit(**PJIT)
-def sharpen_residual(land, valid, uniform, r0, r1, r2, table, res):
-    """``gather_prev``'s residual ``res`` ((H, W, 3), in place) read again with the 2a × 2a
-    taps of ``table`` (per phase, ``lookup``'s flat weights: ``FLAT4`` a = 4, ``FLAT2`` a = 2)
-    and clamped to the 4×4 pixels' range, at the ``valid`` pixels whose taps all lie in one
-    patch and label of the previous frame (``uniform``: ``uniform_windows(patch, label,
-    a − 1, a)`` of the previous frame); elsewhere (near a seam, where the correction jumps)
-    it is left bilinear. The bilinear carry halves the correction's finest detail at half a
-    pixel, and frame after frame it is gone: the first frame's Poisson damps the copied
-    texture (its correction holds the opposite of the texture's finest detail), so the
-    carried frames gain gradient (docs/temporal.md, "Gradient creep")."""
+def sharpen_residual(land, valid, uniform, prev_res, table, res):
+    """``gather_prev``'s residual ``res`` ((H, W, 3), in place) read again from the previous
+    frame's residual ``prev_res`` ((H', W', 3)) with the 2a × 2a taps of ``table`` (per phase,
+    ``lookup``'s flat weights: ``FLAT4`` a = 4, ``FLAT2`` a = 2) and clamped to the 4×4
+    pixels' range (``lookup``'s own tap read and range: ``_lanczos_colour``, ``_range4``), at
+    the ``valid`` pixels whose taps all lie in one patch and label of the previous frame
+    (``uniform``: ``uniform_windows(patch, label, a − 1, a)`` of the previous frame);
+    elsewhere (near a seam, where the correction jumps) it is left bilinear. The bilinear
+    carry halves the correction's finest detail at half a pixel, and frame after frame it is
+    gone: the first frame's Poisson damps the copied texture (its correction holds the
+    opposite of the texture's finest detail), so the carried frames gain gradient
+    (docs/temporal.md, "Gradient creep")."""
     u, v = land[0], land[1]
     h, w = u.shape
-    hp, wp = r0.shape
+    hp, wp = prev_res.shape[0], prev_res.shape[1]
     bins = table.shape[0] - 1
-    n = table.shape[1]
-    a = n // 2
+    a = table.shape[1] // 2
     for i in prange(h):
         for j in range(w):
             if not valid[i, j]:
@@ -1041,32 +1043,12 @@ def sharpen_residual(land, valid, uniform, r0, r1, r2, table, res):
             rr0 = int(np.floor(y))
             if c0 < a - 1 or rr0 < a - 1 or c0 + a >= wp or rr0 + a >= hp or not uniform[rr0, c0]:
                 continue
-            bx = int(np.floor((x - c0) * bins + 0.5))
-            by = int(np.floor((y - rr0) * bins + 0.5))
-            xs = c0 - a + 1
-            ys = rr0 - a + 1
-            a0 = a1 = a2 = 0.0
-            for r in range(n):
-                t0 = t1 = t2 = 0.0
-                for t in range(n):
-                    wx = table[bx, t]
-                    t0 += wx * r0[ys + r, xs + t]
-                    t1 += wx * r1[ys + r, xs + t]
-                    t2 += wx * r2[ys + r, xs + t]
-                wy = table[by, r]
-                a0 += wy * t0
-                a1 += wy * t1
-                a2 += wy * t2
-            lo0 = lo1 = lo2 = np.inf
-            hi0 = hi1 = hi2 = -np.inf
-            for r in range(rr0 - 1, rr0 + 3):  # the 4x4 pixels around the position
-                for t in range(c0 - 1, c0 + 3):
-                    lo0 = min(lo0, r0[r, t])
-                    hi0 = max(hi0, r0[r, t])
-                    lo1 = min(lo1, r1[r, t])
-                    hi1 = max(hi1, r1[r, t])
-                    lo2 = min(lo2, r2[r, t])
-                    hi2 = max(hi2, r2[r, t])
-            res[i, j, 0] = min(max(a0, lo0), hi0)
-            res[i, j, 1] = min(max(a1, lo1), hi1)
-            res[i, j, 2] = min(max(a2, lo2), hi2)
+            xs, bx = _tap_start(x, wp, bins, a)
+            ys, by = _tap_start(y, hp, bins, a)
+            s0, s1, s2 = _lanczos_colour(prev_res, xs, ys, bx, by, table, True)
+            lo, hi = _range4(prev_res, x, y, 0)
+            res[i, j, 0] = min(max(s0, lo), hi)
+            lo, hi = _range4(prev_res, x, y, 1)
+            res[i, j, 1] = min(max(s1, lo), hi)
+            lo, hi = _range4(prev_res, x, y, 2)
+            res[i, j, 2] = min(max(s2, lo), hi)

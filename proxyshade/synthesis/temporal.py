@@ -240,8 +240,8 @@ def carry(cd: Plate, prev: Plate | None, first: Plate | None, source: Plate, p, 
         # the correction's fine detail kept inside patches (bilinear would blur it away frame after frame)
         table = FLAT4 if p.correction_filter == "flat4" else FLAT2
         a = table.shape[1] // 2
-        kr.sharpen_residual(tuple(land), valid, kr.uniform_windows(state.patch, state.label, a - 1, a), *planes,
-                            table, res)
+        kr.sharpen_residual(tuple(land), valid, kr.uniform_windows(state.patch, state.label, a - 1, a),
+                            np.stack(planes, -1), table, res)
     if getattr(p, "anchor", False) and first is not None and first is not prev and "patch.id" in first:
         anchor_first_seams(cd, first, k1=k1, w1=w1, lab=lab, land=land, valid=valid, prev=state, tol=tol,
                            scale=scale, out=kr.Carried(sx, sy, patch, res, ext))

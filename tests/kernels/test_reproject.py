@@ -615,8 +615,8 @@ def test_sharpen_residual_matches_plain_flat_read_inside_patches(name):
     valid[0, 0] = True
     res = np.full((h, w, 3), -7.0, np.float32)
     uni = K.uniform_windows(patch, lab, a - 1, a)
-    K.sharpen_residual((u, v, np.zeros((h, w)), np.ones((h, w), bool)), valid, uni, *planes, table, res)
     stack = np.stack(planes, -1)
+    K.sharpen_residual((u, v, np.zeros((h, w)), np.ones((h, w), bool)), valid, uni, stack, table, res)
     done = 0
     for i in range(h):
         for j in range(w):
@@ -641,5 +641,5 @@ def test_sharpen_residual_matches_plain_flat_read_inside_patches(name):
     # a read just left of the seam would take taps across it: left bilinear (untouched here)
     res2 = np.full((1, 1, 3), -7.0, np.float32)
     K.sharpen_residual((np.array([[18.5]]), np.array([[15.5]]), np.zeros((1, 1)), np.ones((1, 1), bool)),
-                       np.ones((1, 1), bool), uni, *planes, table, res2)
+                       np.ones((1, 1), bool), uni, stack, table, res2)
     assert np.all(res2 == -7.0)
