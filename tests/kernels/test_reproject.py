@@ -606,7 +606,7 @@ def test_sharpen_residual_matches_plain_flat_read_inside_patches(name):
     patch = np.ones((hp, wp), np.uint32)
     patch[:, 20:] = 2  # a seam at column 20
     lab = np.zeros((hp, wp), np.uint32)
-    planes = [rng.normal(size=(hp, wp)).astype(np.float32) for _ in range(3)]
+    stack = rng.normal(size=(hp, wp, 3)).astype(np.float32)
     h, w = 12, 15
     u = rng.uniform(0, wp, (h, w))
     v = rng.uniform(0, hp, (h, w))
@@ -615,7 +615,6 @@ def test_sharpen_residual_matches_plain_flat_read_inside_patches(name):
     valid[0, 0] = True
     res = np.full((h, w, 3), -7.0, np.float32)
     uni = K.uniform_windows(patch, lab, a - 1, a)
-    stack = np.stack(planes, -1)
     K.sharpen_residual((u, v, np.zeros((h, w)), np.ones((h, w), bool)), valid, uni, stack, table, res)
     done = 0
     for i in range(h):
