@@ -270,15 +270,22 @@ def tone_balance_reference(S, src_lab, src_rgb, nlab, nbins):
     return out
 
 
-@pytest.mark.parametrize("seed", [0, 1, 2])
-def test_tone_balance_matches_reference(seed):
+def tone_case(seed: int, clump_rows: int):
+    """A random exemplar of 3 labels (seed 2: one of them unused by the map), tones mixed
+    dark and bright, and a 9x11 map whose first ``clump_rows`` rows read one pixel."""
     rng = np.random.default_rng(seed)
     He, We, n = 13, 17, 3
-    src_lab = rng.integers(0, n - (seed == 2), (He, We)).astype(np.int32)  # seed 2: a label absent from the target
+    src_lab = rng.integers(0, n - (seed == 2), (He, We)).astype(np.int32)
     src_rgb = (rng.random((He, We, 3)) * 255 * rng.choice([0.3, 1.0], (He, We, 1))).astype(np.float32)
     S = np.stack([rng.integers(0, He, (9, 11)), rng.integers(0, We, (9, 11))], -1).astype(np.int32)
-    S[:4] = S[0, 0]  # a clump: one tone over-used
-    out = np.full((He, We), np.nan)
+    S[:clump_rows] = S[0, 0]
+    return S, src_lab, src_rgb, n
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_tone_balance_matches_reference(seed):
+    S, src_lab, src_rgb, n = tone_case(seed, 4)  # a clump: one tone over-used
+    out = np.full(src_lab.shape, np.nan)
     kc._tone_balance(S, src_lab, src_rgb, n, kc.TONE_BINS, out)
     np.testing.assert_allclose(out, tone_balance_reference(S, src_lab, src_rgb, n, kc.TONE_BINS), rtol=1e-12, atol=1e-12)
 
@@ -355,13 +362,8 @@ def tone_spread_reference(S, src_lab, src_rgb, nlab):
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_tone_spread_matches_reference(seed):
-    rng = np.random.default_rng(seed)
-    He, We, n = 13, 17, 3
-    src_lab = rng.integers(0, n - (seed == 2), (He, We)).astype(np.int32)  # seed 2: a label absent from the target
-    src_rgb = (rng.random((He, We, 3)) * 255 * rng.choice([0.3, 1.0], (He, We, 1))).astype(np.float32)
-    S = np.stack([rng.integers(0, He, (9, 11)), rng.integers(0, We, (9, 11))], -1).astype(np.int32)
-    S[:5] = S[0, 0]  # a clump: the target's spread falls under the photo's
-    out = np.full((He, We), np.nan)
+    S, src_lab, src_rgb, n = tone_case(seed, 5)  # a clump: the target's spread falls under the photo's
+    out = np.full(src_lab.shape, np.nan)
     kc._tone_spread(S, src_lab, src_rgb, n, out)
     want = tone_spread_reference(S, src_lab, src_rgb, n)
     np.testing.assert_allclose(out, want, rtol=1e-9, atol=1e-9)
