@@ -2,7 +2,10 @@
 
 For each bundled scene's 48-frame camera move (GuideSynth's detailed guide, DepthExtend's
 depth, the first frame's full synthesis, then ConsistentDepth -> Reproject ->
-Resynthesize every frame), at each output size, per frame:
+Resynthesize every frame), and with ``--eval DIR`` each photo of ../shared/data/eval_photos
+in a scene of its labels (``EVAL_SCENES``: the valley of bench/scenes/valley.yaml, a scene
+of this bench's own, held out from tuning; the sea-and-cliffs photo in the cliffs scene, its
+labels mapped onto the photo's), at each output size, per frame:
 
   seams     share of same-label 4-adjacent pixel pairs whose source positions are not
             neighbours (``kernels.quality.seam_share``), relative to frame 1's
@@ -53,7 +56,8 @@ Bars (issue: a whole shot as good as its first frame): seams <= 1.5x frame 1's a
 >= 0.9 at every frame, warp ratio <= 0.1, median share <= 10 %, update frame at 1024²
 <= 0.5 s (median).
 
-Run: ``python bench/run.py shot`` (``--sizes 512 1024 --scenes lake cliffs farm --frames 48``).
+Run: ``python bench/run.py shot`` (``--sizes 512 1024 --scenes lake cliffs farm --frames 48``);
+the eval photos alone: ``python bench/bench_shot.py --eval ../shared/data/eval_photos --scenes``.
 """
 from __future__ import annotations
 
@@ -106,7 +110,7 @@ def warp_errors(cur, prev, cd, flag, indep_cur, indep_prev, sigma: float = 1.0) 
     return out
 
 
-def attached_floor(scene: str, size: int, f0, sigma: float, shifts=((0.3, 0.05), (0.39, -0.11), (-0.43, 0.54))):
+def attached_floor(case: "Case", size: int, f0, sigma: float, shifts=((0.3, 0.05), (0.39, -0.11), (-0.43, 0.54))):
     """The warp ratio of a texture exactly attached to the image: the first frame's map read
     through the source at a sub-pixel shift ``a`` and at ``a + d`` (a pan by ``d`` of a
     plane facing the camera, rendered exactly), warped into each other, against an
@@ -116,8 +120,8 @@ def attached_floor(scene: str, size: int, f0, sigma: float, shifts=((0.3, 0.05),
     from scipy import ndimage
     from proxyshade.kernels.lookup import lookup
 
-    S = T.source(T.SCENES[scene]).rgb()
-    fb = T.first_frame(scene, size, seed=7, frame=1, detail=True)
+    S = case.source().rgb()
+    fb = case.first_frame(size, seed=7, frame=1)
     H, W = f0.shape
     sx, sy, lab = f0["source.x"], f0["source.y"], f0["label.id"]
     edge = np.zeros((H, W), bool)
@@ -182,6 +186,89 @@ def plate_key(memo, plate) -> str:
     return got[1]
 
 
+class Case:
+    """A shot to measure: a scene (.usda), a source (source.yaml) and ProxyRender's ``labels``
+    mapping (scene label -> source label). Its proxies, detailed guides and independent
+    first frames are made as tests/nodes/_temporal.py makes the bundled scenes' (the same
+    nodes and parameters), kept per frame and size until ``clear``."""
+
+    def __init__(self, name: str, scene: Path, table: Path, labels: dict | None = None):
+        self.name, self.scene, self.table, self.labels = name, Path(scene), Path(table), dict(labels or {})
+        self.file_name = name.replace("/", "_")
+        self._source = None
+        self._plates: dict = {}
+
+    @classmethod
+    def bundled(cls, scene: str) -> "Case":
+        return cls(scene, ROOT / "samples" / "scenes" / f"{scene}.usda",
+                   ROOT / "samples" / T.SCENES[scene] / "source.yaml")
+
+    def source(self):
+        if self._source is None:
+            from proxyshade.io.source import load_source
+
+            self._source = load_source(self.table)
+        return self._source
+
+    def proxy_params(self, size: int) -> dict:
+        out = {"scene": str(self.scene), "resolution": [size, size]}
+        return dict(out, labels=self.labels) if self.labels else out
+
+    def _kept(self, key, make):
+        if key not in self._plates:
+            self._plates[key] = make()
+        return self._plates[key]
+
+    def proxy(self, frame: int, size: int):
+        return self._kept(("proxy", frame, size), lambda: run_node(
+            "ProxyRender", self.proxy_params(size), {"source": self.source()}, frame=frame, name="proxy"))
+
+    def detailed(self, frame: int, size: int):
+        """GuideSynth's detailed guide (synthesis at size / 4) and DepthExtend's depth of a frame."""
+        def make():
+            pr, s = self.proxy(frame, size), max(16, size // 4)
+            g = run_node("GuideSynth", {"size": s, "start": min(s, max(16, s // 4)), "seed": 1},
+                         {"proxy": pr, "source": self.source()}, frame=frame, name="guide")
+            return g, run_node("DepthExtend", {}, {"proxy": pr, "guide": g}, frame=frame, name="depth")
+        return self._kept(("detailed", frame, size), make)
+
+    def first_frame(self, size: int, seed: int = 0, frame: int = 1):
+        """An independent full synthesis of a frame (default parameters) on its detailed guide."""
+        src, g = self.source(), self.detailed(frame, size)[1]
+        init = run_node("PatchInit", {"seed": seed}, {"guide": g, "source": src}, name="init")
+        cor = run_node("Correct", {"seed": seed}, {"init": init, "source": src}, name="correct")
+        mag = run_node("Magnify", {}, {"synth": cor, "source": src, "guide": g, "depth": g}, name="magnify")
+        return run_node("Poisson", {}, {"image": mag, "source": src}, name="final")
+
+    def clear(self) -> None:
+        self._plates.clear()
+
+
+# scenes of the eval photos' labels: each photo whose labels are sky, vegetation and mountain
+# in the valley (bench/scenes/valley.yaml, a scene of this bench's own: no default was tuned on
+# it), and the sea-and-cliffs photo in the bundled cliffs scene, its labels mapped onto the photo's
+EVAL_SCENES = (({"sky", "vegetation", "mountain"}, "valley", {}),
+               ({"sky", "water", "vegetation", "mountain", "rock"}, "cliffs",
+                {"cliff": "mountain", "sea": "water", "grass": "vegetation"}))
+
+
+def eval_cases(root: Path, work: Path) -> list[Case]:
+    """Shots of the annotated photos in ``root`` (bench_photos' ``--eval`` folders: photo.png,
+    src_labels.png, labels.yaml; their source.yaml written in ``work`` by bench_photos), each
+    in the scene of ``EVAL_SCENES`` for its label names (the valley's .usda built in ``work``)."""
+    from bench_photos import eval_cases as photo_cases
+    from proxyshade.scene.build import build_file
+
+    scenes = {"valley": build_file(ROOT / "bench" / "scenes" / "valley.yaml", work / "valley.usda"),
+              "cliffs": ROOT / "samples" / "scenes" / "cliffs.usda"}
+    out = []
+    for c in photo_cases(Path(root), work):
+        names = set(yaml.safe_load((Path(root) / c["name"] / "labels.yaml").read_text()))
+        out += [Case(f"{scene}/{c['name']}", scenes[scene], c["table"], mapping)
+                for labels, scene, mapping in EVAL_SCENES if names == labels]
+    return out
+
+
 NODES = {"init": "PatchInit", "correct": "Correct", "magnify": "Magnify", "first": "Poisson",
          "reproject": "Reproject", "final": "Resynthesize"}
 
@@ -199,10 +286,10 @@ def graph_params(sets: list[str] = ()) -> dict[str, dict]:
     return out
 
 
-def first_frame(scene: str, size: int, params: dict):
+def first_frame(case: "Case", size: int, params: dict):
     """The first frame's full synthesis on the detailed guide, with ``params``' first-frame nodes."""
-    src = T.source(T.SCENES[scene])
-    g = T.detailed(scene, 1, size)[1]
+    src = case.source()
+    g = case.detailed(1, size)[1]
     init = run_node("PatchInit", params["init"], {"guide": g, "source": src}, name="init")
     cor = run_node("Correct", params["correct"], {"init": init, "source": src}, name="correct")
     mag = run_node("Magnify", params["magnify"], {"synth": cor, "source": src, "guide": g, "depth": g}, name="magnify")
@@ -292,16 +379,16 @@ def write_frame(path: Path, plate) -> None:
     write_png(path, to_display(plate, ["R", "G", "B"]))
 
 
-def shot(scene: str, size: int, frames: int, every: int = 1, sigma: float = 1.0, params: dict | None = None,
+def shot(case: "Case", size: int, frames: int, every: int = 1, sigma: float = 1.0, params: dict | None = None,
          frames_out: Path | None = None, edges: bool = False, memo: bool = True, steps: bool = False) -> list[dict]:
     from proxyshade.graph.memo import Memo
 
     params = params or graph_params()
     store = Memo() if memo else None
-    src = T.source(T.SCENES[scene])
-    p0 = T.proxy(scene, 1, size)
-    g0, d0 = T.detailed(scene, 1, size)
-    f0 = first_frame(scene, size, params)
+    src = case.source()
+    p0 = case.proxy(1, size)
+    g0, d0 = case.detailed(1, size)
+    f0 = first_frame(case, size, params)
     figures = LabelFigures(src)
     scale = float(f0.meta.get("synthesis", {}).get("scale", 1.0))
     s0 = Q.seam_share(f0["source.x"], f0["source.y"], f0["label.id"], scale=scale)
@@ -312,12 +399,11 @@ def shot(scene: str, size: int, frames: int, every: int = 1, sigma: float = 1.0,
              "steps": step_gradients(figures, f0, f0, src, filt) if steps else None}]
     keep = {1, 24, frames}
     if frames_out:
-        write_frame(frames_out / f"{scene}_{size}.0001.png", f0)
+        write_frame(frames_out / f"{case.file_name}_{size}.0001.png", f0)
     prev, indep_prev, indep_frame = f0, f0, 1
     for fr in range(2, frames + 1):
         t = _clock()
-        pN = run_memo("ProxyRender", {"scene": str(ROOT / "samples" / "scenes" / f"{scene}.usda"),
-                                      "resolution": [size, size]}, {"source": src}, fr, store)
+        pN = run_memo("ProxyRender", case.proxy_params(size), {"source": src}, fr, store)
         cd = run_memo("ConsistentDepth", {}, {"proxy": pN, "guide": g0, "depth": d0, "ref_proxy": p0}, fr, store)
         rp = run_memo("Reproject", params["reproject"], {"depth": cd, "prev": prev, "first": f0, "source": src}, fr,
                       store)
@@ -329,12 +415,12 @@ def shot(scene: str, size: int, frames: int, every: int = 1, sigma: float = 1.0,
                "edges": edge_classes(fin, rp["flag"]) if edges else None,
                "steps": step_gradients(figures, rp, fin, src, filt) if steps else None}
         if frames_out and fr in keep:
-            write_frame(frames_out / f"{scene}_{size}.{fr:04d}.png", fin)
+            write_frame(frames_out / f"{case.file_name}_{size}.{fr:04d}.png", fin)
         # pairs (fr - 1, fr) ending at frames 2, 2 + every, ...: independent syntheses of both
         if every and (fr - 2) % every == 0:
             if indep_frame != fr - 1:
-                indep_prev = T.first_frame(scene, size, seed=fr - 1, frame=fr - 1, detail=True)
-            indep = T.first_frame(scene, size, seed=fr, frame=fr, detail=True)
+                indep_prev = case.first_frame(size, seed=fr - 1, frame=fr - 1)
+            indep = case.first_frame(size, seed=fr, frame=fr)
             row["warp"] = warp_errors(fin, prev, cd, rp["flag"], indep, indep_prev, sigma)
             indep_prev, indep_frame = indep, fr
         rows.append(row)
@@ -370,6 +456,10 @@ def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--sizes", type=int, nargs="*", default=[512, 1024])
     ap.add_argument("--scenes", nargs="*", default=list(T.SCENES))
+    ap.add_argument("--eval", type=Path, default=None, metavar="DIR",
+                    help="also shots of the annotated photos in DIR (../shared/data/eval_photos): each in the scene "
+                         "of its labels (EVAL_SCENES); '--scenes' with no name runs only these")
+    ap.add_argument("--photos", nargs="*", default=None, help="with --eval: only these photo folders")
     ap.add_argument("--frames", type=int, default=48)
     ap.add_argument("--warp-every", type=int, default=1,
                     help="warp ratio over the frame pairs ending at 2, 2 + N, ... (independent syntheses of "
@@ -403,14 +493,21 @@ def main(argv=None) -> None:
     params = graph_params(args.set)
     print("parameters: " + "; ".join(f"{k} {v}" for k, v in params.items() if v))
     labels_summary = []
+    cases = [Case.bundled(s) for s in args.scenes]
+    if args.eval:
+        import tempfile
+
+        work = Path(tempfile.mkdtemp(prefix="bench_shot_"))
+        cases += [c for c in eval_cases(args.eval, work)
+                  if args.photos is None or c.name.split("/")[-1] in args.photos]
     for size in args.sizes:
-        for scene in args.scenes:
-            rows = shot(scene, size, args.frames, args.warp_every, args.warp_sigma, params, args.frames_out, args.edges,
+        for case in cases:
+            scene = case.name
+            rows = shot(case, size, args.frames, args.warp_every, args.warp_sigma, params, args.frames_out, args.edges,
                         memo=not args.no_memo, steps=args.steps)
-            floor = attached_floor(scene, size, T.first_frame(scene, size, frame=1, detail=True), args.warp_sigma) \
+            floor = attached_floor(case, size, case.first_frame(size, frame=1), args.warp_sigma) \
                 if args.warp_every else {"lanczos4": float("nan"), "lowpass": float("nan")}
-            T.proxy.cache_clear()  # the per-frame proxies and guides of the independent runs
-            T.detailed.cache_clear()
+            case.clear()  # the per-frame proxies and guides of the independent runs
             print(f"\n## {scene} {size}² ({args.frames} frames)")
             print(f"{'frame':>5} {'seams':>6} {'detail':>7} {'share':>7} {'update s':>9} {'warp':>8} {'warp L4':>8} {'warp bil':>8}")
             for r in rows:
@@ -434,7 +531,7 @@ def main(argv=None) -> None:
                                       f"{r['labels'][name]['grad'] / rows[0]['labels'][name]['grad']:6.3f} "
                                       f"{st['carried'] / g1[name]['carried']:7.3f} {st['smap'] / g1[name]['smap']:7.3f}")
             if args.edges:
-                names = {int(t["id"]): t["name"] for t in T.source(T.SCENES[scene]).meta["labels"]}
+                names = {int(t["id"]): t["name"] for t in case.source().meta["labels"]}
                 print(f"{'frame':>5} {'label':<12} {'in':>7} {'in flag':>7} {'seam':>7} {'seam flag':>9}  (|d luma| per label pixel)")
                 for r in rows:
                     if r["frame"] in shown:
@@ -454,20 +551,20 @@ def main(argv=None) -> None:
     print("\n('attached', 'att. L4': the ratios, low-passed and not, of a texture exactly attached to the image, "
           "patch interiors: the measure's floor)")
     print("\n## Summary (bars: seams <= 1.5x, detail >= 0.9, warp (low-passed) <= 0.1, share median <= 10 %, update 1024² <= 0.5 s)")
-    print(f"{'scene':<7} {'size':>5} {'seams max':>9} {'detail min':>10} {'warp':>8} {'warp L4':>8} {'warp bil':>8} "
+    print(f"{'scene':<18} {'size':>5} {'seams max':>9} {'detail min':>10} {'warp':>8} {'warp L4':>8} {'warp bil':>8} "
           f"{'share med':>9} {'share max':>9} {'update med':>10} {'attached':>8} {'att. L4':>8}")
     for s in summary:
-        print(f"{s['scene']:<7} {s['size']:>5} {s['seams_max']:8.2f}x {s['detail_min']:10.3f} {s['warp']['lowpass']:8.4f} {s['warp']['lanczos4']:8.4f} "
+        print(f"{s['scene']:<18} {s['size']:>5} {s['seams_max']:8.2f}x {s['detail_min']:10.3f} {s['warp']['lowpass']:8.4f} {s['warp']['lanczos4']:8.4f} "
               f"{s['warp']['bilinear']:8.4f} {100 * s['share_median']:8.2f}% {100 * s['share_max']:8.2f}% "
               f"{s['update_median']:9.3f}s {s['floor']['lowpass']:8.4f} {s['floor']['lanczos4']:8.4f}")
     print("\n## Per label (bars: grad 0.9-1.1 at every frame, block at the last frame <= 1.1x, "
           "clump <= 0.2 % above frame 1's)")
-    print(f"{'scene':<7} {'size':>5} {'label':<12} {'grad min':>8} {'grad max':>8} {'block last':>10} "
+    print(f"{'scene':<18} {'size':>5} {'label':<12} {'grad min':>8} {'grad max':>8} {'block last':>10} "
           f"{'clump f1':>8} {'clump max':>9}")
     for x in labels_summary:
         flag = " <" if not (0.9 <= x["grad_min"] and x["grad_max"] <= 1.1 and x["block_last"] <= 1.1
                             and x["clump_max"] - x["clump_first"] <= 0.002) else ""
-        print(f"{x['scene']:<7} {x['size']:>5} {x['label']:<12} {x['grad_min']:8.3f} {x['grad_max']:8.3f} "
+        print(f"{x['scene']:<18} {x['size']:>5} {x['label']:<12} {x['grad_min']:8.3f} {x['grad_max']:8.3f} "
               f"{x['block_last']:10.3f} {100 * x['clump_first']:7.2f}% {100 * x['clump_max']:8.2f}%{flag}")
     print("update frames, total s (" + ("CPU, one thread" if args.cpu else "wall") + "): "
           + ", ".join(f"{s['scene']} {s['size']} {s['update_total']:.1f}" for s in summary))

@@ -80,3 +80,15 @@ def test_cliffs_have_an_arch_of_spheres():
     st = open_stage(ROOT / "samples/scenes/cliffs.usda")
     arch = [p for p in scene_prims(st, 1) if p.path.startswith("/World/Proxy/Arch/")]
     assert len(arch) >= 10 and all(p.kind == "sphere" and p.label == "cliff" for p in arch)
+
+
+def test_bench_valley_builds_valid_with_the_eval_photos_labels(tmp_path):
+    """bench_shot --eval builds bench/scenes/valley.yaml for the photos labelled sky,
+    vegetation and mountain: it must stay a valid animated scene showing all three."""
+    from proxyshade.scene.build import build_file
+
+    st = open_stage(build_file(ROOT / "bench/scenes/valley.yaml", tmp_path / "valley.usda"))
+    assert validate(st) == []
+    cam = cameras(st)[0]
+    assert not np.allclose(camera_at(st, cam, 1, 64, 64).camera_to_world, camera_at(st, cam, 48, 64, 64).camera_to_world)
+    assert {p.label for p in scene_prims(st, 1)} == {"vegetation", "mountain"}
