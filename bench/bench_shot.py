@@ -469,6 +469,9 @@ def main(argv=None) -> None:
     ap.add_argument("--per-frame", action="store_true", help="print every frame's row")
     ap.add_argument("--set", action="append", default=[], metavar="NODE.PARAM=VALUE",
                     help="override a parameter of graphs/camera_move.yaml's nodes (" + ", ".join(NODES) + ")")
+    ap.add_argument("--seed", type=int, default=None,
+                    help="the shot's seed: sets init.seed, correct.seed and final.seed (graphs/camera_move.yaml: 1) "
+                         "before any --set")
     ap.add_argument("--frames-out", type=Path, default=None, help="write frames 1, 24 and the last as PNG here")
     ap.add_argument("--edges", action="store_true",
                     help="per label at the shown frames: |d luma| per label pixel inside patches / across seams, "
@@ -490,7 +493,8 @@ def main(argv=None) -> None:
         global _clock
         _clock = time.process_time
     summary = []
-    params = graph_params(args.set)
+    seeds = [f"{n}.seed={args.seed}" for n in ("init", "correct", "final")] if args.seed is not None else []
+    params = graph_params(seeds + args.set)
     print("parameters: " + "; ".join(f"{k} {v}" for k, v in params.items() if v))
     labels_summary = []
     cases = [Case.bundled(s) for s in args.scenes]
