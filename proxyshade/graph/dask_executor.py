@@ -515,6 +515,9 @@ def _release_image() -> None:
         _IMAGE["users"] -= 1
 
 
+IMAGE_MARKED: set[str] = set()  # the precompile units whose serial kernels load_worker_image loaded (forked workers inherit it)
+
+
 def load_worker_image() -> None:
     """Run by the forkserver of a LocalCluster's workers before it forks them (``IMAGE_MODULE``),
     on its only thread: Dask, numpy, the OpenEXR and USD modules, every node module and the
@@ -544,6 +547,7 @@ def load_worker_image() -> None:
         found, held = warmup.callers(), warmup.variant_units()
         marks = {u: _cache.kernels_cached([u]) for t in set(found.values()) for u in [warmup.node_unit(t)]}
         marks.update((u, _cache.kernels_cached([u])) for units in held.values() for u in units)
+        IMAGE_MARKED.update(u for u, ok in marks.items() if ok)
         for (kernel, text), t in found.items():
             # precompiled under its type's unit, or under a variant's (a first frame's Poisson)
             if marks[warmup.node_unit(t)] or any(marks[u] for u in held.get((kernel, text), ())):
