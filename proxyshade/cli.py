@@ -613,6 +613,8 @@ def main(argv: list[str] | None = None) -> int:
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("default")
+            # as Python's own defaults: a file left open by a Ctrl-C inside an import is not the user's
+            warnings.simplefilter("ignore", ResourceWarning)
             warnings.showwarning = _show_warning
             code = _main(argv)
     except KeyboardInterrupt:  # outside typer's own handling (before or after the command)
