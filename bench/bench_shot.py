@@ -225,20 +225,12 @@ class Case:
 
     def detailed(self, frame: int, size: int):
         """GuideSynth's detailed guide (synthesis at size / 4) and DepthExtend's depth of a frame."""
-        def make():
-            pr, s = self.proxy(frame, size), max(16, size // 4)
-            g = run_node("GuideSynth", {"size": s, "start": min(s, max(16, s // 4)), "seed": 1},
-                         {"proxy": pr, "source": self.source()}, frame=frame, name="guide")
-            return g, run_node("DepthExtend", {}, {"proxy": pr, "guide": g}, frame=frame, name="depth")
-        return self._kept(("detailed", frame, size), make)
+        return self._kept(("detailed", frame, size),
+                          lambda: T.detail_of(self.proxy(frame, size), self.source(), frame, size))
 
     def first_frame(self, size: int, seed: int = 0, frame: int = 1):
         """An independent full synthesis of a frame (default parameters) on its detailed guide."""
-        src, g = self.source(), self.detailed(frame, size)[1]
-        init = run_node("PatchInit", {"seed": seed}, {"guide": g, "source": src}, name="init")
-        cor = run_node("Correct", {"seed": seed}, {"init": init, "source": src}, name="correct")
-        mag = run_node("Magnify", {}, {"synth": cor, "source": src, "guide": g, "depth": g}, name="magnify")
-        return run_node("Poisson", {}, {"image": mag, "source": src}, name="final")
+        return T.synthesize(self.source(), self.detailed(frame, size)[1], seed)
 
     def clear(self) -> None:
         self._plates.clear()
@@ -288,12 +280,7 @@ def graph_params(sets: list[str] = ()) -> dict[str, dict]:
 
 def first_frame(case: "Case", size: int, params: dict):
     """The first frame's full synthesis on the detailed guide, with ``params``' first-frame nodes."""
-    src = case.source()
-    g = case.detailed(1, size)[1]
-    init = run_node("PatchInit", params["init"], {"guide": g, "source": src}, name="init")
-    cor = run_node("Correct", params["correct"], {"init": init, "source": src}, name="correct")
-    mag = run_node("Magnify", params["magnify"], {"synth": cor, "source": src, "guide": g, "depth": g}, name="magnify")
-    return run_node("Poisson", params["first"], {"image": mag, "source": src}, name="first")
+    return T.synthesize(case.source(), case.detailed(1, size)[1], params=params, final="first")
 
 
 def srgb(lin: np.ndarray) -> np.ndarray:

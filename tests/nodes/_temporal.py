@@ -31,10 +31,14 @@ def proxy(scene: str, frame: int, size: int = 128) -> Plate:
 @functools.lru_cache(maxsize=None)
 def detailed(scene: str, frame: int = 1, size: int = 128) -> tuple[Plate, Plate]:
     """GuideSynth's detailed guide (synthesis at size / 4) and DepthExtend's depth of a frame."""
-    pr = proxy(scene, frame, size)
+    return detail_of(proxy(scene, frame, size), source(SCENES[scene]), frame, size)
+
+
+def detail_of(pr: Plate, src: Plate, frame: int, size: int) -> tuple[Plate, Plate]:
+    """``detailed`` of a proxy plate ``pr`` of any scene and source (bench_shot's eval shots)."""
     s = max(16, size // 4)
     g = run_node("GuideSynth", {"size": s, "start": min(s, max(16, s // 4)), "seed": 1},
-                 {"proxy": pr, "source": source(SCENES[scene])}, frame=frame, name="guide")
+                 {"proxy": pr, "source": src}, frame=frame, name="guide")
     d = run_node("DepthExtend", {}, {"proxy": pr, "guide": g}, frame=frame, name="depth")
     return g, d
 
@@ -43,12 +47,18 @@ def first_frame(scene: str, size: int = 128, seed: int = 0, frame: int = 1, guid
                 detail: bool = False) -> Plate:
     """Full synthesis of one frame on the proxy's labels, or with ``detail`` on GuideSynth's
     detailed guide with DepthExtend's depth."""
-    src = source(SCENES[scene])
     g = guide if guide is not None else (detailed(scene, frame, size)[1] if detail else proxy(scene, frame, size))
-    init = run_node("PatchInit", {"seed": seed}, {"guide": g, "source": src}, name="init")
-    cor = run_node("Correct", {"seed": seed}, {"init": init, "source": src}, name="correct")
-    mag = run_node("Magnify", {}, {"synth": cor, "source": src, "guide": g, "depth": g}, name="magnify")
-    return run_node("Poisson", {}, {"image": mag, "source": src}, name="final")
+    return synthesize(source(SCENES[scene]), g, seed)
+
+
+def synthesize(src: Plate, g: Plate, seed: int = 0, params: dict | None = None, final: str = "final") -> Plate:
+    """PatchInit -> Correct -> Magnify -> Poisson on the guide ``g``: with ``params`` each node's
+    parameters (keys init, correct, magnify, first), else the defaults with ``seed``."""
+    p = params or {"init": {"seed": seed}, "correct": {"seed": seed}, "magnify": {}, "first": {}}
+    init = run_node("PatchInit", p["init"], {"guide": g, "source": src}, name="init")
+    cor = run_node("Correct", p["correct"], {"init": init, "source": src}, name="correct")
+    mag = run_node("Magnify", p["magnify"], {"synth": cor, "source": src, "guide": g, "depth": g}, name="magnify")
+    return run_node("Poisson", p["first"], {"image": mag, "source": src}, name=final)
 
 
 def run_move(scene: str, frames, size: int = 128, reproject: dict | None = None, resynth: dict | None = None,
