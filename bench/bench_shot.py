@@ -30,7 +30,9 @@ luma (sRGB-encoded, ``kernels.quality``):
             frame 1's: texture that blurs falls, blocks and speckle raise it
   block     ``quality.blockiness`` (energy of the second differences' magnitudes at a 4-px
             period against periods 3 and 5: magnified 4x4 synthesis pixels seen as a
-            mosaic) over frame 1's
+            mosaic) over frame 1's; in the summary ``block sd``, the last frame's ratio's
+            bootstrap sd over the label's 20-px windows (``quality.block_ratio_sd``): its
+            noise (a small label's ratio swings by more than the bar from frame to frame)
   clump     share of the label's pixels whose source pixel (``source.x/y`` rounded) has a
             photo luma outside the photo label's 0.5-99.5 % range
             (``quality.source_outside_share``): copies of another label's pixels or of the
@@ -298,7 +300,9 @@ class LabelFigures:
         self.ranges = {k: Q.label_range(self.src_lum, self.src_lab == k) for k in self.names
                        if (self.src_lab == k).sum() >= 200}
 
-    def __call__(self, plate) -> dict:
+    def __call__(self, plate, windows: bool = False) -> dict:
+        """``windows``: also each label's ``block_windows`` (frames 1 and last: the block
+        ratio's bootstrap sd)."""
         lum = Q.luma(srgb(plate.rgb()))
         lab = plate["label.id"]
         out = {}
@@ -310,6 +314,8 @@ class LabelFigures:
                                   "clump": Q.source_outside_share(plate["source.x"], plate["source.y"], m,
                                                                   self.src_lum, rng),
                                   "range": Q.outside_share(lum, m, rng), "share": float(m.mean())}
+            if windows:
+                out[self.names[k]]["block_w"] = Q.block_windows(lum, m)
         return out
 
 
@@ -382,7 +388,7 @@ def shot(case: "Case", size: int, frames: int, every: int = 1, sigma: float = 1.
     det0 = Q.detail(f0.rgb(), f0["label.id"])
     filt = params["reproject"].get("filter", "lanczos4")
     rows = [{"frame": 1, "seams": 1.0, "detail": 1.0, "share": 0.0, "update": None, "warp": None,
-             "labels": figures(f0), "edges": edge_classes(f0, np.zeros(f0.shape, np.uint32)) if edges else None,
+             "labels": figures(f0, windows=True), "edges": edge_classes(f0, np.zeros(f0.shape, np.uint32)) if edges else None,
              "steps": step_gradients(figures, f0, f0, src, filt) if steps else None}]
     keep = {1, 24, frames}
     if frames_out:
@@ -398,7 +404,7 @@ def shot(case: "Case", size: int, frames: int, every: int = 1, sigma: float = 1.
         upd = _clock() - t
         row = {"frame": fr, "update": upd, "share": float((rp["flag"] > 0).mean()),
                "seams": Q.seam_share(fin["source.x"], fin["source.y"], fin["label.id"], scale=scale) / s0,
-               "detail": Q.detail(fin.rgb(), fin["label.id"]) / det0, "warp": None, "labels": figures(fin),
+               "detail": Q.detail(fin.rgb(), fin["label.id"]) / det0, "warp": None, "labels": figures(fin, windows=fr == frames),
                "edges": edge_classes(fin, rp["flag"]) if edges else None,
                "steps": step_gradients(figures, rp, fin, src, filt) if steps else None}
         if frames_out and fr in keep:
@@ -434,6 +440,7 @@ def label_table(rows: list[dict], shown) -> list[dict]:
         gr = [r["labels"][name]["grad"] / f["grad"] for r in rows if name in r["labels"] and f["grad"] > 0]
         out.append({"label": name, "grad_min": min(gr), "grad_max": max(gr),
                     "block_last": last[name]["block"] / f["block"] if name in last else float("nan"),
+                    "block_sd": Q.block_ratio_sd(last[name]["block_w"], f["block_w"]) if name in last else float("nan"),
                     "clump_first": f["clump"], "clump_max": max(r["labels"][name]["clump"] for r in rows
                                                                 if name in r["labels"])})
     return out
@@ -551,12 +558,12 @@ def main(argv=None) -> None:
     print("\n## Per label (bars: grad 0.9-1.1 at every frame, block at the last frame <= 1.1x, "
           "clump <= 0.2 % above frame 1's)")
     print(f"{'scene':<18} {'size':>5} {'label':<12} {'grad min':>8} {'grad max':>8} {'block last':>10} "
-          f"{'clump f1':>8} {'clump max':>9}")
+          f"{'block sd':>8} {'clump f1':>8} {'clump max':>9}")
     for x in labels_summary:
         flag = " <" if not (0.9 <= x["grad_min"] and x["grad_max"] <= 1.1 and x["block_last"] <= 1.1
                             and x["clump_max"] - x["clump_first"] <= 0.002) else ""
         print(f"{x['scene']:<18} {x['size']:>5} {x['label']:<12} {x['grad_min']:8.3f} {x['grad_max']:8.3f} "
-              f"{x['block_last']:10.3f} {100 * x['clump_first']:7.2f}% {100 * x['clump_max']:8.2f}%{flag}")
+              f"{x['block_last']:10.3f} {x['block_sd']:8.3f} {100 * x['clump_first']:7.2f}% {100 * x['clump_max']:8.2f}%{flag}")
     print("update frames, total s (" + ("CPU, one thread" if args.cpu else "wall") + "): "
           + ", ".join(f"{s['scene']} {s['size']} {s['update_total']:.1f}" for s in summary))
     print(f"peak RSS {peak_rss_mb():.0f} MiB")

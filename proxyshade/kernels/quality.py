@@ -342,20 +342,31 @@ BLOCK_PERIODS = (3.0, 4.0, 5.0)
 
 def _hann_dft(d2: np.ndarray, ok: np.ndarray, win: int, periods) -> np.ndarray:
     """Power of the Hann-windowed DFT of |``d2``| less its window mean (rows) at each
-    period, summed over the non-overlapping ``win``-long windows (starting at column 0)
-    that lie wholly in ``ok``."""
+    period, one row per non-overlapping ``win``-long window (starting at column 0) that
+    lies wholly in ``ok``: (windows, periods)."""
     h, w = d2.shape
     n = w // win
     if n == 0:
-        return np.zeros(len(periods))
+        return np.zeros((0, len(periods)))
     a = d2[:, :n * win].reshape(h, n, win)
     full = ok[:, :n * win].reshape(h, n, win).all(-1)
-    if not full.any():
-        return np.zeros(len(periods))
     a = np.abs(a[full])
     a = (a - a.mean(-1, keepdims=True)) * np.hanning(win)  # (k, win)
     t = np.arange(win)
-    return np.array([float((np.abs(a @ np.exp(-2j * np.pi * t / p)) ** 2).sum()) for p in periods])
+    return np.stack([np.abs(a @ np.exp(-2j * np.pi * t / p)) ** 2 for p in periods], axis=-1).reshape(-1, len(periods))
+
+
+def block_windows(lum: np.ndarray, mask: np.ndarray, *, win: int = 20, periods=BLOCK_PERIODS) -> np.ndarray:
+    """``block_spectrum``'s power per window: (windows, periods), the rows' windows then the
+    columns'."""
+    lum = np.asarray(lum, np.float64)
+    mask = np.asarray(mask, bool)
+    parts = []
+    for L, M in ((lum, mask), (lum.T, mask.T)):
+        d2 = L[:, :-2] - 2 * L[:, 1:-1] + L[:, 2:]
+        ok = M[:, :-2] & M[:, 1:-1] & M[:, 2:]
+        parts.append(_hann_dft(d2, ok, win, periods))
+    return np.concatenate(parts)
 
 
 def block_spectrum(lum: np.ndarray, mask: np.ndarray, *, win: int = 20, periods=BLOCK_PERIODS) -> np.ndarray:
@@ -367,14 +378,12 @@ def block_spectrum(lum: np.ndarray, mask: np.ndarray, *, win: int = 20, periods=
     blocks puts a pair of spikes in the second difference at every block edge, n pixels
     apart, whatever the steps' signs: a line at period n in the magnitudes (wherever the
     blocks' grid lies: the power of a window does not depend on its phase)."""
-    lum = np.asarray(lum, np.float64)
-    mask = np.asarray(mask, bool)
-    e = np.zeros(len(periods))
-    for L, M in ((lum, mask), (lum.T, mask.T)):
-        d2 = L[:, :-2] - 2 * L[:, 1:-1] + L[:, 2:]
-        ok = M[:, :-2] & M[:, 1:-1] & M[:, 2:]
-        e += _hann_dft(d2, ok, win, periods)
-    return e
+    return block_windows(lum, mask, win=win, periods=periods).sum(0)
+
+
+def _block_of(e: np.ndarray) -> float:
+    side = 0.5 * (e[0] + e[2])
+    return float(e[1] / side) if side > 0 else float("nan")
 
 
 def blockiness(lum: np.ndarray, mask: np.ndarray, *, period: float = 4.0, win: int = 20) -> float:
@@ -383,9 +392,23 @@ def blockiness(lum: np.ndarray, mask: np.ndarray, *, period: float = 4.0, win: i
     whole window. 4×4 blocks (magnified synthesis pixels carried as blocks) raise it;
     white noise scores about 1 (a texture's value depends on its spectrum, so it is
     compared with frame 1's)."""
-    e = block_spectrum(lum, mask, win=win, periods=(period - 1.0, period, period + 1.0))
-    side = 0.5 * (e[0] + e[2])
-    return float(e[1] / side) if side > 0 else float("nan")
+    return _block_of(block_spectrum(lum, mask, win=win, periods=(period - 1.0, period, period + 1.0)))
+
+
+def block_ratio_sd(after: np.ndarray, before: np.ndarray, *, n: int = 400, seed: int = 0) -> float:
+    """Bootstrap standard deviation of ``blockiness`` of one frame over another's, from
+    their ``block_windows`` at periods (3, 4, 5) (``after``, ``before``): each frame's
+    windows resampled with replacement, ``n`` times (a fixed ``seed``). The noise of a
+    label's block ratio: a label with few whole windows swings by more than the 1.1 bar
+    from frame to frame while nothing changes."""
+    after = np.asarray(after, np.float64)
+    before = np.asarray(before, np.float64)
+    if len(after) == 0 or len(before) == 0:
+        return float("nan")
+    rng = np.random.default_rng(seed)
+    r = [_block_of(after[rng.integers(0, len(after), len(after))].sum(0))
+         / _block_of(before[rng.integers(0, len(before), len(before))].sum(0)) for _ in range(n)]
+    return float(np.nanstd(r))
 
 
 def label_range(src_lum: np.ndarray, src_mask: np.ndarray, *, lo: float = 0.5, hi: float = 99.5) -> tuple[float, float]:

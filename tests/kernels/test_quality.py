@@ -154,6 +154,24 @@ def test_blockiness_tells_4px_blocks_from_texture_wherever_the_grid_lies():
     assert b[0] < b[1] < b[2] and b[2] > 1.4 * b[0]
 
 
+def test_block_ratio_sd_is_the_noise_of_a_labels_block_ratio():
+    """Per-window powers sum to the spectrum; two frames of the same noise give a ratio near
+    1 whose bootstrap sd covers the frame-to-frame swing, larger on a small label (few
+    windows) than on a large one; no windows, no figure."""
+    rng = np.random.default_rng(11)
+    a, b = rng.random((200, 200)), rng.random((200, 200))
+    big = np.ones(a.shape, bool)
+    small = np.zeros(a.shape, bool)
+    small[:22, :22] = True
+    wa = Q.block_windows(a, big)
+    assert wa.shape[1] == 3 and np.allclose(wa.sum(0), Q.block_spectrum(a, big))
+    sd_big = Q.block_ratio_sd(wa, Q.block_windows(b, big))
+    sd_small = Q.block_ratio_sd(Q.block_windows(a, small), Q.block_windows(b, small))
+    ratio = Q.blockiness(a, big) / Q.blockiness(b, big)
+    assert 0 < sd_big < sd_small and abs(ratio - 1) < 4 * sd_big
+    assert np.isnan(Q.block_ratio_sd(wa, Q.block_windows(b, np.zeros(a.shape, bool))))
+
+
 def test_outside_shares_match_a_per_pixel_reference():
     rng = np.random.default_rng(10)
     src = rng.random((30, 40))
