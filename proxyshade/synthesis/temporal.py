@@ -278,8 +278,14 @@ def carry(cd: Plate, prev: Plate | None, first: Plate | None, source: Plate, p, 
         if rising is not None:  # only where the label's gradient rose
             filled = filled & np.isin(lab, np.asarray(rising, np.uint32))
         absorbed = absorbed | filled  # continued pixels: map kept, Poisson redone (flag 4)
+    if p.snap_to_label:
+        # a kept pixel carried up to half a source pixel off its label (the nearest previous pixel's translation
+        # continued past a patch's edge at the label's border) reads the next label's pixel there: a fringe of
+        # the mountain along the sky's silhouette that later frames carry inward; moved back onto its label
+        kt.snap_to_label(src_lab, sx, sy, lab, np.ascontiguousarray(have & ~absorbed & ~distorted, np.bool_),
+                         np.float32(STRAY_MARGIN))
     raw, stray = kt.flag_reasons(have=np.ascontiguousarray(have, np.bool_), absorbed=absorbed, distorted=distorted,
-                                 src_lab=src_lab, sx=sx, sy=sy, lab=lab, margin=0.5,
+                                 src_lab=src_lab, sx=sx, sy=sy, lab=lab, margin=STRAY_MARGIN,
                                  cat=np.ascontiguousarray(cat, np.uint32), cat_c=np.uint32(CATEGORY_C),
                                  land=tuple(land), prev_lab=state.label, codes=tuple(FLAG_CODES))
     if p.continue_tail > 0:
@@ -325,6 +331,7 @@ def carry(cd: Plate, prev: Plate | None, first: Plate | None, source: Plate, p, 
     return Plate(ch, meta)
 
 
+STRAY_MARGIN = 0.5  # source pixels: a kept pixel off its label by more is resynthesized (flag_reasons' stray)
 NO_LABELS = np.zeros((0, 0), np.uint32)  # kr.fill_from_neighbours_into: any neighbour of the label
 RARE = np.uint32(0xFFFFFFFF)  # typical_labels' id of a label's rare looks (no label has it)
 
