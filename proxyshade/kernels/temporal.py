@@ -428,6 +428,52 @@ def _stray(src_lab, x, y, L, m):
 
 
 @njit(**PJIT)
+def snap_to_label(src_lab, sx, sy, lab, mask, m):
+    """In place on ``sx``, ``sy`` (float32): each ``mask`` pixel whose source position is off
+    its label (``_on_label``) but on it ``m`` source pixels to its right, left, below or above
+    (the first that is, in that order; ``_stray``'s test) moved along that axis onto the
+    nearest position of that on-label source pixel (its half-pixel border, clamped inside the
+    source): at most ``m`` pixels, so a patch's texture stays put, but its nearest source pixel
+    is its own label's. Returns the (H, W) bool mask of the pixels moved."""
+    h, w = mask.shape
+    hs, ws = src_lab.shape
+    moved = np.zeros((h, w), np.bool_)
+    z = np.float32(0.0)
+    half = np.float32(0.5)
+    for i in prange(h):
+        for j in range(w):
+            if not mask[i, j]:
+                continue
+            x = sx[i, j]
+            y = sy[i, j]
+            L = lab[i, j]
+            if m <= 0 or _on_label(src_lab, x, y, L):
+                continue
+            for d in range(4):
+                dx = m if d == 0 else (-m if d == 1 else z)
+                dy = m if d == 2 else (-m if d == 3 else z)
+                if not _on_label(src_lab, x + dx, y + dy, L):
+                    continue
+                if d < 2:
+                    c = np.float32(np.floor(np.float64(x + dx) + 0.5))
+                    if d == 0:  # the pixel to the right: its left border (rounds up onto it)
+                        x = max(c - half, z)
+                    else:  # to the left: just below its right border
+                        x = min(np.nextafter(c + half, np.float32(-np.inf)), np.float32(ws - 1))
+                else:
+                    r = np.float32(np.floor(np.float64(y + dy) + 0.5))
+                    if d == 2:
+                        y = max(r - half, z)
+                    else:
+                        y = min(np.nextafter(r + half, np.float32(-np.inf)), np.float32(hs - 1))
+                sx[i, j] = x
+                sy[i, j] = y
+                moved[i, j] = True
+                break
+    return moved
+
+
+@njit(**PJIT)
 def map_deviation_patches(sx, sy, valid, patch, lab, scale):
     """``map_deviation(sx, sy, valid, reproject.patch_links(valid, patch, lab), scale)`` in
     one pass on the float32 maps: the links (valid neighbours of one patch and label) taken

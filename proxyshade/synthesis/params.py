@@ -262,6 +262,15 @@ class Carry(SameSurface):
                                "continue onto a rare look continues the next neighbour's (fill_radius) whose lands "
                                "on a typical pixel of its label, and is resynthesized only when none does (no new "
                                "patch where a neighbour's fits)")
+    snap_to_label = Param(bool, False,
+                          doc="a kept pixel whose carried source position lies off its label by at most half a "
+                              "source pixel (on it half a pixel across: not resynthesized as stray) is moved onto "
+                              "its label's pixel there, so its nearest source pixel is its own label's "
+                              "(kernels.temporal.snap_to_label)")
+    stranded_fringe = Param(int, 0, min=0, max=32,
+                            doc="> 0: a kept pixel whose source pixel lies on its label's fringe in the source (next to "
+                                "another label) but with no other label within this many pixels of it on screen is "
+                                "resynthesized (the silhouette it was copied beside has moved on: a fleck)")
     min_patch_area = Param(int, 16, min=0,
                            doc="patches smaller than this (pixels) continue the neighbouring patch they touch most "
                                "(flagged re-anchored); 0 keeps every fragment")

@@ -278,10 +278,25 @@ def carry(cd: Plate, prev: Plate | None, first: Plate | None, source: Plate, p, 
         if rising is not None:  # only where the label's gradient rose
             filled = filled & np.isin(lab, np.asarray(rising, np.uint32))
         absorbed = absorbed | filled  # continued pixels: map kept, Poisson redone (flag 4)
+    if p.snap_to_label:
+        # a kept pixel carried up to half a source pixel off its label (the nearest previous pixel's translation
+        # continued past a patch's edge at the label's border) reads the next label's pixel there: a fringe of
+        # the mountain along the sky's silhouette that later frames carry inward; moved back onto its label
+        kt.snap_to_label(src_lab, sx, sy, lab, np.ascontiguousarray(have & ~absorbed & ~distorted, np.bool_),
+                         np.float32(STRAY_MARGIN))
     raw, stray = kt.flag_reasons(have=np.ascontiguousarray(have, np.bool_), absorbed=absorbed, distorted=distorted,
-                                 src_lab=src_lab, sx=sx, sy=sy, lab=lab, margin=0.5,
+                                 src_lab=src_lab, sx=sx, sy=sy, lab=lab, margin=STRAY_MARGIN,
                                  cat=np.ascontiguousarray(cat, np.uint32), cat_c=np.uint32(CATEGORY_C),
                                  land=tuple(land), prev_lab=state.label, codes=tuple(FLAG_CODES))
+    if p.stranded_fringe > 0:
+        # a kept pixel that reads its label's fringe in the source (a source pixel next to another label: the sky
+        # darkened by the mountain beside it) belongs at its label's border on screen; one left more than
+        # stranded_fringe pixels inside its label (the silhouette moved on by parallax) is a dark fleck floating in
+        # the sky: resynthesized, as a stray pixel (distorted even where clean_flags drops it as isolated)
+        strand = stranded_pixels(source, sx, sy, lab, have & ~absorbed & ~distorted & (raw == 0),
+                                 int(p.stranded_fringe), memo)
+        raw[strand] = FLAG["distorted"]
+        stray |= strand
     if p.continue_tail > 0:
         # re-anchored copies and absorbed fragments extend a map too: on a rare look, resynthesized
         moved = (absorbed | distorted) & (raw == FLAG["reanchored"])
@@ -325,6 +340,7 @@ def carry(cd: Plate, prev: Plate | None, first: Plate | None, source: Plate, p, 
     return Plate(ch, meta)
 
 
+STRAY_MARGIN = 0.5  # source pixels: a kept pixel off its label by more is resynthesized (flag_reasons' stray)
 NO_LABELS = np.zeros((0, 0), np.uint32)  # kr.fill_from_neighbours_into: any neighbour of the label
 RARE = np.uint32(0xFFFFFFFF)  # typical_labels' id of a label's rare looks (no label has it)
 
@@ -348,6 +364,41 @@ def typical_labels(source: Plate, tail: float, memo=None) -> np.ndarray:
 
     return kept(memo, "temporal.typical_labels", (source["R"], source["G"], source["B"], source["label.id"], tail),
                 compute, size=1)
+
+
+def source_fringe(source: Plate, memo=None) -> np.ndarray:
+    """(Hs, Ws) bool: the source pixels with another label among their 8 neighbours (a label's
+    fringe in the photo, where its look mixes with the next label's); kept in ``memo``."""
+    def compute():
+        from scipy import ndimage
+
+        lab = np.asarray(source["label.id"])
+        return ndimage.minimum_filter(lab, 3, mode="nearest") != ndimage.maximum_filter(lab, 3, mode="nearest")
+
+    return kept(memo, "temporal.source_fringe", (source["label.id"],), compute, size=1)
+
+
+def stranded_pixels(source: Plate, sx: np.ndarray, sy: np.ndarray, lab: np.ndarray, mask: np.ndarray, d: int,
+                    memo=None) -> np.ndarray:
+    """(H, W) bool: the ``mask`` pixels whose nearest source pixel (``lookup``'s, rounded) is on
+    their label's fringe in the source (``source_fringe``) while no pixel of another label lies
+    within ``d`` pixels of them on screen (a (2d + 1)² window): a fringe look stranded inside
+    its label."""
+    from scipy import ndimage
+
+    if d <= 0 or not mask.any():
+        return np.zeros(mask.shape, bool)
+    fringe = source_fringe(source, memo)
+    hs, ws = fringe.shape
+    inner = ndimage.minimum_filter(lab, 2 * d + 1, mode="nearest") == ndimage.maximum_filter(lab, 2 * d + 1,
+                                                                                            mode="nearest")
+    m = mask & inner
+    ii, jj = np.nonzero(m)
+    c = np.minimum(np.floor(np.clip(sx[ii, jj].astype(np.float64), 0, ws - 1) + 0.5), ws - 1).astype(np.int64)
+    r = np.minimum(np.floor(np.clip(sy[ii, jj].astype(np.float64), 0, hs - 1) + 0.5), hs - 1).astype(np.int64)
+    out = np.zeros(mask.shape, bool)
+    out[ii, jj] = fringe[r, c]
+    return out
 
 
 def gradient_sums(rgb: np.ndarray, label: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

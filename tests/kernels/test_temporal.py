@@ -394,3 +394,51 @@ def test_label_gradients_match_the_per_label_reference():
     enc = np.clip(colour_science().cctf_encoding(np.clip(v, 0, None), function="sRGB"), 0, 1)
     got = np.array([T._display(x, table) for x in v])
     assert np.abs(got - enc).max() < 1e-6
+
+
+def ref_snap(src_lab, sx, sy, lab, mask, margin):
+    """``snap_to_label`` pixel by pixel: an off-label pixel on its label ``margin`` to its right,
+    left, below or above (first in that order) moved onto that source pixel's nearest position."""
+    hs, ws = src_lab.shape
+    sx, sy = sx.copy(), sy.copy()
+    moved = np.zeros(mask.shape, bool)
+    m = np.float32(margin)
+    for (i, j), on in np.ndenumerate(mask):
+        x, y, L = sx[i, j], sy[i, j], lab[i, j]
+        if not on or _on_label_reference(src_lab, x, y, L):
+            continue
+        for a, b in ((m, 0), (-m, 0), (0, m), (0, -m)):
+            if not _on_label_reference(src_lab, np.float32(x + np.float32(a)), np.float32(y + np.float32(b)), L):
+                continue
+            if a:  # the on-label pixel's column; the position in it nearest to x
+                c = int(np.floor(float(np.float32(x + np.float32(a))) + 0.5))
+                cand = [v for v in np.arange(c - 0.5, c + 0.5, 1 / 64, dtype=np.float64)
+                        if _on_label_reference(src_lab, np.float32(v), y, L)]
+                sx[i, j] = np.float32(min(cand, key=lambda v: abs(v - float(x))))
+            else:
+                r = int(np.floor(float(np.float32(y + np.float32(b))) + 0.5))
+                cand = [v for v in np.arange(r - 0.5, r + 0.5, 1 / 64, dtype=np.float64)
+                        if _on_label_reference(src_lab, x, np.float32(v), L)]
+                sy[i, j] = np.float32(min(cand, key=lambda v: abs(v - float(y))))
+            moved[i, j] = True
+            break
+    return sx, sy, moved
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_snap_to_label_moves_half_off_pixels_onto_their_label(seed):
+    """A kept pixel at most half a source pixel off its label (not stray) is moved by at most
+    half a pixel, along one axis, onto its label's nearest position (the reference's, to a 64th
+    of a pixel, searched over the on-label pixel); every other pixel is left as it was."""
+    rng = np.random.default_rng(seed)
+    src_lab, sx, sy, lab, mask = _labelled_case(rng, 31, 37)
+    want_sx, want_sy, want = ref_snap(src_lab, sx, sy, lab, mask, 0.5)
+    gx, gy = sx.copy(), sy.copy()
+    moved = T.snap_to_label(src_lab, gx, gy, lab, mask, np.float32(0.5))
+    assert np.array_equal(moved, want) and want.any()
+    assert np.array_equal(gx[~want], sx[~want]) and np.array_equal(gy[~want], sy[~want])
+    assert np.abs(gx - want_sx).max() <= 1 / 64 and np.abs(gy - want_sy).max() <= 1 / 64
+    assert (np.abs(gx - sx) + np.abs(gy - sy)).max() <= 0.5
+    assert T.fits_label(src_lab, gx, gy, lab, want)[want].all()
+    # what it moved is what flag_reasons' stray test spares: moved pixels were off their label, not stray
+    assert not stray(src_lab, sx, sy, lab, want, 0.5).any() and not T.fits_label(src_lab, sx, sy, lab, want)[want].any()

@@ -319,3 +319,30 @@ def test_correction_filter_flat_keeps_more_of_the_corrections_fine_detail_over_f
     assert kept["bilinear"] < 0.45
     for sharp in ("flat4", "flat2"):
         assert kept[sharp] > 0.6 and kept[sharp] > 1.4 * kept["bilinear"], kept
+
+
+def test_snap_to_label_moves_kept_pixels_half_off_their_label_back_onto_it():
+    """A kept pixel carried up to half a source pixel past its label's border in the source
+    (here a column of the wall's map pushed to x = 31.6: the toy source's label 2 begins at
+    column 32) is not stray (kept, flag 0) but reads the other label's nearest pixel; with
+    ``snap_to_label`` it is moved onto its own label's last column (x just under 31.5) and
+    its colour read there, every other pixel as without it."""
+    r0, r1 = render(camera(frame=1), sphere=None), render(camera(frame=2), sphere=None)
+    prev = with_distortion(state_plate(r0), np.zeros((64, 64)))
+    sx = prev["source.x"].copy()
+    off = (prev["label.id"] == 1) & (sx == 29.0)
+    sx[off] = 31.6
+    prev = prev.with_channels({"source.x": sx})
+    params = dict(EXACT, threshold=10.0, colour="map", filter="bilinear")
+    a = step(r1, r0, prev, **params)
+    b = step(r1, r0, prev, snap_to_label=True, **params)
+    src = toy_source()
+    assert off.sum() > 20 and (a["flag"][off] == 0).all() and (b["flag"][off] == 0).all()
+    np.testing.assert_array_equal(a["source.x"][off], np.float32(31.6))
+    assert (src["label.id"][0, 32] == 2) and kt.fits_label(src["label.id"], b["source.x"], b["source.y"],
+                                                           b["label.id"], off)[off].all()
+    np.testing.assert_array_equal(b["source.x"][off], np.nextafter(np.float32(31.5), np.float32(0)))
+    np.testing.assert_allclose(b.rgb()[off], lookup(src.rgb(), b["source.x"], b["source.y"], filter="bilinear")[off]
+                               + np.stack([b[f"correction.{c}"] for c in "RGB"], -1)[off], atol=1e-6)
+    for c in ("source.x", "source.y", "patch.id", "flag", "R"):
+        np.testing.assert_array_equal(b[c][~off], a[c][~off])

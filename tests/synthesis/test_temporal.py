@@ -89,3 +89,36 @@ def test_typical_labels_mark_each_labels_luminance_tails():
                 if lab[i, j] == k:
                     assert got[i, j] == (RARE if lum[i, j] < lo or lum[i, j] > hi else k)
     assert 0.1 < (got == RARE).mean() < 0.18
+
+
+def test_stranded_pixels_match_the_pixel_by_pixel_reference():
+    """``stranded_pixels``: a masked pixel whose nearest source pixel has another label among its
+    8 neighbours in the source, while its own (2d + 1)² window on screen holds only its label."""
+    from proxyshade.graph.plate import Plate
+    from proxyshade.synthesis.temporal import stranded_pixels
+
+    rng = np.random.default_rng(3)
+    src_lab = np.ones((20, 24), np.uint32)
+    src_lab[:, 12:] = 2
+    src_lab[14:, 3:7] = 3
+    source = Plate({"label.id": src_lab, "R": np.zeros((20, 24), np.float32)}, {})
+    lab = np.ones((30, 40), np.uint32)
+    lab[:, 25:] = 2
+    lab[5:9, 5:9] = 3
+    sx = rng.uniform(-1, 24, (30, 40)).astype(np.float32)
+    sy = rng.uniform(-1, 20, (30, 40)).astype(np.float32)
+    mask = rng.random((30, 40)) < 0.8
+    d = 3
+    got = stranded_pixels(source, sx, sy, lab, mask, d)
+    want = np.zeros(mask.shape, bool)
+    for (i, j), on in np.ndenumerate(mask):
+        if not on:
+            continue
+        c = min(int(np.floor(min(max(float(sx[i, j]), 0.0), 23.0) + 0.5)), 23)
+        r = min(int(np.floor(min(max(float(sy[i, j]), 0.0), 19.0) + 0.5)), 19)
+        win = src_lab[max(r - 1, 0):r + 2, max(c - 1, 0):c + 2]
+        fringe = (win != src_lab[r, c]).any()
+        scr = lab[max(i - d, 0):i + d + 1, max(j - d, 0):j + d + 1]
+        want[i, j] = fringe and (scr == lab[i, j]).all()
+    assert np.array_equal(got, want) and want.any() and (mask & ~want).any()
+    assert not stranded_pixels(source, sx, sy, lab, mask, 0).any()
