@@ -89,6 +89,11 @@ def _sub_pass(coords, img, target, labels, parity, stamp, tried, lines, clock, c
             continue
         lines[2 + parity, i] = clock
         for j in range((i + parity) % 2, W, 2):
+            if tried[i, j] > stamp[i, j] and (i == 0 or tried[i, j] > stamp[i - 1, j]) and (
+                    j == 0 or tried[i, j] > stamp[i, j - 1]) and (j == W - 1 or tried[i, j] > stamp[i, j + 1]) and (
+                    i == H - 1 or tried[i, j] > stamp[i + 1, j]):
+                continue
+            tried[i, j] = clock  # off a seam too: it stays off while neither it nor a neighbour changes
             oy, ox = coords[i, j, 0] - i, coords[i, j, 1] - j
             seam = False
             for k in range(4):
@@ -99,11 +104,6 @@ def _sub_pass(coords, img, target, labels, parity, stamp, tried, lines, clock, c
                     break
             if not seam:
                 continue
-            if tried[i, j] > stamp[i, j] and (i == 0 or tried[i, j] > stamp[i - 1, j]) and (
-                    j == 0 or tried[i, j] > stamp[i, j - 1]) and (j == W - 1 or tried[i, j] > stamp[i, j + 1]) and (
-                    i == H - 1 or tried[i, j] > stamp[i + 1, j]):
-                continue
-            tried[i, j] = clock
             best = _energy(coords, img, target, i, j, oy, ox)
             by, bx = oy, ox
             for k in range(4):
@@ -141,11 +141,13 @@ def _on_run(coords, target, t, u, v, k, ay, ax, by, bx):
 
 
 @njit(**JIT)
-def _run_at(coords, img, target, labels, i, j, k, rc, rv, lo_end, hi_end, stamp, tried, clock):
+def _run_at(coords, img, target, labels, i, j, k, rc, rv, lo_end, hi_end, stamp, tried, span, clock):
     """The run move of the seam run that starts at (i, j) across direction ``k`` (see
     ``_run_pass``), if (i, j) starts one; the number of pixels moved. Not tried again
     (``tried[i, j, k]``, the ``clock`` when it last was) where no pixel the run reads (its
-    pixels, those before and after it and those on either side) changed since (``stamp``)."""
+    pixels, those before and after it and those on either side) changed since (``stamp``).
+    ``span[i, j, k]``: the run's length when last tried (255: that or more); where none of
+    those pixels changed since, the run is that long still, so only its stamps are read."""
     H, W = target.shape
     Hs, Ws = labels.shape
     y, x = i + _DY[k], j + _DX[k]
@@ -164,6 +166,7 @@ def _run_at(coords, img, target, labels, i, j, k, rc, rv, lo_end, hi_end, stamp,
     ev = tried[i, j, k]
     if ev > 0:  # the run as it is now; does anything it reads carry a later stamp?
         again = False
+        last = span[i, j, k]
         n = -1
         while not again:
             u, v = i + n * ey, j + n * ex
@@ -176,7 +179,10 @@ def _run_at(coords, img, target, labels, i, j, k, rc, rv, lo_end, hi_end, stamp,
             if n < 0:
                 n = 0
                 continue
-            if not _on_run(coords, target, t, u, v, k, ay, ax, by, bx):
+            if last < 255:
+                if n == last:  # the pixel after the run as it was (it is so still unless a stamp says otherwise)
+                    break
+            elif not _on_run(coords, target, t, u, v, k, ay, ax, by, bx):
                 break
             n += 1
         if not again:
@@ -191,10 +197,14 @@ def _run_at(coords, img, target, labels, i, j, k, rc, rv, lo_end, hi_end, stamp,
         rv[n] = 0 <= sy < Hs and 0 <= sx < Ws and labels[sy, sx] == target[u, v]
         rc[n] = (_pair_cost(coords, img, target, u, v, by, bx, k) + _pair_cost(coords, img, target, u, v, by, bx, kb)
                  - _pair_cost(coords, img, target, u, v, ay, ax, k) - _pair_cost(coords, img, target, u, v, ay, ax, kb))
-        lo_end[n] = (_pair_cost(coords, img, target, u, v, by, bx, 3 - ke)
-                     - _pair_cost(coords, img, target, u, v, ay, ax, 3 - ke))
+        if n == 0:
+            lo_end[n] = (_pair_cost(coords, img, target, u, v, by, bx, 3 - ke)
+                         - _pair_cost(coords, img, target, u, v, ay, ax, 3 - ke))
+        else:  # the pair with the previous pixel of the run: the one its hi_end took, summed the other way round
+            lo_end[n] = hi_end[n - 1]
         hi_end[n] = _pair_cost(coords, img, target, u, v, by, bx, ke) - _pair_cost(coords, img, target, u, v, ay, ax, ke)
         n += 1
+    span[i, j, k] = min(n, 255)
     # the part [l, h] of least Σ_{l..h} rc + lo_end[l] + hi_end[h] (pairs along the run
     # inside the part cost 0 before and after), of valid pixels only
     P = 0.0
@@ -226,7 +236,7 @@ def _run_at(coords, img, target, labels, i, j, k, rc, rv, lo_end, hi_end, stamp,
 
 
 @njit(**PJIT)
-def _run_pass(coords, img, target, labels, vertical, parity, stamp, tried, lines, clock, moved):
+def _run_pass(coords, img, target, labels, vertical, parity, stamp, tried, span, lines, clock, moved):
     """Run moves on the rows (``vertical`` false: seams between a row and the rows above
     and below, runs along the row) or columns of ``parity``. A run: the pixels ``r_0 ..
     r_{n-1}`` along a seam (each the next one's neighbour) that read one offset ``a``
@@ -239,13 +249,14 @@ def _run_pass(coords, img, target, labels, vertical, parity, stamp, tried, lines
     pixel, which one-pixel moves cannot do (each adds two pairs along the seam). Lines in
     order along them, directions in order (up, down; left, right); a line changes only
     itself and reads its neighbours, of the other parity: any thread count gives one
-    result. Returns the number of pixels moved. ``stamp``, ``tried``, ``clock``: as
+    result. Returns the number of pixels moved. ``stamp``, ``tried``, ``span``, ``clock``: as
     ``_run_at``; ``lines``: as ``_sub_pass`` (a line none of whose pixels or its neighbour
     lines' changed since it was last tried is not tried again); ``moved`` (zeros): the number
     of pixels moved per line is added."""
     H, W = target.shape
     nl, L = (W, H) if vertical else (H, W)
     ls, lt = (1, 5) if vertical else (0, 4)
+    ey, ex = (1, 0) if vertical else (0, 1)  # along the lines
     for li in prange((nl - parity + 1) // 2):
         line = 2 * li + parity
         if lines[lt, line] > lines[ls, line] and (line == 0 or lines[lt, line] > lines[ls, line - 1]) and (
@@ -264,8 +275,14 @@ def _run_pass(coords, img, target, labels, vertical, parity, stamp, tried, lines
                 if y < 0 or x < 0 or y >= H or x >= W or (coords[y, x, 0] - y == coords[i, j, 0] - i
                                                           and coords[y, x, 1] - x == coords[i, j, 1] - j):
                     continue
+                # nor where ``_run_at`` would find no run start: across a label border, or where the
+                # predecessor along the line continues the run (most pixels of a seam)
+                if target[y, x] != target[i, j] or _on_run(
+                        coords, target, target[i, j], i - ey, j - ex, k, coords[i, j, 0] - i, coords[i, j, 1] - j,
+                        coords[y, x, 0] - y, coords[y, x, 1] - x):
+                    continue
                 moved[line] += _run_at(coords, img, target, labels, i, j, k, rc=rc, rv=rv, lo_end=lo_end, hi_end=hi_end,
-                                       stamp=stamp, tried=tried, clock=clock)
+                                       stamp=stamp, tried=tried, span=span, clock=clock)
     return moved.sum()
 
 
@@ -289,6 +306,7 @@ class SeamMemory:
             self.stamp = np.zeros((H, W), np.uint8)  # the clock at which each pixel last changed
             self.tried = np.zeros((H, W), np.uint8)  # ... was last tried by a one-pixel move
             self.tried_run = np.zeros((H, W, 4), np.uint8)  # ... was last tried as a run's start, per direction
+            self.span_run = np.zeros((H, W, 4), np.uint8)  # that run's length then (255: 255 or more)
             # per row and column: last change (rows, columns), last tried by one-pixel moves
             # (rows, parity 0 and 1), by run moves (rows, columns)
             self.lines = np.zeros((6, max(H, W)), np.uint8)
@@ -350,7 +368,7 @@ def refine_seams(coords: np.ndarray, img: np.ndarray, target: np.ndarray, labels
                 for parity in (0, 1):
                     (cols if vertical else rows)[:] = 0
                     n += _run_pass(coords, img, target, labels, vertical, parity, stamp=m.stamp, tried=m.tried_run,
-                                   lines=m.lines, clock=m.tick(), moved=cols if vertical else rows)
+                                   span=m.span_run, lines=m.lines, clock=m.tick(), moved=cols if vertical else rows)
                     m.mark(cols if vertical else rows, vertical)
         moves += int(n)
         if n == 0:
