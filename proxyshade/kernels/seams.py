@@ -141,9 +141,26 @@ def _on_run(coords, target, t, u, v, k, ay, ax, by, bx):
 
 
 @njit(**JIT)
+def _run_start(coords, target, i, j, k):
+    """Whether (i, j) starts a seam run across direction ``k`` (see ``_run_pass``): its
+    neighbour that way is inside the image, of the same target label and reads another
+    offset, and its predecessor along the seam does not continue that run."""
+    H, W = target.shape
+    y, x = i + _DY[k], j + _DX[k]
+    if y < 0 or x < 0 or y >= H or x >= W or target[y, x] != target[i, j]:
+        return False
+    ay, ax = coords[i, j, 0] - i, coords[i, j, 1] - j
+    by, bx = coords[y, x, 0] - y, coords[y, x, 1] - x
+    if ay == by and ax == bx:
+        return False
+    ey, ex = _DX[k] * _DX[k], _DY[k] * _DY[k]  # along the seam: (0, 1) or (1, 0)
+    return not _on_run(coords, target, target[i, j], i - ey, j - ex, k, ay, ax, by, bx)
+
+
+@njit(**JIT)
 def _run_at(coords, img, target, labels, i, j, k, rc, rv, lo_end, hi_end, stamp, tried, span, clock):
     """The run move of the seam run that starts at (i, j) across direction ``k`` (see
-    ``_run_pass``), if (i, j) starts one; the number of pixels moved. Not tried again
+    ``_run_pass``; (i, j) is a ``_run_start``); the number of pixels moved. Not tried again
     (``tried[i, j, k]``, the ``clock`` when it last was) where no pixel the run reads (its
     pixels, those before and after it and those on either side) changed since (``stamp``).
     ``span[i, j, k]``: the run's length when last tried (255: that or more); where none of
@@ -151,18 +168,12 @@ def _run_at(coords, img, target, labels, i, j, k, rc, rv, lo_end, hi_end, stamp,
     H, W = target.shape
     Hs, Ws = labels.shape
     y, x = i + _DY[k], j + _DX[k]
-    if y < 0 or x < 0 or y >= H or x >= W or target[y, x] != target[i, j]:
-        return 0
     ay, ax = coords[i, j, 0] - i, coords[i, j, 1] - j
     by, bx = coords[y, x, 0] - y, coords[y, x, 1] - x
-    if ay == by and ax == bx:
-        return 0
     ey, ex = _DX[k] * _DX[k], _DY[k] * _DY[k]  # along the seam: (0, 1) or (1, 0)
     kb = 3 - k  # the opposite direction (_DY/_DX are symmetric)
     ke = 2 if ex == 1 else 3  # direction +e
     t = target[i, j]
-    if _on_run(coords, target, t, i - ey, j - ex, k, ay, ax, by, bx):  # the predecessor continues the run
-        return 0
     ev = tried[i, j, k]
     if ev > 0:  # the run as it is now; does anything it reads carry a later stamp?
         again = False
@@ -256,7 +267,6 @@ def _run_pass(coords, img, target, labels, vertical, parity, stamp, tried, span,
     H, W = target.shape
     nl, L = (W, H) if vertical else (H, W)
     ls, lt = (1, 5) if vertical else (0, 4)
-    ey, ex = (1, 0) if vertical else (0, 1)  # along the lines
     for li in prange((nl - parity + 1) // 2):
         line = 2 * li + parity
         if lines[lt, line] > lines[ls, line] and (line == 0 or lines[lt, line] > lines[ls, line - 1]) and (
@@ -271,15 +281,7 @@ def _run_pass(coords, img, target, labels, vertical, parity, stamp, tried, span,
             i, j = (t, line) if vertical else (line, t)
             for kk in range(2):
                 k = (1 + kk) if vertical else 3 * kk
-                y, x = i + _DY[k], j + _DX[k]  # most pixels are on no seam: no call
-                if y < 0 or x < 0 or y >= H or x >= W or (coords[y, x, 0] - y == coords[i, j, 0] - i
-                                                          and coords[y, x, 1] - x == coords[i, j, 1] - j):
-                    continue
-                # nor where ``_run_at`` would find no run start: across a label border, or where the
-                # predecessor along the line continues the run (most pixels of a seam)
-                if target[y, x] != target[i, j] or _on_run(
-                        coords, target, target[i, j], i - ey, j - ex, k, coords[i, j, 0] - i, coords[i, j, 1] - j,
-                        coords[y, x, 0] - y, coords[y, x, 1] - x):
+                if not _run_start(coords, target, i, j, k):  # most pixels: on no seam, or inside a run
                     continue
                 moved[line] += _run_at(coords, img, target, labels, i, j, k, rc=rc, rv=rv, lo_end=lo_end, hi_end=hi_end,
                                        stamp=stamp, tried=tried, span=span, clock=clock)
