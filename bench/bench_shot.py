@@ -310,12 +310,14 @@ class LabelFigures:
             m = lab == k
             if m.sum() < 400:
                 continue
-            out[self.names[k]] = {"grad": Q.gradient_magnitude(lum, m), "block": Q.blockiness(lum, m),
+            w = Q.block_windows(lum, m) if windows else None
+            out[self.names[k]] = {"grad": Q.gradient_magnitude(lum, m),
+                                  "block": Q.block_of(w.sum(0)) if windows else Q.blockiness(lum, m),
                                   "clump": Q.source_outside_share(plate["source.x"], plate["source.y"], m,
                                                                   self.src_lum, rng),
                                   "range": Q.outside_share(lum, m, rng), "share": float(m.mean())}
             if windows:
-                out[self.names[k]]["block_w"] = Q.block_windows(lum, m)
+                out[self.names[k]]["block_w"] = w
         return out
 
 

@@ -353,7 +353,7 @@ def _hann_dft(d2: np.ndarray, ok: np.ndarray, win: int, periods) -> np.ndarray:
     a = np.abs(a[full])
     a = (a - a.mean(-1, keepdims=True)) * np.hanning(win)  # (k, win)
     t = np.arange(win)
-    return np.stack([np.abs(a @ np.exp(-2j * np.pi * t / p)) ** 2 for p in periods], axis=-1).reshape(-1, len(periods))
+    return np.stack([np.abs(a @ np.exp(-2j * np.pi * t / p)) ** 2 for p in periods], axis=-1)
 
 
 def block_windows(lum: np.ndarray, mask: np.ndarray, *, win: int = 20, periods=BLOCK_PERIODS) -> np.ndarray:
@@ -381,7 +381,8 @@ def block_spectrum(lum: np.ndarray, mask: np.ndarray, *, win: int = 20, periods=
     return block_windows(lum, mask, win=win, periods=periods).sum(0)
 
 
-def _block_of(e: np.ndarray) -> float:
+def block_of(e: np.ndarray) -> float:
+    """``blockiness`` of a spectrum at periods (p − 1, p, p + 1): the middle over the sides' mean."""
     side = 0.5 * (e[0] + e[2])
     return float(e[1] / side) if side > 0 else float("nan")
 
@@ -392,7 +393,7 @@ def blockiness(lum: np.ndarray, mask: np.ndarray, *, period: float = 4.0, win: i
     whole window. 4×4 blocks (magnified synthesis pixels carried as blocks) raise it;
     white noise scores about 1 (a texture's value depends on its spectrum, so it is
     compared with frame 1's)."""
-    return _block_of(block_spectrum(lum, mask, win=win, periods=(period - 1.0, period, period + 1.0)))
+    return block_of(block_spectrum(lum, mask, win=win, periods=(period - 1.0, period, period + 1.0)))
 
 
 def block_ratio_sd(after: np.ndarray, before: np.ndarray, *, n: int = 400, seed: int = 0) -> float:
@@ -406,8 +407,8 @@ def block_ratio_sd(after: np.ndarray, before: np.ndarray, *, n: int = 400, seed:
     if len(after) == 0 or len(before) == 0:
         return float("nan")
     rng = np.random.default_rng(seed)
-    r = [_block_of(after[rng.integers(0, len(after), len(after))].sum(0))
-         / _block_of(before[rng.integers(0, len(before), len(before))].sum(0)) for _ in range(n)]
+    r = [block_of(after[rng.integers(0, len(after), len(after))].sum(0))
+         / block_of(before[rng.integers(0, len(before), len(before))].sum(0)) for _ in range(n)]
     return float(np.nanstd(r))
 
 

@@ -389,16 +389,9 @@ def stranded_pixels(source: Plate, sx: np.ndarray, sy: np.ndarray, lab: np.ndarr
     if d <= 0 or not mask.any():
         return np.zeros(mask.shape, bool)
     fringe = source_fringe(source, memo)
-    hs, ws = fringe.shape
     inner = ndimage.minimum_filter(lab, 2 * d + 1, mode="nearest") == ndimage.maximum_filter(lab, 2 * d + 1,
                                                                                             mode="nearest")
-    m = mask & inner
-    ii, jj = np.nonzero(m)
-    c = np.minimum(np.floor(np.clip(sx[ii, jj].astype(np.float64), 0, ws - 1) + 0.5), ws - 1).astype(np.int64)
-    r = np.minimum(np.floor(np.clip(sy[ii, jj].astype(np.float64), 0, hs - 1) + 0.5), hs - 1).astype(np.int64)
-    out = np.zeros(mask.shape, bool)
-    out[ii, jj] = fringe[r, c]
-    return out
+    return mask & inner & lookup(fringe, sx, sy)  # a bool image is read at the nearest pixel
 
 
 def gradient_sums(rgb: np.ndarray, label: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
