@@ -103,9 +103,8 @@ def test_dolly_in_redoes_stretched_texture_before_it_blurs():
 GATED = ({"solve_continued": True, "creep_gate": 0.5}, {"solve_margin": 4, "flagged_apart": True})
 
 
-@pytest.mark.parametrize("params", [(None, None), GATED, ({"correction_filter": "flat2"}, None),
-                                    ({"snap_to_label": True}, None)],
-                         ids=["default", "creep_gate", "correction_flat2", "snap_to_label"])
+@pytest.mark.parametrize("params", [(None, None), GATED, ({"correction_filter": "flat2"}, None)],
+                         ids=["default", "creep_gate", "correction_flat2"])
 def test_frames_are_bit_identical_with_one_and_two_threads(params):
     cams = [camera(size=SIZE, pos=(0.2 * k, 0.0, -0.3 * k), frame=k + 1) for k in range(5)]
     before = numba.get_num_threads()
