@@ -7,7 +7,7 @@ import numpy as np
 from numba import njit, prange
 
 from proxyshade.kernels._config import JIT, PJIT
-from proxyshade.kernels.reproject import _world
+from proxyshade.kernels.pinhole import _world
 
 
 @njit(**PJIT)

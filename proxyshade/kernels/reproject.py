@@ -32,6 +32,7 @@ from numba import njit, prange
 
 from proxyshade.kernels._config import JIT, PJIT
 from proxyshade.kernels.lookup import _lanczos_colour, _range4, _tap_start
+from proxyshade.kernels.pinhole import _world, intrinsics  # noqa: F401 (intrinsics: kr.intrinsics)
 from proxyshade.kernels.raster import bin_rows_parallel
 from proxyshade.kernels.temporal import _on_label, jacobian_det
 
@@ -84,11 +85,6 @@ class Carried(NamedTuple):
     patch: np.ndarray
     res: np.ndarray
     scalar: np.ndarray
-
-
-def intrinsics(cam) -> np.ndarray:
-    """(fx, fy, cx, cy) of a ``proxyshade.io.usd.CameraInfo`` as float64."""
-    return np.array([cam.fx, cam.fy, cam.cx, cam.cy], np.float64)
 
 
 def relative_matrix(cam_from, cam_to) -> np.ndarray:
@@ -734,14 +730,6 @@ def fill_from_neighbours_into(need, have, lab, state, radius, scale, out, src_la
                 if done:
                     break
     return osx, osy, opatch, ores, odist, filled
-
-
-@njit(inline="always", **JIT)
-def _world(z, i, j, C, k, m):
-    """World coordinate m of pixel (i, j)'s centre at camera depth z (``unproject``)."""
-    x = (j + 0.5 - k[2]) / k[0] * z
-    y = -(i + 0.5 - k[3]) / k[1] * z
-    return C[m, 0] * x + C[m, 1] * y - C[m, 2] * z + C[m, 3]
 
 
 @njit(**PJIT)
