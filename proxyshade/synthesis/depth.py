@@ -13,7 +13,7 @@ from proxyshade.plate import Plate
 from proxyshade.io.camera import CameraInfo
 from proxyshade.kernels import edit as kedit
 from proxyshade.kernels.jfa import jump_flood
-from proxyshade.kernels.reproject import intrinsics
+from proxyshade.kernels.pinhole import intrinsics
 
 FOLLOW = ("N.X", "N.Y", "N.Z", "object.id")  # proxy channels taken from the pixel the depth came from
 
