@@ -228,6 +228,11 @@ class Carry(SameSurface):
     threshold = Param(float, 0.35, min=0.0,
                       doc="map deviation ||J - I|| (J: the carried map's Jacobian over the synthesis scale) above "
                           "which a pixel is resynthesized")
+    magnify_threshold = Param(float, 0.0, min=0.0, max=1.0,
+                              doc="> 0: a patch whose carried map magnifies the source (the mean smaller singular "
+                                  "value of J over the synthesis scale below 1 - this, per patch as threshold's "
+                                  "spread) is re-anchored too: a magnified texture blurs before ||J - I|| reaches "
+                                  "threshold (kernels.temporal.map_stretch_patches)")
     spread = Param(float, 0.5, min=0.0, max=1.0,
                    doc="each patch's threshold is uniform in [(1 - spread) x threshold, threshold] (hashed from its "
                        "id and the seed): patches that distort together are redone at different frames, not as "
@@ -271,6 +276,11 @@ class Carry(SameSurface):
                             doc="> 0: a kept pixel whose source pixel lies on its label's fringe in the source (next to "
                                 "another label) but with no other label within this many pixels of it on screen is "
                                 "resynthesized (the silhouette it was copied beside has moved on: a fleck)")
+    stranded_tail = Param(float, 0.0, min=0.0, max=0.25,
+                          doc="> 0, with stranded_fringe: only a fringe source pixel that is a rare look of its "
+                              "label (luminance in its lowest or highest this share, as continue_tail's) makes a "
+                              "kept pixel stranded: a fringe that looks like the rest of its label (a thin label's) "
+                              "is left alone (synthesis.temporal.rare_fringe)")
     min_patch_area = Param(int, 16, min=0,
                            doc="patches smaller than this (pixels) continue the neighbouring patch they touch most "
                                "(flagged re-anchored); 0 keeps every fragment")

@@ -122,3 +122,32 @@ def test_stranded_pixels_match_the_pixel_by_pixel_reference():
         want[i, j] = fringe and (scr == lab[i, j]).all()
     assert np.array_equal(got, want) and want.any() and (mask & ~want).any()
     assert not stranded_pixels(source, sx, sy, lab, mask, 0).any()
+
+
+def test_stranded_pixels_with_a_tail_keep_only_rare_fringe_looks():
+    """``stranded_pixels(..., tail=t)``: the stranded pixels (without a tail) whose nearest source
+    pixel is also a rare look of its label (``typical_labels(source, t)``), and none else."""
+    from proxyshade.graph.plate import Plate
+    from proxyshade.synthesis.temporal import RARE, stranded_pixels, typical_labels
+
+    rng = np.random.default_rng(5)
+    src_lab = np.ones((20, 24), np.uint32)
+    src_lab[:, 12:] = 2
+    src_lab[14:, 3:7] = 3
+    rgb = rng.random((20, 24, 3)).astype(np.float32)
+    source = Plate({"label.id": src_lab, "R": rgb[..., 0].copy(), "G": rgb[..., 1].copy(), "B": rgb[..., 2].copy()},
+                   {})
+    lab = np.ones((30, 40), np.uint32)
+    lab[:, 25:] = 2
+    lab[5:9, 5:9] = 3
+    sx = rng.uniform(-1, 24, (30, 40)).astype(np.float32)
+    sy = rng.uniform(-1, 20, (30, 40)).astype(np.float32)
+    mask = rng.random((30, 40)) < 0.8
+    tail = 0.2
+    every = stranded_pixels(source, sx, sy, lab, mask, 3)
+    got = stranded_pixels(source, sx, sy, lab, mask, 3, tail=tail)
+    typ = typical_labels(source, tail)
+    c = np.minimum(np.floor(np.clip(sx, 0, 23) + 0.5).astype(int), 23)
+    r = np.minimum(np.floor(np.clip(sy, 0, 19) + 0.5).astype(int), 19)
+    want = every & (typ[r, c] == RARE)
+    assert np.array_equal(got, want) and want.any() and (every & ~want).any()
