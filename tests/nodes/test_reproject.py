@@ -209,6 +209,30 @@ def test_magnify_threshold_reanchors_a_zoom_in_not_a_zoom_out():
     assert not np.isin(out["flag"], (FLAG["reanchored"], FLAG["distorted"])).any()
 
 
+def test_magnify_gate_reanchors_magnified_patches_only_on_labels_whose_gradient_fell():
+    """``magnify_gate``: the zoom in of the test above re-anchors (``magnify_threshold``) only
+    when the first frame has twice the previous frame's contrast (every label's gradient ratio
+    about 0.5, under the gate), as ungated; with half its contrast (ratio about 2) nothing."""
+    p0 = render(camera(f=40.0), sphere=None)
+    p1 = render(camera(f=44.0, frame=2), sphere=None)
+    prev = with_distortion(state_plate(p0), np.zeros((64, 64)))
+    cd = run_node("ConsistentDepth", {}, {"proxy": p1, "guide": p0, "ref_proxy": p0}, frame=2)
+    mean = prev.rgb().mean((0, 1))
+
+    def first(gain):
+        return prev.with_channels({c: (mean[k] + gain * (prev[c] - mean[k])).astype(np.float32)
+                                   for k, c in enumerate("RGB")})
+
+    def run(f, **kw):
+        return run_node("Reproject", dict(EXACT, threshold=0.35, magnify_threshold=0.08, cut_threshold=1.0, **kw),
+                        {"depth": cd, "prev": prev, "first": f, "source": toy_source()}, frame=2)
+
+    ungated = run(first(2.0))
+    assert (ungated["flag"] == FLAG["reanchored"]).mean() > 0.5
+    np.testing.assert_array_equal(run(first(2.0), magnify_gate=0.95)["flag"], ungated["flag"])
+    assert not run(first(0.5), magnify_gate=0.95)["flag"].any()
+
+
 def test_continue_tail_resynthesizes_reanchored_copies_on_rare_looks():
     """With ``continue_tail`` a re-anchored copy (a zoom past the threshold) keeps its new map
     (flag 4) only on source pixels outside its label's luminance tails; on a rare look it is
