@@ -416,7 +416,7 @@ def rare_fringe(source: Plate, tail: float, ratio: float = 0.0, memo=None) -> np
             ni = np.bincount(lab[~fr], minlength=n)
             rf = np.bincount(lab[out.ravel()], minlength=n)
             ri = np.bincount(lab[rare.ravel() & ~fr], minlength=n)
-            # rf / nf >= ratio * ri / ni, without dividing (a label with no inside: its fringe is all of it)
+            # rf / nf >= ratio * ri / ni, without dividing (a label with no inside, all fringe: left out)
             on = (nf > 0) & (rf * np.maximum(ni, 1) >= ratio * ri * nf) & (ni > 0)
             out &= on[np.asarray(source["label.id"])]
         return out
