@@ -495,6 +495,54 @@ def map_deviation_patches(sx, sy, valid, patch, lab, scale):
     return out
 
 
+@njit(inline="always", **JIT)
+def _smaller_stretch(sx, sy, i, j, jl, jr, iu, idn, scale):
+    """The smaller singular value of J / scale at (i, j), J by the differences of
+    ``_deviation`` (an axis without a neighbour counts as undistorted: its column of J is
+    the identity's), in float64."""
+    a = 1.0
+    c = 0.0
+    b = 0.0
+    d = 1.0
+    if jr != jl:
+        hx = 0.5 if jr - jl == 2 else 1.0
+        a = (np.float64(sx[i, jr]) - np.float64(sx[i, jl])) * hx / scale
+        c = (np.float64(sy[i, jr]) - np.float64(sy[i, jl])) * hx / scale
+    if idn != iu:
+        hy = 0.5 if idn - iu == 2 else 1.0
+        b = (np.float64(sx[idn, j]) - np.float64(sx[iu, j])) * hy / scale
+        d = (np.float64(sy[idn, j]) - np.float64(sy[iu, j])) * hy / scale
+    s = a * a + b * b + c * c + d * d
+    det = a * d - b * c
+    disc = s * s - 4.0 * det * det
+    r = np.sqrt(disc) if disc > 0.0 else 0.0
+    lo = 0.5 * (s - r)
+    return np.sqrt(lo) if lo > 0.0 else 0.0
+
+
+@njit(**PJIT)
+def map_stretch_patches(sx, sy, valid, patch, lab, scale):
+    """The smaller singular value of the carried map's J / scale per pixel (float32, 0
+    where not ``valid``), J by the differences of ``map_deviation_patches`` (linked
+    neighbours: valid, one patch and label): below 1 the map magnifies the source along
+    some direction (a zoom in by s gives 1 / s), whatever it does along the other."""
+    h, w = sx.shape
+    out = np.zeros((h, w), np.float32)
+    for i0 in prange(h):
+        i = np.int64(i0)
+        for j in range(w):
+            if not valid[i, j]:
+                continue
+            P = patch[i, j]
+            L = lab[i, j]
+            jl = j - 1 if j > 0 and valid[i, j - 1] and lab[i, j - 1] == L and patch[i, j - 1] == P else j
+            jr = j + 1 if j < w - 1 and valid[i, j + 1] and lab[i, j + 1] == L and patch[i, j + 1] == P else j
+            iu = i - 1 if i > 0 and valid[i - 1, j] and lab[i - 1, j] == L and patch[i - 1, j] == P else i
+            idn = i + 1 if i < h - 1 and valid[i + 1, j] and lab[i + 1, j] == L and patch[i + 1, j] == P else i
+            out[i, j] = _smaller_stretch(sx, sy, i, j, jl, jr, iu, idn, scale)
+    return out
+
+
 @njit(**PJIT)
 def clean_flags(raw, radius, min_neighbours, dilate, have, stray, disoccluded, newly, distorted):
     """The flags cleaned in one pass (the carry's

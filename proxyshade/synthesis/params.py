@@ -228,6 +228,15 @@ class Carry(SameSurface):
     threshold = Param(float, 0.35, min=0.0,
                       doc="map deviation ||J - I|| (J: the carried map's Jacobian over the synthesis scale) above "
                           "which a pixel is resynthesized")
+    magnify_threshold = Param(float, 0.0, min=0.0, max=1.0,
+                              doc="> 0: a patch whose carried map magnifies the source (the mean smaller singular "
+                                  "value of J over the synthesis scale below 1 - this, per patch as threshold's "
+                                  "spread) is re-anchored too: a magnified texture blurs before ||J - I|| reaches "
+                                  "threshold (kernels.temporal.map_stretch_patches)")
+    magnify_gate = Param(float, 0.0, min=0.0,
+                         doc="> 0, with magnify_threshold: the magnification re-anchoring only on labels whose mean "
+                             "gradient (display luma) in the previous frame has fallen below this ratio to the first "
+                             "frame's (as creep_gate's measure); 0: every label")
     spread = Param(float, 0.5, min=0.0, max=1.0,
                    doc="each patch's threshold is uniform in [(1 - spread) x threshold, threshold] (hashed from its "
                        "id and the seed): patches that distort together are redone at different frames, not as "
@@ -271,6 +280,15 @@ class Carry(SameSurface):
                             doc="> 0: a kept pixel whose source pixel lies on its label's fringe in the source (next to "
                                 "another label) but with no other label within this many pixels of it on screen is "
                                 "resynthesized (the silhouette it was copied beside has moved on: a fleck)")
+    stranded_tail = Param(float, 0.0, min=0.0, max=0.25,
+                          doc="> 0, with stranded_fringe: only a fringe source pixel that is a rare look of its "
+                              "label (luminance in its lowest or highest this share, as continue_tail's) makes a "
+                              "kept pixel stranded: a fringe that looks like the rest of its label (a thin label's) "
+                              "is left alone (synthesis.temporal.rare_fringe)")
+    stranded_ratio = Param(float, 0.0, min=0.0,
+                           doc="> 0, with stranded_tail: stranded_fringe only on the labels whose fringe pixels in "
+                               "the source are rare looks at least this many times as often as their other pixels "
+                               "(a fringe with a look of its own, as a sky's beside a mountain; 0: every label)")
     min_patch_area = Param(int, 16, min=0,
                            doc="patches smaller than this (pixels) continue the neighbouring patch they touch most "
                                "(flagged re-anchored); 0 keeps every fragment")

@@ -47,19 +47,29 @@ def patch_thresholds(patch: np.ndarray, threshold: float, spread: float, seed: i
     return (threshold * (1.0 - spread * u)).astype(np.float32, copy=False)
 
 
-def reanchor_distorted(have, patch, D, sx, sy, scale, threshold, spread, seed):
+def reanchor_distorted(have, patch, D, sx, sy, scale, threshold, spread, seed, magnify=0.0, lab=None):
     """Patches whose mean map deviation crosses their threshold (``patch_thresholds``),
     whole, and their maps re-anchored: a patch's map becomes the plain copy (a
     translation at the synthesis scale) through its mean position and mean source
     position, so its texture stays where it was near its middle and the distortion is
-    gone. Returns (distorted (H, W) bool, sx, sy)."""
+    gone. With ``magnify`` > 0 (and ``lab``) also the patches whose mean smaller singular
+    value of J / scale (``kt.map_stretch_patches``) lies below 1 − their threshold
+    (``patch_thresholds`` of ``magnify``): a map that magnifies the source blurs it on
+    screen long before ‖J − I‖ reaches ``threshold``. Returns (distorted (H, W) bool, sx, sy)."""
     if not have.any():
         return np.zeros(have.shape, bool), sx, sy
     ids = np.ascontiguousarray(patch, np.uint32)  # the kernels index by it as it is (no int64 copy)
     n = int(ids.max()) + 1
-    mean_d = kt.patch_mean(np.ascontiguousarray(have, np.bool_), ids, np.ascontiguousarray(D, np.float32), n)
+    have_c = np.ascontiguousarray(have, np.bool_)
+    mean_d = kt.patch_mean(have_c, ids, np.ascontiguousarray(D, np.float32), n)
     ids_all = np.arange(n, dtype=np.uint32)[None]
     bad = mean_d > patch_thresholds(ids_all, threshold, spread, seed)[0]
+    if magnify > 0 and lab is not None:
+        S = kt.map_stretch_patches(np.ascontiguousarray(sx, np.float32), np.ascontiguousarray(sy, np.float32), have_c,
+                                   ids, np.ascontiguousarray(lab, np.uint32), float(scale))
+        S[np.asarray(lab) == NO_MAGNIFY] = 1.0  # labels left out (carry's magnify_gate): no magnification
+        mean_s = kt.patch_mean(have_c, ids, S, n)
+        bad |= (1.0 - mean_s) > patch_thresholds(ids_all, magnify, spread, seed)[0]
     bad[0] = False  # patch 0: no patch
     distorted = kt.in_ids(np.ascontiguousarray(have, np.bool_), ids, bad)
     if not distorted.any():
@@ -264,7 +274,15 @@ def carry(cd: Plate, prev: Plate | None, first: Plate | None, source: Plate, p, 
         # past extend_frames the continued band is flood-filled afresh instead (ext counted up in place)
         filled, have = kt.continue_filled(filled, valid, ext, cont_lab, sx, sy, lab, float(p.extend_frames))
     D = kt.map_deviation_patches(sx, sy, np.ascontiguousarray(have, np.bool_), patch, lab, float(scale))
-    distorted, sx, sy = reanchor_distorted(have, patch, D, sx, sy, scale, p.threshold, p.spread, p.seed)
+    magnify = float(getattr(p, "magnify_threshold", 0.0))
+    mag_lab = lab
+    if magnify > 0 and getattr(p, "magnify_gate", 0.0) > 0 and first is not None:
+        # only on the labels whose gradient has fallen under magnify_gate x the first frame's (a magnified
+        # texture blurs: a label whose gradient holds is left to its own re-anchoring)
+        fallen = [k for k, r in gradient_ratios(prev, first, memo).items() if r < p.magnify_gate]
+        mag_lab = np.where(np.isin(lab, np.asarray(fallen, np.uint32)), lab, NO_MAGNIFY).astype(np.uint32)
+    distorted, sx, sy = reanchor_distorted(have, patch, D, sx, sy, scale, p.threshold, p.spread, p.seed,
+                                           magnify, mag_lab)
     absorbed, sx, sy, patch = absorb_fragments(have, patch, lab, sx, sy, scale, p.min_patch_area, src_lab,
                                                p.min_patch_width)
     # raw flags in one pass (temporal.flag_reasons): re-anchored patches and absorbed fragments
@@ -294,7 +312,8 @@ def carry(cd: Plate, prev: Plate | None, first: Plate | None, source: Plate, p, 
         # stranded_fringe pixels inside its label (the silhouette moved on by parallax) is a dark fleck floating in
         # the sky: resynthesized, as a stray pixel (distorted even where clean_flags drops it as isolated)
         strand = stranded_pixels(source, sx, sy, lab, have & ~absorbed & ~distorted & (raw == 0),
-                                 int(p.stranded_fringe), memo)
+                                 int(p.stranded_fringe), memo, float(getattr(p, "stranded_tail", 0.0)),
+                                 float(getattr(p, "stranded_ratio", 0.0)))
         raw[strand] = FLAG["distorted"]
         stray |= strand
     if p.continue_tail > 0:
@@ -341,6 +360,7 @@ def carry(cd: Plate, prev: Plate | None, first: Plate | None, source: Plate, p, 
 
 
 STRAY_MARGIN = 0.5  # source pixels: a kept pixel off its label by more is resynthesized (flag_reasons' stray)
+NO_MAGNIFY = np.uint32(0xFFFFFFFE)  # reanchor_distorted's label of pixels left out of the magnification test
 NO_LABELS = np.zeros((0, 0), np.uint32)  # kr.fill_from_neighbours_into: any neighbour of the label
 RARE = np.uint32(0xFFFFFFFF)  # typical_labels' id of a label's rare looks (no label has it)
 
@@ -378,17 +398,46 @@ def source_fringe(source: Plate, memo=None) -> np.ndarray:
     return kept(memo, "temporal.source_fringe", (source["label.id"],), compute, size=1)
 
 
+def rare_fringe(source: Plate, tail: float, ratio: float = 0.0, memo=None) -> np.ndarray:
+    """(Hs, Ws) bool: ``source_fringe``'s pixels that are also rare looks of their label
+    (``typical_labels(source, tail)``: luminance in the label's lowest or highest ``tail``);
+    with ``ratio`` > 0 only on the labels whose fringe pixels are rare at least ``ratio`` times
+    as often as their other pixels (a fringe with a look of its own: a sky darkened by the
+    mountain beside it, not a thin label that is its fringe's look throughout); kept in ``memo``."""
+    def compute():
+        fringe = source_fringe(source, memo)
+        rare = typical_labels(source, tail, memo) == RARE
+        out = fringe & rare
+        if ratio > 0:
+            lab = np.asarray(source["label.id"]).ravel()
+            n = int(lab.max()) + 1
+            fr = fringe.ravel()
+            nf = np.bincount(lab[fr], minlength=n)
+            ni = np.bincount(lab[~fr], minlength=n)
+            rf = np.bincount(lab[out.ravel()], minlength=n)
+            ri = np.bincount(lab[rare.ravel() & ~fr], minlength=n)
+            # rf / nf >= ratio * ri / ni, without dividing (a label with no inside, all fringe: left out)
+            on = (nf > 0) & (rf * np.maximum(ni, 1) >= ratio * ri * nf) & (ni > 0)
+            out &= on[np.asarray(source["label.id"])]
+        return out
+
+    return kept(memo, "temporal.rare_fringe", (source["R"], source["G"], source["B"], source["label.id"], tail, ratio),
+                compute, size=1)
+
+
 def stranded_pixels(source: Plate, sx: np.ndarray, sy: np.ndarray, lab: np.ndarray, mask: np.ndarray, d: int,
-                    memo=None) -> np.ndarray:
+                    memo=None, tail: float = 0.0, ratio: float = 0.0) -> np.ndarray:
     """(H, W) bool: the ``mask`` pixels whose nearest source pixel (``lookup``'s, rounded) is on
     their label's fringe in the source (``source_fringe``) while no pixel of another label lies
     within ``d`` pixels of them on screen (a (2d + 1)² window): a fringe look stranded inside
-    its label."""
+    its label. With ``tail`` > 0 only fringe pixels that are rare looks of their label, and with
+    ``ratio`` > 0 only on the labels whose fringe has a look of its own (``rare_fringe``): a
+    fringe pixel that looks like the rest of its label is no fleck."""
     from scipy import ndimage
 
     if d <= 0 or not mask.any():
         return np.zeros(mask.shape, bool)
-    fringe = source_fringe(source, memo)
+    fringe = source_fringe(source, memo) if tail <= 0 else rare_fringe(source, tail, ratio, memo)
     inner = ndimage.minimum_filter(lab, 2 * d + 1, mode="nearest") == ndimage.maximum_filter(lab, 2 * d + 1,
                                                                                             mode="nearest")
     return mask & inner & lookup(fringe, sx, sy)  # a bool image is read at the nearest pixel

@@ -442,3 +442,53 @@ def test_snap_to_label_moves_half_off_pixels_onto_their_label(seed):
     assert T.fits_label(src_lab, gx, gy, lab, want)[want].all()
     # what it moved is what flag_reasons' stray test spares: moved pixels were off their label, not stray
     assert not stray(src_lab, sx, sy, lab, want, 0.5).any() and not T.fits_label(src_lab, sx, sy, lab, want)[want].any()
+
+
+def test_map_stretch_patches_is_the_smaller_singular_value_of_the_linked_jacobian():
+    """``map_stretch_patches``: per valid pixel, the smaller singular value (``np.linalg.svd``) of
+    J / scale, J by central differences over the neighbours of its patch and label (one-sided
+    over one, the identity's column over none), 0 where not valid."""
+    rng = np.random.default_rng(12)
+    h, w = 13, 17
+    i, j = np.mgrid[0:h, 0:w]
+    # smooth maps (a zoom and a shear) plus noise, so both singular values vary
+    sx = (0.8 * j + 0.3 * i + rng.random((h, w)) * 0.5).astype(np.float32)
+    sy = (1.1 * i - 0.2 * j + rng.random((h, w)) * 0.5).astype(np.float32)
+    valid = rng.random((h, w)) > 0.15
+    patch = (1 + (j >= 9) + (i >= 7)).astype(np.uint32)  # blocks, so most pixels have linked neighbours
+    lab = (rng.random((h, w)) > 0.1).astype(np.uint32)
+    scale = 0.75
+    got = T.map_stretch_patches(sx, sy, valid, patch, lab, scale)
+    linked = lambda a, b, i0, j0: (0 <= a < h and 0 <= b < w and valid[a, b] and patch[a, b] == patch[i0, j0]
+                                   and lab[a, b] == lab[i0, j0])
+    X, Y = sx.astype(np.float64), sy.astype(np.float64)
+    seen = 0
+    for i0 in range(h):
+        for j0 in range(w):
+            if not valid[i0, j0]:
+                assert got[i0, j0] == 0
+                continue
+            J = np.eye(2)
+            jl = j0 - 1 if linked(i0, j0 - 1, i0, j0) else j0
+            jr = j0 + 1 if linked(i0, j0 + 1, i0, j0) else j0
+            iu = i0 - 1 if linked(i0 - 1, j0, i0, j0) else i0
+            idn = i0 + 1 if linked(i0 + 1, j0, i0, j0) else i0
+            if jr != jl:
+                J[:, 0] = [(X[i0, jr] - X[i0, jl]) / (jr - jl) / scale, (Y[i0, jr] - Y[i0, jl]) / (jr - jl) / scale]
+            if idn != iu:
+                J[:, 1] = [(X[idn, j0] - X[iu, j0]) / (idn - iu) / scale, (Y[idn, j0] - Y[iu, j0]) / (idn - iu) / scale]
+                seen += jr != jl
+            assert got[i0, j0] == pytest.approx(np.linalg.svd(J, compute_uv=False)[-1], abs=2e-6)
+    assert seen > 20 and got[valid].min() < got[valid].max() - 0.1
+
+
+def test_map_stretch_of_a_zoom_is_its_inverse_and_blind_to_rotation():
+    i, j = np.mgrid[0:20, 0:20].astype(np.float32)
+    ones = np.ones((20, 20), np.uint32)
+    valid = np.ones((20, 20), bool)
+    zoom = T.map_stretch_patches(j * 0.8, i * 0.8, valid, ones, ones, 1.0)  # the screen 1.25x the source
+    np.testing.assert_allclose(zoom, 0.8, rtol=1e-6)
+    c, s = np.cos(0.3), np.sin(0.3)
+    rot = T.map_stretch_patches((c * j - s * i).astype(np.float32), (s * j + c * i).astype(np.float32), valid, ones,
+                                ones, 1.0)
+    np.testing.assert_allclose(rot, 1.0, rtol=1e-5)

@@ -186,6 +186,53 @@ def test_zoom_is_measured_on_the_carried_map_and_reanchored_past_the_threshold()
     assert deviation(out, re).max() < 1e-4
 
 
+def test_magnify_threshold_reanchors_a_zoom_in_not_a_zoom_out():
+    """``magnify_threshold``: a patch whose carried map magnifies the source (zoom in: the map
+    steps 40/44 source pixels per pixel, smaller singular value 0.909) is re-anchored once
+    1 - 0.909 passes its threshold, though ||J - I|| (0.129) is under ``threshold``; the zoom out
+    (44/40: it minifies) is not."""
+    p0 = render(camera(f=40.0), sphere=None)
+    p1 = render(camera(f=44.0, frame=2), sphere=None)
+    prev = with_distortion(state_plate(p0), np.zeros((64, 64)))
+    inner = (slice(4, -4), slice(4, -4))
+    off = step(p1, p0, prev, threshold=0.35, cut_threshold=1.0, **EXACT)
+    assert not off["flag"].any()
+    on = step(p1, p0, prev, threshold=0.35, magnify_threshold=0.08, cut_threshold=1.0, **EXACT)
+    re = on["flag"] == FLAG["reanchored"]
+    assert ((on["flag"][inner] == FLAG["reanchored"]) | (on["flag"][inner] == FLAG["distorted"])).all()
+    assert re.mean() > 0.5 and deviation(on, re).max() < 1e-4
+    high = step(p1, p0, prev, threshold=0.35, magnify_threshold=0.1, cut_threshold=1.0, **EXACT)
+    assert not high["flag"].any()  # 1 - 0.909 under the threshold
+    # the zoom out
+    back = with_distortion(state_plate(p1), np.zeros((64, 64)))
+    out = step(p0, p1, back, threshold=0.35, magnify_threshold=0.02, cut_threshold=1.0, **EXACT)
+    assert not np.isin(out["flag"], (FLAG["reanchored"], FLAG["distorted"])).any()
+
+
+def test_magnify_gate_reanchors_magnified_patches_only_on_labels_whose_gradient_fell():
+    """``magnify_gate``: the zoom in of the test above re-anchors (``magnify_threshold``) only
+    when the first frame has twice the previous frame's contrast (every label's gradient ratio
+    about 0.5, under the gate), as ungated; with half its contrast (ratio about 2) nothing."""
+    p0 = render(camera(f=40.0), sphere=None)
+    p1 = render(camera(f=44.0, frame=2), sphere=None)
+    prev = with_distortion(state_plate(p0), np.zeros((64, 64)))
+    cd = run_node("ConsistentDepth", {}, {"proxy": p1, "guide": p0, "ref_proxy": p0}, frame=2)
+    mean = prev.rgb().mean((0, 1))
+
+    def first(gain):
+        return prev.with_channels({c: (mean[k] + gain * (prev[c] - mean[k])).astype(np.float32)
+                                   for k, c in enumerate("RGB")})
+
+    def run(f, **kw):
+        return run_node("Reproject", dict(EXACT, threshold=0.35, magnify_threshold=0.08, cut_threshold=1.0, **kw),
+                        {"depth": cd, "prev": prev, "first": f, "source": toy_source()}, frame=2)
+
+    ungated = run(first(2.0))
+    assert (ungated["flag"] == FLAG["reanchored"]).mean() > 0.5
+    np.testing.assert_array_equal(run(first(2.0), magnify_gate=0.95)["flag"], ungated["flag"])
+    assert not run(first(0.5), magnify_gate=0.95)["flag"].any()
+
+
 def test_continue_tail_resynthesizes_reanchored_copies_on_rare_looks():
     """With ``continue_tail`` a re-anchored copy (a zoom past the threshold) keeps its new map
     (flag 4) only on source pixels outside its label's luminance tails; on a rare look it is

@@ -103,8 +103,12 @@ def test_dolly_in_redoes_stretched_texture_before_it_blurs():
 GATED = ({"solve_continued": True, "creep_gate": 0.5}, {"solve_margin": 4, "flagged_apart": True})
 
 
-@pytest.mark.parametrize("params", [(None, None), GATED, ({"correction_filter": "flat2"}, None)],
-                         ids=["default", "creep_gate", "correction_flat2"])
+# magnification re-anchoring and rare stranded fringe looks (the dolly-in magnifies)
+FRINGE = ({"magnify_threshold": 0.03, "stranded_fringe": 2, "stranded_tail": 0.05}, None)
+
+
+@pytest.mark.parametrize("params", [(None, None), GATED, ({"correction_filter": "flat2"}, None), FRINGE],
+                         ids=["default", "creep_gate", "correction_flat2", "magnify_stranded"])
 def test_frames_are_bit_identical_with_one_and_two_threads(params):
     cams = [camera(size=SIZE, pos=(0.2 * k, 0.0, -0.3 * k), frame=k + 1) for k in range(5)]
     before = numba.get_num_threads()
@@ -117,5 +121,8 @@ def test_frames_are_bit_identical_with_one_and_two_threads(params):
         numba.set_num_threads(before)
     if params[0] and "creep_gate" in params[0]:
         assert all(o.meta["temporal"]["rising"] for o in one[1:])  # the remedies ran
+    if params is FRINGE:
+        base = move(cams)
+        assert sum(int((o["flag"] == 4).sum()) for o in one) > sum(int((b["flag"] == 4).sum()) for b in base)
     for a, b in zip(one, two):
         assert a.equals(b)

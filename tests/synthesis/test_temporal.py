@@ -122,3 +122,58 @@ def test_stranded_pixels_match_the_pixel_by_pixel_reference():
         want[i, j] = fringe and (scr == lab[i, j]).all()
     assert np.array_equal(got, want) and want.any() and (mask & ~want).any()
     assert not stranded_pixels(source, sx, sy, lab, mask, 0).any()
+
+
+def test_stranded_pixels_with_a_tail_keep_only_rare_fringe_looks():
+    """``stranded_pixels(..., tail=t)``: the stranded pixels (without a tail) whose nearest source
+    pixel is also a rare look of its label (``typical_labels(source, t)``), and none else."""
+    from proxyshade.graph.plate import Plate
+    from proxyshade.synthesis.temporal import RARE, stranded_pixels, typical_labels
+
+    rng = np.random.default_rng(5)
+    src_lab = np.ones((20, 24), np.uint32)
+    src_lab[:, 12:] = 2
+    src_lab[14:, 3:7] = 3
+    rgb = rng.random((20, 24, 3)).astype(np.float32)
+    source = Plate({"label.id": src_lab, "R": rgb[..., 0].copy(), "G": rgb[..., 1].copy(), "B": rgb[..., 2].copy()},
+                   {})
+    lab = np.ones((30, 40), np.uint32)
+    lab[:, 25:] = 2
+    lab[5:9, 5:9] = 3
+    sx = rng.uniform(-1, 24, (30, 40)).astype(np.float32)
+    sy = rng.uniform(-1, 20, (30, 40)).astype(np.float32)
+    mask = rng.random((30, 40)) < 0.8
+    tail = 0.2
+    every = stranded_pixels(source, sx, sy, lab, mask, 3)
+    got = stranded_pixels(source, sx, sy, lab, mask, 3, tail=tail)
+    typ = typical_labels(source, tail)
+    c = np.minimum(np.floor(np.clip(sx, 0, 23) + 0.5).astype(int), 23)
+    r = np.minimum(np.floor(np.clip(sy, 0, 19) + 0.5).astype(int), 19)
+    want = every & (typ[r, c] == RARE)
+    assert np.array_equal(got, want) and want.any() and (every & ~want).any()
+
+
+def test_rare_fringe_ratio_keeps_labels_whose_fringe_has_a_look_of_its_own():
+    """``rare_fringe(source, tail, ratio)``: the fringe's rare looks only on labels whose fringe
+    pixels are rare at least ``ratio`` times as often as their other pixels (counted per label
+    by hand): label 1's fringe is dark (all rare), label 2's looks like its inside."""
+    from proxyshade.graph.plate import Plate
+    from proxyshade.synthesis.temporal import RARE, rare_fringe, source_fringe, typical_labels
+
+    rng = np.random.default_rng(9)
+    lab = np.ones((30, 40), np.uint32)
+    lab[:, 20:] = 2
+    lum = 0.4 + 0.2 * rng.random((30, 40))
+    lum[:, 19] = 0.01  # label 1's fringe beside label 2: darkened
+    rgb = np.repeat(lum[..., None], 3, -1).astype(np.float32)
+    source = Plate({"label.id": lab, "R": rgb[..., 0].copy(), "G": rgb[..., 1].copy(), "B": rgb[..., 2].copy()}, {})
+    tail = 0.05
+    fringe, rare = source_fringe(source), typical_labels(source, tail) == RARE
+    for ratio in (2.0, 50.0):
+        got = rare_fringe(source, tail, ratio)
+        for k in (1, 2):
+            m = lab == k
+            on = (fringe & rare & m).sum() / (fringe & m).sum() >= ratio * (rare & m & ~fringe).sum() / (m & ~fringe).sum()
+            np.testing.assert_array_equal(got[m], (fringe & rare & m)[m] & on)
+    assert rare_fringe(source, tail, 2.0)[lab == 1].any() and not rare_fringe(source, tail, 2.0)[lab == 2].any()
+    np.testing.assert_array_equal(rare_fringe(source, tail), fringe & rare)
