@@ -34,7 +34,9 @@ ratio 0.8-1.2 per label.
 
 ``--stages`` prints instead, per case and variant, each label's std ratio after PatchInit,
 before and after each Correct level, after each of Magnify's steps (magnified, label repair,
-seam moves, patch shifts, seam moves again) and Poisson (``stages``).
+seam moves, patch shifts, seam moves again) and Poisson (``stages``), and per Correct level
+the slope of each pixel's luma z-score in its label after the level on that before it
+(``z_slope``: the share of a pixel's tone deviation the level keeps).
 ``--width 1920`` (or 3840) makes HD (4K) frames from the same photos at the photo's texture
 scale, and prints each output's repetition (``kernels.quality.repetition``, ``copies``)
 beside its time, to compare with the 1024-wide run's.

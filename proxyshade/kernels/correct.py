@@ -24,12 +24,17 @@ The survivor closest to p's neighbourhood under eq. 1 augmented with colour and 
 (t the relative height in the label's vertical run, ``features.label_heights``, h_w
 ``height_weight``)
 
-replaces S[p]; when every candidate is rejected S[p] stays.
+replaces S[p]; when every candidate is rejected S[p] stays. Optional factors on a
+candidate's distance: the usage term (``_usage_excess``), the tone balance (``_tone_balance``,
+Kopf et al. 2007's histogram reweighting with ``tone_over_only``), the tone spread
+(``_tone_spread``) and the tone match (``_tone_z``: a pixel keeps its tone's z-score in its
+label); docs/synthesis.md has their figures.
 
 References
 ----------
 S. Lefebvre, H. Hoppe. Parallel controllable texture synthesis. SIGGRAPH 2005.
 M. Ashikhmin. Synthesizing natural textures. I3D 2001 (coherence).
+J. Kopf et al. Solid texture synthesis from 2D exemplars. SIGGRAPH 2007 (histogram matching).
 C. Barnes et al. The generalized PatchMatch correspondence algorithm. ECCV 2010 (k-NN).
 """
 from __future__ import annotations
