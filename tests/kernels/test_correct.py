@@ -301,10 +301,12 @@ def test_tone_balance_matches_reference(seed):
     np.testing.assert_allclose(out, tone_balance_reference(S, src_lab, src_rgb, n, kc.TONE_BINS), rtol=1e-12, atol=1e-12)
 
 
-def test_tone_balance_favours_the_tones_the_target_lacks():
+@pytest.mark.parametrize("over_only", [False, True])
+def test_tone_balance_favours_the_tones_the_target_lacks(over_only):
     """A label whose exemplar is half bright and flat, half dark and textured, and a map
     that uses mostly the bright half: with the tone-balance term the correction takes more
-    of the dark half (the photo's tones) than the usage term alone."""
+    of the dark half (the photo's tones) than the usage term alone, also when only the
+    over-used tones pay (``tone_over_only``, Kopf et al. 2007's reweighting)."""
     rng = np.random.default_rng(5)
     He, We = 24, 32
     ex_lab = np.zeros((He, We), np.int32)
@@ -324,8 +326,32 @@ def test_tone_balance_favours_the_tones_the_target_lacks():
     knn = kc.similarity_sets(lv, 2, kf.Metric(90.0, 0.0), seed=0, iterations=2)
     rule = kc.Rule(1, True, 0.0, 0.25)
     a, _ = kc.correct_level(lv, S, knn, passes=3, metric=kf.Metric(90.0, 0.0), rule=rule)
-    b, _ = kc.correct_level(lv, S, knn, passes=3, metric=kf.Metric(90.0, 0.0), rule=rule, tone_balance=1.0)
+    b, _ = kc.correct_level(lv, S, knn, passes=3, metric=kf.Metric(90.0, 0.0), rule=rule, tone_balance=1.0,
+                            tone_over_only=over_only)
     assert dark(b) > dark(a) + 0.05, (dark(S), dark(a), dark(b))
+
+
+def test_tone_over_only_charges_over_used_tones_and_gives_no_bonus(monkeypatch):
+    """With ``tone_over_only`` the factor the sub-passes get is the usage term plus T x max(r - 1, 0):
+    never below the usage term's (no bonus), above it where a tone is over-used."""
+    rng, levels = small_case(16, ex=(40, 48), tgt=(32, 32), nlev=1)
+    lv = levels[-1]
+    S = random_state(rng, lv)
+    S[:12] = S[0, 0]  # a clump: one tone over-used
+    knn = kc.similarity_sets(lv, 2, kf.Metric(90.0, 0.0), seed=0, iterations=2)
+    seen, orig = [], kc._subpass
+
+    def spy(lv_, m, rule, knn_, over, *a):
+        seen.append(over.copy())
+        return orig(lv_, m, rule, knn_, over, *a)
+
+    monkeypatch.setattr(kc, "_subpass", spy)
+    kc.correct_level(lv, S, knn, passes=3, metric=kf.Metric(90.0, 0.0), rule=kc.Rule(1, True, 0.0, 0.0), tone_balance=1.0,
+                     tone_over_only=True)
+    tone = np.empty(lv.src_lab.shape)
+    kc._tone_balance(S, lv.src_lab, lv.src_rgb, lv.src_masks.shape[2], kc.TONE_BINS, tone)
+    assert (tone < 0).any() and (tone > 0).any()
+    np.testing.assert_allclose(seen[0], np.maximum(tone, 0.0), atol=1e-12)  # the first sub-pass reads S
 
 
 @pytest.mark.parametrize("spacing,want", [(1, [4, 2, 1]), (2, [4, 2]), (4, [4]), (8, [])])
