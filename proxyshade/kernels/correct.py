@@ -824,8 +824,9 @@ def synthesize(levels: list, S_init: np.ndarray, corr, *, seed: int, mask: np.nd
         term of ``correct_level`` (``tone_over_only``: Kopf et al.'s form, optional);
         ``tone_match`` at the levels of spacing ≥ ``match_spacing``, keeping the tones of
         PatchInit's map (``match_from: "init"``, ``S_init`` taken down to the level) or of the
-        map entering the level (``"level"``) (optional attributes; off when absent); ``radius``: the near-copy radius rule, "spacing" (h
-        exemplar pixels at a level of spacing h) or "level" (2^l at level l, the paper's).
+        map entering the level (``"level"``) (optional attributes; off when absent);
+        ``radius``: the near-copy radius rule, "spacing" (h exemplar pixels at a level of
+        spacing h) or "level" (2^l at level l, the paper's).
     seed : seeds the similarity sets' search.
     mask : (Ht, Wt) bool, optional; only these pixels change, the rest keep ``S_init``.
     min_radius : smallest near-copy radius in exemplar pixels at every level (the
