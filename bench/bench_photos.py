@@ -34,7 +34,9 @@ ratio 0.8-1.2 per label.
 
 ``--stages`` prints instead, per case and variant, each label's std ratio after PatchInit,
 before and after each Correct level, after each of Magnify's steps (magnified, label repair,
-seam moves, patch shifts, seam moves again) and Poisson (``stages``).
+seam moves, patch shifts, seam moves again) and Poisson (``stages``), and per Correct level
+the slope of each pixel's luma z-score in its label after the level on that before it
+(``z_slope``: the share of a pixel's tone deviation the level keeps).
 ``--width 1920`` (or 3840) makes HD (4K) frames from the same photos at the photo's texture
 scale, and prints each output's repetition (``kernels.quality.repetition``, ``copies``)
 beside its time, to compare with the 1024-wide run's.
@@ -256,6 +258,9 @@ def stages(src: Plate, ids: np.ndarray, src_srgb: np.ndarray, sets: dict[str, di
     S0 = np.stack([np.rint((init["source.y"] + 0.5) / F - 0.5), np.rint((init["source.x"] + 0.5) / F - 0.5)], -1)
     rows = [("PatchInit", read_map(S0.astype(np.int32), 1))]
     rows += [(f"Correct h={lv.h} {tag}", read_map(S, lv.h)) for lv, tag, S in rec]
+    from proxyshade.synthesis.labels import source_table
+    dense = {i: names.get(int(t), str(t)) for i, t in enumerate(source_table(src))}
+    rows += [(f"z slope h={lv.h}", z_slope(lv, a, b, dense)) for (lv, _, a), (_, _, b) in zip(rec[::2], rec[1::2])]
     step = float(mag.meta["synthesis"]["scale"])
     for t, (name, co) in enumerate(steps):  # own-label pixels only before the repair
         y = np.clip(np.rint(grid_to_source(co[..., 0], step)).astype(int), 0, lab.shape[0] - 1)
@@ -265,6 +270,25 @@ def stages(src: Plate, ids: np.ndarray, src_srgb: np.ndarray, sets: dict[str, di
     rows += [("Magnify map", read_plate(mag)), ("Magnify", ratios(srgb(mag.rgb()))),
              ("Poisson", ratios(srgb(fin.rgb())))]
     return rows
+
+
+def z_slope(lv, S_in: np.ndarray, S_out: np.ndarray, dense: dict) -> dict:
+    """Per label, how much of a pixel's tone deviation one Correct level keeps: the slope of
+    the luma z-score (within the label, the level's exemplar colours) of each target pixel's
+    position after the level on that before it (1: kept; 0.45: the similarity sets' first
+    entries')."""
+    from proxyshade.kernels import correct as kc
+
+    z = np.empty(lv.src_lab.shape)
+    kc._tone_z(lv.src_lab, lv.src_rgb, lv.src_masks.shape[2], z)
+    a, b = z[S_in[..., 0], S_in[..., 1]], z[S_out[..., 0], S_out[..., 1]]
+    la = lv.src_lab[S_out[..., 0], S_out[..., 1]]
+    out = {}
+    for k in np.unique(lv.tgt_lab):
+        m = (lv.tgt_lab == k) & (la == k)
+        if m.sum() >= 50 and a[m].var() > 0:
+            out[dense[int(k)]] = float(np.cov(a[m], b[m])[0, 1] / a[m].var(ddof=1))
+    return out
 
 
 def ebsynth(exe: Path, src: Plate, ids: np.ndarray, cache: Path) -> tuple[np.ndarray, float]:

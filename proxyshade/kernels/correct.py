@@ -24,12 +24,17 @@ The survivor closest to p's neighbourhood under eq. 1 augmented with colour and 
 (t the relative height in the label's vertical run, ``features.label_heights``, h_w
 ``height_weight``)
 
-replaces S[p]; when every candidate is rejected S[p] stays.
+replaces S[p]; when every candidate is rejected S[p] stays. Optional factors on a
+candidate's distance: the usage term (``_usage_excess``), the tone balance (``_tone_balance``,
+Kopf et al. 2007's histogram reweighting with ``tone_over_only``), the tone spread
+(``_tone_spread``) and the tone match (``_tone_z``: a pixel keeps its tone's z-score in its
+label); docs/synthesis.md has their figures.
 
 References
 ----------
 S. Lefebvre, H. Hoppe. Parallel controllable texture synthesis. SIGGRAPH 2005.
 M. Ashikhmin. Synthesizing natural textures. I3D 2001 (coherence).
+J. Kopf et al. Solid texture synthesis from 2D exemplars. SIGGRAPH 2007 (histogram matching).
 C. Barnes et al. The generalized PatchMatch correspondence algorithm. ECCV 2010 (k-NN).
 """
 from __future__ import annotations
@@ -54,12 +59,15 @@ WINDOW = 4  # half side of the 9x9 repetition window
 class Rule(NamedTuple):
     """A correction's choices at one level: ``radius`` the near-copy radius (exemplar
     pixels), ``use_rgb`` the colour term, ``kappa`` the penalty (× 1 + kappa) on
-    similarity-set candidates, ``uniformity`` the weight of the over-use term."""
+    similarity-set candidates, ``uniformity`` the weight of the over-use term,
+    ``tone_match`` the weight Z of the tone-match term (× 1 + Z (z_c − z_p)², ``_tone_z``;
+    0: off)."""
 
     radius: int
     use_rgb: bool
     kappa: float
     uniformity: float
+    tone_match: float = 0.0
 
 
 # ---------------------------------------------------------------------------
@@ -409,6 +417,35 @@ def _tone_spread(coords, src_lab, src_rgb, nlab, out):
 
 
 @njit(**JIT)
+def _tone_z(src_lab, src_rgb, nlab, out):
+    """Each exemplar pixel's tone as a z-score within its label: (t − μ) / σ, t its luma
+    (``src_rgb``: 255 · sRGB, the colour features of the level), μ and σ the mean and
+    standard deviation of the luma of the label's exemplar pixels (0 where σ = 0).
+    Deterministic (sequential sums)."""
+    He, We = src_lab.shape
+    t = np.empty((He, We))
+    s0 = np.zeros(nlab)
+    s1 = np.zeros(nlab)
+    for y in range(He):
+        for x in range(We):
+            v = 0.2126 * src_rgb[y, x, 0] + 0.7152 * src_rgb[y, x, 1] + 0.0722 * src_rgb[y, x, 2]
+            t[y, x] = v
+            s0[src_lab[y, x]] += 1.0
+            s1[src_lab[y, x]] += v
+    V = np.zeros(nlab)
+    for y in range(He):
+        for x in range(We):
+            l = src_lab[y, x]
+            e = t[y, x] - s1[l] / s0[l]
+            V[l] += e * e
+    for y in range(He):
+        for x in range(We):
+            l = src_lab[y, x]
+            sd = np.sqrt(V[l] / s0[l])
+            out[y, x] = (t[y, x] - s1[l] / s0[l]) / sd if sd > 0 else 0.0
+
+
+@njit(**JIT)
 def rejected(coords, i, j, cy, cx, h, radius):
     """Whether candidate (cy, cx) for pixel (i, j) repeats a use in the 9x9 window.
 
@@ -452,20 +489,23 @@ def _cand_dist(lv, m, use_rgb, i, j, cy, cx, target_dist, target_rgb, best):
 
 
 @njit(**JIT)
-def _subpass_rows(lv, m, rule, knn, over, coords_old, coords_new, active, parity, counts, r0, r1):
+def _subpass_rows(lv, m, rule, knn, over, zs, zt, coords_old, coords_new, active, parity, counts, r0, r1):
     """Correct pixels with (i % 2, j % 2) == ``parity`` of level ``lv``, reading coords_old,
     writing coords_new; ``knn`` the similarity sets (He, We, k, 2).
 
     Candidates from similarity sets (not a neighbour's coherent continuation) have their
     distance multiplied by 1 + kappa; every candidate's by 1 + uniformity × its exemplar
-    neighbourhood's over-use ``over`` (``usage_excess``).
+    neighbourhood's over-use ``over`` (``usage_excess``), and with ``rule.tone_match`` Z > 0
+    by 1 + Z (zs[c] − zt[p])²: ``zs`` (He, We) the exemplar pixels' tone z-scores
+    (``_tone_z``), ``zt`` (Ht, Wt) the tone each target pixel should keep (read only when
+    Z > 0).
 
     counts[i] accumulates (changed, all rejected) per row for reporting. Rows 2 r + parity[0]
     for r in r0..r1 (``_subpass``: all of them in parallel).
     """
     pi, pj = parity
     src_lab, src_rgb, tgt_lab, tgt_dist, h = lv.src_lab, lv.src_rgb, lv.tgt_lab, lv.tgt_dist, lv.h
-    radius, use_rgb, kappa, uniformity = rule.radius, rule.use_rgb, rule.kappa, rule.uniformity
+    radius, use_rgb, kappa, uniformity, zw = rule.radius, rule.use_rgb, rule.kappa, rule.uniformity, rule.tone_match
     Ht, Wt = tgt_lab.shape
     He, We = src_lab.shape
     k = knn.shape[2]
@@ -532,6 +572,9 @@ def _subpass_rows(lv, m, rule, knn, over, coords_old, coords_new, active, parity
                 cy = cyl[u]
                 cx = cxl[u]
                 f = (1.0 if coh[u] else 1.0 + kappa) * (1.0 + uniformity * over[cy, cx])
+                if zw > 0:
+                    e = zs[cy, cx] - zt[i, j]
+                    f *= 1.0 + zw * e * e
                 d = f * _cand_dist(lv, m, use_rgb, i, j, cy, cx, target_dist, target_rgb, best / f)
                 # rejection is only tested for a candidate that would win (same result, cheaper)
                 if d < best and not rejected(coords_old, i, j, cy, cx, h, radius):
@@ -543,6 +586,9 @@ def _subpass_rows(lv, m, rule, knn, over, coords_old, coords_new, active, parity
                 # label: label fidelity wins over repetition
                 for u in range(nc):
                     f = (1.0 if coh[u] else 1.0 + kappa) * (1.0 + uniformity * over[cyl[u], cxl[u]])
+                    if zw > 0:
+                        e = zs[cyl[u], cxl[u]] - zt[i, j]
+                        f *= 1.0 + zw * e * e
                     d = f * _cand_dist(lv, m, use_rgb, i, j, cyl[u], cxl[u], target_dist, target_rgb, best / f)
                     if d < best:
                         best = d
@@ -558,13 +604,15 @@ def _subpass_rows(lv, m, rule, knn, over, coords_old, coords_new, active, parity
 
 
 @njit(**PJIT)
-def _subpass(lv, m, rule, knn, over, coords_old, coords_new, active, parity, counts):
+def _subpass(lv, m, rule, knn, over, zs, zt, coords_old, coords_new, active, parity, counts):
     """``_subpass_rows`` of every row of the parity, in parallel (the loop body a serial
     kernel called with int64 rows: typed once, ``kernels/_config.py``)."""
     for r in prange((lv.tgt_lab.shape[0] - parity[0] + 1) // 2):
-        _subpass_rows(lv, m, rule, knn, over, coords_old, coords_new, active=active, parity=parity, counts=counts, r0=np.int64(r),
-                      r1=np.int64(r + 1))
+        _subpass_rows(lv, m, rule, knn, over, zs, zt, coords_old, coords_new, active=active, parity=parity, counts=counts,
+                      r0=np.int64(r), r1=np.int64(r + 1))
 
+
+NO_Z = np.zeros((1, 1))  # the tone z-scores' place when the tone-match term is off (never read)
 
 # levels smaller than this (512² synthesis pixels) are corrected whole even with a band runner
 # (the environment variable lets a test band small levels on Dask workers; results are the same)
@@ -572,7 +620,7 @@ TILE_MIN_PIXELS = int(os.environ.get("PROXYSHADE_TILE_MIN_PIXELS", 1 << 18))
 
 
 def subpass_rows(level, knn, coords_old, active, over, r0: int, r1: int, parity: tuple[int, int], metric: Metric,
-                 rule: Rule):
+                 rule: Rule, zs: np.ndarray | None = None, zt: np.ndarray | None = None):
     """One parity sub-pass on rows r0..r1 of the target only: (the new coords of those rows,
     their counts). Every pixel of a sub-pass reads only the state before it (``coords_old``)
     and the usage term ``over`` computed from it, so the rows of a band come out exactly
@@ -581,14 +629,17 @@ def subpass_rows(level, knn, coords_old, active, over, r0: int, r1: int, parity:
     band = np.zeros(active.shape, np.bool_)
     band[r0:r1] = active[r0:r1]
     counts = np.zeros((coords_old.shape[0], 2), np.int64)
-    _subpass(level, metric, rule, knn, over, coords_old, coords_new, band, parity, counts)
+    zs = NO_Z if zs is None else zs
+    zt = NO_Z if zt is None else zt
+    _subpass(level, metric, rule, knn, over, zs, zt, coords_old, coords_new, band, parity, counts)
     return coords_new[r0:r1], counts[r0:r1]
 
 
 def correct_level(level, coords: np.ndarray, knn: np.ndarray, *, passes: int, metric: Metric, rule: Rule,
                   active: np.ndarray | None = None, tiles=None, tone_balance: float = 0.0,
                   tone_spacing: int = 1, tone_spread: float = 0.0,
-                  spread_spacing: int = 1) -> tuple[np.ndarray, dict]:
+                  spread_spacing: int = 1, keep_tones: np.ndarray | None = None,
+                  tone_over_only: bool = False) -> tuple[np.ndarray, dict]:
     """``passes`` correction passes (4 parity sub-passes each) at one level.
 
     ``tone_balance`` (T): each candidate's distance is multiplied by 1 + U × over-use
@@ -600,6 +651,15 @@ def correct_level(level, coords: np.ndarray, knn: np.ndarray, *, passes: int, me
     whose tones spread less about their mean than the photo label's, candidates near the
     mean pay, those far from it gain. At a level whose spacing h is under ``tone_spacing`` (``spread_spacing``) the
     tone-balance (tone-spread) term is off; with neither, the usage term alone.
+    ``tone_over_only``: the tone-balance term only charges the tones the target over-uses
+    (r − 1 clipped at 0: Kopf et al. 2007's histogram reweighting, which gives rare tones
+    no bonus).
+
+    ``rule.tone_match`` (Z > 0): each candidate's distance is also multiplied by
+    1 + Z (z_c − z_p)², z_c its tone's z-score in its label (``_tone_z`` of the level's
+    colours), z_p that of the exemplar pixel ``keep_tones`` gives p (a map like ``coords``;
+    default: ``coords``, the map entering the level), in every pass: a pixel keeps the tone
+    deviation it came with instead of taking a candidate's regressed toward the label's mean.
 
     ``tiles``: None (every sub-pass whole, the kernels' threads over its rows), or a runner
     ``tiles(fn, shared, jobs) -> [fn(*shared, *job) for job in jobs]`` that may run the
@@ -611,11 +671,18 @@ def correct_level(level, coords: np.ndarray, knn: np.ndarray, *, passes: int, me
     if active is None:
         active = np.ones((Ht, Wt), np.bool_)
     metric = Metric(float(metric.w), float(metric.height_weight))
-    rule = Rule(int(rule.radius), bool(rule.use_rgb), float(rule.kappa), float(rule.uniformity))
+    rule = Rule(int(rule.radius), bool(rule.use_rgb), float(rule.kappa), float(rule.uniformity),
+                float(rule.tone_match))
     coords_old = np.ascontiguousarray(coords, np.int32).copy()
     coords_new = coords_old.copy()
     counts = np.zeros((Ht, 2), np.int64)
     n = level.src_masks.shape[2]
+    zs, zt = NO_Z, NO_Z
+    if rule.tone_match > 0:
+        zs = np.empty(level.src_lab.shape)
+        _tone_z(level.src_lab, level.src_rgb, n, zs)
+        keep = coords_old if keep_tones is None else np.asarray(keep_tones)
+        zt = np.ascontiguousarray(zs[keep[..., 0], keep[..., 1]])
     expected = (np.bincount(level.tgt_lab.ravel(), minlength=n)
                 / np.maximum(np.bincount(level.src_lab.ravel(), minlength=n), 1)).astype(np.float64)
     over = np.zeros(level.src_lab.shape, np.float64)
@@ -636,19 +703,21 @@ def correct_level(level, coords: np.ndarray, knn: np.ndarray, *, passes: int, me
                 over *= rule.uniformity
                 if tone is not None:
                     _tone_balance(coords_old, level.src_lab, level.src_rgb, n, TONE_BINS, tone)
+                    if tone_over_only:
+                        np.maximum(tone, 0.0, out=tone)
                     over += tone_balance * tone
                 if spread is not None:
                     _tone_spread(coords_old, level.src_lab, level.src_rgb, n, spread)
                     over += tone_spread * spread
                 np.maximum(over, TONE_FLOOR - 1.0, out=over)
             if nb > 1:
-                jobs = [(coords_old, active, over, int(a), int(b), parity, metric, kernel_rule)
+                jobs = [(coords_old, active, over, int(a), int(b), parity, metric, kernel_rule, zs, zt)
                         for a, b in zip(edges[:-1], edges[1:])]
                 for (a, b), (rows, cnt) in zip(zip(edges[:-1], edges[1:]), tiles(subpass_rows, (level, knn), jobs)):
                     coords_new[a:b] = rows
                     counts[a:b] += cnt
             else:
-                _subpass(level, metric, kernel_rule, knn, over, coords_old, coords_new, active, parity, counts)
+                _subpass(level, metric, kernel_rule, knn, over, zs, zt, coords_old, coords_new, active, parity, counts)
             coords_old[...] = coords_new  # only this sub-set changed
     c = counts.sum(0)
     return coords_old, {"changed": int(c[0]), "all_rejected": int(c[1])}
@@ -752,8 +821,12 @@ def synthesize(levels: list, S_init: np.ndarray, corr, *, seed: int, mask: np.nd
         multiplied by 1 + uniformity × the over-use of their exemplar neighbourhood
         (``_usage_excess``; 0: none): the synthesis draws on the whole source region
         instead of converging on its blandest patch; ``tone_balance``: the tone-balance
-        term of ``correct_level``; ``radius``: the near-copy radius rule, "spacing" (h
-        exemplar pixels at a level of spacing h) or "level" (2^l at level l, the paper's).
+        term of ``correct_level`` (``tone_over_only``: Kopf et al.'s form, optional);
+        ``tone_match`` at the levels of spacing ≥ ``match_spacing``, keeping the tones of
+        PatchInit's map (``match_from: "init"``, ``S_init`` taken down to the level) or of the
+        map entering the level (``"level"``) (optional attributes; off when absent);
+        ``radius``: the near-copy radius rule, "spacing" (h exemplar pixels at a level of
+        spacing h) or "level" (2^l at level l, the paper's).
     seed : seeds the similarity sets' search.
     mask : (Ht, Wt) bool, optional; only these pixels change, the rest keep ``S_init``.
     min_radius : smallest near-copy radius in exemplar pixels at every level (the
@@ -801,11 +874,15 @@ def synthesize(levels: list, S_init: np.ndarray, corr, *, seed: int, mask: np.nd
         active = downsample_mask(mask, h, shape) if mask is not None else None
         radius = max(h if corr.radius == "spacing" else 2 ** l, int(min_radius))
         n = corr.passes_finest if l == L - 1 else corr.passes
+        Z = float(getattr(corr, "tone_match", 0.0)) if h >= int(getattr(corr, "match_spacing", 1)) else 0.0
+        anchor = getattr(corr, "match_from", "init")
         coords, st = correct_level(lv, coords, knns[l], passes=n, metric=metric,
-                              rule=Rule(radius, bool(corr.use_rgb), float(corr.kappa), float(corr.uniformity)),
+                              rule=Rule(radius, bool(corr.use_rgb), float(corr.kappa), float(corr.uniformity), Z),
                               active=active, tiles=tiles, tone_balance=float(corr.tone_balance),
                               tone_spacing=int(corr.tone_spacing), tone_spread=float(corr.tone_spread),
-                              spread_spacing=int(corr.spread_spacing))
+                              spread_spacing=int(corr.spread_spacing),
+                              keep_tones=start if anchor == "init" else None,
+                              tone_over_only=bool(getattr(corr, "tone_over_only", False)))
         st.update(level=l, h=h, shape=shape, passes=n, radius=radius)
         stats.append(st)
     if mask is not None:

@@ -102,6 +102,9 @@ class Correction(CoarseLevel, PatchMetric):
                          doc="tone_balance acts only at levels whose spacing (exemplar pixels per level pixel) is at "
                              "least this: 1 = every level, 2 = not at the synthesis size (the finest levels then "
                              "build coherent patches around the tones it restored)")
+    tone_over_only = Param(bool, False,
+                           doc="tone_balance charges only the tones the target over-uses (r - 1 clipped at 0, "
+                               "Kopf et al. 2007's histogram reweighting) and gives rarer tones no bonus")
     tone_spread = Param(float, 0.0, min=0.0, max=4.0,
                         doc="adds tone_spread x d x (1 - (t - mean)^2 / V, clipped to +-1) to that factor, at the "
                             "levels of spread_spacing or more: in a label whose target luma varies less about its mean "
@@ -109,6 +112,17 @@ class Correction(CoarseLevel, PatchMetric):
                             "the mean pay and those farther than one photo std gain (off in the finest level's "
                             "last 2 passes); 0 = off")
     spread_spacing = Param(int, 1, min=1, doc="tone_spread acts only at levels whose spacing is at least this")
+    tone_match = Param(float, 0.0, min=0.0, max=16.0,
+                       doc="multiplies each candidate's distance by 1 + tone_match x (z_c - z_p)^2, z the luma's "
+                           "z-score within its label (the level's colours), z_p that of the position the pixel "
+                           "entered the level with, at the levels of match_spacing or more: a pixel keeps its "
+                           "tone's deviation from the label's mean instead of taking a candidate's regressed "
+                           "toward it (the similarity sets' nearest entries carry 0.45x a pixel's deviation at "
+                           "spacing 8); 0 = off")
+    match_spacing = Param(int, 2, min=1, doc="tone_match acts only at levels whose spacing is at least this")
+    match_from = Param(str, "init", choices=("init", "level"),
+                       doc="the tone a pixel keeps under tone_match: its position's in PatchInit's map (init) or in "
+                           "the map entering the level (level)")
     use_rgb = Param(bool, True, doc="add the colour neighbourhood to the metric (the paper does)")
     radius = Param(str, "spacing", choices=("spacing", "level"),
                    doc="near-copy radius: one level pixel (spacing h) or 2^l exemplar pixels at level l")

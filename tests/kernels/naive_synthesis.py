@@ -106,9 +106,10 @@ def rejected(S, i, j, cy, cx, h, radius, half=4):
     return False
 
 
-def correct_pixel(lv, knn, S, i, j, radius, w, kappa, hw=0.0, over=None, uniformity=0.0):
+def correct_pixel(lv, knn, S, i, j, radius, w, kappa, hw=0.0, over=None, uniformity=0.0, zw=0.0, zs=None, zt=None):
     """One pixel of a correction sub-pass, written out (height term weight ``hw``;
-    distances x (1 + uniformity x over[candidate]))."""
+    distances x (1 + uniformity x over[candidate]); with ``zw`` > 0 also x (1 + zw (zs[candidate]
+    - zt[i, j])^2))."""
     h = lv.h
     He, We = lv.src_lab.shape
     Ht, Wt = lv.tgt_lab.shape
@@ -155,7 +156,8 @@ def correct_pixel(lv, knn, S, i, j, radius, w, kappa, hw=0.0, over=None, uniform
         return np.sqrt(sd + sr) + w * chamfer(window(lv.src_lab, cy, cx, h), tW)
 
     def mult(cy, cx, coh):
-        return (1.0 if coh else 1.0 + kappa) * (1.0 + uniformity * (0.0 if over is None else over[cy, cx]))
+        f = (1.0 if coh else 1.0 + kappa) * (1.0 + uniformity * (0.0 if over is None else over[cy, cx]))
+        return f * (1.0 + zw * (zs[cy, cx] - zt[i, j]) ** 2) if zw > 0 else f
 
     best, by = np.inf, tuple(S[i, j])
     for cy, cx, coh in cands:

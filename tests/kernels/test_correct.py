@@ -56,32 +56,40 @@ def test_rejected_matches_reference():
         assert kc.rejected(S, i, j, cy, cx, h, r) == naive.rejected(S, i, j, cy, cx, h, r)
 
 
-def subpass(lv, knn, S, S_new, active, pi, pj, radius, kappa, counts, hw=0.0, over=None, uniformity=0.0):
+def subpass(lv, knn, S, S_new, active, pi, pj, radius, kappa, counts, hw=0.0, over=None, uniformity=0.0, zw=0.0,
+            zs=None, zt=None):
     over = np.zeros(lv.src_lab.shape) if over is None else over
-    kc._subpass(lv, kf.Metric(90.0, hw), kc.Rule(radius, True, kappa, uniformity), knn, over, S, S_new, active,
-                (pi, pj), counts)
+    zs = kc.NO_Z if zs is None else zs
+    zt = kc.NO_Z if zt is None else zt
+    kc._subpass(lv, kf.Metric(90.0, hw), kc.Rule(radius, True, kappa, uniformity, zw), knn, over, zs, zt, S, S_new,
+                active, (pi, pj), counts)
 
 
-@pytest.mark.parametrize("seed,kappa,use_level,hw,uniformity",
-                         [(0, 0.0, -1, 0.0, 0.0), (1, 0.5, -1, 0.0, 0.0), (2, 0.0, 0, 0.0, 0.0),
-                          (3, 0.0, -1, 16.0, 1.0), (4, 0.5, 0, 40.0, 3.0)])
-def test_subpass_matches_reference(seed, kappa, use_level, hw, uniformity):
+@pytest.mark.parametrize("seed,kappa,use_level,hw,uniformity,zw",
+                         [(0, 0.0, -1, 0.0, 0.0, 0.0), (1, 0.5, -1, 0.0, 0.0, 0.0), (2, 0.0, 0, 0.0, 0.0, 0.0),
+                          (3, 0.0, -1, 16.0, 1.0, 0.0), (4, 0.5, 0, 40.0, 3.0, 0.0), (5, 0.0, -1, 0.0, 0.0, 0.5),
+                          (6, 0.5, 0, 16.0, 1.0, 4.0)])
+def test_subpass_matches_reference(seed, kappa, use_level, hw, uniformity, zw):
+    """The sub-pass kernel against ``naive.correct_pixel``, with and without the kappa,
+    height, usage and tone-match terms (random z-scores, a random tone to keep)."""
     rng, levels = small_case(seed)
     lv = levels[use_level]
     knn = kc.similarity_sets(lv, 2, kf.Metric(SYN.w, hw), seed=seed, iterations=2)
     S = random_state(rng, lv)
     radius = lv.h
     over = rng.random(lv.src_lab.shape) * (rng.random(lv.src_lab.shape) < 0.5)
+    zs = rng.normal(size=lv.src_lab.shape) if zw > 0 else None
+    zt = rng.normal(size=lv.tgt_lab.shape) if zw > 0 else None
     for pi, pj in ((0, 0), (1, 0)):
         S_new = S.copy()
         active = np.ones(lv.tgt_lab.shape, bool)
         counts = np.zeros((S.shape[0], 2), np.int64)
         subpass(lv, knn, S, S_new, active, pi, pj, radius=radius, kappa=kappa, counts=counts, hw=hw, over=over,
-                uniformity=uniformity)
+                uniformity=uniformity, zw=zw, zs=zs, zt=zt)
         for i in range(pi, S.shape[0], 2):
             for j in range(pj, S.shape[1], 2):
                 assert tuple(S_new[i, j]) == naive.correct_pixel(lv, knn, S, i, j, radius, 90.0, kappa, hw, over,
-                                                                 uniformity), (i, j)
+                                                                 uniformity, zw, zs, zt), (i, j)
         # pixels outside the sub-set are untouched
         other = np.ones(S.shape[:2], bool)
         other[pi::2, pj::2] = False
@@ -159,12 +167,15 @@ def test_translation_survives_down_and_up():
         assert np.array_equal(up, S)
 
 
-@pytest.mark.parametrize("tone_balance,tone_spacing,tone_spread", [(0.0, 1, 0.0), (1.0, 1, 0.0), (0.25, 2, 0.0),
-                                                                 (0.25, 2, 2.0)])
-def test_synthesis_is_deterministic_across_thread_counts(tone_balance, tone_spacing, tone_spread):
+@pytest.mark.parametrize("tone_balance,tone_spacing,tone_spread,tone_match,match_from",
+                         [(0.0, 1, 0.0, 0.0, "init"), (1.0, 1, 0.0, 0.0, "init"), (0.25, 2, 0.0, 0.0, "init"),
+                          (0.25, 2, 2.0, 0.0, "init"), (0.25, 2, 0.0, 1.0, "init"), (0.0, 1, 0.0, 1.0, "level")])
+def test_synthesis_is_deterministic_across_thread_counts(tone_balance, tone_spacing, tone_spread, tone_match,
+                                                         match_from):
     rng, levels = small_case(9, ex=(40, 48), tgt=(32, 32), nlev=3)
     S0 = random_state(rng, levels[-1])
-    c = corr(k=2, tone_balance=tone_balance, tone_spacing=tone_spacing, tone_spread=tone_spread)
+    c = corr(k=2, tone_balance=tone_balance, tone_spacing=tone_spacing, tone_spread=tone_spread, tone_match=tone_match,
+             match_spacing=1, match_from=match_from)
     a, _ = kc.synthesize(levels, S0, c, seed=3)
     numba.set_num_threads(1)
     try:
@@ -207,7 +218,7 @@ def test_sub_passes_in_row_bands_are_exactly_the_whole_ones(monkeypatch, bands):
     S0 = random_state(rng, levels[-1])
     mask = np.ones((48, 40), bool)
     mask[30:, :12] = False
-    c = corr(k=2, uniformity=0.25, height_weight=4.0, tone_balance=0.5, tone_spread=1.0)
+    c = corr(k=2, uniformity=0.25, height_weight=4.0, tone_balance=0.5, tone_spread=1.0, tone_match=0.5, match_spacing=1)
     a, _ = kc.synthesize(levels, S0, c, seed=4, mask=mask)
     calls = []
 
@@ -290,10 +301,12 @@ def test_tone_balance_matches_reference(seed):
     np.testing.assert_allclose(out, tone_balance_reference(S, src_lab, src_rgb, n, kc.TONE_BINS), rtol=1e-12, atol=1e-12)
 
 
-def test_tone_balance_favours_the_tones_the_target_lacks():
+@pytest.mark.parametrize("over_only", [False, True])
+def test_tone_balance_favours_the_tones_the_target_lacks(over_only):
     """A label whose exemplar is half bright and flat, half dark and textured, and a map
     that uses mostly the bright half: with the tone-balance term the correction takes more
-    of the dark half (the photo's tones) than the usage term alone."""
+    of the dark half (the photo's tones) than the usage term alone, also when only the
+    over-used tones pay (``tone_over_only``, Kopf et al. 2007's reweighting)."""
     rng = np.random.default_rng(5)
     He, We = 24, 32
     ex_lab = np.zeros((He, We), np.int32)
@@ -313,8 +326,32 @@ def test_tone_balance_favours_the_tones_the_target_lacks():
     knn = kc.similarity_sets(lv, 2, kf.Metric(90.0, 0.0), seed=0, iterations=2)
     rule = kc.Rule(1, True, 0.0, 0.25)
     a, _ = kc.correct_level(lv, S, knn, passes=3, metric=kf.Metric(90.0, 0.0), rule=rule)
-    b, _ = kc.correct_level(lv, S, knn, passes=3, metric=kf.Metric(90.0, 0.0), rule=rule, tone_balance=1.0)
+    b, _ = kc.correct_level(lv, S, knn, passes=3, metric=kf.Metric(90.0, 0.0), rule=rule, tone_balance=1.0,
+                            tone_over_only=over_only)
     assert dark(b) > dark(a) + 0.05, (dark(S), dark(a), dark(b))
+
+
+def test_tone_over_only_charges_over_used_tones_and_gives_no_bonus(monkeypatch):
+    """With ``tone_over_only`` the factor the sub-passes get is the usage term plus T x max(r - 1, 0):
+    never below the usage term's (no bonus), above it where a tone is over-used."""
+    rng, levels = small_case(16, ex=(40, 48), tgt=(32, 32), nlev=1)
+    lv = levels[-1]
+    S = random_state(rng, lv)
+    S[:12] = S[0, 0]  # a clump: one tone over-used
+    knn = kc.similarity_sets(lv, 2, kf.Metric(90.0, 0.0), seed=0, iterations=2)
+    seen, orig = [], kc._subpass
+
+    def spy(lv_, m, rule, knn_, over, *a):
+        seen.append(over.copy())
+        return orig(lv_, m, rule, knn_, over, *a)
+
+    monkeypatch.setattr(kc, "_subpass", spy)
+    kc.correct_level(lv, S, knn, passes=3, metric=kf.Metric(90.0, 0.0), rule=kc.Rule(1, True, 0.0, 0.0), tone_balance=1.0,
+                     tone_over_only=True)
+    tone = np.empty(lv.src_lab.shape)
+    kc._tone_balance(S, lv.src_lab, lv.src_rgb, lv.src_masks.shape[2], kc.TONE_BINS, tone)
+    assert (tone < 0).any() and (tone > 0).any()
+    np.testing.assert_allclose(seen[0], np.maximum(tone, 0.0), atol=1e-12)  # the first sub-pass reads S
 
 
 @pytest.mark.parametrize("spacing,want", [(1, [4, 2, 1]), (2, [4, 2]), (4, [4]), (8, [])])
@@ -401,3 +438,86 @@ def test_tone_spread_keeps_a_labels_spread_the_correction_would_lose():
     full = np.stack(np.nonzero(np.ones((He, We), bool)), -1).reshape(He, We, 2).astype(np.int32)  # the photo itself
     kc._tone_spread(full, lv.src_lab, lv.src_rgb, 2, spread)
     assert np.abs(spread).max() < 1e-9
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_tone_z_matches_reference(seed):
+    """``_tone_z``: each exemplar pixel's luma z-score within its label, written out (a label
+    of one flat tone: 0)."""
+    _, src_lab, src_rgb, n = tone_case(seed, 0)
+    src_rgb[src_lab == 1] = 40.0  # a flat label
+    out = np.full(src_lab.shape, np.nan)
+    kc._tone_z(src_lab, src_rgb, n, out)
+    luma = src_rgb.astype(np.float64) @ np.array([0.2126, 0.7152, 0.0722])
+    want = np.zeros(src_lab.shape)
+    for l in range(n):
+        m = src_lab == l
+        if m.any() and luma[m].std() > 1e-9:
+            want[m] = (luma[m] - luma[m].mean()) / luma[m].std()
+    np.testing.assert_allclose(out, want, rtol=1e-9, atol=1e-9)
+    assert np.abs(want).max() > 1.0
+
+
+def _ramp_case(seed):
+    """A label whose exemplar is a ramp from dark to bright with a faint texture (a second
+    label at its left), and a 24x24 map of random positions of the right labels."""
+    rng = np.random.default_rng(seed)
+    He, We = 24, 32
+    ex_lab = np.zeros((He, We), np.int32)
+    ex_lab[:, :2] = 1
+    ramp = np.linspace(0.05, 0.95, We - 2, dtype=np.float32)
+    ex_rgb = np.full((He, We, 3), 0.5, np.float32)
+    ex_rgb[:, 2:] = (ramp[None, :, None] + 0.05 * rng.random((He, We - 2, 1))).astype(np.float32)
+    tgt = np.zeros((24, 24), np.int32)
+    tgt[:, :2] = 1
+    levels = kf.build_levels(ex_rgb, ex_lab, tgt, 2, 1, max_distance=5.0)
+    lv = levels[-1]
+    S = np.stack([rng.integers(0, He, tgt.shape), rng.integers(2, We, tgt.shape)], -1).astype(np.int32)
+    S[tgt == 1] = np.stack([rng.integers(0, He, (tgt == 1).sum()), rng.integers(0, 2, (tgt == 1).sum())], -1)
+    return lv, S, tgt
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_tone_match_keeps_each_pixels_tone(seed):
+    """A map of random positions on a ramp: the correction makes patches, pulling tones
+    together; with the tone-match term each pixel ends nearer the tone it started with
+    (mean |z change| lower) and the label keeps more of its spread; at 0 the map is
+    exactly the one without the term."""
+    lv, S, tgt = _ramp_case(seed)
+    z = np.empty(lv.src_lab.shape)
+    kc._tone_z(lv.src_lab, lv.src_rgb, 2, z)
+    knn = kc.similarity_sets(lv, 2, kf.Metric(90.0, 0.0), seed=0, iterations=2)
+    run = lambda Z: kc.correct_level(lv, S, knn, passes=4, metric=kf.Metric(90.0, 0.0),  # noqa: E731
+                                     rule=kc.Rule(1, True, 0.0, 0.25, Z))[0]
+    a, b = run(0.0), run(4.0)
+    drift = lambda M: np.abs(z[M[..., 0], M[..., 1]] - z[S[..., 0], S[..., 1]])[tgt == 0].mean()  # noqa: E731
+    spread = lambda M: z[M[..., 0], M[..., 1]][tgt == 0].std()  # noqa: E731
+    assert drift(b) < 0.5 * drift(a), (drift(a), drift(b))
+    assert spread(b) > spread(a) + 0.05, (spread(S), spread(a), spread(b))
+    c, _ = kc.correct_level(lv, S, knn, passes=4, metric=kf.Metric(90.0, 0.0), rule=kc.Rule(1, True, 0.0, 0.25))
+    assert np.array_equal(a, c)
+
+
+@pytest.mark.parametrize("spacing,want", [(1, [4, 2, 1]), (2, [4, 2]), (8, [])])
+def test_tone_match_acts_only_at_levels_of_match_spacing_or_more(monkeypatch, spacing, want):
+    """``match_spacing``: the term's weight reaches the levels whose spacing h is at least it
+    (0 at the others); keeping PatchInit's tones (``match_from: init``) passes the map
+    ``synthesize`` started from, taken down to the level; with no such level the map is
+    exactly the one without the term."""
+    rng, levels = small_case(15, ex=(40, 48), tgt=(32, 32), nlev=3)
+    S0 = random_state(rng, levels[-1])
+    seen, orig = [], kc.correct_level
+
+    def spy(level, S, knn, **kw):
+        if kw["rule"].tone_match > 0:
+            seen.append(level.h)
+            keep = kw["keep_tones"]
+            assert np.array_equal(keep, kc.downsample_state(S0, level.h, level.tgt_lab.shape, level.src_lab.shape))
+        return orig(level, S, knn, **kw)
+
+    monkeypatch.setattr(kc, "correct_level", spy)
+    a, _ = kc.synthesize(levels, S0, corr(k=2, uniformity=0.25, tone_match=1.0, match_spacing=spacing), seed=2)
+    assert seen == want
+    if not want:
+        b, _ = kc.synthesize(levels, S0, corr(k=2, uniformity=0.25), seed=2)
+        assert np.array_equal(a, b)
