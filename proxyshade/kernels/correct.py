@@ -354,17 +354,11 @@ def _tone_balance(coords, src_lab, src_rgb, nlab, nbins, out):
             out[y, x] = max((ht[l, k] / nt[l]) / (hs[l, k] / ns[l]) - 1.0, -1.0) if nt[l] > 0 else 0.0
 
 
-@njit(**JIT)
-def _tone_spread(coords, src_lab, src_rgb, nlab, out):
-    """For each exemplar pixel, how a target pixel taking it would move its label's tone
-    spread back toward the photo's: d × clip(1 − (t − μ)² / V, −1, 1), t the pixel's luma
-    (``src_rgb``: 255 · sRGB, the colour features), μ the mean luma of the label's target
-    pixels (read through ``coords``), V the variance of the photo label's luma (its exemplar
-    pixels), d = max(0, 1 − v / V) the label's deficit (v: the target pixels' variance
-    about μ); 0 for a label no target pixel
-    uses or with V = 0. Positive (a penalty) near the mean, negative (a bonus) for tones
-    farther than √V from it, only in a label that lost spread. Deterministic (sequential
-    sums)."""
+@njit(inline="always", **JIT)
+def _label_luma(src_lab, src_rgb, nlab):
+    """Each exemplar pixel's luma t (``src_rgb``: 255 · sRGB, the colour features) and, per
+    label, its pixel count, luma sum and sum of squared deviations from the label's mean
+    (sequential sums: deterministic)."""
     He, We = src_lab.shape
     t = np.empty((He, We))
     s0 = np.zeros(nlab)
@@ -381,6 +375,22 @@ def _tone_spread(coords, src_lab, src_rgb, nlab, out):
             l = src_lab[y, x]
             e = t[y, x] - s1[l] / s0[l]
             V[l] += e * e
+    return t, s0, s1, V
+
+
+@njit(**JIT)
+def _tone_spread(coords, src_lab, src_rgb, nlab, out):
+    """For each exemplar pixel, how a target pixel taking it would move its label's tone
+    spread back toward the photo's: d × clip(1 − (t − μ)² / V, −1, 1), t the pixel's luma
+    (``src_rgb``: 255 · sRGB, the colour features), μ the mean luma of the label's target
+    pixels (read through ``coords``), V the variance of the photo label's luma (its exemplar
+    pixels), d = max(0, 1 − v / V) the label's deficit (v: the target pixels' variance
+    about μ); 0 for a label no target pixel
+    uses or with V = 0. Positive (a penalty) near the mean, negative (a bonus) for tones
+    farther than √V from it, only in a label that lost spread. Deterministic (sequential
+    sums)."""
+    He, We = src_lab.shape
+    t, s0, s1, V = _label_luma(src_lab, src_rgb, nlab)
     n = np.zeros(nlab)
     m = np.zeros(nlab)
     for i in range(coords.shape[0]):
@@ -423,21 +433,7 @@ def _tone_z(src_lab, src_rgb, nlab, out):
     standard deviation of the luma of the label's exemplar pixels (0 where σ = 0).
     Deterministic (sequential sums)."""
     He, We = src_lab.shape
-    t = np.empty((He, We))
-    s0 = np.zeros(nlab)
-    s1 = np.zeros(nlab)
-    for y in range(He):
-        for x in range(We):
-            v = 0.2126 * src_rgb[y, x, 0] + 0.7152 * src_rgb[y, x, 1] + 0.0722 * src_rgb[y, x, 2]
-            t[y, x] = v
-            s0[src_lab[y, x]] += 1.0
-            s1[src_lab[y, x]] += v
-    V = np.zeros(nlab)
-    for y in range(He):
-        for x in range(We):
-            l = src_lab[y, x]
-            e = t[y, x] - s1[l] / s0[l]
-            V[l] += e * e
+    t, s0, s1, V = _label_luma(src_lab, src_rgb, nlab)
     for y in range(He):
         for x in range(We):
             l = src_lab[y, x]

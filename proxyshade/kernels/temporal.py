@@ -473,6 +473,21 @@ def snap_to_label(src_lab, sx, sy, lab, mask, m):
     return moved
 
 
+@njit(inline="always", **JIT)
+def _patch_neighbours(valid, patch, lab, i, j):
+    """The columns left and right and the rows above and below (i, j) that are linked to it
+    (valid, one patch and label), each (i, j)'s own where its neighbour is not: the
+    differences of ``_deviation`` and ``_smaller_stretch``."""
+    h, w = valid.shape
+    P = patch[i, j]
+    L = lab[i, j]
+    jl = j - 1 if j > 0 and valid[i, j - 1] and lab[i, j - 1] == L and patch[i, j - 1] == P else j
+    jr = j + 1 if j < w - 1 and valid[i, j + 1] and lab[i, j + 1] == L and patch[i, j + 1] == P else j
+    iu = i - 1 if i > 0 and valid[i - 1, j] and lab[i - 1, j] == L and patch[i - 1, j] == P else i
+    idn = i + 1 if i < h - 1 and valid[i + 1, j] and lab[i + 1, j] == L and patch[i + 1, j] == P else i
+    return jl, jr, iu, idn
+
+
 @njit(**PJIT)
 def map_deviation_patches(sx, sy, valid, patch, lab, scale):
     """``map_deviation(sx, sy, valid, reproject.patch_links(valid, patch, lab), scale)`` in
@@ -485,12 +500,7 @@ def map_deviation_patches(sx, sy, valid, patch, lab, scale):
         for j in range(w):
             if not valid[i, j]:
                 continue
-            P = patch[i, j]
-            L = lab[i, j]
-            jl = j - 1 if j > 0 and valid[i, j - 1] and lab[i, j - 1] == L and patch[i, j - 1] == P else j
-            jr = j + 1 if j < w - 1 and valid[i, j + 1] and lab[i, j + 1] == L and patch[i, j + 1] == P else j
-            iu = i - 1 if i > 0 and valid[i - 1, j] and lab[i - 1, j] == L and patch[i - 1, j] == P else i
-            idn = i + 1 if i < h - 1 and valid[i + 1, j] and lab[i + 1, j] == L and patch[i + 1, j] == P else i
+            jl, jr, iu, idn = _patch_neighbours(valid, patch, lab, i, j)
             out[i, j] = _deviation(sx, sy, i, j, jl, jr, iu, idn, scale)
     return out
 
@@ -533,12 +543,7 @@ def map_stretch_patches(sx, sy, valid, patch, lab, scale):
         for j in range(w):
             if not valid[i, j]:
                 continue
-            P = patch[i, j]
-            L = lab[i, j]
-            jl = j - 1 if j > 0 and valid[i, j - 1] and lab[i, j - 1] == L and patch[i, j - 1] == P else j
-            jr = j + 1 if j < w - 1 and valid[i, j + 1] and lab[i, j + 1] == L and patch[i, j + 1] == P else j
-            iu = i - 1 if i > 0 and valid[i - 1, j] and lab[i - 1, j] == L and patch[i - 1, j] == P else i
-            idn = i + 1 if i < h - 1 and valid[i + 1, j] and lab[i + 1, j] == L and patch[i + 1, j] == P else i
+            jl, jr, iu, idn = _patch_neighbours(valid, patch, lab, i, j)
             out[i, j] = _smaller_stretch(sx, sy, i, j, jl, jr, iu, idn, scale)
     return out
 
