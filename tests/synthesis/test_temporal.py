@@ -91,23 +91,32 @@ def test_typical_labels_mark_each_labels_luminance_tails():
     assert 0.1 < (got == RARE).mean() < 0.18
 
 
-def test_stranded_pixels_match_the_pixel_by_pixel_reference():
-    """``stranded_pixels``: a masked pixel whose nearest source pixel has another label among its
-    8 neighbours in the source, while its own (2d + 1)² window on screen holds only its label."""
+def _stranded_case(rng, colour):
+    """A 20×24 source with three labels (random colours, or black) and a 30×40 frame of
+    three labels whose map reads it at random positions, 80 % of its pixels masked."""
     from proxyshade.graph.plate import Plate
-    from proxyshade.synthesis.temporal import stranded_pixels
 
-    rng = np.random.default_rng(3)
     src_lab = np.ones((20, 24), np.uint32)
     src_lab[:, 12:] = 2
     src_lab[14:, 3:7] = 3
-    source = Plate({"label.id": src_lab, "R": np.zeros((20, 24), np.float32)}, {})
+    rgb = rng.random((20, 24, 3)).astype(np.float32) if colour else np.zeros((20, 24, 3), np.float32)
+    source = Plate({"label.id": src_lab, "R": rgb[..., 0].copy(), "G": rgb[..., 1].copy(), "B": rgb[..., 2].copy()},
+                   {})
     lab = np.ones((30, 40), np.uint32)
     lab[:, 25:] = 2
     lab[5:9, 5:9] = 3
     sx = rng.uniform(-1, 24, (30, 40)).astype(np.float32)
     sy = rng.uniform(-1, 20, (30, 40)).astype(np.float32)
     mask = rng.random((30, 40)) < 0.8
+    return source, src_lab, lab, sx, sy, mask
+
+
+def test_stranded_pixels_match_the_pixel_by_pixel_reference():
+    """``stranded_pixels``: a masked pixel whose nearest source pixel has another label among its
+    8 neighbours in the source, while its own (2d + 1)² window on screen holds only its label."""
+    from proxyshade.synthesis.temporal import stranded_pixels
+
+    source, src_lab, lab, sx, sy, mask = _stranded_case(np.random.default_rng(3), colour=False)
     d = 3
     got = stranded_pixels(source, sx, sy, lab, mask, d)
     want = np.zeros(mask.shape, bool)
@@ -127,22 +136,9 @@ def test_stranded_pixels_match_the_pixel_by_pixel_reference():
 def test_stranded_pixels_with_a_tail_keep_only_rare_fringe_looks():
     """``stranded_pixels(..., tail=t)``: the stranded pixels (without a tail) whose nearest source
     pixel is also a rare look of its label (``typical_labels(source, t)``), and none else."""
-    from proxyshade.graph.plate import Plate
     from proxyshade.synthesis.temporal import RARE, stranded_pixels, typical_labels
 
-    rng = np.random.default_rng(5)
-    src_lab = np.ones((20, 24), np.uint32)
-    src_lab[:, 12:] = 2
-    src_lab[14:, 3:7] = 3
-    rgb = rng.random((20, 24, 3)).astype(np.float32)
-    source = Plate({"label.id": src_lab, "R": rgb[..., 0].copy(), "G": rgb[..., 1].copy(), "B": rgb[..., 2].copy()},
-                   {})
-    lab = np.ones((30, 40), np.uint32)
-    lab[:, 25:] = 2
-    lab[5:9, 5:9] = 3
-    sx = rng.uniform(-1, 24, (30, 40)).astype(np.float32)
-    sy = rng.uniform(-1, 20, (30, 40)).astype(np.float32)
-    mask = rng.random((30, 40)) < 0.8
+    source, src_lab, lab, sx, sy, mask = _stranded_case(np.random.default_rng(5), colour=True)
     tail = 0.2
     every = stranded_pixels(source, sx, sy, lab, mask, 3)
     got = stranded_pixels(source, sx, sy, lab, mask, 3, tail=tail)
