@@ -448,6 +448,71 @@ def label_table(rows: list[dict], shown) -> list[dict]:
     return out
 
 
+def over_bars(x: dict) -> tuple[str, ...]:
+    """The bars (issue 33) a label's shot figures (``label_table``'s) miss: grad, block, clump."""
+    return tuple(k for k, bad in (("grad", not (0.9 <= x["grad_min"] and x["grad_max"] <= 1.1)),
+                                  ("block", not x["block_last"] <= 1.1),
+                                  ("clump", not x["clump_max"] - x["clump_first"] <= 0.002)) if bad)
+
+
+def seed_table(labels: list[dict], variants: list[str]) -> dict:
+    """Print, for runs over several seeds and variants: per variant and seed, the labels over
+    each bar; per label, the figures over the seeds (grad min: the least, grad max: the most,
+    block at the last frame and clump rise: median and most) and how many seeds miss a bar;
+    and each variant against the first, seed by seed (the median of the paired differences,
+    and beside it the first variant's spread over seeds: its noise). Returns the counts
+    {variant: {seed: {bar: n}}}."""
+    seeds = sorted({x["seed"] for x in labels}, key=lambda v: (v is None, v))
+    counts = {v: {s: {b: 0 for b in ("grad", "block", "clump", "any")} for s in seeds} for v in variants}
+    by = {}
+    for x in labels:
+        bad = over_bars(x)
+        c = counts[x["variant"]][x["seed"]]
+        for b in bad:
+            c[b] += 1
+        c["any"] += bool(bad)
+        by.setdefault((x["case"], x["size"], x["label"]), {}).setdefault(x["variant"], {})[x["seed"]] = x
+    print(f"\n## Over seeds {', '.join(str(s) for s in seeds)}: labels over a bar (grad / block / clump / any)")
+    for v in variants:
+        print(f"{v:<16} " + "   ".join(f"s{s}: {c['grad']}/{c['block']}/{c['clump']}/{c['any']}"
+                                        for s, c in counts[v].items()))
+
+    def fig(xs: list[dict]) -> dict:
+        rise = [100 * (x["clump_max"] - x["clump_first"]) for x in xs]
+        return {"gmin": min(x["grad_min"] for x in xs), "gmax": max(x["grad_max"] for x in xs),
+                "bmed": statistics.median(x["block_last"] for x in xs), "bmax": max(x["block_last"] for x in xs),
+                "cmed": statistics.median(rise), "cmax": max(rise), "over": sum(bool(over_bars(x)) for x in xs)}
+
+    print(f"{'case':<24} {'size':>5} {'label':<12} {'variant':<16} {'grad min':>8} {'grad max':>8} {'block med':>9} "
+          f"{'block max':>9} {'clump+ med':>10} {'clump+ max':>10} {'over':>6}")
+    for (case, size, label), per in by.items():
+        for v in variants:
+            if v in per:
+                f = fig(list(per[v].values()))
+                print(f"{case:<24} {size:>5} {label:<12} {v:<16} {f['gmin']:8.3f} {f['gmax']:8.3f} {f['bmed']:9.3f} "
+                      f"{f['bmax']:9.3f} {f['cmed']:9.2f}% {f['cmax']:9.2f}% {f['over']:>3}/{len(per[v])}")
+    if len(variants) > 1:
+        base = variants[0]
+        print(f"\nPaired with {base}, seed by seed: median of (variant - {base}) [{base}'s sd over seeds]")
+        print(f"{'case':<24} {'size':>5} {'label':<12} {'variant':<16} {'d grad min':>16} {'d grad max':>16} "
+              f"{'d block':>16} {'d clump+ %':>16}")
+        keys = (("grad_min", 1), ("grad_max", 1), ("block_last", 1), ("clump_rise", 100))
+        for (case, size, label), per in by.items():
+            b = per.get(base, {})
+            for v in variants[1:]:
+                common = [s for s in per.get(v, {}) if s in b]
+                if not common:
+                    continue
+                cells = []
+                for k, scale in keys:
+                    val = (lambda x: x["clump_max"] - x["clump_first"]) if k == "clump_rise" else (lambda x, k=k: x[k])
+                    d = statistics.median(scale * (val(per[v][s]) - val(b[s])) for s in common)
+                    sd = statistics.stdev(scale * val(b[s]) for s in common) if len(common) > 1 else float("nan")
+                    cells.append(f"{d:+8.3f} [{sd:5.3f}]")
+                print(f"{case:<24} {size:>5} {label:<12} {v:<16} " + " ".join(f"{c:>16}" for c in cells))
+    return counts
+
+
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--sizes", type=int, nargs="*", default=[512, 1024])
@@ -465,9 +530,14 @@ def main(argv=None) -> None:
     ap.add_argument("--per-frame", action="store_true", help="print every frame's row")
     ap.add_argument("--set", action="append", default=[], metavar="NODE.PARAM=VALUE",
                     help="override a parameter of graphs/camera_move.yaml's nodes (" + ", ".join(NODES) + ")")
-    ap.add_argument("--seed", type=int, default=None,
-                    help="the shot's seed: sets init.seed, correct.seed and final.seed (graphs/camera_move.yaml: 1) "
-                         "before any --set")
+    ap.add_argument("--seed", "--seeds", dest="seeds", type=int, nargs="+", default=None,
+                    help="the shot's seed(s): each sets init.seed, correct.seed and final.seed "
+                         "(graphs/camera_move.yaml: 1) before any --set; with several, every case runs at each "
+                         "and the summary adds the figures over seeds (seed_table)")
+    ap.add_argument("--variant", action="append", default=[], metavar="NAME:NODE.PARAM=VALUE,...",
+                    help="also run every case with these --set items (repeatable); with several seeds the summary "
+                         "pairs each variant with the graph's run seed by seed")
+    ap.add_argument("--no-default", action="store_true", help="with --variant: skip the graph's own run")
     ap.add_argument("--frames-out", type=Path, default=None, help="write frames 1, 24 and the last as PNG here")
     ap.add_argument("--edges", action="store_true",
                     help="per label at the shown frames: |d luma| per label pixel inside patches / across seams, "
@@ -489,9 +559,23 @@ def main(argv=None) -> None:
         global _clock
         _clock = time.process_time
     summary = []
-    seeds = [f"{n}.seed={args.seed}" for n in ("init", "correct", "final")] if args.seed is not None else []
-    params = graph_params(seeds + args.set)
-    print("parameters: " + "; ".join(f"{k} {v}" for k, v in params.items() if v))
+    variants = [] if args.no_default else [("graph", [])]
+    for v in args.variant:
+        name, _, items = v.partition(":")
+        if not name or not items:
+            raise SystemExit(f"--variant {v}: expected NAME:node.param=value[,node.param=value...]")
+        variants.append((name, [x for x in items.split(",") if x]))
+    if not variants:
+        raise SystemExit("--no-default needs at least one --variant")
+    runs = []  # (seed or None, variant name, parameters)
+    for seed in args.seeds or [None]:
+        sets = [f"{n}.seed={seed}" for n in ("init", "correct", "final")] if seed is not None else []
+        for name, items in variants:
+            runs.append((seed, name, graph_params(sets + args.set + items)))
+    several = len(runs) > 1
+    print("parameters: " + "; ".join(f"{k} {v}" for k, v in runs[0][2].items() if v))
+    for name, items in variants[0 if args.no_default else 1:]:
+        print(f"variant {name}: " + ", ".join(items))
     labels_summary = []
     cases = [Case.bundled(s) for s in args.scenes]
     if args.eval:
@@ -500,54 +584,57 @@ def main(argv=None) -> None:
         work = Path(tempfile.mkdtemp(prefix="bench_shot_"))
         cases += [c for c in eval_cases(args.eval, work)
                   if args.photos is None or c.name.split("/")[-1] in args.photos]
-    for size in args.sizes:
-        for case in cases:
-            scene = case.name
-            rows = shot(case, size, args.frames, args.warp_every, args.warp_sigma, params, args.frames_out, args.edges,
-                        memo=not args.no_memo, steps=args.steps)
-            floor = attached_floor(case, size, case.first_frame(size, frame=1), args.warp_sigma) \
-                if args.warp_every else {"lanczos4": float("nan"), "lowpass": float("nan")}
-            case.clear()  # the per-frame proxies and guides of the independent runs
-            print(f"\n## {scene} {size}² ({args.frames} frames)")
-            print(f"{'frame':>5} {'seams':>6} {'detail':>7} {'share':>7} {'update s':>9} {'warp':>8} {'warp L4':>8} {'warp bil':>8}")
+    for size, case, (seed, variant, params) in ((z, c, r) for z in args.sizes for c in cases for r in runs):
+        scene = case.name + (f" s{seed} {variant}" if several else "")
+        out = args.frames_out / f"s{seed}_{variant}" if args.frames_out and several else args.frames_out
+        if out:
+            out.mkdir(parents=True, exist_ok=True)
+        rows = shot(case, size, args.frames, args.warp_every, args.warp_sigma, params, out, args.edges,
+                    memo=not args.no_memo, steps=args.steps)
+        floor = attached_floor(case, size, case.first_frame(size, frame=1), args.warp_sigma) \
+            if args.warp_every else {"lanczos4": float("nan"), "lowpass": float("nan")}
+        case.clear()  # the per-frame proxies and guides of the independent runs
+        print(f"\n## {scene} {size}² ({args.frames} frames)")
+        print(f"{'frame':>5} {'seams':>6} {'detail':>7} {'share':>7} {'update s':>9} {'warp':>8} {'warp L4':>8} {'warp bil':>8}")
+        for r in rows:
+            if args.per_frame or r["frame"] in (1, 2, 8, 12, 16, 24, 32, 40, 48) or r["frame"] == args.frames:
+                w = r["warp"]
+                wp = f"{w['lowpass'][0] / max(w['lowpass'][1], 1e-12):8.4f}" if w else f"{'':>8}"
+                wl = f"{w['lanczos4'][0] / max(w['lanczos4'][1], 1e-12):8.4f}" if w else f"{'':>8}"
+                wb = f"{w['bilinear'][0] / max(w['bilinear'][1], 1e-12):8.4f}" if w else f"{'':>8}"
+                upd = f"{r['update']:9.3f}" if r["update"] is not None else f"{'':>9}"
+                print(f"{r['frame']:>5} {r['seams']:6.2f} {r['detail']:7.3f} {100 * r['share']:6.2f}% {upd} {wp} {wl} {wb}")
+        shown = {r["frame"] for r in rows} if args.per_frame else {1, 12, 24, 48, args.frames}
+        labels_summary += [dict(x, scene=scene, size=size, case=case.name, seed=seed, variant=variant)
+                           for x in label_table(rows, shown)]
+        if args.steps:
+            g1 = rows[0]["steps"]
+            print(f"{'frame':>5} {'label':<12} {'grad':>6} {'carried':>7} {'S(map)':>7}  (over frame 1's)")
+            for r in rows[1:]:
+                if r["frame"] in shown:
+                    for name, st in r["steps"].items():
+                        if name in g1 and name in r["labels"] and name in rows[0]["labels"]:
+                            print(f"{r['frame']:>5} {name:<12} "
+                                  f"{r['labels'][name]['grad'] / rows[0]['labels'][name]['grad']:6.3f} "
+                                  f"{st['carried'] / g1[name]['carried']:7.3f} {st['smap'] / g1[name]['smap']:7.3f}")
+        if args.edges:
+            names = {int(t["id"]): t["name"] for t in case.source().meta["labels"]}
+            print(f"{'frame':>5} {'label':<12} {'in':>7} {'in flag':>7} {'seam':>7} {'seam flag':>9}  (|d luma| per label pixel)")
             for r in rows:
-                if args.per_frame or r["frame"] in (1, 2, 8, 12, 16, 24, 32, 40, 48) or r["frame"] == args.frames:
-                    w = r["warp"]
-                    wp = f"{w['lowpass'][0] / max(w['lowpass'][1], 1e-12):8.4f}" if w else f"{'':>8}"
-                    wl = f"{w['lanczos4'][0] / max(w['lanczos4'][1], 1e-12):8.4f}" if w else f"{'':>8}"
-                    wb = f"{w['bilinear'][0] / max(w['bilinear'][1], 1e-12):8.4f}" if w else f"{'':>8}"
-                    upd = f"{r['update']:9.3f}" if r["update"] is not None else f"{'':>9}"
-                    print(f"{r['frame']:>5} {r['seams']:6.2f} {r['detail']:7.3f} {100 * r['share']:6.2f}% {upd} {wp} {wl} {wb}")
-            shown = {r["frame"] for r in rows} if args.per_frame else {1, 12, 24, 48, args.frames}
-            labels_summary += [dict(x, scene=scene, size=size) for x in label_table(rows, shown)]
-            if args.steps:
-                g1 = rows[0]["steps"]
-                print(f"{'frame':>5} {'label':<12} {'grad':>6} {'carried':>7} {'S(map)':>7}  (over frame 1's)")
-                for r in rows[1:]:
-                    if r["frame"] in shown:
-                        for name, st in r["steps"].items():
-                            if name in g1 and name in r["labels"] and name in rows[0]["labels"]:
-                                print(f"{r['frame']:>5} {name:<12} "
-                                      f"{r['labels'][name]['grad'] / rows[0]['labels'][name]['grad']:6.3f} "
-                                      f"{st['carried'] / g1[name]['carried']:7.3f} {st['smap'] / g1[name]['smap']:7.3f}")
-            if args.edges:
-                names = {int(t["id"]): t["name"] for t in case.source().meta["labels"]}
-                print(f"{'frame':>5} {'label':<12} {'in':>7} {'in flag':>7} {'seam':>7} {'seam flag':>9}  (|d luma| per label pixel)")
-                for r in rows:
-                    if r["frame"] in shown:
-                        for k, e in r["edges"].items():
-                            print(f"{r['frame']:>5} {names.get(k, str(k)):<12} {e['in']:7.4f} {e['in_f']:7.4f} "
-                                  f"{e['seam']:7.4f} {e['seam_f']:9.4f}")
-            later = rows[1:]
-            ws = [r["warp"] for r in later if r["warp"]]
-            ratio = {f: (float(np.mean([w[f][0] for w in ws])) / max(float(np.mean([w[f][1] for w in ws])), 1e-12)
-                         if ws else float("nan")) for f in ("lowpass", "lanczos4", "bilinear")}
-            s = {"scene": scene, "size": size, "seams_max": max(r["seams"] for r in rows),
-                 "detail_min": min(r["detail"] for r in rows), "share_median": statistics.median(r["share"] for r in later),
-                 "share_max": max(r["share"] for r in later),
-                 "update_median": statistics.median(r["update"] for r in later[1:]), "warp": ratio, "floor": floor,
-                 "update_total": sum(r["update"] for r in later)}
-            summary.append(s)
+                if r["frame"] in shown:
+                    for k, e in r["edges"].items():
+                        print(f"{r['frame']:>5} {names.get(k, str(k)):<12} {e['in']:7.4f} {e['in_f']:7.4f} "
+                              f"{e['seam']:7.4f} {e['seam_f']:9.4f}")
+        later = rows[1:]
+        ws = [r["warp"] for r in later if r["warp"]]
+        ratio = {f: (float(np.mean([w[f][0] for w in ws])) / max(float(np.mean([w[f][1] for w in ws])), 1e-12)
+                     if ws else float("nan")) for f in ("lowpass", "lanczos4", "bilinear")}
+        s = {"scene": scene, "size": size, "seams_max": max(r["seams"] for r in rows),
+             "detail_min": min(r["detail"] for r in rows), "share_median": statistics.median(r["share"] for r in later),
+             "share_max": max(r["share"] for r in later),
+             "update_median": statistics.median(r["update"] for r in later[1:]), "warp": ratio, "floor": floor,
+             "update_total": sum(r["update"] for r in later)}
+        summary.append(s)
     print("\n('attached', 'att. L4': the ratios, low-passed and not, of a texture exactly attached to the image, "
           "patch interiors: the measure's floor)")
     print("\n## Summary (bars: seams <= 1.5x, detail >= 0.9, warp (low-passed) <= 0.1, share median <= 10 %, update 1024² <= 0.5 s)")
@@ -562,10 +649,11 @@ def main(argv=None) -> None:
     print(f"{'scene':<18} {'size':>5} {'label':<12} {'grad min':>8} {'grad max':>8} {'block last':>10} "
           f"{'block sd':>8} {'clump f1':>8} {'clump max':>9}")
     for x in labels_summary:
-        flag = " <" if not (0.9 <= x["grad_min"] and x["grad_max"] <= 1.1 and x["block_last"] <= 1.1
-                            and x["clump_max"] - x["clump_first"] <= 0.002) else ""
+        flag = " <" if over_bars(x) else ""
         print(f"{x['scene']:<18} {x['size']:>5} {x['label']:<12} {x['grad_min']:8.3f} {x['grad_max']:8.3f} "
               f"{x['block_last']:10.3f} {x['block_sd']:8.3f} {100 * x['clump_first']:7.2f}% {100 * x['clump_max']:8.2f}%{flag}")
+    if several:
+        seed_table(labels_summary, [n for n, _ in variants])
     print("update frames, total s (" + ("CPU, one thread" if args.cpu else "wall") + "): "
           + ", ".join(f"{s['scene']} {s['size']} {s['update_total']:.1f}" for s in summary))
     print(f"peak RSS {peak_rss_mb():.0f} MiB")
