@@ -343,12 +343,14 @@ def _sor_plan(rows: np.ndarray, cols: np.ndarray, omega: np.ndarray, region: np.
     nt = max(1, int(threads if threads is not None else numba.get_num_threads()))
     size = np.diff(starts).astype(np.float64)
     work = size / np.maximum(2.0 - np.maximum.reduceat(om, starts[:-1]), 1e-3)
-    load = np.zeros(nt)
-    owner = np.empty(nreg, np.int64)
-    for k in np.argsort(-work, kind="stable"):
-        t = int(np.argmin(load))
+    load = [0.0] * nt  # Python floats, the first least load's thread (np.argmin's): no array call per region
+    owner = [0] * nreg
+    first = np.argsort(-work, kind="stable")
+    for k, wk in zip(first.tolist(), work[first].tolist()):
+        t = min(range(nt), key=load.__getitem__)
         owner[k] = t
-        load[t] += work[k]
+        load[t] += wk
+    owner = np.asarray(owner, np.int64)
     bins = np.argsort(owner, kind="stable").astype(np.int64)
     bin_start = np.searchsorted(owner[bins], np.arange(nt + 1)).astype(np.int64)
     return order, om, starts, mids, size, bins, bin_start, nreg
