@@ -1020,7 +1020,8 @@ def sharpen_residual(land, valid, uniform, prev_res, table, res):
     h, w = u.shape
     hp, wp = prev_res.shape[0], prev_res.shape[1]
     bins = table.shape[0] - 1
-    a = table.shape[1] // 2
+    n = table.shape[1]
+    a = n // 2
     for i in prange(h):
         for j in range(w):
             if not valid[i, j]:
@@ -1033,10 +1034,69 @@ def sharpen_residual(land, valid, uniform, prev_res, table, res):
                 continue
             xs, bx = _tap_start(x, wp, bins, a)
             ys, by = _tap_start(y, hp, bins, a)
-            s0, s1, s2 = _lanczos_colour(prev_res, xs, ys, bx, by, table, True)
-            lo, hi = _range4(prev_res, x, y, 0)
-            res[i, j, 0] = min(max(s0, lo), hi)
-            lo, hi = _range4(prev_res, x, y, 1)
-            res[i, j, 1] = min(max(s1, lo), hi)
-            lo, hi = _range4(prev_res, x, y, 2)
-            res[i, j, 2] = min(max(s2, lo), hi)
+            if a < 2:  # the 4x4 range reaches past the taps
+                s0, s1, s2 = _lanczos_colour(prev_res, xs, ys, bx, by, table, True)
+                lo, hi = _range4(prev_res, x, y, 0)
+                res[i, j, 0] = min(max(s0, lo), hi)
+                lo, hi = _range4(prev_res, x, y, 1)
+                res[i, j, 1] = min(max(s1, lo), hi)
+                lo, hi = _range4(prev_res, x, y, 2)
+                res[i, j, 2] = min(max(s2, lo), hi)
+                continue
+            # _lanczos_colour's sums (inside: no clamping) and _range4's 4x4 range in one pass over the
+            # taps: the taps lie inside (checked above), so _range4's pixels are taps a - 2 ... a + 1
+            s0 = s1 = s2 = 0.0
+            lo0 = lo1 = lo2 = np.inf
+            hi0 = hi1 = hi2 = -np.inf
+            if n == 4:  # FLAT2: the taps are the 4x4 range; fixed trip counts
+                for r in range(4):
+                    yy = ys + r
+                    t0 = t1 = t2 = 0.0
+                    for t in range(4):
+                        wx = table[bx, t]
+                        v0 = prev_res[yy, xs + t, 0]
+                        v1 = prev_res[yy, xs + t, 1]
+                        v2 = prev_res[yy, xs + t, 2]
+                        t0 += wx * v0
+                        t1 += wx * v1
+                        t2 += wx * v2
+                        lo0 = min(lo0, v0)
+                        hi0 = max(hi0, v0)
+                        lo1 = min(lo1, v1)
+                        hi1 = max(hi1, v1)
+                        lo2 = min(lo2, v2)
+                        hi2 = max(hi2, v2)
+                    wy = table[by, r]
+                    s0 += wy * t0
+                    s1 += wy * t1
+                    s2 += wy * t2
+                res[i, j, 0] = min(max(s0, lo0), hi0)
+                res[i, j, 1] = min(max(s1, lo1), hi1)
+                res[i, j, 2] = min(max(s2, lo2), hi2)
+                continue
+            for r in range(n):
+                yy = ys + r
+                t0 = t1 = t2 = 0.0
+                for t in range(n):
+                    wx = table[bx, t]
+                    t0 += wx * prev_res[yy, xs + t, 0]
+                    t1 += wx * prev_res[yy, xs + t, 1]
+                    t2 += wx * prev_res[yy, xs + t, 2]
+                wy = table[by, r]
+                s0 += wy * t0
+                s1 += wy * t1
+                s2 += wy * t2
+                if a - 2 <= r <= a + 1:
+                    for t in range(a - 2, a + 2):
+                        v0 = prev_res[yy, xs + t, 0]
+                        v1 = prev_res[yy, xs + t, 1]
+                        v2 = prev_res[yy, xs + t, 2]
+                        lo0 = min(lo0, v0)
+                        hi0 = max(hi0, v0)
+                        lo1 = min(lo1, v1)
+                        hi1 = max(hi1, v1)
+                        lo2 = min(lo2, v2)
+                        hi2 = max(hi2, v2)
+            res[i, j, 0] = min(max(s0, lo0), hi0)
+            res[i, j, 1] = min(max(s1, lo1), hi1)
+            res[i, j, 2] = min(max(s2, lo2), hi2)

@@ -166,6 +166,27 @@ def _sor_run(nb, dl, bl, omega, lo, hi, vl):
         vl[k, 2] += o * ((bl[k, 2] + n2) * inv - vl[k, 2])
 
 
+@njit(inline="always", **JIT)
+def _sor_run_inv(nb, inv, bl, omega, base, lo, hi, vl):
+    """``_sor_run`` with the diagonal's inverses given (``inv[k - base]`` = 1 / dl[k], the
+    same float64 quotient ``_sor_run`` takes each sweep): the same numbers."""
+    for k in range(lo, hi):
+        n0 = 0.0
+        n1 = 0.0
+        n2 = 0.0
+        for m in range(4):
+            q = nb[k, m]
+            if q >= 0:
+                n0 += vl[q, 0]
+                n1 += vl[q, 1]
+                n2 += vl[q, 2]
+        iv = inv[k - base]
+        o = omega[k]
+        vl[k, 0] += o * ((bl[k, 0] + n0) * iv - vl[k, 0])
+        vl[k, 1] += o * ((bl[k, 1] + n1) * iv - vl[k, 1])
+        vl[k, 2] += o * ((bl[k, 2] + n2) * iv - vl[k, 2])
+
+
 @njit(**JIT)
 def _run_residual(nb, dl, bl, lo, hi, vl, out):
     """Per-channel squared residual norm over list entries lo..hi, summed in list order
@@ -203,6 +224,10 @@ def _sor_regions(regions, system, vl, tol, check, max_sweeps, sweeps, rel):
     for t in prange(bin_start.shape[0] - 1):
         r0 = np.zeros(3)
         r = np.zeros(3)
+        longest = 0
+        for q in range(bin_start[t], bin_start[t + 1]):
+            longest = max(longest, starts[bins[q] + 1] - starts[bins[q]])
+        inv = np.empty(longest)  # a region's 1 / diagonal, once for all its sweeps
         for q in range(bin_start[t], bin_start[t + 1]):
             k = bins[q]
             lo = starts[k]
@@ -210,12 +235,14 @@ def _sor_regions(regions, system, vl, tol, check, max_sweeps, sweeps, rel):
             _run_residual(nb, dl, bl, lo, hi, vl, r0)
             if r0[0] == 0.0 and r0[1] == 0.0 and r0[2] == 0.0:
                 continue
+            for e in range(lo, hi):
+                inv[e - lo] = 1.0 / dl[e]
             s = 0
             worst = 0.0
             while s < max_sweeps:
                 for _ in range(check):
-                    _sor_run(nb, dl, bl, omega, lo, mids[k], vl)  # red
-                    _sor_run(nb, dl, bl, omega, mids[k], hi, vl)  # black
+                    _sor_run_inv(nb, inv, bl, omega, lo, lo, mids[k], vl)  # red
+                    _sor_run_inv(nb, inv, bl, omega, lo, mids[k], hi, vl)  # black
                 s += check
                 _run_residual(nb, dl, bl, lo, hi, vl, r)
                 done = True
@@ -316,12 +343,14 @@ def _sor_plan(rows: np.ndarray, cols: np.ndarray, omega: np.ndarray, region: np.
     nt = max(1, int(threads if threads is not None else numba.get_num_threads()))
     size = np.diff(starts).astype(np.float64)
     work = size / np.maximum(2.0 - np.maximum.reduceat(om, starts[:-1]), 1e-3)
-    load = np.zeros(nt)
-    owner = np.empty(nreg, np.int64)
-    for k in np.argsort(-work, kind="stable"):
-        t = int(np.argmin(load))
+    load = [0.0] * nt  # Python floats, the first least load's thread (np.argmin's): no array call per region
+    owner = [0] * nreg
+    first = np.argsort(-work, kind="stable")
+    for k, wk in zip(first.tolist(), work[first].tolist()):
+        t = min(range(nt), key=load.__getitem__)
         owner[k] = t
-        load[t] += work[k]
+        load[t] += wk
+    owner = np.asarray(owner, np.int64)
     bins = np.argsort(owner, kind="stable").astype(np.int64)
     bin_start = np.searchsorted(owner[bins], np.arange(nt + 1)).astype(np.int64)
     return order, om, starts, mids, size, bins, bin_start, nreg
