@@ -143,33 +143,13 @@ def solve_sor(fixed: np.ndarray, b: np.ndarray, rows: np.ndarray, cols: np.ndarr
     return v, {"iterations": sweeps, "residual": rel}
 
 
-@njit(**JIT)
-def _sor_run(nb, dl, bl, omega, lo, hi, vl):
-    """Over-relaxed Gauss-Seidel updates of list entries lo..hi, in list order, on the
-    compact list (``nb``: list index of the east, west, south, north neighbour, -1 where
-    there is none or it is fixed; ``dl``, ``bl``: diagonal and right-hand side). The
-    arithmetic of ``_sor_sweep``: a fixed neighbour's term there is exactly zero."""
-    for k in range(lo, hi):
-        n0 = 0.0
-        n1 = 0.0
-        n2 = 0.0
-        for m in range(4):
-            q = nb[k, m]
-            if q >= 0:
-                n0 += vl[q, 0]
-                n1 += vl[q, 1]
-                n2 += vl[q, 2]
-        inv = 1.0 / dl[k]
-        o = omega[k]
-        vl[k, 0] += o * ((bl[k, 0] + n0) * inv - vl[k, 0])
-        vl[k, 1] += o * ((bl[k, 1] + n1) * inv - vl[k, 1])
-        vl[k, 2] += o * ((bl[k, 2] + n2) * inv - vl[k, 2])
-
-
 @njit(inline="always", **JIT)
 def _sor_run_inv(nb, inv, bl, omega, base, lo, hi, vl):
-    """``_sor_run`` with the diagonal's inverses given (``inv[k - base]`` = 1 / dl[k], the
-    same float64 quotient ``_sor_run`` takes each sweep): the same numbers."""
+    """Over-relaxed Gauss-Seidel updates of list entries lo..hi, in list order, on the
+    compact list (``nb``: list index of the east, west, south, north neighbour, -1 where
+    there is none or it is fixed; ``inv[k - base]`` = 1 / the diagonal, taken once a region;
+    ``bl``: right-hand side). The arithmetic of ``_sor_sweep``: a fixed neighbour's term there
+    is exactly zero."""
     for k in range(lo, hi):
         n0 = 0.0
         n1 = 0.0
