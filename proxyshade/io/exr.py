@@ -210,7 +210,7 @@ def read_plate(path: str | Path, *, expect: dict[str, str] | None = None) -> Pla
 
 
 def read_channels(path: str | Path, names: list[str], *, expect: dict[str, str] | None = None,
-                  rows: int = 256) -> dict[str, np.ndarray]:
+                  rows: int = 128) -> dict[str, np.ndarray]:
     """Only the channels ``names`` of a single-part EXR, each in its stored pixel type, the
     same arrays ``read_plate`` returns for them: read ``rows`` scanlines at a time into the
     arrays returned (the rest of the file is decompressed band by band, never held whole;
