@@ -564,9 +564,11 @@ def test_a_released_input_is_read_back_from_its_cache_entry_bit_for_bit(tmp_path
     g.add("z_last", _TReadBack, {"gain": 5.0}, {"a": "a"})
     _TReadBack.seen = []
     g.run(jobs=jobs)
-    assert sorted(s[1] for s in _TReadBack.seen) == [False, True] and all(s[2] for s in _TReadBack.seen)
+    assert all(s[2] for s in _TReadBack.seen)
     if jobs == 1:  # one at a time: the second reader is the last
         assert sorted(_TReadBack.seen) == [("first", False, True), ("z_last", True, True)]
+    else:  # side by side: the one releasing after the other finished, if either did
+        assert sorted(s[1] for s in _TReadBack.seen) in ([False, False], [False, True])
     # read-only: nothing stored, nothing read back, the same plates
     def refuse(path, *a, **k):
         raise OSError(errno.EROFS, "Read-only file system", str(path))
