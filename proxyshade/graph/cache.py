@@ -39,7 +39,7 @@ from pathlib import Path
 from proxyshade.errors import UserError, WriteError
 from proxyshade.graph import profile as _profile
 from proxyshade.graph.plate import Plate
-from proxyshade.io.exr import cache_compression, header_strings, read_plate, write_plate_temp
+from proxyshade.io.exr import cache_compression, header_strings, read_channels, read_plate, write_plate_temp
 from proxyshade.io.files import READ_ONLY, io_error, remove_stale_temps, stale_temps, temp_of, write_text_atomic
 
 
@@ -137,6 +137,7 @@ class Cache:
         self._writing: dict[str, Future] = {}  # key -> its background write, until done
         self._pinned: set[str] = set()
         self._forgotten: set[str] = set()
+        self._own: dict[str, tuple[int, int, int]] = {}  # key -> (size, inode, ns mtime) of the entry this process wrote
         self._marked = False  # the root's MARKER is known to be there
         self.read_only = False  # set when a write fails with EROFS/EACCES: hits are served, results kept in memory
         self.unstored = 0  # results of this process not stored because the cache is read-only
@@ -291,6 +292,33 @@ class Cache:
                 with contextlib.suppress(OSError):
                     exr.unlink()
                 raise
+            st = exr.stat()
+            self._own[key] = (st.st_size, st.st_ino, st.st_mtime_ns)
+
+    def usable(self, key: str) -> bool:
+        """Whether ``key`` has an entry on disk to read channels back from (``read_back``):
+        quietly, without hashing an entry this process wrote and nobody touched since (same
+        size, inode and ns modification time); any other is checked as ``intact`` does."""
+        rec = self.record(key)
+        exr, _ = self._paths(key)
+        if rec is None or rec.get("key") != key or rec.get("sink"):
+            return False
+        try:
+            st = exr.stat()
+        except OSError:
+            return False
+        return self._own.get(key) == (st.st_size, st.st_ino, st.st_mtime_ns) or self.intact(key)
+
+    def read_back(self, key: str, names: list[str]) -> dict | None:
+        """Channels ``names`` of ``key``'s entry, read again from disk and not kept in memory
+        (a node that let them go while it needed the memory: ``Context.read_back``), the
+        arrays a load gives; None where the entry is not ``usable`` or cannot be read."""
+        if not self.usable(key):
+            return None
+        try:
+            return read_channels(self._paths(key)[0], names, expect={"proxyshade/key": key})
+        except Exception:  # noqa: BLE001 - unreadable: the caller says so
+            return None
 
     def intact(self, key: str) -> bool:
         """Whether a whole entry is stored under ``key``: its record names it, the EXR's size

@@ -687,6 +687,14 @@ class Graph:
                 return release(held[inp]) if isinstance(held.get(inp), str) else None
 
             ctx.on_release = on_release
+
+            def on_read_back(inp: str):
+                k = held.get(inp)
+                if not isinstance(k, str) or k in self.cache.memory or not self.cache.usable(k):
+                    return None
+                return functools.partial(self.cache.read_back, k)
+
+            ctx.on_read_back = on_read_back
         if inst in plan.previous:
             ctx.previous = self._load_previous(*plan.previous[inst])
             memo.bind(ctx.previous.plate, plan.previous[inst][0])

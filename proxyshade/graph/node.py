@@ -121,6 +121,8 @@ class Context:
         self.tiles = None
         # the engine's: an input released; returns the plate's cache write when it still holds the plate
         self.on_release: Callable[[str], Any] | None = None
+        # the engine's: a released input's channels read back from its cache entry (or None)
+        self.on_read_back: Callable[[str], Any] | None = None
 
     def release(self, name: str, *, wait_written: bool = False) -> None:
         """The node reads input ``name`` no more in this compute (what it keeps of it, it
@@ -144,6 +146,28 @@ class Context:
             wait([pending])  # a failed write is raised by the run's flush, as any other
             if profile.ACTIVE is not None:
                 profile.ACTIVE.release_wait += time.perf_counter() - t
+
+    def read_back(self, name: str) -> Callable[[list[str]], dict] | None:
+        """After ``release(name, wait_written=True)``: a function that reads channels of that
+        input again from its cache entry (``names -> {name: array}``, the arrays the plate
+        held, bit for bit), or None where there is no such entry or the plate is still in
+        memory (another reader holds it: what the node keeps of it costs nothing more), a
+        read-only cache, outside a run. A node may then let channels it only passes through
+        go while it needs the memory and read them back at the end (Poisson: the depth
+        channels through the solve); the function raises (the node fails) where the entry
+        can no longer be read."""
+        fn = self.on_read_back(name) if self.on_read_back is not None else None
+        if fn is None:
+            return None
+
+        def again(names: list[str]) -> dict:
+            got = fn(list(names))
+            if got is None:
+                raise RuntimeError(f"input {name!r}: its cache entry could not be read back (removed or changed "
+                                "during the run?); run again")
+            return got
+
+        return again
 
     def __getattr__(self, item):
         inputs = self.__dict__.get("inputs", {})

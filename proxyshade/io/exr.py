@@ -209,6 +209,42 @@ def read_plate(path: str | Path, *, expect: dict[str, str] | None = None) -> Pla
     return Plate(fixed, meta)
 
 
+def read_channels(path: str | Path, names: list[str], *, expect: dict[str, str] | None = None,
+                  rows: int = 128) -> dict[str, np.ndarray]:
+    """Only the channels ``names`` of a single-part EXR, each in its stored pixel type, the
+    same arrays ``read_plate`` returns for them: read ``rows`` scanlines at a time into the
+    arrays returned (the rest of the file is decompressed band by band, never held whole;
+    one decompression pass per pixel type among ``names``). ``expect``: as ``read_plate``."""
+    path = Path(path)
+    for k, v in (expect or {}).items():
+        if header_strings(path, (k,)).get(k) != v:
+            raise ExrError(f"{path}: header {k} is not {v!r}; the file belongs elsewhere")
+    lib = _openexr()
+    import Imath
+
+    kinds = {Imath.PixelType.FLOAT: np.float32, Imath.PixelType.HALF: np.float16, Imath.PixelType.UINT: np.uint32}
+    try:
+        f = lib.InputFile(str(path))
+        try:
+            header = f.header()
+            box = header["dataWindow"]
+            h, w = box.max.y - box.min.y + 1, box.max.x - box.min.x + 1
+            groups: dict[int, list[str]] = {}
+            for n in names:
+                groups.setdefault(header["channels"][n].type.v, []).append(n)
+            out = {n: np.empty((h, w), kinds[t]) for t, ns in groups.items() for n in ns}
+            for y in range(0, h, rows):
+                y1 = min(h, y + rows)
+                for t, ns in groups.items():
+                    for n, b in zip(ns, f.channels(ns, Imath.PixelType(t), box.min.y + y, box.min.y + y1 - 1)):
+                        out[n][y:y1] = np.frombuffer(b, kinds[t]).reshape(y1 - y, w)
+        finally:
+            f.close()
+    except Exception as e:
+        raise ExrError(f"{path}: not a readable EXR ({_one_line(e)}); re-render it or delete it") from None
+    return out
+
+
 def _owned(a) -> np.ndarray:
     """A channel the bindings read: the array itself when it owns its memory, else a copy."""
     return a if isinstance(a, np.ndarray) and a.flags.owndata and a.flags.writeable else np.array(a)

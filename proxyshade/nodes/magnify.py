@@ -65,7 +65,7 @@ class Magnify(Node):
         from proxyshade.synthesis.exemplar import provenance, source_to_grid
         from proxyshade.synthesis.patches import magnify_map, working_colours
 
-        synth, source, guide = ctx.synth, ctx.source, ctx.guide
+        synth, source, guide, depth = ctx.synth, ctx.source, ctx.guide, ctx.depth
         syn = synth.meta.get("synthesis")
         if not isinstance(syn, dict) or "factor" not in syn:
             raise ctx.error("input 'synth' has no synthesis metadata; connect Correct's or PatchInit's output")
@@ -74,8 +74,30 @@ class Magnify(Node):
         Ht, Wt = synth.shape
         if (Ht - 1) * f >= Ho or Ht * f < Ho or (Wt - 1) * f >= Wo or Wt * f < Wo:
             raise ctx.error(f"guide is {Wo}x{Ho} but synth is {Wt}x{Ht} at factor {f}; connect the guide PatchInit used")
+        if depth is not None and depth.shape != (Ho, Wo):
+            raise ctx.error(f"depth is {depth.shape[1]}x{depth.shape[0]}, guide {Wo}x{Ho}; "
+                            "connect DepthExtend's output for this guide")
         table = L.source_table(source)
         g = L.dense_guide(guide["label.id"], table)
+        # what only passes through: the guide's label.id, the depth channels, their metadata; then
+        # the guide and depth plates are released, and where the engine can read those channels
+        # back from the plate's cache entry after the magnification they are not held through it
+        # (DepthExtend's plate, guide and depth alike in graphs/first_frame.yaml: 48 MiB at 1024
+        # wide, 405 MiB at 4K)
+        one = depth is guide  # one plate (graphs/first_frame.yaml): its channels read back in one pass
+        passed = {"label.id": ("depth" if one else "guide", guide["label.id"])}
+        if depth is not None:
+            passed.update((c, ("depth", depth[c])) for c in DEPTH_CHANNELS if c in depth)
+        pmeta = {k: pl.meta[k] for k in ("camera", "up_axis", "objects")  # depth's first, as before
+                 for pl in (guide, depth) if pl is not None and k in pl.meta}
+        del guide, depth
+        again = {}
+        for name in ("guide", "depth"):
+            ctx.release(name, wait_written=True)
+            again[name] = ctx.read_back(name)
+        back = {c: src for c, (src, _) in passed.items() if again.get(src) is not None}
+        kept = {c: a for c, (_, a) in passed.items() if c not in back}
+        del passed
         S = np.stack([source_to_grid(synth["source.y"], F), source_to_grid(synth["source.x"], F)], -1)
         wl = L.source_working_labels(source, table, scale, ctx.memo)
         colours = None
@@ -92,22 +114,17 @@ class Magnify(Node):
                      f"patch, {rep['nearest']} took the nearest right-label source pixel; "
                      f"{rep['seam_moves']} seam moves, {rep['patch_shifts']} patches shifted")
         rgb = lookup(source.rgb(), sx, sy)
-        ch = {"R": rgb[..., 0].copy(), "G": rgb[..., 1].copy(), "B": rgb[..., 2].copy(),
-              "label.id": guide["label.id"].astype(np.uint32, copy=False), "source.x": sx, "source.y": sy,
-              "patch.id": patch}
-        if ctx.depth is not None:
-            if ctx.depth.shape != (Ho, Wo):
-                raise ctx.error(f"depth is {ctx.depth.shape[1]}x{ctx.depth.shape[0]}, guide {Wo}x{Ho}; "
-                                "connect DepthExtend's output for this guide")
-            for c in DEPTH_CHANNELS:
-                if c in ctx.depth:
-                    ch[c] = ctx.depth[c] if c == "object.id" else ctx.depth[c].astype(np.float32, copy=False)
+        ch = {"R": rgb[..., 0].copy(), "G": rgb[..., 1].copy(), "B": rgb[..., 2].copy()}
+        del rgb, S, g
+        for src in dict.fromkeys(back.values()):
+            kept.update(again[src]([c for c in back if back[c] == src]))
+        ch.update({"label.id": kept["label.id"].astype(np.uint32, copy=False), "source.x": sx, "source.y": sy,
+                   "patch.id": patch})
+        for c in DEPTH_CHANNELS:
+            if c in kept:
+                ch[c] = kept[c] if c == "object.id" else kept[c].astype(np.float32, copy=False)
         meta = provenance(source)
         meta["synthesis"] = dict(syn, patches=npatch, magnified=True, repaired=int(rep["wrong"]))
-        for k in ("camera", "up_axis", "objects"):
-            for pl in (ctx.depth, guide):
-                if pl is not None and k in pl.meta:
-                    meta[k] = pl.meta[k]
-                    break
+        meta.update(pmeta)
         return Plate(ch, meta)
 

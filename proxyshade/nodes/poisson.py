@@ -30,6 +30,9 @@ from proxyshade.graph.plate import Plate
 from proxyshade.synthesis.params import PoissonSolve
 
 
+SOLVE_READS = ("R", "G", "B", "patch.id", "label.id", "source.x", "source.y")  # the image's channels blend_frame reads
+
+
 class Poisson(PoissonSolve, Node):
     """Blend patch seams: ``R,G,B`` replaced by the Poisson solution; every other
     channel and the metadata pass through."""
@@ -84,6 +87,13 @@ class Poisson(PoissonSolve, Node):
         scale = float(meta_in.get("synthesis", {}).get("scale", 1.0))
         del img
         ctx.release("image", wait_written=True)
+        # the float channels only passed through (depth: Z, P, N) are not held through the solve
+        # where the engine can read them back from Magnify's cache entry after it (one
+        # decompression pass of that file; 7 channels, 28 MiB at 1024 wide, 232 MiB at 4K)
+        again = ctx.read_back("image")
+        gone = [n for n in order if n not in SOLVE_READS and kept[n].dtype.kind == "f"] if again else []
+        for n in gone:
+            del kept[n]
         # everything at hand is passed; blend_frame takes what layout, seams and grain need (grain:
         # the source's labels and the map on a whole frame, quietly off without them or with keep)
         u, info = blend_frame(rgb, kept["patch.id"], labels, PoissonSolve.of(p),
@@ -104,4 +114,7 @@ class Poisson(PoissonSolve, Node):
             ctx.note(f"{info['negative']} negative values raised to 0")
         for c, n in enumerate("RGB"):
             kept[n] = u[..., c].copy()
+        del u
+        if gone:
+            kept.update(again(gone))
         return Plate({n: kept[n] for n in order}, meta)

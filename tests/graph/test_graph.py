@@ -527,3 +527,78 @@ def test_release_waits_for_the_plates_cache_write_when_asked(tmp_path, monkeypat
     assert _TReleaseWait.seen == ([(False, False)] if wait else [(True, True)])
     assert _TReleaseWait.key not in g.cache.memory and g.cache.intact(_TReleaseWait.key)
     np.testing.assert_array_equal(g.value("b")["R"], np.full((8, 8), 3.0, np.float32))
+
+
+class _TReadBack(Node, register=False):
+    """Keeps ``a``'s R, releases ``a`` (waiting for its cache write), lets its label.id go where
+    the engine can read it back (``ctx.read_back``), and returns both; records whether it could."""
+
+    a = Input(channels=("R", "label.id"))
+    gain = Param(float, 1.0)
+    seen: list = []
+
+    def compute(self, ctx):
+        r, ids = ctx.a["R"] * ctx.p.gain, ctx.a["label.id"]
+        held = ids.tobytes()
+        ctx.release("a", wait_written=True)
+        again = ctx.read_back("a")
+        if again is not None:
+            del ids
+            ids = again(["label.id"])["label.id"]
+        _TReadBack.seen.append((self.name, again is not None, ids.dtype == np.uint32 and ids.tobytes() == held))
+        return Plate({"R": r.astype(np.float32), "label.id": ids})
+
+
+@pytest.mark.parametrize("jobs", [1, 2])
+def test_a_released_input_is_read_back_from_its_cache_entry_bit_for_bit(tmp_path, monkeypatch, jobs):
+    """``Context.read_back``: after the last reader released a stored input, its channels come
+    back from the cache entry as the plate held them; a reader that is not the last (the plate
+    stays in memory) and a read-only cache get None (the node keeps what it holds)."""
+    import errno
+
+    import proxyshade.graph.cache as cache_mod
+
+    g = Graph(graph_dir=tmp_path, frames=(1, 1), cache=tmp_path / "cache")
+    g.add("a", _TConst, {"value": 2.0, "seed": 3})
+    g.add("first", _TReadBack, {"gain": 3.0}, {"a": "a"})
+    g.add("z_last", _TReadBack, {"gain": 5.0}, {"a": "a"})
+    _TReadBack.seen = []
+    g.run(jobs=jobs)
+    assert all(s[2] for s in _TReadBack.seen)
+    if jobs == 1:  # one at a time: the second reader is the last
+        assert sorted(_TReadBack.seen) == [("first", False, True), ("z_last", True, True)]
+    else:  # side by side: the one releasing after the other finished, if either did
+        assert sorted(s[1] for s in _TReadBack.seen) in ([False, False], [False, True])
+    # read-only: nothing stored, nothing read back, the same plates
+    def refuse(path, *a, **k):
+        raise OSError(errno.EROFS, "Read-only file system", str(path))
+
+    monkeypatch.setattr(cache_mod, "write_text_atomic", refuse)
+    monkeypatch.setattr(cache_mod, "write_plate_temp", refuse)
+    g2 = Graph(graph_dir=tmp_path, frames=(1, 1), cache=tmp_path / "ro")
+    g2.add("a", _TConst, {"value": 2.0, "seed": 3})
+    g2.add("z_last", _TReadBack, {"gain": 5.0}, {"a": "a"})
+    _TReadBack.seen = []
+    g2.run(jobs=jobs)
+    assert _TReadBack.seen == [("z_last", False, True)]
+
+
+def test_read_back_checks_an_entry_touched_since_written(tmp_path):
+    """``Cache.usable``: an entry this process wrote is trusted while its stat is unchanged;
+    touched, it is hashed again (intact: usable), and a changed byte makes it unusable."""
+    import os
+
+    from proxyshade.graph.cache import Cache
+
+    c = Cache(tmp_path / "cache", background=False)
+    ids = np.arange(64, dtype=np.uint32).reshape(8, 8)
+    c.store("k" * 64, Plate({"R": np.ones((8, 8), np.float32), "label.id": ids}), {"node": "a", "frame": 1})
+    exr = c._paths("k" * 64)[0]
+    assert c.usable("k" * 64) and c.read_back("k" * 64, ["label.id"])["label.id"].tobytes() == ids.tobytes()
+    os.utime(exr, ns=(1, 1))
+    assert c.usable("k" * 64)
+    data = bytearray(exr.read_bytes())
+    data[-1] ^= 1
+    exr.write_bytes(bytes(data))
+    assert not c.usable("k" * 64) and c.read_back("k" * 64, ["label.id"]) is None
+    assert not Cache(tmp_path / "other", background=False).usable("k" * 64)

@@ -157,3 +157,25 @@ def test_read_holds_one_copy_of_the_pixels(tmp_path):
     for n, a in plate.channels.items():
         assert back[n].dtype == a.dtype and np.array_equal(back[n], a)
         assert back[n].flags.writeable and back[n].flags.owndata
+
+
+@pytest.mark.parametrize("rows", [1, 3, 64])
+def test_read_channels_gives_read_plates_arrays(tmp_path, rows):
+    """``read_channels``: the channels asked for, each in its stored type, bit for bit those
+    ``read_plate`` returns, whatever the band height; a wrong ``expect`` is refused."""
+    from proxyshade.io.exr import ExrError, read_channels
+
+    rng = np.random.default_rng(5)
+    h, w = 13, 7
+    plate = Plate({"R": rng.random((h, w), dtype=np.float32), "Z": np.where(rng.random((h, w)) < 0.2, np.inf,
+                                                                            rng.random((h, w))).astype(np.float32),
+                   "N.X": rng.standard_normal((h, w)).astype(np.float16),
+                   "object.id": rng.integers(0, 2**32, (h, w), dtype=np.uint32)})
+    path = write_plate(tmp_path / "p.exr", plate, compression="zip", extra={"proxyshade/key": "abc"})
+    whole = read_plate(path)
+    got = read_channels(path, ["object.id", "Z", "N.X"], expect={"proxyshade/key": "abc"}, rows=rows)
+    assert sorted(got) == ["N.X", "Z", "object.id"]
+    for n, a in got.items():
+        assert a.dtype == whole[n].dtype and a.shape == (h, w) and a.tobytes() == whole[n].tobytes()
+    with pytest.raises(ExrError, match="belongs elsewhere"):
+        read_channels(path, ["Z"], expect={"proxyshade/key": "other"})

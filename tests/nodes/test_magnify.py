@@ -3,6 +3,7 @@ import numpy as np
 import pytest
 
 from proxyshade.errors import NodeInputError
+from proxyshade.graph.node import Node, Param
 from proxyshade.graph.plate import Plate
 from proxyshade.graph.testing import run_node
 from proxyshade.kernels.lookup import lookup
@@ -185,3 +186,51 @@ def test_spread_loss_bounds_what_the_patch_shifts_take_from_a_labels_tone_spread
     shifted = {q: ratios(run_node("Magnify", {"patch_shift": 5, "patch_adopt": 64, "spread_loss": q},
                                   {"synth": cor, "source": src, "guide": g})) for q in (0.0, 1.0)}
     assert (shifted[0.0] >= shifted[1.0] - 1e-3).all() and (shifted[0.0] - shifted[1.0]).max() > 0.01
+
+
+class _Given(Node, register=False):
+    """The plate in ``plates`` under its ``name_`` parameter (an upstream node for a graph)."""
+
+    name_ = Param(str, "depth")
+    plates: dict = {}
+
+    def compute(self, ctx):
+        return _Given.plates[ctx.p.name_]
+
+
+@pytest.mark.parametrize("one", [True, False], ids=["guide-is-depth", "guide-and-depth"])
+def test_pass_through_channels_read_back_after_the_magnification_are_the_same_plate(tmp_path, monkeypatch, one):
+    """In a run the channels Magnify only passes through (the guide's label.id, the depth
+    channels) are let go through the magnification and read back from their cache entries
+    (``Context.read_back``; one read where guide and depth are one plate, as DepthExtend's
+    in graphs/first_frame.yaml): the plate is bit for bit the one computed holding them
+    (``run_node``, no cache)."""
+    from proxyshade.graph.cache import Cache
+    from proxyshade.graph.graph import Graph
+
+    c = T.chain("renoir", shape=(96, 128))
+    g, rng = c["guide"], np.random.default_rng(3)
+    extra = {n: rng.standard_normal(g.shape).astype(np.float32) for n in ("Z", "P.X", "N.X")}
+    extra["object.id"] = rng.integers(0, 9, g.shape, dtype=np.uint32)
+    depth = Plate({**({"label.id": g["label.id"]} if one else {}), **extra}, {**g.meta, "camera": {"fov": 40.0}})
+    guide = depth if one else g
+    want = run_node("Magnify", {}, {"synth": c["correct"], "source": c["source"], "guide": guide, "depth": depth})
+    asked = []
+    read_back = Cache.read_back
+
+    def spy(self, key, names):
+        asked.append(sorted(names))
+        return read_back(self, key, names)
+
+    monkeypatch.setattr(Cache, "read_back", spy)
+    _Given.plates = {"depth": depth, "guide": guide, "cor": c["correct"], "src": c["source"]}
+    gr = Graph(graph_dir=tmp_path, frames=(1, 1), cache=tmp_path / "cache")
+    for n in _Given.plates:
+        gr.add(n, _Given, {"name_": n})
+    gr.add("mag", "Magnify", {}, {"synth": "cor", "source": "src", "guide": "depth" if one else "guide", "depth": "depth"})
+    gr.run()
+    depth_names = ["N.X", "P.X", "Z", "object.id"]
+    assert asked == ([sorted(["label.id", *depth_names])] if one else [["label.id"], depth_names])
+    got = gr.value("mag")
+    assert sorted(got.names()) == sorted(want.names()) and got.equals(want) and got.meta == want.meta
+    assert np.array_equal(got["Z"], extra["Z"]) and np.array_equal(got["label.id"], g["label.id"])

@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 from proxyshade.errors import NodeInputError
+from proxyshade.graph.node import Node, Param
 from proxyshade.graph.plate import Plate
 from proxyshade.graph.testing import run_node
 from proxyshade.kernels.distance import contour_mask
@@ -155,3 +156,47 @@ def test_poisson_keeps_the_mean_of_a_region_whose_source_gradients_are_zero():
     m = lab == 1
     np.testing.assert_allclose(out.rgb()[m].mean(0), rgb[m].mean(0), atol=0.01)
     assert out.rgb()[m].std(0).max() < 0.5 * rgb[m].std(0).max()  # the seams were blended
+
+
+class _TPlate(Node, register=False):
+    """The plate in ``plates`` under its ``name`` parameter (an upstream node for a graph)."""
+
+    name_ = Param(str, "mag")
+    plates: dict = {}
+
+    def compute(self, ctx):
+        return _TPlate.plates[ctx.p.name_]
+
+
+def test_depth_channels_read_back_after_the_solve_are_the_same_plate(tmp_path, monkeypatch):
+    """In a run the channels Poisson only passes through (float: Z, P, N) are let go through
+    the solve and read back from the image's cache entry (``Context.read_back``): the plate is
+    bit for bit the one computed holding them (``run_node``, no cache)."""
+    from proxyshade.graph.cache import Cache
+    from proxyshade.graph.graph import Graph
+
+    c = T.chain("renoir", shape=(96, 128))
+    mag, rng = c["magnify"], np.random.default_rng(2)
+    h, w = mag.shape[:2]
+    extra = {n: rng.standard_normal((h, w)).astype(np.float32) for n in ("Z", "P.X", "N.X")}
+    extra["object.id"] = rng.integers(0, 9, (h, w), dtype=np.uint32)
+    mag = Plate({**{n: mag[n] for n in mag.names()}, **extra}, mag.meta)
+    params = {"layout": False, "grain": 1.0, "screen": 1.0}
+    want = run_node("Poisson", params, {"image": mag, "source": c["source"]})
+    asked = []
+    read_back = Cache.read_back
+
+    def spy(self, key, names):
+        asked.append(sorted(names))
+        return read_back(self, key, names)
+
+    monkeypatch.setattr(Cache, "read_back", spy)
+    _TPlate.plates = {"mag": mag, "src": c["source"]}
+    g = Graph(graph_dir=tmp_path, frames=(1, 1), cache=tmp_path / "cache")
+    g.add("mag", _TPlate, {"name_": "mag"})
+    g.add("src", _TPlate, {"name_": "src"})
+    g.add("final", "Poisson", params, {"image": "mag", "source": "src"})
+    g.run()
+    assert asked == [["N.X", "P.X", "Z"]]
+    got = g.value("final")
+    assert sorted(got.names()) == sorted(want.names()) and got.equals(want)
