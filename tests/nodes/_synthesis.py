@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
+from proxyshade.graph.node import Node, Param
 from proxyshade.graph.plate import Plate
 from proxyshade.graph.testing import run_node
 from proxyshade.io.source import labels_from_map, load_source
@@ -57,3 +58,28 @@ def source_labels_through_map(src: Plate, plate: Plate) -> np.ndarray:
 
 def label_fidelity(src: Plate, plate: Plate) -> float:
     return float((source_labels_through_map(src, plate) == plate["label.id"]).mean())
+
+
+class Given(Node, register=False):
+    """The plate in ``plates`` under its ``name_`` parameter: an upstream node of a test graph."""
+
+    name_ = Param(str, "")
+    plates: dict = {}
+
+    def compute(self, ctx):
+        return Given.plates[ctx.p.name_]
+
+
+def spy_read_back(monkeypatch) -> list:
+    """``Cache.read_back`` wrapped for a test: the list it returns gets the sorted channel
+    names of every read back, in order."""
+    from proxyshade.graph.cache import Cache
+
+    asked, read_back = [], Cache.read_back
+
+    def spy(self, key, names):
+        asked.append(sorted(names))
+        return read_back(self, key, names)
+
+    monkeypatch.setattr(Cache, "read_back", spy)
+    return asked

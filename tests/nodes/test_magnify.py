@@ -3,7 +3,6 @@ import numpy as np
 import pytest
 
 from proxyshade.errors import NodeInputError
-from proxyshade.graph.node import Node, Param
 from proxyshade.graph.plate import Plate
 from proxyshade.graph.testing import run_node
 from proxyshade.kernels.lookup import lookup
@@ -188,16 +187,6 @@ def test_spread_loss_bounds_what_the_patch_shifts_take_from_a_labels_tone_spread
     assert (shifted[0.0] >= shifted[1.0] - 1e-3).all() and (shifted[0.0] - shifted[1.0]).max() > 0.01
 
 
-class _Given(Node, register=False):
-    """The plate in ``plates`` under its ``name_`` parameter (an upstream node for a graph)."""
-
-    name_ = Param(str, "depth")
-    plates: dict = {}
-
-    def compute(self, ctx):
-        return _Given.plates[ctx.p.name_]
-
-
 @pytest.mark.parametrize("one", [True, False], ids=["guide-is-depth", "guide-and-depth"])
 def test_pass_through_channels_read_back_after_the_magnification_are_the_same_plate(tmp_path, monkeypatch, one):
     """In a run the channels Magnify only passes through (the guide's label.id, the depth
@@ -205,7 +194,6 @@ def test_pass_through_channels_read_back_after_the_magnification_are_the_same_pl
     (``Context.read_back``; one read where guide and depth are one plate, as DepthExtend's
     in graphs/first_frame.yaml): the plate is bit for bit the one computed holding them
     (``run_node``, no cache)."""
-    from proxyshade.graph.cache import Cache
     from proxyshade.graph.graph import Graph
 
     c = T.chain("renoir", shape=(96, 128))
@@ -215,18 +203,11 @@ def test_pass_through_channels_read_back_after_the_magnification_are_the_same_pl
     depth = Plate({**({"label.id": g["label.id"]} if one else {}), **extra}, {**g.meta, "camera": {"fov": 40.0}})
     guide = depth if one else g
     want = run_node("Magnify", {}, {"synth": c["correct"], "source": c["source"], "guide": guide, "depth": depth})
-    asked = []
-    read_back = Cache.read_back
-
-    def spy(self, key, names):
-        asked.append(sorted(names))
-        return read_back(self, key, names)
-
-    monkeypatch.setattr(Cache, "read_back", spy)
-    _Given.plates = {"depth": depth, "guide": guide, "cor": c["correct"], "src": c["source"]}
+    asked = T.spy_read_back(monkeypatch)
+    T.Given.plates = {"depth": depth, "guide": guide, "cor": c["correct"], "src": c["source"]}
     gr = Graph(graph_dir=tmp_path, frames=(1, 1), cache=tmp_path / "cache")
-    for n in _Given.plates:
-        gr.add(n, _Given, {"name_": n})
+    for n in T.Given.plates:
+        gr.add(n, T.Given, {"name_": n})
     gr.add("mag", "Magnify", {}, {"synth": "cor", "source": "src", "guide": "depth" if one else "guide", "depth": "depth"})
     gr.run()
     depth_names = ["N.X", "P.X", "Z", "object.id"]

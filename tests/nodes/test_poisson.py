@@ -4,7 +4,6 @@ import numpy as np
 import pytest
 
 from proxyshade.errors import NodeInputError
-from proxyshade.graph.node import Node, Param
 from proxyshade.graph.plate import Plate
 from proxyshade.graph.testing import run_node
 from proxyshade.kernels.distance import contour_mask
@@ -158,21 +157,10 @@ def test_poisson_keeps_the_mean_of_a_region_whose_source_gradients_are_zero():
     assert out.rgb()[m].std(0).max() < 0.5 * rgb[m].std(0).max()  # the seams were blended
 
 
-class _TPlate(Node, register=False):
-    """The plate in ``plates`` under its ``name`` parameter (an upstream node for a graph)."""
-
-    name_ = Param(str, "mag")
-    plates: dict = {}
-
-    def compute(self, ctx):
-        return _TPlate.plates[ctx.p.name_]
-
-
 def test_depth_channels_read_back_after_the_solve_are_the_same_plate(tmp_path, monkeypatch):
     """In a run the channels Poisson only passes through (float: Z, P, N) are let go through
     the solve and read back from the image's cache entry (``Context.read_back``): the plate is
     bit for bit the one computed holding them (``run_node``, no cache)."""
-    from proxyshade.graph.cache import Cache
     from proxyshade.graph.graph import Graph
 
     c = T.chain("renoir", shape=(96, 128))
@@ -183,18 +171,11 @@ def test_depth_channels_read_back_after_the_solve_are_the_same_plate(tmp_path, m
     mag = Plate({**{n: mag[n] for n in mag.names()}, **extra}, mag.meta)
     params = {"layout": False, "grain": 1.0, "screen": 1.0}
     want = run_node("Poisson", params, {"image": mag, "source": c["source"]})
-    asked = []
-    read_back = Cache.read_back
-
-    def spy(self, key, names):
-        asked.append(sorted(names))
-        return read_back(self, key, names)
-
-    monkeypatch.setattr(Cache, "read_back", spy)
-    _TPlate.plates = {"mag": mag, "src": c["source"]}
+    asked = T.spy_read_back(monkeypatch)
+    T.Given.plates = {"mag": mag, "src": c["source"]}
     g = Graph(graph_dir=tmp_path, frames=(1, 1), cache=tmp_path / "cache")
-    g.add("mag", _TPlate, {"name_": "mag"})
-    g.add("src", _TPlate, {"name_": "src"})
+    g.add("mag", T.Given, {"name_": "mag"})
+    g.add("src", T.Given, {"name_": "src"})
     g.add("final", "Poisson", params, {"image": "mag", "source": "src"})
     g.run()
     assert asked == [["N.X", "P.X", "Z"]]
