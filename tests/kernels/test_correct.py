@@ -407,6 +407,21 @@ def test_tone_spread_matches_reference(seed):
     assert (want != 0).any() and (want < 0).any() and (want > 0).any()
 
 
+def _ramp_levels(rng, noise: float, size: int):
+    """A 24x32 exemplar whose label 0 is a ramp from dark to bright with a faint texture of
+    ``noise`` (label 1: its two left columns), a size x size target of the same two labels,
+    and the finest level built on them: (exemplar labels, target labels, level)."""
+    He, We = 24, 32
+    ex_lab = np.zeros((He, We), np.int32)
+    ex_lab[:, :2] = 1
+    ramp = np.linspace(0.05, 0.95, We - 2, dtype=np.float32)
+    ex_rgb = np.full((He, We, 3), 0.5, np.float32)
+    ex_rgb[:, 2:] = (ramp[None, :, None] + noise * rng.random((He, We - 2, 1))).astype(np.float32)
+    tgt = np.zeros((size, size), np.int32)
+    tgt[:, :2] = 1
+    return ex_lab, tgt, kf.build_levels(ex_rgb, ex_lab, tgt, 2, 1, max_distance=5.0)[-1]
+
+
 def test_tone_spread_keeps_a_labels_spread_the_correction_would_lose():
     """A label whose exemplar is a smooth ramp from dark to bright, and a map reading mostly
     its middle: with the tone-spread term the corrected map's luma spread in the label is
@@ -414,15 +429,7 @@ def test_tone_spread_keeps_a_labels_spread_the_correction_would_lose():
     photo gets no term at all."""
     rng = np.random.default_rng(7)
     He, We = 24, 32
-    ex_lab = np.zeros((He, We), np.int32)
-    ex_lab[:, :2] = 1
-    ramp = np.linspace(0.05, 0.95, We - 2, dtype=np.float32)
-    ex_rgb = np.full((He, We, 3), 0.5, np.float32)
-    ex_rgb[:, 2:] = (ramp[None, :, None] + 0.02 * rng.random((He, We - 2, 1))).astype(np.float32)
-    tgt = np.zeros((20, 20), np.int32)
-    tgt[:, :2] = 1
-    levels = kf.build_levels(ex_rgb, ex_lab, tgt, 2, 1, max_distance=5.0)
-    lv = levels[-1]
+    ex_lab, tgt, lv = _ramp_levels(rng, 0.02, 20)
     mid = rng.integers(We // 2 - 4, We // 2 + 4, (20, 20))
     S = np.stack([rng.integers(0, He, (20, 20)), np.where(rng.random((20, 20)) < 0.9, mid,
                                                          rng.integers(2, We, (20, 20)))], -1).astype(np.int32)
@@ -463,15 +470,7 @@ def _ramp_case(seed):
     label at its left), and a 24x24 map of random positions of the right labels."""
     rng = np.random.default_rng(seed)
     He, We = 24, 32
-    ex_lab = np.zeros((He, We), np.int32)
-    ex_lab[:, :2] = 1
-    ramp = np.linspace(0.05, 0.95, We - 2, dtype=np.float32)
-    ex_rgb = np.full((He, We, 3), 0.5, np.float32)
-    ex_rgb[:, 2:] = (ramp[None, :, None] + 0.05 * rng.random((He, We - 2, 1))).astype(np.float32)
-    tgt = np.zeros((24, 24), np.int32)
-    tgt[:, :2] = 1
-    levels = kf.build_levels(ex_rgb, ex_lab, tgt, 2, 1, max_distance=5.0)
-    lv = levels[-1]
+    ex_lab, tgt, lv = _ramp_levels(rng, 0.05, 24)
     S = np.stack([rng.integers(0, He, tgt.shape), rng.integers(2, We, tgt.shape)], -1).astype(np.int32)
     S[tgt == 1] = np.stack([rng.integers(0, He, (tgt == 1).sum()), rng.integers(0, 2, (tgt == 1).sum())], -1)
     return lv, S, tgt
