@@ -661,6 +661,18 @@ def _closed_pipe() -> int:
     return 0
 
 
+def _from_ctrl_c(e: BaseException) -> bool:
+    """Whether ``e`` wraps a Ctrl-C: Python 3.11 turns a KeyboardInterrupt raised while a class
+    is created during an import (``__set_name__``) into a RuntimeError caused by it."""
+    seen = set()
+    while e is not None and id(e) not in seen:
+        if isinstance(e, KeyboardInterrupt):
+            return True
+        seen.add(id(e))
+        e = e.__cause__ or e.__context__
+    return False
+
+
 def _main(argv: list[str] | None) -> int:
     try:
         code = app(args=argv, prog_name="proxyshade", standalone_mode=False)
@@ -699,10 +711,12 @@ def _main(argv: list[str] | None) -> int:
                   "free space or fix the disk, then run again")
         return EXIT_IO
     except Exception as e:  # noqa: BLE001
-        _say(err, f"internal error: {type(e).__name__}: {_one_line(str(e))} (PROXYSHADE_DEBUG=1 for the traceback)")
-        if os.environ.get("PROXYSHADE_DEBUG"):
-            raise
-        return EXIT_INTERNAL
+        if not _from_ctrl_c(e):
+            _say(err, f"internal error: {type(e).__name__}: {_one_line(str(e))} (PROXYSHADE_DEBUG=1 for the traceback)")
+            if os.environ.get("PROXYSHADE_DEBUG"):
+                raise
+            return EXIT_INTERNAL
+        code = EXIT_INTERRUPTED
     code = code if isinstance(code, int) else 0
     if code == EXIT_INTERRUPTED:
         _say(err, "interrupted")

@@ -295,3 +295,19 @@ def test_a_run_warns_once_when_the_cache_passes_its_limit(graph, capsys, monkeyp
     assert main(["run", str(graph), "-q"]) == 2
     assert capsys.readouterr().err.strip() == ("error: PROXYSHADE_CACHE_LIMIT=lots: not a size; set it like 20G, "
                                                "500M or 0 (no warning)")
+
+
+def test_a_ctrl_c_wrapped_by_an_import_is_an_interruption():
+    """Python 3.11 wraps a Ctrl-C that lands while an import creates a class in a RuntimeError
+    (``__set_name__``): the command reports it as interrupted (130), not an internal error."""
+    from proxyshade import cli
+
+    try:
+        try:
+            raise KeyboardInterrupt
+        except KeyboardInterrupt as k:
+            raise RuntimeError("Error calling __set_name__") from k
+    except RuntimeError as e:
+        wrapped = e
+    assert cli._from_ctrl_c(wrapped)
+    assert not cli._from_ctrl_c(RuntimeError("a real bug"))
