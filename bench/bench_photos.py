@@ -38,8 +38,9 @@ seam moves, patch shifts, seam moves again) and Poisson (``stages``), and per Co
 the slope of each pixel's luma z-score in its label after the level on that before it
 (``z_slope``: the share of a pixel's tone deviation the level keeps).
 ``--width 1920`` (or 3840) makes HD (4K) frames from the same photos at the photo's texture
-scale, and prints each output's repetition (``kernels.quality.repetition``, ``copies``)
-beside its time, to compare with the 1024-wide run's.
+scale, and prints each output's repetition (``kernels.quality.repetition``, ``copies``; per
+label and the framing's floor, ``label_repetition``) beside its time, to compare with the
+1024-wide run's.
 ``--variant NAME:node.param=value,...`` (repeatable) runs more configurations beside the
 defaults (``final`` is the Poisson node, ``correct``, ``init``, ``magnify`` the others;
 ``final.skip=true`` measures Magnify's plate, before the Poisson step);
@@ -544,9 +545,11 @@ def main(argv=None) -> None:
                 figs[name] = measure(outs[name], rgb, plate["label.id"], src, src_srgb, stride=stride,
                                      patch=plate["patch.id"])
                 sx, sy = plate["source.x"], plate["source.y"]
+                per, floor = Q.label_repetition(sx, sy, plate["label.id"], src["label.id"])
                 print(f"{case['name']}: {name} {dt:.1f} s, {ids.shape[1]}x{ids.shape[0]}, repetition (share from the "
                       f"most-used 1 % of source pixels) {Q.repetition(sx, sy, src.shape):.4f}, most copies of a 16² "
-                      f"patch {Q.copies(sx, sy, src.shape):.1f}", flush=True)
+                      f"patch {Q.copies(sx, sy, src.shape):.1f}, per label {per:.4f} (framing floor {floor:.4f})",
+                      flush=True)
             eb = None
             if args.ebsynth:
                 out, dt = ebsynth(args.ebsynth, src, ids, args.out)
