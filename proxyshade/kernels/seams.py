@@ -72,11 +72,9 @@ def _pair_at(coords, img, target, i, j, oy, ox, dy, dx):
 def _energy(coords, img, target, i, j, oy, ox):
     """Summed seam cost between pixel (i, j) read at offset (oy, ox) and its same-label
     neighbours read at their own offsets."""
-    e = 0.0  # the neighbours in _DY/_DX's order, written out
-    e += _pair_at(coords, img, target, i, j, oy, ox, -1, 0)
-    e += _pair_at(coords, img, target, i, j, oy, ox, 0, -1)
-    e += _pair_at(coords, img, target, i, j, oy, ox, 0, 1)
-    e += _pair_at(coords, img, target, i, j, oy, ox, 1, 0)
+    e = 0.0
+    for k in range(4):
+        e += _pair_at(coords, img, target, i, j, oy, ox, _DY[k], _DX[k])
     return e
 
 
