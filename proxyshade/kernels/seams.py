@@ -51,8 +51,15 @@ def _pair_cost(coords, img, target, i, j, oy, ox, k):
     """The seam cost between pixel (i, j) read at offset (oy, ox) and its neighbour ``k``
     (``_DY``/``_DX``) read at its own offset: 0 off the image, across a label border or
     when both read at one offset."""
+    return _pair_at(coords, img, target, i, j, oy, ox, _DY[k], _DX[k])
+
+
+@njit(**JIT)
+def _pair_at(coords, img, target, i, j, oy, ox, dy, dx):
+    """``_pair_cost`` with the neighbour (i + dy, j + dx) (a step known to the caller: a
+    tuple read at a varying index costs as much as the colours)."""
     H, W = target.shape
-    y, x = i + _DY[k], j + _DX[k]
+    y, x = i + dy, j + dx
     if y < 0 or x < 0 or y >= H or x >= W or target[y, x] != target[i, j]:
         return 0.0
     qy, qx = coords[y, x, 0] - y, coords[y, x, 1] - x
@@ -67,7 +74,7 @@ def _energy(coords, img, target, i, j, oy, ox):
     neighbours read at their own offsets."""
     e = 0.0
     for k in range(4):
-        e += _pair_cost(coords, img, target, i, j, oy, ox, k)
+        e += _pair_at(coords, img, target, i, j, oy, ox, _DY[k], _DX[k])
     return e
 
 
@@ -128,11 +135,11 @@ def _sub_pass(coords, img, target, labels, parity, stamp, tried, lines, clock, c
 
 
 @njit(**JIT)
-def _on_run(coords, target, t, u, v, k, ay, ax, by, bx):
-    """Whether (u, v) and its neighbour across direction ``k`` are a pixel pair of the seam
-    run: both inside, of label ``t``, read at offsets (ay, ax) and (by, bx)."""
+def _on_run(coords, target, t, u, v, dy, dx, ay, ax, by, bx):
+    """Whether (u, v) and its neighbour across the seam, (u + dy, v + dx), are a pixel pair
+    of the seam run: both inside, of label ``t``, read at offsets (ay, ax) and (by, bx)."""
     H, W = target.shape
-    uy, vx = u + _DY[k], v + _DX[k]
+    uy, vx = u + dy, v + dx
     if u < 0 or v < 0 or u >= H or v >= W or uy < 0 or vx < 0 or uy >= H or vx >= W:
         return False
     return (target[u, v] == t and target[uy, vx] == t
@@ -141,38 +148,22 @@ def _on_run(coords, target, t, u, v, k, ay, ax, by, bx):
 
 
 @njit(**JIT)
-def _run_start(coords, target, i, j, k):
-    """Whether (i, j) starts a seam run across direction ``k`` (see ``_run_pass``): its
-    neighbour that way is inside the image, of the same target label and reads another
-    offset, and its predecessor along the seam does not continue that run."""
-    H, W = target.shape
-    y, x = i + _DY[k], j + _DX[k]
-    if y < 0 or x < 0 or y >= H or x >= W or target[y, x] != target[i, j]:
-        return False
-    ay, ax = coords[i, j, 0] - i, coords[i, j, 1] - j
-    by, bx = coords[y, x, 0] - y, coords[y, x, 1] - x
-    if ay == by and ax == bx:
-        return False
-    ey, ex = _DX[k] * _DX[k], _DY[k] * _DY[k]  # along the seam: (0, 1) or (1, 0)
-    return not _on_run(coords, target, target[i, j], i - ey, j - ex, k, ay, ax, by, bx)
-
-
-@njit(**JIT)
 def _run_at(coords, img, target, labels, i, j, k, rc, rv, lo_end, hi_end, stamp, tried, span, clock):
     """The run move of the seam run that starts at (i, j) across direction ``k`` (see
-    ``_run_pass``; (i, j) is a ``_run_start``); the number of pixels moved. Not tried again
+    ``_run_pass``; (i, j) starts it: its neighbour that way is inside the image, of its target
+    label, and reads another offset, and its predecessor along the seam does not continue
+    that run); the number of pixels moved. Not tried again
     (``tried[i, j, k]``, the ``clock`` when it last was) where no pixel the run reads (its
     pixels, those before and after it and those on either side) changed since (``stamp``).
     ``span[i, j, k]``: the run's length when last tried (255: that or more); where none of
     those pixels changed since, the run is that long still, so only its stamps are read."""
     H, W = target.shape
     Hs, Ws = labels.shape
-    y, x = i + _DY[k], j + _DX[k]
+    dy, dx = _DY[k], _DX[k]  # across the seam (the opposite way: -dy, -dx)
+    y, x = i + dy, j + dx
     ay, ax = coords[i, j, 0] - i, coords[i, j, 1] - j
     by, bx = coords[y, x, 0] - y, coords[y, x, 1] - x
-    ey, ex = _DX[k] * _DX[k], _DY[k] * _DY[k]  # along the seam: (0, 1) or (1, 0)
-    kb = 3 - k  # the opposite direction (_DY/_DX are symmetric)
-    ke = 2 if ex == 1 else 3  # direction +e
+    ey, ex = dx * dx, dy * dy  # along the seam: (0, 1) or (1, 0)
     t = target[i, j]
     ev = tried[i, j, k]
     if ev > 0:  # the run as it is now; does anything it reads carry a later stamp?
@@ -183,8 +174,8 @@ def _run_at(coords, img, target, labels, i, j, k, rc, rv, lo_end, hi_end, stamp,
             u, v = i + n * ey, j + n * ex
             if u >= 0 and v >= 0 and u < H and v < W:
                 again = stamp[u, v] >= ev
-                for kk in (k, kb):
-                    uy, vx = u + _DY[kk], v + _DX[kk]
+                for sg in (1, -1):  # across the seam, either way
+                    uy, vx = u + sg * dy, v + sg * dx
                     if uy >= 0 and vx >= 0 and uy < H and vx < W and stamp[uy, vx] >= ev:
                         again = True
             if n < 0:
@@ -193,7 +184,7 @@ def _run_at(coords, img, target, labels, i, j, k, rc, rv, lo_end, hi_end, stamp,
             if last < 255:
                 if n == last:  # the pixel after the run as it was (it is so still unless a stamp says otherwise)
                     break
-            elif not _on_run(coords, target, t, u, v, k, ay, ax, by, bx):
+            elif not _on_run(coords, target, t, u, v, dy, dx, ay, ax, by, bx):
                 break
             n += 1
         if not again:
@@ -202,18 +193,19 @@ def _run_at(coords, img, target, labels, i, j, k, rc, rv, lo_end, hi_end, stamp,
     n = 0
     while True:
         u, v = i + n * ey, j + n * ex
-        if not _on_run(coords, target, t, u, v, k, ay, ax, by, bx):
+        if not _on_run(coords, target, t, u, v, dy, dx, ay, ax, by, bx):
             break
         sy, sx = u + by, v + bx
         rv[n] = 0 <= sy < Hs and 0 <= sx < Ws and labels[sy, sx] == target[u, v]
-        rc[n] = (_pair_cost(coords, img, target, u, v, by, bx, k) + _pair_cost(coords, img, target, u, v, by, bx, kb)
-                 - _pair_cost(coords, img, target, u, v, ay, ax, k) - _pair_cost(coords, img, target, u, v, ay, ax, kb))
-        if n == 0:
-            lo_end[n] = (_pair_cost(coords, img, target, u, v, by, bx, 3 - ke)
-                         - _pair_cost(coords, img, target, u, v, ay, ax, 3 - ke))
+        rc[n] = (_pair_at(coords, img, target, u, v, by, bx, dy, dx) + _pair_at(coords, img, target, u, v, by, bx, -dy, -dx)
+                 - _pair_at(coords, img, target, u, v, ay, ax, dy, dx) - _pair_at(coords, img, target, u, v, ay, ax, -dy, -dx))
+        if n == 0:  # the pair with the pixel before the run
+            lo_end[n] = (_pair_at(coords, img, target, u, v, by, bx, -ey, -ex)
+                         - _pair_at(coords, img, target, u, v, ay, ax, -ey, -ex))
         else:  # the pair with the previous pixel of the run: the one its hi_end took, summed the other way round
             lo_end[n] = hi_end[n - 1]
-        hi_end[n] = _pair_cost(coords, img, target, u, v, by, bx, ke) - _pair_cost(coords, img, target, u, v, ay, ax, ke)
+        hi_end[n] = (_pair_at(coords, img, target, u, v, by, bx, ey, ex)
+                     - _pair_at(coords, img, target, u, v, ay, ax, ey, ex))  # with the pixel after it
         n += 1
     span[i, j, k] = min(n, 255)
     # the part [l, h] of least Σ_{l..h} rc + lo_end[l] + hi_end[h] (pairs along the run
@@ -279,10 +271,25 @@ def _run_pass(coords, img, target, labels, vertical, parity, stamp, tried, span,
         hi_end = np.empty(L, np.float64)
         for t in range(L):
             i, j = (t, line) if vertical else (line, t)
+            ti = target[i, j]
             for kk in range(2):
+                # does (i, j) start a run across k (``_run_at``)? Written out here: most pixels are on no
+                # seam or inside a run, and this test is most of the loop's cost; coords are read
+                # again after each run move
                 k = (1 + kk) if vertical else 3 * kk
-                if not _run_start(coords, target, i, j, k):  # most pixels: on no seam, or inside a run
+                dy, dx = (0, 2 * kk - 1) if vertical else (2 * kk - 1, 0)
+                y, x = i + dy, j + dx
+                if y < 0 or x < 0 or y >= H or x >= W or target[y, x] != ti:
                     continue
+                ay, ax = coords[i, j, 0] - i, coords[i, j, 1] - j
+                by, bx = coords[y, x, 0] - y, coords[y, x, 1] - x
+                if ay == by and ax == bx:
+                    continue
+                u, v = (i - 1, j) if vertical else (i, j - 1)  # the predecessor along the seam
+                if (u >= 0 and v >= 0 and target[u, v] == ti and target[u + dy, v + dx] == ti
+                        and coords[u, v, 0] - u == ay and coords[u, v, 1] - v == ax
+                        and coords[u + dy, v + dx, 0] - (u + dy) == by and coords[u + dy, v + dx, 1] - (v + dx) == bx):
+                    continue  # it continues the run
                 moved[line] += _run_at(coords, img, target, labels, i, j, k, rc=rc, rv=rv, lo_end=lo_end, hi_end=hi_end,
                                        stamp=stamp, tried=tried, span=span, clock=clock)
     return moved.sum()
