@@ -22,6 +22,7 @@ from __future__ import annotations
 import functools
 import json
 import os
+import threading
 from pathlib import Path
 
 import lazy_loader
@@ -42,6 +43,11 @@ COMPRESSION_NAMES = ("zip", "zips", "piz", "none", "dwaa", "zstd")
 # bytes of every level decode to the same pixels
 ZSTD_LEVEL = 1
 _META = "proxyshade/meta"
+# one EXR encoded at a time in this process: a write holds OpenEXR's line buffers (two per worker
+# thread, each a chunk of every channel, raw and compressed); the plate cache's writer and an
+# output writer side by side held both at the 1024 first frame's peak (final's cache entry beside
+# the 39-channel output). The two share OpenEXR's worker threads either way
+_ENCODING = threading.Lock()
 
 
 @functools.cache
@@ -149,7 +155,7 @@ def write_plate_temp(target: Path, plate: Plate, *, compression: str = "zip", ex
         # with its errno, where the bindings raise a plain exception naming no reason
         os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))
         try:
-            with _openexr().File(header, channels) as f:
+            with _ENCODING, _openexr().File(header, channels) as f:
                 f.write(str(tmp))
         except OSError:
             raise
