@@ -82,10 +82,10 @@ def _pagemap_scan(ranges: list[tuple[int, int]]) -> list[int] | None:
     if st.get("broken"):
         return None
     try:
-        if "fd" not in st:
+        if st.get("pid") != os.getpid():  # first use, or a forked child (its own pagemap)
             st["libc"] = ctypes.CDLL(None, use_errno=True)
             st["vec"] = (ctypes.c_uint64 * (3 * 256))()  # struct page_region {start, end, categories}
-            st["fd"] = os.open("/proc/self/pagemap", os.O_RDONLY)
+            st["fd"], st["pid"] = os.open("/proc/self/pagemap", os.O_RDONLY), os.getpid()
         libc, vec, fd = st["libc"], st["vec"], st["fd"]
         out = []
         for lo, hi in ranges:
