@@ -78,7 +78,8 @@ def _encoder(threads: int | None):
 def _openexr():
     """The OpenEXR bindings, imported on first use (they import numpy: ~0.13 s that a fully
     cached run does without) and set up once: ZSTD at ``ZSTD_LEVEL``, and chunks compressed
-    and decompressed on every core (files are byte-identical)."""
+    and decompressed on every core (files are byte-identical; an output is compressed in its
+    writing thread: ``OUTPUT_THREADS``)."""
     import OpenEXR
 
     if hasattr(OpenEXR, "ZSTD_COMPRESSION"):
@@ -167,7 +168,7 @@ def write_plate_temp(target: Path, plate: Plate, *, compression: str = "zip", ex
     whole by ``exr_problem``); returns the temporary, for the caller to rename into place (the
     cache renames under its lock). On any failure the temporary is removed and ``WriteError``
     names ``name`` (default ``target``) with ``what``. ``threads``: OpenEXR's worker threads for
-    this encode (None: every core)."""
+    this encode (None: as set, every core)."""
     name = Path(name or target)
     if not plate.channels:
         raise ExrError(f"{name}: the plate has no channels to write")
