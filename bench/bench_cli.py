@@ -13,8 +13,9 @@ child's wall time, CPU seconds (user + system) and peak resident memory come fro
 ``os.wait4``. Prints the medians over ``--rounds`` (default 5; the peak RSS's largest round too), the ratios, the load
 average before and after, then this checkout's ``--profile`` of one more run: where the
 time went and the resident memory before and during each node, the node holding the peak,
-the plates in memory then and what the peak holds (mapped library files, the heap when the
-first node started, plates, the rest).
+the plates in memory then (resident MiB, each page once: ``profile.plate_memory``; allocated
+beside) and what the peak holds (mapped library files, the heap when the first node started,
+plates, the rest).
 
 Run: ``python bench/bench_cli.py --ebsynth /tmp/ebsynth --baseline /work/main``. On a machine
 shared with other checkouts, give this one a kernel cache of its own (``NUMBA_CACHE_DIR``):

@@ -11,7 +11,11 @@ for it at the end) and the output writers. A sampler thread reads the resident s
 every few milliseconds: the node running at the peak (or the cache entry being written, or the
 node that ended last), the peak during each node, the
 plates held in memory at the peak (node and MiB), and what the peak holds (``peak_parts``:
-mapped library files, the heap when the first node started, plates, the rest). With the
+mapped library files, the heap when the first node started, plates, the rest). A plate's
+MiB are its resident pages (``plate_memory``): each page of its arrays counted once, for the
+first plate in the run's order that holds it (a plate that shares another's arrays counts
+only its own), and only pages the resident set counts (not a zero-filled page nobody wrote:
+``resident_bytes``), so the plates' part of the peak is what they hold in it. With the
 writers on threads of their own (``executor.SerialExecutor``) the output writes row is the
 run's wait for them.
 
@@ -21,6 +25,7 @@ Python's ``__import__``, only while a profile is active.
 from __future__ import annotations
 
 import builtins
+import heapq
 import os
 import sys
 import threading
@@ -59,6 +64,126 @@ def rss_split() -> tuple[float, float]:
         return 0.0, 0.0
 
 
+# -- resident pages ----------------------------------------------------------------
+# PAGEMAP_SCAN (Linux 6.7+): the pages of a range present in memory and not the zero page (a
+# page read but never written maps the shared zero page, or the huge zero page, which the
+# resident set does not count and /proc/self/pagemap's bits do not tell apart)
+_PAGEMAP_SCAN = (3 << 30) | (96 << 16) | (ord("f") << 8) | 16  # _IOWR('f', 16, struct pm_scan_arg)
+_IS_PRESENT, _IS_PFNZERO = 1 << 3, 1 << 5
+_scan_state: dict = {}
+
+
+def _pagemap_scan(ranges: list[tuple[int, int]]) -> list[int] | None:
+    """Bytes of each page-aligned (start, end) address range of this process that are in its
+    resident set, with the PAGEMAP_SCAN ioctl; None where the kernel lacks it."""
+    import ctypes
+
+    st = _scan_state
+    if st.get("broken"):
+        return None
+    try:
+        if st.get("pid") != os.getpid():  # first use, or a forked child (its own pagemap)
+            st["libc"] = ctypes.CDLL(None, use_errno=True)
+            st["vec"] = (ctypes.c_uint64 * (3 * 256))()  # struct page_region {start, end, categories}
+            st["fd"], st["pid"] = os.open("/proc/self/pagemap", os.O_RDONLY), os.getpid()
+        libc, vec, fd = st["libc"], st["vec"], st["fd"]
+        out = []
+        for lo, hi in ranges:
+            n, start = 0, lo
+            while start < hi:
+                # struct pm_scan_arg: size, flags, start, end, walk_end, vec, vec_len, max_pages,
+                # category_inverted, category_mask, category_anyof_mask, return_mask
+                arg = (ctypes.c_uint64 * 12)(96, 0, start, hi, 0, ctypes.addressof(vec), 256, 0, _IS_PFNZERO,
+                                             _IS_PRESENT | _IS_PFNZERO, 0, _IS_PRESENT)
+                got = libc.ioctl(fd, ctypes.c_ulong(_PAGEMAP_SCAN), ctypes.byref(arg))
+                if got < 0:
+                    raise OSError(ctypes.get_errno(), "PAGEMAP_SCAN")
+                n += sum(vec[3 * i + 1] - vec[3 * i] for i in range(got))
+                if arg[4] <= start:
+                    break
+                start = arg[4]  # walk_end: where the walk stopped (the regions' vector was full)
+            out.append(n)
+        return out
+    except (OSError, AttributeError):
+        st["broken"] = True
+        return None
+
+
+def _pagemap_bits(ranges: list[tuple[int, int]]) -> list[int] | None:
+    """As ``_pagemap_scan`` from /proc/self/pagemap's bits (older kernels): a page present
+    and mapped by this process alone or from a file; a read-only huge zero page counts."""
+    try:
+        import numpy
+
+        out = []
+        with open("/proc/self/pagemap", "rb", buffering=0) as f:
+            for lo, hi in ranges:
+                words = numpy.frombuffer(os.pread(f.fileno(), 8 * ((hi - lo) // _PAGE), 8 * (lo // _PAGE)), numpy.uint64)
+                present = (words >> numpy.uint64(63)) & numpy.uint64(1)
+                mine = ((words >> numpy.uint64(56)) | (words >> numpy.uint64(61))) & numpy.uint64(1)
+                out.append(int((present & mine).sum()) * _PAGE)
+        return out
+    except (OSError, ImportError, ValueError):
+        return None
+
+
+def resident_bytes(ranges: list[tuple[int, int]]) -> list[int] | None:
+    """Bytes of each (start, end) address range (page-aligned) in this process's resident
+    set: pages present, the zero page left out; None where neither the kernel's
+    PAGEMAP_SCAN nor /proc/self/pagemap can tell."""
+    out = _pagemap_scan(ranges)
+    return out if out is not None else _pagemap_bits(ranges)
+
+
+def _owned_ranges(plates: list[tuple[str, list]]) -> list[tuple[int, int, int]]:
+    """(start, end, index of the plate) page ranges: the pages of each plate's arrays, each
+    page given to the first plate (in ``plates``' order) whose arrays cover it."""
+    import numpy
+
+    bounds = getattr(getattr(numpy, "lib", None), "array_utils", None)
+    byte_bounds = bounds.byte_bounds if bounds is not None else numpy.byte_bounds
+    spans = []
+    for i, (_, arrays) in enumerate(plates):
+        for a in arrays:
+            if a.nbytes:
+                lo, hi = byte_bounds(a)
+                spans.append((lo // _PAGE * _PAGE, -(-hi // _PAGE) * _PAGE, i))
+    cuts = sorted({x for lo, hi, _ in spans for x in (lo, hi)})
+    spans.sort()
+    out: list[list[int]] = []
+    active: list[tuple[int, int]] = []  # heap of (plate index, end)
+    k = 0
+    for a, b in zip(cuts, cuts[1:]):
+        while k < len(spans) and spans[k][0] <= a:
+            heapq.heappush(active, (spans[k][2], spans[k][1]))
+            k += 1
+        while active and active[0][1] <= a:
+            heapq.heappop(active)
+        if not active:
+            continue
+        owner = active[0][0]
+        if out and out[-1][1] == a and out[-1][2] == owner:
+            out[-1][1] = b
+        else:
+            out.append([a, b, owner])
+    return [tuple(r) for r in out]
+
+
+def plate_memory(plates: list[tuple[str, object]]) -> list[tuple[str, float, float]]:
+    """(name, resident MiB, allocated MiB) of each (name, Plate): the pages of its arrays not
+    already counted for a plate before it (arrays shared between plates, views of one
+    buffer: counted once), resident ones (``resident_bytes``; allocated where that cannot be
+    told) and all of them."""
+    plates = [(n, [a for a in pl.channels.values() if hasattr(a, "__array_interface__")]) for n, pl in plates]
+    owned = _owned_ranges(plates)
+    res = resident_bytes([(lo, hi) for lo, hi, _ in owned])
+    per = [[0, 0] for _ in plates]
+    for j, (lo, hi, i) in enumerate(owned):
+        per[i][1] += hi - lo
+        per[i][0] += res[j] if res is not None else hi - lo
+    return [(n, r / 2**20, a / 2**20) for (n, _), (r, a) in zip(plates, per)]
+
+
 @dataclass
 class NodeTimes:
     node: str
@@ -89,11 +214,12 @@ class Profile:
     outside: NodeTimes = field(default_factory=lambda: NodeTimes("(outside nodes)", 0))
     peak_mb: float = 0.0
     peak_node: str = ""
-    peak_held: list = field(default_factory=list)  # (node, MiB) of plates in memory at the peak
+    peak_held: list = field(default_factory=list)  # (node, resident MiB, allocated MiB) of plates in memory at the peak
     peak_file: float = 0.0  # MiB of the peak resident set that are mapped files (libraries)
     peak_started: "NodeTimes | None" = None  # the node computing at the peak that started first
     start_anon: float = 0.0  # anonymous MiB when the first node started (libraries, modules loaded)
-    memory_of: object = None  # () -> [(node, MiB)]: plates in memory now (set by the engine)
+    memory_of: object = None  # () -> [(node, resident MiB, allocated MiB)]: plates in memory now (``watch``)
+    held_cost: float = 0.0  # seconds the sampler spent measuring the plates (off the run's threads)
 
     def __post_init__(self):
         self._local = threading.local()
@@ -122,10 +248,11 @@ class Profile:
         r, f = rss_split()
         self.start_anon = r - f
         names = {k: f"{n}@{f}" for (n, f), k in plan.keys.items()}
+        rank = {k: i for i, k in enumerate(plan.keys.values())}  # the plan's (topological) order
 
         def held():
-            return [(names.get(k, k[:8]), sum(a.nbytes for a in pl.channels.values()) / 2**20)
-                    for k, pl in list(graph.cache.memory.items())]
+            plates = sorted(list(graph.cache.memory.items()), key=lambda kv: rank.get(kv[0], len(rank)))
+            return plate_memory([(names.get(k, k[:8]), pl) for k, pl in plates])
 
         self.memory_of = held
 
@@ -135,7 +262,7 @@ class Profile:
         nt.rss_before, nt.anon_before = r, r - f
         nt.rss_peak = max(nt.rss_peak, nt.rss_before)
         try:
-            nt.held_before = sum(mb for _, mb in self.memory_of()) if self.memory_of is not None else 0.0
+            nt.held_before = sum(mb for _, mb, _ in self.memory_of()) if self.memory_of is not None else 0.0
         except RuntimeError:  # the dict changed size while read
             nt.held_before = 0.0
         self._running[threading.get_ident()] = nt
@@ -171,10 +298,12 @@ class Profile:
                 busy += [f"{w}(cache-write)" for w in list(self._writing.values())]  # after the last node: the flush
                 self.peak_node = ", ".join(busy) or (f"(after {self._last})" if self._last else "(before the nodes)")
                 if self.memory_of is not None:
+                    t = time.perf_counter()
                     try:
                         self.peak_held = self.memory_of()
                     except RuntimeError:  # the dict changed size while read: the next sample
                         pass
+                    self.held_cost += time.perf_counter() - t
 
     # -- report --------------------------------------------------------------
     def rows(self, wall: float) -> list[tuple[str, float, str]]:
@@ -219,18 +348,18 @@ class Profile:
         out.append(("total", wall, "process start to the report"))
         return out
 
-    def memory_rows(self) -> list[tuple[str, float, float]]:
-        """(node@frame, RSS before, peak RSS during) in the order they ran."""
-        return [(f"{nt.node}@{nt.frame}", nt.rss_before, nt.rss_peak) for nt in self.nodes.values()]
+    def memory_rows(self) -> list[tuple[str, float, float, float]]:
+        """(node@frame, RSS before, peak RSS during, plates resident when it started) in the order they ran."""
+        return [(f"{nt.node}@{nt.frame}", nt.rss_before, nt.rss_peak, nt.held_before) for nt in self.nodes.values()]
 
     def text(self) -> str:
         wall = process_age() or (time.perf_counter() - self.t0 + self.before_command)
         lines = ["profile (seconds, wall of this process):"]
         for name, s, note in self.rows(wall):
             lines.append(f"  {name:<26} {s:7.3f}  {note}")
-        lines.append("memory (MiB, resident): node, before, peak during")
-        for name, before, peak in self.memory_rows():
-            lines.append(f"  {name:<26} {before:7.0f} {peak:7.0f}")
+        lines.append("memory (MiB, resident): node, before, peak during, plates held at its start")
+        for name, before, peak, plates in self.memory_rows():
+            lines.append(f"  {name:<26} {before:7.0f} {peak:7.0f} {plates:7.0f}")
         lines.append(self.peak_text())
         return "\n".join(lines)
 
@@ -241,7 +370,7 @@ class Profile:
         and the start of the node computing at the peak (kernels, modules, the memo, the
         allocator's free lists: its anonymous memory then less the plates held then), and
         the rest: that node's working arrays (with the writers' beside it)."""
-        plates = sum(mb for _, mb in self.peak_held)
+        plates = sum(mb for _, mb, _ in self.peak_held)
         nt = self.peak_started
         since = max(0.0, nt.anon_before - self.start_anon - nt.held_before) if nt is not None else 0.0
         rest = self.peak_mb - self.peak_file - self.start_anon - plates - since
@@ -277,9 +406,11 @@ class Profile:
         held = sorted(self.peak_held, key=lambda x: -x[1])
         parts = ", ".join(f"{name} {mb:.0f}" for name, mb in self.peak_parts())
         libs = ", ".join(f"{n} {mb:.0f}" for n, mb in self.libraries())
-        return (f"  peak {self.peak_mb:.0f} MiB while {self.peak_node}; plates held then: "
-                + (", ".join(f"{n} {mb:.0f}" for n, mb in held) or "none")
-                + f" (= {sum(mb for _, mb in held):.0f} MiB)\n  the peak holds: {parts} MiB"
+        return (f"  peak {self.peak_mb:.0f} MiB while {self.peak_node}; plates held then (MiB resident, a page "
+                "shared by plates counted once, for the first; allocated): "
+                + (", ".join(f"{n} {mb:.0f} ({al:.0f})" for n, mb, al in held) or "none")
+                + f" (= {sum(mb for _, mb, _ in held):.0f} MiB resident of {sum(al for _, _, al in held):.0f})"
+                + f"\n  the peak holds: {parts} MiB (plates measured in {self.held_cost:.2f} s, sampler thread)"
                 + (f"\n  mapped files at the end, by package: {libs} MiB" if libs else ""))
 
     def stop(self) -> None:

@@ -6,11 +6,11 @@ import re
 import shutil
 from pathlib import Path
 
-import networkx as nx
 import pytest
 
 from proxyshade.cli import main
-from proxyshade.graph import warmup
+from proxyshade.graph import profile, warmup
+from proxyshade.graph.dag import DAG
 from proxyshade.graph.executor import SerialExecutor, ThreadExecutor
 from proxyshade.kernels import _cache
 
@@ -36,8 +36,10 @@ def test_profile_splits_the_wall_time_and_names_the_peak(tmp_path, capsys):
     assert "src@1" in rows and float(rows["src@1"]) > 0
     parts = sum(float(v) for k, v in rows.items() if k not in ("total",))
     assert abs(parts - float(rows["total"])) <= 0.01 + 0.01 * float(rows["total"]), text
-    m = re.search(r"peak (\d+) MiB while (.+?); plates held then: (.*)", text)  # nodes side by side, or after one
-    assert m and int(m[1]) > 50 and "@1" in m[2], text
+    m = re.search(r"peak (\d+) MiB while (.+?); plates held then \(MiB resident[^)]*\): (.*)", text)
+    assert m and int(m[1]) > 50 and "@1" in m[2], text  # nodes side by side, or after one
+    held = re.findall(r"(\S+@1) (\d+) \((\d+)\)", m[3])
+    assert held and all(int(r) <= int(a) + 1 for _, r, a in held), text  # resident within allocated
     # what the peak holds: mapped libraries, the heap at the first node, plates, what stayed loaded
     # since, the node's working arrays; adding up to it
     parts = re.search(r"the peak holds: libraries \(mapped files\) (\d+), heap before the first node (\d+), "
@@ -54,11 +56,38 @@ def test_profile_splits_the_wall_time_and_names_the_peak(tmp_path, capsys):
     assert "0 computed, 4 reused" in capsys.readouterr().out
 
 
+def test_plates_are_counted_by_resident_pages_each_page_once():
+    """``plate_memory``: a plate's arrays count for the pages they hold in the resident set,
+    once: pages of arrays a plate shares with one before it (a view of its buffer) count
+    for the first; pages allocated but never written count nothing, nor (where the kernel
+    can tell the zero page: PAGEMAP_SCAN) pages only read."""
+    import numpy as np
+
+    from proxyshade.graph.plate import Plate
+
+    zeros = np.zeros((2, 512, 1024), np.float32)  # 4 MiB, calloc'd: never written
+    data = np.ones((2, 512, 1024), np.float32)  # 4 MiB, written
+    first = Plate({"a": data[0], "z": zeros[0]})
+    second = Plate({"a": data[0], "b": data[1], "z": zeros[1]})  # shares first's buffers
+    (n1, r1, a1), (n2, r2, a2) = profile.plate_memory([("first", first), ("second", second)])
+    assert (n1, n2) == ("first", "second")
+    assert abs(a1 - 4.0) < 0.01 and abs(a2 - 4.0) < 0.01  # allocated, each page once
+    assert abs(r1 - 2.0) < 0.05 and abs(r2 - 2.0) < 0.05  # resident: data[0] for the first, data[1]
+    (n2, r2, _), (n1, r1, _) = profile.plate_memory([("second", second), ("first", first)])
+    assert (n2, n1) == ("second", "first") and abs(r2 - 4.0) < 0.05 and r1 < 0.05
+    assert profile.resident_bytes([]) == []
+    if profile._pagemap_scan([]) is None:
+        pytest.skip("no PAGEMAP_SCAN (Linux < 6.7): a page only read cannot be told from one written")
+    assert float(zeros.sum()) == 0.0  # read: the zero page mapped, nothing resident
+    (_, r1, _), (_, r2, _) = profile.plate_memory([("first", first), ("second", second)])
+    assert abs(r1 - 2.0) < 0.05 and abs(r2 - 2.0) < 0.05
+
+
 def test_writers_run_as_soon_as_their_input_is_ready():
     """Among ready instances the writers (marked ``first``) run before the others, in both
     local executors, so the plate they read leaves memory sooner; the order is the same
     every time."""
-    dag = nx.DiGraph()
+    dag = DAG()
     dag.add_node(("a", 1))
     dag.add_node(("b", 1))
     dag.add_node(("preview", 1), first=True)

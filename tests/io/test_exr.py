@@ -179,3 +179,65 @@ def test_read_channels_gives_read_plates_arrays(tmp_path, rows):
         assert a.dtype == whole[n].dtype and a.shape == (h, w) and a.tobytes() == whole[n].tobytes()
     with pytest.raises(ExrError, match="belongs elsewhere"):
         read_channels(path, ["Z"], expect={"proxyshade/key": "other"})
+
+
+def test_outputs_encode_one_at_a_time_without_workers_same_bytes(tmp_path, monkeypatch):
+    """An output (``write_plate``) is encoded with ``OUTPUT_THREADS`` OpenEXR workers, a cache
+    entry (``write_plate_temp``) with the process's count, which is as before afterwards; the
+    bytes are those written with workers; writes from several threads at once (the cache's
+    writer beside output writers) encode one at a time and give each the file it gives alone."""
+    import threading
+
+    from proxyshade.io import exr
+
+    lib = exr._openexr()
+    before = lib.global_thread_count()
+    real, seen, active, most = lib.File, [], [0], [0]
+
+    class Spy:
+        def __init__(self, *a):
+            seen.append(lib.global_thread_count())
+            self.f = real(*a)
+
+        def __enter__(self):
+            active[0] += 1
+            most[0] = max(most[0], active[0])
+            return self.f.__enter__()
+
+        def __exit__(self, *exc):
+            active[0] -= 1
+            return self.f.__exit__(*exc)
+
+    monkeypatch.setattr(lib, "File", Spy)
+    rng = np.random.default_rng(7)
+    plate = Plate({f"C{i}": rng.random((384, 256), dtype=np.float32) for i in range(6)}
+                  | {"id": rng.integers(0, 9, (384, 256)).astype(np.uint32)}, {"k": "v"})
+    out = write_plate(tmp_path / "out.exr", plate)
+    assert seen == [exr.OUTPUT_THREADS] and lib.global_thread_count() == before
+    with_workers = exr.write_plate_temp(tmp_path / "w.exr", plate, compression="zip", name=out, threads=max(2, before))
+    entry = exr.write_plate_temp(tmp_path / "e.exr", plate, compression="zstd" if "zstd" in compressions() else "zip",
+                                 durable=False)
+    assert seen[1:] == [max(2, before), before] and lib.global_thread_count() == before
+    assert with_workers.read_bytes() == out.read_bytes()
+    alone = {"out": out.read_bytes(), "entry": entry.read_bytes()}
+    failures = []
+
+    def many(kind: str, n: int):
+        try:
+            for i in range(n):
+                if kind == "out":
+                    p = write_plate(tmp_path / f"out{i}.exr", plate)
+                else:
+                    p = exr.write_plate_temp(tmp_path / f"e{i}.exr", plate, durable=False,
+                                             compression="zstd" if "zstd" in compressions() else "zip")
+                assert p.read_bytes() == alone[kind]
+        except BaseException as e:  # noqa: BLE001 - reported below
+            failures.append(e)
+
+    threads = [threading.Thread(target=many, args=(k, 4)) for k in ("out", "entry", "out")]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert not failures, failures
+    assert most[0] == 1 and lib.global_thread_count() == before
