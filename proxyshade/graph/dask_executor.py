@@ -47,8 +47,9 @@ import time
 import uuid
 import warnings
 
+import networkx as nx
+
 from proxyshade.errors import UserError
-from proxyshade.graph.dag import DAG, topological_order
 
 EXTRA = "pip install 'proxyshade[dask]'"
 
@@ -329,17 +330,17 @@ class DaskExecutor:
                 continue
             shipped = dataclasses.replace(plan, rows={})  # the rows are the client's report
             plans.append(client.scatter(shipped, broadcast=True, hash=False))
-            order = list(topological_order(job.todo, key=str))
+            order = list(nx.lexicographical_topological_sort(job.todo, key=str))
             group = _groups(job, order, multi) if multi is not None else {inst: inst for inst in order}
             members: dict = collections.defaultdict(list)  # the task's first instance -> its instances, in order
-            tasks = DAG()  # the tasks, each waiting for those of its instances' inputs
+            tasks = nx.DiGraph()  # the tasks, each waiting for those of its instances' inputs
             for inst in order:
                 members[group[inst]].append(inst)
                 tasks.add_node(group[inst])
                 tasks.add_edges_from((group[p], group[inst]) for p in job.todo.predecessors(inst) if group[p] != group[inst])
                 owners[plan.keys[inst]].append((job, inst))
                 job.hooks.start(job.runs[inst])
-            for head in topological_order(tasks, key=str):
+            for head in nx.lexicographical_topological_sort(tasks, key=str):
                 insts = members[head]
                 ck = plan.keys[head]
                 if ck in dkeys:  # a key another job submitted (shared keys are groups of one)

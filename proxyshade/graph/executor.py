@@ -1,7 +1,7 @@
 """Executors: run a function on every vertex of a DAG once its predecessors are done.
 
 The engine hands an executor prepared runs (``run_jobs``: ``graph.RunJob``, each a
-``dag.DAG`` of instances and the function computing one in this process); the
+networkx DiGraph of instances and the function computing one in this process); the
 executors here run each job's DAG in this process, ``dask_executor.DaskExecutor`` on
 Dask workers. Results do not depend on scheduling order: every vertex's work is a pure
 function of its inputs.
@@ -12,7 +12,7 @@ import time
 from concurrent.futures import FIRST_COMPLETED, Future, ThreadPoolExecutor, wait
 from typing import Callable, Hashable
 
-from proxyshade.graph.dag import DAG, topological_order
+import networkx as nx
 
 from proxyshade.graph import profile
 
@@ -20,7 +20,7 @@ from proxyshade.graph import profile
 class LocalExecutor:
     """Runs the jobs one after another in this process (``run``: one DAG)."""
 
-    def run(self, dag: DAG, fn: Callable[[Hashable], None]) -> None:
+    def run(self, dag: nx.DiGraph, fn: Callable[[Hashable], None]) -> None:
         raise NotImplementedError
 
     def run_jobs(self, jobs) -> None:
@@ -39,7 +39,7 @@ class LocalExecutor:
                     profile.ACTIVE.flush_wait += time.perf_counter() - t
 
 
-def order_key(dag: DAG) -> Callable[[Hashable], tuple]:
+def order_key(dag: nx.DiGraph) -> Callable[[Hashable], tuple]:
     """Among vertices ready to run, those marked ``first`` (the engine marks writers: a
     preview or an EXR writer frees its input plate as soon as it has run) before the rest,
     then by name: a deterministic order that holds fewer plates in memory at once."""
@@ -58,8 +58,8 @@ class SerialExecutor(LocalExecutor):
     computes does not depend on the overlap, so the files are the same; the run raises the
     first failure in this order."""
 
-    def run(self, dag: DAG, fn: Callable[[Hashable], None]) -> None:
-        order = list(topological_order(dag, key=order_key(dag)))
+    def run(self, dag: nx.DiGraph, fn: Callable[[Hashable], None]) -> None:
+        order = list(nx.lexicographical_topological_sort(dag, key=order_key(dag)))
         if all(dag.nodes[v].get("first", False) for v in order) or not any(
                 dag.nodes[v].get("first", False) for v in order):
             for v in order:
@@ -105,7 +105,7 @@ class ThreadExecutor(LocalExecutor):
     def __init__(self, jobs: int = 2):
         self.jobs = max(1, int(jobs))
 
-    def run(self, dag: DAG, fn: Callable[[Hashable], None]) -> None:
+    def run(self, dag: nx.DiGraph, fn: Callable[[Hashable], None]) -> None:
         if self.jobs == 1:
             return SerialExecutor().run(dag, fn)
         remaining = {v: dag.in_degree(v) for v in dag}

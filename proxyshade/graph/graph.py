@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, ContextManager
 
-from proxyshade.graph.dag import DAG, find_cycle, topological_order
+import networkx as nx
 
 from proxyshade.errors import CycleError, GraphFileError, ParamError, UserError
 from proxyshade.graph import keys as K
@@ -315,11 +315,11 @@ class Graph:
             raise UserError(f"{self.source or self.name}: frame {frame} is outside the graph's frames {lo}-{hi}; "
                             "pick frames inside the range or widen 'frames'")
 
-    def instances(self, frames: list[int]) -> DAG:
+    def instances(self, frames: list[int]) -> nx.DiGraph:
         """The unrolled DAG of (node, frame) for ``frames``; edges carry the input name.
 
         A sequence node has one instance, at the last of ``frames`` (none when disabled)."""
-        dag = DAG()
+        dag = nx.DiGraph()
         first = self.frames[0]
         for f in frames:
             self._check_frame(f)
@@ -348,8 +348,9 @@ class Graph:
                         continue  # before the first frame: the input arrives as None
                     dag.add_edge((ref.node, f2), inst, inputs=dag.get_edge_data((ref.node, f2), inst, {}).get("inputs", ()) + (inp,))
                     stack.append((ref.node, f2))
-        cycle = find_cycle(dag)
-        if cycle is None:
+        try:
+            cycle = nx.find_cycle(dag)
+        except nx.NetworkXNoCycle:
             return dag
         path = " -> ".join(f"{a}@{fa}" for (a, fa), _ in cycle) + f" -> {cycle[0][0][0]}@{cycle[0][0][1]}"
         raise CycleError(f"{self.source or self.name}: cycle {path}; break it with a frame offset "
@@ -406,7 +407,7 @@ class Graph:
         inst_key: dict[tuple[str, int], str] = {}
         comps: dict[tuple[str, int], dict] = {}
         passthrough: dict[tuple[str, int], tuple[str, int] | None] = {}
-        for inst in topological_order(dag, key=str):
+        for inst in nx.lexicographical_topological_sort(dag, key=str):
             name, frame = inst
             node = self.nodes[name]
             input_keys: dict[str, str | list[str] | None] = {}
@@ -495,9 +496,9 @@ class Graph:
         cleaned = self._remove_stale_temps(plan)
         runs: dict[tuple[str, int], NodeRun] = {}
         key_owner: dict[str, tuple[str, int]] = {}
-        todo = DAG()
+        todo = nx.DiGraph()
         last = self.cache.last_run(self._graph_id())
-        for inst in topological_order(plan.dag, key=str):
+        for inst in nx.lexicographical_topological_sort(plan.dag, key=str):
             key = plan.keys[inst]
             name, frame = inst
             if inst in plan.passthrough:
@@ -534,11 +535,11 @@ class Graph:
         node = self.nodes[name]
         return type(node).stored or node.is_progressive() or self.store_all
 
-    def _drop_unneeded(self, plan: "Plan", runs: dict, todo: DAG) -> None:
+    def _drop_unneeded(self, plan: "Plan", runs: dict, todo: nx.DiGraph) -> None:
         """Leave out of ``todo`` the instances of node types that are not stored
         (``Node.stored``) when no instance to compute reads them (their readers are in the
         cache: a fully cached re-run computes nothing); readers first, so a chain of them goes."""
-        for inst in reversed(list(topological_order(todo, key=str))):
+        for inst in reversed(list(nx.lexicographical_topological_sort(todo, key=str))):
             name = inst[0]
             if (self._stored(name) or self.nodes[name].sink or todo.out_degree(inst)
                     or plan.keys[inst] in plan.keep or name in plan.force):
@@ -580,7 +581,7 @@ class Graph:
                 self.cache.forget(nr.key)
         job.hooks.done(nr)
 
-    def output_files(self, dag: DAG) -> list[Path]:
+    def output_files(self, dag: nx.DiGraph) -> list[Path]:
         """The files the writers (sinks) among ``dag``'s instances write (symlinks followed)."""
         out = []
         for name, frame in dag:
@@ -766,7 +767,7 @@ class Graph:
 @dataclass
 class Plan:
     graph: Graph
-    dag: DAG
+    dag: nx.DiGraph
     frames: list[int]
     keys: dict[tuple[str, int], str]
     components: dict[tuple[str, int], dict]
@@ -792,7 +793,7 @@ class RunJob:
     ``todo``, the DAG of the instances to compute. An executor computes them, in this
     process (``work``) or elsewhere (filling the rows); ``finish`` makes the report."""
 
-    def __init__(self, graph: Graph, plan: Plan, runs: dict[tuple[str, int], NodeRun], todo: DAG,
+    def __init__(self, graph: Graph, plan: Plan, runs: dict[tuple[str, int], NodeRun], todo: nx.DiGraph,
                  hooks: "Hooks", cleaned: list[tuple[Path, int]], t0: float):
         self.graph, self.plan, self.runs, self.todo, self.hooks = graph, plan, runs, todo, hooks
         self.cleaned = cleaned
@@ -813,7 +814,7 @@ class RunJob:
             if nr.status != "computed":
                 self.hooks.done(nr)
         g.cache.save_run(g._graph_id(), {f"{n}@{f}": c for (n, f), c in plan.components.items()})
-        order = {inst: i for i, inst in enumerate(topological_order(plan.dag, key=str))}
+        order = {inst: i for i, inst in enumerate(nx.lexicographical_topological_sort(plan.dag, key=str))}
         rows = sorted(self.runs.values(), key=lambda r: (r.frame, order[(r.node, r.frame)]))
         peak = max(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0, self.peak_rss_mb)
         notes = list(self.notes)

@@ -176,9 +176,9 @@ class Prefetch:
         found, held = callers(), variant_units()
         every = {u for units in held.values() for u in units}
         try:  # the order the nodes run: the instances' DAG topologically (ties by name)
-            from proxyshade.graph.dag import topological_order
+            import networkx as nx
 
-            order = list(topological_order(todo, key=str))
+            order = list(nx.lexicographical_topological_sort(todo, key=str))
         except Exception:  # noqa: BLE001 - not a DAG: by name
             order = sorted(todo, key=str)
         units = []  # the nodes' units, in the order the nodes run

@@ -6,11 +6,11 @@ import re
 import shutil
 from pathlib import Path
 
+import networkx as nx
 import pytest
 
 from proxyshade.cli import main
 from proxyshade.graph import profile, warmup
-from proxyshade.graph.dag import DAG
 from proxyshade.graph.executor import SerialExecutor, ThreadExecutor
 from proxyshade.kernels import _cache
 
@@ -87,7 +87,7 @@ def test_writers_run_as_soon_as_their_input_is_ready():
     """Among ready instances the writers (marked ``first``) run before the others, in both
     local executors, so the plate they read leaves memory sooner; the order is the same
     every time."""
-    dag = DAG()
+    dag = nx.DiGraph()
     dag.add_node(("a", 1))
     dag.add_node(("b", 1))
     dag.add_node(("preview", 1), first=True)
