@@ -19,7 +19,6 @@ failed write (a full disk) leaves nothing at the name and raises ``WriteError``.
 """
 from __future__ import annotations
 
-import contextlib
 import functools
 import json
 import os
@@ -49,37 +48,15 @@ _META = "proxyshade/meta"
 # output writer side by side held both at the 1024 first frame's peak (final's cache entry beside
 # the 39-channel output). The two share OpenEXR's worker threads either way
 _ENCODING = threading.Lock()
-# OpenEXR worker threads while an output (``write_plate``: a writer's file) is encoded: none, the
-# writing thread compresses. With workers a write holds two line buffers per worker: the 1024
-# first frame's 39-channel ZIP output 23 MiB, against 6 without, at its peak; that write runs
-# beside its preview and the cache's last entries, which keep the other core busy. Cache entries
-# (ZSTD, small buffers, off the run's path) and reads keep the workers. The bytes are the same
-OUTPUT_THREADS = 0
-
-
-@contextlib.contextmanager
-def _encoder(threads: int | None):
-    """The bindings, for one EXR encode at a time (``_ENCODING``), with ``threads`` worker threads
-    (None: as set) for its duration."""
-    with _ENCODING:
-        lib = _openexr()
-        before = lib.global_thread_count()
-        if threads is None or threads == before:
-            yield lib
-            return
-        lib.set_global_thread_count(threads)
-        try:
-            yield lib
-        finally:
-            lib.set_global_thread_count(before)
+# (an output compressed without worker threads held 6 MiB instead of 23 at the end of the run, but
+# the peak is earlier and the last write then runs on one core: +7 % wall; not kept)
 
 
 @functools.cache
 def _openexr():
     """The OpenEXR bindings, imported on first use (they import numpy: ~0.13 s that a fully
     cached run does without) and set up once: ZSTD at ``ZSTD_LEVEL``, and chunks compressed
-    and decompressed on every core (files are byte-identical; an output is compressed in its
-    writing thread: ``OUTPUT_THREADS``)."""
+    and decompressed on every core (files are byte-identical)."""
     import OpenEXR
 
     if hasattr(OpenEXR, "ZSTD_COMPRESSION"):
@@ -150,7 +127,7 @@ def write_plate(path: str | Path, plate: Plate, *, compression: str = "zip", ext
     into place: a full disk never leaves a cut-short file under the name."""
     path = Path(path)
     target = output_target(path)
-    tmp = write_plate_temp(target, plate, compression=compression, extra=extra, name=path, threads=OUTPUT_THREADS)
+    tmp = write_plate_temp(target, plate, compression=compression, extra=extra, name=path)
     try:
         os.replace(tmp, target)
     except OSError as e:
@@ -162,13 +139,11 @@ def write_plate(path: str | Path, plate: Plate, *, compression: str = "zip", ext
 
 
 def write_plate_temp(target: Path, plate: Plate, *, compression: str = "zip", extra: dict | None = None,
-                     name: Path | None = None, what: str = "cannot write EXR", durable: bool = True,
-                     threads: int | None = None) -> Path:
+                     name: Path | None = None, what: str = "cannot write EXR", durable: bool = True) -> Path:
     """Write ``plate`` to a temporary beside ``target`` and check it (fsync'd when ``durable``,
     whole by ``exr_problem``); returns the temporary, for the caller to rename into place (the
     cache renames under its lock). On any failure the temporary is removed and ``WriteError``
-    names ``name`` (default ``target``) with ``what``. ``threads``: OpenEXR's worker threads for
-    this encode (None: as set, every core)."""
+    names ``name`` (default ``target``) with ``what``."""
     name = Path(name or target)
     if not plate.channels:
         raise ExrError(f"{name}: the plate has no channels to write")
@@ -182,7 +157,7 @@ def write_plate_temp(target: Path, plate: Plate, *, compression: str = "zip", ex
         # with its errno, where the bindings raise a plain exception naming no reason
         os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))
         try:
-            with _encoder(threads) as lib, lib.File(header, channels) as f:
+            with _ENCODING, _openexr().File(header, channels) as f:
                 f.write(str(tmp))
         except OSError:
             raise
