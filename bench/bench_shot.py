@@ -149,6 +149,28 @@ def attached_floor(case: "Case", size: int, f0, sigma: float, shifts=((0.3, 0.05
 
 
 _clock = time.perf_counter  # the update frames' clock (--cpu: process CPU time)
+NODE_TIMES: dict[str, list[float]] = {}  # --nodes: node type -> seconds of each update frame (``timed``)
+
+
+def timed(node_type: str, *args):
+    """``run_memo(node_type, *args)``, its seconds (``_clock``) added to ``NODE_TIMES``."""
+    t = _clock()
+    out = run_memo(node_type, *args)
+    NODE_TIMES.setdefault(node_type, []).append(_clock() - t)
+    return out
+
+
+def frame_digest(plate) -> str:
+    """A digest of every channel of ``plate`` (name, dtype, shape and bytes; ``--digest``):
+    two runs whose frames are bit for bit the same print the same digests."""
+    import hashlib
+
+    h = hashlib.blake2b(digest_size=8)
+    for name in sorted(plate.names()):
+        a = np.ascontiguousarray(plate[name])
+        h.update(f"{name}|{a.dtype.str}|{a.shape}".encode())
+        h.update(a.view(np.uint8).reshape(-1))
+    return h.hexdigest()
 
 
 def run_memo(node_type: str, params: dict, inputs: dict, frame: int, memo) -> "object":
@@ -375,7 +397,8 @@ def write_frame(path: Path, plate) -> None:
 
 
 def shot(case: "Case", size: int, frames: int, every: int = 1, sigma: float = 1.0, params: dict | None = None,
-         frames_out: Path | None = None, edges: bool = False, memo: bool = True, steps: bool = False) -> list[dict]:
+         frames_out: Path | None = None, edges: bool = False, memo: bool = True, steps: bool = False,
+         digest: bool = False) -> list[dict]:
     from proxyshade.graph.memo import Memo
 
     params = params or graph_params()
@@ -389,7 +412,9 @@ def shot(case: "Case", size: int, frames: int, every: int = 1, sigma: float = 1.
     s0 = Q.seam_share(f0["source.x"], f0["source.y"], f0["label.id"], scale=scale)
     det0 = Q.detail(f0.rgb(), f0["label.id"])
     filt = params["reproject"].get("filter", "lanczos4")
+    NODE_TIMES.clear()
     rows = [{"frame": 1, "seams": 1.0, "detail": 1.0, "share": 0.0, "update": None, "warp": None,
+             "digest": frame_digest(f0) if digest else None,
              "labels": figures(f0, windows=True), "edges": edge_classes(f0, np.zeros(f0.shape, np.uint32)) if edges else None,
              "steps": step_gradients(figures, f0, f0, src, filt) if steps else None}]
     keep = {1, 24, frames}
@@ -398,17 +423,17 @@ def shot(case: "Case", size: int, frames: int, every: int = 1, sigma: float = 1.
     prev, indep_prev, indep_frame = f0, f0, 1
     for fr in range(2, frames + 1):
         t = _clock()
-        pN = run_memo("ProxyRender", case.proxy_params(size), {"source": src}, fr, store)
-        cd = run_memo("ConsistentDepth", {}, {"proxy": pN, "guide": g0, "depth": d0, "ref_proxy": p0}, fr, store)
-        rp = run_memo("Reproject", params["reproject"], {"depth": cd, "prev": prev, "first": f0, "source": src}, fr,
-                      store)
-        fin = run_memo("Resynthesize", params["final"], {"image": rp, "source": src}, fr, store)
+        pN = timed("ProxyRender", case.proxy_params(size), {"source": src}, fr, store)
+        cd = timed("ConsistentDepth", {}, {"proxy": pN, "guide": g0, "depth": d0, "ref_proxy": p0}, fr, store)
+        rp = timed("Reproject", params["reproject"], {"depth": cd, "prev": prev, "first": f0, "source": src}, fr, store)
+        fin = timed("Resynthesize", params["final"], {"image": rp, "source": src}, fr, store)
         upd = _clock() - t
         row = {"frame": fr, "update": upd, "share": float((rp["flag"] > 0).mean()),
                "seams": Q.seam_share(fin["source.x"], fin["source.y"], fin["label.id"], scale=scale) / s0,
                "detail": Q.detail(fin.rgb(), fin["label.id"]) / det0, "warp": None, "labels": figures(fin, windows=fr == frames),
                "edges": edge_classes(fin, rp["flag"]) if edges else None,
-               "steps": step_gradients(figures, rp, fin, src, filt) if steps else None}
+               "steps": step_gradients(figures, rp, fin, src, filt) if steps else None,
+               "digest": frame_digest(fin) if digest else None}
         if frames_out and fr in keep:
             write_frame(frames_out / f"{case.file_name}_{size}.{fr:04d}.png", fin)
         # pairs (fr - 1, fr) ending at frames 2, 2 + every, ...: independent syntheses of both
@@ -548,6 +573,13 @@ def main(argv=None) -> None:
     ap.add_argument("--cpu", action="store_true",
                     help="time update frames by the process's CPU time on one numba thread (steady on shared cores; "
                          "'update s' is then CPU seconds; the total over the shot is printed)")
+    ap.add_argument("--digest", action="store_true",
+                    help="print a digest of each frame's final plate (every channel's bytes) and of the whole shot: "
+                         "a change meant for speed alone must leave them as they were (frame_digest)")
+    ap.add_argument("--nodes", action="store_true",
+                    help="per node (ProxyRender, ConsistentDepth, Reproject, Resynthesize): seconds of frame 2 (it "
+                         "loads the update frame's kernels from numba's cache and fills the run's memo) and the "
+                         "median and total over frames 3 to the last, on the update frames' clock")
     ap.add_argument("--no-memo", action="store_true",
                     help="no run memo across frames (each frame recomputes the source's similarity sets, graded "
                          "colours and the first frame's grid; proxyshade run keeps them)")
@@ -590,7 +622,8 @@ def main(argv=None) -> None:
         if out:
             out.mkdir(parents=True, exist_ok=True)
         rows = shot(case, size, args.frames, args.warp_every, args.warp_sigma, params, out, args.edges,
-                    memo=not args.no_memo, steps=args.steps)
+                    memo=not args.no_memo, steps=args.steps, digest=args.digest)
+        node_times = {k: list(v) for k, v in NODE_TIMES.items()}
         floor = attached_floor(case, size, case.first_frame(size, frame=1), args.warp_sigma) \
             if args.warp_every else {"lanczos4": float("nan"), "lowpass": float("nan")}
         case.clear()  # the per-frame proxies and guides of the independent runs
@@ -625,6 +658,18 @@ def main(argv=None) -> None:
                     for k, e in r["edges"].items():
                         print(f"{r['frame']:>5} {names.get(k, str(k)):<12} {e['in']:7.4f} {e['in_f']:7.4f} "
                               f"{e['seam']:7.4f} {e['seam_f']:9.4f}")
+        if args.digest:
+            import hashlib
+
+            shot_digest = hashlib.blake2b("".join(r["digest"] for r in rows).encode(), digest_size=8).hexdigest()
+            print("digests (final plate, frames 1..): " + " ".join(r["digest"] for r in rows))
+            print(f"shot digest {scene} {size}: {shot_digest}")
+        if args.nodes and node_times:
+            clock = "CPU s, one thread" if args.cpu else "wall s"
+            print(f"{'node':<16} {'frame 2':>8} {'median 3..':>10} {'total 3..':>9}  ({clock})")
+            for k, v in node_times.items():
+                rest = v[1:]
+                print(f"{k:<16} {v[0]:8.3f} {statistics.median(rest) if rest else float('nan'):10.3f} {sum(rest):9.2f}")
         later = rows[1:]
         ws = [r["warp"] for r in later if r["warp"]]
         ratio = {f: (float(np.mean([w[f][0] for w in ws])) / max(float(np.mean([w[f][1] for w in ws])), 1e-12)

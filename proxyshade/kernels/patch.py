@@ -30,7 +30,7 @@ import numpy as np
 from numba import njit
 
 from proxyshade.kernels._config import JIT
-from proxyshade.kernels.random import permutation, rand
+from proxyshade.kernels.random import _keys, permutation, rand
 from proxyshade.kernels.features import NB2, Level, Metric, chamfer_masks, dist_sq_contour, gather_target, height_sq
 
 # The kernels take the finest ``features.Level`` (h = 1) whole, and ``features.Metric``.
@@ -418,6 +418,16 @@ def _flood_fill(lv, m, cover, order, first_id, thr_scale, thr_offset, seed, star
     return npatch
 
 
+def masked_order(seed: int, free: np.ndarray) -> np.ndarray:
+    """``permutation(seed, free.size)`` with only the ``free`` pixels' flat indices, in the
+    same relative order (their ``rand`` keys sorted stably: ties by index, as the whole
+    permutation breaks them). ``_flood_fill`` skips every pixel not free when it is reached
+    and never frees one, so this order grows the same patches; a masked flood fill of a
+    few percent of a 256² level sorts those pixels instead of the whole level's (7 ms)."""
+    idx = np.flatnonzero(free)
+    return idx[np.argsort(_keys(int(seed), int(free.size))[idx], kind="stable")].astype(np.int64)
+
+
 def flood_fill(level: Level, metric: Metric, *, seed: int, threshold_scale: float, threshold_offset: float,
                mask: np.ndarray | None = None, coords: np.ndarray | None = None, patch: np.ndarray | None = None):
     """Cover the guide with patches of the exemplar.
@@ -456,7 +466,7 @@ def flood_fill(level: Level, metric: Metric, *, seed: int, threshold_scale: floa
         coords = np.ascontiguousarray(coords, dtype=np.int32).copy()
         patch = np.ascontiguousarray(patch, dtype=np.int64).copy()
         first = int(patch.max()) + 1 if patch.size else 1
-    order = permutation(seed, Ht * Wt)
+    order = permutation(seed, Ht * Wt) if mask is None else masked_order(seed, free)
     starts, lists = _label_lists(level.src_lab, level.src_masks.shape[2])
     r = _flood_fill(level, Metric(float(metric.w), float(metric.height_weight)), Cover(free, coords, patch), order,
                     first_id=first, thr_scale=float(threshold_scale), thr_offset=float(threshold_offset),

@@ -84,6 +84,19 @@ def test_masked_flood_fill_matches_reference(seed):
     assert np.array_equal(patch2, patch_ref)
 
 
+@pytest.mark.parametrize("share", [0.0, 0.05, 0.5, 1.0])
+def test_masked_order_is_the_permutation_restricted_to_the_mask(share):
+    """The masked flood fill's seed order: the whole level's ``permutation`` with only the free
+    pixels, in the same relative order (what lets it skip sorting the whole level)."""
+    rng = np.random.default_rng(7)
+    for seed in (0, 3, 2**40 + 1):
+        free = rng.random((37, 53)) < share
+        full = permutation(seed, free.size)
+        got = kpatch.masked_order(seed, free)
+        assert got.dtype == np.int64
+        assert np.array_equal(got, full[free.ravel()[full]])
+
+
 def test_window_runs_with_a_hash_collision_are_searched_one_by_one():
     """A run of equal hashes whose masks differ (a collision, forced here by marking every
     run non-uniform) is searched candidate by candidate: the same argmin."""
