@@ -2,6 +2,7 @@
 order writers run in, and which kernels a graph's first run precompiles."""
 from __future__ import annotations
 
+import mmap
 import re
 import shutil
 from pathlib import Path
@@ -65,7 +66,10 @@ def test_plates_are_counted_by_resident_pages_each_page_once():
 
     from proxyshade.graph.plate import Plate
 
-    zeros = np.zeros((2, 512, 1024), np.float32)  # 4 MiB, calloc'd: never written
+    # 4 MiB never written: a private anonymous mapping of its own (np.zeros may reuse freed heap that
+    # calloc then clears, writing every page, in a process that has run other tests)
+    anon = mmap.mmap(-1, 4 << 20, flags=mmap.MAP_PRIVATE | mmap.MAP_ANONYMOUS)
+    zeros = np.frombuffer(anon, np.float32).reshape(2, 512, 1024)
     data = np.ones((2, 512, 1024), np.float32)  # 4 MiB, written
     first = Plate({"a": data[0], "z": zeros[0]})
     second = Plate({"a": data[0], "b": data[1], "z": zeros[1]})  # shares first's buffers
