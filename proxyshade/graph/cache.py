@@ -137,7 +137,8 @@ class Cache:
         self._writing: dict[str, Future] = {}  # key -> its background write, until done
         self._pinned: set[str] = set()
         self._forgotten: set[str] = set()
-        self._own: dict[str, tuple[int, int, int]] = {}  # key -> (size, inode, ns mtime) of the entry this process wrote
+        # key -> (size, inode, ns mtime) of an entry this process wrote or checked whole (``usable``)
+        self._trusted: dict[str, tuple[int, int, int]] = {}
         self._marked = False  # the root's MARKER is known to be there
         self.read_only = False  # set when a write fails with EROFS/EACCES: hits are served, results kept in memory
         self.unstored = 0  # results of this process not stored because the cache is read-only
@@ -293,12 +294,14 @@ class Cache:
                     exr.unlink()
                 raise
             st = exr.stat()
-            self._own[key] = (st.st_size, st.st_ino, st.st_mtime_ns)
+            self._trusted[key] = (st.st_size, st.st_ino, st.st_mtime_ns)
 
     def usable(self, key: str) -> bool:
         """Whether ``key`` has an entry on disk to read channels back from (``read_back``):
-        quietly, without hashing an entry this process wrote and nobody touched since (same
-        size, inode and ns modification time); any other is checked as ``intact`` does."""
+        quietly, without hashing an entry this process wrote or already checked and nobody
+        touched since (same size, inode and ns modification time); any other is checked as
+        ``intact`` does, once (the engine asks before it offers a read-back, ``read_back``
+        again when it reads)."""
         rec = self.record(key)
         exr, _ = self._paths(key)
         if rec is None or rec.get("key") != key or rec.get("sink"):
@@ -307,7 +310,13 @@ class Cache:
             st = exr.stat()
         except OSError:
             return False
-        return self._own.get(key) == (st.st_size, st.st_ino, st.st_mtime_ns) or self.intact(key)
+        seen = (st.st_size, st.st_ino, st.st_mtime_ns)
+        if self._trusted.get(key) == seen:
+            return True
+        if not self.intact(key):
+            return False
+        self._trusted[key] = seen  # as it was before the hash: a later change has another stat
+        return True
 
     def read_back(self, key: str, names: list[str]) -> dict | None:
         """Channels ``names`` of ``key``'s entry, read again from disk and not kept in memory

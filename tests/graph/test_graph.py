@@ -583,20 +583,28 @@ def test_a_released_input_is_read_back_from_its_cache_entry_bit_for_bit(tmp_path
     assert _TReadBack.seen == [("z_last", False, True)]
 
 
-def test_read_back_checks_an_entry_touched_since_written(tmp_path):
+def test_read_back_checks_an_entry_touched_since_written(tmp_path, monkeypatch):
     """``Cache.usable``: an entry this process wrote is trusted while its stat is unchanged;
-    touched, it is hashed again (intact: usable), and a changed byte makes it unusable."""
+    touched, it is hashed again (intact: usable) once, then trusted while unchanged; a changed
+    byte makes it unusable."""
     import os
 
+    from proxyshade.graph import cache as cache_mod
     from proxyshade.graph.cache import Cache
+
+    hashed = []
+    real_sha = cache_mod._sha256
+    monkeypatch.setattr(cache_mod, "_sha256", lambda path: hashed.append(path) or real_sha(path))
 
     c = Cache(tmp_path / "cache", background=False)
     ids = np.arange(64, dtype=np.uint32).reshape(8, 8)
     c.store("k" * 64, Plate({"R": np.ones((8, 8), np.float32), "label.id": ids}), {"node": "a", "frame": 1})
     exr = c._paths("k" * 64)[0]
     assert c.usable("k" * 64) and c.read_back("k" * 64, ["label.id"])["label.id"].tobytes() == ids.tobytes()
+    assert len(hashed) == 1  # the store's own hash of its record, none since
     os.utime(exr, ns=(1, 1))
-    assert c.usable("k" * 64)
+    assert c.usable("k" * 64) and c.read_back("k" * 64, ["label.id"])["label.id"].tobytes() == ids.tobytes()
+    assert len(hashed) == 2  # checked whole once, then trusted while its stat holds
     data = bytearray(exr.read_bytes())
     data[-1] ^= 1
     exr.write_bytes(bytes(data))
