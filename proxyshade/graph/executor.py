@@ -42,8 +42,15 @@ class LocalExecutor:
 def order_key(dag: nx.DiGraph) -> Callable[[Hashable], tuple]:
     """Among vertices ready to run, those marked ``first`` (the engine marks writers: a
     preview or an EXR writer frees its input plate as soon as it has run) before the rest,
-    then by name: a deterministic order that holds fewer plates in memory at once."""
-    return lambda v: (not dag.nodes[v].get("first", False), str(v))
+    then the earliest frame, then by name: a deterministic order that holds fewer plates in
+    memory at once. By frame: a shot's frame is finished (and its writes begun) before the
+    next frame's nodes start; by name alone every frame's ProxyRender and ConsistentDepth ran
+    before the first Reproject (at 1024 wide, 40 MiB held per frame of the shot until its
+    Reproject ran, and the writers idle until then)."""
+    def key(v):
+        frame = v[1] if isinstance(v, tuple) and len(v) == 2 and isinstance(v[1], int) else 0
+        return (not dag.nodes[v].get("first", False), frame, str(v))
+    return key
 
 
 WRITER_THREADS = 2  # a first frame ends with its EXR (ZIP on one core, 0.45 s at 1024 wide) beside its preview

@@ -185,6 +185,11 @@ def read_float(path: str | Path) -> np.ndarray:
 # zlib level of the PNGs written (OpenImageIO's default 6): a 1024x1024 preview 0.17 -> 0.09
 # CPU s, its file 2 % larger; the pixels are the same at every level
 PNG_LEVEL = 2
+# libpng's row filter (``png:filter``): the average of left and up (PNG_FILTER_AVG) on every row
+# instead of libpng's default, all five tried on each row: 1024x1024 previews of the shot, CPU s
+# colour 0.14 -> 0.08 (its file 0.03 % larger), label.id 0.025 -> 0.010, flag 0.036 -> 0.010
+# (24 -> 29, 29 -> 39 KB); the pixels are the same with any filter
+PNG_FILTER = 0x40
 
 
 def write_png(path: str | Path, rgb8: np.ndarray) -> Path:
@@ -201,6 +206,7 @@ def write_png(path: str | Path, rgb8: np.ndarray) -> Path:
     h, w, c = rgb8.shape
     spec = oiio.ImageSpec(w, h, c, oiio.UINT8)
     spec.attribute("png:compressionLevel", PNG_LEVEL)
+    spec.attribute("png:filter", PNG_FILTER)
     tmp, out = None, None
     try:
         target.parent.mkdir(parents=True, exist_ok=True)

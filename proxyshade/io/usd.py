@@ -387,6 +387,22 @@ def sphere_segments(radius_px: float, max_error_px: float = 0.25, cap: int = 512
     return int(min(max(n + (n % 2), 8), cap))
 
 
+def vertex_normal_sums(pts: np.ndarray, tris: np.ndarray, fn: np.ndarray) -> np.ndarray:
+    """(V, 3) sums of the face vectors ``fn`` (T, 3) over the faces at each vertex, in the order
+    ``np.add.at(out, tris[:, k], fn)`` for k = 0, 1, 2 adds them: the same bits. For float64,
+    ``np.bincount`` per coordinate (its loop adds in input order, in float64) in place of
+    ``np.add.at`` (lake's terrain, 32768 faces: 9.2 -> 1.0 ms CPU a frame)."""
+    out = np.zeros((len(pts), 3), fn.dtype)
+    if fn.dtype != np.float64:
+        for k in range(3):
+            np.add.at(out, tris[:, k], fn)
+        return out
+    idx = np.ascontiguousarray(tris.T).reshape(-1)  # tris[:, 0], then tris[:, 1], then tris[:, 2]
+    for c in range(3):
+        out[:, c] = np.bincount(idx, weights=np.tile(fn[:, c], 3), minlength=len(pts))
+    return out
+
+
 def world_mesh(prim: ScenePrim, cam: CameraInfo | None = None, max_error_px: float = 0.25
                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """World-space (points, tris, vertex normals) of a prim; spheres are tessellated for
@@ -410,10 +426,7 @@ def world_mesh(prim: ScenePrim, cam: CameraInfo | None = None, max_error_px: flo
     else:
         pts, tris = prim.points, prim.tris
         a, b, c = pts[tris[:, 0]], pts[tris[:, 1]], pts[tris[:, 2]]
-        fn = np.cross(b - a, c - a)
-        normals = np.zeros_like(pts)
-        for k in range(3):
-            np.add.at(normals, tris[:, k], fn)
+        normals = vertex_normal_sums(pts, tris, np.cross(b - a, c - a))
         normals = normals @ np.linalg.inv(M[:3, :3])
     wp = pts @ M[:3, :3].T + M[:3, 3]
     nn = np.linalg.norm(normals, axis=1, keepdims=True)

@@ -85,6 +85,13 @@ class Reproject(Carry, Progressive, Node):
 
     version = 1
     time_dependent = True  # the frame is recorded in meta['temporal']
+    # not stored (kept in memory for its frame's Resynthesize, computed again when read): its one
+    # reader is that frame's Resynthesize, whose key changes with it through the previous final
+    # frame, so a later run never reads it back; its entry cost 0.28 CPU s an update frame at
+    # 1024 wide (ZSTD, 22 channels, 30 MiB) and held each 88 MiB plate until written. Stored when
+    # progressive (its update starts from the last run's result; a progressive Resynthesize after
+    # a Reproject that is not finds no last input and computes its frame whole)
+    stored = False
     depth = Input("this frame's ConsistentDepth: label.id, Z, category, camera", channels=("label.id", "Z"),
                   fix="connect this frame's ConsistentDepth")
     prev = Input("the previous final frame (Poisson at frame: -1): R,G,B, source.x/y, patch.id, label.id, Z",

@@ -92,8 +92,9 @@ def test_camera_move_on_dask_is_bit_identical_to_local(tmp_path, dask_ex):
     assert sum(x.seconds for x in r.runs) > 0 and any(n.startswith("computed on Dask (tcp://127.0.0.1:") for n in r.notes)
     assert any("flagged" in n for n in r.notes)  # the nodes' notes come back from the workers
     intact = entries_intact(tmp_path / "c_dask")
-    # and the plates the local run keeps in memory only (Node.stored: Cryptomatte), which a worker stores for the others
-    unstored = {x.key for x in local.runs if x.node == "crypto"}
+    # and the plates the local run keeps in memory only (Node.stored: Cryptomatte, Reproject), which a worker stores
+    # for the others
+    unstored = {x.key for x in local.runs if x.node in ("crypto", "reproject")}
     assert unstored and not unstored & set(entries_intact(tmp_path / "c_local"))
     assert intact and all(intact.values()) and set(intact) == set(entries_intact(tmp_path / "c_local")) | unstored
     again = small_move(tmp_path / "c_dask", tmp_path / "dask").run([1, 2, 3, 4], executor=dask_ex)

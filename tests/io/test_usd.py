@@ -138,3 +138,20 @@ def test_orthographic_camera_is_a_one_line_error():
     with pytest.raises(UserError, match="camera /Cam is orthographic") as e:
         U.camera_at(s, "/Cam", 1, 10, 10)
     assert "\n" not in str(e.value)
+
+
+@pytest.mark.parametrize("dtype", [np.float64, np.float32])
+def test_vertex_normal_sums_are_np_add_at_bit_for_bit(dtype):
+    """The faces' vectors summed per vertex as np.add.at sums them, in the same order: the
+    same bits (shared vertices, a vertex used by no face, repeated faces)."""
+    rng = np.random.default_rng(3)
+    for v, t in ((7, 12), (200, 900), (1, 1)):
+        pts = rng.normal(size=(v, 3)).astype(dtype) * 10.0 ** rng.integers(-3, 4, size=(v, 1))
+        tris = rng.integers(0, max(v - 1, 1), size=(t, 3)).astype(np.int64)
+        fn = np.cross(pts[tris[:, 1]] - pts[tris[:, 0]], pts[tris[:, 2]] - pts[tris[:, 0]])
+        want = np.zeros_like(pts)
+        for k in range(3):
+            np.add.at(want, tris[:, k], fn)
+        got = U.vertex_normal_sums(pts, tris, fn)
+        assert got.dtype == want.dtype and got.shape == want.shape
+        assert got.tobytes() == want.tobytes()

@@ -393,3 +393,48 @@ def test_snap_to_label_moves_kept_pixels_half_off_their_label_back_onto_it():
                                + np.stack([b[f"correction.{c}"] for c in "RGB"], -1)[off], atol=1e-6)
     for c in ("source.x", "source.y", "patch.id", "flag", "R"):
         np.testing.assert_array_equal(b[c][~off], a[c][~off])
+
+
+def test_camera_move_stores_no_reproject_entry_and_a_rerun_recomputes_only_what_it_must(tmp_path):
+    """graphs/camera_move.yaml at 64², frames 1-3: Reproject's plates are not stored (its frame's
+    Resynthesize is their one reader); an edit of a late node recomputes that node alone; a
+    final frame lost from the cache (or forced) is computed again through Reproject, bit for bit."""
+    import json
+    from pathlib import Path
+
+    from proxyshade.graph.graph import Graph
+
+    graph = Path(__file__).resolve().parents[2] / "graphs" / "camera_move.yaml"
+    cache = tmp_path / "cache"
+
+    def load(*sets):
+        return Graph.load(graph, cache=cache, overrides=["proxy.resolution=[64,64]", "guide.size=32", "guide.start=16",
+                                                         *sets], variables={"out": str(tmp_path / "out")})
+
+    def computed(r):
+        return {(x.node, x.frame) for x in r.runs if x.status == "computed"}
+
+    def finals():
+        g = load()
+        return {f: {c: g.value("final", f)[c].tobytes() for c in g.value("final", f).names()} for f in (1, 2, 3)}
+
+    r = load().run([1, 2, 3])
+    assert {("reproject", f) for f in (1, 2, 3)} <= computed(r)
+    records = [json.loads(p.read_text()) for p in cache.glob("??/*.json")]
+    stored = {(rec["node"], rec["frame"]) for rec in records if not rec.get("sink")}
+    assert {("final", f) for f in (1, 2, 3)} | {("cd", f) for f in (1, 2, 3)} <= stored
+    assert not any(n == "reproject" for n, _ in stored)
+    before = finals()
+    assert not load().run([1, 2, 3]).computed  # all cache: Reproject is not needed
+    # an edit of a late node: that node alone
+    assert computed(load("flags.exposure=1").run([1, 2, 3])) == {("flags", f) for f in (1, 2, 3)}
+    # final@2's entry lost: final@2 again, from Reproject computed again (final@3 is still stored)
+    (entry,) = [p for p in cache.glob("??/*.json")
+                if (rec := json.loads(p.read_text())).get("node") == "final" and rec.get("frame") == 2]
+    entry.unlink()
+    entry.with_suffix(".exr").unlink()
+    assert computed(load().run([1, 2, 3])) == {("reproject", 2), ("final", 2)}
+    assert finals() == before
+    # forced: every final frame again, each from its Reproject, the same bits
+    assert {("reproject", 2), ("reproject", 3), ("final", 3)} <= computed(load().run([1, 2, 3], force=("final",)))
+    assert finals() == before
