@@ -264,12 +264,65 @@ def _run_pass(coords, img, target, labels, vertical, parity, stamp, tried, span,
         if lines[lt, line] > lines[ls, line] and (line == 0 or lines[lt, line] > lines[ls, line - 1]) and (
                 line == nl - 1 or lines[lt, line] > lines[ls, line + 1]):
             continue
+        last = lines[lt, line]  # the clock when the line was last tried (0: never, or the clock wrapped)
         lines[lt, line] = clock
         rc = np.empty(L, np.float64)
         rv = np.empty(L, np.bool_)
         lo_end = np.empty(L, np.float64)
         hi_end = np.empty(L, np.float64)
-        for t in range(L):
+        # Only the stretches with a change near them are tried again. A column of the line is
+        # dirty where a pixel of it, or of a neighbour line, changed since ``last`` (stamp >= last).
+        # A run start (``_run_at``) whose run, the pixel before it and the one after it are in clean
+        # columns reads only what it read when the line was last tried, when it was tried or
+        # found unchanged: ``_run_at`` would return 0 and write nothing. So each dirty column c
+        # brings the positions c and c + 1 (their start test reads c) and the start of each run
+        # holding c - 1 or c (walked back from there), with everything between, in order; every
+        # other position is passed over. A move writes its pixels' stamps (the clock), so what
+        # it changes ahead is dirty when the scan gets there. The result is the full scan's.
+        t = 0
+        until = 0  # positions below this are tried in full
+        while t < L:
+            if t >= until:
+                c = t - 1 if t > 0 else 0
+                while c < L:  # the next dirty column
+                    dirty = False
+                    for dl in range(-1, 2):
+                        m = line + dl
+                        if 0 <= m < nl and (stamp[c, m] if vertical else stamp[m, c]) >= last:
+                            dirty = True
+                    if dirty:
+                        break
+                    c += 1
+                if c >= L:
+                    break
+                s = c if c >= t else t
+                for p in range(c - 1, c + 1):
+                    if p < t:
+                        continue
+                    i, j = (p, line) if vertical else (line, p)
+                    ti = target[i, j]
+                    for kk in range(2):  # the start of the run across kk holding p, not before t
+                        dy, dx = (0, 2 * kk - 1) if vertical else (2 * kk - 1, 0)
+                        y, x = i + dy, j + dx
+                        if y < 0 or x < 0 or y >= H or x >= W or target[y, x] != ti:
+                            continue
+                        ay, ax = coords[i, j, 0] - i, coords[i, j, 1] - j
+                        by, bx = coords[y, x, 0] - y, coords[y, x, 1] - x
+                        if ay == by and ax == bx:
+                            continue
+                        q = p
+                        while q > t:
+                            u, v = (q - 1, line) if vertical else (line, q - 1)
+                            if (target[u, v] == ti and target[u + dy, v + dx] == ti
+                                    and coords[u, v, 0] - u == ay and coords[u, v, 1] - v == ax
+                                    and coords[u + dy, v + dx, 0] - (u + dy) == by
+                                    and coords[u + dy, v + dx, 1] - (v + dx) == bx):
+                                q -= 1
+                            else:
+                                break
+                        s = min(s, q)
+                t = s
+                until = c + 2
             i, j = (t, line) if vertical else (line, t)
             ti = target[i, j]
             for kk in range(2):
@@ -292,6 +345,7 @@ def _run_pass(coords, img, target, labels, vertical, parity, stamp, tried, span,
                     continue  # it continues the run
                 moved[line] += _run_at(coords, img, target, labels, i, j, k, rc=rc, rv=rv, lo_end=lo_end, hi_end=hi_end,
                                        stamp=stamp, tried=tried, span=span, clock=clock)
+            t += 1
     return moved.sum()
 
 
