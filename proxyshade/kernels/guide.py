@@ -390,11 +390,38 @@ def correct(coords, ex: Exemplar, guide: Guide, rule: Rule, *, passes, active=No
     active = np.ones(coords.shape[:2], np.bool_) if active is None else np.ascontiguousarray(active, np.bool_)
     if not active.any():
         return coords
+    # A pixel's correction reads only the state in its 5×5 window (the synthesized window,
+    # the 3×3 neighbours' candidates, the 4-neighbours' labels): one corrected before, none of
+    # whose window changed since (nor in the sub-pass that corrected it, whose snapshot it
+    # read), would come out as it is, so it is not corrected again (the same result).
+    H, W = coords.shape[:2]
+    changed = np.full((H, W), -1, np.int64)  # the sub-pass that last changed each pixel
+    tried = np.full((H, W), -1, np.int64)  # ... that last corrected it (-1: none yet)
+    s = 0
     for _ in range(passes):
         for par_i, par_j in ((0, 0), (1, 1), (0, 1), (1, 0)):
+            need = np.zeros((H, W), np.bool_)
+            sub = (slice(par_i, None, 2), slice(par_j, None, 2))
+            need[sub] = active[sub] & (_max5(changed)[sub] >= tried[sub])
             snap = coords.copy()
-            _subpass(snap, coords, active, (par_i, par_j), ex, guide, rule)
+            if need.any():
+                _subpass(snap, coords, need, (par_i, par_j), ex, guide, rule)
+            changed[(coords != snap).any(-1)] = s
+            tried[need] = s
+            s += 1
     return coords
+
+
+def _max5(a: np.ndarray) -> np.ndarray:
+    """The largest of ``a`` over each pixel's 5×5 window (clamped at the borders)."""
+    p = np.pad(a, R, mode="edge")
+    rows = p[:, 0:-2 * R].copy()
+    for d in range(1, 2 * R + 1):
+        np.maximum(rows, p[:, d:d + a.shape[1]], out=rows)
+    out = rows[0:a.shape[0]].copy()
+    for d in range(1, 2 * R + 1):
+        np.maximum(out, rows[d:d + a.shape[0]], out=out)
+    return out
 
 
 def adjacency(*label_maps: np.ndarray, n: int) -> np.ndarray:

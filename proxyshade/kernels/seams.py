@@ -256,43 +256,106 @@ def _run_pass(coords, img, target, labels, vertical, parity, stamp, tried, span,
     ``_run_at``; ``lines``: as ``_sub_pass`` (a line none of whose pixels or its neighbour
     lines' changed since it was last tried is not tried again); ``moved`` (zeros): the number
     of pixels moved per line is added."""
+    nl = target.shape[1] if vertical else target.shape[0]
+    for li in prange((nl - parity + 1) // 2):
+        # the line's index as int64: a parallel loop types it twice (int64, uint64), its callees compile twice
+        _run_line(coords, img, target, labels, vertical, np.int64(2 * li + parity), stamp, tried, span, lines, clock,
+                  moved)
+    return moved.sum()
+
+
+@njit(**JIT)
+def _run_line(coords, img, target, labels, vertical, line, stamp, tried, span, lines, clock, moved):
+    """Line ``line`` of ``_run_pass`` (its loop body: a serial kernel compiles faster than the same
+    code inside a parallel loop)."""
     H, W = target.shape
     nl, L = (W, H) if vertical else (H, W)
     ls, lt = (1, 5) if vertical else (0, 4)
-    for li in prange((nl - parity + 1) // 2):
-        line = 2 * li + parity
-        if lines[lt, line] > lines[ls, line] and (line == 0 or lines[lt, line] > lines[ls, line - 1]) and (
-                line == nl - 1 or lines[lt, line] > lines[ls, line + 1]):
-            continue
-        lines[lt, line] = clock
-        rc = np.empty(L, np.float64)
-        rv = np.empty(L, np.bool_)
-        lo_end = np.empty(L, np.float64)
-        hi_end = np.empty(L, np.float64)
-        for t in range(L):
-            i, j = (t, line) if vertical else (line, t)
-            ti = target[i, j]
-            for kk in range(2):
-                # does (i, j) start a run across k (``_run_at``)? Written out here: most pixels are on no
-                # seam or inside a run, and this test is most of the loop's cost; coords are read
-                # again after each run move
-                k = (1 + kk) if vertical else 3 * kk
-                dy, dx = (0, 2 * kk - 1) if vertical else (2 * kk - 1, 0)
-                y, x = i + dy, j + dx
-                if y < 0 or x < 0 or y >= H or x >= W or target[y, x] != ti:
+    if lines[lt, line] > lines[ls, line] and (line == 0 or lines[lt, line] > lines[ls, line - 1]) and (
+            line == nl - 1 or lines[lt, line] > lines[ls, line + 1]):
+        return
+    last = lines[lt, line]  # the clock when the line was last tried (0: never, or the clock wrapped)
+    lines[lt, line] = clock
+    rc = np.empty(L, np.float64)
+    rv = np.empty(L, np.bool_)
+    lo_end = np.empty(L, np.float64)
+    hi_end = np.empty(L, np.float64)
+    # Only the stretches with a change near them are tried again. A column of the line is
+    # dirty where a pixel of it, or of a neighbour line, changed since ``last`` (stamp >= last).
+    # A run start (``_run_at``) whose run, the pixel before it and the one after it are in clean
+    # columns reads only what it read when the line was last tried, when it was tried or
+    # found unchanged: ``_run_at`` would return 0 and write nothing. So each dirty column c
+    # brings the positions c and c + 1 (their start test reads c) and the start of each run
+    # holding c - 1 or c (walked back from there), with everything between, in order; every
+    # other position is passed over. A move writes its pixels' stamps (the clock), so what
+    # it changes ahead is dirty when the scan gets there. The result is the full scan's.
+    t = 0
+    until = 0  # positions below this are tried in full
+    while t < L:
+        if t >= until:
+            c = t - 1 if t > 0 else 0
+            while c < L:  # the next dirty column
+                dirty = False
+                for dl in range(-1, 2):
+                    m = line + dl
+                    if 0 <= m < nl and (stamp[c, m] if vertical else stamp[m, c]) >= last:
+                        dirty = True
+                if dirty:
+                    break
+                c += 1
+            if c >= L:
+                break
+            s = c if c >= t else t
+            for p in range(c - 1, c + 1):
+                if p < t:
                     continue
-                ay, ax = coords[i, j, 0] - i, coords[i, j, 1] - j
-                by, bx = coords[y, x, 0] - y, coords[y, x, 1] - x
-                if ay == by and ax == bx:
-                    continue
-                u, v = (i - 1, j) if vertical else (i, j - 1)  # the predecessor along the seam
-                if (u >= 0 and v >= 0 and target[u, v] == ti and target[u + dy, v + dx] == ti
-                        and coords[u, v, 0] - u == ay and coords[u, v, 1] - v == ax
-                        and coords[u + dy, v + dx, 0] - (u + dy) == by and coords[u + dy, v + dx, 1] - (v + dx) == bx):
-                    continue  # it continues the run
-                moved[line] += _run_at(coords, img, target, labels, i, j, k, rc=rc, rv=rv, lo_end=lo_end, hi_end=hi_end,
-                                       stamp=stamp, tried=tried, span=span, clock=clock)
-    return moved.sum()
+                i, j = (p, line) if vertical else (line, p)
+                ti = target[i, j]
+                for kk in range(2):  # the start of the run across kk holding p, not before t
+                    dy, dx = (0, 2 * kk - 1) if vertical else (2 * kk - 1, 0)
+                    y, x = i + dy, j + dx
+                    if y < 0 or x < 0 or y >= H or x >= W or target[y, x] != ti:
+                        continue
+                    ay, ax = coords[i, j, 0] - i, coords[i, j, 1] - j
+                    by, bx = coords[y, x, 0] - y, coords[y, x, 1] - x
+                    if ay == by and ax == bx:
+                        continue
+                    q = p
+                    while q > t:
+                        u, v = (q - 1, line) if vertical else (line, q - 1)
+                        if (target[u, v] == ti and target[u + dy, v + dx] == ti
+                                and coords[u, v, 0] - u == ay and coords[u, v, 1] - v == ax
+                                and coords[u + dy, v + dx, 0] - (u + dy) == by
+                                and coords[u + dy, v + dx, 1] - (v + dx) == bx):
+                            q -= 1
+                        else:
+                            break
+                    s = min(s, q)
+            t = s
+            until = c + 2
+        i, j = (t, line) if vertical else (line, t)
+        ti = target[i, j]
+        for kk in range(2):
+            # does (i, j) start a run across k (``_run_at``)? Written out here: most pixels are on no
+            # seam or inside a run, and this test is most of the loop's cost; coords are read
+            # again after each run move
+            k = (1 + kk) if vertical else 3 * kk
+            dy, dx = (0, 2 * kk - 1) if vertical else (2 * kk - 1, 0)
+            y, x = i + dy, j + dx
+            if y < 0 or x < 0 or y >= H or x >= W or target[y, x] != ti:
+                continue
+            ay, ax = coords[i, j, 0] - i, coords[i, j, 1] - j
+            by, bx = coords[y, x, 0] - y, coords[y, x, 1] - x
+            if ay == by and ax == bx:
+                continue
+            u, v = (i - 1, j) if vertical else (i, j - 1)  # the predecessor along the seam
+            if (u >= 0 and v >= 0 and target[u, v] == ti and target[u + dy, v + dx] == ti
+                    and coords[u, v, 0] - u == ay and coords[u, v, 1] - v == ax
+                    and coords[u + dy, v + dx, 0] - (u + dy) == by and coords[u + dy, v + dx, 1] - (v + dx) == bx):
+                continue  # it continues the run
+            moved[line] += _run_at(coords, img, target, labels, i, j, k, rc=rc, rv=rv, lo_end=lo_end, hi_end=hi_end,
+                                   stamp=stamp, tried=tried, span=span, clock=clock)
+        t += 1
 
 
 class SeamMemory:

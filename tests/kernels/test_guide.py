@@ -173,6 +173,44 @@ def test_masked_subpass_corrects_the_active_pixels_as_the_reference_and_keeps_th
     assert np.array_equal(outs[0], outs[1]) and np.array_equal(outs[0][~active], S[~active])
 
 
+@pytest.mark.parametrize("metric,h,masked", [(0, 1, False), (1, 2, False), (0, 2, True)])
+def test_correction_passes_match_the_reference_subpasses(metric, h, masked):
+    """``correct`` passes over the pixels none of whose 5×5 window changed since they were
+    last corrected: its passes equal the reference's sub-passes correcting every (active)
+    pixel each time."""
+    rng = np.random.default_rng(30 + metric + h)
+    n, ex_lab, target, S, sim, ex_col, tgt_col, locked, allowed = subpass_case(rng)
+    active = rng.random(target.shape) < 0.6 if masked else np.ones(target.shape, bool)
+    masks, tmasks = kg.exemplar_masks(ex_lab, h, n), kg.grid_masks(target, n)
+    got = kg.correct(S, kg.Exemplar(ex_lab, masks, ex_col, sim), kg.Guide(tmasks, tgt_col, target, locked, allowed),
+                     kg.Rule(h, 0.7, metric, n), passes=4, active=active if masked else None)
+    want = S.copy()
+    for _ in range(4):
+        for pi, pj in ((0, 0), (1, 1), (0, 1), (1, 0)):
+            ref = subpass_ref(want, pi, pj, ex_lab, ex_col, sim, tgt_col, target, locked, allowed, h, 0.7, metric)
+            want = np.where(active[..., None], ref, want)
+    assert np.array_equal(got, want) and (got != S).any()
+
+
+def test_correction_passes_on_a_larger_map_match_every_pixel_corrected():
+    rng = np.random.default_rng(5)
+    n = 4
+    ex_lab, target = blobs(rng, 40, 36, n, k=12), blobs(rng, 48, 40, n, k=10)
+    masks = kg.exemplar_masks(ex_lab, 1, n)
+    sim = kg.similarity_sets(ex_lab, masks, np.zeros((1, 1, 3)), 1, 3, 24, 1, 0)
+    S0 = kg.init_state(target, ex_lab, 2)
+    args = (kg.Exemplar(ex_lab, masks, np.zeros((1, 1, 3)), sim),
+            kg.Guide(kg.grid_masks(target, n), np.zeros((1, 1, 75)), target, np.zeros(target.shape, bool),
+                     kg.adjacency(ex_lab, target, n=n)), kg.Rule(1, 1.0, 0, n))
+    got = kg.correct(S0, *args, passes=5)
+    want, every = S0.copy(), np.ones(target.shape, bool)
+    for _ in range(5):
+        for par in ((0, 0), (1, 1), (0, 1), (1, 0)):
+            snap = want.copy()
+            kg._subpass(snap, want, every, par, *args)
+    assert np.array_equal(got, want) and (got != S0).any()
+
+
 def test_correction_is_thread_count_independent():
     rng = np.random.default_rng(3)
     n = 4

@@ -199,6 +199,24 @@ def test_run_moves_match_reference_exactly(seed):
     assert moves >= int((got != S).any(-1).sum())
 
 
+@pytest.mark.parametrize("seed,shape", [(0, (8, 40)), (1, (8, 40)), (0, (40, 8))])
+def test_run_moves_passing_over_unchanged_stretches_match_reference(seed, shape):
+    # long lines on which later passes change a few places: ``_run_pass`` tries again only
+    # the stretches with a change near them (and the runs reaching them); the maps after a
+    # call, and after a second call on one memory once a few pixels far along the lines were
+    # moved, are the full scan's
+    H, W = shape
+    S, img, target, labels = random_case(seed, H=H, W=W, Hs=H + 24, Ws=W + 24)
+    img = (img + np.roll(img, 1, 0) + np.roll(img, 1, 1) + np.roll(img, -1, 1)) / 4
+    memory = ks.SeamMemory()
+    first, _ = ks.refine_seams(S, img, target, labels, 4, runs=True, memory=memory)
+    assert np.array_equal(first, ref_refine(S, img, target, labels, 4, runs=True))
+    edited = first.copy()
+    edited[H - 6:H - 3, W - 7:W - 4, 0] += 1  # a small patch moved near one end of the lines
+    got, _ = ks.refine_seams(edited, img, target, labels, 4, runs=True, memory=memory)
+    assert np.array_equal(got, ref_refine(edited, img, target, labels, 4, runs=True))
+
+
 def test_a_straight_seam_shifts_where_one_pixel_moves_stick():
     # two patches side by side over 12 rows (offsets 0 and +20 columns); D[r, c], how far
     # the two offsets' colours differ at pixel (r, c), is set per column: the seam at 4|5
