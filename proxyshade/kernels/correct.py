@@ -315,6 +315,11 @@ def _usage_excess(coords, src_lab, expected, R, out):
 
 
 
+RARE_TAIL = 0.025  # the shares of a label's darkest and brightest exemplar pixels that make its rare look
+RARE_CONTRAST = 0.15  # a rare pixel's least luma distance from its label's median (sRGB, 0-1)
+RARE_WEIGHT = 1.0  # a candidate on a rare look pays × (1 + RARE_WEIGHT × its window's over-use of the budget)
+
+
 @njit(**JIT)
 def _rare_excess(coords, src_lab, rare, budget, R, out):
     """The rare-look budget: for each exemplar pixel of ``rare`` (its label's rare look,
@@ -354,10 +359,12 @@ def _rare_excess(coords, src_lab, rare, budget, R, out):
             out[y, x] = max(u / e - 1.0, 0.0)
 
 
-def rare_mask(src_lab: np.ndarray, src_rgb: np.ndarray, nlab: int, tail: float) -> np.ndarray:
+def rare_mask(src_lab: np.ndarray, src_rgb: np.ndarray, nlab: int, tail: float,
+              contrast: float = RARE_CONTRAST) -> np.ndarray:
     """(He, We) bool: each label's rare look, its ``tail`` darkest and ``tail`` brightest
     exemplar pixels by luma (``src_rgb``: 255 · sRGB, the colour features; ties at the
-    thresholds included): ``kernels.quality.rare_looks`` at the level's colours."""
+    thresholds included) at least ``contrast`` × 255 from the label's median luma:
+    ``kernels.quality.rare_looks`` at the level's colours."""
     lab = np.asarray(src_lab).ravel()
     rgb = np.asarray(src_rgb, np.float64).reshape(-1, 3)
     lum = 0.2126 * rgb[:, 0] + 0.7152 * rgb[:, 1] + 0.0722 * rgb[:, 2]
@@ -368,7 +375,8 @@ def rare_mask(src_lab: np.ndarray, src_rgb: np.ndarray, nlab: int, tail: float) 
             continue
         v = np.sort(lum[idx])
         k = max(1, int(round(tail * idx.size)))
-        out[idx[(lum[idx] <= v[k - 1]) | (lum[idx] >= v[-k])]] = True
+        t, med = lum[idx], v[(v.size - 1) // 2]
+        out[idx[((t <= v[k - 1]) | (t >= v[-k])) & (np.abs(t - med) >= contrast * 255.0)]] = True
     return out.reshape(np.shape(src_lab))
 
 
@@ -382,8 +390,6 @@ def rare_budgets(expected: np.ndarray, copies: float, h: int) -> np.ndarray:
     return np.where(np.asarray(expected) > cap, cap, 0.0).astype(np.float64)
 
 
-RARE_TAIL = 0.025  # the shares of a label's darkest and brightest exemplar pixels that make its rare look
-RARE_WEIGHT = 1.0  # a candidate on a rare look pays × (1 + RARE_WEIGHT × its window's over-use of the budget)
 TONE_FLOOR = 0.05  # the least factor of the tone-balance term (a tone the target lacks entirely)
 TONE_BINS = 16  # luma bins of the tone-balance term (``_tone_balance``)
 TONE_FREE_PASSES = 2  # the finest level's last passes run without it (bench_photos: window chi2 / EbSynth 1.17 -> 1.08 at 0.5)

@@ -151,10 +151,12 @@ def label_repetition(sx: np.ndarray, sy: np.ndarray, labels: np.ndarray, source_
 
 
 
-def rare_looks(source_srgb: np.ndarray, source_labels: np.ndarray, *, tail: float = 0.025) -> np.ndarray:
+def rare_looks(source_srgb: np.ndarray, source_labels: np.ndarray, *, tail: float = 0.025,
+               contrast: float = 0.15) -> np.ndarray:
     """(H, W) bool: each label's rare look, its ``tail`` darkest and ``tail`` brightest
-    source pixels by luma (ties at the thresholds included): the white tents on a plain, the
-    dark bushes along a field, a cloud's bright rim."""
+    source pixels by luma (ties at the thresholds included) that differ from the label's
+    median luma by at least ``contrast``: the white tents on a plain, the dark bushes along a
+    field (a flat sky's brightest pixels are not a look of their own)."""
     sl = np.asarray(source_labels).astype(np.int64)
     lum = luma(np.asarray(source_srgb, np.float64)).ravel()
     flat = sl.ravel()
@@ -163,7 +165,8 @@ def rare_looks(source_srgb: np.ndarray, source_labels: np.ndarray, *, tail: floa
         idx = np.flatnonzero(flat == lab)
         v = np.sort(lum[idx])
         k = max(1, int(round(tail * idx.size)))
-        out[idx[(lum[idx] <= v[k - 1]) | (lum[idx] >= v[-k])]] = True
+        t, med = lum[idx], v[(v.size - 1) // 2]
+        out[idx[((t <= v[k - 1]) | (t >= v[-k])) & (np.abs(t - med) >= contrast)]] = True
     return out.reshape(sl.shape)
 
 

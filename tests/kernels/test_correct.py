@@ -544,9 +544,10 @@ def rare_excess_reference(S, src_lab, rare, budget, R):
     return out
 
 
-def rare_mask_reference(src_lab, src_rgb, nlab, tail):
+def rare_mask_reference(src_lab, src_rgb, nlab, tail, contrast):
     """``rare_mask`` written out: per label, its pixels at least as dark as its k-th darkest
-    or as bright as its k-th brightest, k = round(tail × the label's pixels), at least 1."""
+    or as bright as its k-th brightest, k = round(tail × the label's pixels), at least 1, and
+    at least ``contrast`` × 255 from the label's median luma (the lower middle one)."""
     out = np.zeros(src_lab.shape, bool)
     luma = lambda p: 0.2126 * float(src_rgb[p][0]) + 0.7152 * float(src_rgb[p][1]) + 0.0722 * float(src_rgb[p][2])  # noqa: E731
     for l in range(nlab):
@@ -555,8 +556,9 @@ def rare_mask_reference(src_lab, src_rgb, nlab, tail):
             continue
         v = sorted(luma(p) for p in pts)
         k = max(1, int(round(tail * len(pts))))
+        med = v[(len(v) - 1) // 2]
         for p in pts:
-            out[p] = luma(p) <= v[k - 1] or luma(p) >= v[-k]
+            out[p] = (luma(p) <= v[k - 1] or luma(p) >= v[-k]) and abs(luma(p) - med) >= contrast * 255
     return out
 
 
@@ -564,8 +566,11 @@ def rare_mask_reference(src_lab, src_rgb, nlab, tail):
 @pytest.mark.parametrize("R", [1, 2])
 def test_rare_excess_and_mask_match_reference(seed, R):
     S, src_lab, src_rgb, n = tone_case(seed, 4)  # a clump: one pixel over-used
+    for contrast in (0.0, 0.3):
+        np.testing.assert_array_equal(kc.rare_mask(src_lab, src_rgb, n, 0.1, contrast),
+                                      rare_mask_reference(src_lab, src_rgb, n, 0.1, contrast))
     rare = kc.rare_mask(src_lab, src_rgb, n, 0.05)
-    np.testing.assert_array_equal(rare, rare_mask_reference(src_lab, src_rgb, n, 0.05))
+    np.testing.assert_array_equal(rare, rare_mask_reference(src_lab, src_rgb, n, 0.05, kc.RARE_CONTRAST))
     S[:2] = np.argwhere(rare)[0]  # a rare pixel over-used
     budget = np.array([0.3, 0.0, 0.5])  # label 1 without a budget
     out = np.full(src_lab.shape, np.nan)
