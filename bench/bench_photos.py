@@ -525,8 +525,9 @@ def main(argv=None) -> None:
     ap.add_argument("--out", type=Path, default=ROOT / "out" / "bench_photos", help="contact sheets, EbSynth outputs")
     ap.add_argument("--stages", action="store_true",
                     help="only where each label's std goes: its ratio to the photo's after each stage (``stages``)")
-    ap.add_argument("--rare", action="store_true",
-                    help="also each label's rare look (its 2.5 %% darkest and brightest source pixels) after PatchInit, "
+    ap.add_argument("--rare", type=float, nargs="?", const=0.1, default=None, metavar="TAIL",
+                    help="also each label's rare look (its TAIL darkest and brightest source pixels, at least 0.15 "
+                         "from its median luma; default 0.1) after PatchInit, "
                          "Correct and Magnify: its copies, an even draw's, the most copies of one 16² window "
                          "(``kernels.quality.rare_use``)")
     ap.add_argument("--frames", action="store_true",
@@ -563,7 +564,7 @@ def main(argv=None) -> None:
                 continue
             kept = {}
             runs = proxyshade(src, ids, variants, kept)
-            rare = Q.rare_looks(src_srgb, src["label.id"]) if args.rare else None
+            rare = Q.rare_looks(src_srgb, src["label.id"], tail=args.rare) if args.rare is not None else None
             figs, outs = {}, {}
             for name, (plate, dt) in runs.items():
                 rgb = plate.rgb()

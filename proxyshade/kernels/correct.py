@@ -895,7 +895,7 @@ def level_similarity_sets(levels: list, k: int, metric: Metric, *, seed: int, kn
 
 def synthesize(levels: list, S_init: np.ndarray, corr, *, seed: int, mask: np.ndarray | None = None,
                similarity: list | None = None, min_radius: int = 0, timings: dict | None = None,
-               tiles=None, rare_budget: float = 0.0) -> tuple[np.ndarray, list[dict]]:
+               tiles=None, rare_budget: float = 0.0, rare_tail: float = RARE_TAIL) -> tuple[np.ndarray, list[dict]]:
     """Coarse-to-fine correction of an initial coordinate map.
 
     Parameters
@@ -929,7 +929,8 @@ def synthesize(levels: list, S_init: np.ndarray, corr, *, seed: int, mask: np.nd
         depend on the exemplar side of the levels, k, w, height_weight, seed and
         knn_iterations only): passed again, the search is skipped (a later frame of one source).
     tiles : optional runner of row bands of the large levels' sub-passes (``correct_level``).
-    rare_budget : copies of a rare look allowed at the synthesis size (``correct_level``; 0: off).
+    rare_budget, rare_tail : copies of a rare look allowed at the synthesis size, the tails that
+        make it (``correct_level``; 0: off).
 
     Returns the corrected map and per-level statistics.
     """
@@ -974,7 +975,7 @@ def synthesize(levels: list, S_init: np.ndarray, corr, *, seed: int, mask: np.nd
                               spread_spacing=int(corr.spread_spacing),
                               keep_tones=start if anchor == "init" else None,
                               tone_over_only=bool(getattr(corr, "tone_over_only", False)),
-                              rare_budget=float(rare_budget))
+                              rare_budget=float(rare_budget), rare_tail=float(rare_tail))
         st.update(level=l, h=h, shape=shape, passes=n, radius=radius)
         stats.append(st)
     if mask is not None:
