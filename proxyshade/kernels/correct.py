@@ -27,8 +27,10 @@ The survivor closest to p's neighbourhood under eq. 1 augmented with colour and 
 replaces S[p]; when every candidate is rejected S[p] stays. Optional factors on a
 candidate's distance: the usage term (``_usage_excess``), the tone balance (``_tone_balance``,
 Kopf et al. 2007's histogram reweighting with ``tone_over_only``), the tone spread
-(``_tone_spread``) and the tone match (``_tone_z``: a pixel keeps its tone's z-score in its
-label); docs/synthesis.md has their figures.
+(``_tone_spread``), the tone match (``_tone_z``: a pixel keeps its tone's z-score in its
+label) and the rare-look budget (``_rare_excess``: a label's darkest and brightest looks
+copied at most a given number of times in a frame larger than the photo); docs/synthesis.md
+and docs/formats.md have their figures.
 
 References
 ----------
@@ -315,7 +317,7 @@ def _usage_excess(coords, src_lab, expected, R, out):
 
 
 
-RARE_TAIL = 0.025  # the shares of a label's darkest and brightest exemplar pixels that make its rare look
+RARE_TAIL = 0.1  # the shares of a label's darkest and brightest exemplar pixels that make its rare look
 RARE_CONTRAST = 0.15  # a rare pixel's least luma distance from its label's median (sRGB, 0-1)
 RARE_WEIGHT = 1.0  # a candidate on a rare look pays × (1 + RARE_WEIGHT × its window's over-use of the budget)
 

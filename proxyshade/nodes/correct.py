@@ -41,7 +41,7 @@ class Correct(Correction, Node):
                             "tents on a plain, bushes along a field) allowed at the synthesis size, where an "
                             "even draw over the label would copy it more (a frame larger than the photo): "
                             "candidates on it pay 1 + their window's over-use; 0 = off")
-    rare_tail = Param(float, 0.025, min=0.001, max=0.5,
+    rare_tail = Param(float, 0.1, min=0.001, max=0.5,
                       doc="the shares of a label's darkest and brightest source pixels (at least 0.15 in luma from "
                           "its median) that make its rare look, for rare_budget")
 
