@@ -151,7 +151,7 @@ def label_repetition(sx: np.ndarray, sy: np.ndarray, labels: np.ndarray, source_
 
 
 
-def rare_looks(source_srgb: np.ndarray, source_labels: np.ndarray, *, tail: float = 0.025,
+def rare_looks(source_srgb: np.ndarray, source_labels: np.ndarray, *, tail: float = 0.1,
                contrast: float = 0.15) -> np.ndarray:
     """(H, W) bool: each label's rare look, its ``tail`` darkest and ``tail`` brightest
     source pixels by luma (ties at the thresholds included) that differ from the label's
