@@ -40,7 +40,9 @@ the slope of each pixel's luma z-score in its label after the level on that befo
 ``--width 1920`` (or 3840) makes HD (4K) frames from the same photos at the photo's texture
 scale, and prints each output's repetition (``kernels.quality.repetition``, ``copies``; per
 label and the framing's floor, ``label_repetition``) beside its time, to compare with the
-1024-wide run's.
+1024-wide run's; ``--rare`` adds each label's rare look (its darkest and brightest tails) after
+PatchInit, Correct and Magnify: its copies against an even draw's (``kernels.quality.rare_use``),
+and ``--frames`` writes each output (PNG, and its ``source.x/y``, ``label.id`` as .npz) to ``--out``.
 ``--variant NAME:node.param=value,...`` (repeatable) runs more configurations beside the
 defaults (``final`` is the Poisson node, ``correct``, ``init``, ``magnify`` the others;
 ``final.skip=true`` measures Magnify's plate, before the Poisson step);
