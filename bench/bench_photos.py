@@ -40,7 +40,9 @@ the slope of each pixel's luma z-score in its label after the level on that befo
 ``--width 1920`` (or 3840) makes HD (4K) frames from the same photos at the photo's texture
 scale, and prints each output's repetition (``kernels.quality.repetition``, ``copies``; per
 label and the framing's floor, ``label_repetition``) beside its time, to compare with the
-1024-wide run's.
+1024-wide run's; ``--rare`` adds each label's rare look (its darkest and brightest tails) after
+PatchInit, Correct and Magnify: its copies against an even draw's (``kernels.quality.rare_use``),
+and ``--frames`` writes each output (PNG, and its ``source.x/y``, ``label.id`` as .npz) to ``--out``.
 ``--variant NAME:node.param=value,...`` (repeatable) runs more configurations beside the
 defaults (``final`` is the Poisson node, ``correct``, ``init``, ``magnify`` the others;
 ``final.skip=true`` measures Magnify's plate, before the Poisson step);
@@ -165,10 +167,12 @@ def graph_params() -> dict[str, dict]:
     return {k: dict(nodes[k].get("params") or {}) for k in NODES}
 
 
-def proxyshade(src: Plate, ids: np.ndarray, variants: dict[str, dict]) -> dict[str, tuple[Plate, float]]:
+def proxyshade(src: Plate, ids: np.ndarray, variants: dict[str, dict],
+               kept: dict | None = None) -> dict[str, tuple[Plate, float]]:
     """{variant: (Poisson's plate, seconds)}: each node with graphs/first_frame.yaml's
     parameters, then the variant's; the synthesis before Poisson is shared by variants
-    that set only Poisson parameters."""
+    that set only Poisson parameters. ``kept``: filled with {variant: (PatchInit's,
+    Correct's, Magnify's plate)}."""
     guide = Plate({"label.id": ids}, {"labels": src.meta["labels"]})
     base = graph_params()
     memo, out = {}, {}
@@ -179,9 +183,12 @@ def proxyshade(src: Plate, ids: np.ndarray, variants: dict[str, dict]) -> dict[s
         if pre not in memo:
             init = run_node("PatchInit", sets["init"], {"guide": guide, "source": src})
             corr = run_node("Correct", sets["correct"], {"init": init, "source": src})
-            memo[pre] = run_node("Magnify", sets["magnify"], {"synth": corr, "source": src, "guide": guide})
+            memo[pre] = (init, corr, run_node("Magnify", sets["magnify"], {"synth": corr, "source": src, "guide": guide}))
+        if kept is not None:
+            kept[name] = memo[pre]
         fp = dict(sets["final"])
-        fin = memo[pre] if fp.pop("skip", False) else run_node("Poisson", fp, {"image": memo[pre], "source": src})
+        mag = memo[pre][2]
+        fin = mag if fp.pop("skip", False) else run_node("Poisson", fp, {"image": mag, "source": src})
         out[name] = (fin, time.perf_counter() - t0)
     return out
 
@@ -385,6 +392,19 @@ def _ratio(a: float, b: float) -> str:
     return f"{a / b:6.2f}" if b > 0 else "     -"
 
 
+def print_rare(case: str, name: str, src: Plate, rare: np.ndarray, plates) -> None:
+    """One line per stage: each label's rare look (``kernels.quality.rare_use``): copies (mean
+    uses of its rare source pixels), the even draw's, the most copies of one 16² window."""
+    names = {int(t["id"]): t["name"] for t in src.meta["labels"]}
+    for stage, p in plates:
+        r = Q.rare_use(p["source.x"], p["source.y"], p["label.id"], src["label.id"], rare)
+        if r:
+            print(f"{case}: {name} {stage:<8} rare looks: copies (even) peak "
+                  + ", ".join(f"{names.get(k, k)} {c:.2f} ({e:.2f}) {w:.1f}" for k, (c, e, w) in r.items())
+                  + f"; max copies {max(v[0] for v in r.values()):.2f}, peak {max(v[2] for v in r.values()):.1f}",
+                  flush=True)
+
+
 def print_case(case: dict, figs: dict[str, dict], eb: dict | None, floor: dict | None = None) -> None:
     print(f"\n## {case['name']} ({'held' if case['held'] else 'tune'}), layout {case['layout_name']}")
     print(f"{'label':<11} {'method':<14} {'share':>6} {'histχ²':>7} {'winχ²':>7} {'grad':>5} {'std':>5} "
@@ -507,6 +527,13 @@ def main(argv=None) -> None:
     ap.add_argument("--out", type=Path, default=ROOT / "out" / "bench_photos", help="contact sheets, EbSynth outputs")
     ap.add_argument("--stages", action="store_true",
                     help="only where each label's std goes: its ratio to the photo's after each stage (``stages``)")
+    ap.add_argument("--rare", type=float, nargs="?", const=0.1, default=None, metavar="TAIL",
+                    help="also each label's rare look (its TAIL darkest and brightest source pixels, at least 0.15 "
+                         "from its median luma; default 0.1) after PatchInit, "
+                         "Correct and Magnify: its copies, an even draw's, the most copies of one 16² window "
+                         "(``kernels.quality.rare_use``)")
+    ap.add_argument("--frames", action="store_true",
+                    help="also write each output to --out: CASE_WIDTH_VARIANT.png (sRGB) and .npz (source.x/y, label.id)")
     ap.add_argument("--width", type=int, default=WIDTH,
                     help="output width (1920: HD, 3840: 4K from the same photos; texture at the photo's scale)")
     args = ap.parse_args(sys.argv[2:] if argv is None and len(sys.argv) > 1 and sys.argv[1] == "photos" else argv)
@@ -537,7 +564,9 @@ def main(argv=None) -> None:
                     for st, r in rows:
                         print(f"{st:<20}" + "".join(f"{r.get(n, float('nan')):12.3f}" for n in labels), flush=True)
                 continue
-            runs = proxyshade(src, ids, variants)
+            kept = {}
+            runs = proxyshade(src, ids, variants, kept)
+            rare = Q.rare_looks(src_srgb, src["label.id"], tail=args.rare) if args.rare is not None else None
             figs, outs = {}, {}
             for name, (plate, dt) in runs.items():
                 rgb = plate.rgb()
@@ -550,6 +579,12 @@ def main(argv=None) -> None:
                       f"most-used 1 % of source pixels) {Q.repetition(sx, sy, src.shape):.4f}, most copies of a 16² "
                       f"patch {Q.copies(sx, sy, src.shape):.1f}, per label {per:.4f} (framing floor {floor:.4f})",
                       flush=True)
+                if args.frames:
+                    stem = args.out / f"{case['name']}_{args.width}_{name}"
+                    write_png(stem.with_suffix(".png"), (np.clip(outs[name], 0, 1) * 255 + 0.5).astype(np.uint8))
+                    np.savez_compressed(stem.with_suffix(".npz"), sx=sx, sy=sy, lab=plate["label.id"])
+                if rare is not None:
+                    print_rare(case["name"], name, src, rare, zip(("init", "correct", "magnify"), kept[name]))
             eb = None
             if args.ebsynth:
                 out, dt = ebsynth(args.ebsynth, src, ids, args.out)

@@ -27,8 +27,10 @@ The survivor closest to p's neighbourhood under eq. 1 augmented with colour and 
 replaces S[p]; when every candidate is rejected S[p] stays. Optional factors on a
 candidate's distance: the usage term (``_usage_excess``), the tone balance (``_tone_balance``,
 Kopf et al. 2007's histogram reweighting with ``tone_over_only``), the tone spread
-(``_tone_spread``) and the tone match (``_tone_z``: a pixel keeps its tone's z-score in its
-label); docs/synthesis.md has their figures.
+(``_tone_spread``), the tone match (``_tone_z``: a pixel keeps its tone's z-score in its
+label) and the rare-look budget (``_rare_excess``: a label's darkest and brightest looks
+copied at most a given number of times in a frame larger than the photo); docs/synthesis.md
+and docs/formats.md have their figures.
 
 References
 ----------
@@ -312,6 +314,82 @@ def _usage_excess(coords, src_lab, expected, R, out):
             u = iu[y1, x1] - iu[y0, x1] - iu[y1, x0] + iu[y0, x0]
             e = ie[y1, x1] - ie[y0, x1] - ie[y1, x0] + ie[y0, x0]
             out[y, x] = max(u / e - 1.0, 0.0) if e > 0 else 0.0
+
+
+
+RARE_TAIL = 0.1  # the shares of a label's darkest and brightest exemplar pixels that make its rare look
+RARE_CONTRAST = 0.15  # a rare pixel's least luma distance from its label's median (sRGB, 0-1)
+RARE_WEIGHT = 1.0  # a candidate on a rare look pays × (1 + RARE_WEIGHT × its window's over-use of the budget)
+
+
+@njit(**JIT)
+def _rare_excess(coords, src_lab, rare, budget, R, out):
+    """The rare-look budget: for each exemplar pixel of ``rare`` (its label's rare look,
+    ``rare_mask``) whose label has a budget, how much the rare pixels of its (2R+1)² window
+    are over-used: max(0, uses / allowed − 1), uses = target pixels whose ``coords`` falls on
+    a rare pixel of the window, allowed = Σ over those rare pixels of ``budget[label]``
+    (target pixels per exemplar pixel: copies of a rare look); 0 at the other pixels and
+    where ``budget[label]`` is 0 (no budget). Window sums by integral images; deterministic."""
+    He, We = src_lab.shape
+    iu = np.zeros((He + 1, We + 1))
+    ie = np.zeros((He + 1, We + 1))
+    for i in range(coords.shape[0]):
+        for j in range(coords.shape[1]):
+            y = coords[i, j, 0]
+            x = coords[i, j, 1]
+            if rare[y, x] and budget[src_lab[y, x]] > 0:
+                iu[y + 1, x + 1] += 1.0
+    for y in range(He):
+        for x in range(We):
+            if rare[y, x]:
+                ie[y + 1, x + 1] = budget[src_lab[y, x]]
+    for y in range(1, He + 1):
+        for x in range(1, We + 1):
+            iu[y, x] += iu[y - 1, x] + iu[y, x - 1] - iu[y - 1, x - 1]
+            ie[y, x] += ie[y - 1, x] + ie[y, x - 1] - ie[y - 1, x - 1]
+    for y in range(He):
+        y0 = max(y - R, 0)
+        y1 = min(y + R + 1, He)
+        for x in range(We):
+            out[y, x] = 0.0
+            if not rare[y, x] or budget[src_lab[y, x]] <= 0:
+                continue
+            x0 = max(x - R, 0)
+            x1 = min(x + R + 1, We)
+            u = iu[y1, x1] - iu[y0, x1] - iu[y1, x0] + iu[y0, x0]
+            e = ie[y1, x1] - ie[y0, x1] - ie[y1, x0] + ie[y0, x0]
+            out[y, x] = max(u / e - 1.0, 0.0)
+
+
+def rare_mask(src_lab: np.ndarray, src_rgb: np.ndarray, nlab: int, tail: float,
+              contrast: float = RARE_CONTRAST) -> np.ndarray:
+    """(He, We) bool: each label's rare look, its ``tail`` darkest and ``tail`` brightest
+    exemplar pixels by luma (``src_rgb``: 255 · sRGB, the colour features; ties at the
+    thresholds included) at least ``contrast`` × 255 from the label's median luma:
+    ``kernels.quality.rare_looks`` at the level's colours."""
+    lab = np.asarray(src_lab).ravel()
+    rgb = np.asarray(src_rgb, np.float64).reshape(-1, 3)
+    lum = 0.2126 * rgb[:, 0] + 0.7152 * rgb[:, 1] + 0.0722 * rgb[:, 2]
+    out = np.zeros(lab.size, np.bool_)
+    for l in range(nlab):
+        idx = np.flatnonzero(lab == l)
+        if idx.size == 0:
+            continue
+        v = np.sort(lum[idx])
+        k = max(1, int(round(tail * idx.size)))
+        t, med = lum[idx], v[(v.size - 1) // 2]
+        out[idx[((t <= v[k - 1]) | (t >= v[-k])) & (np.abs(t - med) >= contrast * 255.0)]] = True
+    return out.reshape(np.shape(src_lab))
+
+
+def rare_budgets(expected: np.ndarray, copies: float, h: int) -> np.ndarray:
+    """Per label, the target pixels a rare exemplar pixel may take at a level of spacing
+    ``h``: ``copies`` / h² (``copies`` copies of a rare look at the synthesis size; a level
+    pixel stands for h² of them) where an even draw over the label (``expected``) would
+    use it more, else 0: no budget (a frame about the photo's size, where the usage term
+    alone already spreads the draw)."""
+    cap = float(copies) / float(h * h)
+    return np.where(np.asarray(expected) > cap, cap, 0.0).astype(np.float64)
 
 
 TONE_FLOOR = 0.05  # the least factor of the tone-balance term (a tone the target lacks entirely)
@@ -635,7 +713,8 @@ def correct_level(level, coords: np.ndarray, knn: np.ndarray, *, passes: int, me
                   active: np.ndarray | None = None, tiles=None, tone_balance: float = 0.0,
                   tone_spacing: int = 1, tone_spread: float = 0.0,
                   spread_spacing: int = 1, keep_tones: np.ndarray | None = None,
-                  tone_over_only: bool = False) -> tuple[np.ndarray, dict]:
+                  tone_over_only: bool = False, rare_budget: float = 0.0,
+                  rare_tail: float = RARE_TAIL) -> tuple[np.ndarray, dict]:
     """``passes`` correction passes (4 parity sub-passes each) at one level.
 
     ``tone_balance`` (T): each candidate's distance is multiplied by 1 + U × over-use
@@ -656,6 +735,12 @@ def correct_level(level, coords: np.ndarray, knn: np.ndarray, *, passes: int, me
     colours), z_p that of the exemplar pixel ``keep_tones`` gives p (a map like ``coords``;
     default: ``coords``, the map entering the level), in every pass: a pixel keeps the tone
     deviation it came with instead of taking a candidate's regressed toward the label's mean.
+
+    ``rare_budget`` (C > 0): the rare looks' budget. A label's rare look (``rare_mask``: its
+    ``rare_tail`` darkest and brightest exemplar pixels) may be copied C times at the
+    synthesis size (``rare_budgets``; labels an even draw would use less are left alone);
+    candidates on it pay a further + ``RARE_WEIGHT`` × ``_rare_excess`` in that factor, in
+    every pass. 0: off (exactly as without it).
 
     ``tiles``: None (every sub-pass whole, the kernels' threads over its rows), or a runner
     ``tiles(fn, shared, jobs) -> [fn(*shared, *job) for job in jobs]`` that may run the
@@ -684,6 +769,9 @@ def correct_level(level, coords: np.ndarray, knn: np.ndarray, *, passes: int, me
     over = np.zeros(level.src_lab.shape, np.float64)
     tone = np.zeros(level.src_lab.shape, np.float64) if tone_balance > 0 and level.h >= tone_spacing else None
     spread = np.zeros(level.src_lab.shape, np.float64) if tone_spread > 0 and level.h >= spread_spacing else None
+    budget = rare_budgets(expected, rare_budget, level.h) if rare_budget > 0 else None
+    rare = rare_mask(level.src_lab, level.src_rgb, n, rare_tail) if budget is not None and budget.any() else None
+    rexc = np.zeros(level.src_lab.shape, np.float64) if rare is not None else None
     kernel_rule = rule
     nb = min(getattr(tiles, "bands", 1), Ht // 8) if tiles is not None and Ht * Wt >= TILE_MIN_PIXELS else 1
     edges = np.linspace(0, Ht, nb + 1).astype(int)
@@ -692,10 +780,12 @@ def correct_level(level, coords: np.ndarray, knn: np.ndarray, *, passes: int, me
             if rule.uniformity > 0:
                 _usage_excess(coords_old, level.src_lab, expected, 2 * level.h, over)
             terms = tone is not None or spread is not None
+            weighed = False  # ``over`` holds the whole factor less 1 (the kernel's uniformity 1)
             if terms and level.h == 1 and p >= passes - TONE_FREE_PASSES:
                 kernel_rule = rule  # the finest level's last passes: seams settle on colour alone
             elif terms:
                 kernel_rule = rule._replace(uniformity=1.0)  # the factor is in ``over``
+                weighed = True
                 over *= rule.uniformity
                 if tone is not None:
                     _tone_balance(coords_old, level.src_lab, level.src_rgb, n, TONE_BINS, tone)
@@ -706,6 +796,12 @@ def correct_level(level, coords: np.ndarray, knn: np.ndarray, *, passes: int, me
                     _tone_spread(coords_old, level.src_lab, level.src_rgb, n, spread)
                     over += tone_spread * spread
                 np.maximum(over, TONE_FLOOR - 1.0, out=over)
+            if rare is not None:
+                if not weighed:
+                    over *= rule.uniformity  # 0: clears the last sub-pass' budget
+                kernel_rule = rule._replace(uniformity=1.0)
+                _rare_excess(coords_old, level.src_lab, rare, budget, 2 * level.h, rexc)
+                over += RARE_WEIGHT * rexc
             if nb > 1:
                 jobs = [(coords_old, active, over, int(a), int(b), parity, metric, kernel_rule, zs, zt)
                         for a, b in zip(edges[:-1], edges[1:])]
@@ -801,7 +897,7 @@ def level_similarity_sets(levels: list, k: int, metric: Metric, *, seed: int, kn
 
 def synthesize(levels: list, S_init: np.ndarray, corr, *, seed: int, mask: np.ndarray | None = None,
                similarity: list | None = None, min_radius: int = 0, timings: dict | None = None,
-               tiles=None) -> tuple[np.ndarray, list[dict]]:
+               tiles=None, rare_budget: float = 0.0, rare_tail: float = RARE_TAIL) -> tuple[np.ndarray, list[dict]]:
     """Coarse-to-fine correction of an initial coordinate map.
 
     Parameters
@@ -835,6 +931,8 @@ def synthesize(levels: list, S_init: np.ndarray, corr, *, seed: int, mask: np.nd
         depend on the exemplar side of the levels, k, w, height_weight, seed and
         knn_iterations only): passed again, the search is skipped (a later frame of one source).
     tiles : optional runner of row bands of the large levels' sub-passes (``correct_level``).
+    rare_budget, rare_tail : copies of a rare look allowed at the synthesis size, the tails that
+        make it (``correct_level``; 0: off).
 
     Returns the corrected map and per-level statistics.
     """
@@ -878,7 +976,8 @@ def synthesize(levels: list, S_init: np.ndarray, corr, *, seed: int, mask: np.nd
                               tone_spacing=int(corr.tone_spacing), tone_spread=float(corr.tone_spread),
                               spread_spacing=int(corr.spread_spacing),
                               keep_tones=start if anchor == "init" else None,
-                              tone_over_only=bool(getattr(corr, "tone_over_only", False)))
+                              tone_over_only=bool(getattr(corr, "tone_over_only", False)),
+                              rare_budget=float(rare_budget), rare_tail=float(rare_tail))
         st.update(level=l, h=h, shape=shape, passes=n, radius=radius)
         stats.append(st)
     if mask is not None:

@@ -150,6 +150,58 @@ def label_repetition(sx: np.ndarray, sy: np.ndarray, labels: np.ndarray, source_
     return (float(num / den) if den else 0.0), floor
 
 
+
+def rare_looks(source_srgb: np.ndarray, source_labels: np.ndarray, *, tail: float = 0.1,
+               contrast: float = 0.15) -> np.ndarray:
+    """(H, W) bool: each label's rare look, its ``tail`` darkest and ``tail`` brightest
+    source pixels by luma (ties at the thresholds included) that differ from the label's
+    median luma by at least ``contrast``: the white tents on a plain, the dark bushes along a
+    field (a flat sky's brightest pixels are not a look of their own)."""
+    sl = np.asarray(source_labels).astype(np.int64)
+    lum = luma(np.asarray(source_srgb, np.float64)).ravel()
+    flat = sl.ravel()
+    out = np.zeros(flat.size, np.bool_)
+    for lab in np.unique(flat):
+        idx = np.flatnonzero(flat == lab)
+        v = np.sort(lum[idx])
+        k = max(1, int(round(tail * idx.size)))
+        t, med = lum[idx], v[(v.size - 1) // 2]
+        out[idx[((t <= v[k - 1]) | (t >= v[-k])) & (np.abs(t - med) >= contrast)]] = True
+    return out.reshape(sl.shape)
+
+
+def rare_use(sx: np.ndarray, sy: np.ndarray, labels: np.ndarray, source_labels: np.ndarray,
+             rare: np.ndarray, *, size: int = 16) -> dict[int, tuple[float, float, float]]:
+    """How many times the output shows each label's rare look (``rare``, e.g. ``rare_looks``):
+    {label: (copies, even, peak)}: ``copies`` the mean uses of its rare source pixels (output
+    pixels per source pixel, ``source.x/y`` rounded), ``even`` the label's output pixels per
+    source pixel (an even draw over the label: label area in frame / in photo), ``peak`` the
+    most copies of one ``size``² window of rare pixels (at least a tenth of it rare). A rare
+    look copied across a large frame at the even rate is still visible repetition: its
+    copies, not their ratio to ``even``, are what a viewer counts. Labels absent from the
+    output or the source are left out."""
+    sl = np.asarray(source_labels).astype(np.int64)
+    ol = np.asarray(labels).astype(np.int64).ravel()
+    n = int(max(sl.max(), ol.max())) + 1
+    a = np.bincount(ol, minlength=n).astype(np.float64)
+    b = np.bincount(sl.ravel(), minlength=n).astype(np.float64)
+    counts = _source_uses(sx, sy, sl.shape).reshape(sl.shape).astype(np.float64)
+    rare = np.asarray(rare, np.bool_)
+    s = min(size, *sl.shape)
+    res = {}
+    for lab in np.flatnonzero((a > 0) & (b > 0)):
+        m = rare & (sl == lab)
+        if not m.any():
+            continue
+        ii = np.pad(np.where(m, counts, 0.0), ((1, 0), (1, 0))).cumsum(0).cumsum(1)
+        im = np.pad(m.astype(np.float64), ((1, 0), (1, 0))).cumsum(0).cumsum(1)
+        box = ii[s:, s:] - ii[:-s, s:] - ii[s:, :-s] + ii[:-s, :-s]
+        nb = im[s:, s:] - im[:-s, s:] - im[s:, :-s] + im[:-s, :-s]
+        ok = nb >= max(1.0, 0.1 * s * s)  # windows holding a rare patch, not one stray pixel
+        copies = float(counts[m].mean())
+        res[int(lab)] = (copies, float(a[lab] / b[lab]), float((box[ok] / nb[ok]).max()) if ok.any() else copies)
+    return res
+
 # ---- fidelity to the photo, label by label (bench/bench_fidelity.py) -------------------------
 # Colours are sRGB-encoded in [0, 1] (what a viewer compares); a label's pixels in the
 # output are compared with the same label's pixels in the source photo.

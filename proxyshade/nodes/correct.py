@@ -36,6 +36,15 @@ class Correct(Correction, Node):
                           "from joining copies of nearly the same source spot, which magnified pile onto a few "
                           "source pixels (docs/formats.md); 0 = the `radius` rule alone")
 
+    rare_budget = Param(float, 0.0, min=0.0,
+                        doc="copies of a label's rare look (its rare_tail darkest and brightest source pixels: "
+                            "tents on a plain, bushes along a field) allowed at the synthesis size, where an "
+                            "even draw over the label would copy it more (a frame larger than the photo): "
+                            "candidates on it pay 1 + their window's over-use; 0 = off")
+    rare_tail = Param(float, 0.1, min=0.001, max=0.5,
+                      doc="the shares of a label's darkest and brightest source pixels (at least 0.15 in luma from "
+                          "its median) that make its rare look, for rare_budget")
+
     def compute(self, ctx) -> Plate:
         from proxyshade.synthesis import labels as L
         from proxyshade.synthesis.exemplar import SYNTH_CHANNELS, synthesis_setup
@@ -50,7 +59,8 @@ class Correct(Correction, Node):
         setup = synthesis_setup(source, tgt, table, factor=int(syn["factor"]), scale=float(syn["scale"]),
                                 coarse_size=p.coarse_size, max_distance=p.max_distance, interior=p.interior, with_rgb=p.use_rgb)
         coords, stats, rep = correct_map(setup, setup.from_source(init["source.x"], init["source.y"]), Correction.of(p),
-                                    seed=p.seed, near_copy=p.near_copy, tiles=ctx.tiles)
+                                    seed=p.seed, near_copy=p.near_copy, tiles=ctx.tiles,
+                                    rare_budget=p.rare_budget, rare_tail=p.rare_tail)
         patch, npatch = patch_ids(coords)
         changed = sum(s["changed"] for s in stats)
         ctx.note(f"{len(stats)} levels, {changed} pixel updates, {npatch} patches; "

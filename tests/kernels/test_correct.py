@@ -520,3 +520,128 @@ def test_tone_match_acts_only_at_levels_of_match_spacing_or_more(monkeypatch, sp
     if not want:
         b, _ = kc.synthesize(levels, S0, corr(k=2, uniformity=0.25), seed=2)
         assert np.array_equal(a, b)
+
+
+def rare_excess_reference(S, src_lab, rare, budget, R):
+    """``_rare_excess`` written out: per rare exemplar pixel of a label with a budget, the
+    uses of the window's rare pixels over their budget, less 1, at least 0."""
+    He, We = src_lab.shape
+    uses = np.zeros((He, We))
+    for y, x in S.reshape(-1, 2):
+        uses[y, x] += 1
+    out = np.zeros((He, We))
+    for y in range(He):
+        for x in range(We):
+            if not rare[y, x] or budget[src_lab[y, x]] == 0:
+                continue
+            u = e = 0.0
+            for yy in range(max(y - R, 0), min(y + R + 1, He)):
+                for xx in range(max(x - R, 0), min(x + R + 1, We)):
+                    if rare[yy, xx]:
+                        u += uses[yy, xx] if budget[src_lab[yy, xx]] > 0 else 0.0
+                        e += budget[src_lab[yy, xx]]
+            out[y, x] = max(u / e - 1.0, 0.0)
+    return out
+
+
+def rare_mask_reference(src_lab, src_rgb, nlab, tail, contrast):
+    """``rare_mask`` written out: per label, its pixels at least as dark as its k-th darkest
+    or as bright as its k-th brightest, k = round(tail × the label's pixels), at least 1, and
+    at least ``contrast`` × 255 from the label's median luma (the lower middle one)."""
+    out = np.zeros(src_lab.shape, bool)
+    luma = lambda p: 0.2126 * float(src_rgb[p][0]) + 0.7152 * float(src_rgb[p][1]) + 0.0722 * float(src_rgb[p][2])  # noqa: E731
+    for l in range(nlab):
+        pts = [(y, x) for y in range(src_lab.shape[0]) for x in range(src_lab.shape[1]) if src_lab[y, x] == l]
+        if not pts:
+            continue
+        v = sorted(luma(p) for p in pts)
+        k = max(1, int(round(tail * len(pts))))
+        med = v[(len(v) - 1) // 2]
+        for p in pts:
+            out[p] = (luma(p) <= v[k - 1] or luma(p) >= v[-k]) and abs(luma(p) - med) >= contrast * 255
+    return out
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+@pytest.mark.parametrize("R", [1, 2])
+def test_rare_excess_and_mask_match_reference(seed, R):
+    S, src_lab, src_rgb, n = tone_case(seed, 4)  # a clump: one pixel over-used
+    for contrast in (0.0, 0.3):
+        np.testing.assert_array_equal(kc.rare_mask(src_lab, src_rgb, n, 0.1, contrast),
+                                      rare_mask_reference(src_lab, src_rgb, n, 0.1, contrast))
+    rare = kc.rare_mask(src_lab, src_rgb, n, 0.05)
+    np.testing.assert_array_equal(rare, rare_mask_reference(src_lab, src_rgb, n, 0.05, kc.RARE_CONTRAST))
+    S[:2] = np.argwhere(rare)[0]  # a rare pixel over-used
+    budget = np.array([0.3, 0.0, 0.5])  # label 1 without a budget
+    out = np.full(src_lab.shape, np.nan)
+    kc._rare_excess(S, src_lab, rare, budget, R, out)
+    ref = rare_excess_reference(S, src_lab, rare, budget, R)
+    np.testing.assert_allclose(out, ref, rtol=1e-12, atol=1e-12)
+    assert (ref > 0).any() and (ref[~rare] == 0).all() and (ref[src_lab == 1] == 0).all()
+
+
+def test_rare_budgets_apply_only_where_an_even_draw_copies_more():
+    """A budget of C copies at the synthesis size is C / h² at a level of spacing h, and
+    only for labels an even draw would use more (a frame larger than the photo's label)."""
+    b = kc.rare_budgets(np.array([0.5, 3.0, 12.0]), 2.0, 1)
+    np.testing.assert_array_equal(b, [0.0, 2.0, 2.0])
+    np.testing.assert_array_equal(kc.rare_budgets(np.array([0.1, 0.75, 3.0]), 2.0, 2), [0.0, 0.5, 0.5])
+
+
+def _rare_case():
+    """One label, a grey exemplar with a few white 2x2 'tents' (its rare look) and a frame
+    about 1.3 times its area whose map repeats the first tent on a lattice over its top half."""
+    rng = np.random.default_rng(7)
+    He, We = 32, 40
+    ex_lab = np.zeros((He, We), np.int32)
+    ex_lab[:, :2] = 1  # a second label, so the label window has contours
+    ex_rgb = (0.4 + 0.1 * rng.random((He, We, 1))).repeat(3, -1).astype(np.float32)
+    tents = [(5, 8), (14, 30), (25, 12), (20, 22)]
+    for y, x in tents:
+        ex_rgb[y:y + 2, x:x + 2] = 0.95
+    tgt = np.zeros((40, 40), np.int32)
+    tgt[:, :2] = 1
+    levels = kf.build_levels(ex_rgb, ex_lab, tgt, 2, 2, max_distance=5.0)
+    S = np.stack([rng.integers(0, He, (40, 40)), rng.integers(2, We, (40, 40))], -1).astype(np.int32)
+    S[tgt == 1] = np.stack([rng.integers(0, He, (tgt == 1).sum()), rng.integers(0, 2, (tgt == 1).sum())], -1)
+    for i in range(0, 20, 4):
+        for j in range(4, 40, 4):
+            S[i:i + 2, j:j + 2] = np.mgrid[5:7, 8:10].transpose(1, 2, 0)
+    return levels, S
+
+
+def test_rare_budget_cuts_the_copies_of_a_rare_look():
+    """The tents' pixels: with a budget of half a copy each (the frame's even draw would give
+    1.3), the corrected map uses them fewer times than with the usage term alone; with a
+    budget above the even draw, exactly the map without it."""
+    levels, S = _rare_case()
+    lv = levels[-1]
+    tent = lv.src_rgb[..., 0] > 200  # 255 · sRGB of 0.95
+    used = lambda M: tent[M[..., 0], M[..., 1]].sum()  # noqa: E731
+    a, _ = kc.synthesize(levels, S, corr(k=2, uniformity=0.25), seed=1)
+    b, _ = kc.synthesize(levels, S, corr(k=2, uniformity=0.25), seed=1, rare_budget=0.5)
+    assert used(b) < used(a), (used(S), used(a), used(b))
+    c, _ = kc.synthesize(levels, S, corr(k=2, uniformity=0.25), seed=1, rare_budget=2.0)
+    assert np.array_equal(a, c)
+
+
+@pytest.mark.parametrize("tone_balance,uniformity", [(0.0, 0.25), (0.25, 0.25), (0.0, 0.0)])
+def test_rare_budget_is_deterministic_across_thread_counts_and_bands(tone_balance, uniformity):
+    from proxyshade.synthesis.tiles import InProcess
+
+    levels, S = _rare_case()
+    c = corr(k=2, uniformity=uniformity, tone_balance=tone_balance, tone_spacing=1)
+    a, _ = kc.synthesize(levels, S, c, seed=2, rare_budget=0.5)
+    numba.set_num_threads(1)
+    try:
+        b, _ = kc.synthesize(levels, S, c, seed=2, rare_budget=0.5)
+    finally:
+        numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
+    assert np.array_equal(a, b)
+    old = kc.TILE_MIN_PIXELS
+    kc.TILE_MIN_PIXELS = 0
+    try:
+        d, _ = kc.synthesize(levels, S, c, seed=2, rare_budget=0.5, tiles=InProcess(3))
+    finally:
+        kc.TILE_MIN_PIXELS = old
+    assert np.array_equal(a, d)

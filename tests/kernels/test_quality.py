@@ -238,3 +238,44 @@ def test_orientation_histogram_tells_streaks_from_an_isotropic_texture():
     assert o_streak.max() / o_streak.sum() > 0.9  # nearly all weight in one orientation
     assert Q.chi2(Q.orientation_histogram(rng.random((64, 64))), o_noise) < 0.02
     assert Q.chi2(o_streak, o_noise) > 0.5
+
+
+def _plain_with_tents():
+    """A 40x60 source: label 0 a flat bright sky (tiny noise), label 1 a grey plain with
+    two white 3x3 tents."""
+    rng = np.random.default_rng(3)
+    lab = np.zeros((40, 60), np.int64)
+    lab[20:] = 1
+    rgb = np.empty((40, 60, 3))
+    rgb[:20] = 0.9 + 0.01 * rng.random((20, 60, 1))
+    rgb[20:] = 0.45 + 0.05 * rng.random((20, 60, 1))
+    for y, x in ((25, 10), (32, 40)):
+        rgb[y:y + 3, x:x + 3] = 1.0
+    return lab, rgb
+
+
+def test_rare_looks_are_a_labels_far_tails_not_a_flat_labels_edges():
+    lab, rgb = _plain_with_tents()
+    rare = Q.rare_looks(rgb, lab, tail=0.025)
+    assert rare[25:28, 10:13].all() and rare[32:35, 40:43].all()
+    assert not rare[:20].any()  # the sky's brightest pixels are within the contrast of its median
+    assert rare[20:].sum() == 18  # the tents; the plain's darkest pixels are close to its median
+
+
+def test_rare_use_counts_the_copies_of_a_rare_look():
+    """A frame twice the plain's area that draws the plain evenly shows each tent about twice
+    (copies = even = 2); one that pastes the first tent over and over shows it far more."""
+    lab, rgb = _plain_with_tents()
+    rare = Q.rare_looks(rgb, lab)
+    yy, xx = np.mgrid[20:40, 0:60]
+    sy = np.concatenate([yy, yy], 0).astype(np.float32)  # the plain twice, side by side in rows
+    sx = np.concatenate([xx, xx], 0).astype(np.float32)
+    out_lab = np.ones(sy.shape, np.int64)
+    c, e, w = Q.rare_use(sx, sy, out_lab, lab, rare)[1]
+    assert c == 2.0 and e == 2.0 and w == 2.0
+    sx2, sy2 = sx.copy(), sy.copy()
+    for i in range(0, 40, 4):
+        for j in range(0, 60, 4):
+            sy2[i:i + 3, j:j + 3], sx2[i:i + 3, j:j + 3] = np.mgrid[25:28, 10:13]
+    c2, e2, w2 = Q.rare_use(sx2, sy2, out_lab, lab, rare)[1]
+    assert e2 == 2.0 and c2 > 10 and w2 > 10 * w
