@@ -301,19 +301,30 @@ def _usage_excess(coords, src_lab, expected, R, out):
     for y in range(He):
         for x in range(We):
             ie[y + 1, x + 1] = expected[src_lab[y, x]]
-    for y in range(1, He + 1):
-        for x in range(1, We + 1):
-            iu[y, x] += iu[y - 1, x] + iu[y, x - 1] - iu[y - 1, x - 1]
-            ie[y, x] += ie[y - 1, x] + ie[y, x - 1] - ie[y - 1, x - 1]
+    _integrate(iu)
+    _integrate(ie)
     for y in range(He):
-        y0 = max(y - R, 0)
-        y1 = min(y + R + 1, He)
         for x in range(We):
-            x0 = max(x - R, 0)
-            x1 = min(x + R + 1, We)
-            u = iu[y1, x1] - iu[y0, x1] - iu[y1, x0] + iu[y0, x0]
-            e = ie[y1, x1] - ie[y0, x1] - ie[y1, x0] + ie[y0, x0]
+            u, e = _window_sums(iu, ie, y, x, R)
             out[y, x] = max(u / e - 1.0, 0.0) if e > 0 else 0.0
+
+
+@njit(inline="always", **JIT)
+def _integrate(a):
+    """``a`` (H + 1, W + 1), zero first row and column, made its own integral image in place."""
+    for y in range(1, a.shape[0]):
+        for x in range(1, a.shape[1]):
+            a[y, x] += a[y - 1, x] + a[y, x - 1] - a[y - 1, x - 1]
+
+
+@njit(inline="always", **JIT)
+def _window_sums(iu, ie, y, x, R):
+    """The sums of two integral images over pixel (y, x)'s (2R+1)² window, clipped to the image."""
+    He, We = iu.shape[0] - 1, iu.shape[1] - 1
+    y0, y1 = max(y - R, 0), min(y + R + 1, He)
+    x0, x1 = max(x - R, 0), min(x + R + 1, We)
+    return (iu[y1, x1] - iu[y0, x1] - iu[y1, x0] + iu[y0, x0],
+            ie[y1, x1] - ie[y0, x1] - ie[y1, x0] + ie[y0, x0])
 
 
 
@@ -343,21 +354,14 @@ def _rare_excess(coords, src_lab, rare, budget, R, out):
         for x in range(We):
             if rare[y, x]:
                 ie[y + 1, x + 1] = budget[src_lab[y, x]]
-    for y in range(1, He + 1):
-        for x in range(1, We + 1):
-            iu[y, x] += iu[y - 1, x] + iu[y, x - 1] - iu[y - 1, x - 1]
-            ie[y, x] += ie[y - 1, x] + ie[y, x - 1] - ie[y - 1, x - 1]
+    _integrate(iu)
+    _integrate(ie)
     for y in range(He):
-        y0 = max(y - R, 0)
-        y1 = min(y + R + 1, He)
         for x in range(We):
             out[y, x] = 0.0
             if not rare[y, x] or budget[src_lab[y, x]] <= 0:
                 continue
-            x0 = max(x - R, 0)
-            x1 = min(x + R + 1, We)
-            u = iu[y1, x1] - iu[y0, x1] - iu[y1, x0] + iu[y0, x0]
-            e = ie[y1, x1] - ie[y0, x1] - ie[y1, x0] + ie[y0, x0]
+            u, e = _window_sums(iu, ie, y, x, R)
             out[y, x] = max(u / e - 1.0, 0.0)
 
 

@@ -134,6 +134,20 @@ def _sub_pass(coords, img, target, labels, parity, stamp, tried, lines, clock, c
     return changed.sum()
 
 
+@njit(inline="always", **JIT)
+def _across(coords, target, i, j, dy, dx):
+    """Whether (i, j) and its neighbour (i + dy, j + dx) are across a seam: the neighbour inside
+    the image, of (i, j)'s target label, reading another offset; with the two offsets
+    (ay, ax) of (i, j) and (by, bx) of the neighbour (zeros where there is no seam)."""
+    H, W = target.shape
+    y, x = i + dy, j + dx
+    if y < 0 or x < 0 or y >= H or x >= W or target[y, x] != target[i, j]:
+        return False, 0, 0, 0, 0
+    ay, ax = coords[i, j, 0] - i, coords[i, j, 1] - j
+    by, bx = coords[y, x, 0] - y, coords[y, x, 1] - x
+    return not (ay == by and ax == bx), ay, ax, by, bx
+
+
 @njit(**JIT)
 def _on_run(coords, target, t, u, v, dy, dx, ay, ax, by, bx):
     """Whether (u, v) and its neighbour across the seam, (u + dy, v + dx), are a pixel pair
@@ -313,20 +327,13 @@ def _run_line(coords, img, target, labels, vertical, line, stamp, tried, span, l
                 ti = target[i, j]
                 for kk in range(2):  # the start of the run across kk holding p, not before t
                     dy, dx = (0, 2 * kk - 1) if vertical else (2 * kk - 1, 0)
-                    y, x = i + dy, j + dx
-                    if y < 0 or x < 0 or y >= H or x >= W or target[y, x] != ti:
-                        continue
-                    ay, ax = coords[i, j, 0] - i, coords[i, j, 1] - j
-                    by, bx = coords[y, x, 0] - y, coords[y, x, 1] - x
-                    if ay == by and ax == bx:
+                    seam, ay, ax, by, bx = _across(coords, target, i, j, dy, dx)
+                    if not seam:
                         continue
                     q = p
                     while q > t:
                         u, v = (q - 1, line) if vertical else (line, q - 1)
-                        if (target[u, v] == ti and target[u + dy, v + dx] == ti
-                                and coords[u, v, 0] - u == ay and coords[u, v, 1] - v == ax
-                                and coords[u + dy, v + dx, 0] - (u + dy) == by
-                                and coords[u + dy, v + dx, 1] - (v + dx) == bx):
+                        if _on_run(coords, target, ti, u, v, dy, dx, ay, ax, by, bx):
                             q -= 1
                         else:
                             break
@@ -341,12 +348,8 @@ def _run_line(coords, img, target, labels, vertical, line, stamp, tried, span, l
             # again after each run move
             k = (1 + kk) if vertical else 3 * kk
             dy, dx = (0, 2 * kk - 1) if vertical else (2 * kk - 1, 0)
-            y, x = i + dy, j + dx
-            if y < 0 or x < 0 or y >= H or x >= W or target[y, x] != ti:
-                continue
-            ay, ax = coords[i, j, 0] - i, coords[i, j, 1] - j
-            by, bx = coords[y, x, 0] - y, coords[y, x, 1] - x
-            if ay == by and ax == bx:
+            seam, ay, ax, by, bx = _across(coords, target, i, j, dy, dx)
+            if not seam:
                 continue
             u, v = (i - 1, j) if vertical else (i, j - 1)  # the predecessor along the seam
             if (u >= 0 and v >= 0 and target[u, v] == ti and target[u + dy, v + dx] == ti
