@@ -365,25 +365,12 @@ def _rare_excess(coords, src_lab, rare, budget, R, out):
             out[y, x] = max(u / e - 1.0, 0.0)
 
 
-def rare_mask(src_lab: np.ndarray, src_rgb: np.ndarray, nlab: int, tail: float,
-              contrast: float = RARE_CONTRAST) -> np.ndarray:
-    """(He, We) bool: each label's rare look, its ``tail`` darkest and ``tail`` brightest
-    exemplar pixels by luma (``src_rgb``: 255 · sRGB, the colour features; ties at the
-    thresholds included) at least ``contrast`` × 255 from the label's median luma:
-    ``kernels.quality.rare_looks`` at the level's colours."""
-    lab = np.asarray(src_lab).ravel()
-    rgb = np.asarray(src_rgb, np.float64).reshape(-1, 3)
-    lum = 0.2126 * rgb[:, 0] + 0.7152 * rgb[:, 1] + 0.0722 * rgb[:, 2]
-    out = np.zeros(lab.size, np.bool_)
-    for l in range(nlab):
-        idx = np.flatnonzero(lab == l)
-        if idx.size == 0:
-            continue
-        v = np.sort(lum[idx])
-        k = max(1, int(round(tail * idx.size)))
-        t, med = lum[idx], v[(v.size - 1) // 2]
-        out[idx[((t <= v[k - 1]) | (t >= v[-k])) & (np.abs(t - med) >= contrast * 255.0)]] = True
-    return out.reshape(np.shape(src_lab))
+def rare_mask(src_lab: np.ndarray, src_rgb: np.ndarray, tail: float, contrast: float = RARE_CONTRAST) -> np.ndarray:
+    """(He, We) bool: each label's rare look at a level, ``kernels.quality.rare_looks`` (its
+    ``tail`` darkest and brightest pixels, at least ``contrast`` in luma from its median) on
+    the level's colour features (``src_rgb``: 255 · sRGB)."""
+    from proxyshade.kernels.quality import rare_looks
+    return rare_looks(np.asarray(src_rgb, np.float64) / 255.0, src_lab, tail=tail, contrast=contrast)
 
 
 def rare_budgets(expected: np.ndarray, copies: float, h: int) -> np.ndarray:
@@ -774,7 +761,7 @@ def correct_level(level, coords: np.ndarray, knn: np.ndarray, *, passes: int, me
     tone = np.zeros(level.src_lab.shape, np.float64) if tone_balance > 0 and level.h >= tone_spacing else None
     spread = np.zeros(level.src_lab.shape, np.float64) if tone_spread > 0 and level.h >= spread_spacing else None
     budget = rare_budgets(expected, rare_budget, level.h) if rare_budget > 0 else None
-    rare = rare_mask(level.src_lab, level.src_rgb, n, rare_tail) if budget is not None and budget.any() else None
+    rare = rare_mask(level.src_lab, level.src_rgb, rare_tail) if budget is not None and budget.any() else None
     rexc = np.zeros(level.src_lab.shape, np.float64) if rare is not None else None
     kernel_rule = rule
     nb = min(getattr(tiles, "bands", 1), Ht // 8) if tiles is not None and Ht * Wt >= TILE_MIN_PIXELS else 1

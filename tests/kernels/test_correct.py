@@ -567,9 +567,9 @@ def rare_mask_reference(src_lab, src_rgb, nlab, tail, contrast):
 def test_rare_excess_and_mask_match_reference(seed, R):
     S, src_lab, src_rgb, n = tone_case(seed, 4)  # a clump: one pixel over-used
     for contrast in (0.0, 0.3):
-        np.testing.assert_array_equal(kc.rare_mask(src_lab, src_rgb, n, 0.1, contrast),
+        np.testing.assert_array_equal(kc.rare_mask(src_lab, src_rgb, 0.1, contrast),
                                       rare_mask_reference(src_lab, src_rgb, n, 0.1, contrast))
-    rare = kc.rare_mask(src_lab, src_rgb, n, 0.05)
+    rare = kc.rare_mask(src_lab, src_rgb, 0.05)
     np.testing.assert_array_equal(rare, rare_mask_reference(src_lab, src_rgb, n, 0.05, kc.RARE_CONTRAST))
     S[:2] = np.argwhere(rare)[0]  # a rare pixel over-used
     budget = np.array([0.3, 0.0, 0.5])  # label 1 without a budget
