@@ -76,7 +76,9 @@ def test_interrupted_runs_rerun_bit_identical(tmp_path, registry, capsys, refere
     want, seconds = reference
     rng = random.Random(13 + sig)
     interrupted = 0
-    for i in range(10):
+    for i in range(20):  # ten runs, more while fewer than five were cut mid-run (a load that varies)
+        if i >= 10 and interrupted >= 5:
+            break
         folder = tmp_path / f"run{i}"
         folder.mkdir()
         (folder / "g.yaml").write_text(GRAPH)
@@ -88,6 +90,8 @@ def test_interrupted_runs_rerun_bit_identical(tmp_path, registry, capsys, refere
         lines = [line for line in err.splitlines() if line.strip()]
         got = files(folder / "out") if (folder / "out").is_dir() else {}
         interrupted += p.returncode != 0
+        if p.returncode == 0:
+            seconds *= 0.7  # the run was done before the signal: the machine is faster now than at the reference
         if sig == signal.SIGINT:
             assert (p.returncode, lines) in ((130, ["interrupted"]), (0, [])), (delay, p.returncode, err)
             assert temps(folder) == [], delay  # an interrupted run cleans up after itself
