@@ -27,8 +27,8 @@ and EbSynth (``--ebsynth``, on the same guide):
 Crops at 100 % (``--out``/artefacts_CASE.png, all of them side by side in artefacts_sheet.png):
 for each measure, the 128² window where the issue configuration is furthest from the photo, then
 the same window of ``now`` and EbSynth; artefacts_worst.png holds one row per measure, from the
-case where the issue configuration was furthest (the next case where another row shows that
-window). The photos stay where they are: nothing is copied.
+case where the issue configuration was furthest (the next case where another row shows much
+of that window). The photos stay where they are: nothing is copied.
 """
 from __future__ import annotations
 
@@ -188,7 +188,8 @@ def main(argv=None) -> None:
         picked, shown = {}, set()  # per measure the furthest case whose window no other row shows
         for m, cands in worst.items():
             for v, t, c, at in sorted(cands, key=lambda e: -e[0]):
-                if (c, at) not in shown:
+                if not any(c == c2 and abs(at[0] - a2[0]) < CROP // 2 and abs(at[1] - a2[1]) < CROP // 2
+                           for c2, a2 in shown):
                     picked[m] = (t, c)
                     shown.add((c, at))
                     break
