@@ -57,21 +57,31 @@ def test_rejected_matches_reference():
 
 
 def subpass(lv, knn, S, S_new, active, pi, pj, radius, kappa, counts, hw=0.0, over=None, uniformity=0.0, zw=0.0,
-            zs=None, zt=None):
+            zs=None, zt=None, far=None):
     over = np.zeros(lv.src_lab.shape) if over is None else over
     zs = kc.NO_Z if zs is None else zs
     zt = kc.NO_Z if zt is None else zt
+    if far is None:
+        far = kc.no_far(lv.src_masks.shape[2])
+    else:  # (reach² per label, r): the users' lists of this state
+        He, We = lv.src_lab.shape
+        far = (np.asarray(far[0], np.float64), np.int64(far[1]), np.zeros(He * We + 1, np.int64),
+               np.zeros(S.shape[0] * S.shape[1], np.int64))
+        kc._users(S[..., 0] * np.int32(We) + S[..., 1], far[2], far[3])
     kc._subpass(lv, kf.Metric(90.0, hw), kc.Rule(radius, True, kappa, uniformity, zw), knn, over, zs, zt, S, S_new,
-                active, (pi, pj), counts)
+                active, (pi, pj), counts, far)
 
 
-@pytest.mark.parametrize("seed,kappa,use_level,hw,uniformity,zw",
-                         [(0, 0.0, -1, 0.0, 0.0, 0.0), (1, 0.5, -1, 0.0, 0.0, 0.0), (2, 0.0, 0, 0.0, 0.0, 0.0),
-                          (3, 0.0, -1, 16.0, 1.0, 0.0), (4, 0.5, 0, 40.0, 3.0, 0.0), (5, 0.0, -1, 0.0, 0.0, 0.5),
-                          (6, 0.5, 0, 16.0, 1.0, 4.0)])
-def test_subpass_matches_reference(seed, kappa, use_level, hw, uniformity, zw):
+@pytest.mark.parametrize("seed,kappa,use_level,hw,uniformity,zw,far",
+                         [(0, 0.0, -1, 0.0, 0.0, 0.0, None), (1, 0.5, -1, 0.0, 0.0, 0.0, None),
+                          (2, 0.0, 0, 0.0, 0.0, 0.0, None), (3, 0.0, -1, 16.0, 1.0, 0.0, None),
+                          (4, 0.5, 0, 40.0, 3.0, 0.0, None), (5, 0.0, -1, 0.0, 0.0, 0.5, None),
+                          (6, 0.5, 0, 16.0, 1.0, 4.0, None), (7, 0.0, -1, 0.0, 0.0, 0.0, ([40.0, 0.0, 90.0], 0)),
+                          (8, 0.5, 0, 16.0, 1.0, 0.0, ([60.0, 20.0, 0.0], 1))])
+def test_subpass_matches_reference(seed, kappa, use_level, hw, uniformity, zw, far):
     """The sub-pass kernel against ``naive.correct_pixel``, with and without the kappa,
-    height, usage and tone-match terms (random z-scores, a random tone to keep)."""
+    height, usage, tone-match terms (random z-scores, a random tone to keep) and the
+    far-copy rejection (``copy_spacing``; one label untested)."""
     rng, levels = small_case(seed)
     lv = levels[use_level]
     knn = kc.similarity_sets(lv, 2, kf.Metric(SYN.w, hw), seed=seed, iterations=2)
@@ -85,16 +95,40 @@ def test_subpass_matches_reference(seed, kappa, use_level, hw, uniformity, zw):
         active = np.ones(lv.tgt_lab.shape, bool)
         counts = np.zeros((S.shape[0], 2), np.int64)
         subpass(lv, knn, S, S_new, active, pi, pj, radius=radius, kappa=kappa, counts=counts, hw=hw, over=over,
-                uniformity=uniformity, zw=zw, zs=zs, zt=zt)
+                uniformity=uniformity, zw=zw, zs=zs, zt=zt, far=far)
         for i in range(pi, S.shape[0], 2):
             for j in range(pj, S.shape[1], 2):
                 assert tuple(S_new[i, j]) == naive.correct_pixel(lv, knn, S, i, j, radius, 90.0, kappa, hw, over,
-                                                                 uniformity, zw, zs, zt), (i, j)
+                                                                 uniformity, zw, zs, zt, far), (i, j)
         # pixels outside the sub-set are untouched
         other = np.ones(S.shape[:2], bool)
         other[pi::2, pj::2] = False
         assert np.array_equal(S_new[other], S[other])
         S = S_new
+
+
+def test_far_copy_and_users_match_reference():
+    """The users' lists against a stable sort, and ``far_copy`` against every pixel looked
+    at, on small random maps (exemplar pixels used many times, as at 4K)."""
+    rng = np.random.default_rng(3)
+    for _ in range(5):
+        He, We, Ht, Wt = 6, 7, 18, 21
+        S = np.stack([rng.integers(0, He, (Ht, Wt)), rng.integers(0, We, (Ht, Wt))], -1).astype(np.int32)
+        S[2:9, 3:12] = np.mgrid[0:7, 0:9].transpose(1, 2, 0) % [He, We]  # a coherent patch
+        flat = S[..., 0] * np.int32(We) + S[..., 1]
+        start, order = np.zeros(He * We + 1, np.int64), np.zeros(Ht * Wt, np.int64)
+        kc._users(flat, start, order)
+        np.testing.assert_array_equal(order, np.argsort(flat.ravel(), kind="stable"))
+        np.testing.assert_array_equal(start, np.r_[0, np.cumsum(np.bincount(flat.ravel(), minlength=He * We))])
+        hits = 0
+        for _ in range(300):
+            i, j = int(rng.integers(0, Ht)), int(rng.integers(0, Wt))
+            cy, cx = int(rng.integers(0, He)), int(rng.integers(0, We))
+            h, r, reach2 = int(rng.choice([1, 2, 4])), int(rng.choice([0, 1, 2])), float(rng.choice([2.0, 9.5, 50.0]))
+            want = naive.far_copy(S, i, j, cy, cx, h, reach2, r)
+            assert kc.far_copy(S, i, j, cy, cx, h, reach2, r, start, order, We) == want
+            hits += want
+        assert 0 < hits < 300
 
 
 def test_no_accepted_candidate_already_in_the_window():
