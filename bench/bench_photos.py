@@ -407,13 +407,14 @@ def print_rare(case: str, name: str, src: Plate, rare: np.ndarray, plates) -> No
                   flush=True)
 
 
-def print_spacing(case: str, name: str, src: Plate, plate: Plate) -> None:
+def print_spacing(case: str, name: str, src: Plate, plate: Plate, looks: np.ndarray | None = None) -> None:
     """Visible repetition (``kernels.quality.copy_spacing``): per label, for its 8 most-used
-    16² source windows, each copy's distance to the nearest other copy on the frame against
+    16² source windows that are not flat (luma std ≥ 0.03), each copy's distance to the nearest other copy on the frame against
     an even spread's spacing: the median ratio, the share under a quarter (clusters), the
     median distance in pixels, the copies per window."""
     names = {int(t["id"]): t["name"] for t in src.meta["labels"]}
-    r = Q.copy_spacing(plate["source.x"], plate["source.y"], plate["label.id"], src["label.id"])
+    r = Q.copy_spacing(plate["source.x"], plate["source.y"], plate["label.id"], src["label.id"],
+                       source_luma=Q.luma(srgb(src.rgb())), looks=looks)
     if r:
         worst = min(r.values(), key=lambda v: v[0])
         print(f"{case}: {name} copy spacing (nearest copy / even spacing, share < 1/4, px, copies): "

@@ -520,13 +520,17 @@ def _copy_centres(py: np.ndarray, px: np.ndarray, size: int) -> np.ndarray:
 
 
 def copy_spacing(sx: np.ndarray, sy: np.ndarray, labels: np.ndarray, source_labels: np.ndarray, *,
-                 size: int = 16, top: int = 8, close: float = 0.25) -> dict[int, tuple[float, float, float, float]]:
+                 size: int = 16, top: int = 8, close: float = 0.25, source_luma: np.ndarray | None = None,
+                 flat: float = 0.03, looks: np.ndarray | None = None) -> dict[int, tuple[float, float, float, float]]:
     """Visible repetition: how near each other the copies of a label's most-used source
     windows sit on the frame. For each label, its ``top`` most-used ``size``² source windows
     (a ``size`` grid over the source; uses: the label's output pixels reading them); for each
     copy of such a window (``_copy_centres``) the distance d to the nearest other copy of it,
     against the spacing s = √(label area in frame / copies) an even spread of that many copies
-    over the label would give. {label: (median d / s, share of copies with d < ``close`` s,
+    over the label would give; with ``source_luma`` (the photo's, sRGB) only windows whose luma
+    varies by at least ``flat`` (standard deviation) count: a flat patch of sky repeated is not
+    seen; with ``looks`` (H, W bool, e.g. ``rare_looks``) only windows at least a tenth of whose
+    pixels are such looks (a bush, a tent: what a viewer recognises again). {label: (median d / s, share of copies with d < ``close`` s,
     median d in output pixels, mean copies per window)}: 1 and 0 for copies on a lattice, about
     0.5 and 0.18 (at ``close`` 0.25) for copies placed at random, less for copies clustered
     (the same bush twice within a screenful). The copy count itself is forced by the frame's
@@ -540,6 +544,19 @@ def copy_spacing(sx: np.ndarray, sy: np.ndarray, labels: np.ndarray, source_labe
     ncx = -(-ws // size)
     cell = (r // size) * ncx + c // size
     own = sl[r, c] == ol
+    ncy = -(-hs // size)
+    varied = np.ones(ncy * ncx, np.bool_)
+    if source_luma is not None:
+        cells = ((np.arange(hs)[:, None] // size) * ncx + np.arange(ws)[None] // size).ravel()
+        lum = np.asarray(source_luma, np.float64).ravel()
+        n = np.bincount(cells, minlength=ncy * ncx)
+        m1 = np.bincount(cells, lum, minlength=ncy * ncx) / np.maximum(n, 1)
+        m2 = np.bincount(cells, lum * lum, minlength=ncy * ncx) / np.maximum(n, 1)
+        varied = np.sqrt(np.maximum(m2 - m1 * m1, 0.0)) >= flat
+    if looks is not None:
+        cells = ((np.arange(hs)[:, None] // size) * ncx + np.arange(ws)[None] // size).ravel()
+        share = np.bincount(cells, np.asarray(looks, np.float64).ravel(), minlength=ncy * ncx)
+        varied &= share >= 0.1 * size * size
     res = {}
     for lab in np.unique(ol):
         area = float((ol == lab).sum())
@@ -547,9 +564,11 @@ def copy_spacing(sx: np.ndarray, sy: np.ndarray, labels: np.ndarray, source_labe
         if not len(py):
             continue
         cl = cell[py, px]
-        uses = np.bincount(cl)
+        uses = np.where(varied, np.bincount(cl, minlength=ncy * ncx), 0)
         ratios, dists, ncop = [], [], []
         for w in np.argsort(-uses, kind="stable")[:top]:
+            if uses[w] == 0:
+                break
             sel = cl == w
             cen = _copy_centres(py[sel], px[sel], size)
             if len(cen) < 2:

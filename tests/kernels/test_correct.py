@@ -679,3 +679,84 @@ def test_rare_budget_is_deterministic_across_thread_counts_and_bands(tone_balanc
     finally:
         kc.TILE_MIN_PIXELS = old
     assert np.array_equal(a, d)
+
+
+def _far_case(seed=11):
+    """Two labels, a noisy exemplar 24×28 and a frame 64×64 (six times its area, as 4K is
+    from a 1024-wide photo), from a map of random positions."""
+    rng = np.random.default_rng(seed)
+    He, We = 24, 28
+    ex_lab = np.zeros((He, We), np.int32)
+    ex_lab[:, :6] = 1
+    ex_rgb = rng.random((He, We, 3)).astype(np.float32)
+    tgt = np.zeros((64, 64), np.int32)
+    tgt[:, :10] = 1
+    levels = kf.build_levels(ex_rgb, ex_lab, tgt, 2, 2, max_distance=5.0)
+    S = np.stack([rng.integers(0, He, (64, 64)), rng.integers(6, We, (64, 64))], -1).astype(np.int32)
+    S[tgt == 1] = np.stack([rng.integers(0, He, (tgt == 1).sum()), rng.integers(0, 6, (tgt == 1).sum())], -1)
+    return levels, S, tgt
+
+
+def _near_copies(S, lab, label, reach):
+    """The share of a label's target pixels with another pixel within ``reach`` using the same
+    exemplar pixel without being coherent with it (a copy nearby)."""
+    pts = {}
+    for i, j in zip(*np.nonzero(lab == label)):
+        pts.setdefault(tuple(S[i, j]), []).append((i, j))
+    near = 0
+    for p in pts.values():
+        a = np.array(p, float)
+        e = np.hypot(a[:, None, 0] - a[None, :, 0], a[:, None, 1] - a[None, :, 1])
+        np.fill_diagonal(e, np.inf)
+        near += (e.min(1) <= reach).sum()
+    return near / (lab == label).sum()
+
+
+def test_copy_spacing_spreads_the_copies_of_a_spot():
+    """In a frame six times the exemplar's area each exemplar pixel is used about six times;
+    with copy_spacing 0.5 (a reach of 0.5 √(24 × 22) = 11.5 pixels) far fewer pixels have a
+    copy of their spot that near, labels kept."""
+    levels, S, tgt = _far_case()
+    c = corr(k=2, uniformity=0.25)
+    a, _ = kc.synthesize(levels, S, c, seed=1)
+    b, _ = kc.synthesize(levels, S, c, seed=1, copy_spacing=0.5)
+    lv = levels[-1]
+    assert (lv.src_lab[b[..., 0], b[..., 1]] == tgt).mean() >= (lv.src_lab[a[..., 0], a[..., 1]] == tgt).mean() - 0.01
+    reach = 0.5 * np.sqrt(24 * 22)
+    assert _near_copies(b, tgt, 0, reach) < 0.5 * _near_copies(a, tgt, 0, reach), (
+        _near_copies(a, tgt, 0, reach), _near_copies(b, tgt, 0, reach))
+
+
+def test_copy_spacing_leaves_a_frame_about_the_photos_size_alone():
+    """``far_reach`` is 0 for every label when the frame is at most ``FAR_FRAME`` times the
+    exemplar's area (a 1024-wide frame from a 1024-wide photo: today's map exactly), and for a
+    label copied at most once; else (spacing √(exemplar pixels of the label) / h)²."""
+    levels, S = _rare_case()  # frame 1.25 × the exemplar
+    a, _ = kc.synthesize(levels, S, corr(k=2, uniformity=0.25), seed=1)
+    b, _ = kc.synthesize(levels, S, corr(k=2, uniformity=0.25), seed=1, copy_spacing=0.5)
+    assert np.array_equal(a, b)
+    assert not kc.far_reach(levels[-1], np.array([1.25, 1.25]), 0.5).any()
+    lv = _far_case()[0][-1]  # 64² from 24×28, h = 1: label 0 has 24 × 22 exemplar pixels
+    np.testing.assert_allclose(kc.far_reach(lv, np.array([6.0, 0.9]), 0.5), [0.25 * 24 * 22, 0.0])
+
+
+@pytest.mark.parametrize("uniformity", [0.25, 0.0])
+def test_copy_spacing_is_deterministic_across_thread_counts_and_bands(uniformity):
+    from proxyshade.synthesis.tiles import InProcess
+
+    levels, S, _ = _far_case(12)
+    c = corr(k=2, uniformity=uniformity)
+    a, _ = kc.synthesize(levels, S, c, seed=2, copy_spacing=0.5)
+    numba.set_num_threads(1)
+    try:
+        b, _ = kc.synthesize(levels, S, c, seed=2, copy_spacing=0.5)
+    finally:
+        numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
+    assert np.array_equal(a, b)
+    old = kc.TILE_MIN_PIXELS
+    kc.TILE_MIN_PIXELS = 0
+    try:
+        d, _ = kc.synthesize(levels, S, c, seed=2, copy_spacing=0.5, tiles=InProcess(3))
+    finally:
+        kc.TILE_MIN_PIXELS = old
+    assert np.array_equal(a, d)
