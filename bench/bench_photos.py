@@ -409,15 +409,17 @@ def print_rare(case: str, name: str, src: Plate, rare: np.ndarray, plates) -> No
 
 def print_spacing(case: str, name: str, src: Plate, plate: Plate, looks: np.ndarray | None = None) -> None:
     """Visible repetition (``kernels.quality.copy_spacing``): per label, for its 8 most-used
-    16² source windows that are not flat (luma std ≥ 0.03), each copy's distance to the nearest other copy on the frame against
-    an even spread's spacing: the median ratio, the share under a quarter (clusters), the
-    median distance in pixels, the copies per window."""
+    16² source windows that are not flat (luma std ≥ 0.03), each copy's distance to the
+    nearest other copy on the frame against an even spread's spacing: the median ratio, the
+    share under a quarter (clusters), the median distance in pixels, the copies per window.
+    With ``looks`` (the rare looks) only windows a tenth of which are rare (bushes, tents,
+    clouds: ``rare copy spacing``)."""
     names = {int(t["id"]): t["name"] for t in src.meta["labels"]}
     r = Q.copy_spacing(plate["source.x"], plate["source.y"], plate["label.id"], src["label.id"],
                        source_luma=Q.luma(srgb(src.rgb())), looks=looks)
     if r:
         worst = min(r.values(), key=lambda v: v[0])
-        print(f"{case}: {name} copy spacing (nearest copy / even spacing, share < 1/4, px, copies): "
+        print(f"{case}: {name} {'rare ' if looks is not None else ''}copy spacing (nearest copy / even spacing, share < 1/4, px, copies): "
               + ", ".join(f"{names.get(k, k)} {q:.2f} {c:.2f} {d:.0f} {n:.1f}" for k, (q, c, d, n) in r.items())
               + f"; worst {worst[0]:.2f}, clustered {max(v[1] for v in r.values()):.2f}", flush=True)
 
@@ -604,6 +606,7 @@ def main(argv=None) -> None:
                 if rare is not None:
                     print_rare(case["name"], name, src, rare, zip(("init", "correct", "magnify"), kept[name]))
                     print_spacing(case["name"], name, src, plate)
+                    print_spacing(case["name"], name, src, plate, rare)
             eb = None
             if args.ebsynth:
                 out, dt = ebsynth(args.ebsynth, src, ids, args.out)
