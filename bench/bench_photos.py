@@ -419,7 +419,8 @@ def print_spacing(case: str, name: str, src: Plate, plate: Plate, looks: np.ndar
                        source_luma=Q.luma(srgb(src.rgb())), looks=looks)
     if r:
         worst = min(r.values(), key=lambda v: v[0])
-        print(f"{case}: {name} {'rare ' if looks is not None else ''}copy spacing (nearest copy / even spacing, share < 1/4, px, copies): "
+        kind = "rare copy spacing" if looks is not None else "copy spacing"
+        print(f"{case}: {name} {kind} (nearest copy / even spacing, share < 1/4, px, copies): "
               + ", ".join(f"{names.get(k, k)} {q:.2f} {c:.2f} {d:.0f} {n:.1f}" for k, (q, c, d, n) in r.items())
               + f"; worst {worst[0]:.2f}, clustered {max(v[1] for v in r.values()):.2f}", flush=True)
 

@@ -15,7 +15,10 @@ when
 
 * it is already used in the 9×9 window around p, or
 * a non-coherent pixel of that window uses an exemplar pixel within ``radius`` of it
-  (the paper: 2^(l−1) at level l, l = 1 the coarsest) — a near copy.
+  (the paper: 2^(l−1) at level l, l = 1 the coarsest) — a near copy, or
+* (``copy_spacing``, off by default; frames over ``FAR_FRAME`` times the photo's area) a
+  non-coherent pixel farther away, within a share of the even spread's spacing of the
+  label's copies, uses its spot (``far_copy``) — a copy too near on the frame.
 
 The survivor closest to p's neighbourhood under eq. 1 augmented with colour and height
 

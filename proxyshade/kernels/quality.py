@@ -530,8 +530,9 @@ def copy_spacing(sx: np.ndarray, sy: np.ndarray, labels: np.ndarray, source_labe
     over the label would give; with ``source_luma`` (the photo's, sRGB) only windows whose luma
     varies by at least ``flat`` (standard deviation) count: a flat patch of sky repeated is not
     seen; with ``looks`` (H, W bool, e.g. ``rare_looks``) only windows at least a tenth of whose
-    pixels are such looks (a bush, a tent: what a viewer recognises again). {label: (median d / s, share of copies with d < ``close`` s,
-    median d in output pixels, mean copies per window)}: 1 and 0 for copies on a lattice, about
+    pixels are such looks (a bush, a tent: what a viewer recognises again). {label: (median
+    d / s, share of copies with d < ``close`` s, median d in output pixels, mean copies per
+    window)}: 1 and 0 for copies on a lattice, about
     0.5 and 0.18 (at ``close`` 0.25) for copies placed at random, less for copies clustered
     (the same bush twice within a screenful). The copy count itself is forced by the frame's
     area; where the copies lie is not. Labels with fewer than two copies of any such window
