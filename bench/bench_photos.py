@@ -42,6 +42,8 @@ scale, and prints each output's repetition (``kernels.quality.repetition``, ``co
 label and the framing's floor, ``label_repetition``) beside its time, to compare with the
 1024-wide run's; ``--rare`` adds each label's rare look (its darkest and brightest tails) after
 PatchInit, Correct and Magnify: its copies against an even draw's (``kernels.quality.rare_use``),
+and how near each other the copies of each label's most-used 16² windows sit on the frame
+(``kernels.quality.copy_spacing``: visible repetition, where the count is forced by the area),
 and ``--frames`` writes each output (PNG, and its ``source.x/y``, ``label.id`` as .npz) to ``--out``.
 ``--variant NAME:node.param=value,...`` (repeatable) runs more configurations beside the
 defaults (``final`` is the Poisson node, ``correct``, ``init``, ``magnify`` the others;
@@ -405,6 +407,24 @@ def print_rare(case: str, name: str, src: Plate, rare: np.ndarray, plates) -> No
                   flush=True)
 
 
+def print_spacing(case: str, name: str, src: Plate, plate: Plate, looks: np.ndarray | None = None) -> None:
+    """Visible repetition (``kernels.quality.copy_spacing``): per label, for its 8 most-used
+    16² source windows that are not flat (luma std ≥ 0.03), each copy's distance to the
+    nearest other copy on the frame against an even spread's spacing: the median ratio, the
+    share under a quarter (clusters), the median distance in pixels, the copies per window.
+    With ``looks`` (the rare looks) only windows a tenth of which are rare (bushes, tents,
+    clouds: ``rare copy spacing``)."""
+    names = {int(t["id"]): t["name"] for t in src.meta["labels"]}
+    r = Q.copy_spacing(plate["source.x"], plate["source.y"], plate["label.id"], src["label.id"],
+                       source_luma=Q.luma(srgb(src.rgb())), looks=looks)
+    if r:
+        worst = min(r.values(), key=lambda v: v[0])
+        kind = "rare copy spacing" if looks is not None else "copy spacing"
+        print(f"{case}: {name} {kind} (nearest copy / even spacing, share < 1/4, px, copies): "
+              + ", ".join(f"{names.get(k, k)} {q:.2f} {c:.2f} {d:.0f} {n:.1f}" for k, (q, c, d, n) in r.items())
+              + f"; worst {worst[0]:.2f}, clustered {max(v[1] for v in r.values()):.2f}", flush=True)
+
+
 def print_case(case: dict, figs: dict[str, dict], eb: dict | None, floor: dict | None = None) -> None:
     print(f"\n## {case['name']} ({'held' if case['held'] else 'tune'}), layout {case['layout_name']}")
     print(f"{'label':<11} {'method':<14} {'share':>6} {'histχ²':>7} {'winχ²':>7} {'grad':>5} {'std':>5} "
@@ -531,7 +551,8 @@ def main(argv=None) -> None:
                     help="also each label's rare look (its TAIL darkest and brightest source pixels, at least 0.15 "
                          "from its median luma; default 0.1) after PatchInit, "
                          "Correct and Magnify: its copies, an even draw's, the most copies of one 16² window "
-                         "(``kernels.quality.rare_use``)")
+                         "(``kernels.quality.rare_use``); and how near each other the copies of each label's "
+                         "most-used 16² windows sit (``kernels.quality.copy_spacing``)")
     ap.add_argument("--frames", action="store_true",
                     help="also write each output to --out: CASE_WIDTH_VARIANT.png (sRGB) and .npz (source.x/y, label.id)")
     ap.add_argument("--width", type=int, default=WIDTH,
@@ -585,6 +606,8 @@ def main(argv=None) -> None:
                     np.savez_compressed(stem.with_suffix(".npz"), sx=sx, sy=sy, lab=plate["label.id"])
                 if rare is not None:
                     print_rare(case["name"], name, src, rare, zip(("init", "correct", "magnify"), kept[name]))
+                    print_spacing(case["name"], name, src, plate)
+                    print_spacing(case["name"], name, src, plate, rare)
             eb = None
             if args.ebsynth:
                 out, dt = ebsynth(args.ebsynth, src, ids, args.out)

@@ -15,7 +15,10 @@ when
 
 * it is already used in the 9×9 window around p, or
 * a non-coherent pixel of that window uses an exemplar pixel within ``radius`` of it
-  (the paper: 2^(l−1) at level l, l = 1 the coarsest) — a near copy.
+  (the paper: 2^(l−1) at level l, l = 1 the coarsest) — a near copy, or
+* (``copy_spacing``, off by default; frames over ``FAR_FRAME`` times the photo's area) a
+  non-coherent pixel farther away, within a share of the even spread's spacing of the
+  label's copies, uses its spot (``far_copy``) — a copy too near on the frame.
 
 The survivor closest to p's neighbourhood under eq. 1 augmented with colour and height
 
@@ -536,6 +539,53 @@ def rejected(coords, i, j, cy, cx, h, radius):
 
 
 @njit(**JIT)
+def _users(flat, start, order):
+    """The target pixels using each exemplar pixel, as lists: those (flat, row-major) whose
+    exemplar pixel ``flat`` (Ht, Wt: row · We + column of their coords) is e are
+    ``order[start[e]:start[e + 1]]``, in row-major order (``start`` He·We + 1, ``order``
+    Ht·Wt; a counting sort, deterministic)."""
+    Ht, Wt = flat.shape
+    ne = start.shape[0] - 1
+    for e in range(ne + 1):
+        start[e] = 0
+    for i in range(Ht):
+        for j in range(Wt):
+            start[flat[i, j] + 1] += 1
+    for e in range(ne):
+        start[e + 1] += start[e]
+    fill = start[:-1].copy()
+    for i in range(Ht):
+        for j in range(Wt):
+            e = flat[i, j]
+            order[fill[e]] = i * Wt + j
+            fill[e] += 1
+
+
+@njit(**JIT)
+def far_copy(coords, i, j, cy, cx, h, reach2, r, start, order, We):
+    """Whether candidate (cy, cx) for pixel (i, j) would sit within √``reach2`` level pixels
+    (Euclidean) of another copy of its spot: a target pixel q ≠ p using an exemplar pixel
+    within ``r`` (L-inf) of the candidate that is not coherent with it (coords[q] ≠ candidate
+    + h (q − p)). ``start``, ``order``: the users of each exemplar pixel (``_users``), ``We``
+    the exemplar's width. The frame-scaled complement of ``rejected``'s 9×9 window."""
+    Wt = coords.shape[1]
+    He = (start.shape[0] - 1) // We
+    for y in range(max(cy - r, 0), min(cy + r + 1, He)):
+        for x in range(max(cx - r, 0), min(cx + r + 1, We)):
+            e = y * We + x
+            for t in range(start[e], start[e + 1]):
+                q = order[t]
+                di = q // Wt - i
+                dj = q % Wt - j
+                if di * di + dj * dj > reach2 or (di == 0 and dj == 0):
+                    continue
+                if y - cy == h * di and x - cx == h * dj:
+                    continue  # coherent with the candidate: the same copy
+                return True
+    return False
+
+
+@njit(**JIT)
 def _cand_dist(lv, m, use_rgb, i, j, cy, cx, target_dist, target_rgb, best):
     """Eq. 1 with colour and height for candidate (cy, cx) at target (i, j), whose 5×5
     contour distances and colours under the current map are ``target_dist``, ``target_rgb``; early exit
@@ -554,7 +604,7 @@ def _cand_dist(lv, m, use_rgb, i, j, cy, cx, target_dist, target_rgb, best):
 
 
 @njit(**JIT)
-def _subpass_rows(lv, m, rule, knn, over, zs, zt, coords_old, coords_new, active, parity, counts, r0, r1):
+def _subpass_rows(lv, m, rule, knn, over, zs, zt, coords_old, coords_new, active, parity, counts, r0, r1, far):
     """Correct pixels with (i % 2, j % 2) == ``parity`` of level ``lv``, reading coords_old,
     writing coords_new; ``knn`` the similarity sets (He, We, k, 2).
 
@@ -565,12 +615,17 @@ def _subpass_rows(lv, m, rule, knn, over, zs, zt, coords_old, coords_new, active
     (``_tone_z``), ``zt`` (Ht, Wt) the tone each target pixel should keep (read only when
     Z > 0).
 
+    ``far`` (reach², r, start, order): a candidate of label l that would win is also rejected
+    when ``far_copy`` finds another copy of its spot within √reach²[l] level pixels (reach²[l]
+    0: not tested); ``correct_level``'s ``copy_spacing``.
+
     counts[i] accumulates (changed, all rejected) per row for reporting. Rows 2 r + parity[0]
     for r in r0..r1 (``_subpass``: all of them in parallel).
     """
     pi, pj = parity
     src_lab, src_rgb, tgt_lab, tgt_dist, h = lv.src_lab, lv.src_rgb, lv.tgt_lab, lv.tgt_dist, lv.h
     radius, use_rgb, kappa, uniformity, zw = rule.radius, rule.use_rgb, rule.kappa, rule.uniformity, rule.tone_match
+    reach2, far_r, far_start, far_order = far
     Ht, Wt = tgt_lab.shape
     He, We = src_lab.shape
     k = knn.shape[2]
@@ -586,6 +641,7 @@ def _subpass_rows(lv, m, rule, knn, over, zs, zt, coords_old, coords_new, active
             if not active[i, j]:
                 continue
             lab = tgt_lab[i, j]
+            far2 = reach2[lab]
             gather_target(tgt_dist, i, j, target_dist)
             if use_rgb:
                 t = 0
@@ -642,7 +698,8 @@ def _subpass_rows(lv, m, rule, knn, over, zs, zt, coords_old, coords_new, active
                     f *= 1.0 + zw * e * e
                 d = f * _cand_dist(lv, m, use_rgb, i, j, cy, cx, target_dist, target_rgb, best / f)
                 # rejection is only tested for a candidate that would win (same result, cheaper)
-                if d < best and not rejected(coords_old, i, j, cy, cx, h, radius):
+                if d < best and not rejected(coords_old, i, j, cy, cx, h, radius) and not (
+                        far2 > 0 and far_copy(coords_old, i, j, cy, cx, h, far2, far_r, far_start, far_order, We)):
                     best = d
                     by = cy
                     bx = cx
@@ -669,15 +726,44 @@ def _subpass_rows(lv, m, rule, knn, over, zs, zt, coords_old, coords_new, active
 
 
 @njit(**PJIT)
-def _subpass(lv, m, rule, knn, over, zs, zt, coords_old, coords_new, active, parity, counts):
+def _subpass(lv, m, rule, knn, over, zs, zt, coords_old, coords_new, active, parity, counts, far):
     """``_subpass_rows`` of every row of the parity, in parallel (the loop body a serial
     kernel called with int64 rows: typed once, ``kernels/_config.py``)."""
     for r in prange((lv.tgt_lab.shape[0] - parity[0] + 1) // 2):
         _subpass_rows(lv, m, rule, knn, over, zs, zt, coords_old, coords_new, active=active, parity=parity, counts=counts,
-                      r0=np.int64(r), r1=np.int64(r + 1))
+                      r0=np.int64(r), r1=np.int64(r + 1), far=far)
 
 
 NO_Z = np.zeros((1, 1))  # the tone z-scores' place when the tone-match term is off (never read)
+
+
+def no_far(nlab: int) -> tuple:
+    """``_subpass_rows``' ``far`` when ``copy_spacing`` is off: no label tested."""
+    return np.zeros(max(int(nlab), 1)), np.int64(0), np.zeros(1, np.int64), np.zeros(1, np.int64)
+
+
+def far_reach(level, expected: np.ndarray, spacing: float) -> np.ndarray:
+    """Per label, the squared least distance (level pixels) ``copy_spacing`` keeps between two
+    copies of one spot at ``level``: (``spacing`` × √(the label's exemplar pixels) / h)², the
+    spacing an even spread of its copies over its frame area gives (frame area / copies =
+    the exemplar area: copies = frame area / exemplar area), where the label is copied more
+    than once (``expected`` × h² > 1); 0 elsewhere and everywhere when the frame (the level's
+    pixels × h²) is at most ``FAR_FRAME`` × the exemplar's area: a 1024-wide frame from a
+    1024-wide photo keeps today's result by construction."""
+    He, We = level.src_lab.shape
+    Ht, Wt = level.tgt_lab.shape
+    h = int(level.h)
+    n = len(expected)
+    out = np.zeros(max(n, 1))
+    if spacing <= 0 or Ht * Wt * h * h <= FAR_FRAME * He * We:
+        return out
+    area = np.bincount(level.src_lab.ravel(), minlength=n)[:n].astype(np.float64)
+    on = np.asarray(expected) * h * h > 1.0
+    out[:n] = np.where(on, (spacing * np.sqrt(area) / h) ** 2, 0.0)
+    return out
+
+
+FAR_FRAME = 2.0  # copy_spacing acts only in a frame of more than this many times the photo's area
 
 # levels smaller than this (512² synthesis pixels) are corrected whole even with a band runner
 # (the environment variable lets a test band small levels on Dask workers; results are the same)
@@ -685,7 +771,7 @@ TILE_MIN_PIXELS = int(os.environ.get("PROXYSHADE_TILE_MIN_PIXELS", 1 << 18))
 
 
 def subpass_rows(level, knn, coords_old, active, over, r0: int, r1: int, parity: tuple[int, int], metric: Metric,
-                 rule: Rule, zs: np.ndarray | None = None, zt: np.ndarray | None = None):
+                 rule: Rule, zs: np.ndarray | None = None, zt: np.ndarray | None = None, far: tuple | None = None):
     """One parity sub-pass on rows r0..r1 of the target only: (the new coords of those rows,
     their counts). Every pixel of a sub-pass reads only the state before it (``coords_old``)
     and the usage term ``over`` computed from it, so the rows of a band come out exactly
@@ -696,7 +782,8 @@ def subpass_rows(level, knn, coords_old, active, over, r0: int, r1: int, parity:
     counts = np.zeros((coords_old.shape[0], 2), np.int64)
     zs = NO_Z if zs is None else zs
     zt = NO_Z if zt is None else zt
-    _subpass(level, metric, rule, knn, over, zs, zt, coords_old, coords_new, band, parity, counts)
+    far = no_far(level.src_masks.shape[2]) if far is None else far
+    _subpass(level, metric, rule, knn, over, zs, zt, coords_old, coords_new, band, parity, counts, far)
     return coords_new[r0:r1], counts[r0:r1]
 
 
@@ -705,7 +792,7 @@ def correct_level(level, coords: np.ndarray, knn: np.ndarray, *, passes: int, me
                   tone_spacing: int = 1, tone_spread: float = 0.0,
                   spread_spacing: int = 1, keep_tones: np.ndarray | None = None,
                   tone_over_only: bool = False, rare_budget: float = 0.0,
-                  rare_tail: float = RARE_TAIL) -> tuple[np.ndarray, dict]:
+                  rare_tail: float = RARE_TAIL, copy_spacing: float = 0.0) -> tuple[np.ndarray, dict]:
     """``passes`` correction passes (4 parity sub-passes each) at one level.
 
     ``tone_balance`` (T): each candidate's distance is multiplied by 1 + U × over-use
@@ -732,6 +819,13 @@ def correct_level(level, coords: np.ndarray, knn: np.ndarray, *, passes: int, me
     synthesis size (``rare_budgets``; labels an even draw would use less are left alone);
     candidates on it pay a further + ``RARE_WEIGHT`` × ``_rare_excess`` in that factor, in
     every pass. 0: off (exactly as without it).
+
+    ``copy_spacing`` (a > 0): in a frame of more than ``FAR_FRAME`` times the photo's area, a
+    candidate that would win is also rejected when another, non-coherent copy of its spot
+    (an exemplar pixel within h // 2 of it) lies within a × √(its label's exemplar pixels) / h
+    level pixels (``far_reach``, ``far_copy``): the copies of one source window, whose number
+    the frame's area forces, are kept about a × the spacing of an even spread apart instead of
+    clustering. 0: off (exactly as without it).
 
     ``tiles``: None (every sub-pass whole, the kernels' threads over its rows), or a runner
     ``tiles(fn, shared, jobs) -> [fn(*shared, *job) for job in jobs]`` that may run the
@@ -763,6 +857,11 @@ def correct_level(level, coords: np.ndarray, knn: np.ndarray, *, passes: int, me
     budget = rare_budgets(expected, rare_budget, level.h) if rare_budget > 0 else None
     rare = rare_mask(level.src_lab, level.src_rgb, rare_tail) if budget is not None and budget.any() else None
     rexc = np.zeros(level.src_lab.shape, np.float64) if rare is not None else None
+    far = no_far(n)
+    reach = far_reach(level, expected, copy_spacing) if copy_spacing > 0 else far[0]
+    if reach.any():
+        He, We = level.src_lab.shape
+        far = (reach, np.int64(level.h // 2), np.zeros(He * We + 1, np.int64), np.zeros(Ht * Wt, np.int64))
     kernel_rule = rule
     nb = min(getattr(tiles, "bands", 1), Ht // 8) if tiles is not None and Ht * Wt >= TILE_MIN_PIXELS else 1
     edges = np.linspace(0, Ht, nb + 1).astype(int)
@@ -793,14 +892,16 @@ def correct_level(level, coords: np.ndarray, knn: np.ndarray, *, passes: int, me
                 kernel_rule = rule._replace(uniformity=1.0)
                 _rare_excess(coords_old, level.src_lab, rare, budget, 2 * level.h, rexc)
                 over += RARE_WEIGHT * rexc
+            if far[0].any():
+                _users(coords_old[..., 0] * np.int32(level.src_lab.shape[1]) + coords_old[..., 1], far[2], far[3])
             if nb > 1:
-                jobs = [(coords_old, active, over, int(a), int(b), parity, metric, kernel_rule, zs, zt)
+                jobs = [(coords_old, active, over, int(a), int(b), parity, metric, kernel_rule, zs, zt, far)
                         for a, b in zip(edges[:-1], edges[1:])]
                 for (a, b), (rows, cnt) in zip(zip(edges[:-1], edges[1:]), tiles(subpass_rows, (level, knn), jobs)):
                     coords_new[a:b] = rows
                     counts[a:b] += cnt
             else:
-                _subpass(level, metric, kernel_rule, knn, over, zs, zt, coords_old, coords_new, active, parity, counts)
+                _subpass(level, metric, kernel_rule, knn, over, zs, zt, coords_old, coords_new, active, parity, counts, far)
             coords_old[...] = coords_new  # only this sub-set changed
     c = counts.sum(0)
     return coords_old, {"changed": int(c[0]), "all_rejected": int(c[1])}
@@ -888,7 +989,8 @@ def level_similarity_sets(levels: list, k: int, metric: Metric, *, seed: int, kn
 
 def synthesize(levels: list, S_init: np.ndarray, corr, *, seed: int, mask: np.ndarray | None = None,
                similarity: list | None = None, min_radius: int = 0, timings: dict | None = None,
-               tiles=None, rare_budget: float = 0.0, rare_tail: float = RARE_TAIL) -> tuple[np.ndarray, list[dict]]:
+               tiles=None, rare_budget: float = 0.0, rare_tail: float = RARE_TAIL,
+               copy_spacing: float = 0.0) -> tuple[np.ndarray, list[dict]]:
     """Coarse-to-fine correction of an initial coordinate map.
 
     Parameters
@@ -924,6 +1026,8 @@ def synthesize(levels: list, S_init: np.ndarray, corr, *, seed: int, mask: np.nd
     tiles : optional runner of row bands of the large levels' sub-passes (``correct_level``).
     rare_budget, rare_tail : copies of a rare look allowed at the synthesis size, the tails that
         make it (``correct_level``; 0: off).
+    copy_spacing : the least distance between two copies of one spot, as a share of an even
+        spread's spacing, in a frame much larger than the photo (``correct_level``; 0: off).
 
     Returns the corrected map and per-level statistics.
     """
@@ -968,7 +1072,8 @@ def synthesize(levels: list, S_init: np.ndarray, corr, *, seed: int, mask: np.nd
                               spread_spacing=int(corr.spread_spacing),
                               keep_tones=start if anchor == "init" else None,
                               tone_over_only=bool(getattr(corr, "tone_over_only", False)),
-                              rare_budget=float(rare_budget), rare_tail=float(rare_tail))
+                              rare_budget=float(rare_budget), rare_tail=float(rare_tail),
+                              copy_spacing=float(copy_spacing))
         st.update(level=l, h=h, shape=shape, passes=n, radius=radius)
         stats.append(st)
     if mask is not None:

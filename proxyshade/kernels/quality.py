@@ -489,3 +489,98 @@ def source_outside_share(sx: np.ndarray, sy: np.ndarray, mask: np.ndarray, src_l
     r = np.clip(np.rint(np.asarray(sy, np.float64)[mask]), 0, hs - 1).astype(np.int64)
     v = np.asarray(src_lum, np.float64)[r, c]
     return float(((v < rng[0] - eps) | (v > rng[1] + eps)).mean()) if v.size else 0.0
+
+
+def _copy_centres(py: np.ndarray, px: np.ndarray, size: int) -> np.ndarray:
+    """(n, 2) centres of the copies among output pixels (py, px) that read one source window
+    of side ``size``: pixels binned in ``size``² output blocks (pieces under a sixteenth of a
+    window dropped: stray or repaired pixels), pieces whose centres lie within 3/4 ``size``
+    joined (a whole copy straddles up to four blocks, its pieces' centres ``size`` / 2 apart
+    along each axis), each copy's centre its pixels' mean."""
+    b = (py // size) * (1 << 20) + px // size
+    ub, inv, n = np.unique(b, return_inverse=True, return_counts=True)
+    cy = np.bincount(inv, py) / n
+    cx = np.bincount(inv, px) / n
+    keep = n >= max(1, size * size // 16)
+    cy, cx, n = cy[keep], cx[keep], n[keep].astype(np.float64)
+    m = len(n)
+    comp = np.arange(m)
+    if m > 1:
+        near = np.hypot(cy[:, None] - cy[None], cx[:, None] - cx[None]) < 0.75 * size
+        for i in range(m):  # single linkage: each piece takes the smallest id it reaches
+            stack = [i]
+            while stack:
+                k = stack.pop()
+                for t in np.flatnonzero(near[k] & (comp > comp[i])):
+                    comp[t] = comp[i]
+                    stack.append(t)
+    _, g = np.unique(comp, return_inverse=True)
+    w = np.bincount(g, n)
+    return np.stack([np.bincount(g, n * cy) / w, np.bincount(g, n * cx) / w], -1) if m else np.zeros((0, 2))
+
+
+def copy_spacing(sx: np.ndarray, sy: np.ndarray, labels: np.ndarray, source_labels: np.ndarray, *,
+                 size: int = 16, top: int = 8, close: float = 0.25, source_luma: np.ndarray | None = None,
+                 flat: float = 0.03, looks: np.ndarray | None = None) -> dict[int, tuple[float, float, float, float]]:
+    """Visible repetition: how near each other the copies of a label's most-used source
+    windows sit on the frame. For each label, its ``top`` most-used ``size``² source windows
+    (a ``size`` grid over the source; uses: the label's output pixels reading them); for each
+    copy of such a window (``_copy_centres``) the distance d to the nearest other copy of it,
+    against the spacing s = √(label area in frame / copies) an even spread of that many copies
+    over the label would give; with ``source_luma`` (the photo's, sRGB) only windows whose luma
+    varies by at least ``flat`` (standard deviation) count: a flat patch of sky repeated is not
+    seen; with ``looks`` (H, W bool, e.g. ``rare_looks``) only windows at least a tenth of whose
+    pixels are such looks (a bush, a tent: what a viewer recognises again). {label: (median
+    d / s, share of copies with d < ``close`` s, median d in output pixels, mean copies per
+    window)}: 1 and 0 for copies on a lattice, about
+    0.5 and 0.18 (at ``close`` 0.25) for copies placed at random, less for copies clustered
+    (the same bush twice within a screenful). The copy count itself is forced by the frame's
+    area; where the copies lie is not. Labels with fewer than two copies of any such window
+    are left out."""
+    sl = np.asarray(source_labels).astype(np.int64)
+    ol = np.asarray(labels).astype(np.int64)
+    hs, ws = sl.shape
+    c = np.clip(np.rint(sx), 0, ws - 1).astype(np.int64)
+    r = np.clip(np.rint(sy), 0, hs - 1).astype(np.int64)
+    ncx = -(-ws // size)
+    cell = (r // size) * ncx + c // size
+    own = sl[r, c] == ol
+    ncy = -(-hs // size)
+    varied = np.ones(ncy * ncx, np.bool_)
+    if source_luma is not None:
+        cells = ((np.arange(hs)[:, None] // size) * ncx + np.arange(ws)[None] // size).ravel()
+        lum = np.asarray(source_luma, np.float64).ravel()
+        n = np.bincount(cells, minlength=ncy * ncx)
+        m1 = np.bincount(cells, lum, minlength=ncy * ncx) / np.maximum(n, 1)
+        m2 = np.bincount(cells, lum * lum, minlength=ncy * ncx) / np.maximum(n, 1)
+        varied = np.sqrt(np.maximum(m2 - m1 * m1, 0.0)) >= flat
+    if looks is not None:
+        cells = ((np.arange(hs)[:, None] // size) * ncx + np.arange(ws)[None] // size).ravel()
+        share = np.bincount(cells, np.asarray(looks, np.float64).ravel(), minlength=ncy * ncx)
+        varied &= share >= 0.1 * size * size
+    res = {}
+    for lab in np.unique(ol):
+        area = float((ol == lab).sum())
+        py, px = np.nonzero(own & (ol == lab))
+        if not len(py):
+            continue
+        cl = cell[py, px]
+        uses = np.where(varied, np.bincount(cl, minlength=ncy * ncx), 0)
+        ratios, dists, ncop = [], [], []
+        for w in np.argsort(-uses, kind="stable")[:top]:
+            if uses[w] == 0:
+                break
+            sel = cl == w
+            cen = _copy_centres(py[sel], px[sel], size)
+            if len(cen) < 2:
+                continue
+            d = np.hypot(cen[:, None, 0] - cen[None, :, 0], cen[:, None, 1] - cen[None, :, 1])
+            np.fill_diagonal(d, np.inf)
+            d = d.min(1)
+            ratios.append(d / np.sqrt(area / len(cen)))
+            dists.append(d)
+            ncop.append(len(cen))
+        if ratios:
+            q, d = np.concatenate(ratios), np.concatenate(dists)
+            res[int(lab)] = (float(np.median(q)), float((q < close).mean()), float(np.median(d)), float(np.mean(ncop)))
+    return res

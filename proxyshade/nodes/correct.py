@@ -44,6 +44,12 @@ class Correct(Correction, Node):
     rare_tail = Param(float, 0.1, min=0.001, max=0.5,
                       doc="the shares of a label's darkest and brightest source pixels (at least 0.15 in luma from "
                           "its median) that make its rare look, for rare_budget")
+    copy_spacing = Param(float, 0.0, min=0.0, max=2.0,
+                         doc="in a frame of more than twice the photo's area (HD, 4K from a 1024-wide photo), the "
+                             "least distance on the frame between two non-coherent copies of one source spot, as a "
+                             "share of the spacing an even spread of the label's copies gives (the square root of "
+                             "its source area): copies of a bush or a tent spread out instead of clustering; "
+                             "0 = off")
 
     def compute(self, ctx) -> Plate:
         from proxyshade.synthesis import labels as L
@@ -60,7 +66,8 @@ class Correct(Correction, Node):
                                 coarse_size=p.coarse_size, max_distance=p.max_distance, interior=p.interior, with_rgb=p.use_rgb)
         coords, stats, rep = correct_map(setup, setup.from_source(init["source.x"], init["source.y"]), Correction.of(p),
                                     seed=p.seed, near_copy=p.near_copy, tiles=ctx.tiles,
-                                    rare_budget=p.rare_budget, rare_tail=p.rare_tail)
+                                    rare_budget=p.rare_budget, rare_tail=p.rare_tail,
+                                    copy_spacing=p.copy_spacing)
         patch, npatch = patch_ids(coords)
         changed = sum(s["changed"] for s in stats)
         ctx.note(f"{len(stats)} levels, {changed} pixel updates, {npatch} patches; "

@@ -48,7 +48,7 @@ def similarity_sets(setup: SynthesisSetup, corr: SimpleNamespace, *, seed: int) 
 def correct_map(setup: SynthesisSetup, coords0: np.ndarray, corr: SimpleNamespace, *, seed: int,
                 mask: np.ndarray | None = None, similarity: list | None = None,
                 near_copy: int = 0, tiles=None, rare_budget: float = 0.0,
-                rare_tail: float = kcorrect.RARE_TAIL) -> tuple[np.ndarray, list, dict]:
+                rare_tail: float = kcorrect.RARE_TAIL, copy_spacing: float = 0.0) -> tuple[np.ndarray, list, dict]:
     """k-coherent correction of the map ``coords0`` (or of its ``mask`` pixels) from the
     coarsest level up to the synthesis size, then ``repair_map``. ``corr``: the
     ``Correction`` parameters; ``near_copy``: the smallest near-copy radius in exemplar
@@ -57,11 +57,12 @@ def correct_map(setup: SynthesisSetup, coords0: np.ndarray, corr: SimpleNamespac
     differently from the whole frame). ``tiles``: the executor's row-band runner (``ctx.tiles``,
     ``synthesis.tiles``), which runs large levels' sub-passes on other workers (bit-identical;
     None: here). ``rare_budget``, ``rare_tail``: Correct's rare-look budget
-    (``kernels.correct.correct_level``; 0: off). Returns (coords,
+    (``kernels.correct.correct_level``; 0: off); ``copy_spacing``: Correct's least distance
+    between two copies of one spot in a frame larger than the photo (0: off). Returns (coords,
     per-level stats, the repair's counts)."""
     coords, stats = kcorrect.synthesize(setup.levels, coords0, corr, seed=seed, mask=mask, similarity=similarity,
                                         min_radius=near_copy_radius(setup, near_copy), tiles=tiles,
-                                        rare_budget=rare_budget, rare_tail=rare_tail)
+                                        rare_budget=rare_budget, rare_tail=rare_tail, copy_spacing=copy_spacing)
     coords, rep = repair_map(setup, coords)
     return coords, stats, rep
 

@@ -106,10 +106,27 @@ def rejected(S, i, j, cy, cx, h, radius, half=4):
     return False
 
 
-def correct_pixel(lv, knn, S, i, j, radius, w, kappa, hw=0.0, over=None, uniformity=0.0, zw=0.0, zs=None, zt=None):
+def far_copy(S, i, j, cy, cx, h, reach2, r):
+    """Whether any target pixel q != (i, j) within sqrt(reach2) (Euclidean) uses an exemplar
+    pixel within r (L-inf) of (cy, cx) without being coherent with it, every pixel looked at."""
+    Ht, Wt = S.shape[:2]
+    for ii in range(Ht):
+        for jj in range(Wt):
+            di, dj = ii - i, jj - j
+            if (di, dj) == (0, 0) or di * di + dj * dj > reach2:
+                continue
+            dy, dx = int(S[ii, jj, 0]) - cy, int(S[ii, jj, 1]) - cx
+            if abs(dy) <= r and abs(dx) <= r and (dy, dx) != (h * di, h * dj):
+                return True
+    return False
+
+
+def correct_pixel(lv, knn, S, i, j, radius, w, kappa, hw=0.0, over=None, uniformity=0.0, zw=0.0, zs=None, zt=None,
+                  far=None):
     """One pixel of a correction sub-pass, written out (height term weight ``hw``;
     distances x (1 + uniformity x over[candidate]); with ``zw`` > 0 also x (1 + zw (zs[candidate]
-    - zt[i, j])^2))."""
+    - zt[i, j])^2)); ``far`` (reach2 per label, r): candidates with another copy of their
+    spot within sqrt(reach2[label]) rejected too (``far_copy``)."""
     h = lv.h
     He, We = lv.src_lab.shape
     Ht, Wt = lv.tgt_lab.shape
@@ -162,6 +179,8 @@ def correct_pixel(lv, knn, S, i, j, radius, w, kappa, hw=0.0, over=None, uniform
     best, by = np.inf, tuple(S[i, j])
     for cy, cx, coh in cands:
         if rejected(S, i, j, cy, cx, h, radius):
+            continue
+        if far is not None and far[0][lab] > 0 and far_copy(S, i, j, cy, cx, h, far[0][lab], far[1]):
             continue
         d = mult(cy, cx, coh) * dist(cy, cx)
         if d < best:

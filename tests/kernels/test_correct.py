@@ -57,21 +57,31 @@ def test_rejected_matches_reference():
 
 
 def subpass(lv, knn, S, S_new, active, pi, pj, radius, kappa, counts, hw=0.0, over=None, uniformity=0.0, zw=0.0,
-            zs=None, zt=None):
+            zs=None, zt=None, far=None):
     over = np.zeros(lv.src_lab.shape) if over is None else over
     zs = kc.NO_Z if zs is None else zs
     zt = kc.NO_Z if zt is None else zt
+    if far is None:
+        far = kc.no_far(lv.src_masks.shape[2])
+    else:  # (reach² per label, r): the users' lists of this state
+        He, We = lv.src_lab.shape
+        far = (np.asarray(far[0], np.float64), np.int64(far[1]), np.zeros(He * We + 1, np.int64),
+               np.zeros(S.shape[0] * S.shape[1], np.int64))
+        kc._users(S[..., 0] * np.int32(We) + S[..., 1], far[2], far[3])
     kc._subpass(lv, kf.Metric(90.0, hw), kc.Rule(radius, True, kappa, uniformity, zw), knn, over, zs, zt, S, S_new,
-                active, (pi, pj), counts)
+                active, (pi, pj), counts, far)
 
 
-@pytest.mark.parametrize("seed,kappa,use_level,hw,uniformity,zw",
-                         [(0, 0.0, -1, 0.0, 0.0, 0.0), (1, 0.5, -1, 0.0, 0.0, 0.0), (2, 0.0, 0, 0.0, 0.0, 0.0),
-                          (3, 0.0, -1, 16.0, 1.0, 0.0), (4, 0.5, 0, 40.0, 3.0, 0.0), (5, 0.0, -1, 0.0, 0.0, 0.5),
-                          (6, 0.5, 0, 16.0, 1.0, 4.0)])
-def test_subpass_matches_reference(seed, kappa, use_level, hw, uniformity, zw):
+@pytest.mark.parametrize("seed,kappa,use_level,hw,uniformity,zw,far",
+                         [(0, 0.0, -1, 0.0, 0.0, 0.0, None), (1, 0.5, -1, 0.0, 0.0, 0.0, None),
+                          (2, 0.0, 0, 0.0, 0.0, 0.0, None), (3, 0.0, -1, 16.0, 1.0, 0.0, None),
+                          (4, 0.5, 0, 40.0, 3.0, 0.0, None), (5, 0.0, -1, 0.0, 0.0, 0.5, None),
+                          (6, 0.5, 0, 16.0, 1.0, 4.0, None), (7, 0.0, -1, 0.0, 0.0, 0.0, ([40.0, 0.0, 90.0], 0)),
+                          (8, 0.5, 0, 16.0, 1.0, 0.0, ([60.0, 20.0, 0.0], 1))])
+def test_subpass_matches_reference(seed, kappa, use_level, hw, uniformity, zw, far):
     """The sub-pass kernel against ``naive.correct_pixel``, with and without the kappa,
-    height, usage and tone-match terms (random z-scores, a random tone to keep)."""
+    height, usage, tone-match terms (random z-scores, a random tone to keep) and the
+    far-copy rejection (``copy_spacing``; one label untested)."""
     rng, levels = small_case(seed)
     lv = levels[use_level]
     knn = kc.similarity_sets(lv, 2, kf.Metric(SYN.w, hw), seed=seed, iterations=2)
@@ -85,16 +95,40 @@ def test_subpass_matches_reference(seed, kappa, use_level, hw, uniformity, zw):
         active = np.ones(lv.tgt_lab.shape, bool)
         counts = np.zeros((S.shape[0], 2), np.int64)
         subpass(lv, knn, S, S_new, active, pi, pj, radius=radius, kappa=kappa, counts=counts, hw=hw, over=over,
-                uniformity=uniformity, zw=zw, zs=zs, zt=zt)
+                uniformity=uniformity, zw=zw, zs=zs, zt=zt, far=far)
         for i in range(pi, S.shape[0], 2):
             for j in range(pj, S.shape[1], 2):
                 assert tuple(S_new[i, j]) == naive.correct_pixel(lv, knn, S, i, j, radius, 90.0, kappa, hw, over,
-                                                                 uniformity, zw, zs, zt), (i, j)
+                                                                 uniformity, zw, zs, zt, far), (i, j)
         # pixels outside the sub-set are untouched
         other = np.ones(S.shape[:2], bool)
         other[pi::2, pj::2] = False
         assert np.array_equal(S_new[other], S[other])
         S = S_new
+
+
+def test_far_copy_and_users_match_reference():
+    """The users' lists against a stable sort, and ``far_copy`` against every pixel looked
+    at, on small random maps (exemplar pixels used many times, as at 4K)."""
+    rng = np.random.default_rng(3)
+    for _ in range(5):
+        He, We, Ht, Wt = 6, 7, 18, 21
+        S = np.stack([rng.integers(0, He, (Ht, Wt)), rng.integers(0, We, (Ht, Wt))], -1).astype(np.int32)
+        S[2:9, 3:12] = np.mgrid[0:7, 0:9].transpose(1, 2, 0) % [He, We]  # a coherent patch
+        flat = S[..., 0] * np.int32(We) + S[..., 1]
+        start, order = np.zeros(He * We + 1, np.int64), np.zeros(Ht * Wt, np.int64)
+        kc._users(flat, start, order)
+        np.testing.assert_array_equal(order, np.argsort(flat.ravel(), kind="stable"))
+        np.testing.assert_array_equal(start, np.r_[0, np.cumsum(np.bincount(flat.ravel(), minlength=He * We))])
+        hits = 0
+        for _ in range(300):
+            i, j = int(rng.integers(0, Ht)), int(rng.integers(0, Wt))
+            cy, cx = int(rng.integers(0, He)), int(rng.integers(0, We))
+            h, r, reach2 = int(rng.choice([1, 2, 4])), int(rng.choice([0, 1, 2])), float(rng.choice([2.0, 9.5, 50.0]))
+            want = naive.far_copy(S, i, j, cy, cx, h, reach2, r)
+            assert kc.far_copy(S, i, j, cy, cx, h, reach2, r, start, order, We) == want
+            hits += want
+        assert 0 < hits < 300
 
 
 def test_no_accepted_candidate_already_in_the_window():
@@ -642,6 +676,87 @@ def test_rare_budget_is_deterministic_across_thread_counts_and_bands(tone_balanc
     kc.TILE_MIN_PIXELS = 0
     try:
         d, _ = kc.synthesize(levels, S, c, seed=2, rare_budget=0.5, tiles=InProcess(3))
+    finally:
+        kc.TILE_MIN_PIXELS = old
+    assert np.array_equal(a, d)
+
+
+def _far_case(seed=11):
+    """Two labels, a noisy exemplar 24×28 and a frame 64×64 (six times its area, as 4K is
+    from a 1024-wide photo), from a map of random positions."""
+    rng = np.random.default_rng(seed)
+    He, We = 24, 28
+    ex_lab = np.zeros((He, We), np.int32)
+    ex_lab[:, :6] = 1
+    ex_rgb = rng.random((He, We, 3)).astype(np.float32)
+    tgt = np.zeros((64, 64), np.int32)
+    tgt[:, :10] = 1
+    levels = kf.build_levels(ex_rgb, ex_lab, tgt, 2, 2, max_distance=5.0)
+    S = np.stack([rng.integers(0, He, (64, 64)), rng.integers(6, We, (64, 64))], -1).astype(np.int32)
+    S[tgt == 1] = np.stack([rng.integers(0, He, (tgt == 1).sum()), rng.integers(0, 6, (tgt == 1).sum())], -1)
+    return levels, S, tgt
+
+
+def _near_copies(S, lab, label, reach):
+    """The share of a label's target pixels with another pixel within ``reach`` using the same
+    exemplar pixel without being coherent with it (a copy nearby)."""
+    pts = {}
+    for i, j in zip(*np.nonzero(lab == label)):
+        pts.setdefault(tuple(S[i, j]), []).append((i, j))
+    near = 0
+    for p in pts.values():
+        a = np.array(p, float)
+        e = np.hypot(a[:, None, 0] - a[None, :, 0], a[:, None, 1] - a[None, :, 1])
+        np.fill_diagonal(e, np.inf)
+        near += (e.min(1) <= reach).sum()
+    return near / (lab == label).sum()
+
+
+def test_copy_spacing_spreads_the_copies_of_a_spot():
+    """In a frame six times the exemplar's area each exemplar pixel is used about six times;
+    with copy_spacing 0.5 (a reach of 0.5 √(24 × 22) = 11.5 pixels) far fewer pixels have a
+    copy of their spot that near, labels kept."""
+    levels, S, tgt = _far_case()
+    c = corr(k=2, uniformity=0.25)
+    a, _ = kc.synthesize(levels, S, c, seed=1)
+    b, _ = kc.synthesize(levels, S, c, seed=1, copy_spacing=0.5)
+    lv = levels[-1]
+    assert (lv.src_lab[b[..., 0], b[..., 1]] == tgt).mean() >= (lv.src_lab[a[..., 0], a[..., 1]] == tgt).mean() - 0.01
+    reach = 0.5 * np.sqrt(24 * 22)
+    assert _near_copies(b, tgt, 0, reach) < 0.5 * _near_copies(a, tgt, 0, reach), (
+        _near_copies(a, tgt, 0, reach), _near_copies(b, tgt, 0, reach))
+
+
+def test_copy_spacing_leaves_a_frame_about_the_photos_size_alone():
+    """``far_reach`` is 0 for every label when the frame is at most ``FAR_FRAME`` times the
+    exemplar's area (a 1024-wide frame from a 1024-wide photo: today's map exactly), and for a
+    label copied at most once; else (spacing √(exemplar pixels of the label) / h)²."""
+    levels, S = _rare_case()  # frame 1.25 × the exemplar
+    a, _ = kc.synthesize(levels, S, corr(k=2, uniformity=0.25), seed=1)
+    b, _ = kc.synthesize(levels, S, corr(k=2, uniformity=0.25), seed=1, copy_spacing=0.5)
+    assert np.array_equal(a, b)
+    assert not kc.far_reach(levels[-1], np.array([1.25, 1.25]), 0.5).any()
+    lv = _far_case()[0][-1]  # 64² from 24×28, h = 1: label 0 has 24 × 22 exemplar pixels
+    np.testing.assert_allclose(kc.far_reach(lv, np.array([6.0, 0.9]), 0.5), [0.25 * 24 * 22, 0.0])
+
+
+@pytest.mark.parametrize("uniformity", [0.25, 0.0])
+def test_copy_spacing_is_deterministic_across_thread_counts_and_bands(uniformity):
+    from proxyshade.synthesis.tiles import InProcess
+
+    levels, S, _ = _far_case(12)
+    c = corr(k=2, uniformity=uniformity)
+    a, _ = kc.synthesize(levels, S, c, seed=2, copy_spacing=0.5)
+    numba.set_num_threads(1)
+    try:
+        b, _ = kc.synthesize(levels, S, c, seed=2, copy_spacing=0.5)
+    finally:
+        numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
+    assert np.array_equal(a, b)
+    old = kc.TILE_MIN_PIXELS
+    kc.TILE_MIN_PIXELS = 0
+    try:
+        d, _ = kc.synthesize(levels, S, c, seed=2, copy_spacing=0.5, tiles=InProcess(3))
     finally:
         kc.TILE_MIN_PIXELS = old
     assert np.array_equal(a, d)

@@ -279,3 +279,29 @@ def test_rare_use_counts_the_copies_of_a_rare_look():
             sy2[i:i + 3, j:j + 3], sx2[i:i + 3, j:j + 3] = np.mgrid[25:28, 10:13]
     c2, e2, w2 = Q.rare_use(sx2, sy2, out_lab, lab, rare)[1]
     assert e2 == 2.0 and c2 > 10 and w2 > 10 * w
+
+
+def _pasted(offsets, shape=(256, 256)):
+    """An output of one label reading the lower half of a 128² source (tiled), with the
+    source's window (16, 16)–(32, 32) pasted at ``offsets``."""
+    yy, xx = np.mgrid[0:shape[0], 0:shape[1]]
+    sy, sx = (64 + yy % 64).astype(np.float32), (xx % 128).astype(np.float32)
+    for y, x in offsets:
+        sy[y:y + 16, x:x + 16], sx[y:y + 16, x:x + 16] = np.mgrid[16:32, 16:32]
+    return sx, sy, np.ones(shape, np.int64), np.ones((128, 128), np.int64)
+
+
+def test_copy_spacing_tells_copies_on_a_lattice_from_clustered_ones():
+    """Sixteen copies of one window: on a 64-pixel lattice (the even spacing of 16 copies
+    over 256²) their nearest other copy is one spacing away; in pairs 36 or 24 pixels apart
+    it is about half or a third of it, and the share under half the spacing goes from none to
+    all."""
+    lattice = [(y, x) for y in range(8, 256, 64) for x in range(8, 256, 64)]
+    q, close, d, n = Q.copy_spacing(*_pasted(lattice), top=1, close=0.5)[1]
+    assert n == 16 and d == 64 and q == 1.0 and close == 0.0
+    pairs = [(y, x + dx) for y in range(8, 256, 64) for x in range(8, 256, 128) for dx in (0, 36)]
+    q2, close2, d2, n2 = Q.copy_spacing(*_pasted(pairs), top=1, close=0.5)[1]
+    assert n2 == 16 and d2 == 36 and q2 == 36 / 64 and close2 == 0.0
+    tight = [(y, x + dx) for y in range(8, 256, 64) for x in range(8, 256, 128) for dx in (0, 24)]
+    q3, close3, d3, n3 = Q.copy_spacing(*_pasted(tight), top=1, close=0.5)[1]
+    assert n3 == 16 and d3 == 24 and close3 == 1.0

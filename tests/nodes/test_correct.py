@@ -156,3 +156,29 @@ def test_rare_budget_cuts_the_copies_of_the_rare_looks():
     assert T.label_fidelity(src, on) >= 0.995
     same = run_node("Correct", {"rare_budget": 1000.0}, {"init": init, "source": src})
     assert np.array_equal(same["source.x"], off["source.x"]) and np.array_equal(same["source.y"], off["source.y"])
+
+
+def test_copy_spacing_spreads_copies_in_a_large_frame_only():
+    """A guide 4x the source's width and twice its height (an even draw copies each source
+    spot several times): with copy_spacing the copies of the most-used source windows sit
+    farther apart on the frame (``quality.copy_spacing``), labels kept; a guide of the
+    source's own size gives exactly the map without it (1024 from a 1024-wide photo)."""
+    from proxyshade.kernels.quality import copy_spacing
+
+    src = T.source("renoir")
+    g = T.guide("renoir", (512, 1024))
+    init = run_node("PatchInit", {}, {"guide": g, "source": src})
+    off = run_node("Correct", {}, {"init": init, "source": src})
+    on = run_node("Correct", {"copy_spacing": 0.5}, {"init": init, "source": src})
+
+    def spacing(p):
+        r = copy_spacing(p["source.x"], p["source.y"], p["label.id"], src["label.id"], size=8)
+        return np.median([q for q, _, _, _ in r.values()])
+
+    assert spacing(on) > 1.1 * spacing(off), (spacing(off), spacing(on))
+    assert T.label_fidelity(src, on) >= 0.995
+    g1 = T.guide("renoir", src.shape)
+    init1 = run_node("PatchInit", {}, {"guide": g1, "source": src})
+    a = run_node("Correct", {}, {"init": init1, "source": src})
+    b = run_node("Correct", {"copy_spacing": 0.5}, {"init": init1, "source": src})
+    assert np.array_equal(a["source.x"], b["source.x"]) and np.array_equal(a["source.y"], b["source.y"])
