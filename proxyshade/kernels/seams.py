@@ -494,7 +494,7 @@ def _spread(img, target, mu, order, a, b, oy, ox, W):
 
 
 @njit(**JIT)
-def _shift_passes(coords, img, target, labels, patch, radius, adopt, passes, keep, frozen):
+def _shift_passes(coords, img, target, labels, patch, radius, adopt, passes, keep):
     """Up to ``passes`` passes (stopping after one that moves nothing); in each, each piece
     (a patch's pixels of one target label; ids in order of (``patch`` id, label)) in turn
     takes, among its offset moved by up to ``radius`` pixels each way, the one of least
@@ -663,21 +663,9 @@ def _shift_passes(coords, img, target, labels, patch, radius, adopt, passes, kee
     # least an offset's could be then (``least``); else -inf
     own = np.zeros(npatch + 1, np.float64)
     refused = np.full(npatch + 1, -np.inf)
-    # each piece's try against the map as the pass found it (``_shift_frozen``): the offset it took
-    # (``fy``, ``fx``), its spread then and the best offset's (``fsp``), the least and most spread of
-    # the offsets the spread test let through and refused (``fgate``); ``fdone``: tried so
-    fy = np.zeros(npatch + 1, np.int64)
-    fx = np.zeros(npatch + 1, np.int64)
-    fsp = np.zeros((npatch + 1, 2), np.float64)
-    fgate = np.zeros((npatch + 1, 2), np.float64)
-    fdone = np.zeros(npatch + 1, np.bool_)
     clock = 0
     moves = 0
     for _ in range(passes):
-        if frozen:
-            _shift_frozen(coords, img, target, labels, starts, order, pstarts, pr, mu, tot, floor, radius, adopt,
-                          tried, moved_at, own, refused, most, fy, fx, fsp, fgate, fdone)
-        clock0 = clock
         moved = 0
         for p in range(npatch):
             a, b = starts[p], starts[p + 1]
@@ -697,24 +685,94 @@ def _shift_passes(coords, img, target, labels, patch, radius, adopt, passes, kee
                 if not again:
                     continue
             oy, ox = coords[f // W, f % W, 0] - f // W, coords[f // W, f % W, 1] - f % W
-            budget = tot[lab] - floor[lab]
-            use = frozen and fdone[pid]
-            if use:  # the frozen try holds where no neighbour moved since and the spread test decides alike
-                for t in range(ps, ps + n):
-                    if moved_at[pr[t, 4]] > clock0:
-                        use = False
+            for t in range(n):  # what the neighbours read: the same for every offset tried
+                y, x = pr[ps + t, 2], pr[ps + t, 3]
+                ry, rx = coords[y, x, 0] - y, coords[y, x, 1] - x
+                qoff[t, 0], qoff[t, 1] = ry, rx
+                sy, sx = pr[ps + t, 0] + ry, pr[ps + t, 1] + rx
+                ok[t, 0] = 0 <= sy < Hs and 0 <= sx < Ws
+                if ok[t, 0]:
+                    for c in range(C):
+                        col[t, 0, c] = img[sy, sx, c]
+                sy, sx = y + ry, x + rx
+                ok[t, 1] = 0 <= sy < Hs and 0 <= sx < Ws
+                if ok[t, 1]:
+                    for c in range(C):
+                        col[t, 1, c] = img[sy, sx, c]
+            # the offsets tried, in order: its own, moved by up to radius each way (rows, then
+            # columns, ascending), then for a small patch its neighbours' (first met, farther)
+            ncand = 0
+            for dy in range(-radius, radius + 1):
+                for dx in range(-radius, radius + 1):
+                    if dy != 0 or dx != 0:
+                        ncand += 1
+                        cand[ncand, 0], cand[ncand, 1] = oy + dy, ox + dx
+            cand[0, 0], cand[0, 1] = oy, ox
+            if b - a <= adopt:
+                seen = 0
+                for t in range(n):
+                    ry, rx = qoff[t, 0], qoff[t, 1]
+                    if max(abs(ry - oy), abs(rx - ox)) <= radius:
+                        continue  # among the shifts already
+                    dup = False
+                    for u in range(ncand + 1 - seen, ncand + 1):
+                        if cand[u, 0] == ry and cand[u, 1] == rx:
+                            dup = True
+                            break
+                    if dup or seen == ADOPT_MAX:
+                        continue
+                    ncand += 1
+                    cand[ncand, 0], cand[ncand, 1] = ry, rx
+                    seen += 1
+            # each one's summed seam cost to the neighbours, cut short once it reaches the best
+            # (terms are never negative); one lower than the best is taken where every pixel of
+            # the patch then reads a source pixel of its target's label (its own offset need not)
+            best = np.inf
+            by, bx = oy, ox
+            spread = -1.0  # its spread at its offset, once needed
+            least = np.inf
+            pick = 0.0  # the best offset's spread
+            refused[pid] = -np.inf
+            for u in range(ncand + 1):
+                cy, cx = cand[u, 0], cand[u, 1]
+                e = 0.0
+                for t in range(n):
+                    if qoff[t, 0] == cy and qoff[t, 1] == cx:
+                        continue
+                    pair = 0.0  # the pair's two sides read at (cy, cx) against the neighbours' colours
+                    for side in range(2):
+                        sy, sx = pr[ps + t, 2 * side] + cy, pr[ps + t, 2 * side + 1] + cx
+                        d = OUTSIDE
+                        if ok[t, side] and 0 <= sy < Hs and 0 <= sx < Ws:
+                            d = 0.0
+                            for c in range(C):
+                                r = img[sy, sx, c] - col[t, side, c]
+                                d += r * r
+                        pair += d
+                    e += pair
+                    if e >= best:
                         break
-            if use and fsp[pid, 0] >= 0.0:
-                least = fsp[pid, 0] - budget
-                use = not fgate[pid, 0] < least and fgate[pid, 1] < least
-            if use:
-                by, bx, spread, pick = fy[pid], fx[pid], fsp[pid, 0], fsp[pid, 1]
-                refused[pid] = fsp[pid, 0] - budget if fgate[pid, 1] > -np.inf else -np.inf
-            else:
-                by, bx, spread, pick, least, lo_ok, hi_no = _shift_try(
-                    coords, img, target, labels, a, b, ps, n, order, pr, mu, oy, ox, budget, radius, adopt, qoff, ok,
-                    col, cand)
-                refused[pid] = least if hi_no > -np.inf else -np.inf
+                if e < best and u > 0:
+                    for t in range(a, b):
+                        f = order[t]
+                        sy, sx = f // W + cy, f % W + cx
+                        if sy < 0 or sx < 0 or sy >= Hs or sx >= Ws or labels[sy, sx] != target[f // W, f % W]:
+                            e = np.inf
+                            break
+                    if e < best:  # its label's spread may fall to floor over the step (tot: its value now)
+                        if spread < 0.0:
+                            spread = _spread(img, target, mu, order, a, b, oy, ox, W)
+                            least = spread - (tot[lab] - floor[lab])
+                        sp = _spread(img, target, mu, order, a, b, cy, cx, W)
+                        if sp < least:
+                            e = np.inf
+                            refused[pid] = least
+                        else:
+                            pick = sp
+                if e < best or u == 0:
+                    best, by, bx = e, cy, cx
+                if u == 0 and not best > 0.0:
+                    break
             if by != oy or bx != ox:
                 tot[lab] += pick - spread
                 for t in range(a, b):
@@ -734,166 +792,8 @@ def _shift_passes(coords, img, target, labels, patch, radius, adopt, passes, kee
     return moves
 
 
-@njit(**JIT)
-def _shift_try(coords, img, target, labels, a, b, ps, n, order, pr, mu, oy, ox, budget, radius, adopt, qoff, ok, col,
-               cand):
-    """One piece's try in ``_shift_passes``: the piece ``order[a:b]`` at offset (oy, ox), its
-    pairs ``pr[ps:ps + n]``, its label's spread budget ``budget`` (the running total less the
-    floor). Returns the offset it takes, its spread at its own offset (-1: not needed), the taken
-    offset's, the least an offset's spread may be (``least``, where needed), and the least and
-    most spread of the offsets the spread test let through and refused (inf / -inf: none): the
-    try depends on the budget only through those tests. ``qoff``, ``ok``, ``col``, ``cand``:
-    scratch."""
-    Hs, Ws, C = img.shape
-    W = target.shape[1]
-    for t in range(n):  # what the neighbours read: the same for every offset tried
-        y, x = pr[ps + t, 2], pr[ps + t, 3]
-        ry, rx = coords[y, x, 0] - y, coords[y, x, 1] - x
-        qoff[t, 0], qoff[t, 1] = ry, rx
-        sy, sx = pr[ps + t, 0] + ry, pr[ps + t, 1] + rx
-        ok[t, 0] = 0 <= sy < Hs and 0 <= sx < Ws
-        if ok[t, 0]:
-            for c in range(C):
-                col[t, 0, c] = img[sy, sx, c]
-        sy, sx = y + ry, x + rx
-        ok[t, 1] = 0 <= sy < Hs and 0 <= sx < Ws
-        if ok[t, 1]:
-            for c in range(C):
-                col[t, 1, c] = img[sy, sx, c]
-    # the offsets tried, in order: its own, moved by up to radius each way (rows, then
-    # columns, ascending), then for a small patch its neighbours' (first met, farther)
-    ncand = 0
-    for dy in range(-radius, radius + 1):
-        for dx in range(-radius, radius + 1):
-            if dy != 0 or dx != 0:
-                ncand += 1
-                cand[ncand, 0], cand[ncand, 1] = oy + dy, ox + dx
-    cand[0, 0], cand[0, 1] = oy, ox
-    if b - a <= adopt:
-        seen = 0
-        for t in range(n):
-            ry, rx = qoff[t, 0], qoff[t, 1]
-            if max(abs(ry - oy), abs(rx - ox)) <= radius:
-                continue  # among the shifts already
-            dup = False
-            for u in range(ncand + 1 - seen, ncand + 1):
-                if cand[u, 0] == ry and cand[u, 1] == rx:
-                    dup = True
-                    break
-            if dup or seen == ADOPT_MAX:
-                continue
-            ncand += 1
-            cand[ncand, 0], cand[ncand, 1] = ry, rx
-            seen += 1
-    # each one's summed seam cost to the neighbours, cut short once it reaches the best
-    # (terms are never negative); one lower than the best is taken where every pixel of
-    # the patch then reads a source pixel of its target's label (its own offset need not)
-    best = np.inf
-    by, bx = oy, ox
-    spread = -1.0  # its spread at its offset, once needed
-    least = np.inf
-    pick = 0.0  # the best offset's spread
-    lo_ok, hi_no = np.inf, -np.inf
-    for u in range(ncand + 1):
-        cy, cx = cand[u, 0], cand[u, 1]
-        e = 0.0
-        for t in range(n):
-            if qoff[t, 0] == cy and qoff[t, 1] == cx:
-                continue
-            pair = 0.0  # the pair's two sides read at (cy, cx) against the neighbours' colours
-            for side in range(2):
-                sy, sx = pr[ps + t, 2 * side] + cy, pr[ps + t, 2 * side + 1] + cx
-                d = OUTSIDE
-                if ok[t, side] and 0 <= sy < Hs and 0 <= sx < Ws:
-                    d = 0.0
-                    for c in range(C):
-                        r = img[sy, sx, c] - col[t, side, c]
-                        d += r * r
-                pair += d
-            e += pair
-            if e >= best:
-                break
-        if e < best and u > 0:
-            for t in range(a, b):
-                f = order[t]
-                sy, sx = f // W + cy, f % W + cx
-                if sy < 0 or sx < 0 or sy >= Hs or sx >= Ws or labels[sy, sx] != target[f // W, f % W]:
-                    e = np.inf
-                    break
-            if e < best:  # its label's spread may fall to floor over the step (budget: the total now less the floor)
-                if spread < 0.0:
-                    spread = _spread(img, target, mu, order, a, b, oy, ox, W)
-                    least = spread - budget
-                sp = _spread(img, target, mu, order, a, b, cy, cx, W)
-                if sp < least:
-                    e = np.inf
-                    hi_no = max(hi_no, sp)
-                else:
-                    pick = sp
-                    lo_ok = min(lo_ok, sp)
-        if e < best or u == 0:
-            best, by, bx = e, cy, cx
-        if u == 0 and not best > 0.0:
-            break
-    return by, bx, spread, pick, least, lo_ok, hi_no
-
-
-@njit(**PJIT)
-def _shift_frozen(coords, img, target, labels, starts, order, pstarts, pr, mu, tot, floor, radius, adopt, tried,
-                  moved_at, own, refused, most, fy, fx, fsp, fgate, fdone):
-    """``_shift_passes``' pass, each piece tried against the map and budgets as the pass finds
-    them, in parallel (nothing written but the results, ``fy`` .. ``fdone``; pieces the pass
-    would pass over then are not tried). The serial pass takes a piece's result where none of
-    its neighbours moved before its turn and its spread tests decide alike with the budget
-    then: what its own try would give, so any thread count gives the serial result."""
-    Hs, Ws, C = img.shape
-    W = target.shape[1]
-    npatch = starts.shape[0] - 1
-    nch = 64
-    for ch in prange(nch):
-        qoff = np.empty((most, 2), np.int64)
-        ok = np.empty((most, 2), np.bool_)
-        col = np.zeros((most, 2, C), np.float32)
-        cand = np.empty(((2 * radius + 1) ** 2 + ADOPT_MAX, 2), np.int64)
-        for p in range(np.int64(ch) * npatch // nch, (np.int64(ch) + 1) * npatch // nch):
-            _shift_frozen_one(coords, img, target, labels, starts, order, pstarts, pr, mu, tot, floor, radius, adopt,
-                              tried, moved_at, own, refused, p, qoff, ok, col, cand, fy, fx, fsp, fgate, fdone)
-
-
-@njit(**JIT)
-def _shift_frozen_one(coords, img, target, labels, starts, order, pstarts, pr, mu, tot, floor, radius, adopt, tried,
-                      moved_at, own, refused, p, qoff, ok, col, cand, fy, fx, fsp, fgate, fdone):
-    """Piece ``p + 1`` of ``_shift_frozen`` (its loop body, a serial kernel: see ``_config``)."""
-    W = target.shape[1]
-    pid = p + 1
-    fdone[pid] = False
-    a, b = starts[p], starts[p + 1]
-    if b == a:
-        return
-    ps, n = pstarts[p], pstarts[p + 1] - pstarts[p]
-    f = order[a]
-    lab = target[f // W, f % W]
-    if tried[pid] >= 0 and not own[pid] - (tot[lab] - floor[lab]) < refused[pid]:
-        again = False
-        for t in range(ps, ps + n):
-            if moved_at[pr[t, 4]] > tried[pid]:
-                again = True
-                break
-        if not again:
-            return
-    oy, ox = coords[f // W, f % W, 0] - f // W, coords[f // W, f % W, 1] - f % W
-    by, bx, spread, pick, least, lo_ok, hi_no = _shift_try(
-        coords, img, target, labels, a, b, ps, n, order, pr, mu, oy, ox, tot[lab] - floor[lab], radius, adopt, qoff,
-        ok, col, cand)
-    fy[pid], fx[pid] = by, bx
-    fsp[pid, 0], fsp[pid, 1] = spread, pick
-    fgate[pid, 0], fgate[pid, 1] = lo_ok, hi_no
-    fdone[pid] = True
-
-
 def shift_patches(coords: np.ndarray, img: np.ndarray, target: np.ndarray, labels: np.ndarray, patch: np.ndarray,
-                  radius: int, passes: int, adopt: int = 0, spread_loss: float | None = None,
-                  frozen: bool = True) -> tuple[np.ndarray, int]:
+                  radius: int, passes: int, adopt: int = 0, spread_loss: float | None = None) -> tuple[np.ndarray, int]:
     """``coords`` (copied) after ``passes`` passes in which every patch (``patch``: ids from 1,
     4-connected regions of one offset, ``patch.offset_components``) may move whole by up to
     ``radius`` pixels each way to where its seams cost least (Kwatra et al. 2003's cost, as
@@ -912,5 +812,5 @@ def shift_patches(coords: np.ndarray, img: np.ndarray, target: np.ndarray, label
     target = np.ascontiguousarray(target, np.int32)
     labels = np.ascontiguousarray(labels, np.int32)
     moves = _shift_passes(coords, img, target, labels, np.ascontiguousarray(patch, np.int64), int(radius), int(adopt),
-                          int(passes), 1.0 - (SPREAD_LOSS if spread_loss is None else float(spread_loss)), bool(frozen))
+                          int(passes), 1.0 - (SPREAD_LOSS if spread_loss is None else float(spread_loss)))
     return coords, int(moves)

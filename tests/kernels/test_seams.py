@@ -439,30 +439,3 @@ def test_a_shift_does_not_draw_a_patch_onto_its_labels_mean_tone():
     assert n == 3 and ks.seam_cost(S, img, target) > 0
     out, _ = ks.shift_patches(S, img, target, labels, patch, 1, 2, adopt=64)
     assert (img[out[..., 0], out[..., 1], 0] == 1.0).sum() == H  # the streak is still read, whole
-
-
-@pytest.mark.parametrize("seed,loss", [(s, q) for s in range(6) for q in (0.0, 0.03, 0.1)])
-def test_patch_shifts_tried_against_the_frozen_map_give_the_serial_result(seed, loss):
-    """Each pass first tries every piece against the map as the pass found it, in parallel, and
-    the serial pass keeps a try where no neighbour moved before its turn and the spread budget
-    decides its tests alike: the map and moves of trying each piece in turn, with 1 and 2
-    threads, under budgets that refuse moves and give spread back (a stale try taken would
-    differ)."""
-    import numba
-    from proxyshade.kernels.patch import offset_components
-    rng = np.random.default_rng(100 + seed)
-    S, img, target, labels = random_case(seed, H=24, W=26, Hs=40, Ws=44)
-    img = (img + np.roll(img, 1, 0) + np.roll(img, 1, 1)) / 3
-    labels = np.digitize(np.arange(44), [15, 30])[None].repeat(40, 0).astype(np.int32)
-    target = np.digitize(np.arange(26) + rng.integers(-2, 3, (24, 1)), [9, 17]).astype(np.int32)
-    patch, _ = offset_components(S)
-    want = ks.shift_patches(S, img, target, labels, patch, 2, 4, 8, spread_loss=loss, frozen=False)
-    assert want[1] > 0
-    before = numba.get_num_threads()
-    try:
-        for threads in (1, min(2, numba.config.NUMBA_NUM_THREADS)):
-            numba.set_num_threads(threads)
-            got = ks.shift_patches(S, img, target, labels, patch, 2, 4, 8, spread_loss=loss)
-            assert np.array_equal(got[0], want[0]) and got[1] == want[1]
-    finally:
-        numba.set_num_threads(before)
