@@ -123,7 +123,11 @@ def _sub_pass(coords, img, target, labels, parity, stamp, tried, lines, clock, c
                 sy, sx = i + cy, j + cx
                 if sy < 0 or sx < 0 or sy >= Hs or sx >= Ws or labels[sy, sx] != target[i, j]:
                     continue
-                e = _energy(coords, img, target, i, j, cy, cx)
+                e = 0.0  # _energy, cut short once it reaches the best (terms are never negative: the same choice)
+                for kk in range(4):
+                    e += _pair_at(coords, img, target, i, j, cy, cx, _DY[kk], _DX[kk])
+                    if e >= best:
+                        break
                 if e < best:
                     best, by, bx = e, cy, cx
             if by != oy or bx != ox:
