@@ -148,7 +148,7 @@ ENTRIES = [
         ('proxyshade.kernels.seams._run_line', "(Array(int32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', True, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), bool, int64, Array(uint8, 2, 'C', False, aligned=True), Array(uint8, 3, 'C', False, aligned=True), Array(uint8, 3, 'C', False, aligned=True), Array(uint8, 2, 'C', False, aligned=True), int64, Array(int64, 1, 'C', False, aligned=True))"),
     )),
     ('proxyshade.kernels.seams._shift_passes', "(Array(int32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', True, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), int64, int64, int64, float64)", 3.08, (
-        ('proxyshade.kernels.seams._spread', "(Array(float32, 3, 'C', True, aligned=True), Array(int32, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), int64, int64, int64, int64, int64)"),
+        ('proxyshade.kernels.seams._spread', "(Array(float32, 3, 'C', True, aligned=True), float64, Array(int32, 2, 'C', False, aligned=True), int64, int64, int64, int64)"),
     )),
     ('proxyshade.kernels.poisson._rhs', "(Array(float32, 3, 'C', False, aligned=True), Array(uint32, 2, 'C', False, aligned=True), Array(bool, 2, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True), Array(float32, 3, 'C', False, aligned=True))", 0.74, (
     )),

@@ -50,13 +50,51 @@ def channels_problem(names: list[str], channels: list[str]) -> str | None:
     return None
 
 
+def _hues(ids: np.ndarray) -> np.ndarray:
+    """(N, 3) uint8 golden-ratio hues of ``ids`` (N,): ``colorsys.hsv_to_rgb`` at hue
+    ``id × 0.618… mod 1``, saturation 0.65, value 0.95, each channel × 255 truncated; the same
+    float64 operations in the same order, so the same bytes."""
+    s, v = 0.65, 0.95
+    h6 = (ids.astype(np.float64) * 0.618033988749895) % 1.0 * 6.0
+    i = np.trunc(h6)
+    f = h6 - i
+    p, q, t = np.full_like(f, v * (1.0 - s)), v * (1.0 - s * f), v * (1.0 - s * (1.0 - f))
+    vv = np.full_like(f, v)
+    sector = i.astype(np.int64) % 6
+    pick = [(vv, t, p), (q, vv, p), (p, vv, t), (p, q, vv), (t, p, vv), (vv, p, q)]
+    rgb = np.stack([np.choose(sector, [c[k] for c in pick]) for k in range(3)], -1)
+    return (rgb * 255).astype(np.uint8)  # each in [0, 255): truncated as int() does
+
+
+LUT_MAX = 1 << 22  # largest id looked up through a table of every id up to it (else: np.unique)
+
+
 def id_palette(ids: np.ndarray, labels: list[dict] | None = None) -> np.ndarray:
     """Distinct 8-bit colours for an id map: the label table's colours where known,
-    otherwise golden-ratio hues; id 0 is black."""
+    otherwise golden-ratio hues; id 0 is black. Ids of an unsigned or non-negative integer
+    map up to ``LUT_MAX`` and the frame's size are coloured through a table of every id up
+    to the largest, a band of ``ROWS`` rows at a time (no frame-wide sort, no frame-wide
+    index temporaries); others through ``np.unique``: the same bytes."""
     known = {}
     for t in labels or []:
         c = t["color"].lstrip("#")
         known[int(t["id"])] = [int(c[i:i + 2], 16) for i in (0, 2, 4)]
+    ids = np.asarray(ids)
+    top = int(ids.max()) if ids.size and ids.dtype.kind in "ui" else -1
+    if 0 <= top <= min(LUT_MAX, max(ids.size, 255)) and (ids.dtype.kind == "u" or int(ids.min()) >= 0):
+        lut = _hues(np.arange(top + 1))
+        lut[0] = 0
+        for u, c in known.items():
+            if 0 <= u <= top:
+                lut[u] = c
+        out = np.empty(ids.shape + (3,), np.uint8)
+        chans = [np.ascontiguousarray(lut[:, k]) for k in range(3)]  # a flat table per channel: np.take's fast path
+        flat = out.reshape(-1, 3) if ids.ndim < 2 else out
+        for r0 in range(0, max(flat.shape[0], 1), ROWS):
+            band = ids.reshape(-1)[r0:r0 + ROWS] if ids.ndim < 2 else ids[r0:r0 + ROWS]
+            for k in range(3):
+                flat[r0:r0 + ROWS, ..., k] = np.take(chans[k], band)
+        return out
     uniq, inv = np.unique(ids, return_inverse=True)
     pal = np.zeros((len(uniq), 3), np.uint8)
     for i, u in enumerate(uniq):

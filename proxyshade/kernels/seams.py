@@ -123,7 +123,11 @@ def _sub_pass(coords, img, target, labels, parity, stamp, tried, lines, clock, c
                 sy, sx = i + cy, j + cx
                 if sy < 0 or sx < 0 or sy >= Hs or sx >= Ws or labels[sy, sx] != target[i, j]:
                     continue
-                e = _energy(coords, img, target, i, j, cy, cx)
+                e = 0.0  # _energy, cut short once it reaches the best (terms are never negative: the same choice)
+                for kk in range(4):
+                    e += _pair_at(coords, img, target, i, j, cy, cx, _DY[kk], _DX[kk])
+                    if e >= best:
+                        break
                 if e < best:
                     best, by, bx = e, cy, cx
             if by != oy or bx != ox:
@@ -478,15 +482,16 @@ ADOPT_MAX = 8  # most neighbouring patches' offsets a patch tries (``_shift_pass
 
 
 @njit(**JIT)
-def _spread(img, target, mu, order, a, b, oy, ox, W):
-    """Σ over the pixels ``order[a:b]`` read at offset (oy, ox) of (their tone − ``mu`` of
-    their target label)², tone the sum of ``img``'s channels (off the grid: 0)."""
+def _spread(img, m, order, a, b, oy, ox):
+    """Σ over the pixels ``order[a:b]`` ((row, column), one piece: one target label) read at
+    offset (oy, ox) of (their tone − ``m``, their label's mean tone)², tone the sum of ``img``'s
+    channels (off the grid: 0)."""
     Hs, Ws, C = img.shape
     s = 0.0
     for t in range(a, b):
-        i, j = order[t] // W, order[t] % W
+        i, j = order[t, 0], order[t, 1]
         if 0 <= i + oy < Hs and 0 <= j + ox < Ws:
-            v = -mu[target[i, j]]
+            v = -m
             for c in range(C):
                 v += img[i + oy, j + ox, c]
             s += v * v
@@ -602,18 +607,18 @@ def _shift_passes(coords, img, target, labels, patch, radius, adopt, passes, kee
     npatch = npiece
     for p in range(npatch):
         starts[p + 1] += starts[p]
-    # order[starts[p]:starts[p + 1]]: the flat indices of piece p + 1's pixels, in raster order; and
+    # order[starts[p]:starts[p + 1]]: piece p + 1's pixels (row, column), in raster order; and
     # each label's summed spread now (``_spread`` of its pieces at their first pixels' offsets, pieces
     # in id order) and the least it may fall to
     fill = np.empty(npatch, np.int64)  # each piece's next free place in order, then in pr
     for p in range(npatch):
         fill[p] = starts[p]
-    order = np.empty(H * W, np.int64)
+    order = np.empty((H * W, 2), np.int32)
     psum = np.zeros(npatch + 1, np.float64)
     for i in range(H):
         for j in range(W):
             q = patch[i, j]
-            order[fill[q - 1]] = i * W + j
+            order[fill[q - 1], 0], order[fill[q - 1], 1] = i, j
             fill[q - 1] += 1
             sy, sx = i + poff[q, 0], j + poff[q, 1]
             if 0 <= sy < Hs and 0 <= sx < Ws:
@@ -673,8 +678,8 @@ def _shift_passes(coords, img, target, labels, patch, radius, adopt, passes, kee
                 continue
             pid = p + 1
             ps, n = pstarts[p], pstarts[p + 1] - pstarts[p]
-            f = order[a]
-            lab = target[f // W, f % W]
+            i0, j0 = order[a, 0], order[a, 1]
+            lab = target[i0, j0]
             # (tried again anyway when its label's budget has grown past an offset it refused)
             if tried[pid] >= 0 and not own[pid] - (tot[lab] - floor[lab]) < refused[pid]:
                 again = False
@@ -684,7 +689,7 @@ def _shift_passes(coords, img, target, labels, patch, radius, adopt, passes, kee
                         break
                 if not again:
                     continue
-            oy, ox = coords[f // W, f % W, 0] - f // W, coords[f // W, f % W, 1] - f % W
+            oy, ox = coords[i0, j0, 0] - i0, coords[i0, j0, 1] - j0
             for t in range(n):  # what the neighbours read: the same for every offset tried
                 y, x = pr[ps + t, 2], pr[ps + t, 3]
                 ry, rx = coords[y, x, 0] - y, coords[y, x, 1] - x
@@ -754,16 +759,15 @@ def _shift_passes(coords, img, target, labels, patch, radius, adopt, passes, kee
                         break
                 if e < best and u > 0:
                     for t in range(a, b):
-                        f = order[t]
-                        sy, sx = f // W + cy, f % W + cx
-                        if sy < 0 or sx < 0 or sy >= Hs or sx >= Ws or labels[sy, sx] != target[f // W, f % W]:
+                        sy, sx = order[t, 0] + cy, order[t, 1] + cx  # (a piece's pixels are all of its label)
+                        if sy < 0 or sx < 0 or sy >= Hs or sx >= Ws or labels[sy, sx] != lab:
                             e = np.inf
                             break
                     if e < best:  # its label's spread may fall to floor over the step (tot: its value now)
                         if spread < 0.0:
-                            spread = _spread(img, target, mu, order, a, b, oy, ox, W)
+                            spread = _spread(img, mu[lab], order, a, b, oy, ox)
                             least = spread - (tot[lab] - floor[lab])
-                        sp = _spread(img, target, mu, order, a, b, cy, cx, W)
+                        sp = _spread(img, mu[lab], order, a, b, cy, cx)
                         if sp < least:
                             e = np.inf
                             refused[pid] = least
@@ -776,9 +780,9 @@ def _shift_passes(coords, img, target, labels, patch, radius, adopt, passes, kee
             if by != oy or bx != ox:
                 tot[lab] += pick - spread
                 for t in range(a, b):
-                    f = order[t]
-                    coords[f // W, f % W, 0] = f // W + by
-                    coords[f // W, f % W, 1] = f % W + bx
+                    ii, jj = order[t, 0], order[t, 1]
+                    coords[ii, jj, 0] = ii + by
+                    coords[ii, jj, 1] = jj + bx
                 clock += 1
                 moved_at[pid] = clock
                 tried[pid] = -1

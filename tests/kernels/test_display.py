@@ -52,3 +52,45 @@ def test_to_display_in_bands_gives_the_whole_frame_encoding():
     enc = colour_science().cctf_encoding(display.view_transform(lin), function="sRGB")
     want = (np.clip(enc, 0, 1) * 255 + 0.5).astype(np.uint8)
     np.testing.assert_array_equal(display.to_display(plate, ["R", "G", "B"], exposure=0.5), want)
+
+
+def _palette_reference(ids, labels=None):
+    """id_palette as np.unique and colorsys give it (the table's colours, hues, 0 black)."""
+    import colorsys
+    known = {int(t["id"]): [int(t["color"].lstrip("#")[i:i + 2], 16) for i in (0, 2, 4)] for t in labels or []}
+    out = np.zeros(np.shape(ids) + (3,), np.uint8)
+    for idx, u in np.ndenumerate(ids):
+        if int(u) in known:
+            out[idx] = known[int(u)]
+        elif u != 0:
+            r, g, b = colorsys.hsv_to_rgb((int(u) * 0.618033988749895) % 1.0, 0.65, 0.95)
+            out[idx] = [int(r * 255), int(g * 255), int(b * 255)]
+    return out
+
+
+@pytest.mark.parametrize("dtype,top", [(np.uint32, 40), (np.uint32, 5000), (np.int32, 300), (np.int64, 70000),
+                                       (np.uint32, 2**32 - 1), (np.int32, -1)])
+def test_id_palette_gives_the_colorsys_colours_of_each_id(dtype, top):
+    """The table lookup (small ids) and np.unique (large or negative ids) both give each id the
+    table's colour where known, else its golden-ratio hue exactly as colorsys computes it, 0 black;
+    frames taller than a band of rows included."""
+    from proxyshade.kernels import display
+    rng = np.random.default_rng(top % 97)
+    lo = -5 if top < 0 else 0
+    ids = rng.integers(lo, max(top, 1), size=(display.ROWS + 19, 31), endpoint=True).astype(dtype)
+    ids[0, :3] = [0, 1, max(top, 1)]
+    labels = [{"id": 1, "color": "#ff8000"}, {"id": 7, "color": "102030"}, {"id": 10**6, "color": "#ffffff"}]
+    for lab in (None, labels):
+        np.testing.assert_array_equal(display.id_palette(ids, lab), _palette_reference(ids, lab))
+    np.testing.assert_array_equal(display.id_palette(ids[3], labels), _palette_reference(ids[3], labels))
+
+
+def test_id_palette_hues_match_colorsys_for_every_id_in_a_wide_range():
+    """The vectorized hues are colorsys's, bit for bit, over a wide range of ids (every sector)."""
+    import colorsys
+    from proxyshade.kernels.display import _hues
+    u = np.concatenate([np.arange(200000), np.arange(2**32 - 1000, 2**32)]).astype(np.int64)
+    got = _hues(u)
+    for k in np.random.default_rng(0).choice(len(u), 20000, replace=False).tolist() + list(range(50)):
+        r, g, b = colorsys.hsv_to_rgb((int(u[k]) * 0.618033988749895) % 1.0, 0.65, 0.95)
+        assert got[k].tolist() == [int(r * 255), int(g * 255), int(b * 255)], int(u[k])
