@@ -288,8 +288,16 @@ FILTERS = ("bilinear", "lanczos3", "lanczos4", "flat4")
 CLAMPED = ("flat4",)  # read, then clamped to the 4×4 pixels' range (_clamp_taps)
 
 
+def padded_rgb(image: np.ndarray) -> np.ndarray:
+    """(M, N, 4) float64: a colour image's channels padded to four, as ``lookup`` reads a
+    colour image it reads at many positions (``lookup``'s ``padded``: made once for many reads)."""
+    out = np.zeros(image.shape[:2] + (4,), np.float64)
+    out[..., :3] = image
+    return out
+
+
 def lookup(image: np.ndarray, sx: np.ndarray, sy: np.ndarray, *, filter: str = "bilinear",
-           mask: np.ndarray | None = None) -> np.ndarray:
+           mask: np.ndarray | None = None, padded: np.ndarray | None = None) -> np.ndarray:
     """Sample ``image`` at source positions ``(sx, sy)``.
 
     Parameters
@@ -309,6 +317,10 @@ def lookup(image: np.ndarray, sx: np.ndarray, sy: np.ndarray, *, filter: str = "
         without the ringing.
     mask : (P, Q) bool ndarray, optional
         Only these pixels are read; the others are 0.
+    padded : (M, N, 4) float64 ndarray, optional
+        ``padded_rgb(image)``, kept by a caller that reads the same colour image every frame:
+        used where ``lookup`` would make it (a Lanczos or flat read of at least as many
+        positions as the image has pixels); the same numbers.
 
     Returns
     -------
@@ -337,8 +349,10 @@ def lookup(image: np.ndarray, sx: np.ndarray, sy: np.ndarray, *, filter: str = "
             rgbx = img
             if sx.size >= img.shape[0] * img.shape[1]:
                 # many reads of a colour image: pad it to four float64 channels once (vector sums)
-                rgbx = np.zeros(img.shape[:2] + (4,), np.float64)
-                rgbx[..., :3] = img
+                if padded is not None and padded.shape == img.shape[:2] + (4,) and padded.dtype == np.float64:
+                    rgbx = np.ascontiguousarray(padded)
+                else:
+                    rgbx = padded_rgb(img)
             _lanczos_rgb(img, rgbx, sx, sy, _LANCZOS[filter], m, filter in CLAMPED, out)  # clamped as read
             mask = None  # applied
         else:

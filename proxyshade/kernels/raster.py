@@ -423,7 +423,9 @@ def bin_rows(r0, r1, nb, band):
 
 
 @njit(**PJIT)
-def _interpolate(attr, tris, tri, bary, empty, normalize, out):
+def _interpolate(attr, tris, tri, bary, empty, normalize, planar, out):
+    """``interpolate``'s loop: ``out`` (H, W, C), or with ``planar`` (C, H, W) (each
+    attribute's plane contiguous: a plate's channels without a copy each)."""
     h, w = tri.shape
     c = attr.shape[1]
     for i in prange(h):
@@ -431,28 +433,40 @@ def _interpolate(attr, tris, tri, bary, empty, normalize, out):
             t = tri[i, j]
             if t < 0:
                 for m in range(c):
-                    out[i, j, m] = empty
+                    if planar:
+                        out[m, i, j] = empty
+                    else:
+                        out[i, j, m] = empty
                 continue
             a, b, d = tris[t, 0], tris[t, 1], tris[t, 2]
             n2 = 0.0
             for m in range(c):
                 v = attr[a, m] * bary[i, j, 0] + attr[b, m] * bary[i, j, 1] + attr[d, m] * bary[i, j, 2]
-                out[i, j, m] = v
+                if planar:
+                    out[m, i, j] = v
+                else:
+                    out[i, j, m] = v
                 n2 += v * v
             if normalize and n2 > 0.0:
                 inv = 1.0 / np.sqrt(n2)
                 for m in range(c):
-                    out[i, j, m] *= inv
+                    if planar:
+                        out[m, i, j] *= inv
+                    else:
+                        out[i, j, m] *= inv
 
 
 def interpolate(attr: np.ndarray, tris: np.ndarray, tri: np.ndarray, bary: np.ndarray, empty: float = 0.0,
-                normalize: bool = False) -> np.ndarray:
+                normalize: bool = False, planar: bool = False) -> np.ndarray:
     """Per-pixel value (H, W, C) float32 of a per-vertex attribute (V, C), from
     ``rasterize``'s ``tri`` and ``bary``; ``empty`` where no triangle covers the pixel.
-    ``normalize`` makes each interpolated vector unit length (normals)."""
+    ``normalize`` makes each interpolated vector unit length (normals). ``planar``: the
+    same numbers as (C, H, W), each component's plane contiguous."""
     attr = np.ascontiguousarray(attr, dtype=np.float64)
     if attr.ndim == 1:
         attr = attr[:, None]
-    out = np.empty(tri.shape + (attr.shape[1],), np.float32)
-    _interpolate(attr, np.ascontiguousarray(tris, dtype=np.int64), tri, bary, float(empty), bool(normalize), out)
+    shape = (attr.shape[1],) + tri.shape if planar else tri.shape + (attr.shape[1],)
+    out = np.empty(shape, np.float32)
+    _interpolate(attr, np.ascontiguousarray(tris, dtype=np.int64), tri, bary, float(empty), bool(normalize),
+                 bool(planar), out)
     return out

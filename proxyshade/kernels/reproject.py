@@ -542,17 +542,30 @@ def gather_prev(u, v, q, ok, lab, prev_w, prev_lab, prev_patch, prev_sx, prev_sy
     Returns valid (bool), sx, sy (float32), patch (uint32), residual (float32 ×3),
     distortion (float32), all (H, W). ``gather_prev_planes`` with the residual's planes."""
     return gather_prev_planes((u, v, q, ok), lab, (prev_w, prev_lab, prev_patch, prev_sx, prev_sy, prev_res[:, :, 0],
-                                                   prev_res[:, :, 1], prev_res[:, :, 2], prev_d), tol, scale)
+                                                   prev_res[:, :, 1], prev_res[:, :, 2], prev_d), tol, scale,
+                              np.zeros((0, 0), np.bool_), 0)
+
+
+@njit(inline="always", **JIT)
+def _sharpened(x, y, uniform, a, hp, wp):
+    """Whether ``sharpen_residual`` reads the residual again at a valid pixel landing at
+    (x, y) of the previous frame (``uniform``: its ``uniform_windows``; taps 2a × 2a)."""
+    c0 = int(np.floor(x - 0.5))
+    r0 = int(np.floor(y - 0.5))
+    return not (c0 < a - 1 or r0 < a - 1 or c0 + a >= wp or r0 + a >= hp or not uniform[r0, c0])
 
 
 @njit(**PJIT)
-def gather_prev_planes(land, lab, prev, tol, scale):
+def gather_prev_planes(land, lab, prev, tol, scale, sharp, a):
     """``gather_prev`` on records: ``land`` (``Landing``: ``transfer`` into the previous
     camera), the current labels ``lab`` and ``prev`` (``PrevState``: the residual as
     three (H, W) planes, a plate's ``correction.R/G/B`` as they are, no (H, W, 3) stack;
     ``scalar`` the plane carried as the distortion). Returns valid, sx, sy, patch,
-    residual, scalar (``gather_prev``'s)."""
+    residual, scalar (``gather_prev``'s). ``sharp`` (not empty): the ``uniform`` of a
+    ``sharpen_residual`` with taps 2``a`` × 2``a`` that follows: the residual is left
+    unwritten at the pixels it reads again (``_sharpened``), the rest as without."""
     u, v, q, ok = land
+    sharpen = sharp.size > 0
     prev_w, prev_lab, prev_patch, prev_sx, prev_sy, pr0, pr1, pr2, prev_d = prev
     h, wd = u.shape
     hp, wp = prev_w.shape
@@ -597,6 +610,7 @@ def gather_prev_planes(land, lab, prev, tol, scale):
             r1_ = 0.0
             r2_ = 0.0
             dd = 0.0
+            skip = sharpen and _sharpened(np.float64(x), np.float64(y), sharp, a, hp, wp)
             for t in range(4):
                 rr = r0 + (1 if t >= 2 else 0)
                 cc = c0 + (1 if t % 2 == 1 else 0)
@@ -612,9 +626,10 @@ def gather_prev_planes(land, lab, prev, tol, scale):
                 bsy += wt * prev_sy[rr, cc]
                 if prev_patch[rr, cc] != pn:
                     continue  # the correction jumps at seams (it cancels the seam): not across them
-                r0_ += wt * pr0[rr, cc]
-                r1_ += wt * pr1[rr, cc]
-                r2_ += wt * pr2[rr, cc]
+                if not skip:
+                    r0_ += wt * pr0[rr, cc]
+                    r1_ += wt * pr1[rr, cc]
+                    r2_ += wt * pr2[rr, cc]
                 dd += wt * prev_d[rr, cc]
                 wsum += wt
             if same:
@@ -624,14 +639,16 @@ def gather_prev_planes(land, lab, prev, tol, scale):
                 sx[i, j] = prev_sx[rn, cn] + (x - (cn + 0.5)) * scale
                 sy[i, j] = prev_sy[rn, cn] + (y - (rn + 0.5)) * scale
             if wsum > 0.0:
-                res[i, j, 0] = r0_ / wsum
-                res[i, j, 1] = r1_ / wsum
-                res[i, j, 2] = r2_ / wsum
+                if not skip:
+                    res[i, j, 0] = r0_ / wsum
+                    res[i, j, 1] = r1_ / wsum
+                    res[i, j, 2] = r2_ / wsum
                 dist[i, j] = dd / wsum
             else:
-                res[i, j, 0] = pr0[rn, cn]
-                res[i, j, 1] = pr1[rn, cn]
-                res[i, j, 2] = pr2[rn, cn]
+                if not skip:
+                    res[i, j, 0] = pr0[rn, cn]
+                    res[i, j, 1] = pr1[rn, cn]
+                    res[i, j, 2] = pr2[rn, cn]
                 dist[i, j] = prev_d[rn, cn]
     return valid, sx, sy, patch, res, dist
 

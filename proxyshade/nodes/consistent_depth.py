@@ -127,7 +127,8 @@ class ConsistentDepth(SameSurface, Node):
         256² over the bundled camera moves, which move nothing but the camera): no note."""
         # a pixel stale in its 3x3 window is stale at its own pixel: only those are tested (on_proxy0 & stale,
         # the same result; the window's 9 reads skipped on every other pixel)
+        # stale_winners marks only frame-0 pixels drawn here (a src value): any of them is drawn (no src[src >= 0]
+        # gather of the frame's 8 MiB)
         moved = stale & kr.stale_winners(wg, src, wp1, on_proxy0 & stale, keep, self.params["stale_tolerance"],
                                          radius=1)
-        drawn = src[src >= 0]
-        return bool(moved.ravel()[drawn].any())
+        return bool(moved.any())

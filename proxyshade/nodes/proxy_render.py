@@ -43,8 +43,9 @@ def open_cached(path: Path):
     return got[1]
 
 
-def render_prims(prims: list, cam, *, max_error_px: float = 0.25):
-    """Rasterize prims through ``cam``: (depth, prim index (−1 empty), P, N) per pixel."""
+def render_prims(prims: list, cam, *, max_error_px: float = 0.25, planar: bool = False):
+    """Rasterize prims through ``cam``: (depth, prim index (−1 empty), P, N) per pixel; P and
+    N (H, W, 3), or with ``planar`` (3, H, W) (each component's plane contiguous)."""
     from proxyshade.io import usd
     from proxyshade.kernels.raster import interpolate, rasterize
 
@@ -52,10 +53,10 @@ def render_prims(prims: list, cam, *, max_error_px: float = 0.25):
     pc = cam.to_camera(P)
     depth, tri, bary, _ = rasterize(pc, T, width=cam.width, height=cam.height, fx=cam.fx, fy=cam.fy,
                                     cx=cam.cx, cy=cam.cy, near=cam.near)
-    hit = tri >= 0
-    prim_idx = np.where(hit, owner[np.maximum(tri, 0)] if len(owner) else -1, -1).astype(np.int32)
-    wpos = interpolate(P, T, tri, bary)
-    nrm = interpolate(N, T, tri, bary, normalize=True)
+    # one gather: the empty pixels' triangle −1 reads the appended −1
+    prim_idx = np.append(np.asarray(owner, np.int64).astype(np.int32), np.int32(-1))[tri]
+    wpos = interpolate(P, T, tri, bary, planar=planar)
+    nrm = interpolate(N, T, tri, bary, normalize=True, planar=planar)
     return depth, prim_idx, wpos, nrm
 
 
@@ -168,7 +169,7 @@ class ProxyRender(Node):
             raise ctx.error(f"{path.name}: scene label(s) {', '.join(missing)} not in the source's table; "
                             f"scene labels: {', '.join(scene_labels)}; source labels: {', '.join(sorted(table))}; "
                             f"map them with the labels parameter, e.g. {{{missing[0]}: {sorted(table)[0]}}}")
-        depth, prim_idx, wpos, nrm = render_prims(prims, cam, max_error_px=ctx.p.max_error_px)
+        depth, prim_idx, wpos, nrm = render_prims(prims, cam, max_error_px=ctx.p.max_error_px, planar=True)
         if not prims:
             ctx.warn(f"{path.name}: the scene has no proxy prims (labelled meshes or spheres not marked CG), so the "
                      f"render is all '{bg}'; add labelled geometry")
@@ -177,15 +178,15 @@ class ProxyRender(Node):
                      f"'{bg}'; check the camera")
         lab_of_prim = np.array([table[mapping.get(p.label, p.label)] for p in prims] + [table[mapping.get(bg, bg)]],
                                np.uint32)
-        label = lab_of_prim[np.where(prim_idx >= 0, prim_idx, len(prims))]
+        label = lab_of_prim[prim_idx]  # empty (−1): the last, the background's
         ch = {
             "label.id": label,
             "Z": depth,
-            "object.id": (prim_idx + 1).astype(np.uint32),
+            "object.id": (prim_idx + 1).view(np.uint32),  # >= 0: the same bits
         }
         for k, a in enumerate("XYZ"):
-            ch[f"P.{a}"] = np.ascontiguousarray(wpos[..., k])
-            ch[f"N.{a}"] = np.ascontiguousarray(nrm[..., k])
+            ch[f"P.{a}"] = wpos[k]  # planar: each a contiguous plane (no copy)
+            ch[f"N.{a}"] = nrm[k]
         meta = {
             "labels": ctx.source.meta["labels"],
             "camera": cam.to_meta(),

@@ -374,8 +374,13 @@ def _synthesize(img: Plate, source: Plate, p, redo: np.ndarray, *, f: int, scale
                                   np.ascontiguousarray(img["source.x"], np.float32),
                                   np.ascontiguousarray(img["source.y"], np.float32),
                                   np.ascontiguousarray(img["patch.id"], np.uint32))
-    ii, jj = np.nonzero(redo)
-    rgb[ii, jj] = lookup_many(source_colours(source, img.meta, memo), sx[ii, jj], sy[ii, jj], filt)
+    at = np.flatnonzero(redo)  # np.nonzero's pixels, as flat indices (one pass)
+    if rgb.flags.c_contiguous:  # written through a flat view
+        rgb.reshape(-1, 3)[at] = lookup_many(source_colours(source, img.meta, memo), sx.reshape(-1)[at],
+                                             sy.reshape(-1)[at], filt)
+    else:
+        ii, jj = np.divmod(at, W)
+        rgb[ii, jj] = lookup_many(source_colours(source, img.meta, memo), sx[ii, jj], sy[ii, jj], filt)
     info.update(synthesis_pixels=int(active.sum()), flood_filled=int(fresh.sum()), patches=int(npatch),
                 repaired=int(rep["wrong"]))
     return sx, sy, patch, setup.ex_factor

@@ -14,6 +14,7 @@ the map. Kernels: ``proxyshade.kernels.reproject``, ``proxyshade.kernels.tempora
 """
 from __future__ import annotations
 
+import json
 from types import SimpleNamespace
 
 import numpy as np
@@ -25,7 +26,7 @@ from proxyshade.io.colourlib import srgb_encoding_table
 from proxyshade.kernels import reproject as kr
 from proxyshade.kernels import temporal as kt
 from proxyshade.kernels.layout import LUMA
-from proxyshade.kernels.lookup import FLAT2, FLAT4, lookup
+from proxyshade.kernels.lookup import FLAT2, FLAT4, lookup, padded_rgb
 from proxyshade.kernels.random import uniform_field
 from proxyshade.synthesis.grain import source_colours
 from proxyshade.synthesis.memo import kept
@@ -109,7 +110,7 @@ def absorb_fragments(have, patch, lab, sx, sy, scale, min_area, src_lab, min_wid
     if not small.any():
         return none, sx, sy, patch
     H, W = have.shape
-    ii, jj = np.nonzero(small)
+    ii, jj = np.divmod(np.flatnonzero(small), W)  # np.nonzero's, from one flat index pass
     pairs = []
     for di, dj in ((0, 1), (0, -1), (1, 0), (-1, 0)):
         a, b = ii + di, jj + dj
@@ -245,13 +246,15 @@ def carry(cd: Plate, prev: Plate | None, first: Plate | None, source: Plate, p, 
                          np.ascontiguousarray(prev["patch.id"], np.uint32),
                          prev["source.x"].astype(np.float32, copy=False),
                          prev["source.y"].astype(np.float32, copy=False), *planes, prev_ext)
-    valid, sx, sy, patch, res, ext = kr.gather_prev_planes(tuple(land), lab, tuple(state), tol, scale)
-    if p.colour == "map" and p.correction_filter != "bilinear":
+    sharpen = p.colour == "map" and p.correction_filter != "bilinear"
+    table = FLAT4 if p.correction_filter == "flat4" else FLAT2
+    a = table.shape[1] // 2
+    uniform = kr.uniform_windows(state.patch, state.label, a - 1, a) if sharpen else np.zeros((0, 0), np.bool_)
+    # the bilinear residual is not gathered where sharpen_residual reads it again (gather_prev_planes' sharp)
+    valid, sx, sy, patch, res, ext = kr.gather_prev_planes(tuple(land), lab, tuple(state), tol, scale, uniform, a)
+    if sharpen:
         # the correction's fine detail kept inside patches (bilinear would blur it away frame after frame)
-        table = FLAT4 if p.correction_filter == "flat4" else FLAT2
-        a = table.shape[1] // 2
-        kr.sharpen_residual(tuple(land), valid, kr.uniform_windows(state.patch, state.label, a - 1, a),
-                            np.stack(planes, -1), table, res)
+        kr.sharpen_residual(tuple(land), valid, uniform, np.stack(planes, -1), table, res)
     if getattr(p, "anchor", False) and first is not None and first is not prev and "patch.id" in first:
         anchor_first_seams(cd, first, k1=k1, w1=w1, lab=lab, land=land, valid=valid, prev=state, tol=tol,
                            scale=scale, out=kr.Carried(sx, sy, patch, res, ext))
@@ -338,7 +341,8 @@ def carry(cd: Plate, prev: Plate | None, first: Plate | None, source: Plate, p, 
     # re-anchored patches keep their (new) map; their old Poisson correction no longer fits
     keep = (flag == 0) | (flag == FLAG["reanchored"])
     correct = p.colour == "map"
-    rgb = lookup(src_rgb, sx, sy, filter=p.filter, mask=keep) if correct else res
+    rgb = lookup(src_rgb, sx, sy, filter=p.filter, mask=keep, padded=padded_colours(source, prev.meta, src_rgb, memo)
+                 ) if correct else res
     R, G, B, sx, sy, patch, D, ext, *corr = kt.keep_carried(
         flag, FLAG["reanchored"], D.astype(np.float32, copy=False), ext, sx, sy, patch, rgb, res, correct)
     n = nflag / flag.size
@@ -357,6 +361,18 @@ def carry(cd: Plate, prev: Plate | None, first: Plate | None, source: Plate, p, 
                                 gate=float(p.creep_gate), first_gradient={str(k): g for k, g in
                                                                           first_gradients(first, memo).items()})
     return Plate(ch, meta)
+
+
+def padded_colours(source: Plate, meta: dict, src_rgb: np.ndarray, memo=None) -> np.ndarray | None:
+    """``lookup.padded_rgb`` of ``src_rgb`` (``source_colours(source, meta)``), kept in ``memo``
+    for the frames of a run (the carry's source read pads the same colours every frame); None
+    without a memo (``lookup`` pads them itself)."""
+    if memo is None:
+        return None
+    table = meta.get("grain") if isinstance(meta, dict) else None
+    parts = (source["R"], source["G"], source["B"], source["label.id"],
+             json.dumps(table, sort_keys=True) if table else None)
+    return kept(memo, "temporal.padded_colours", parts, lambda: padded_rgb(src_rgb), size=1)
 
 
 STRAY_MARGIN = 0.5  # source pixels: a kept pixel off its label by more is resynthesized (flag_reasons' stray)

@@ -211,3 +211,22 @@ def test_mask_reads_only_masked_pixels(filter):
     m = rng.random((20, 21)) < 0.6
     got = lookup(img, sx, sy, filter=filter, mask=m)
     assert np.array_equal(got, np.where(m[..., None], lookup(img, sx, sy, filter=filter), 0))
+
+
+@pytest.mark.parametrize("filt", ["lanczos4", "flat4"])
+def test_a_kept_padded_copy_reads_the_same_numbers(filt):
+    """``padded``: the caller's ``padded_rgb`` of the image (kept for a run's frames) gives
+    the read lookup gives when it pads the image itself, masked or not."""
+    from proxyshade.kernels.lookup import padded_rgb
+
+    rng = np.random.default_rng(3)
+    img = rng.random((9, 11, 3)).astype(np.float32)
+    sx = rng.uniform(-2, 12, (12, 10)).astype(np.float32)  # more reads than pixels: the padded path
+    sy = rng.uniform(-2, 10, (12, 10)).astype(np.float32)
+    mask = rng.random((12, 10)) > 0.3
+    for m in (None, mask):
+        want = lookup(img, sx, sy, filter=filt, mask=m)
+        got = lookup(img, sx, sy, filter=filt, mask=m, padded=padded_rgb(img))
+        assert np.array_equal(got, want)
+    assert not np.array_equal(lookup(img, sx, sy, filter=filt, padded=padded_rgb(img * 2)),
+                              lookup(img, sx, sy, filter=filt))  # the copy is what is read

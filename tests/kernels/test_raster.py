@@ -133,3 +133,20 @@ def test_bin_rows_parallel_lists_what_bin_rows_lists(n):
     want = bin_rows(r0, r1, 13, 8)
     got = bin_rows_parallel(r0, r1, 13, 8)
     assert np.array_equal(got[0], want[0]) and np.array_equal(got[1], want[1])
+
+
+@pytest.mark.parametrize("normalize", [False, True])
+def test_planar_interpolation_is_the_interleaved_one_by_plane(normalize):
+    """ProxyRender's planar output (each component a contiguous plate channel) holds the
+    interleaved output's numbers, bit for bit, the empty pixels' value included."""
+    rng = np.random.default_rng(7)
+    n = 10
+    pts = np.column_stack([rng.uniform(-1.5, 1.5, 3 * n), rng.uniform(-1.5, 1.5, 3 * n), rng.uniform(-6, -2, 3 * n)])
+    tris = np.arange(3 * n).reshape(n, 3)
+    _, tid, bary, _ = rasterize(pts, tris, width=19, height=13, fx=10.0, fy=10.0, cx=9.5, cy=6.5)
+    attr = rng.normal(size=(3 * n, 3))
+    a = interpolate(attr, tris, tid, bary, empty=-2.0, normalize=normalize)
+    p = interpolate(attr, tris, tid, bary, empty=-2.0, normalize=normalize, planar=True)
+    assert (tid < 0).any() and (tid >= 0).any()
+    assert p.shape == (3,) + tid.shape and all(p[k].flags.c_contiguous for k in range(3))
+    assert np.array_equal(np.moveaxis(p, 0, -1), a)

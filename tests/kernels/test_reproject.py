@@ -642,3 +642,37 @@ def test_sharpen_residual_matches_plain_flat_read_inside_patches(name):
     K.sharpen_residual((np.array([[18.5]]), np.array([[15.5]]), np.zeros((1, 1)), np.ones((1, 1), bool)),
                        np.ones((1, 1), bool), uni, stack, table, res2)
     assert np.all(res2 == -7.0)
+
+
+@pytest.mark.parametrize("name", ["flat2", "flat4"])
+def test_gather_with_sharp_leaves_to_sharpen_only_the_pixels_it_reads_again(name):
+    """gather_prev_planes with ``sharp`` (the uniform windows of the sharpen_residual that
+    follows) skips the bilinear residual where sharpen_residual writes it: after the sharpen,
+    every output is the one of a gather without ``sharp``, bit for bit."""
+    from proxyshade.kernels.lookup import FLAT2, FLAT4
+
+    table = FLAT4 if name == "flat4" else FLAT2
+    a = table.shape[1] // 2
+    rng = np.random.default_rng(11)
+    h, w = 24, 26
+    # patches of a few pixels' blocks, two labels: some taps inside one patch, some across
+    patch = (np.arange(h)[:, None] // 9 * 4 + np.arange(w)[None, :] // 11 + 1).astype(np.uint32)
+    lab = np.where(np.arange(w)[None, :] < 20, 1, 2).astype(np.uint32) * np.ones((h, 1), np.uint32)
+    u = (np.arange(w)[None, :] + 0.5 + rng.uniform(-1.5, 1.5, (h, w)))
+    v = (np.arange(h)[:, None] + 0.5 + rng.uniform(-1.5, 1.5, (h, w)))
+    q = np.full((h, w), 0.1)
+    ok = rng.random((h, w)) > 0.05
+    planes = [rng.random((h, w)).astype(np.float32) for _ in range(3)]
+    prev = (q, lab, patch, rng.random((h, w)).astype(np.float32) * 30, rng.random((h, w)).astype(np.float32) * 30,
+            *planes, rng.random((h, w)).astype(np.float32))
+    land = (u, v, q, ok)
+    uni = K.uniform_windows(patch, lab, a - 1, a)
+    none = np.zeros((0, 0), np.bool_)
+    outs = []
+    for sharp in (none, uni):
+        valid, sx, sy, pat, res, d = K.gather_prev_planes(land, lab, prev, 0.02, 0.5, sharp, a)
+        K.sharpen_residual(land, valid, uni, np.stack(planes, -1), table, res)
+        outs.append((valid, sx, sy, pat, res, d))
+    assert uni.any() and outs[0][0].any()
+    for x, y in zip(*outs):
+        assert np.array_equal(x, y)
