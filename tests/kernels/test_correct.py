@@ -659,26 +659,31 @@ def test_rare_budget_cuts_the_copies_of_a_rare_look():
     assert np.array_equal(a, c)
 
 
-@pytest.mark.parametrize("tone_balance,uniformity", [(0.0, 0.25), (0.25, 0.25), (0.0, 0.0)])
-def test_rare_budget_is_deterministic_across_thread_counts_and_bands(tone_balance, uniformity):
+def _same_with_one_thread_and_in_bands(levels, S, c, **kw):
+    """The correction's map is the same on all threads, on one, and in three row bands."""
     from proxyshade.synthesis.tiles import InProcess
 
-    levels, S = _rare_case()
-    c = corr(k=2, uniformity=uniformity, tone_balance=tone_balance, tone_spacing=1)
-    a, _ = kc.synthesize(levels, S, c, seed=2, rare_budget=0.5)
+    a, _ = kc.synthesize(levels, S, c, seed=2, **kw)
     numba.set_num_threads(1)
     try:
-        b, _ = kc.synthesize(levels, S, c, seed=2, rare_budget=0.5)
+        b, _ = kc.synthesize(levels, S, c, seed=2, **kw)
     finally:
         numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
     assert np.array_equal(a, b)
     old = kc.TILE_MIN_PIXELS
     kc.TILE_MIN_PIXELS = 0
     try:
-        d, _ = kc.synthesize(levels, S, c, seed=2, rare_budget=0.5, tiles=InProcess(3))
+        d, _ = kc.synthesize(levels, S, c, seed=2, tiles=InProcess(3), **kw)
     finally:
         kc.TILE_MIN_PIXELS = old
     assert np.array_equal(a, d)
+
+
+@pytest.mark.parametrize("tone_balance,uniformity", [(0.0, 0.25), (0.25, 0.25), (0.0, 0.0)])
+def test_rare_budget_is_deterministic_across_thread_counts_and_bands(tone_balance, uniformity):
+    levels, S = _rare_case()
+    c = corr(k=2, uniformity=uniformity, tone_balance=tone_balance, tone_spacing=1)
+    _same_with_one_thread_and_in_bands(levels, S, c, rare_budget=0.5)
 
 
 def _far_case(seed=11):
@@ -742,21 +747,6 @@ def test_copy_spacing_leaves_a_frame_about_the_photos_size_alone():
 
 @pytest.mark.parametrize("uniformity", [0.25, 0.0])
 def test_copy_spacing_is_deterministic_across_thread_counts_and_bands(uniformity):
-    from proxyshade.synthesis.tiles import InProcess
-
     levels, S, _ = _far_case(12)
     c = corr(k=2, uniformity=uniformity)
-    a, _ = kc.synthesize(levels, S, c, seed=2, copy_spacing=0.5)
-    numba.set_num_threads(1)
-    try:
-        b, _ = kc.synthesize(levels, S, c, seed=2, copy_spacing=0.5)
-    finally:
-        numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
-    assert np.array_equal(a, b)
-    old = kc.TILE_MIN_PIXELS
-    kc.TILE_MIN_PIXELS = 0
-    try:
-        d, _ = kc.synthesize(levels, S, c, seed=2, copy_spacing=0.5, tiles=InProcess(3))
-    finally:
-        kc.TILE_MIN_PIXELS = old
-    assert np.array_equal(a, d)
+    _same_with_one_thread_and_in_bands(levels, S, c, copy_spacing=0.5)
