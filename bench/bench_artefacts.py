@@ -47,7 +47,8 @@ import bench_photos as BP  # noqa: E402
 from proxyshade.io.images import write_png  # noqa: E402
 from proxyshade.io.source import load_source  # noqa: E402
 from proxyshade.kernels import quality as Q  # noqa: E402
-from proxyshade.kernels.distance import squared_distance  # noqa: E402
+from proxyshade.kernels.distance import squared_distance
+from proxyshade.synthesis.btf import box_sum  # noqa: E402
 
 ISSUE = {"final": {"layout": True, "grain": 2.0, "layout_spread": 2.0, "screen": 0.01},
          "correct": {"tone_balance": 0.0}, "magnify": {"patch_shift": 0, "patch_adopt": 0}}
@@ -56,11 +57,15 @@ MEASURES = ("rim bright", "rim dark", "top", "hue", "blob", "grain", "neg")
 
 
 def box(img: np.ndarray, r: int) -> np.ndarray:
-    """Mean over a (2r+1)² box, clamped at the borders (integral image)."""
-    p = np.pad(np.asarray(img, np.float64), r, mode="edge")
-    ii = np.pad(p, ((1, 0), (1, 0))).cumsum(0).cumsum(1)
-    k = 2 * r + 1
-    return (ii[k:, k:] - ii[:-k, k:] - ii[k:, :-k] + ii[:-k, :-k]) / (k * k)
+    """Mean over a (2r+1)² box, edge pixels repeated (``synthesis.btf.box_sum``)."""
+    return box_sum(np.asarray(img, np.float64)[None], r)[0] / (2 * r + 1) ** 2
+
+
+def distance(measure: str, value: float) -> float:
+    """How far a figure is from the photo's: |log| of a ratio (blob, grain), else |value|."""
+    if measure in ("blob", "grain"):
+        return abs(np.log(value)) if value > 0 else np.inf
+    return abs(value)
 
 
 def bands(ids: np.ndarray, label: int) -> np.ndarray:
@@ -96,14 +101,11 @@ def figures(srgb: np.ndarray, lin: np.ndarray | None, ids: np.ndarray, photo: np
         if abs(shift[j]) > abs(best["hue"][0]):
             best["hue"] = (float(shift[j]), name)
             maps_by["hue"] = np.where(m, np.abs(srgb[..., j] * 255 - photo[pm][:, j].mean()), 0.0)
-        b = lowp[m].std() / max(plowp[pm].std(), 1e-9)
-        if abs(np.log(b)) > abs(np.log(best["blob"][0])) if best["blob"][0] else True:
-            best["blob"] = (b, name)
-            maps_by["blob"] = np.where(m, np.abs(lowp - plowp[pm].mean()), 0.0)
-        g = hp[m].std() / max(php[pm].std(), 1e-9)
-        if abs(np.log(g)) > abs(np.log(best["grain"][0])) if best["grain"][0] else True:
-            best["grain"] = (g, name)
-            maps_by["grain"] = np.where(m, np.abs(hp), 0.0)
+        for key, ratio, where in (("blob", lowp[m].std() / max(plowp[pm].std(), 1e-9), np.abs(lowp - plowp[pm].mean())),
+                                  ("grain", hp[m].std() / max(php[pm].std(), 1e-9), np.abs(hp))):
+            if not best[key][1] or distance(key, ratio) > distance(key, best[key][0]):
+                best[key] = (ratio, name)
+                maps_by[key] = np.where(m, where, 0.0)
         if name == "sky":
             top, ptop = m & (np.arange(m.shape[0])[:, None] < 20), pm & (np.arange(pm.shape[0])[:, None] < 20)
             if top.sum() > 50 and ptop.sum() > 50:
@@ -174,9 +176,7 @@ def main(argv=None) -> None:
                 y, x = worst_window(a)
                 crops.append(np.concatenate([np.pad(s[y:y + CROP, x:x + CROP], ((0, 2), (0, 2), (0, 0)), constant_values=1)
                                              for s, _ in outs.values()], 1))
-                v = figs["issue"][0][m][0]
-                v = abs(np.log(v)) if m in ("blob", "grain") and v > 0 else abs(v)
-                worst.setdefault(m, []).append((v, crops[-1], case["name"], (y, x)))
+                worst.setdefault(m, []).append((distance(m, figs["issue"][0][m][0]), crops[-1], case["name"], (y, x)))
             if crops:
                 img = np.concatenate(crops, 0)
                 write_png(args.out / f"artefacts_{case['name']}.png", (np.clip(img, 0, 1) * 255 + 0.5).astype(np.uint8))
@@ -206,8 +206,7 @@ def main(argv=None) -> None:
             continue
         med = []
         for m in MEASURES:
-            v = [abs(np.log(f[m][0])) if m in ("blob", "grain") and f[m][0] > 0 else abs(f[m][0]) for f in got]
-            med.append(f"{np.median(v):.4f}")
+            med.append(f"{np.median([distance(m, f[m][0]) for f in got]):.4f}")
         print(f"{k:<9}" + "".join(f"{s:>18}" for s in med))
     print(f"crops: {args.out}/artefacts_*.png (rows: {', '.join(MEASURES)} where present; columns: "
           f"issue, now{', EbSynth' if args.ebsynth else ''})")

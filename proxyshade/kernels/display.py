@@ -8,7 +8,6 @@ the Preview and Movie nodes; living among the kernels, it is part of their cache
 """
 from __future__ import annotations
 
-import colorsys
 
 import lazy_loader
 
@@ -96,13 +95,11 @@ def id_palette(ids: np.ndarray, labels: list[dict] | None = None) -> np.ndarray:
                 flat[r0:r0 + ROWS, ..., k] = np.take(chans[k], band)
         return out
     uniq, inv = np.unique(ids, return_inverse=True)
-    pal = np.zeros((len(uniq), 3), np.uint8)
-    for i, u in enumerate(uniq):
-        if int(u) in known:
-            pal[i] = known[int(u)]
-        elif u != 0:
-            r, g, b = colorsys.hsv_to_rgb((int(u) * 0.618033988749895) % 1.0, 0.65, 0.95)
-            pal[i] = [int(r * 255), int(g * 255), int(b * 255)]
+    pal = _hues(uniq)
+    pal[uniq == 0] = 0
+    for i, u in enumerate(uniq.tolist()):
+        if u in known:
+            pal[i] = known[u]
     return pal[inv.reshape(ids.shape)]
 
 

@@ -342,7 +342,7 @@ def parallax_shifts(views: list[dict], pixel: float) -> np.ndarray:
     return np.array([plane_shift(v["slant"], v["tilt"], 1.0, pixel) for v in views], np.float64).reshape(-1, 2)
 
 
-def _box_sum(a: np.ndarray, r: int) -> np.ndarray:
+def box_sum(a: np.ndarray, r: int) -> np.ndarray:
     """(M, h, w): the sum of each (2r + 1)² window of every slice (edge pixels repeated)."""
     k = 2 * r + 1
     c = np.pad(np.pad(a, ((0, 0), (r, r), (r, r)), mode="edge").cumsum(1).cumsum(2), ((0, 0), (1, 0), (1, 0)))
@@ -370,7 +370,7 @@ def estimate_heights(images: np.ndarray, views: list[dict], support: int, pixel:
     offsets = np.linspace(-reach / per_height, reach / per_height, M)
     cost = np.empty((M, h, w), np.float32)
     sweep_costs(np.ascontiguousarray(images[sel], np.float32), sel.index(support), shifts, offsets, SWEEP_TAU, cost)
-    best = np.argmin(_box_sum(cost.astype(np.float64), SWEEP_RADIUS), 0)
+    best = np.argmin(box_sum(cost.astype(np.float64), SWEEP_RADIUS), 0)
     return plane + offsets[best]
 
 

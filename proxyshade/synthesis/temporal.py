@@ -341,7 +341,7 @@ def carry(cd: Plate, prev: Plate | None, first: Plate | None, source: Plate, p, 
     # re-anchored patches keep their (new) map; their old Poisson correction no longer fits
     keep = (flag == 0) | (flag == FLAG["reanchored"])
     correct = p.colour == "map"
-    rgb = lookup(src_rgb, sx, sy, filter=p.filter, mask=keep, padded=padded_colours(source, prev.meta, src_rgb, memo)
+    rgb = lookup(src_rgb, sx, sy, filter=p.filter, mask=keep, padded=padded_colours(src_rgb, memo)
                  ) if correct else res
     R, G, B, sx, sy, patch, D, ext, *corr = kt.keep_carried(
         flag, FLAG["reanchored"], D.astype(np.float32, copy=False), ext, sx, sy, patch, rgb, res, correct)
@@ -363,16 +363,13 @@ def carry(cd: Plate, prev: Plate | None, first: Plate | None, source: Plate, p, 
     return Plate(ch, meta)
 
 
-def padded_colours(source: Plate, meta: dict, src_rgb: np.ndarray, memo=None) -> np.ndarray | None:
-    """``lookup.padded_rgb`` of ``src_rgb`` (``source_colours(source, meta)``), kept in ``memo``
-    for the frames of a run (the carry's source read pads the same colours every frame); None
-    without a memo (``lookup`` pads them itself)."""
+def padded_colours(src_rgb: np.ndarray, memo=None) -> np.ndarray | None:
+    """``lookup.padded_rgb`` of ``src_rgb`` (the colours ``source_colours`` gives), kept in
+    ``memo`` for the frames of a run (the carry's source read pads the same colours every
+    frame); None without a memo (``lookup`` pads them itself)."""
     if memo is None:
         return None
-    table = meta.get("grain") if isinstance(meta, dict) else None
-    parts = (source["R"], source["G"], source["B"], source["label.id"],
-             json.dumps(table, sort_keys=True) if table else None)
-    return kept(memo, "temporal.padded_colours", parts, lambda: padded_rgb(src_rgb), size=1)
+    return kept(memo, "temporal.padded_colours", (src_rgb,), lambda: padded_rgb(src_rgb), size=1)
 
 
 STRAY_MARGIN = 0.5  # source pixels: a kept pixel off its label by more is resynthesized (flag_reasons' stray)
